@@ -1,0 +1,10 @@
+#pragma once
+
+#include <CLI/CLI.hpp>
+
+namespace kinolab::apps {
+
+/// Each subcommand adds itself (options, help and the action to run) to the main app.
+void addWorldCommand(CLI::App& app);
+
+}  // namespace kinolab::apps

@@ -1,0 +1,26 @@
+// The `kinolab` command: one binary, one subcommand per job.
+#include <iostream>
+
+#include "commands.hpp"
+#include "kinolab/core/error.hpp"
+#include "kinolab/core/version.hpp"
+
+int main(int argc, char** argv) {
+  CLI::App app{"kinolab: kinodynamic UAV motion planning experiments", "kinolab"};
+  app.set_version_flag("--version", std::string("kinolab ") + kinolab::kVersion);
+  app.require_subcommand(1);
+  app.footer("Run 'kinolab COMMAND --help' for the options of one command.");
+  kinolab::apps::addWorldCommand(app);
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& error) {
+    return app.exit(error);
+  } catch (const kinolab::Error& error) {
+    std::cerr << "kinolab: error: " << error.what() << '\n';
+    return 1;
+  } catch (const std::exception& error) {
+    std::cerr << "kinolab: unexpected error: " << error.what() << '\n';
+    return 3;
+  }
+  return 0;
+}

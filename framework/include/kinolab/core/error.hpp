@@ -1,0 +1,43 @@
+#pragma once
+
+#include <stdexcept>
+#include <string>
+
+namespace kinolab {
+
+/// Base of every error kinolab throws for bad input or misuse. Expected planning outcomes
+/// (no solution, timeout) are statuses, never exceptions.
+class Error : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+/// A configuration file or value is malformed, misspelt, of the wrong type or out of range.
+/// The message names the file, the line and the key path.
+class ConfigError : public Error {
+ public:
+  using Error::Error;
+};
+
+/// A file is missing, unreadable, corrupt or cannot be written.
+class FileError : public Error {
+ public:
+  using Error::Error;
+};
+
+/// A function was called with arguments that break its documented contract.
+class InvalidArgument : public Error {
+ public:
+  using Error::Error;
+};
+
+/// Always-on check of an internal invariant; failing it is a bug in kinolab, not bad input.
+#define KINOLAB_CHECK(condition, message)                                              \
+  do {                                                                                 \
+    if (!(condition)) {                                                                \
+      throw ::kinolab::Error(std::string("internal check failed: ") + #condition + " (" + \
+                             (message) + ") at " + __FILE__ + ":" + std::to_string(__LINE__)); \
+    }                                                                                  \
+  } while (false)
+
+}  // namespace kinolab

@@ -1,0 +1,125 @@
+#pragma once
+
+#include <Eigen/Core>
+#include <algorithm>
+#include <cmath>
+#include <vector>
+
+#include "kinolab/world/voxel_grid.hpp"
+
+namespace kinolab {
+
+/// The exact Euclidean signed distance field of a VoxelGrid, in metres, one float per voxel:
+/// at a free voxel the distance from its centre to the nearest occupied voxel centre, at an
+/// occupied voxel minus the distance to the nearest free voxel centre. Computed exactly by
+/// separable lower-envelope passes (Felzenszwalb and Huttenlocher, "Distance Transforms of
+/// Sampled Functions", 2012), linear in the number of voxels. A grid without any occupied
+/// (or any free) voxel stores +maxDistance() (or -maxDistance()), the grid's diagonal.
+///
+/// Points outside the map: every query clamps the point to the box spanned by the voxel
+/// centres, so a point outside gets the value at its nearest in-map point, and the gradient
+/// component along a clamped axis is zero. Clamping never overstates clearance to obstacles
+/// inside the map (projection onto a box is non-expansive), but the map says nothing about
+/// space beyond it: planners and the checker reject positions outside `bounds()`.
+class Esdf {
+ public:
+  Esdf() = default;
+  /// Builds the field of `grid`.
+  explicit Esdf(const VoxelGrid& grid);
+  /// Adopts precomputed values (e.g. from the world cache), one per voxel in grid order.
+  Esdf(const VoxelGrid& grid, std::vector<float> values);
+
+  const Eigen::Vector3i& dims() const { return dims_; }
+  double resolution() const { return resolution_; }
+  const Eigen::Vector3d& origin() const { return origin_; }
+  double maxDistance() const { return max_distance_; }
+  const std::vector<float>& values() const { return values_; }
+
+  /// The stored value of one voxel.
+  float voxelDistance(std::size_t index) const { return values_[index]; }
+
+  /// The value of the voxel nearest to `point` (after clamping).
+  double nearestDistance(const Eigen::Vector3d& point) const {
+    std::size_t index = 0;
+    for (int axis = 0; axis < 3; ++axis) {
+      const double scaled = (point[axis] - origin_[axis]) * inverse_resolution_ - 0.5;
+      const double clamped = std::clamp(std::nearbyint(scaled), 0.0, upper_[axis]);
+      index += static_cast<std::size_t>(clamped) * strides_[axis];
+    }
+    return values_[index];
+  }
+
+  /// Trilinear interpolation of the voxel-centre values.
+  double distance(const Eigen::Vector3d& point) const {
+    return interpolate<false>(point, nullptr);
+  }
+
+  /// Trilinear distance and its analytic gradient (metres per metre) from one 8-corner fetch.
+  double distanceWithGradient(const Eigen::Vector3d& point, Eigen::Vector3d* gradient) const {
+    return interpolate<true>(point, gradient);
+  }
+
+ private:
+  template <bool kWithGradient>
+  double interpolate(const Eigen::Vector3d& point, Eigen::Vector3d* gradient) const {
+    double fraction[3];
+    double scale[3];
+    std::size_t base = 0;
+    std::size_t step[3];
+    for (int axis = 0; axis < 3; ++axis) {
+      const double raw = (point[axis] - origin_[axis]) * inverse_resolution_ - 0.5;
+      const double scaled = std::clamp(raw, 0.0, upper_[axis]);
+      // Along a clamped axis the field is constant, so that gradient component is zero.
+      if constexpr (kWithGradient) scale[axis] = raw == scaled ? gradient_scale_[axis] : 0.0;
+      // The lower corner stays one below the last centre so that corner + 1 exists; on a
+      // one-voxel axis the step is zero and both corners are the same voxel.
+      const double corner = std::min(std::floor(scaled), lower_limit_[axis]);
+      fraction[axis] = scaled - corner;
+      base += static_cast<std::size_t>(corner) * strides_[axis];
+      step[axis] = neighbour_step_[axis];
+    }
+    const float* v = values_.data() + base;
+    const double c000 = v[0];
+    const double c001 = v[step[2]];
+    const double c010 = v[step[1]];
+    const double c011 = v[step[1] + step[2]];
+    const double c100 = v[step[0]];
+    const double c101 = v[step[0] + step[2]];
+    const double c110 = v[step[0] + step[1]];
+    const double c111 = v[step[0] + step[1] + step[2]];
+    const double tx = fraction[0];
+    const double ty = fraction[1];
+    const double tz = fraction[2];
+    // Interpolate along z, then y, then x.
+    const double c00 = c000 + (c001 - c000) * tz;
+    const double c01 = c010 + (c011 - c010) * tz;
+    const double c10 = c100 + (c101 - c100) * tz;
+    const double c11 = c110 + (c111 - c110) * tz;
+    const double c0 = c00 + (c01 - c00) * ty;
+    const double c1 = c10 + (c11 - c10) * ty;
+    if constexpr (kWithGradient) {
+      const double dz0 = (c001 - c000) + ((c011 - c010) - (c001 - c000)) * ty;
+      const double dz1 = (c101 - c100) + ((c111 - c110) - (c101 - c100)) * ty;
+      (*gradient)[0] = (c1 - c0) * scale[0];
+      (*gradient)[1] = ((c01 - c00) + ((c11 - c10) - (c01 - c00)) * tx) * scale[1];
+      (*gradient)[2] = (dz0 + (dz1 - dz0) * tx) * scale[2];
+    }
+    return c0 + (c1 - c0) * tx;
+  }
+
+  void setGeometry(const VoxelGrid& grid);
+
+  Eigen::Vector3i dims_ = Eigen::Vector3i::Zero();
+  double resolution_ = 0.0;
+  double inverse_resolution_ = 0.0;
+  Eigen::Vector3d origin_ = Eigen::Vector3d::Zero();
+  double max_distance_ = 0.0;
+  double upper_[3] = {0.0, 0.0, 0.0};        // last centre index per axis
+  double lower_limit_[3] = {0.0, 0.0, 0.0};  // highest lower-corner index per axis
+  double gradient_scale_[3] = {0.0, 0.0, 0.0};
+  std::size_t strides_[3] = {0, 0, 0};
+  std::size_t neighbour_step_[3] = {0, 0, 0};
+  std::vector<float> values_;
+};
+
+}  // namespace kinolab

@@ -1,0 +1,96 @@
+#pragma once
+
+#include <Eigen/Core>
+#include <cstddef>
+#include <cstdint>
+#include <optional>
+#include <vector>
+
+namespace kinolab {
+
+/// Integer voxel coordinates.
+using VoxelIndex = Eigen::Vector3i;
+
+/// An axis-aligned box in metres.
+struct Box {
+  Eigen::Vector3d min = Eigen::Vector3d::Zero();
+  Eigen::Vector3d max = Eigen::Vector3d::Zero();
+
+  bool contains(const Eigen::Vector3d& point) const {
+    return (point.array() >= min.array()).all() && (point.array() <= max.array()).all();
+  }
+  Eigen::Vector3d size() const { return max - min; }
+};
+
+/// An occupancy voxel grid with metric bounds. Voxel (ix, iy, iz) covers
+/// [origin + i * resolution, origin + (i + 1) * resolution) per axis; its centre is at
+/// origin + (i + 0.5) * resolution. Storage is row-major over (ix, iy, iz), z fastest, so
+/// index(ix, iy, iz) = (ix * ny + iy) * nz + iz ("axis_order: xyz" in exported files).
+class VoxelGrid {
+ public:
+  VoxelGrid() = default;
+  /// A free grid covering `bounds` (rounded up to whole voxels) at `resolution` metres.
+  VoxelGrid(const Box& bounds, double resolution);
+
+  const Eigen::Vector3i& dims() const { return dims_; }
+  double resolution() const { return resolution_; }
+  /// The minimum corner of voxel (0, 0, 0).
+  const Eigen::Vector3d& origin() const { return origin_; }
+  /// The metric box the voxels cover (may exceed the requested bounds by < 1 voxel).
+  Box bounds() const { return {origin_, origin_ + dims_.cast<double>() * resolution_}; }
+  std::size_t size() const { return occupancy_.size(); }
+
+  std::size_t index(int ix, int iy, int iz) const {
+    return (static_cast<std::size_t>(ix) * dims_.y() + iy) * dims_.z() + iz;
+  }
+  std::size_t index(const VoxelIndex& voxel) const {
+    return index(voxel.x(), voxel.y(), voxel.z());
+  }
+  bool inside(const VoxelIndex& voxel) const {
+    return (voxel.array() >= 0).all() && (voxel.array() < dims_.array()).all();
+  }
+  Eigen::Vector3d center(const VoxelIndex& voxel) const {
+    return origin_ + (voxel.cast<double>().array() + 0.5).matrix() * resolution_;
+  }
+  /// The voxel containing `point`, or nothing when the point is outside the grid.
+  std::optional<VoxelIndex> voxelAt(const Eigen::Vector3d& point) const;
+
+  bool occupied(std::size_t index) const { return occupancy_[index] != 0; }
+  bool occupied(const VoxelIndex& voxel) const { return occupied(index(voxel)); }
+  void setOccupied(std::size_t index, bool value) { occupancy_[index] = value ? 1 : 0; }
+  void setOccupied(const VoxelIndex& voxel, bool value) { setOccupied(index(voxel), value); }
+  std::size_t occupiedCount() const;
+
+  /// 0 (free) or 1 (occupied) per voxel, in storage order.
+  const std::vector<std::uint8_t>& occupancy() const { return occupancy_; }
+  std::vector<std::uint8_t>& occupancy() { return occupancy_; }
+
+  /// Calls `visit(index)` for every voxel whose centre lies in the closed box [min, max].
+  template <typename Visit>
+  void forEachVoxelIn(const Eigen::Vector3d& min, const Eigen::Vector3d& max,
+                      Visit&& visit) const {
+    Eigen::Vector3i low;
+    Eigen::Vector3i high;
+    if (!voxelRange(min, max, low, high)) return;
+    for (int ix = low.x(); ix <= high.x(); ++ix) {
+      for (int iy = low.y(); iy <= high.y(); ++iy) {
+        const std::size_t row = index(ix, iy, 0);
+        for (int iz = low.z(); iz <= high.z(); ++iz) visit(row + iz);
+      }
+    }
+  }
+  /// Marks every voxel whose centre lies in the closed box [min, max] as occupied.
+  void fillBox(const Eigen::Vector3d& min, const Eigen::Vector3d& max);
+
+  /// The voxel range whose centres lie in [min, max]; false when it is empty.
+  bool voxelRange(const Eigen::Vector3d& min, const Eigen::Vector3d& max, Eigen::Vector3i& low,
+                  Eigen::Vector3i& high) const;
+
+ private:
+  Eigen::Vector3i dims_ = Eigen::Vector3i::Zero();
+  double resolution_ = 0.0;
+  Eigen::Vector3d origin_ = Eigen::Vector3d::Zero();
+  std::vector<std::uint8_t> occupancy_;
+};
+
+}  // namespace kinolab

@@ -1,0 +1,48 @@
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <string>
+
+#include "kinolab/world/esdf.hpp"
+#include "kinolab/world/voxel_grid.hpp"
+#include "kinolab/world/world_spec.hpp"
+
+namespace kinolab {
+
+/// A built world: the occupancy grid and its exact signed distance field. Immutable once
+/// built and shared read-only as std::shared_ptr<const World>. A robot or inflation radius
+/// is applied at query time (compare distance() with it), never baked into the grid.
+class World {
+ public:
+  World(std::string name, std::uint64_t spec_hash, VoxelGrid grid, Esdf esdf);
+
+  /// Builds the grid from the spec's generators and computes the ESDF.
+  static std::shared_ptr<const World> build(const WorldSpec& spec);
+  /// Only the occupancy grid of a spec (no ESDF).
+  static VoxelGrid buildGrid(const WorldSpec& spec);
+
+  const std::string& name() const { return name_; }
+  std::uint64_t specHash() const { return spec_hash_; }
+  const VoxelGrid& grid() const { return grid_; }
+  const Esdf& esdf() const { return esdf_; }
+  Box bounds() const { return grid_.bounds(); }
+
+  /// Trilinear signed distance in metres (see Esdf for the rule outside the map).
+  double distance(const Eigen::Vector3d& point) const { return esdf_.distance(point); }
+  double distanceWithGradient(const Eigen::Vector3d& point, Eigen::Vector3d* gradient) const {
+    return esdf_.distanceWithGradient(point, gradient);
+  }
+  /// True when `point` is inside the map and at least `radius` from every obstacle.
+  bool isFree(const Eigen::Vector3d& point, double radius) const {
+    return bounds().contains(point) && esdf_.distance(point) >= radius;
+  }
+
+ private:
+  std::string name_;
+  std::uint64_t spec_hash_;
+  VoxelGrid grid_;
+  Esdf esdf_;
+};
+
+}  // namespace kinolab

@@ -1,0 +1,48 @@
+#pragma once
+
+#include <memory>
+#include <string>
+
+#include "kinolab/world/world.hpp"
+#include "kinolab/world/world_spec.hpp"
+
+namespace kinolab {
+
+/// How loadOrBuild obtained a world.
+enum class WorldSource { kBuilt, kCache, kRebuiltCorruptCache };
+
+struct WorldLoad {
+  std::shared_ptr<const World> world;
+  WorldSource source = WorldSource::kBuilt;
+  double seconds = 0.0;     // wall time of the load or build
+  std::string cache_file;   // empty when caching is off
+  std::string note;         // why a cache file was rejected, if one was
+};
+
+/// Built worlds (grid + ESDF) on disk, one file per spec keyed by WorldSpec::hash(). A file
+/// carries a magic, a format version, the spec hash, its sizes and a checksum over all of
+/// it; a file failing any check is reported, rebuilt and replaced, never trusted. Files are
+/// written to a temporary name and renamed, so concurrent builders never see half a file.
+class WorldCache {
+ public:
+  /// `directory` is created on first write.
+  explicit WorldCache(std::string directory);
+
+  /// $KINOLAB_CACHE_DIR, else $XDG_CACHE_HOME/kinolab/worlds, else ~/.cache/kinolab/worlds.
+  static std::string defaultDirectory();
+
+  const std::string& directory() const { return directory_; }
+  std::string fileFor(const WorldSpec& spec) const;
+  WorldLoad loadOrBuild(const WorldSpec& spec) const;
+
+  /// Writes a world file (atomically). Throws FileError when the directory is not writable.
+  static void write(const World& world, const std::string& path);
+  /// Reads a world file; throws FileError naming what is wrong with it.
+  static std::shared_ptr<const World> read(const std::string& path, std::uint64_t expected_hash,
+                                           const std::string& name);
+
+ private:
+  std::string directory_;
+};
+
+}  // namespace kinolab

@@ -1,0 +1,44 @@
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "kinolab/core/yaml_reader.hpp"
+#include "kinolab/world/voxel_grid.hpp"
+#include "kinolab/world/world_generator.hpp"
+
+namespace kinolab {
+
+/// What defines a world: bounds, resolution, seed and an ordered list of generators.
+/// Read from YAML (configs/worlds/*.yaml):
+///
+///     name: forest
+///     seed: 7
+///     resolution: 0.1
+///     bounds: {min: [0, 0, 0], max: [40, 40, 6]}   # optional for a map-file world
+///     generators:
+///       - {type: forest, density: 0.06, trunk_radius: [0.15, 0.3]}
+///
+/// The same spec gives the same grid bit for bit.
+struct WorldSpec {
+  std::string name;
+  std::uint64_t seed = 0;
+  double resolution = 0.1;
+  Box bounds;
+  std::vector<std::shared_ptr<const WorldGenerator>> generators;
+
+  /// Loads and validates a spec file; errors name the file, line and key path.
+  static WorldSpec fromFile(const std::string& path);
+  /// Reads a spec from a YAML mapping (e.g. inline in an experiment file);
+  /// `spec_directory` resolves relative map paths.
+  static WorldSpec fromYaml(const YamlReader& node, const std::string& spec_directory);
+
+  /// Exact text of everything that determines the grid (not the name).
+  std::string canonicalText() const;
+  /// Hash of canonicalText(): the world cache key.
+  std::uint64_t hash() const;
+};
+
+}  // namespace kinolab

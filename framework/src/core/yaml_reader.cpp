@@ -1,0 +1,253 @@
+#include "kinolab/core/yaml_reader.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <sstream>
+
+namespace kinolab {
+namespace {
+
+std::size_t editDistance(std::string_view a, std::string_view b) {
+  std::vector<std::size_t> row(b.size() + 1);
+  for (std::size_t j = 0; j <= b.size(); ++j) row[j] = j;
+  for (std::size_t i = 1; i <= a.size(); ++i) {
+    std::size_t diagonal = row[0];
+    row[0] = i;
+    for (std::size_t j = 1; j <= b.size(); ++j) {
+      const std::size_t above = row[j];
+      row[j] = std::min({row[j] + 1, row[j - 1] + 1, diagonal + (a[i - 1] == b[j - 1] ? 0 : 1)});
+      diagonal = above;
+    }
+  }
+  return row[b.size()];
+}
+
+std::string describe(const YAML::Node& node) {
+  if (node.IsScalar()) return "\"" + node.Scalar() + "\"";
+  if (node.IsSequence()) return "a list";
+  if (node.IsMap()) return "a mapping";
+  return "nothing";
+}
+
+std::string formatNumber(double value) {
+  std::ostringstream out;
+  out << value;
+  return out.str();
+}
+
+}  // namespace
+
+YamlReader::YamlReader(YAML::Node node, std::shared_ptr<const std::string> source,
+                       std::string path)
+    : node_(std::move(node)),
+      source_(std::move(source)),
+      path_(std::move(path)),
+      used_(std::make_shared<std::set<std::string>>()) {}
+
+YamlReader YamlReader::loadFile(const std::string& path) {
+  if (!std::filesystem::is_regular_file(path)) {
+    throw FileError(path + ": no such file");
+  }
+  try {
+    return YamlReader(YAML::LoadFile(path), std::make_shared<const std::string>(path), "");
+  } catch (const YAML::ParserException& error) {
+    throw ConfigError(path + ":" + std::to_string(error.mark.line + 1) + ":" +
+                      std::to_string(error.mark.column + 1) + ": malformed YAML: " + error.msg);
+  } catch (const YAML::BadFile&) {
+    throw FileError(path + ": cannot read file");
+  }
+}
+
+YamlReader YamlReader::loadString(const std::string& text, const std::string& source) {
+  try {
+    return YamlReader(YAML::Load(text), std::make_shared<const std::string>(source), "");
+  } catch (const YAML::ParserException& error) {
+    throw ConfigError(source + ":" + std::to_string(error.mark.line + 1) + ":" +
+                      std::to_string(error.mark.column + 1) + ": malformed YAML: " + error.msg);
+  }
+}
+
+std::string YamlReader::where() const {
+  std::string text = *source_;
+  const YAML::Mark mark = node_.Mark();
+  if (mark.line >= 0) {
+    text += ":" + std::to_string(mark.line + 1) + ":" + std::to_string(mark.column + 1);
+  }
+  return text + ": " + (path_.empty() ? std::string("(top level)") : path_);
+}
+
+void YamlReader::fail(const std::string& message) const {
+  throw ConfigError(where() + ": " + message);
+}
+
+std::string YamlReader::childPath(std::string_view key) const {
+  return path_.empty() ? std::string(key) : path_ + "." + std::string(key);
+}
+
+bool YamlReader::has(std::string_view key) const {
+  return node_.IsMap() && node_[std::string(key)].IsDefined();
+}
+
+std::vector<std::string> YamlReader::keys() const {
+  std::vector<std::string> result;
+  if (!node_.IsMap()) return result;
+  for (const auto& entry : node_) result.push_back(entry.first.as<std::string>());
+  return result;
+}
+
+std::optional<YamlReader> YamlReader::optional(std::string_view key) const {
+  if (!node_.IsMap()) {
+    if (node_.IsNull() || !node_.IsDefined()) return std::nullopt;
+    fail("expected a mapping of keys to values, got " + describe(node_));
+  }
+  used_->insert(std::string(key));
+  const YAML::Node child = node_[std::string(key)];
+  if (!child.IsDefined()) return std::nullopt;
+  return YamlReader(child, source_, childPath(key));
+}
+
+YamlReader YamlReader::operator[](std::string_view key) const {
+  auto child = optional(key);
+  if (!child) fail("missing required key '" + std::string(key) + "'");
+  return *child;
+}
+
+std::vector<YamlReader> YamlReader::items() const {
+  if (!node_.IsSequence()) fail("expected a list, got " + describe(node_));
+  std::vector<YamlReader> result;
+  for (std::size_t i = 0; i < node_.size(); ++i) {
+    result.push_back(YamlReader(node_[i], source_, path_ + "[" + std::to_string(i) + "]"));
+  }
+  return result;
+}
+
+template <>
+double YamlReader::as<double>() const {
+  if (node_.IsScalar()) {
+    try {
+      const double value = node_.as<double>();
+      if (std::isfinite(value)) return value;
+    } catch (const YAML::Exception&) {
+    }
+  }
+  fail("expected a finite number, got " + describe(node_));
+}
+
+template <>
+long long YamlReader::as<long long>() const {
+  if (node_.IsScalar()) {
+    try {
+      return node_.as<long long>();
+    } catch (const YAML::Exception&) {
+    }
+  }
+  fail("expected an integer, got " + describe(node_));
+}
+
+template <>
+bool YamlReader::as<bool>() const {
+  if (node_.IsScalar()) {
+    try {
+      return node_.as<bool>();
+    } catch (const YAML::Exception&) {
+    }
+  }
+  fail("expected true or false, got " + describe(node_));
+}
+
+template <>
+std::string YamlReader::as<std::string>() const {
+  if (!node_.IsScalar()) fail("expected a string, got " + describe(node_));
+  return node_.Scalar();
+}
+
+double YamlReader::getNumber(std::string_view key, std::optional<double> fallback, double low,
+                             double high) const {
+  auto child = optional(key);
+  if (!child) {
+    if (!fallback) fail("missing required key '" + std::string(key) + "'");
+    return *fallback;
+  }
+  const double value = child->as<double>();
+  if (value < low || value > high) {
+    child->fail("expected a number in [" + formatNumber(low) + ", " + formatNumber(high) +
+                "], got " + formatNumber(value));
+  }
+  return value;
+}
+
+long long YamlReader::getInteger(std::string_view key, std::optional<long long> fallback,
+                                 long long low, long long high) const {
+  auto child = optional(key);
+  if (!child) {
+    if (!fallback) fail("missing required key '" + std::string(key) + "'");
+    return *fallback;
+  }
+  const long long value = child->as<long long>();
+  if (value < low || value > high) {
+    child->fail("expected an integer in [" + std::to_string(low) + ", " + std::to_string(high) +
+                "], got " + std::to_string(value));
+  }
+  return value;
+}
+
+std::array<double, 3> YamlReader::getVector3(std::string_view key) const {
+  const YamlReader child = (*this)[key];
+  if (!child.node_.IsSequence() || child.node_.size() != 3) {
+    child.fail("expected a list of 3 numbers [x, y, z], got " + describe(child.node_));
+  }
+  const auto values = child.items();
+  return {values[0].as<double>(), values[1].as<double>(), values[2].as<double>()};
+}
+
+std::array<double, 2> YamlReader::getInterval(std::string_view key,
+                                              std::optional<std::array<double, 2>> fallback,
+                                              double min, double max) const {
+  auto child = optional(key);
+  if (!child) {
+    if (!fallback) fail("missing required key '" + std::string(key) + "'");
+    return *fallback;
+  }
+  std::array<double, 2> interval{};
+  if (child->node_.IsScalar()) {
+    interval[0] = interval[1] = child->as<double>();
+  } else if (child->node_.IsSequence() && child->node_.size() == 2) {
+    const auto values = child->items();
+    interval = {values[0].as<double>(), values[1].as<double>()};
+  } else {
+    child->fail("expected [low, high] or a single number, got " + describe(child->node_));
+  }
+  if (interval[0] > interval[1] || interval[0] < min || interval[1] > max) {
+    child->fail("expected [low, high] with " + formatNumber(min) + " <= low <= high <= " +
+                formatNumber(max) + ", got [" + formatNumber(interval[0]) + ", " +
+                formatNumber(interval[1]) + "]");
+  }
+  return interval;
+}
+
+void YamlReader::finish() const {
+  if (!node_.IsMap()) return;
+  for (const auto& entry : node_) {
+    const std::string key = entry.first.as<std::string>();
+    if (used_->count(key)) continue;
+    std::string message = "unknown key '" + key + "'";
+    std::string best;
+    std::size_t best_distance = 3;
+    for (const auto& known : *used_) {
+      const std::size_t distance = editDistance(key, known);
+      if (distance < best_distance) {
+        best_distance = distance;
+        best = known;
+      }
+    }
+    if (!best.empty()) message += " (did you mean '" + best + "'?)";
+    if (!used_->empty()) {
+      message += "; known keys:";
+      for (const auto& known : *used_) message += " " + known;
+    }
+    YamlReader(entry.first, source_, childPath(key)).fail(message);
+  }
+}
+
+}  // namespace kinolab

@@ -1,0 +1,176 @@
+#include "kinolab/world/esdf.hpp"
+
+#include <algorithm>
+#include <cstdint>
+#include <limits>
+
+#include "kinolab/core/error.hpp"
+
+namespace kinolab {
+namespace {
+
+// Squared distances in voxel units are integers; kNoSite marks "no target in reach yet".
+constexpr std::int32_t kNoSite = std::numeric_limits<std::int32_t>::max();
+
+// Lines processed together in the strided passes: one gather reads a 64-byte cache line.
+constexpr int kBlock = 16;
+
+/// Scratch space for the one-dimensional lower-envelope transform of a line of length n.
+struct EnvelopeScratch {
+  explicit EnvelopeScratch(int n)
+      : sites(static_cast<std::size_t>(n)), boundaries(static_cast<std::size_t>(n) + 1) {}
+  std::vector<int> sites;
+  std::vector<double> boundaries;
+};
+
+/// Exact 1-D squared distance transform of `f` (kNoSite = no site) into `d`, by the lower
+/// envelope of the parabolas (q - i)^2 + f[i]. Entries without a site are skipped, so an
+/// all-empty line stays kNoSite and huge sentinels never enter the intersection arithmetic.
+void transformLine(const std::int32_t* f, std::int32_t* d, int n, EnvelopeScratch& scratch) {
+  int* v = scratch.sites.data();
+  double* z = scratch.boundaries.data();
+  int k = -1;
+  for (int q = 0; q < n; ++q) {
+    if (f[q] == kNoSite) continue;
+    const double fq = static_cast<double>(f[q]) + static_cast<double>(q) * q;
+    double s = -std::numeric_limits<double>::infinity();
+    while (k >= 0) {
+      const int p = v[k];
+      s = (fq - (static_cast<double>(f[p]) + static_cast<double>(p) * p)) / (2.0 * (q - p));
+      if (s > z[k]) break;
+      --k;
+    }
+    if (k < 0) s = -std::numeric_limits<double>::infinity();
+    ++k;
+    v[k] = q;
+    z[k] = s;
+  }
+  if (k < 0) {
+    std::fill(d, d + n, kNoSite);
+    return;
+  }
+  z[k + 1] = std::numeric_limits<double>::infinity();
+  int j = 0;
+  for (int q = 0; q < n; ++q) {
+    while (z[j + 1] < q) ++j;
+    const std::int64_t offset = q - v[j];
+    d[q] = static_cast<std::int32_t>(offset * offset + f[v[j]]);
+  }
+}
+
+/// Runs the 1-D transform over every line along one strided axis. Lines start at
+/// `first + block_offset + inner` for inner in [0, inner_count), with `length` elements
+/// `stride` apart; `inner_count` consecutive lines are contiguous in memory, so they are
+/// gathered kBlock at a time into contiguous rows and scattered back.
+void transformStrided(std::int32_t* data, std::size_t first, std::size_t inner_count, int length,
+                      std::size_t stride, EnvelopeScratch& scratch, std::vector<std::int32_t>& in,
+                      std::vector<std::int32_t>& out) {
+  const std::size_t n = static_cast<std::size_t>(length);
+  for (std::size_t inner = 0; inner < inner_count; inner += kBlock) {
+    const std::size_t lines = std::min<std::size_t>(kBlock, inner_count - inner);
+    std::int32_t* base = data + first + inner;
+    for (std::size_t q = 0; q < n; ++q) {
+      const std::int32_t* row = base + q * stride;
+      for (std::size_t line = 0; line < lines; ++line) in[line * n + q] = row[line];
+    }
+    for (std::size_t line = 0; line < lines; ++line) {
+      transformLine(in.data() + line * n, out.data() + line * n, length, scratch);
+    }
+    for (std::size_t q = 0; q < n; ++q) {
+      std::int32_t* row = base + q * stride;
+      for (std::size_t line = 0; line < lines; ++line) row[line] = out[line * n + q];
+    }
+  }
+}
+
+/// Squared Euclidean distance (voxel units) from every voxel to the nearest voxel whose
+/// occupancy equals `target`.
+std::vector<std::int32_t> squaredDistanceTo(const VoxelGrid& grid, std::uint8_t target) {
+  const int nx = grid.dims().x();
+  const int ny = grid.dims().y();
+  const int nz = grid.dims().z();
+  const std::uint8_t* occupancy = grid.occupancy().data();
+  std::vector<std::int32_t> squared(grid.size());
+
+  // Pass 1, along z (contiguous): nearest target in the column by two sweeps.
+  for (std::size_t column = 0; column < static_cast<std::size_t>(nx) * ny; ++column) {
+    const std::uint8_t* cells = occupancy + column * nz;
+    std::int32_t* out = squared.data() + column * nz;
+    std::int32_t distance = kNoSite;
+    for (int iz = 0; iz < nz; ++iz) {
+      distance = cells[iz] == target ? 0 : (distance == kNoSite ? kNoSite : distance + 1);
+      out[iz] = distance;
+    }
+    distance = kNoSite;
+    for (int iz = nz - 1; iz >= 0; --iz) {
+      distance = cells[iz] == target ? 0 : (distance == kNoSite ? kNoSite : distance + 1);
+      const std::int32_t best = std::min(out[iz], distance);
+      out[iz] = best == kNoSite ? kNoSite : best * best;
+    }
+  }
+
+  const int longest = std::max(nx, ny);
+  EnvelopeScratch scratch(longest);
+  std::vector<std::int32_t> in(static_cast<std::size_t>(kBlock) * longest);
+  std::vector<std::int32_t> out(in.size());
+  // Pass 2, along y: within each x-slab, lines over iy for every iz.
+  const std::size_t slab = static_cast<std::size_t>(ny) * nz;
+  for (int ix = 0; ix < nx; ++ix) {
+    transformStrided(squared.data(), ix * slab, static_cast<std::size_t>(nz), ny,
+                     static_cast<std::size_t>(nz), scratch, in, out);
+  }
+  // Pass 3, along x: lines over ix for every (iy, iz).
+  transformStrided(squared.data(), 0, slab, nx, slab, scratch, in, out);
+  return squared;
+}
+
+}  // namespace
+
+void Esdf::setGeometry(const VoxelGrid& grid) {
+  dims_ = grid.dims();
+  resolution_ = grid.resolution();
+  inverse_resolution_ = 1.0 / resolution_;
+  origin_ = grid.origin();
+  max_distance_ = (dims_.cast<double>() * resolution_).norm();
+  strides_[0] = static_cast<std::size_t>(dims_.y()) * dims_.z();
+  strides_[1] = static_cast<std::size_t>(dims_.z());
+  strides_[2] = 1;
+  for (int axis = 0; axis < 3; ++axis) {
+    upper_[axis] = dims_[axis] - 1;
+    lower_limit_[axis] = std::max(0, dims_[axis] - 2);
+    neighbour_step_[axis] = dims_[axis] > 1 ? strides_[axis] : 0;
+    gradient_scale_[axis] = dims_[axis] > 1 ? inverse_resolution_ : 0.0;
+  }
+}
+
+Esdf::Esdf(const VoxelGrid& grid) {
+  if (grid.size() == 0) throw InvalidArgument("Esdf: empty grid");
+  setGeometry(grid);
+  const std::vector<std::int32_t> to_occupied = squaredDistanceTo(grid, 1);
+  const std::vector<std::int32_t> to_free = squaredDistanceTo(grid, 0);
+  values_.resize(grid.size());
+  const auto cap = static_cast<float>(max_distance_);
+  const auto resolution = static_cast<float>(resolution_);
+  const std::uint8_t* occupancy = grid.occupancy().data();
+  for (std::size_t i = 0; i < values_.size(); ++i) {
+    if (occupancy[i]) {
+      values_[i] = to_free[i] == kNoSite
+                       ? -cap
+                       : -std::sqrt(static_cast<float>(to_free[i])) * resolution;
+    } else {
+      values_[i] = to_occupied[i] == kNoSite
+                       ? cap
+                       : std::sqrt(static_cast<float>(to_occupied[i])) * resolution;
+    }
+  }
+}
+
+Esdf::Esdf(const VoxelGrid& grid, std::vector<float> values) : values_(std::move(values)) {
+  if (values_.size() != grid.size()) {
+    throw InvalidArgument("Esdf: " + std::to_string(values_.size()) + " values for " +
+                          std::to_string(grid.size()) + " voxels");
+  }
+  setGeometry(grid);
+}
+
+}  // namespace kinolab

@@ -1,0 +1,115 @@
+// The `octomap` world generator: occupied leaves of an OctoMap file become occupied voxels.
+#include <octomap/AbstractOcTree.h>
+#include <octomap/OcTree.h>
+
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include "kinolab/core/error.hpp"
+#include "kinolab/core/hash.hpp"
+#include "kinolab/world/world_generator.hpp"
+
+namespace kinolab {
+namespace {
+
+/// Reads a .bt (binary, occupancy bits) or .ot (full, log-odds) OcTree; throws FileError
+/// naming the file when it is missing, of another tree type, or corrupt.
+std::shared_ptr<const octomap::OcTree> readOcTree(const std::string& path) {
+  if (!std::filesystem::is_regular_file(path)) throw FileError(path + ": no such map file");
+  const std::string extension = std::filesystem::path(path).extension().string();
+  // OctoMap reports parse problems on stderr and through its return values; we turn the
+  // latter into errors and keep its chatter out of kinolab's output.
+  std::ostringstream chatter;
+  std::streambuf* saved = std::cerr.rdbuf(chatter.rdbuf());
+  std::shared_ptr<octomap::OcTree> tree;
+  if (extension == ".bt") {
+    auto binary = std::make_shared<octomap::OcTree>(0.1);
+    std::ifstream in(path, std::ios::binary);
+    if (binary->readBinary(in) && in) tree = binary;
+  } else if (extension == ".ot") {
+    std::unique_ptr<octomap::AbstractOcTree> any(octomap::AbstractOcTree::read(path));
+    if (auto* ocTree = dynamic_cast<octomap::OcTree*>(any.get())) {
+      any.release();
+      tree.reset(ocTree);
+    }
+  } else {
+    std::cerr.rdbuf(saved);
+    throw FileError(path + ": unknown map file type '" + extension + "'; expected .bt or .ot");
+  }
+  std::cerr.rdbuf(saved);
+  if (!tree || tree->size() == 0) {
+    std::string detail = chatter.str();
+    while (!detail.empty() && (detail.back() == '\n' || detail.back() == ' ')) detail.pop_back();
+    throw FileError(path + ": not a readable OctoMap OcTree (corrupt or truncated)" +
+                    (detail.empty() ? std::string() : ": " + detail));
+  }
+  return tree;
+}
+
+class OctomapGenerator final : public WorldGenerator {
+ public:
+  OctomapGenerator(const YamlReader& entry, const std::string& spec_directory) {
+    const auto file_node = entry["file"];
+    std::filesystem::path file = file_node.as<std::string>();
+    if (file.is_relative()) file = std::filesystem::path(spec_directory) / file;
+    path_ = file.lexically_normal().string();
+    const auto unknown_node = entry.optional("unknown");
+    const std::string unknown = unknown_node ? unknown_node->as<std::string>() : "free";
+    if (unknown != "free" && unknown != "occupied") {
+      unknown_node->fail("expected 'free' or 'occupied', got \"" + unknown + "\"");
+    }
+    unknown_occupied_ = unknown == "occupied";
+    entry.finish();
+    try {
+      tree_ = readOcTree(path_);
+      content_hash_ = hashFile(path_);
+    } catch (const FileError& error) {
+      file_node.fail(error.what());
+    }
+  }
+  std::string type() const override { return "octomap"; }
+  void writeCanonical(std::ostream& out) const override {
+    // The file's content, not its path: a moved map keeps its cache, an edited one does not.
+    out << "octomap content=" << toHex(content_hash_) << " unknown_occupied=" << unknown_occupied_;
+  }
+  std::optional<Box> naturalBounds() const override {
+    double x0, y0, z0, x1, y1, z1;
+    tree_->getMetricMin(x0, y0, z0);
+    tree_->getMetricMax(x1, y1, z1);
+    return Box{{x0, y0, z0}, {x1, y1, z1}};
+  }
+  void apply(VoxelGrid& grid, Rng&) const override {
+    // 0 = free, 1 = occupied, 2 = unknown (no leaf covers the voxel centre).
+    std::vector<std::uint8_t> state(grid.size(), 2);
+    for (auto leaf = tree_->begin_leafs(), end = tree_->end_leafs(); leaf != end; ++leaf) {
+      const double half = 0.5 * leaf.getSize();
+      const octomap::point3d c = leaf.getCoordinate();
+      const std::uint8_t value = tree_->isNodeOccupied(*leaf) ? 1 : 0;
+      grid.forEachVoxelIn({c.x() - half, c.y() - half, c.z() - half},
+                          {c.x() + half, c.y() + half, c.z() + half},
+                          [&](std::size_t i) {
+                            // Where leaves touch a centre on their shared face, occupied wins.
+                            if (state[i] != 1) state[i] = value;
+                          });
+    }
+    for (std::size_t i = 0; i < state.size(); ++i) {
+      if (state[i] == 1 || (state[i] == 2 && unknown_occupied_)) grid.setOccupied(i, true);
+    }
+  }
+
+ private:
+  std::string path_;
+  bool unknown_occupied_ = false;
+  std::shared_ptr<const octomap::OcTree> tree_;
+  std::uint64_t content_hash_ = 0;
+};
+
+}  // namespace
+
+std::unique_ptr<WorldGenerator> makeOctomapGenerator(const YamlReader& entry,
+                                                     const std::string& spec_directory) {
+  return std::make_unique<OctomapGenerator>(entry, spec_directory);
+}
+
+}  // namespace kinolab

@@ -1,0 +1,188 @@
+#include "kinolab/world/world_export.hpp"
+
+#include <png.h>
+#include <yaml-cpp/yaml.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+
+#include "kinolab/core/error.hpp"
+#include "kinolab/core/hash.hpp"
+
+namespace kinolab {
+namespace {
+
+using Rgb = std::array<std::uint8_t, 3>;
+
+Rgb lerp(const Rgb& a, const Rgb& b, double t) {
+  Rgb out;
+  for (int i = 0; i < 3; ++i) out[i] = static_cast<std::uint8_t>(std::lround(a[i] + (b[i] - a[i]) * t));
+  return out;
+}
+
+/// Piecewise-linear colour map through evenly spaced anchors; t in [0, 1].
+template <std::size_t N>
+Rgb colourMap(const std::array<Rgb, N>& anchors, double t) {
+  t = std::clamp(t, 0.0, 1.0) * (N - 1);
+  const auto i = std::min(static_cast<std::size_t>(t), N - 2);
+  return lerp(anchors[i], anchors[i + 1], t - i);
+}
+
+// Viridis, sampled at nine points.
+constexpr std::array<Rgb, 9> kViridis = {{{68, 1, 84},
+                                          {71, 44, 122},
+                                          {59, 81, 139},
+                                          {44, 113, 142},
+                                          {33, 144, 141},
+                                          {39, 173, 129},
+                                          {92, 200, 99},
+                                          {170, 220, 50},
+                                          {253, 231, 37}}};
+// Light sand to dark green-brown for heights.
+constexpr std::array<Rgb, 4> kHeight = {{{230, 220, 190}, {150, 180, 110}, {60, 110, 60}, {30, 45, 30}}};
+
+/// Upscale factor so that small grids still make a readable picture.
+int pictureScale(const Eigen::Vector3i& dims) {
+  const int smaller = std::max(1, std::min(dims.x(), dims.y()));
+  return std::clamp(400 / smaller, 1, 16);
+}
+
+}  // namespace
+
+void writeNpy(const std::string& path, const std::string& dtype, const void* data,
+              std::size_t item_size, const std::vector<std::size_t>& shape) {
+  std::string shape_text = "(";
+  std::size_t count = 1;
+  for (std::size_t i = 0; i < shape.size(); ++i) {
+    shape_text += std::to_string(shape[i]) + (shape.size() == 1 || i + 1 < shape.size() ? "," : "");
+    if (i + 1 < shape.size()) shape_text += " ";
+    count *= shape[i];
+  }
+  shape_text += ")";
+  std::string header =
+      "{'descr': '" + dtype + "', 'fortran_order': False, 'shape': " + shape_text + ", }";
+  // Magic (6) + version (2) + length (2) + header, padded with spaces to a multiple of 64
+  // and ended by a newline, as the format asks.
+  const std::size_t unpadded = 10 + header.size() + 1;
+  header.append((64 - unpadded % 64) % 64, ' ');
+  header += '\n';
+  std::ofstream out(path, std::ios::binary | std::ios::trunc);
+  const char preamble[8] = {'\x93', 'N', 'U', 'M', 'P', 'Y', 1, 0};
+  out.write(preamble, sizeof(preamble));
+  const auto length = static_cast<std::uint16_t>(header.size());
+  const char length_bytes[2] = {static_cast<char>(length & 0xff), static_cast<char>(length >> 8)};
+  out.write(length_bytes, 2);
+  out.write(header.data(), static_cast<std::streamsize>(header.size()));
+  out.write(static_cast<const char*>(data), static_cast<std::streamsize>(count * item_size));
+  if (!out) throw FileError(path + ": cannot write");
+}
+
+void writePng(const std::string& path, const RgbImage& image) {
+  std::FILE* file = std::fopen(path.c_str(), "wb");
+  if (!file) throw FileError(path + ": cannot write");
+  png_structp png = png_create_write_struct(PNG_LIBPNG_VER_STRING, nullptr, nullptr, nullptr);
+  png_infop info = png ? png_create_info_struct(png) : nullptr;
+  if (!png || !info || setjmp(png_jmpbuf(png))) {
+    png_destroy_write_struct(&png, &info);
+    std::fclose(file);
+    throw FileError(path + ": PNG encoding failed");
+  }
+  png_init_io(png, file);
+  png_set_IHDR(png, info, static_cast<png_uint_32>(image.width),
+               static_cast<png_uint_32>(image.height), 8, PNG_COLOR_TYPE_RGB, PNG_INTERLACE_NONE,
+               PNG_COMPRESSION_TYPE_DEFAULT, PNG_FILTER_TYPE_DEFAULT);
+  png_write_info(png, info);
+  for (int y = 0; y < image.height; ++y) {
+    png_write_row(png, image.pixels.data() + static_cast<std::size_t>(y) * image.width * 3);
+  }
+  png_write_end(png, nullptr);
+  png_destroy_write_struct(&png, &info);
+  if (std::fclose(file) != 0) throw FileError(path + ": cannot write");
+}
+
+RgbImage renderTopView(const World& world) {
+  const VoxelGrid& grid = world.grid();
+  const Eigen::Vector3i& dims = grid.dims();
+  const int scale = pictureScale(dims);
+  RgbImage image(dims.x() * scale, dims.y() * scale);
+  for (int ix = 0; ix < dims.x(); ++ix) {
+    for (int iy = 0; iy < dims.y(); ++iy) {
+      int top = -1;
+      for (int iz = dims.z() - 1; iz >= 0 && top < 0; --iz) {
+        if (grid.occupied(grid.index(ix, iy, iz))) top = iz;
+      }
+      const Rgb colour = top < 0 ? Rgb{255, 255, 255}
+                                 : colourMap(kHeight, dims.z() > 1 ? top / (dims.z() - 1.0) : 1.0);
+      for (int dx = 0; dx < scale; ++dx) {
+        for (int dy = 0; dy < scale; ++dy) {
+          image.set(ix * scale + dx, (dims.y() - 1 - iy) * scale + dy, colour);
+        }
+      }
+    }
+  }
+  return image;
+}
+
+RgbImage renderEsdfSlice(const World& world, double z) {
+  const VoxelGrid& grid = world.grid();
+  const Eigen::Vector3i& dims = grid.dims();
+  const int scale = pictureScale(dims);
+  const double resolution = grid.resolution();
+  // Colour scale: clearances beyond 3 m (or a quarter of the map) look the same.
+  const double far = std::min(3.0, 0.25 * (dims.head<2>().cast<double>() * resolution).maxCoeff());
+  RgbImage image(dims.x() * scale, dims.y() * scale);
+  for (int px = 0; px < image.width; ++px) {
+    for (int py = 0; py < image.height; ++py) {
+      const Eigen::Vector3d point(grid.origin().x() + (px + 0.5) * resolution / scale,
+                                  grid.origin().y() + (image.height - py - 0.5) * resolution / scale,
+                                  z);
+      const double d = world.distance(point);
+      const Rgb colour = d < 0.0 ? lerp(Rgb{240, 90, 80}, Rgb{120, 0, 0}, std::min(1.0, -d / far))
+                                 : colourMap(kViridis, d / far);
+      image.set(px, py, colour);
+    }
+  }
+  return image;
+}
+
+void exportWorld(const World& world, const std::string& directory, double slice_height) {
+  std::error_code error;
+  std::filesystem::create_directories(directory, error);
+  if (error) throw FileError(directory + ": cannot create directory: " + error.message());
+  const std::filesystem::path dir(directory);
+  const VoxelGrid& grid = world.grid();
+  const std::vector<std::size_t> shape = {static_cast<std::size_t>(grid.dims().x()),
+                                          static_cast<std::size_t>(grid.dims().y()),
+                                          static_cast<std::size_t>(grid.dims().z())};
+  writeNpy((dir / "occupancy.npy").string(), "|u1", grid.occupancy().data(), 1, shape);
+  writeNpy((dir / "esdf.npy").string(), "<f4", world.esdf().values().data(), sizeof(float),
+           shape);
+
+  YAML::Emitter yaml;
+  yaml << YAML::BeginMap;
+  yaml << YAML::Key << "name" << YAML::Value << world.name();
+  yaml << YAML::Key << "spec_hash" << YAML::Value << toHex(world.specHash());
+  yaml << YAML::Key << "resolution" << YAML::Value << grid.resolution();
+  yaml << YAML::Key << "origin" << YAML::Value << YAML::Flow << YAML::BeginSeq
+       << grid.origin().x() << grid.origin().y() << grid.origin().z() << YAML::EndSeq;
+  yaml << YAML::Key << "axis_order" << YAML::Value << "xyz";
+  yaml << YAML::Key << "shape" << YAML::Value << YAML::Flow << YAML::BeginSeq << shape[0]
+       << shape[1] << shape[2] << YAML::EndSeq;
+  yaml << YAML::Key << "occupied_voxels" << YAML::Value << grid.occupiedCount();
+  yaml << YAML::Key << "esdf" << YAML::Value
+       << "metres; distance from a free voxel centre to the nearest occupied voxel centre, "
+          "minus the distance to the nearest free voxel centre inside obstacles";
+  yaml << YAML::Key << "slice_height" << YAML::Value << slice_height;
+  yaml << YAML::EndMap;
+  std::ofstream out(dir / "world.yaml");
+  out << yaml.c_str() << '\n';
+  if (!out) throw FileError((dir / "world.yaml").string() + ": cannot write");
+
+  writePng((dir / "top_view.png").string(), renderTopView(world));
+  writePng((dir / "esdf_slice.png").string(), renderEsdfSlice(world, slice_height));
+}
+
+}  // namespace kinolab

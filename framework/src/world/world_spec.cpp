@@ -1,0 +1,80 @@
+#include "kinolab/world/world_spec.hpp"
+
+#include <filesystem>
+#include <sstream>
+
+#include "kinolab/core/hash.hpp"
+
+namespace kinolab {
+namespace {
+
+// Bump when a generator's output for the same parameters changes, so old caches go stale.
+constexpr int kGeneratorVersion = 1;
+
+}  // namespace
+
+WorldSpec WorldSpec::fromFile(const std::string& path) {
+  const YamlReader root = YamlReader::loadFile(path);
+  WorldSpec spec = fromYaml(root, std::filesystem::path(path).parent_path().string());
+  if (spec.name.empty()) spec.name = std::filesystem::path(path).stem().string();
+  return spec;
+}
+
+WorldSpec WorldSpec::fromYaml(const YamlReader& node, const std::string& spec_directory) {
+  if (!node.isMap()) node.fail("expected a world spec (a mapping with resolution and generators)");
+  WorldSpec spec;
+  spec.name = node.get<std::string>("name", "");
+  spec.seed = static_cast<std::uint64_t>(node.getInteger("seed", 0, 0, (1LL << 62)));
+  spec.resolution = node.getNumber("resolution", std::nullopt, 1e-3, 100.0);
+  for (const YamlReader& entry : node["generators"].items()) {
+    spec.generators.push_back(makeWorldGenerator(entry, spec_directory));
+  }
+  if (spec.generators.empty()) node["generators"].fail("expected at least one generator");
+  if (auto bounds = node.optional("bounds")) {
+    const auto min = bounds->getVector3("min");
+    const auto max = bounds->getVector3("max");
+    bounds->finish();
+    spec.bounds = {{min[0], min[1], min[2]}, {max[0], max[1], max[2]}};
+    if ((spec.bounds.max - spec.bounds.min).minCoeff() < spec.resolution) {
+      bounds->fail("expected max - min >= resolution on every axis");
+    }
+  } else {
+    bool found = false;
+    for (const auto& generator : spec.generators) {
+      if (const auto natural = generator->naturalBounds()) {
+        spec.bounds = found ? Box{spec.bounds.min.cwiseMin(natural->min),
+                                  spec.bounds.max.cwiseMax(natural->max)}
+                            : *natural;
+        found = true;
+      }
+    }
+    if (!found) {
+      node.fail("missing required key 'bounds' ({min: [x, y, z], max: [x, y, z]}); only a "
+                "map-file world can take its bounds from the map");
+    }
+  }
+  const double voxels = ((spec.bounds.max - spec.bounds.min) / spec.resolution).prod();
+  if (voxels > 1e9) {
+    node["resolution"].fail("bounds and resolution give " + std::to_string(voxels) +
+                            " voxels; expected at most 1e9");
+  }
+  node.finish();
+  return spec;
+}
+
+std::string WorldSpec::canonicalText() const {
+  std::ostringstream out;
+  out << "kinolab-world generators=" << kGeneratorVersion << " seed=" << seed << std::hexfloat
+      << " resolution=" << resolution << " min=" << bounds.min.x() << ',' << bounds.min.y()
+      << ',' << bounds.min.z() << " max=" << bounds.max.x() << ',' << bounds.max.y() << ','
+      << bounds.max.z() << std::defaultfloat << '\n';
+  for (const auto& generator : generators) {
+    generator->writeCanonical(out);
+    out << '\n';
+  }
+  return out.str();
+}
+
+std::uint64_t WorldSpec::hash() const { return hashString(canonicalText()); }
+
+}  // namespace kinolab
