@@ -1,0 +1,148 @@
+#include "kinolab/world/esdf.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+
+#include "kinolab/core/random.hpp"
+
+namespace kinolab {
+namespace {
+
+VoxelGrid randomGrid(const Eigen::Vector3i& dims, double occupancy, std::uint64_t seed,
+                     double resolution = 1.0) {
+  VoxelGrid grid(Box{Eigen::Vector3d::Zero(), dims.cast<double>() * resolution}, resolution);
+  Rng rng(seed);
+  for (std::size_t i = 0; i < grid.size(); ++i) grid.setOccupied(i, rng.uniform01() < occupancy);
+  return grid;
+}
+
+/// The signed distance by definition: nearest voxel centre of the other kind, in voxels.
+double bruteForce(const VoxelGrid& grid, const VoxelIndex& voxel) {
+  const bool inside = grid.occupied(voxel);
+  double best = std::numeric_limits<double>::infinity();
+  const Eigen::Vector3i& dims = grid.dims();
+  for (int x = 0; x < dims.x(); ++x) {
+    for (int y = 0; y < dims.y(); ++y) {
+      for (int z = 0; z < dims.z(); ++z) {
+        if (grid.occupied(grid.index(x, y, z)) == inside) continue;
+        best = std::min(best, (Eigen::Vector3i(x, y, z) - voxel).cast<double>().squaredNorm());
+      }
+    }
+  }
+  return inside ? -std::sqrt(best) : std::sqrt(best);
+}
+
+struct EsdfCase {
+  Eigen::Vector3i dims;
+  double occupancy;
+};
+
+class EsdfBruteForceTest : public ::testing::TestWithParam<EsdfCase> {};
+
+TEST_P(EsdfBruteForceTest, MatchesBruteForceWithinATenThousandthOfAVoxel) {
+  const EsdfCase c = GetParam();
+  for (std::uint64_t seed = 1; seed <= 3; ++seed) {
+    const VoxelGrid grid = randomGrid(c.dims, c.occupancy, seed);
+    const Esdf esdf(grid);
+    double worst = 0.0;
+    for (int x = 0; x < c.dims.x(); ++x) {
+      for (int y = 0; y < c.dims.y(); ++y) {
+        for (int z = 0; z < c.dims.z(); ++z) {
+          const VoxelIndex voxel(x, y, z);
+          const double expected = bruteForce(grid, voxel);
+          if (std::isinf(expected)) continue;  // a one-kind grid; tested separately
+          worst = std::max(worst, std::abs(esdf.voxelDistance(grid.index(voxel)) - expected));
+        }
+      }
+    }
+    EXPECT_LT(worst, 1e-4) << "dims " << c.dims.transpose() << " occupancy " << c.occupancy
+                           << " seed " << seed;
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(
+    RandomGrids, EsdfBruteForceTest,
+    ::testing::Values(EsdfCase{{1, 1, 7}, 0.3}, EsdfCase{{5, 6, 7}, 0.1},
+                      EsdfCase{{16, 9, 4}, 0.02}, EsdfCase{{12, 12, 12}, 0.05},
+                      EsdfCase{{12, 12, 12}, 0.3}, EsdfCase{{20, 17, 11}, 0.01},
+                      EsdfCase{{33, 21, 5}, 0.5}, EsdfCase{{24, 24, 24}, 0.9},
+                      EsdfCase{{40, 3, 19}, 0.002}));
+
+TEST(EsdfTest, SingleObstacleGivesEuclideanDistanceInMetres) {
+  const double resolution = 0.25;
+  VoxelGrid grid(Box{Eigen::Vector3d::Zero(), Eigen::Vector3d(5.0, 4.0, 3.0)}, resolution);
+  const VoxelIndex obstacle(3, 7, 2);
+  grid.setOccupied(obstacle, true);
+  const Esdf esdf(grid);
+  EXPECT_FLOAT_EQ(esdf.voxelDistance(grid.index(obstacle)), -resolution);
+  const VoxelIndex far(15, 0, 10);
+  EXPECT_NEAR(esdf.voxelDistance(grid.index(far)),
+              (far - obstacle).cast<double>().norm() * resolution, 1e-5);
+}
+
+TEST(EsdfTest, GridWithoutObstaclesHoldsTheDiagonal) {
+  const VoxelGrid grid(Box{Eigen::Vector3d::Zero(), Eigen::Vector3d(2.0, 3.0, 1.0)}, 0.5);
+  const Esdf esdf(grid);
+  for (float value : esdf.values()) EXPECT_FLOAT_EQ(value, std::sqrt(14.0));
+  EXPECT_DOUBLE_EQ(esdf.maxDistance(), std::sqrt(14.0));
+}
+
+TEST(EsdfTest, TrilinearEqualsStoredValuesAtVoxelCentres) {
+  const VoxelGrid grid = randomGrid({10, 8, 6}, 0.1, 42, 0.2);
+  const Esdf esdf(grid);
+  for (int x = 0; x < 10; ++x) {
+    for (int y = 0; y < 8; ++y) {
+      for (int z = 0; z < 6; ++z) {
+        const Eigen::Vector3d c = grid.center({x, y, z});
+        const double stored = esdf.voxelDistance(grid.index(x, y, z));
+        EXPECT_NEAR(esdf.distance(c), stored, 1e-6);
+        EXPECT_NEAR(esdf.nearestDistance(c + Eigen::Vector3d::Constant(0.04)), stored, 1e-6);
+      }
+    }
+  }
+}
+
+TEST(EsdfTest, AnalyticGradientMatchesFiniteDifferences) {
+  const VoxelGrid grid = randomGrid({14, 12, 10}, 0.05, 9, 0.1);
+  const Esdf esdf(grid);
+  Rng rng(5);
+  const double h = 1e-6;
+  int compared = 0;
+  for (int trial = 0; trial < 2000; ++trial) {
+    const Eigen::Vector3d p(rng.uniform(0.06, 1.34), rng.uniform(0.06, 1.14),
+                            rng.uniform(0.06, 0.94));
+    Eigen::Vector3d gradient;
+    const double value = esdf.distanceWithGradient(p, &gradient);
+    EXPECT_DOUBLE_EQ(value, esdf.distance(p));
+    for (int axis = 0; axis < 3; ++axis) {
+      // Skip points within h of a cell face, where the derivative jumps.
+      const double scaled = p[axis] / 0.1 - 0.5;
+      if (std::abs(scaled - std::round(scaled)) < 1e-4) continue;
+      Eigen::Vector3d step = Eigen::Vector3d::Zero();
+      step[axis] = h;
+      const double numeric = (esdf.distance(p + step) - esdf.distance(p - step)) / (2 * h);
+      EXPECT_NEAR(gradient[axis], numeric, 1e-5);
+      ++compared;
+    }
+  }
+  EXPECT_GT(compared, 5000);
+}
+
+TEST(EsdfTest, PointsOutsideTheMapTakeTheValueOfTheNearestPointInside) {
+  const VoxelGrid grid = randomGrid({8, 8, 8}, 0.1, 3, 0.5);
+  const Esdf esdf(grid);
+  const Eigen::Vector3d inside(3.9, 2.0, 0.25);  // on the last x-centre plane (3.75) and beyond
+  const Eigen::Vector3d outside(10.0, 2.0, -5.0);
+  const Eigen::Vector3d projected(3.75, 2.0, 0.25);
+  EXPECT_DOUBLE_EQ(esdf.distance(outside), esdf.distance(projected));
+  EXPECT_DOUBLE_EQ(esdf.distance(inside), esdf.distance(projected));
+  Eigen::Vector3d gradient;
+  esdf.distanceWithGradient(outside, &gradient);
+  EXPECT_EQ(gradient.x(), 0.0);
+  EXPECT_EQ(gradient.z(), 0.0);
+}
+
+}  // namespace
+}  // namespace kinolab

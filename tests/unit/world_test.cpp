@@ -1,0 +1,185 @@
+#include "kinolab/world/world.hpp"
+
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+
+#include "kinolab/world/world_spec.hpp"
+
+namespace kinolab {
+namespace {
+
+const std::string kSourceDir = KINOLAB_SOURCE_DIR;
+
+WorldSpec specFromText(const std::string& text, const std::string& directory = ".") {
+  return WorldSpec::fromYaml(YamlReader::loadString(text, "spec.yaml"), directory);
+}
+
+std::string configErrorOf(const std::string& text) {
+  try {
+    specFromText(text);
+  } catch (const ConfigError& error) {
+    return error.what();
+  }
+  return "(no error)";
+}
+
+TEST(WorldSpecTest, EveryShippedWorldLoadsAndBuilds) {
+  for (const char* name : {"forest", "complex", "walls", "boxes", "empty", "geb079"}) {
+    const WorldSpec spec = WorldSpec::fromFile(kSourceDir + "/configs/worlds/" + name + ".yaml");
+    EXPECT_EQ(spec.name, name);
+    const VoxelGrid grid = World::buildGrid(spec);
+    const double occupancy = static_cast<double>(grid.occupiedCount()) / grid.size();
+    if (std::string(name) == "empty") {
+      EXPECT_EQ(occupancy, 0.0);
+    } else {
+      EXPECT_GT(occupancy, 0.005) << name;
+      EXPECT_LT(occupancy, 0.3) << name;
+    }
+  }
+}
+
+TEST(WorldSpecTest, SameSpecSameGridBitForBitAndSeedMatters) {
+  const std::string text =
+      "seed: 4\nresolution: 0.2\nbounds: {min: [0, 0, 0], max: [20, 20, 4]}\n"
+      "generators:\n  - {type: forest, density: 0.1, canopy: {probability: 0.5}}\n"
+      "  - {type: boxes, count: 10, on_ground: false}\n  - {type: walls, cell_size: 5}\n";
+  const WorldSpec a = specFromText(text);
+  const WorldSpec b = specFromText(text);
+  EXPECT_EQ(a.hash(), b.hash());
+  EXPECT_EQ(World::buildGrid(a).occupancy(), World::buildGrid(b).occupancy());
+  const WorldSpec other_seed = specFromText("seed: 5" + text.substr(7));
+  EXPECT_NE(other_seed.hash(), a.hash());
+  EXPECT_NE(World::buildGrid(other_seed).occupancy(), World::buildGrid(a).occupancy());
+  // Defaults written out explicitly give the same world; the name is only a label.
+  const WorldSpec explicit_defaults = specFromText(
+      "name: other\nseed: 4\nresolution: 0.2\nbounds: {min: [0, 0, 0], max: [20, 20, 4]}\n"
+      "generators:\n  - {type: forest, density: 0.1, canopy: {probability: 0.5}, "
+      "ground_plane: true, min_spacing: 1.0}\n"
+      "  - {type: boxes, count: 10, on_ground: false}\n  - {type: walls, cell_size: 5}\n");
+  EXPECT_EQ(explicit_defaults.hash(), a.hash());
+}
+
+TEST(WorldSpecTest, GeneratorsComposeAsAUnion) {
+  const std::string head =
+      "seed: 2\nresolution: 0.25\nbounds: {min: [0, 0, 0], max: [16, 16, 4]}\ngenerators:\n";
+  const std::string forest = "  - {type: forest, density: 0.08, ground_plane: false}\n";
+  const std::string boxes = "  - {type: boxes, count: 12}\n";
+  const VoxelGrid only_forest = World::buildGrid(specFromText(head + forest));
+  const VoxelGrid both = World::buildGrid(specFromText(head + forest + boxes));
+  std::size_t added = 0;
+  for (std::size_t i = 0; i < both.size(); ++i) {
+    if (only_forest.occupied(i)) {
+      ASSERT_TRUE(both.occupied(i));
+    }
+    added += both.occupied(i) && !only_forest.occupied(i);
+  }
+  EXPECT_GT(added, 0u);
+  // Each generator has its own stream: adding boxes leaves the trees where they were.
+  const VoxelGrid boxes_first = World::buildGrid(specFromText(head + boxes + forest));
+  EXPECT_NE(boxes_first.occupancy(), both.occupancy());
+}
+
+TEST(WorldSpecTest, ForestTrunksKeepTheirSpacingAndHeights) {
+  const WorldSpec spec = specFromText(
+      "seed: 1\nresolution: 0.1\nbounds: {min: [0, 0, 0], max: [20, 20, 6]}\ngenerators:\n"
+      "  - {type: forest, density: 0.05, trunk_radius: [0.2, 0.2], trunk_height: [3, 3], "
+      "min_spacing: 1.5, ground_plane: false}\n");
+  const VoxelGrid grid = World::buildGrid(spec);
+  // Nothing above 3 m, something below.
+  std::size_t high = 0;
+  std::size_t low = 0;
+  for (int ix = 0; ix < grid.dims().x(); ++ix) {
+    for (int iy = 0; iy < grid.dims().y(); ++iy) {
+      for (int iz = 0; iz < grid.dims().z(); ++iz) {
+        if (!grid.occupied(grid.index(ix, iy, iz))) continue;
+        (grid.center({ix, iy, iz}).z() > 3.0 ? high : low)++;
+      }
+    }
+  }
+  EXPECT_EQ(high, 0u);
+  // 20 trees of radius 0.2 m (about 12 voxels in cross-section) and 30 layers each.
+  EXPECT_NEAR(static_cast<double>(low), 20 * 12.6 * 30, 20 * 12.6 * 30 * 0.25);
+}
+
+TEST(WorldSpecTest, OctomapOccupiedLeavesBecomeOccupiedVoxels) {
+  const WorldSpec free_unknown = WorldSpec::fromFile(kSourceDir + "/configs/worlds/geb079.yaml");
+  const VoxelGrid grid = World::buildGrid(free_unknown);
+  EXPECT_DOUBLE_EQ(grid.resolution(), 0.08);
+  // geb079.bt has 143,729 occupied 8 cm leaves (its README); pruned inner nodes can only
+  // cover more, never fewer, voxels.
+  EXPECT_GE(grid.occupiedCount(), 143729u);
+  EXPECT_LT(grid.occupiedCount(), 143729u * 2);
+  const WorldSpec unknown_occupied = specFromText(
+      "resolution: 0.08\ngenerators:\n  - {type: octomap, file: data/maps/geb079.bt, "
+      "unknown: occupied}\n",
+      kSourceDir);
+  EXPECT_GT(World::buildGrid(unknown_occupied).occupiedCount(), grid.occupiedCount() * 3);
+  EXPECT_NE(unknown_occupied.hash(), free_unknown.hash());
+}
+
+TEST(WorldSpecTest, CorruptOrMissingMapFilesAreClearErrors) {
+  const auto directory = std::filesystem::temp_directory_path() / "kinolab_world_test";
+  std::filesystem::create_directories(directory);
+  {
+    std::ifstream in(kSourceDir + "/data/maps/geb079.bt", std::ios::binary);
+    std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    std::ofstream(directory / "truncated.bt", std::ios::binary) << bytes.substr(0, 100);
+    std::ofstream(directory / "garbage.bt", std::ios::binary) << "not an octree\n";
+  }
+  for (const char* file : {"truncated.bt", "garbage.bt", "missing.bt"}) {
+    try {
+      specFromText(std::string("resolution: 0.1\ngenerators:\n  - {type: octomap, file: ") +
+                       file + "}\n",
+                   directory.string());
+      ADD_FAILURE() << file << " was accepted";
+    } catch (const ConfigError& error) {
+      const std::string message = error.what();
+      EXPECT_NE(message.find(file), std::string::npos) << message;
+      EXPECT_NE(message.find("generators[0].file"), std::string::npos) << message;
+    }
+  }
+  std::filesystem::remove_all(directory);
+}
+
+TEST(WorldSpecTest, BadSpecsNameTheKeyAndLine) {
+  const std::string bounds = "bounds: {min: [0, 0, 0], max: [10, 10, 3]}\n";
+  EXPECT_NE(configErrorOf("resolution: 0.1\n" + bounds + "generators:\n  - {type: jungle}\n")
+                .find("spec.yaml:4:12: generators[0].type: unknown world generator 'jungle'"),
+            std::string::npos);
+  EXPECT_NE(configErrorOf("resolution: 0.1\n" + bounds +
+                          "generators:\n  - type: forest\n    densty: 0.1\n")
+                .find("spec.yaml:5:5: generators[0].densty: unknown key 'densty' (did you mean "
+                      "'density'?)"),
+            std::string::npos);
+  EXPECT_NE(configErrorOf("resolution: -0.1\n" + bounds + "generators:\n  - {type: empty}\n")
+                .find("resolution: expected a number in [0.001, 100], got -0.1"),
+            std::string::npos);
+  EXPECT_NE(configErrorOf("resolution: 0.1\ngenerators:\n  - {type: empty}\n")
+                .find("missing required key 'bounds'"),
+            std::string::npos);
+  EXPECT_NE(configErrorOf("resolution: 0.1\n" + bounds +
+                          "generators:\n  - {type: forest, trunk_radius: [0.5, 0.1]}\n")
+                .find("generators[0].trunk_radius: expected [low, high]"),
+            std::string::npos);
+  EXPECT_NE(configErrorOf("resolution: 0.1\n" + bounds + "generators: []\nextra: 1\n")
+                .find("expected at least one generator"),
+            std::string::npos);
+}
+
+TEST(WorldTest, RobotRadiusIsAQueryTimeParameter) {
+  const WorldSpec spec = specFromText(
+      "resolution: 0.1\nbounds: {min: [0, 0, 0], max: [4, 4, 2]}\ngenerators:\n"
+      "  - type: box_list\n    boxes: [{min: [2, 0, 0], max: [2.4, 4, 2]}]\n");
+  const auto world = World::build(spec);
+  // The nearest occupied voxel centre is at x = 2.05, 0.5 m away.
+  const Eigen::Vector3d point(1.55, 2.0, 1.0);
+  EXPECT_NEAR(world->distance(point), 0.5, 1e-6);
+  EXPECT_TRUE(world->isFree(point, 0.3));
+  EXPECT_FALSE(world->isFree(point, 0.6));
+  EXPECT_FALSE(world->isFree({-1.0, 2.0, 1.0}, 0.0));
+}
+
+}  // namespace
+}  // namespace kinolab

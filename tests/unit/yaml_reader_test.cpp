@@ -1,0 +1,68 @@
+#include "kinolab/core/yaml_reader.hpp"
+
+#include <gtest/gtest.h>
+
+namespace kinolab {
+namespace {
+
+/// The message of the ConfigError that `action` throws.
+template <typename Action>
+std::string errorOf(Action&& action) {
+  try {
+    action();
+  } catch (const ConfigError& error) {
+    return error.what();
+  }
+  return "(no error)";
+}
+
+TEST(YamlReaderTest, ReadsTypedValuesWithFallbacks) {
+  const YamlReader root = YamlReader::loadString(
+      "a: 1.5\nb: 3\nc: true\nd: text\nv: [1, 2, 3]\nr: [0.1, 0.2]\ns: 4\n", "test.yaml");
+  EXPECT_DOUBLE_EQ(root.getNumber("a", std::nullopt, 0.0, 2.0), 1.5);
+  EXPECT_EQ(root.getInteger("b", std::nullopt, 0, 10), 3);
+  EXPECT_TRUE(root.get<bool>("c"));
+  EXPECT_EQ(root.get<std::string>("d"), "text");
+  EXPECT_EQ(root.getVector3("v")[2], 3.0);
+  EXPECT_EQ(root.getInterval("r", std::nullopt, 0.0, 1.0)[1], 0.2);
+  EXPECT_EQ(root.getInterval("s", std::nullopt, 0.0, 10.0)[0], 4.0);
+  EXPECT_EQ(root.getNumber("missing", 7.0, 0.0, 10.0), 7.0);
+  EXPECT_NO_THROW(root.finish());
+}
+
+TEST(YamlReaderTest, ErrorsNameFileLineAndKeyPath) {
+  const YamlReader root =
+      YamlReader::loadString("outer:\n  inner:\n    radius: -1\n    radios: 2\n", "w.yaml");
+  const YamlReader inner = root["outer"]["inner"];
+  EXPECT_EQ(errorOf([&] { inner.getNumber("radius", std::nullopt, 0.0, 5.0); }),
+            "w.yaml:3:13: outer.inner.radius: expected a number in [0, 5], got -1");
+  const std::string unknown = errorOf([&] { inner.finish(); });
+  EXPECT_NE(unknown.find("w.yaml:4:5: outer.inner.radios: unknown key 'radios'"),
+            std::string::npos)
+      << unknown;
+  EXPECT_NE(unknown.find("did you mean 'radius'"), std::string::npos) << unknown;
+  EXPECT_NE(errorOf([&] { root["nothing"]; }).find("missing required key 'nothing'"),
+            std::string::npos);
+}
+
+TEST(YamlReaderTest, RejectsWrongTypes) {
+  const YamlReader root = YamlReader::loadString("n: abc\ni: 2.5\nv: [1, 2]\nb: maybe\n", "t");
+  EXPECT_NE(errorOf([&] { root.get<double>("n"); }).find("expected a finite number, got \"abc\""),
+            std::string::npos);
+  EXPECT_NE(errorOf([&] { root.get<long long>("i"); }).find("expected an integer"),
+            std::string::npos);
+  EXPECT_NE(errorOf([&] { root.getVector3("v"); }).find("expected a list of 3 numbers"),
+            std::string::npos);
+  EXPECT_NE(errorOf([&] { root.get<bool>("b"); }).find("expected true or false"),
+            std::string::npos);
+}
+
+TEST(YamlReaderTest, MalformedYamlAndMissingFiles) {
+  EXPECT_NE(errorOf([] { YamlReader::loadString("a: [1, 2\n", "bad.yaml"); })
+                .find("bad.yaml:2:1: malformed YAML"),
+            std::string::npos);
+  EXPECT_THROW(YamlReader::loadFile("/nonexistent/kinolab.yaml"), FileError);
+}
+
+}  // namespace
+}  // namespace kinolab
