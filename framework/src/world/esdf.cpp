@@ -18,41 +18,62 @@ constexpr int kBlock = 16;
 /// Scratch space for the one-dimensional lower-envelope transform of a line of length n.
 struct EnvelopeScratch {
   explicit EnvelopeScratch(int n)
-      : sites(static_cast<std::size_t>(n)), boundaries(static_cast<std::size_t>(n) + 1) {}
-  std::vector<int> sites;
-  std::vector<double> boundaries;
+      : sites(static_cast<std::size_t>(n)),
+        heights(static_cast<std::size_t>(n)),
+        boundary_numerator(static_cast<std::size_t>(n) + 1),
+        boundary_denominator(static_cast<std::size_t>(n) + 1) {}
+  std::vector<std::int32_t> sites;
+  std::vector<std::int64_t> heights;  // f[site] + site^2
+  // The envelope's parabola k wins from numerator / denominator onwards (denominator > 0),
+  // kept as a fraction so that every comparison is exact integer arithmetic.
+  std::vector<std::int64_t> boundary_numerator;
+  std::vector<std::int64_t> boundary_denominator;
 };
 
 /// Exact 1-D squared distance transform of `f` (kNoSite = no site) into `d`, by the lower
-/// envelope of the parabolas (q - i)^2 + f[i]. Entries without a site are skipped, so an
-/// all-empty line stays kNoSite and huge sentinels never enter the intersection arithmetic.
+/// envelope of the parabolas (q - i)^2 + f[i] (Felzenszwalb and Huttenlocher's algorithm in
+/// integer arithmetic: no division, no rounding). Entries without a site are skipped, so an
+/// all-empty line stays kNoSite and huge sentinels never enter the arithmetic.
 void transformLine(const std::int32_t* f, std::int32_t* d, int n, EnvelopeScratch& scratch) {
-  int* v = scratch.sites.data();
-  double* z = scratch.boundaries.data();
+  // A line of zeros (every voxel a site at distance 0) is its own transform; in real worlds
+  // most lines of the inside transform are such lines.
+  if (std::all_of(f, f + n, [](std::int32_t x) { return x == 0; })) {
+    std::copy(f, f + n, d);
+    return;
+  }
+  std::int32_t* v = scratch.sites.data();
+  std::int64_t* g = scratch.heights.data();
+  std::int64_t* zn = scratch.boundary_numerator.data();
+  std::int64_t* zd = scratch.boundary_denominator.data();
   int k = -1;
   for (int q = 0; q < n; ++q) {
     if (f[q] == kNoSite) continue;
-    const double fq = static_cast<double>(f[q]) + static_cast<double>(q) * q;
-    double s = -std::numeric_limits<double>::infinity();
+    const std::int64_t gq = static_cast<std::int64_t>(f[q]) + static_cast<std::int64_t>(q) * q;
+    std::int64_t numerator = 0;
+    std::int64_t denominator = 1;
     while (k >= 0) {
-      const int p = v[k];
-      s = (fq - (static_cast<double>(f[p]) + static_cast<double>(p) * p)) / (2.0 * (q - p));
-      if (s > z[k]) break;
+      // Parabolas v[k] and q intersect at (gq - g[k]) / (2 (q - v[k])).
+      numerator = gq - g[k];
+      denominator = 2 * static_cast<std::int64_t>(q - v[k]);
+      // Keep parabola k when the intersection lies right of where k starts winning.
+      if (k == 0 || numerator * zd[k] > zn[k] * denominator) break;
       --k;
     }
-    if (k < 0) s = -std::numeric_limits<double>::infinity();
     ++k;
     v[k] = q;
-    z[k] = s;
+    g[k] = gq;
+    zn[k] = numerator;
+    zd[k] = denominator;
   }
   if (k < 0) {
     std::fill(d, d + n, kNoSite);
     return;
   }
-  z[k + 1] = std::numeric_limits<double>::infinity();
+  const int last = k;
   int j = 0;
   for (int q = 0; q < n; ++q) {
-    while (z[j + 1] < q) ++j;
+    // Advance while the next parabola starts at or before q: zn / zd <= q.
+    while (j < last && zn[j + 1] <= static_cast<std::int64_t>(q) * zd[j + 1]) ++j;
     const std::int64_t offset = q - v[j];
     d[q] = static_cast<std::int32_t>(offset * offset + f[v[j]]);
   }
@@ -137,7 +158,7 @@ void Esdf::setGeometry(const VoxelGrid& grid) {
   strides_[2] = 1;
   for (int axis = 0; axis < 3; ++axis) {
     upper_[axis] = dims_[axis] - 1;
-    lower_limit_[axis] = std::max(0, dims_[axis] - 2);
+    lower_limit_[axis] = static_cast<std::size_t>(std::max(0, dims_[axis] - 2));
     neighbour_step_[axis] = dims_[axis] > 1 ? strides_[axis] : 0;
     gradient_scale_[axis] = dims_[axis] > 1 ? inverse_resolution_ : 0.0;
   }
@@ -152,16 +173,12 @@ Esdf::Esdf(const VoxelGrid& grid) {
   const auto cap = static_cast<float>(max_distance_);
   const auto resolution = static_cast<float>(resolution_);
   const std::uint8_t* occupancy = grid.occupancy().data();
+  // Branch-free so that the compiler vectorises it; kNoSite's root exceeds any real
+  // distance and is capped to the diagonal.
   for (std::size_t i = 0; i < values_.size(); ++i) {
-    if (occupancy[i]) {
-      values_[i] = to_free[i] == kNoSite
-                       ? -cap
-                       : -std::sqrt(static_cast<float>(to_free[i])) * resolution;
-    } else {
-      values_[i] = to_occupied[i] == kNoSite
-                       ? cap
-                       : std::sqrt(static_cast<float>(to_occupied[i])) * resolution;
-    }
+    const float outside = std::min(std::sqrt(static_cast<float>(to_occupied[i])) * resolution, cap);
+    const float inside = std::min(std::sqrt(static_cast<float>(to_free[i])) * resolution, cap);
+    values_[i] = occupancy[i] ? -inside : outside;
   }
 }
 

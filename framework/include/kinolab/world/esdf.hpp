@@ -3,6 +3,7 @@
 #include <Eigen/Core>
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <vector>
 
 #include "kinolab/world/voxel_grid.hpp"
@@ -43,8 +44,9 @@ class Esdf {
     std::size_t index = 0;
     for (int axis = 0; axis < 3; ++axis) {
       const double scaled = (point[axis] - origin_[axis]) * inverse_resolution_ - 0.5;
-      const double clamped = std::clamp(std::nearbyint(scaled), 0.0, upper_[axis]);
-      index += static_cast<std::size_t>(clamped) * strides_[axis];
+      // Clamped to >= 0 first, so truncation rounds to nearest (and needs no libm call).
+      const double clamped = std::clamp(scaled, 0.0, upper_[axis]);
+      index += static_cast<std::size_t>(static_cast<std::int64_t>(clamped + 0.5)) * strides_[axis];
     }
     return values_[index];
   }
@@ -73,9 +75,11 @@ class Esdf {
       if constexpr (kWithGradient) scale[axis] = raw == scaled ? gradient_scale_[axis] : 0.0;
       // The lower corner stays one below the last centre so that corner + 1 exists; on a
       // one-voxel axis the step is zero and both corners are the same voxel.
-      const double corner = std::min(std::floor(scaled), lower_limit_[axis]);
-      fraction[axis] = scaled - corner;
-      base += static_cast<std::size_t>(corner) * strides_[axis];
+      // scaled >= 0, so truncation is floor (and needs no libm call).
+      const auto corner = std::min(static_cast<std::size_t>(static_cast<std::int64_t>(scaled)),
+                                   lower_limit_[axis]);
+      fraction[axis] = scaled - static_cast<double>(corner);
+      base += corner * strides_[axis];
       step[axis] = neighbour_step_[axis];
     }
     const float* v = values_.data() + base;
@@ -115,7 +119,7 @@ class Esdf {
   Eigen::Vector3d origin_ = Eigen::Vector3d::Zero();
   double max_distance_ = 0.0;
   double upper_[3] = {0.0, 0.0, 0.0};        // last centre index per axis
-  double lower_limit_[3] = {0.0, 0.0, 0.0};  // highest lower-corner index per axis
+  std::size_t lower_limit_[3] = {0, 0, 0};    // highest lower-corner index per axis
   double gradient_scale_[3] = {0.0, 0.0, 0.0};
   std::size_t strides_[3] = {0, 0, 0};
   std::size_t neighbour_step_[3] = {0, 0, 0};

@@ -1,0 +1,125 @@
+// ESDF build and query kernels. Figures are per voxel (build) and per query.
+#include <benchmark/benchmark.h>
+
+#include <vector>
+
+#include "kinolab/core/random.hpp"
+#include "kinolab/world/esdf.hpp"
+
+namespace kinolab {
+namespace {
+
+VoxelGrid randomGrid(const Eigen::Vector3i& dims, double occupancy, double resolution = 0.1) {
+  VoxelGrid grid(Box{Eigen::Vector3d::Zero(), dims.cast<double>() * resolution}, resolution);
+  Rng rng(1);
+  for (std::size_t i = 0; i < grid.size(); ++i) grid.setOccupied(i, rng.uniform01() < occupancy);
+  return grid;
+}
+
+/// Signed exact ESDF of a 200 x 200 x 60 grid with independent random occupancy (percent in
+/// the argument): both the outside and the inside transform.
+void BM_EsdfBuild(benchmark::State& state) {
+  const VoxelGrid grid = randomGrid({200, 200, 60}, state.range(0) / 100.0);
+  for (auto _ : state) {
+    Esdf esdf(grid);
+    benchmark::DoNotOptimize(esdf.values().data());
+  }
+  state.counters["ns_per_voxel"] = benchmark::Counter(
+      static_cast<double>(grid.size()) * 1e-9,
+      benchmark::Counter::kIsIterationInvariantRate | benchmark::Counter::kInvert);
+}
+BENCHMARK(BM_EsdfBuild)->Arg(5)->Arg(20)->Unit(benchmark::kMillisecond);
+
+/// The same build on a world-like 200 x 200 x 60 grid: random boxes standing on the floor
+/// until the occupancy (percent in the argument) is reached.
+void BM_EsdfBuildBoxesWorld(benchmark::State& state) {
+  const double target = state.range(0) / 100.0;
+  VoxelGrid grid(Box{Eigen::Vector3d::Zero(), Eigen::Vector3d(20.0, 20.0, 6.0)}, 0.1);
+  Rng rng(3);
+  while (static_cast<double>(grid.occupiedCount()) < target * grid.size()) {
+    const Eigen::Vector3d min(rng.uniform(0, 19), rng.uniform(0, 19), 0.0);
+    grid.fillBox(min, min + Eigen::Vector3d(rng.uniform(0.2, 1.5), rng.uniform(0.2, 1.5),
+                                            rng.uniform(1.0, 6.0)));
+  }
+  for (auto _ : state) {
+    Esdf esdf(grid);
+    benchmark::DoNotOptimize(esdf.values().data());
+  }
+  state.counters["ns_per_voxel"] = benchmark::Counter(
+      static_cast<double>(grid.size()) * 1e-9,
+      benchmark::Counter::kIsIterationInvariantRate | benchmark::Counter::kInvert);
+}
+BENCHMARK(BM_EsdfBuildBoxesWorld)->Arg(5)->Arg(20)->Unit(benchmark::kMillisecond);
+
+/// Trilinear distance + gradient at random points; argument = voxels per axis in x and y
+/// (16 x 16 x 16 floats = 16 KiB fits in L1/L2; 512 x 512 x 64 floats = 64 MiB does not).
+void BM_DistanceWithGradient(benchmark::State& state) {
+  const int side = static_cast<int>(state.range(0));
+  const int height = side >= 256 ? 64 : side;
+  const VoxelGrid grid = randomGrid({side, side, height}, 0.02);
+  const Esdf esdf(grid);
+  Rng rng(2);
+  std::vector<Eigen::Vector3d> points(1 << 16);
+  const Eigen::Vector3d extent = grid.bounds().size();
+  for (auto& p : points) {
+    p = {rng.uniform(0, extent.x()), rng.uniform(0, extent.y()), rng.uniform(0, extent.z())};
+  }
+  std::size_t i = 0;
+  Eigen::Vector3d gradient;
+  for (auto _ : state) {
+    benchmark::DoNotOptimize(esdf.distanceWithGradient(points[i], &gradient));
+    benchmark::DoNotOptimize(gradient.data());
+    i = (i + 1) & (points.size() - 1);
+  }
+  state.SetItemsProcessed(state.iterations());
+  state.counters["grid_MiB"] = static_cast<double>(grid.size() * sizeof(float)) / (1 << 20);
+}
+BENCHMARK(BM_DistanceWithGradient)->Arg(16)->Arg(512);
+
+/// The same query on the 64 MiB grid, but at points 5 cm apart along random 4 m segments:
+/// the access pattern of edge evaluation, where consecutive queries share cache lines.
+void BM_DistanceWithGradientAlongSegments(benchmark::State& state) {
+  const VoxelGrid grid = randomGrid({512, 512, 64}, 0.02);
+  const Esdf esdf(grid);
+  Rng rng(2);
+  std::vector<Eigen::Vector3d> points;
+  const Eigen::Vector3d extent = grid.bounds().size();
+  while (points.size() < (1 << 16)) {
+    const Eigen::Vector3d a(rng.uniform(0, extent.x()), rng.uniform(0, extent.y()),
+                            rng.uniform(0, extent.z()));
+    Eigen::Vector3d direction(rng.normal(), rng.normal(), 0.2 * rng.normal());
+    direction.normalize();
+    for (int k = 0; k < 80; ++k) points.push_back(a + direction * (0.05 * k));
+  }
+  points.resize(1 << 16);
+  std::size_t i = 0;
+  Eigen::Vector3d gradient;
+  for (auto _ : state) {
+    benchmark::DoNotOptimize(esdf.distanceWithGradient(points[i], &gradient));
+    benchmark::DoNotOptimize(gradient.data());
+    i = (i + 1) & (points.size() - 1);
+  }
+  state.SetItemsProcessed(state.iterations());
+}
+BENCHMARK(BM_DistanceWithGradientAlongSegments);
+
+/// Trilinear distance only, and the nearest-voxel lookup, on the in-cache grid.
+void BM_DistanceQueries(benchmark::State& state) {
+  const VoxelGrid grid = randomGrid({16, 16, 16}, 0.02);
+  const Esdf esdf(grid);
+  Rng rng(3);
+  std::vector<Eigen::Vector3d> points(1 << 12);
+  for (auto& p : points) p = {rng.uniform(0, 1.6), rng.uniform(0, 1.6), rng.uniform(0, 1.6)};
+  std::size_t i = 0;
+  const bool nearest = state.range(0) == 1;
+  for (auto _ : state) {
+    benchmark::DoNotOptimize(nearest ? esdf.nearestDistance(points[i]) : esdf.distance(points[i]));
+    i = (i + 1) & (points.size() - 1);
+  }
+  state.SetLabel(nearest ? "nearest voxel" : "trilinear");
+  state.SetItemsProcessed(state.iterations());
+}
+BENCHMARK(BM_DistanceQueries)->Arg(0)->Arg(1);
+
+}  // namespace
+}  // namespace kinolab

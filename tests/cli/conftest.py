@@ -1,0 +1,22 @@
+"""Shared fixtures for the command-line tests: the kinolab binary and a throw-away cache."""
+
+import os
+import subprocess
+from pathlib import Path
+
+import pytest
+
+SOURCE_DIR = Path(os.environ.get("KINOLAB_SOURCE_DIR", Path(__file__).resolve().parents[2]))
+BINARY = os.environ.get("KINOLAB_BIN", str(SOURCE_DIR / "build" / "framework" / "kinolab"))
+
+
+@pytest.fixture
+def kinolab(tmp_path):
+    """Runs `kinolab ARGS...` with a private world cache; returns the CompletedProcess."""
+
+    def run(*args, cwd=None):
+        env = dict(os.environ, KINOLAB_CACHE_DIR=str(tmp_path / "cache"))
+        return subprocess.run([BINARY, *map(str, args)], capture_output=True, text=True,
+                              env=env, cwd=cwd, timeout=300)
+
+    return run
