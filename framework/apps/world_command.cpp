@@ -43,17 +43,20 @@ void runWorld(const WorldOptions& options) {
               bounds.min.y(), bounds.min.z(), bounds.max.x(), bounds.max.y(), bounds.max.z());
   std::printf("  occupied   %.0f voxels (%.2f %%)\n", occupied, 100.0 * occupied / grid.size());
   std::printf("  %-10s in %.3f s%s%s\n", how, load.seconds,
-              load.cache_file.empty() ? "" : " (cache: ", load.cache_file.empty() ? "" : (load.cache_file + ")").c_str());
-  if (!load.note.empty()) std::printf("  note       %s\n", load.note.c_str());
+              load.cache_file.empty() ? "" : " (cache: ",
+              load.cache_file.empty() ? "" : (load.cache_file + ")").c_str());
+  if (!load.note.empty())
+    std::printf("  note       %s\n", load.note.c_str());
 
   if (!options.out_dir.empty()) {
     // Default slice: 1 m above the floor, or mid-height in a lower map.
     const double height = options.slice_height.value_or(
         std::min(bounds.min.z() + 1.0, 0.5 * (bounds.min.z() + bounds.max.z())));
     exportWorld(world, options.out_dir, height);
-    std::printf("  wrote      %s/{occupancy.npy, esdf.npy, world.yaml, top_view.png, "
-                "esdf_slice.png} (slice at z = %.2f m)\n",
-                options.out_dir.c_str(), height);
+    std::printf(
+        "  wrote      %s/{occupancy.npy, esdf.npy, world.yaml, top_view.png, "
+        "esdf_slice.png} (slice at z = %.2f m)\n",
+        options.out_dir.c_str(), height);
   }
 }
 
@@ -61,10 +64,12 @@ void runWorld(const WorldOptions& options) {
 
 void addWorldCommand(CLI::App& app) {
   auto options = std::make_shared<WorldOptions>();
-  CLI::App* command = app.add_subcommand(
-      "world", "Build (or load from the cache) a world from its spec, print its size and "
-               "occupancy, and export its grid, ESDF and pictures");
-  command->add_option("spec", options->spec_path, "World spec YAML (e.g. configs/worlds/forest.yaml)")
+  CLI::App* command =
+      app.add_subcommand("world",
+                         "Build (or load from the cache) a world from its spec, print its size and "
+                         "occupancy, and export its grid, ESDF and pictures");
+  command
+      ->add_option("spec", options->spec_path, "World spec YAML (e.g. configs/worlds/forest.yaml)")
       ->required();
   command->add_option("--out", options->out_dir,
                       "Write occupancy.npy, esdf.npy, world.yaml, top_view.png and "
@@ -74,6 +79,15 @@ void addWorldCommand(CLI::App& app) {
   command->add_flag("--no-cache", options->no_cache, "Build without reading or writing the cache");
   command->add_option("--slice-height", options->slice_height,
                       "Height (m) of the ESDF slice picture (default: 1 m above the floor)");
+  std::string footer = "World generators (the `type:` of a `generators:` entry):\n";
+  for (const auto& [type, description] : worldGeneratorTypes()) {
+    footer += "  " + type + std::string(10 - std::min<std::size_t>(type.size(), 9), ' ') +
+              description + "\n";
+  }
+  footer +=
+      "Specs to start from: configs/worlds/*.yaml. Cache: $KINOLAB_CACHE_DIR overrides the "
+      "default.";
+  command->footer(footer);
   command->callback([options] { runWorld(*options); });
 }
 

@@ -3,8 +3,8 @@
 #include <gtest/gtest.h>
 
 #include <filesystem>
-#include <functional>
 #include <fstream>
+#include <functional>
 
 namespace kinolab {
 namespace {
@@ -12,16 +12,16 @@ namespace {
 class WorldCacheTest : public ::testing::Test {
  protected:
   void SetUp() override {
-    directory_ = std::filesystem::temp_directory_path() /
-                 ("kinolab_cache_test_" + std::to_string(::testing::UnitTest::GetInstance()
-                                                             ->random_seed()));
+    directory_ =
+        std::filesystem::temp_directory_path() /
+        ("kinolab_cache_test_" + std::to_string(::testing::UnitTest::GetInstance()->random_seed()));
     std::filesystem::remove_all(directory_);
-    spec_ = WorldSpec::fromYaml(
-        YamlReader::loadString("name: small\nseed: 3\nresolution: 0.2\n"
-                               "bounds: {min: [0, 0, 0], max: [8, 6, 3]}\n"
-                               "generators: [{type: forest, density: 0.2}]\n",
-                               "small.yaml"),
-        ".");
+    spec_ =
+        WorldSpec::fromYaml(YamlReader::loadString("name: small\nseed: 3\nresolution: 0.2\n"
+                                                   "bounds: {min: [0, 0, 0], max: [8, 6, 3]}\n"
+                                                   "generators: [{type: forest, density: 0.2}]\n",
+                                                   "small.yaml"),
+                            ".");
   }
   void TearDown() override { std::filesystem::remove_all(directory_); }
 

@@ -93,7 +93,8 @@ TEST(WorldSpecTest, ForestTrunksKeepTheirSpacingAndHeights) {
   for (int ix = 0; ix < grid.dims().x(); ++ix) {
     for (int iy = 0; iy < grid.dims().y(); ++iy) {
       for (int iz = 0; iz < grid.dims().z(); ++iz) {
-        if (!grid.occupied(grid.index(ix, iy, iz))) continue;
+        if (!grid.occupied(grid.index(ix, iy, iz)))
+          continue;
         (grid.center({ix, iy, iz}).z() > 3.0 ? high : low)++;
       }
     }
@@ -130,9 +131,9 @@ TEST(WorldSpecTest, CorruptOrMissingMapFilesAreClearErrors) {
   }
   for (const char* file : {"truncated.bt", "garbage.bt", "missing.bt"}) {
     try {
-      specFromText(std::string("resolution: 0.1\ngenerators:\n  - {type: octomap, file: ") +
-                       file + "}\n",
-                   directory.string());
+      specFromText(
+          std::string("resolution: 0.1\ngenerators:\n  - {type: octomap, file: ") + file + "}\n",
+          directory.string());
       ADD_FAILURE() << file << " was accepted";
     } catch (const ConfigError& error) {
       const std::string message = error.what();

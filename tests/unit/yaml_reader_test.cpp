@@ -37,8 +37,7 @@ TEST(YamlReaderTest, ErrorsNameFileLineAndKeyPath) {
   EXPECT_EQ(errorOf([&] { inner.getNumber("radius", std::nullopt, 0.0, 5.0); }),
             "w.yaml:3:13: outer.inner.radius: expected a number in [0, 5], got -1");
   const std::string unknown = errorOf([&] { inner.finish(); });
-  EXPECT_NE(unknown.find("w.yaml:4:5: outer.inner.radios: unknown key 'radios'"),
-            std::string::npos)
+  EXPECT_NE(unknown.find("w.yaml:4:5: outer.inner.radios: unknown key 'radios'"), std::string::npos)
       << unknown;
   EXPECT_NE(unknown.find("did you mean 'radius'"), std::string::npos) << unknown;
   EXPECT_NE(errorOf([&] { root["nothing"]; }).find("missing required key 'nothing'"),
@@ -58,8 +57,9 @@ TEST(YamlReaderTest, RejectsWrongTypes) {
 }
 
 TEST(YamlReaderTest, MalformedYamlAndMissingFiles) {
-  EXPECT_NE(errorOf([] { YamlReader::loadString("a: [1, 2\n", "bad.yaml"); })
-                .find("bad.yaml:2:1: malformed YAML"),
+  EXPECT_NE(errorOf([] {
+              YamlReader::loadString("a: [1, 2\n", "bad.yaml");
+            }).find("bad.yaml:2:1: malformed YAML"),
             std::string::npos);
   EXPECT_THROW(YamlReader::loadFile("/nonexistent/kinolab.yaml"), FileError);
 }

@@ -27,8 +27,8 @@ void writeValue(std::ostream& out, const char* key, const Interval& value) {
   out << ' ' << key << '=' << std::hexfloat << value[0] << ',' << value[1] << std::defaultfloat;
 }
 void writeValue(std::ostream& out, const char* key, const Eigen::Vector3d& value) {
-  out << ' ' << key << '=' << std::hexfloat << value.x() << ',' << value.y() << ','
-      << value.z() << std::defaultfloat;
+  out << ' ' << key << '=' << std::hexfloat << value.x() << ',' << value.y() << ',' << value.z()
+      << std::defaultfloat;
 }
 
 Eigen::Vector3d toVector(const std::array<double, 3>& value) {
@@ -78,13 +78,16 @@ void fillCylinder(VoxelGrid& grid, const Eigen::Vector2d& center, double radius,
   const Eigen::Vector3d high(center.x() + radius, center.y() + radius, z_high);
   Eigen::Vector3i first;
   Eigen::Vector3i last;
-  if (!grid.voxelRange(low, high, first, last)) return;
+  if (!grid.voxelRange(low, high, first, last))
+    return;
   const double radius_squared = radius * radius;
   for (int ix = first.x(); ix <= last.x(); ++ix) {
     for (int iy = first.y(); iy <= last.y(); ++iy) {
       const Eigen::Vector3d c = grid.center({ix, iy, 0});
-      if ((c.head<2>() - center).squaredNorm() > radius_squared) continue;
-      for (int iz = first.z(); iz <= last.z(); ++iz) grid.setOccupied(grid.index(ix, iy, iz), true);
+      if ((c.head<2>() - center).squaredNorm() > radius_squared)
+        continue;
+      for (int iz = first.z(); iz <= last.z(); ++iz)
+        grid.setOccupied(grid.index(ix, iy, iz), true);
     }
   }
 }
@@ -152,7 +155,8 @@ class ForestGenerator final : public WorldGenerator {
         const double gap = radius + other.radius + min_spacing_;
         return (other.center - center).squaredNorm() >= gap * gap;
       });
-      if (clear) trunks.push_back({center, radius});
+      if (clear)
+        trunks.push_back({center, radius});
     }
     const double floor = bounds.min.z();
     for (const Trunk& trunk : trunks) {
@@ -212,8 +216,8 @@ class BoxesGenerator final : public WorldGenerator {
                                  rng.uniform(size_y_[0], size_y_[1]),
                                  rng.uniform(size_z_[0], size_z_[1]));
       const Eigen::Vector2d center(rng.uniform(low.x(), high.x()), rng.uniform(low.y(), high.y()));
-      const double z_low = on_ground_ ? bounds.min.z()
-                                      : rng.uniform(bounds.min.z(), bounds.max.z() - size.z());
+      const double z_low =
+          on_ground_ ? bounds.min.z() : rng.uniform(bounds.min.z(), bounds.max.z() - size.z());
       const Eigen::Vector3d min(center.x() - 0.5 * size.x(), center.y() - 0.5 * size.y(), z_low);
       grid.fillBox(min, min + size);
     }
@@ -275,10 +279,14 @@ class WallsGenerator final : public WorldGenerator {
       const auto [i, j] = stack.back();
       // (neighbour i, neighbour j, wall id)
       std::vector<std::array<int, 3>> options;
-      if (i > 0 && !visited[cellId(i - 1, j)]) options.push_back({i - 1, j, j * (cells_x - 1) + i - 1});
-      if (i + 1 < cells_x && !visited[cellId(i + 1, j)]) options.push_back({i + 1, j, j * (cells_x - 1) + i});
-      if (j > 0 && !visited[cellId(i, j - 1)]) options.push_back({i, j - 1, vertical + (j - 1) * cells_x + i});
-      if (j + 1 < cells_y && !visited[cellId(i, j + 1)]) options.push_back({i, j + 1, vertical + j * cells_x + i});
+      if (i > 0 && !visited[cellId(i - 1, j)])
+        options.push_back({i - 1, j, j * (cells_x - 1) + i - 1});
+      if (i + 1 < cells_x && !visited[cellId(i + 1, j)])
+        options.push_back({i + 1, j, j * (cells_x - 1) + i});
+      if (j > 0 && !visited[cellId(i, j - 1)])
+        options.push_back({i, j - 1, vertical + (j - 1) * cells_x + i});
+      if (j + 1 < cells_y && !visited[cellId(i, j + 1)])
+        options.push_back({i, j + 1, vertical + j * cells_x + i});
       if (options.empty()) {
         stack.pop_back();
         continue;
@@ -290,7 +298,8 @@ class WallsGenerator final : public WorldGenerator {
       stack.push_back({pick[0], pick[1]});
     }
     for (std::size_t w = 0; w < open.size(); ++w) {
-      if (!open[w] && rng.uniform01() < extra_openings_) open[w] = true;
+      if (!open[w] && rng.uniform01() < extra_openings_)
+        open[w] = true;
     }
 
     const double floor = bounds.min.z();
@@ -355,7 +364,8 @@ class BoxListGenerator final : public WorldGenerator {
   explicit BoxListGenerator(const YamlReader& entry) {
     for (const YamlReader& item : entry["boxes"].items()) {
       Box box{toVector(item.getVector3("min")), toVector(item.getVector3("max"))};
-      if ((box.max.array() < box.min.array()).any()) item.fail("expected min <= max per axis");
+      if ((box.max.array() < box.min.array()).any())
+        item.fail("expected min <= max per axis");
       item.finish();
       boxes_.push_back(box);
     }
@@ -370,15 +380,16 @@ class BoxListGenerator final : public WorldGenerator {
     }
   }
   void apply(VoxelGrid& grid, Rng&) const override {
-    for (const Box& box : boxes_) grid.fillBox(box.min, box.max);
+    for (const Box& box : boxes_)
+      grid.fillBox(box.min, box.max);
   }
 
  private:
   std::vector<Box> boxes_;
 };
 
-using Factory = std::function<std::unique_ptr<WorldGenerator>(const YamlReader&,
-                                                              const std::string&)>;
+using Factory =
+    std::function<std::unique_ptr<WorldGenerator>(const YamlReader&, const std::string&)>;
 
 struct GeneratorType {
   std::string description;
@@ -399,8 +410,7 @@ const std::map<std::string, GeneratorType>& generatorTypes() {
       {"boxes", {"random axis-aligned boxes", plain<BoxesGenerator>()}},
       {"walls", {"a maze of walls with gaps (corridors)", plain<WallsGenerator>()}},
       {"box_list", {"explicit boxes (overhangs, bridges, ceilings)", plain<BoxListGenerator>()}},
-      {"octomap",
-       {"occupied leaves of an OctoMap .bt or .ot file", &makeOctomapGenerator}},
+      {"octomap", {"occupied leaves of an OctoMap .bt or .ot file", &makeOctomapGenerator}},
   };
   return types;
 }
@@ -415,7 +425,8 @@ std::unique_ptr<WorldGenerator> makeWorldGenerator(const YamlReader& entry,
   const auto found = types.find(type);
   if (found == types.end()) {
     std::string known;
-    for (const auto& [name, unused] : types) known += (known.empty() ? "" : ", ") + name;
+    for (const auto& [name, unused] : types)
+      known += (known.empty() ? "" : ", ") + name;
     type_node.fail("unknown world generator '" + type + "'; expected one of: " + known);
   }
   return found->second.make(entry, spec_directory);
@@ -423,7 +434,8 @@ std::unique_ptr<WorldGenerator> makeWorldGenerator(const YamlReader& entry,
 
 std::vector<std::pair<std::string, std::string>> worldGeneratorTypes() {
   std::vector<std::pair<std::string, std::string>> result;
-  for (const auto& [name, type] : generatorTypes()) result.emplace_back(name, type.description);
+  for (const auto& [name, type] : generatorTypes())
+    result.emplace_back(name, type.description);
   return result;
 }
 

@@ -19,7 +19,8 @@ using Rgb = std::array<std::uint8_t, 3>;
 
 Rgb lerp(const Rgb& a, const Rgb& b, double t) {
   Rgb out;
-  for (int i = 0; i < 3; ++i) out[i] = static_cast<std::uint8_t>(std::lround(a[i] + (b[i] - a[i]) * t));
+  for (int i = 0; i < 3; ++i)
+    out[i] = static_cast<std::uint8_t>(std::lround(a[i] + (b[i] - a[i]) * t));
   return out;
 }
 
@@ -42,7 +43,8 @@ constexpr std::array<Rgb, 9> kViridis = {{{68, 1, 84},
                                           {170, 220, 50},
                                           {253, 231, 37}}};
 // Light sand to dark green-brown for heights.
-constexpr std::array<Rgb, 4> kHeight = {{{230, 220, 190}, {150, 180, 110}, {60, 110, 60}, {30, 45, 30}}};
+constexpr std::array<Rgb, 4> kHeight = {
+    {{230, 220, 190}, {150, 180, 110}, {60, 110, 60}, {30, 45, 30}}};
 
 /// Upscale factor so that small grids still make a readable picture.
 int pictureScale(const Eigen::Vector3i& dims) {
@@ -58,7 +60,8 @@ void writeNpy(const std::string& path, const std::string& dtype, const void* dat
   std::size_t count = 1;
   for (std::size_t i = 0; i < shape.size(); ++i) {
     shape_text += std::to_string(shape[i]) + (shape.size() == 1 || i + 1 < shape.size() ? "," : "");
-    if (i + 1 < shape.size()) shape_text += " ";
+    if (i + 1 < shape.size())
+      shape_text += " ";
     count *= shape[i];
   }
   shape_text += ")";
@@ -77,12 +80,14 @@ void writeNpy(const std::string& path, const std::string& dtype, const void* dat
   out.write(length_bytes, 2);
   out.write(header.data(), static_cast<std::streamsize>(header.size()));
   out.write(static_cast<const char*>(data), static_cast<std::streamsize>(count * item_size));
-  if (!out) throw FileError(path + ": cannot write");
+  if (!out)
+    throw FileError(path + ": cannot write");
 }
 
 void writePng(const std::string& path, const RgbImage& image) {
   std::FILE* file = std::fopen(path.c_str(), "wb");
-  if (!file) throw FileError(path + ": cannot write");
+  if (!file)
+    throw FileError(path + ": cannot write");
   png_structp png = png_create_write_struct(PNG_LIBPNG_VER_STRING, nullptr, nullptr, nullptr);
   png_infop info = png ? png_create_info_struct(png) : nullptr;
   if (!png || !info || setjmp(png_jmpbuf(png))) {
@@ -100,7 +105,8 @@ void writePng(const std::string& path, const RgbImage& image) {
   }
   png_write_end(png, nullptr);
   png_destroy_write_struct(&png, &info);
-  if (std::fclose(file) != 0) throw FileError(path + ": cannot write");
+  if (std::fclose(file) != 0)
+    throw FileError(path + ": cannot write");
 }
 
 RgbImage renderTopView(const World& world) {
@@ -112,7 +118,8 @@ RgbImage renderTopView(const World& world) {
     for (int iy = 0; iy < dims.y(); ++iy) {
       int top = -1;
       for (int iz = dims.z() - 1; iz >= 0 && top < 0; --iz) {
-        if (grid.occupied(grid.index(ix, iy, iz))) top = iz;
+        if (grid.occupied(grid.index(ix, iy, iz)))
+          top = iz;
       }
       const Rgb colour = top < 0 ? Rgb{255, 255, 255}
                                  : colourMap(kHeight, dims.z() > 1 ? top / (dims.z() - 1.0) : 1.0);
@@ -136,9 +143,9 @@ RgbImage renderEsdfSlice(const World& world, double z) {
   RgbImage image(dims.x() * scale, dims.y() * scale);
   for (int px = 0; px < image.width; ++px) {
     for (int py = 0; py < image.height; ++py) {
-      const Eigen::Vector3d point(grid.origin().x() + (px + 0.5) * resolution / scale,
-                                  grid.origin().y() + (image.height - py - 0.5) * resolution / scale,
-                                  z);
+      const Eigen::Vector3d point(
+          grid.origin().x() + (px + 0.5) * resolution / scale,
+          grid.origin().y() + (image.height - py - 0.5) * resolution / scale, z);
       const double d = world.distance(point);
       const Rgb colour = d < 0.0 ? lerp(Rgb{240, 90, 80}, Rgb{120, 0, 0}, std::min(1.0, -d / far))
                                  : colourMap(kViridis, d / far);
@@ -151,23 +158,23 @@ RgbImage renderEsdfSlice(const World& world, double z) {
 void exportWorld(const World& world, const std::string& directory, double slice_height) {
   std::error_code error;
   std::filesystem::create_directories(directory, error);
-  if (error) throw FileError(directory + ": cannot create directory: " + error.message());
+  if (error)
+    throw FileError(directory + ": cannot create directory: " + error.message());
   const std::filesystem::path dir(directory);
   const VoxelGrid& grid = world.grid();
   const std::vector<std::size_t> shape = {static_cast<std::size_t>(grid.dims().x()),
                                           static_cast<std::size_t>(grid.dims().y()),
                                           static_cast<std::size_t>(grid.dims().z())};
   writeNpy((dir / "occupancy.npy").string(), "|u1", grid.occupancy().data(), 1, shape);
-  writeNpy((dir / "esdf.npy").string(), "<f4", world.esdf().values().data(), sizeof(float),
-           shape);
+  writeNpy((dir / "esdf.npy").string(), "<f4", world.esdf().values().data(), sizeof(float), shape);
 
   YAML::Emitter yaml;
   yaml << YAML::BeginMap;
   yaml << YAML::Key << "name" << YAML::Value << world.name();
   yaml << YAML::Key << "spec_hash" << YAML::Value << toHex(world.specHash());
   yaml << YAML::Key << "resolution" << YAML::Value << grid.resolution();
-  yaml << YAML::Key << "origin" << YAML::Value << YAML::Flow << YAML::BeginSeq
-       << grid.origin().x() << grid.origin().y() << grid.origin().z() << YAML::EndSeq;
+  yaml << YAML::Key << "origin" << YAML::Value << YAML::Flow << YAML::BeginSeq << grid.origin().x()
+       << grid.origin().y() << grid.origin().z() << YAML::EndSeq;
   yaml << YAML::Key << "axis_order" << YAML::Value << "xyz";
   yaml << YAML::Key << "shape" << YAML::Value << YAML::Flow << YAML::BeginSeq << shape[0]
        << shape[1] << shape[2] << YAML::EndSeq;
@@ -179,7 +186,8 @@ void exportWorld(const World& world, const std::string& directory, double slice_
   yaml << YAML::EndMap;
   std::ofstream out(dir / "world.yaml");
   out << yaml.c_str() << '\n';
-  if (!out) throw FileError((dir / "world.yaml").string() + ": cannot write");
+  if (!out)
+    throw FileError((dir / "world.yaml").string() + ": cannot write");
 
   writePng((dir / "top_view.png").string(), renderTopView(world));
   writePng((dir / "esdf_slice.png").string(), renderEsdfSlice(world, slice_height));

@@ -16,12 +16,14 @@ constexpr int kGeneratorVersion = 1;
 WorldSpec WorldSpec::fromFile(const std::string& path) {
   const YamlReader root = YamlReader::loadFile(path);
   WorldSpec spec = fromYaml(root, std::filesystem::path(path).parent_path().string());
-  if (spec.name.empty()) spec.name = std::filesystem::path(path).stem().string();
+  if (spec.name.empty())
+    spec.name = std::filesystem::path(path).stem().string();
   return spec;
 }
 
 WorldSpec WorldSpec::fromYaml(const YamlReader& node, const std::string& spec_directory) {
-  if (!node.isMap()) node.fail("expected a world spec (a mapping with resolution and generators)");
+  if (!node.isMap())
+    node.fail("expected a world spec (a mapping with resolution and generators)");
   WorldSpec spec;
   spec.name = node.get<std::string>("name", "");
   spec.seed = static_cast<std::uint64_t>(node.getInteger("seed", 0, 0, (1LL << 62)));
@@ -29,7 +31,8 @@ WorldSpec WorldSpec::fromYaml(const YamlReader& node, const std::string& spec_di
   for (const YamlReader& entry : node["generators"].items()) {
     spec.generators.push_back(makeWorldGenerator(entry, spec_directory));
   }
-  if (spec.generators.empty()) node["generators"].fail("expected at least one generator");
+  if (spec.generators.empty())
+    node["generators"].fail("expected at least one generator");
   if (auto bounds = node.optional("bounds")) {
     const auto min = bounds->getVector3("min");
     const auto max = bounds->getVector3("max");
@@ -49,8 +52,9 @@ WorldSpec WorldSpec::fromYaml(const YamlReader& node, const std::string& spec_di
       }
     }
     if (!found) {
-      node.fail("missing required key 'bounds' ({min: [x, y, z], max: [x, y, z]}); only a "
-                "map-file world can take its bounds from the map");
+      node.fail(
+          "missing required key 'bounds' ({min: [x, y, z], max: [x, y, z]}); only a "
+          "map-file world can take its bounds from the map");
     }
   }
   const double voxels = ((spec.bounds.max - spec.bounds.min) / spec.resolution).prod();
@@ -65,8 +69,8 @@ WorldSpec WorldSpec::fromYaml(const YamlReader& node, const std::string& spec_di
 std::string WorldSpec::canonicalText() const {
   std::ostringstream out;
   out << "kinolab-world generators=" << kGeneratorVersion << " seed=" << seed << std::hexfloat
-      << " resolution=" << resolution << " min=" << bounds.min.x() << ',' << bounds.min.y()
-      << ',' << bounds.min.z() << " max=" << bounds.max.x() << ',' << bounds.max.y() << ','
+      << " resolution=" << resolution << " min=" << bounds.min.x() << ',' << bounds.min.y() << ','
+      << bounds.min.z() << " max=" << bounds.max.x() << ',' << bounds.max.y() << ','
       << bounds.max.z() << std::defaultfloat << '\n';
   for (const auto& generator : generators) {
     generator->writeCanonical(out);
@@ -75,6 +79,8 @@ std::string WorldSpec::canonicalText() const {
   return out.str();
 }
 
-std::uint64_t WorldSpec::hash() const { return hashString(canonicalText()); }
+std::uint64_t WorldSpec::hash() const {
+  return hashString(canonicalText());
+}
 
 }  // namespace kinolab

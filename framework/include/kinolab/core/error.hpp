@@ -31,13 +31,4 @@ class InvalidArgument : public Error {
   using Error::Error;
 };
 
-/// Always-on check of an internal invariant; failing it is a bug in kinolab, not bad input.
-#define KINOLAB_CHECK(condition, message)                                              \
-  do {                                                                                 \
-    if (!(condition)) {                                                                \
-      throw ::kinolab::Error(std::string("internal check failed: ") + #condition + " (" + \
-                             (message) + ") at " + __FILE__ + ":" + std::to_string(__LINE__)); \
-    }                                                                                  \
-  } while (false)
-
 }  // namespace kinolab

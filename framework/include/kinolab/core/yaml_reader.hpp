@@ -66,8 +66,9 @@ class YamlReader {
   /// A list of three numbers.
   std::array<double, 3> getVector3(std::string_view key) const;
   /// `[low, high]` with low <= high, both in [min, max]; a single number means [x, x].
-  std::array<double, 2> getInterval(std::string_view key, std::optional<std::array<double, 2>> fallback,
-                                    double min, double max) const;
+  std::array<double, 2> getInterval(std::string_view key,
+                                    std::optional<std::array<double, 2>> fallback, double min,
+                                    double max) const;
 
   /// Rejects every key of this mapping that was never read, naming the closest known key.
   void finish() const;

@@ -61,9 +61,8 @@ class IntegratorChain {
   Eigen::Vector3d maxAbsDerivative(const ChainState& state, const Eigen::Vector3d& control,
                                    double duration, int derivative) const;
   /// The first limit the primitive breaks over [0, duration] (control included), if any.
-  std::optional<LimitViolation> checkLimits(const ChainState& state,
-                                            const Eigen::Vector3d& control, double duration,
-                                            const DynamicLimits& limits) const;
+  std::optional<LimitViolation> checkLimits(const ChainState& state, const Eigen::Vector3d& control,
+                                            double duration, const DynamicLimits& limits) const;
   bool withinLimits(const ChainState& state, const Eigen::Vector3d& control, double duration,
                     const DynamicLimits& limits) const {
     return !checkLimits(state, control, duration, limits);

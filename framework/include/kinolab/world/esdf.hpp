@@ -52,9 +52,7 @@ class Esdf {
   }
 
   /// Trilinear interpolation of the voxel-centre values.
-  double distance(const Eigen::Vector3d& point) const {
-    return interpolate<false>(point, nullptr);
-  }
+  double distance(const Eigen::Vector3d& point) const { return interpolate<false>(point, nullptr); }
 
   /// Trilinear distance and its analytic gradient (metres per metre) from one 8-corner fetch.
   double distanceWithGradient(const Eigen::Vector3d& point, Eigen::Vector3d* gradient) const {
@@ -72,12 +70,13 @@ class Esdf {
       const double raw = (point[axis] - origin_[axis]) * inverse_resolution_ - 0.5;
       const double scaled = std::clamp(raw, 0.0, upper_[axis]);
       // Along a clamped axis the field is constant, so that gradient component is zero.
-      if constexpr (kWithGradient) scale[axis] = raw == scaled ? gradient_scale_[axis] : 0.0;
+      if constexpr (kWithGradient)
+        scale[axis] = raw == scaled ? gradient_scale_[axis] : 0.0;
       // The lower corner stays one below the last centre so that corner + 1 exists; on a
       // one-voxel axis the step is zero and both corners are the same voxel.
       // scaled >= 0, so truncation is floor (and needs no libm call).
-      const auto corner = std::min(static_cast<std::size_t>(static_cast<std::int64_t>(scaled)),
-                                   lower_limit_[axis]);
+      const auto corner =
+          std::min(static_cast<std::size_t>(static_cast<std::int64_t>(scaled)), lower_limit_[axis]);
       fraction[axis] = scaled - static_cast<double>(corner);
       base += corner * strides_[axis];
       step[axis] = neighbour_step_[axis];
@@ -118,8 +117,8 @@ class Esdf {
   double inverse_resolution_ = 0.0;
   Eigen::Vector3d origin_ = Eigen::Vector3d::Zero();
   double max_distance_ = 0.0;
-  double upper_[3] = {0.0, 0.0, 0.0};        // last centre index per axis
-  std::size_t lower_limit_[3] = {0, 0, 0};    // highest lower-corner index per axis
+  double upper_[3] = {0.0, 0.0, 0.0};       // last centre index per axis
+  std::size_t lower_limit_[3] = {0, 0, 0};  // highest lower-corner index per axis
   double gradient_scale_[3] = {0.0, 0.0, 0.0};
   std::size_t strides_[3] = {0, 0, 0};
   std::size_t neighbour_step_[3] = {0, 0, 0};

@@ -14,9 +14,9 @@ enum class WorldSource { kBuilt, kCache, kRebuiltCorruptCache };
 struct WorldLoad {
   std::shared_ptr<const World> world;
   WorldSource source = WorldSource::kBuilt;
-  double seconds = 0.0;     // wall time of the load or build
-  std::string cache_file;   // empty when caching is off
-  std::string note;         // why a cache file was rejected, if one was
+  double seconds = 0.0;    // wall time of the load or build
+  std::string cache_file;  // empty when caching is off
+  std::string note;        // why a cache file was rejected, if one was
 };
 
 /// Built worlds (grid + ESDF) on disk, one file per spec keyed by WorldSpec::hash(). A file
