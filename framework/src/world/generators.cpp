@@ -169,8 +169,9 @@ class ForestGenerator final : public WorldGenerator {
       }
     }
     if (ground_plane_) {
-      // The lowest layer of voxels.
-      grid.fillBox(bounds.min, {bounds.max.x(), bounds.max.y(), floor + 0.5 * grid.resolution()});
+      // The lowest layer of voxels: its centres are half a voxel up, the next layer's a voxel
+      // and a half, so a bound of one voxel picks exactly one layer without rounding doubts.
+      grid.fillBox(bounds.min, {bounds.max.x(), bounds.max.y(), floor + grid.resolution()});
     }
   }
 
