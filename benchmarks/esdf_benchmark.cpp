@@ -12,8 +12,7 @@ namespace {
 VoxelGrid randomGrid(const Eigen::Vector3i& dims, double occupancy, double resolution = 0.1) {
   VoxelGrid grid(Box{Eigen::Vector3d::Zero(), dims.cast<double>() * resolution}, resolution);
   Rng rng(1);
-  for (std::size_t i = 0; i < grid.size(); ++i)
-    grid.setOccupied(i, rng.uniform01() < occupancy);
+  for (std::size_t i = 0; i < grid.size(); ++i) grid.setOccupied(i, rng.uniform01() < occupancy);
   return grid;
 }
 
@@ -102,8 +101,7 @@ void BM_DistanceWithGradientAlongSegments(benchmark::State& state) {
                             rng.uniform(0, extent.z()));
     Eigen::Vector3d direction(rng.normal(), rng.normal(), 0.2 * rng.normal());
     direction.normalize();
-    for (int k = 0; k < 80; ++k)
-      points.push_back(a + direction * (0.05 * k));
+    for (int k = 0; k < 80; ++k) points.push_back(a + direction * (0.05 * k));
   }
   points.resize(1 << 16);
   runGradientQueries(state, esdf, points);
@@ -116,8 +114,7 @@ void BM_DistanceQueries(benchmark::State& state) {
   const Esdf esdf(grid);
   Rng rng(3);
   std::vector<Eigen::Vector3d> points(1 << 12);
-  for (auto& p : points)
-    p = {rng.uniform(0, 1.6), rng.uniform(0, 1.6), rng.uniform(0, 1.6)};
+  for (auto& p : points) p = {rng.uniform(0, 1.6), rng.uniform(0, 1.6), rng.uniform(0, 1.6)};
   std::size_t start = 0;
   const bool nearest = state.range(0) == 1;
   for (auto _ : state) {

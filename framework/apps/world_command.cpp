@@ -45,8 +45,7 @@ void runWorld(const WorldOptions& options) {
   std::printf("  %-10s in %.3f s%s%s\n", how, load.seconds,
               load.cache_file.empty() ? "" : " (cache: ",
               load.cache_file.empty() ? "" : (load.cache_file + ")").c_str());
-  if (!load.note.empty())
-    std::printf("  note       %s\n", load.note.c_str());
+  if (!load.note.empty()) std::printf("  note       %s\n", load.note.c_str());
 
   if (!options.out_dir.empty()) {
     // Default slice: 1 m above the floor, or mid-height in a lower map.

@@ -14,8 +14,7 @@ VoxelGrid randomGrid(const Eigen::Vector3i& dims, double occupancy, std::uint64_
                      double resolution = 1.0) {
   VoxelGrid grid(Box{Eigen::Vector3d::Zero(), dims.cast<double>() * resolution}, resolution);
   Rng rng(seed);
-  for (std::size_t i = 0; i < grid.size(); ++i)
-    grid.setOccupied(i, rng.uniform01() < occupancy);
+  for (std::size_t i = 0; i < grid.size(); ++i) grid.setOccupied(i, rng.uniform01() < occupancy);
   return grid;
 }
 
@@ -27,8 +26,7 @@ double bruteForce(const VoxelGrid& grid, const VoxelIndex& voxel) {
   for (int x = 0; x < dims.x(); ++x) {
     for (int y = 0; y < dims.y(); ++y) {
       for (int z = 0; z < dims.z(); ++z) {
-        if (grid.occupied(grid.index(x, y, z)) == inside)
-          continue;
+        if (grid.occupied(grid.index(x, y, z)) == inside) continue;
         best = std::min(best, (Eigen::Vector3i(x, y, z) - voxel).cast<double>().squaredNorm());
       }
     }
@@ -54,8 +52,7 @@ TEST_P(EsdfBruteForceTest, MatchesBruteForceWithinATenThousandthOfAVoxel) {
         for (int z = 0; z < c.dims.z(); ++z) {
           const VoxelIndex voxel(x, y, z);
           const double expected = bruteForce(grid, voxel);
-          if (std::isinf(expected))
-            continue;  // a one-kind grid; tested separately
+          if (std::isinf(expected)) continue;  // a one-kind grid; tested separately
           worst = std::max(worst, std::abs(esdf.voxelDistance(grid.index(voxel)) - expected));
         }
       }
@@ -88,8 +85,7 @@ TEST(EsdfTest, SingleObstacleGivesEuclideanDistanceInMetres) {
 TEST(EsdfTest, GridWithoutObstaclesHoldsTheDiagonal) {
   const VoxelGrid grid(Box{Eigen::Vector3d::Zero(), Eigen::Vector3d(2.0, 3.0, 1.0)}, 0.5);
   const Esdf esdf(grid);
-  for (float value : esdf.values())
-    EXPECT_FLOAT_EQ(value, std::sqrt(14.0));
+  for (float value : esdf.values()) EXPECT_FLOAT_EQ(value, std::sqrt(14.0));
   EXPECT_DOUBLE_EQ(esdf.maxDistance(), std::sqrt(14.0));
 }
 
@@ -123,8 +119,7 @@ TEST(EsdfTest, AnalyticGradientMatchesFiniteDifferences) {
     for (int axis = 0; axis < 3; ++axis) {
       // Skip points within h of a cell face, where the derivative jumps.
       const double scaled = p[axis] / 0.1 - 0.5;
-      if (std::abs(scaled - std::round(scaled)) < 1e-4)
-        continue;
+      if (std::abs(scaled - std::round(scaled)) < 1e-4) continue;
       Eigen::Vector3d step = Eigen::Vector3d::Zero();
       step[axis] = h;
       const double numeric = (esdf.distance(p + step) - esdf.distance(p - step)) / (2 * h);

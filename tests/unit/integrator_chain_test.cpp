@@ -11,8 +11,7 @@ namespace {
 ChainState randomState(Rng& rng, int order, double scale = 2.0) {
   ChainState state = ChainState::Zero();
   for (int k = 0; k < order; ++k) {
-    for (int axis = 0; axis < 3; ++axis)
-      state(axis, k) = rng.uniform(-scale, scale);
+    for (int axis = 0; axis < 3; ++axis) state(axis, k) = rng.uniform(-scale, scale);
   }
   return state;
 }
@@ -26,8 +25,7 @@ ChainState integrateRk4(const ChainState& start, const Eigen::Vector3d& control,
                         double duration, int steps) {
   auto derivative = [&](const ChainState& x) {
     ChainState dx = ChainState::Zero();
-    for (int k = 0; k + 1 < order; ++k)
-      dx.col(k) = x.col(k + 1);
+    for (int k = 0; k + 1 < order; ++k) dx.col(k) = x.col(k + 1);
     dx.col(order - 1) = control;
     return dx;
   };
@@ -127,8 +125,7 @@ TEST_P(IntegratorChainOrderTest, LimitVerdictAgreesWithDenseSampling) {
     for (int i = 0; i <= samples && dense_ok; ++i) {
       const ChainState at = chain.stateAt(start, control, duration * i / samples);
       for (int k = 1; k < order; ++k) {
-        if ((at.col(k).cwiseAbs().array() > limits.bound[k].array()).any())
-          dense_ok = false;
+        if ((at.col(k).cwiseAbs().array() > limits.bound[k].array()).any()) dense_ok = false;
       }
     }
     const auto violation = chain.checkLimits(start, control, duration, limits);
@@ -148,8 +145,7 @@ TEST_P(IntegratorChainOrderTest, LimitVerdictAgreesWithDenseSampling) {
         ends_ok = ends_ok && (start.col(k).cwiseAbs().array() <= limits.bound[k].array()).all() &&
                   (end.col(k).cwiseAbs().array() <= limits.bound[k].array()).all();
       }
-      if (ends_ok)
-        ++interior_only;
+      if (ends_ok) ++interior_only;
     }
   }
   EXPECT_GT(feasible, 50);

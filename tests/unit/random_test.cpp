@@ -47,8 +47,7 @@ TEST(RngTest, DistributionsHaveTheirRangesAndMoments) {
   }
   EXPECT_NEAR(sum / n, 0.0, 0.01);
   EXPECT_NEAR(sum_squares / n, 1.0, 0.02);
-  for (int count : histogram)
-    EXPECT_NEAR(count, n / 5, n / 100);
+  for (int count : histogram) EXPECT_NEAR(count, n / 5, n / 100);
 }
 
 }  // namespace

@@ -93,8 +93,7 @@ TEST(WorldSpecTest, ForestTrunksKeepTheirSpacingAndHeights) {
   for (int ix = 0; ix < grid.dims().x(); ++ix) {
     for (int iy = 0; iy < grid.dims().y(); ++iy) {
       for (int iz = 0; iz < grid.dims().z(); ++iz) {
-        if (!grid.occupied(grid.index(ix, iy, iz)))
-          continue;
+        if (!grid.occupied(grid.index(ix, iy, iz))) continue;
         (grid.center({ix, iy, iz}).z() > 3.0 ? high : low)++;
       }
     }

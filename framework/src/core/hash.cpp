@@ -15,8 +15,7 @@ std::uint64_t hashBytes(const void* data, std::size_t size, std::uint64_t seed) 
 
 std::uint64_t hashFile(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
-  if (!in)
-    throw FileError(path + ": cannot open file");
+  if (!in) throw FileError(path + ": cannot open file");
   XXH3_state_t* state = XXH3_createState();
   XXH3_64bits_reset(state);
   std::array<char, 1 << 16> buffer{};
@@ -27,8 +26,7 @@ std::uint64_t hashFile(const std::string& path) {
   const bool failed = in.bad();
   const std::uint64_t digest = XXH3_64bits_digest(state);
   XXH3_freeState(state);
-  if (failed)
-    throw FileError(path + ": read error");
+  if (failed) throw FileError(path + ": read error");
   return digest;
 }
 

@@ -15,15 +15,12 @@ std::uint64_t splitMix64(std::uint64_t& x) {
   return z ^ (z >> 31);
 }
 
-std::uint64_t rotateLeft(std::uint64_t x, int k) {
-  return (x << k) | (x >> (64 - k));
-}
+std::uint64_t rotateLeft(std::uint64_t x, int k) { return (x << k) | (x >> (64 - k)); }
 
 }  // namespace
 
 Rng::Rng(std::uint64_t seed) {
-  for (auto& word : state_)
-    word = splitMix64(seed);
+  for (auto& word : state_) word = splitMix64(seed);
 }
 
 Rng Rng::derive(std::uint64_t seed, std::string_view name, std::uint64_t index) {
@@ -43,24 +40,17 @@ std::uint64_t Rng::nextU64() {
   return result;
 }
 
-double Rng::uniform01() {
-  return static_cast<double>(nextU64() >> 11) * 0x1.0p-53;
-}
+double Rng::uniform01() { return static_cast<double>(nextU64() >> 11) * 0x1.0p-53; }
 
-double Rng::uniform(double low, double high) {
-  return low + (high - low) * uniform01();
-}
+double Rng::uniform(double low, double high) { return low + (high - low) * uniform01(); }
 
 std::int64_t Rng::uniformInt(std::int64_t low, std::int64_t high) {
-  if (high < low)
-    throw InvalidArgument("Rng::uniformInt: empty range");
+  if (high < low) throw InvalidArgument("Rng::uniformInt: empty range");
   const std::uint64_t span = static_cast<std::uint64_t>(high - low) + 1;
-  if (span == 0)
-    return static_cast<std::int64_t>(nextU64());  // the full 64-bit range
+  if (span == 0) return static_cast<std::int64_t>(nextU64());  // the full 64-bit range
   const std::uint64_t limit = ~std::uint64_t{0} - (~std::uint64_t{0} % span);
   std::uint64_t draw = nextU64();
-  while (draw >= limit)
-    draw = nextU64();
+  while (draw >= limit) draw = nextU64();
   return low + static_cast<std::int64_t>(draw % span);
 }
 

@@ -10,8 +10,7 @@ namespace {
 
 std::size_t editDistance(std::string_view a, std::string_view b) {
   std::vector<std::size_t> row(b.size() + 1);
-  for (std::size_t j = 0; j <= b.size(); ++j)
-    row[j] = j;
+  for (std::size_t j = 0; j <= b.size(); ++j) row[j] = j;
   for (std::size_t i = 1; i <= a.size(); ++i) {
     std::size_t diagonal = row[0];
     row[0] = i;
@@ -25,12 +24,9 @@ std::size_t editDistance(std::string_view a, std::string_view b) {
 }
 
 std::string describe(const YAML::Node& node) {
-  if (node.IsScalar())
-    return "\"" + node.Scalar() + "\"";
-  if (node.IsSequence())
-    return "a list";
-  if (node.IsMap())
-    return "a mapping";
+  if (node.IsScalar()) return "\"" + node.Scalar() + "\"";
+  if (node.IsSequence()) return "a list";
+  if (node.IsMap()) return "a mapping";
   return "nothing";
 }
 
@@ -94,36 +90,30 @@ bool YamlReader::has(std::string_view key) const {
 
 std::vector<std::string> YamlReader::keys() const {
   std::vector<std::string> result;
-  if (!node_.IsMap())
-    return result;
-  for (const auto& entry : node_)
-    result.push_back(entry.first.as<std::string>());
+  if (!node_.IsMap()) return result;
+  for (const auto& entry : node_) result.push_back(entry.first.as<std::string>());
   return result;
 }
 
 std::optional<YamlReader> YamlReader::optional(std::string_view key) const {
   if (!node_.IsMap()) {
-    if (node_.IsNull() || !node_.IsDefined())
-      return std::nullopt;
+    if (node_.IsNull() || !node_.IsDefined()) return std::nullopt;
     fail("expected a mapping of keys to values, got " + describe(node_));
   }
   used_->insert(std::string(key));
   const YAML::Node child = node_[std::string(key)];
-  if (!child.IsDefined())
-    return std::nullopt;
+  if (!child.IsDefined()) return std::nullopt;
   return YamlReader(child, source_, childPath(key));
 }
 
 YamlReader YamlReader::operator[](std::string_view key) const {
   auto child = optional(key);
-  if (!child)
-    fail("missing required key '" + std::string(key) + "'");
+  if (!child) fail("missing required key '" + std::string(key) + "'");
   return *child;
 }
 
 std::vector<YamlReader> YamlReader::items() const {
-  if (!node_.IsSequence())
-    fail("expected a list, got " + describe(node_));
+  if (!node_.IsSequence()) fail("expected a list, got " + describe(node_));
   std::vector<YamlReader> result;
   for (std::size_t i = 0; i < node_.size(); ++i) {
     result.push_back(YamlReader(node_[i], source_, path_ + "[" + std::to_string(i) + "]"));
@@ -136,8 +126,7 @@ double YamlReader::as<double>() const {
   if (node_.IsScalar()) {
     try {
       const double value = node_.as<double>();
-      if (std::isfinite(value))
-        return value;
+      if (std::isfinite(value)) return value;
     } catch (const YAML::Exception&) {
     }
   }
@@ -168,8 +157,7 @@ bool YamlReader::as<bool>() const {
 
 template <>
 std::string YamlReader::as<std::string>() const {
-  if (!node_.IsScalar())
-    fail("expected a string, got " + describe(node_));
+  if (!node_.IsScalar()) fail("expected a string, got " + describe(node_));
   return node_.Scalar();
 }
 
@@ -177,8 +165,7 @@ double YamlReader::getNumber(std::string_view key, std::optional<double> fallbac
                              double high) const {
   auto child = optional(key);
   if (!child) {
-    if (!fallback)
-      fail("missing required key '" + std::string(key) + "'");
+    if (!fallback) fail("missing required key '" + std::string(key) + "'");
     return *fallback;
   }
   const double value = child->as<double>();
@@ -193,8 +180,7 @@ long long YamlReader::getInteger(std::string_view key, std::optional<long long> 
                                  long long low, long long high) const {
   auto child = optional(key);
   if (!child) {
-    if (!fallback)
-      fail("missing required key '" + std::string(key) + "'");
+    if (!fallback) fail("missing required key '" + std::string(key) + "'");
     return *fallback;
   }
   const long long value = child->as<long long>();
@@ -219,8 +205,7 @@ std::array<double, 2> YamlReader::getInterval(std::string_view key,
                                               double min, double max) const {
   auto child = optional(key);
   if (!child) {
-    if (!fallback)
-      fail("missing required key '" + std::string(key) + "'");
+    if (!fallback) fail("missing required key '" + std::string(key) + "'");
     return *fallback;
   }
   std::array<double, 2> interval{};
@@ -241,12 +226,10 @@ std::array<double, 2> YamlReader::getInterval(std::string_view key,
 }
 
 void YamlReader::finish() const {
-  if (!node_.IsMap())
-    return;
+  if (!node_.IsMap()) return;
   for (const auto& entry : node_) {
     const std::string key = entry.first.as<std::string>();
-    if (used_->count(key))
-      continue;
+    if (used_->count(key)) continue;
     std::string message = "unknown key '" + key + "'";
     std::string best;
     std::size_t best_distance = 3;
@@ -257,12 +240,10 @@ void YamlReader::finish() const {
         best = known;
       }
     }
-    if (!best.empty())
-      message += " (did you mean '" + best + "'?)";
+    if (!best.empty()) message += " (did you mean '" + best + "'?)";
     if (!used_->empty()) {
       message += "; known keys:";
-      for (const auto& known : *used_)
-        message += " " + known;
+      for (const auto& known : *used_) message += " " + known;
     }
     YamlReader(entry.first, source_, childPath(key)).fail(message);
   }

@@ -23,8 +23,7 @@ int derivativePolynomial(const ChainState& state, const Eigen::Vector3d& control
 
 double evaluatePolynomial(const double coefficients[5], int degree, double t) {
   double value = coefficients[degree];
-  for (int m = degree - 1; m >= 0; --m)
-    value = value * t + coefficients[m];
+  for (int m = degree - 1; m >= 0; --m) value = value * t + coefficients[m];
   return value;
 }
 
@@ -35,21 +34,18 @@ int extremumCandidates(const double coefficients[5], int degree, double duration
   times[count++] = 0.0;
   times[count++] = duration;
   auto add = [&](double t) {
-    if (t > 0.0 && t < duration)
-      times[count++] = t;
+    if (t > 0.0 && t < duration) times[count++] = t;
   };
   if (degree == 2) {
     // p' = c1 + 2 c2 t
-    if (coefficients[2] != 0.0)
-      add(-coefficients[1] / (2.0 * coefficients[2]));
+    if (coefficients[2] != 0.0) add(-coefficients[1] / (2.0 * coefficients[2]));
   } else if (degree == 3) {
     // p' = c1 + 2 c2 t + 3 c3 t^2
     const double a = 3.0 * coefficients[3];
     const double b = 2.0 * coefficients[2];
     const double c = coefficients[1];
     if (a == 0.0) {
-      if (b != 0.0)
-        add(-c / b);
+      if (b != 0.0) add(-c / b);
     } else {
       const double discriminant = b * b - 4.0 * a * c;
       if (discriminant >= 0.0) {
@@ -71,9 +67,7 @@ int extremumCandidates(const double coefficients[5], int degree, double duration
 
 }  // namespace
 
-DynamicLimits::DynamicLimits() {
-  bound.fill(Eigen::Vector3d::Constant(INFINITY));
-}
+DynamicLimits::DynamicLimits() { bound.fill(Eigen::Vector3d::Constant(INFINITY)); }
 
 DynamicLimits DynamicLimits::uniform(double velocity, double acceleration, double jerk,
                                      double snap) {
@@ -90,21 +84,18 @@ IntegratorChain::IntegratorChain(int order, Propagation propagation, int euler_s
   if (order < 2 || order > 4) {
     throw InvalidArgument("integrator chain order must be 2, 3 or 4, got " + std::to_string(order));
   }
-  if (euler_steps < 1)
-    throw InvalidArgument("integrator chain: euler_steps must be >= 1");
+  if (euler_steps < 1) throw InvalidArgument("integrator chain: euler_steps must be >= 1");
 }
 
 ChainState IntegratorChain::stateAt(const ChainState& state, const Eigen::Vector3d& control,
                                     double t) const {
   double power[5];
   power[0] = 1.0;
-  for (int j = 1; j <= order_; ++j)
-    power[j] = power[j - 1] * t * (1.0 / j);  // t^j / j!
+  for (int j = 1; j <= order_; ++j) power[j] = power[j - 1] * t * (1.0 / j);  // t^j / j!
   ChainState result = ChainState::Zero();
   for (int k = 0; k < order_; ++k) {
     Eigen::Vector3d value = control * power[order_ - k];
-    for (int m = order_ - 1; m >= k; --m)
-      value += state.col(m) * power[m - k];
+    for (int m = order_ - 1; m >= k; --m) value += state.col(m) * power[m - k];
     result.col(k) = value;
   }
   return result;
@@ -112,14 +103,12 @@ ChainState IntegratorChain::stateAt(const ChainState& state, const Eigen::Vector
 
 ChainState IntegratorChain::propagate(const ChainState& state, const Eigen::Vector3d& control,
                                       double duration) const {
-  if (propagation_ == Propagation::kExact)
-    return stateAt(state, control, duration);
+  if (propagation_ == Propagation::kExact) return stateAt(state, control, duration);
   ChainState result = state;
   const double step = duration / euler_steps_;
   for (int s = 0; s < euler_steps_; ++s) {
     // Lowest derivative first, so each update uses the previous step's higher derivative.
-    for (int k = 0; k + 1 < order_; ++k)
-      result.col(k) += step * result.col(k + 1);
+    for (int k = 0; k + 1 < order_; ++k) result.col(k) += step * result.col(k + 1);
     result.col(order_ - 1) += step * control;
   }
   return result;
@@ -159,8 +148,7 @@ std::optional<LimitViolation> IntegratorChain::checkLimits(const ChainState& sta
   for (int derivative = 1; derivative < order_; ++derivative) {
     for (int axis = 0; axis < 3; ++axis) {
       const double bound = limits.bound[derivative][axis];
-      if (std::isinf(bound))
-        continue;
+      if (std::isinf(bound)) continue;
       double coefficients[5];
       const int degree =
           derivativePolynomial(state, control, order_, derivative, axis, coefficients);
@@ -179,8 +167,7 @@ std::optional<LimitViolation> IntegratorChain::checkLimits(const ChainState& sta
 
 std::string derivativeName(int derivative) {
   static const char* kNames[] = {"position", "velocity", "acceleration", "jerk", "snap"};
-  if (derivative < 0 || derivative > 4)
-    return "derivative " + std::to_string(derivative);
+  if (derivative < 0 || derivative > 4) return "derivative " + std::to_string(derivative);
   return kNames[derivative];
 }
 

@@ -47,8 +47,7 @@ void transformLine(const std::int32_t* f, std::int32_t* d, int n, EnvelopeScratc
   std::int64_t* zd = scratch.boundary_denominator.data();
   int k = -1;
   for (int q = 0; q < n; ++q) {
-    if (f[q] == kNoSite)
-      continue;
+    if (f[q] == kNoSite) continue;
     const std::int64_t gq = static_cast<std::int64_t>(f[q]) + static_cast<std::int64_t>(q) * q;
     std::int64_t numerator = 0;
     std::int64_t denominator = 1;
@@ -57,8 +56,7 @@ void transformLine(const std::int32_t* f, std::int32_t* d, int n, EnvelopeScratc
       numerator = gq - g[k];
       denominator = 2 * static_cast<std::int64_t>(q - v[k]);
       // Keep parabola k when the intersection lies right of where k starts winning.
-      if (k == 0 || numerator * zd[k] > zn[k] * denominator)
-        break;
+      if (k == 0 || numerator * zd[k] > zn[k] * denominator) break;
       --k;
     }
     ++k;
@@ -75,8 +73,7 @@ void transformLine(const std::int32_t* f, std::int32_t* d, int n, EnvelopeScratc
   int j = 0;
   for (int q = 0; q < n; ++q) {
     // Advance while the next parabola starts at or before q: zn / zd <= q.
-    while (j < last && zn[j + 1] <= static_cast<std::int64_t>(q) * zd[j + 1])
-      ++j;
+    while (j < last && zn[j + 1] <= static_cast<std::int64_t>(q) * zd[j + 1]) ++j;
     const std::int64_t offset = q - v[j];
     d[q] = static_cast<std::int32_t>(offset * offset + f[v[j]]);
   }
@@ -95,16 +92,14 @@ void transformStrided(std::int32_t* data, std::size_t first, std::size_t inner_c
     std::int32_t* base = data + first + inner;
     for (std::size_t q = 0; q < n; ++q) {
       const std::int32_t* row = base + q * stride;
-      for (std::size_t line = 0; line < lines; ++line)
-        in[line * n + q] = row[line];
+      for (std::size_t line = 0; line < lines; ++line) in[line * n + q] = row[line];
     }
     for (std::size_t line = 0; line < lines; ++line) {
       transformLine(in.data() + line * n, out.data() + line * n, length, scratch);
     }
     for (std::size_t q = 0; q < n; ++q) {
       std::int32_t* row = base + q * stride;
-      for (std::size_t line = 0; line < lines; ++line)
-        row[line] = out[line * n + q];
+      for (std::size_t line = 0; line < lines; ++line) row[line] = out[line * n + q];
     }
   }
 }
@@ -170,8 +165,7 @@ void Esdf::setGeometry(const VoxelGrid& grid) {
 }
 
 Esdf::Esdf(const VoxelGrid& grid) {
-  if (grid.size() == 0)
-    throw InvalidArgument("Esdf: empty grid");
+  if (grid.size() == 0) throw InvalidArgument("Esdf: empty grid");
   setGeometry(grid);
   const std::vector<std::int32_t> to_occupied = squaredDistanceTo(grid, 1);
   const std::vector<std::int32_t> to_free = squaredDistanceTo(grid, 0);

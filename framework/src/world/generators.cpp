@@ -78,16 +78,13 @@ void fillCylinder(VoxelGrid& grid, const Eigen::Vector2d& center, double radius,
   const Eigen::Vector3d high(center.x() + radius, center.y() + radius, z_high);
   Eigen::Vector3i first;
   Eigen::Vector3i last;
-  if (!grid.voxelRange(low, high, first, last))
-    return;
+  if (!grid.voxelRange(low, high, first, last)) return;
   const double radius_squared = radius * radius;
   for (int ix = first.x(); ix <= last.x(); ++ix) {
     for (int iy = first.y(); iy <= last.y(); ++iy) {
       const Eigen::Vector3d c = grid.center({ix, iy, 0});
-      if ((c.head<2>() - center).squaredNorm() > radius_squared)
-        continue;
-      for (int iz = first.z(); iz <= last.z(); ++iz)
-        grid.setOccupied(grid.index(ix, iy, iz), true);
+      if ((c.head<2>() - center).squaredNorm() > radius_squared) continue;
+      for (int iz = first.z(); iz <= last.z(); ++iz) grid.setOccupied(grid.index(ix, iy, iz), true);
     }
   }
 }
@@ -155,8 +152,7 @@ class ForestGenerator final : public WorldGenerator {
         const double gap = radius + other.radius + min_spacing_;
         return (other.center - center).squaredNorm() >= gap * gap;
       });
-      if (clear)
-        trunks.push_back({center, radius});
+      if (clear) trunks.push_back({center, radius});
     }
     const double floor = bounds.min.z();
     for (const Trunk& trunk : trunks) {
@@ -299,8 +295,7 @@ class WallsGenerator final : public WorldGenerator {
       stack.push_back({pick[0], pick[1]});
     }
     for (std::size_t w = 0; w < open.size(); ++w) {
-      if (!open[w] && rng.uniform01() < extra_openings_)
-        open[w] = true;
+      if (!open[w] && rng.uniform01() < extra_openings_) open[w] = true;
     }
 
     const double floor = bounds.min.z();
@@ -365,8 +360,7 @@ class BoxListGenerator final : public WorldGenerator {
   explicit BoxListGenerator(const YamlReader& entry) {
     for (const YamlReader& item : entry["boxes"].items()) {
       Box box{toVector(item.getVector3("min")), toVector(item.getVector3("max"))};
-      if ((box.max.array() < box.min.array()).any())
-        item.fail("expected min <= max per axis");
+      if ((box.max.array() < box.min.array()).any()) item.fail("expected min <= max per axis");
       item.finish();
       boxes_.push_back(box);
     }
@@ -381,8 +375,7 @@ class BoxListGenerator final : public WorldGenerator {
     }
   }
   void apply(VoxelGrid& grid, Rng&) const override {
-    for (const Box& box : boxes_)
-      grid.fillBox(box.min, box.max);
+    for (const Box& box : boxes_) grid.fillBox(box.min, box.max);
   }
 
  private:
@@ -426,8 +419,7 @@ std::unique_ptr<WorldGenerator> makeWorldGenerator(const YamlReader& entry,
   const auto found = types.find(type);
   if (found == types.end()) {
     std::string known;
-    for (const auto& [name, unused] : types)
-      known += (known.empty() ? "" : ", ") + name;
+    for (const auto& [name, unused] : types) known += (known.empty() ? "" : ", ") + name;
     type_node.fail("unknown world generator '" + type + "'; expected one of: " + known);
   }
   return found->second.make(entry, spec_directory);
@@ -435,8 +427,7 @@ std::unique_ptr<WorldGenerator> makeWorldGenerator(const YamlReader& entry,
 
 std::vector<std::pair<std::string, std::string>> worldGeneratorTypes() {
   std::vector<std::pair<std::string, std::string>> result;
-  for (const auto& [name, type] : generatorTypes())
-    result.emplace_back(name, type.description);
+  for (const auto& [name, type] : generatorTypes()) result.emplace_back(name, type.description);
   return result;
 }
 

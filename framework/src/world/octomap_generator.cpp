@@ -16,8 +16,7 @@ namespace {
 /// Reads a .bt (binary, occupancy bits) or .ot (full, log-odds) OcTree; throws FileError
 /// naming the file when it is missing, of another tree type, or corrupt.
 std::shared_ptr<const octomap::OcTree> readOcTree(const std::string& path) {
-  if (!std::filesystem::is_regular_file(path))
-    throw FileError(path + ": no such map file");
+  if (!std::filesystem::is_regular_file(path)) throw FileError(path + ": no such map file");
   const std::string extension = std::filesystem::path(path).extension().string();
   // OctoMap reports parse problems on stderr and through its return values; we turn the
   // latter into errors and keep its chatter out of kinolab's output.
@@ -27,8 +26,7 @@ std::shared_ptr<const octomap::OcTree> readOcTree(const std::string& path) {
   if (extension == ".bt") {
     auto binary = std::make_shared<octomap::OcTree>(0.1);
     std::ifstream in(path, std::ios::binary);
-    if (binary->readBinary(in) && in)
-      tree = binary;
+    if (binary->readBinary(in) && in) tree = binary;
   } else if (extension == ".ot") {
     std::unique_ptr<octomap::AbstractOcTree> any(octomap::AbstractOcTree::read(path));
     if (auto* ocTree = dynamic_cast<octomap::OcTree*>(any.get())) {
@@ -42,8 +40,7 @@ std::shared_ptr<const octomap::OcTree> readOcTree(const std::string& path) {
   std::cerr.rdbuf(saved);
   if (!tree || tree->size() == 0) {
     std::string detail = chatter.str();
-    while (!detail.empty() && (detail.back() == '\n' || detail.back() == ' '))
-      detail.pop_back();
+    while (!detail.empty() && (detail.back() == '\n' || detail.back() == ' ')) detail.pop_back();
     throw FileError(path + ": not a readable OctoMap OcTree (corrupt or truncated)" +
                     (detail.empty() ? std::string() : ": " + detail));
   }
@@ -55,8 +52,7 @@ class OctomapGenerator final : public WorldGenerator {
   OctomapGenerator(const YamlReader& entry, const std::string& spec_directory) {
     const auto file_node = entry["file"];
     std::filesystem::path file = file_node.as<std::string>();
-    if (file.is_relative())
-      file = std::filesystem::path(spec_directory) / file;
+    if (file.is_relative()) file = std::filesystem::path(spec_directory) / file;
     path_ = file.lexically_normal().string();
     const auto unknown_node = entry.optional("unknown");
     const std::string unknown = unknown_node ? unknown_node->as<std::string>() : "free";
@@ -93,13 +89,11 @@ class OctomapGenerator final : public WorldGenerator {
       grid.forEachVoxelIn({c.x() - half, c.y() - half, c.z() - half},
                           {c.x() + half, c.y() + half, c.z() + half}, [&](std::size_t i) {
                             // Where leaves touch a centre on their shared face, occupied wins.
-                            if (state[i] != 1)
-                              state[i] = value;
+                            if (state[i] != 1) state[i] = value;
                           });
     }
     for (std::size_t i = 0; i < state.size(); ++i) {
-      if (state[i] == 1 || (state[i] == 2 && unknown_occupied_))
-        grid.setOccupied(i, true);
+      if (state[i] == 1 || (state[i] == 2 && unknown_occupied_)) grid.setOccupied(i, true);
     }
   }
 

@@ -9,18 +9,15 @@ namespace kinolab {
 
 VoxelGrid::VoxelGrid(const Box& bounds, double resolution)
     : resolution_(resolution), origin_(bounds.min) {
-  if (!(resolution > 0.0))
-    throw InvalidArgument("VoxelGrid: resolution must be positive");
+  if (!(resolution > 0.0)) throw InvalidArgument("VoxelGrid: resolution must be positive");
   const Eigen::Vector3d extent = bounds.size();
   for (int axis = 0; axis < 3; ++axis) {
-    if (!(extent[axis] > 0.0))
-      throw InvalidArgument("VoxelGrid: bounds must have max > min");
+    if (!(extent[axis] > 0.0)) throw InvalidArgument("VoxelGrid: bounds must have max > min");
     // The small tolerance keeps 40 / 0.1 at 400 voxels despite rounding.
     dims_[axis] = std::max(1, static_cast<int>(std::ceil(extent[axis] / resolution - 1e-9)));
   }
   const double count = static_cast<double>(dims_.x()) * dims_.y() * dims_.z();
-  if (count > 2e9)
-    throw InvalidArgument("VoxelGrid: more than 2e9 voxels; raise the resolution");
+  if (count > 2e9) throw InvalidArgument("VoxelGrid: more than 2e9 voxels; raise the resolution");
   occupancy_.assign(static_cast<std::size_t>(count), 0);
 }
 
@@ -29,8 +26,7 @@ std::optional<VoxelIndex> VoxelGrid::voxelAt(const Eigen::Vector3d& point) const
   VoxelIndex voxel;
   for (int axis = 0; axis < 3; ++axis) {
     const double value = std::floor(scaled[axis]);
-    if (!(value >= 0.0 && value < dims_[axis]))
-      return std::nullopt;
+    if (!(value >= 0.0 && value < dims_[axis])) return std::nullopt;
     voxel[axis] = static_cast<int>(value);
   }
   return voxel;
@@ -48,8 +44,7 @@ bool VoxelGrid::voxelRange(const Eigen::Vector3d& min, const Eigen::Vector3d& ma
     const double last = std::floor((max[axis] - origin_[axis]) / resolution_ - 0.5);
     const double clamped_first = std::max(first, 0.0);
     const double clamped_last = std::min(last, static_cast<double>(dims_[axis] - 1));
-    if (clamped_first > clamped_last)
-      return false;
+    if (clamped_first > clamped_last) return false;
     low[axis] = static_cast<int>(clamped_first);
     high[axis] = static_cast<int>(clamped_last);
   }

@@ -39,8 +39,7 @@ double secondsSince(std::chrono::steady_clock::time_point start) {
 WorldCache::WorldCache(std::string directory) : directory_(std::move(directory)) {}
 
 std::string WorldCache::defaultDirectory() {
-  if (const char* dir = std::getenv("KINOLAB_CACHE_DIR"); dir && *dir)
-    return dir;
+  if (const char* dir = std::getenv("KINOLAB_CACHE_DIR"); dir && *dir) return dir;
   if (const char* xdg = std::getenv("XDG_CACHE_HOME"); xdg && *xdg) {
     return std::string(xdg) + "/kinolab/worlds";
   }
@@ -99,16 +98,13 @@ void WorldCache::write(const World& world, const std::string& path) {
 std::shared_ptr<const World> WorldCache::read(const std::string& path, std::uint64_t expected_hash,
                                               const std::string& name) {
   std::ifstream in(path, std::ios::binary | std::ios::ate);
-  if (!in)
-    throw FileError(path + ": cannot open");
+  if (!in) throw FileError(path + ": cannot open");
   const auto size = static_cast<std::size_t>(in.tellg());
-  if (size < sizeof(Header) + sizeof(std::uint64_t))
-    throw FileError(path + ": truncated");
+  if (size < sizeof(Header) + sizeof(std::uint64_t)) throw FileError(path + ": truncated");
   std::vector<char> buffer(size);
   in.seekg(0);
   in.read(buffer.data(), static_cast<std::streamsize>(size));
-  if (!in)
-    throw FileError(path + ": read error");
+  if (!in) throw FileError(path + ": read error");
 
   Header header{};
   std::memcpy(&header, buffer.data(), sizeof(Header));
@@ -119,8 +115,7 @@ std::shared_ptr<const World> WorldCache::read(const std::string& path, std::uint
     throw FileError(path + ": format version " + std::to_string(header.format_version) +
                     ", expected " + std::to_string(kFormatVersion));
   }
-  if (header.spec_hash != expected_hash)
-    throw FileError(path + ": built from another spec");
+  if (header.spec_hash != expected_hash) throw FileError(path + ": built from another spec");
   const std::uint64_t voxels = header.voxel_count;
   if (voxels == 0 || voxels > (1ULL << 34) ||
       size != sizeof(Header) + voxels * (1 + sizeof(float)) + sizeof(std::uint64_t)) {

@@ -60,8 +60,7 @@ void writeNpy(const std::string& path, const std::string& dtype, const void* dat
   std::size_t count = 1;
   for (std::size_t i = 0; i < shape.size(); ++i) {
     shape_text += std::to_string(shape[i]) + (shape.size() == 1 || i + 1 < shape.size() ? "," : "");
-    if (i + 1 < shape.size())
-      shape_text += " ";
+    if (i + 1 < shape.size()) shape_text += " ";
     count *= shape[i];
   }
   shape_text += ")";
@@ -80,14 +79,12 @@ void writeNpy(const std::string& path, const std::string& dtype, const void* dat
   out.write(length_bytes, 2);
   out.write(header.data(), static_cast<std::streamsize>(header.size()));
   out.write(static_cast<const char*>(data), static_cast<std::streamsize>(count * item_size));
-  if (!out)
-    throw FileError(path + ": cannot write");
+  if (!out) throw FileError(path + ": cannot write");
 }
 
 void writePng(const std::string& path, const RgbImage& image) {
   std::FILE* file = std::fopen(path.c_str(), "wb");
-  if (!file)
-    throw FileError(path + ": cannot write");
+  if (!file) throw FileError(path + ": cannot write");
   png_structp png = png_create_write_struct(PNG_LIBPNG_VER_STRING, nullptr, nullptr, nullptr);
   png_infop info = png ? png_create_info_struct(png) : nullptr;
   if (!png || !info || setjmp(png_jmpbuf(png))) {
@@ -105,8 +102,7 @@ void writePng(const std::string& path, const RgbImage& image) {
   }
   png_write_end(png, nullptr);
   png_destroy_write_struct(&png, &info);
-  if (std::fclose(file) != 0)
-    throw FileError(path + ": cannot write");
+  if (std::fclose(file) != 0) throw FileError(path + ": cannot write");
 }
 
 RgbImage renderTopView(const World& world) {
@@ -118,8 +114,7 @@ RgbImage renderTopView(const World& world) {
     for (int iy = 0; iy < dims.y(); ++iy) {
       int top = -1;
       for (int iz = dims.z() - 1; iz >= 0 && top < 0; --iz) {
-        if (grid.occupied(grid.index(ix, iy, iz)))
-          top = iz;
+        if (grid.occupied(grid.index(ix, iy, iz))) top = iz;
       }
       const Rgb colour = top < 0 ? Rgb{255, 255, 255}
                                  : colourMap(kHeight, dims.z() > 1 ? top / (dims.z() - 1.0) : 1.0);
@@ -158,8 +153,7 @@ RgbImage renderEsdfSlice(const World& world, double z) {
 void exportWorld(const World& world, const std::string& directory, double slice_height) {
   std::error_code error;
   std::filesystem::create_directories(directory, error);
-  if (error)
-    throw FileError(directory + ": cannot create directory: " + error.message());
+  if (error) throw FileError(directory + ": cannot create directory: " + error.message());
   const std::filesystem::path dir(directory);
   const VoxelGrid& grid = world.grid();
   const std::vector<std::size_t> shape = {static_cast<std::size_t>(grid.dims().x()),
@@ -186,8 +180,7 @@ void exportWorld(const World& world, const std::string& directory, double slice_
   yaml << YAML::EndMap;
   std::ofstream out(dir / "world.yaml");
   out << yaml.c_str() << '\n';
-  if (!out)
-    throw FileError((dir / "world.yaml").string() + ": cannot write");
+  if (!out) throw FileError((dir / "world.yaml").string() + ": cannot write");
 
   writePng((dir / "top_view.png").string(), renderTopView(world));
   writePng((dir / "esdf_slice.png").string(), renderEsdfSlice(world, slice_height));

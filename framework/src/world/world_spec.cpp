@@ -16,14 +16,12 @@ constexpr int kGeneratorVersion = 1;
 WorldSpec WorldSpec::fromFile(const std::string& path) {
   const YamlReader root = YamlReader::loadFile(path);
   WorldSpec spec = fromYaml(root, std::filesystem::path(path).parent_path().string());
-  if (spec.name.empty())
-    spec.name = std::filesystem::path(path).stem().string();
+  if (spec.name.empty()) spec.name = std::filesystem::path(path).stem().string();
   return spec;
 }
 
 WorldSpec WorldSpec::fromYaml(const YamlReader& node, const std::string& spec_directory) {
-  if (!node.isMap())
-    node.fail("expected a world spec (a mapping with resolution and generators)");
+  if (!node.isMap()) node.fail("expected a world spec (a mapping with resolution and generators)");
   WorldSpec spec;
   spec.name = node.get<std::string>("name", "");
   spec.seed = static_cast<std::uint64_t>(node.getInteger("seed", 0, 0, (1LL << 62)));
@@ -31,8 +29,7 @@ WorldSpec WorldSpec::fromYaml(const YamlReader& node, const std::string& spec_di
   for (const YamlReader& entry : node["generators"].items()) {
     spec.generators.push_back(makeWorldGenerator(entry, spec_directory));
   }
-  if (spec.generators.empty())
-    node["generators"].fail("expected at least one generator");
+  if (spec.generators.empty()) node["generators"].fail("expected at least one generator");
   if (auto bounds = node.optional("bounds")) {
     const auto min = bounds->getVector3("min");
     const auto max = bounds->getVector3("max");
@@ -79,8 +76,6 @@ std::string WorldSpec::canonicalText() const {
   return out.str();
 }
 
-std::uint64_t WorldSpec::hash() const {
-  return hashString(canonicalText());
-}
+std::uint64_t WorldSpec::hash() const { return hashString(canonicalText()); }
 
 }  // namespace kinolab

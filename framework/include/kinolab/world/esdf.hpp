@@ -70,8 +70,7 @@ class Esdf {
       const double raw = (point[axis] - origin_[axis]) * inverse_resolution_ - 0.5;
       const double scaled = std::clamp(raw, 0.0, upper_[axis]);
       // Along a clamped axis the field is constant, so that gradient component is zero.
-      if constexpr (kWithGradient)
-        scale[axis] = raw == scaled ? gradient_scale_[axis] : 0.0;
+      if constexpr (kWithGradient) scale[axis] = raw == scaled ? gradient_scale_[axis] : 0.0;
       // The lower corner stays one below the last centre so that corner + 1 exists; on a
       // one-voxel axis the step is zero and both corners are the same voxel.
       // scaled >= 0, so truncation is floor (and needs no libm call).

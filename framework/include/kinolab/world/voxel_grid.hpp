@@ -70,13 +70,11 @@ class VoxelGrid {
   void forEachVoxelIn(const Eigen::Vector3d& min, const Eigen::Vector3d& max, Visit&& visit) const {
     Eigen::Vector3i low;
     Eigen::Vector3i high;
-    if (!voxelRange(min, max, low, high))
-      return;
+    if (!voxelRange(min, max, low, high)) return;
     for (int ix = low.x(); ix <= high.x(); ++ix) {
       for (int iy = low.y(); iy <= high.y(); ++iy) {
         const std::size_t row = index(ix, iy, 0);
-        for (int iz = low.z(); iz <= high.z(); ++iz)
-          visit(row + iz);
+        for (int iz = low.z(); iz <= high.z(); ++iz) visit(row + iz);
       }
     }
   }
