@@ -1,6 +1,7 @@
 #include "kinolab/world/world.hpp"
 
 #include <gtest/gtest.h>
+#include <octomap/OcTree.h>
 
 #include <filesystem>
 #include <fstream>
@@ -81,7 +82,7 @@ TEST(WorldSpecTest, GeneratorsComposeAsAUnion) {
   EXPECT_NE(boxes_first.occupancy(), both.occupancy());
 }
 
-TEST(WorldSpecTest, ForestTrunksKeepTheirSpacingAndHeights) {
+TEST(WorldSpecTest, ForestTrunksHaveTheirHeightsAndCount) {
   const WorldSpec spec = specFromText(
       "seed: 1\nresolution: 0.1\nbounds: {min: [0, 0, 0], max: [20, 20, 6]}\ngenerators:\n"
       "  - {type: forest, density: 0.05, trunk_radius: [0.2, 0.2], trunk_height: [3, 3], "
@@ -119,6 +120,24 @@ TEST(WorldSpecTest, OctomapOccupiedLeavesBecomeOccupiedVoxels) {
   EXPECT_NE(unknown_occupied.hash(), free_unknown.hash());
 }
 
+TEST(WorldSpecTest, FullOtMapsLoadLikeBinaryBtMaps) {
+  // The same tree written as a full .ot file gives the same grid as the .bt file.
+  const auto directory = std::filesystem::temp_directory_path() / "kinolab_ot_test";
+  std::filesystem::create_directories(directory);
+  octomap::OcTree tree(0.1);
+  ASSERT_TRUE(tree.readBinary(kSourceDir + "/data/maps/geb079.bt"));
+  ASSERT_TRUE(tree.write((directory / "geb079.ot").string()));
+  const std::string spec = "resolution: 0.08\ngenerators:\n  - {type: octomap, file: ";
+  const VoxelGrid from_bt =
+      World::buildGrid(specFromText(spec + "data/maps/geb079.bt}\n", kSourceDir));
+  const VoxelGrid from_ot =
+      World::buildGrid(specFromText(spec + "geb079.ot}\n", directory.string()));
+  EXPECT_EQ(from_ot.dims(), from_bt.dims());
+  EXPECT_EQ(from_ot.occupancy(), from_bt.occupancy());
+  EXPECT_GT(from_ot.occupiedCount(), 0u);
+  std::filesystem::remove_all(directory);
+}
+
 TEST(WorldSpecTest, CorruptOrMissingMapFilesAreClearErrors) {
   const auto directory = std::filesystem::temp_directory_path() / "kinolab_world_test";
   std::filesystem::create_directories(directory);
@@ -128,7 +147,8 @@ TEST(WorldSpecTest, CorruptOrMissingMapFilesAreClearErrors) {
     std::ofstream(directory / "truncated.bt", std::ios::binary) << bytes.substr(0, 100);
     std::ofstream(directory / "garbage.bt", std::ios::binary) << "not an octree\n";
   }
-  for (const char* file : {"truncated.bt", "garbage.bt", "missing.bt"}) {
+  std::ofstream(directory / "map.txt") << "not a map\n";
+  for (const char* file : {"truncated.bt", "garbage.bt", "missing.bt", "map.txt"}) {
     try {
       specFromText(
           std::string("resolution: 0.1\ngenerators:\n  - {type: octomap, file: ") + file + "}\n",

@@ -84,17 +84,6 @@ std::string YamlReader::childPath(std::string_view key) const {
   return path_.empty() ? std::string(key) : path_ + "." + std::string(key);
 }
 
-bool YamlReader::has(std::string_view key) const {
-  return node_.IsMap() && node_[std::string(key)].IsDefined();
-}
-
-std::vector<std::string> YamlReader::keys() const {
-  std::vector<std::string> result;
-  if (!node_.IsMap()) return result;
-  for (const auto& entry : node_) result.push_back(entry.first.as<std::string>());
-  return result;
-}
-
 std::optional<YamlReader> YamlReader::optional(std::string_view key) const {
   if (!node_.IsMap()) {
     if (node_.IsNull() || !node_.IsDefined()) return std::nullopt;

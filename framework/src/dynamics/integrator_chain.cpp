@@ -165,10 +165,4 @@ std::optional<LimitViolation> IntegratorChain::checkLimits(const ChainState& sta
   return first;
 }
 
-std::string derivativeName(int derivative) {
-  static const char* kNames[] = {"position", "velocity", "acceleration", "jerk", "snap"};
-  if (derivative < 0 || derivative > 4) return "derivative " + std::to_string(derivative);
-  return kNames[derivative];
-}
-
 }  // namespace kinolab

@@ -18,26 +18,27 @@ namespace {
 std::shared_ptr<const octomap::OcTree> readOcTree(const std::string& path) {
   if (!std::filesystem::is_regular_file(path)) throw FileError(path + ": no such map file");
   const std::string extension = std::filesystem::path(path).extension().string();
+  if (extension != ".bt" && extension != ".ot") {
+    throw FileError(path + ": unknown map file type '" + extension + "'; expected .bt or .ot");
+  }
   // OctoMap reports parse problems on stderr and through its return values; we turn the
-  // latter into errors and keep its chatter out of kinolab's output.
+  // latter into errors and keep its chatter out of kinolab's output, restoring std::cerr on
+  // every way out (OctoMap may also throw on a corrupt file).
   std::ostringstream chatter;
-  std::streambuf* saved = std::cerr.rdbuf(chatter.rdbuf());
+  const std::unique_ptr<std::streambuf, void (*)(std::streambuf*)> restore_cerr(
+      std::cerr.rdbuf(chatter.rdbuf()), [](std::streambuf* saved) { std::cerr.rdbuf(saved); });
   std::shared_ptr<octomap::OcTree> tree;
   if (extension == ".bt") {
     auto binary = std::make_shared<octomap::OcTree>(0.1);
     std::ifstream in(path, std::ios::binary);
     if (binary->readBinary(in) && in) tree = binary;
-  } else if (extension == ".ot") {
+  } else {
     std::unique_ptr<octomap::AbstractOcTree> any(octomap::AbstractOcTree::read(path));
     if (auto* ocTree = dynamic_cast<octomap::OcTree*>(any.get())) {
       any.release();
       tree.reset(ocTree);
     }
-  } else {
-    std::cerr.rdbuf(saved);
-    throw FileError(path + ": unknown map file type '" + extension + "'; expected .bt or .ot");
   }
-  std::cerr.rdbuf(saved);
   if (!tree || tree->size() == 0) {
     std::string detail = chatter.str();
     while (!detail.empty() && (detail.back() == '\n' || detail.back() == ' ')) detail.pop_back();

@@ -21,17 +21,6 @@ VoxelGrid::VoxelGrid(const Box& bounds, double resolution)
   occupancy_.assign(static_cast<std::size_t>(count), 0);
 }
 
-std::optional<VoxelIndex> VoxelGrid::voxelAt(const Eigen::Vector3d& point) const {
-  const Eigen::Vector3d scaled = (point - origin_) / resolution_;
-  VoxelIndex voxel;
-  for (int axis = 0; axis < 3; ++axis) {
-    const double value = std::floor(scaled[axis]);
-    if (!(value >= 0.0 && value < dims_[axis])) return std::nullopt;
-    voxel[axis] = static_cast<int>(value);
-  }
-  return voxel;
-}
-
 std::size_t VoxelGrid::occupiedCount() const {
   return static_cast<std::size_t>(std::count(occupancy_.begin(), occupancy_.end(), 1));
 }

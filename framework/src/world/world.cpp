@@ -6,7 +6,8 @@ World::World(std::string name, std::uint64_t spec_hash, VoxelGrid grid, Esdf esd
     : name_(std::move(name)),
       spec_hash_(spec_hash),
       grid_(std::move(grid)),
-      esdf_(std::move(esdf)) {}
+      esdf_(std::move(esdf)),
+      bounds_(grid_.bounds()) {}
 
 VoxelGrid World::buildGrid(const WorldSpec& spec) {
   VoxelGrid grid(spec.bounds, spec.resolution);

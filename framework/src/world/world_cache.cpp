@@ -49,8 +49,8 @@ std::string WorldCache::defaultDirectory() {
   return (std::filesystem::temp_directory_path() / "kinolab-worlds").string();
 }
 
-std::string WorldCache::fileFor(const WorldSpec& spec) const {
-  return (std::filesystem::path(directory_) / (toHex(spec.hash()) + ".kworld")).string();
+std::string WorldCache::fileFor(std::uint64_t spec_hash) const {
+  return (std::filesystem::path(directory_) / (toHex(spec_hash) + ".kworld")).string();
 }
 
 void WorldCache::write(const World& world, const std::string& path) {
@@ -147,10 +147,11 @@ std::shared_ptr<const World> WorldCache::read(const std::string& path, std::uint
 WorldLoad WorldCache::loadOrBuild(const WorldSpec& spec) const {
   const auto start = std::chrono::steady_clock::now();
   WorldLoad load;
-  load.cache_file = fileFor(spec);
+  const std::uint64_t hash = spec.hash();
+  load.cache_file = fileFor(hash);
   if (std::filesystem::exists(load.cache_file)) {
     try {
-      load.world = read(load.cache_file, spec.hash(), spec.name);
+      load.world = read(load.cache_file, hash, spec.name);
       load.source = WorldSource::kCache;
       load.seconds = secondsSince(start);
       return load;

@@ -25,18 +25,11 @@ class YamlReader {
   /// Parses text; `source` names it in messages.
   static YamlReader loadString(const std::string& text, const std::string& source);
 
-  const std::string& source() const { return *source_; }
-  const std::string& path() const { return path_; }
   /// "file:line:column: key.path" for messages.
   std::string where() const;
   [[noreturn]] void fail(const std::string& message) const;
 
   bool isMap() const { return node_.IsMap(); }
-  bool isSequence() const { return node_.IsSequence(); }
-  bool isScalar() const { return node_.IsScalar(); }
-  bool has(std::string_view key) const;
-  /// The keys of a mapping, in file order.
-  std::vector<std::string> keys() const;
 
   /// A required child of a mapping.
   YamlReader operator[](std::string_view key) const;

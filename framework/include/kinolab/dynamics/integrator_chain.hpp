@@ -74,6 +74,4 @@ class IntegratorChain {
   int euler_steps_;
 };
 
-std::string derivativeName(int derivative);
-
 }  // namespace kinolab

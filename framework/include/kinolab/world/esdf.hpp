@@ -65,7 +65,6 @@ class Esdf {
     double fraction[3];
     double scale[3];
     std::size_t base = 0;
-    std::size_t step[3];
     for (int axis = 0; axis < 3; ++axis) {
       const double raw = (point[axis] - origin_[axis]) * inverse_resolution_ - 0.5;
       const double scaled = std::clamp(raw, 0.0, upper_[axis]);
@@ -78,9 +77,9 @@ class Esdf {
           std::min(static_cast<std::size_t>(static_cast<std::int64_t>(scaled)), lower_limit_[axis]);
       fraction[axis] = scaled - static_cast<double>(corner);
       base += corner * strides_[axis];
-      step[axis] = neighbour_step_[axis];
     }
     const float* v = values_.data() + base;
+    const std::size_t* step = neighbour_step_;
     const double c000 = v[0];
     const double c001 = v[step[2]];
     const double c010 = v[step[1]];

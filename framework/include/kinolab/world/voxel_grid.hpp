@@ -3,7 +3,6 @@
 #include <Eigen/Core>
 #include <cstddef>
 #include <cstdint>
-#include <optional>
 #include <vector>
 
 namespace kinolab {
@@ -52,8 +51,6 @@ class VoxelGrid {
   Eigen::Vector3d center(const VoxelIndex& voxel) const {
     return origin_ + (voxel.cast<double>().array() + 0.5).matrix() * resolution_;
   }
-  /// The voxel containing `point`, or nothing when the point is outside the grid.
-  std::optional<VoxelIndex> voxelAt(const Eigen::Vector3d& point) const;
 
   bool occupied(std::size_t index) const { return occupancy_[index] != 0; }
   bool occupied(const VoxelIndex& voxel) const { return occupied(index(voxel)); }

@@ -26,16 +26,13 @@ class World {
   std::uint64_t specHash() const { return spec_hash_; }
   const VoxelGrid& grid() const { return grid_; }
   const Esdf& esdf() const { return esdf_; }
-  Box bounds() const { return grid_.bounds(); }
+  const Box& bounds() const { return bounds_; }
 
   /// Trilinear signed distance in metres (see Esdf for the rule outside the map).
   double distance(const Eigen::Vector3d& point) const { return esdf_.distance(point); }
-  double distanceWithGradient(const Eigen::Vector3d& point, Eigen::Vector3d* gradient) const {
-    return esdf_.distanceWithGradient(point, gradient);
-  }
   /// True when `point` is inside the map and at least `radius` from every obstacle.
   bool isFree(const Eigen::Vector3d& point, double radius) const {
-    return bounds().contains(point) && esdf_.distance(point) >= radius;
+    return bounds_.contains(point) && esdf_.distance(point) >= radius;
   }
 
  private:
@@ -43,6 +40,7 @@ class World {
   std::uint64_t spec_hash_;
   VoxelGrid grid_;
   Esdf esdf_;
+  Box bounds_;  // grid_.bounds(), kept for the per-query isFree()
 };
 
 }  // namespace kinolab

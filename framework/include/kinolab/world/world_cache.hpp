@@ -32,7 +32,8 @@ class WorldCache {
   static std::string defaultDirectory();
 
   const std::string& directory() const { return directory_; }
-  std::string fileFor(const WorldSpec& spec) const;
+  std::string fileFor(const WorldSpec& spec) const { return fileFor(spec.hash()); }
+  std::string fileFor(std::uint64_t spec_hash) const;
   WorldLoad loadOrBuild(const WorldSpec& spec) const;
 
   /// Writes a world file (atomically). Throws FileError when the directory is not writable.
