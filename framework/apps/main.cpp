@@ -2,16 +2,25 @@
 #include <iostream>
 
 #include "commands.hpp"
+#include "kinolab/builtin_plugins.hpp"
 #include "kinolab/core/error.hpp"
+#include "kinolab/core/plugin.hpp"
 #include "kinolab/core/version.hpp"
 
 int main(int argc, char** argv) {
   CLI::App app{"kinolab: kinodynamic UAV motion planning experiments", "kinolab"};
   app.set_version_flag("--version", std::string("kinolab ") + kinolab::kVersion);
   app.require_subcommand(1);
+  // Options of the main command may also follow the subcommand (`kinolab list --plugin X`).
+  app.fallthrough();
+  app.add_option("--plugin", "Load a plugin library (repeatable); see `kinolab list`")
+      ->type_name("PATH")
+      ->each([](const std::string& path) { kinolab::loadPluginLibrary(path); });
   app.footer("Run 'kinolab COMMAND --help' for the options of one command.");
+  kinolab::apps::addListCommand(app);
   kinolab::apps::addWorldCommand(app);
   try {
+    kinolab::registerBuiltinPlugins();
     app.parse(argc, argv);
   } catch (const CLI::ParseError& error) {
     return app.exit(error);

@@ -3,37 +3,17 @@
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
-#include <sstream>
+
+#include "kinolab/core/text.hpp"
 
 namespace kinolab {
 namespace {
-
-std::size_t editDistance(std::string_view a, std::string_view b) {
-  std::vector<std::size_t> row(b.size() + 1);
-  for (std::size_t j = 0; j <= b.size(); ++j) row[j] = j;
-  for (std::size_t i = 1; i <= a.size(); ++i) {
-    std::size_t diagonal = row[0];
-    row[0] = i;
-    for (std::size_t j = 1; j <= b.size(); ++j) {
-      const std::size_t above = row[j];
-      row[j] = std::min({row[j] + 1, row[j - 1] + 1, diagonal + (a[i - 1] == b[j - 1] ? 0 : 1)});
-      diagonal = above;
-    }
-  }
-  return row[b.size()];
-}
 
 std::string describe(const YAML::Node& node) {
   if (node.IsScalar()) return "\"" + node.Scalar() + "\"";
   if (node.IsSequence()) return "a list";
   if (node.IsMap()) return "a mapping";
   return "nothing";
-}
-
-std::string formatNumber(double value) {
-  std::ostringstream out;
-  out << value;
-  return out.str();
 }
 
 }  // namespace
@@ -106,6 +86,18 @@ std::vector<YamlReader> YamlReader::items() const {
   std::vector<YamlReader> result;
   for (std::size_t i = 0; i < node_.size(); ++i) {
     result.push_back(YamlReader(node_[i], source_, path_ + "[" + std::to_string(i) + "]"));
+  }
+  return result;
+}
+
+std::vector<std::pair<std::string, YamlReader>> YamlReader::entries() const {
+  if (node_.IsNull() || !node_.IsDefined()) return {};
+  if (!node_.IsMap()) fail("expected a mapping of keys to values, got " + describe(node_));
+  std::vector<std::pair<std::string, YamlReader>> result;
+  for (const auto& entry : node_) {
+    const std::string key = entry.first.as<std::string>();
+    used_->insert(key);
+    result.emplace_back(key, YamlReader(entry.second, source_, childPath(key)));
   }
   return result;
 }
@@ -219,21 +211,9 @@ void YamlReader::finish() const {
   for (const auto& entry : node_) {
     const std::string key = entry.first.as<std::string>();
     if (used_->count(key)) continue;
-    std::string message = "unknown key '" + key + "'";
-    std::string best;
-    std::size_t best_distance = 3;
-    for (const auto& known : *used_) {
-      const std::size_t distance = editDistance(key, known);
-      if (distance < best_distance) {
-        best_distance = distance;
-        best = known;
-      }
-    }
-    if (!best.empty()) message += " (did you mean '" + best + "'?)";
-    if (!used_->empty()) {
-      message += "; known keys:";
-      for (const auto& known : *used_) message += " " + known;
-    }
+    const std::vector<std::string> known(used_->begin(), used_->end());
+    std::string message = "unknown key '" + key + "'" + didYouMean(key, known);
+    if (!known.empty()) message += "; known keys: " + join(known, " ");
     YamlReader(entry.first, source_, childPath(key)).fail(message);
   }
 }

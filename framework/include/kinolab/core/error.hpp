@@ -25,6 +25,13 @@ class FileError : public Error {
   using Error::Error;
 };
 
+/// A plugin is unknown or registered twice, or its library cannot be loaded or lacks the
+/// entry point.
+class PluginError : public Error {
+ public:
+  using Error::Error;
+};
+
 /// A function was called with arguments that break its documented contract.
 class InvalidArgument : public Error {
  public:

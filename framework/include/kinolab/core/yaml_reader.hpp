@@ -8,6 +8,7 @@
 #include <set>
 #include <string>
 #include <string_view>
+#include <utility>
 #include <vector>
 
 #include "kinolab/core/error.hpp"
@@ -36,6 +37,9 @@ class YamlReader {
   std::optional<YamlReader> optional(std::string_view key) const;
   /// The items of a sequence (error when this is not one).
   std::vector<YamlReader> items() const;
+  /// Every key and value of a mapping, in file order, each marked as read (an absent or
+  /// empty node has none).
+  std::vector<std::pair<std::string, YamlReader>> entries() const;
 
   /// This scalar converted to T; the message says what was expected.
   template <typename T>

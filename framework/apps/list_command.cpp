@@ -1,0 +1,102 @@
+// `kinolab list [KIND] [--json]`: every registered plugin with its parameters.
+#include <cmath>
+#include <cstdio>
+#include <iostream>
+#include <nlohmann/json.hpp>
+
+#include "commands.hpp"
+#include "kinolab/primitives/control_sampler.hpp"
+
+namespace kinolab::apps {
+namespace {
+
+struct Kind {
+  std::string name;  // plural, as on the command line
+  std::vector<const PluginInfo*> plugins;
+};
+
+/// Every plugin kind, in the order they are listed.
+std::vector<Kind> allKinds() { return {{"samplers", pluginRegistry<ControlSampler>().list()}}; }
+
+nlohmann::json toJson(const ParameterValue& value) {
+  return std::visit([](const auto& v) { return nlohmann::json(v); }, value);
+}
+
+nlohmann::json toJson(const PluginInfo& plugin) {
+  nlohmann::json parameters = nlohmann::json::array();
+  for (const auto& spec : plugin.parameters.all()) {
+    nlohmann::json parameter = {{"name", spec.name},
+                                {"type", spec.typeName()},
+                                {"default", toJson(spec.default_value)},
+                                {"doc", spec.doc}};
+    if (spec.type == ParameterType::kInteger || spec.type == ParameterType::kReal) {
+      // JSON has no infinity: an open end is null.
+      const bool integer = spec.type == ParameterType::kInteger;
+      const auto bound = [integer](double x) -> nlohmann::json {
+        if (!std::isfinite(x)) return nullptr;
+        return integer ? nlohmann::json(static_cast<long long>(x)) : nlohmann::json(x);
+      };
+      parameter["minimum"] = bound(spec.minimum);
+      parameter["maximum"] = bound(spec.maximum);
+    }
+    if (spec.type == ParameterType::kChoice) parameter["choices"] = spec.choices;
+    parameters.push_back(parameter);
+  }
+  return {{"key", plugin.key},
+          {"description", plugin.description},
+          {"origin", plugin.origin},
+          {"parameters", parameters}};
+}
+
+void printText(const Kind& kind) {
+  std::printf("%s (%zu)\n", kind.name.c_str(), kind.plugins.size());
+  for (const PluginInfo* plugin : kind.plugins) {
+    std::printf("  %-16s %s\n", plugin->key.c_str(), plugin->description.c_str());
+    std::printf("  %-16s from %s\n", "", plugin->origin.c_str());
+    for (const auto& spec : plugin->parameters.all()) {
+      std::printf("      %-18s %-7s default %-10s %-18s %s\n", spec.name.c_str(),
+                  spec.typeName().c_str(), formatParameterValue(spec.default_value).c_str(),
+                  spec.rangeText().c_str(), spec.doc.c_str());
+    }
+  }
+}
+
+struct ListOptions {
+  std::string kind;
+  bool json = false;
+};
+
+void runList(const ListOptions& options) {
+  std::vector<Kind> kinds = allKinds();
+  if (!options.kind.empty()) {
+    std::erase_if(kinds, [&](const Kind& kind) { return kind.name != options.kind; });
+  }
+  if (options.json) {
+    nlohmann::json document = nlohmann::json::object();
+    for (const auto& kind : kinds) {
+      document[kind.name] = nlohmann::json::array();
+      for (const PluginInfo* plugin : kind.plugins) document[kind.name].push_back(toJson(*plugin));
+    }
+    std::cout << document.dump(2) << '\n';
+    return;
+  }
+  for (const auto& kind : kinds) printText(kind);
+}
+
+}  // namespace
+
+void addListCommand(CLI::App& app) {
+  auto options = std::make_shared<ListOptions>();
+  CLI::App* command = app.add_subcommand(
+      "list",
+      "List the registered plugins (built-in and loaded with --plugin) and their parameters");
+  std::vector<std::string> kind_names;
+  for (const auto& kind : allKinds()) kind_names.push_back(kind.name);
+  command->add_option("kind", options->kind, "Only this kind of plugin")
+      ->check(CLI::IsMember(kind_names));
+  command->add_flag("--json", options->json, "Print JSON instead of a table");
+  command->footer("Set a parameter with --set name=value or under `params:` in a config.");
+  command->callback([options] { runList(*options); });
+}
+
+}  // namespace kinolab::apps

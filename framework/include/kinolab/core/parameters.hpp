@@ -1,0 +1,105 @@
+#pragma once
+
+#include <limits>
+#include <string>
+#include <string_view>
+#include <utility>
+#include <variant>
+#include <vector>
+
+namespace kinolab {
+
+class YamlReader;
+
+enum class ParameterType { kBoolean, kInteger, kReal, kChoice, kText };
+
+/// A parameter value: bool, integer, real, or text (choices and free text).
+using ParameterValue = std::variant<bool, long long, double, std::string>;
+
+/// One declared parameter: the same name is used in YAML, on the command line (`--set`), in
+/// `kinolab list`, in results and in reports.
+struct ParameterSpec {
+  std::string name;
+  ParameterType type = ParameterType::kReal;
+  ParameterValue default_value;
+  double minimum = -std::numeric_limits<double>::infinity();  // integer and real
+  double maximum = std::numeric_limits<double>::infinity();
+  std::vector<std::string> choices;  // choice
+  std::string doc;
+
+  /// "bool", "int", "real", "choice" or "text".
+  std::string typeName() const;
+  /// What values are accepted: "[0, 1]", "quantile|random", "true|false", "any text".
+  std::string rangeText() const;
+};
+
+/// One value to set, as text (`--set name=value`, or a YAML scalar), and where it came from
+/// ("--set", "exp.yaml:12:5: planners[0].params.sigma") for messages.
+struct ParameterAssignment {
+  std::string name;
+  std::string value;
+  std::string where;
+};
+
+/// Resolved values of every declared parameter, in declaration order.
+class ParameterSet {
+ public:
+  bool boolean(std::string_view name) const { return std::get<bool>(find(name)); }
+  long long integer(std::string_view name) const { return std::get<long long>(find(name)); }
+  double real(std::string_view name) const { return std::get<double>(find(name)); }
+  /// A choice or text value.
+  const std::string& text(std::string_view name) const { return std::get<std::string>(find(name)); }
+
+  const std::vector<std::pair<std::string, ParameterValue>>& values() const { return values_; }
+  /// "name=value;..." in declaration order: what a run hash includes.
+  std::string canonical() const;
+
+ private:
+  friend class ParameterSpecs;
+  const ParameterValue& find(std::string_view name) const;
+
+  std::vector<std::pair<std::string, ParameterValue>> values_;
+};
+
+/// The declared parameters of one plugin, built fluently in its registration:
+///
+///   ParameterSpecs().integer("samples_per_axis", 5, 2, 64, "values per control axis")
+///                   .real("sigma", 0.5, 0.05, 10.0, "standard deviation / u_max");
+class ParameterSpecs {
+ public:
+  ParameterSpecs& boolean(std::string name, bool default_value, std::string doc);
+  ParameterSpecs& integer(std::string name, long long default_value, long long minimum,
+                          long long maximum, std::string doc);
+  ParameterSpecs& real(std::string name, double default_value, double minimum, double maximum,
+                       std::string doc);
+  ParameterSpecs& choice(std::string name, std::string default_value,
+                         std::vector<std::string> choices, std::string doc);
+  ParameterSpecs& text(std::string name, std::string default_value, std::string doc);
+
+  const std::vector<ParameterSpec>& all() const { return specs_; }
+  const ParameterSpec* find(std::string_view name) const;
+
+  /// The defaults with `assignments` applied in order. An unknown name, a value of the wrong
+  /// type or out of range throws ConfigError naming where the value came from, `owner` (e.g.
+  /// "sampler 'normal'"), the parameter and what it accepts.
+  ParameterSet resolve(const std::vector<ParameterAssignment>& assignments,
+                       std::string_view owner) const;
+
+ private:
+  ParameterSpecs& add(ParameterSpec spec);
+
+  std::vector<ParameterSpec> specs_;
+};
+
+/// Text for a value: "true", "42", "0.5", "quantile".
+std::string formatParameterValue(const ParameterValue& value);
+
+/// Parses `name=value` items (from repeated --set options).
+std::vector<ParameterAssignment> parseAssignments(const std::vector<std::string>& items,
+                                                  std::string_view where);
+
+/// The entries of a YAML mapping of scalars (`params: {sigma: 0.4}`) as assignments, each
+/// located at its own line.
+std::vector<ParameterAssignment> assignmentsFromYaml(const YamlReader& mapping);
+
+}  // namespace kinolab

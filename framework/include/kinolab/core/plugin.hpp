@@ -1,0 +1,83 @@
+#pragma once
+
+// What a plugin source file includes to register itself:
+//
+//   KINOLAB_REGISTER_PLUGINS(registrar) {
+//     registrar.add<ControlSampler>("my_sampler", "one line", ParameterSpecs().real(...),
+//                                   [](const ParameterSet& p) { return ...; });
+//   }
+//
+// The same source builds in-tree (a folder under plugins/, compiled into kinolab) and
+// out-of-tree (a shared library built against an installed kinolab and loaded with
+// `--plugin PATH`); `kinolab_add_plugin()` in CMake chooses which.
+
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "kinolab/core/parameters.hpp"
+#include "kinolab/core/plugin_registry.hpp"
+
+/// Bumped whenever a change to the plugin-facing headers breaks binary compatibility; a
+/// library built against another version is refused when loaded.
+#define KINOLAB_PLUGIN_ABI_VERSION 1
+
+namespace kinolab {
+
+/// Collects the plugins one library (or one in-tree folder) registers and adds them all at
+/// once, so a library with a clashing key adds nothing.
+class PluginRegistrar {
+ public:
+  explicit PluginRegistrar(std::string origin) : origin_(std::move(origin)) {}
+
+  template <typename Interface>
+  void add(std::string key, std::string description, ParameterSpecs parameters,
+           PluginFactory<Interface> factory) {
+    PluginRegistry<Interface>& registry = pluginRegistry<Interface>();
+    PluginInfo info{std::move(key), std::move(description), std::move(parameters), origin_};
+    pending_.push_back(
+        {registry.kind(), info.key,
+         [&registry](const std::string& k) { return registry.contains(k); },
+         [&registry, info = std::move(info), factory = std::move(factory)]() mutable {
+           registry.add(std::move(info), std::move(factory));
+         }});
+  }
+
+  const std::string& origin() const { return origin_; }
+
+  /// Checks every pending key against the registries and each other, then adds them all.
+  void commit();
+
+ private:
+  struct Pending {
+    std::string kind;
+    std::string key;
+    std::function<bool(const std::string&)> taken;
+    std::function<void()> apply;
+  };
+
+  std::string origin_;
+  std::vector<Pending> pending_;
+};
+
+/// Loads a plugin library (once per path): checks its ABI version, calls its
+/// `kinolab_register_plugins` entry point and commits what it registered. A missing file, a
+/// file that is not a loadable library, a missing entry point, an ABI mismatch or a clashing
+/// key is a PluginError naming the path.
+void loadPluginLibrary(const std::string& path);
+
+}  // namespace kinolab
+
+#if defined(KINOLAB_BUILTIN_PLUGIN_ENTRY)
+// In-tree: a uniquely named function that kinolab's generated builtin list calls.
+#define KINOLAB_REGISTER_PLUGINS(registrar) \
+  void KINOLAB_BUILTIN_PLUGIN_ENTRY(::kinolab::PluginRegistrar& registrar)
+#else
+// Out-of-tree: the exported C entry points loadPluginLibrary() looks up.
+#define KINOLAB_REGISTER_PLUGINS(registrar)                                            \
+  extern "C" __attribute__((visibility("default"))) int kinolab_plugin_abi_version() { \
+    return KINOLAB_PLUGIN_ABI_VERSION;                                                 \
+  }                                                                                    \
+  extern "C" __attribute__((visibility("default"))) void kinolab_register_plugins(     \
+      ::kinolab::PluginRegistrar& registrar)
+#endif

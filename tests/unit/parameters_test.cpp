@@ -1,0 +1,105 @@
+#include "kinolab/core/parameters.hpp"
+
+#include <gtest/gtest.h>
+
+#include "kinolab/core/error.hpp"
+#include "kinolab/core/yaml_reader.hpp"
+
+namespace kinolab {
+namespace {
+
+ParameterSpecs exampleSpecs() {
+  return ParameterSpecs()
+      .integer("samples_per_axis", 5, 1, 64, "values per axis")
+      .real("sigma", 0.5, 0.05, 10.0, "standard deviation")
+      .choice("variant", "quantile", {"quantile", "random"}, "which variant")
+      .boolean("verbose", false, "talk more")
+      .text("label", "none", "free text");
+}
+
+std::string errorOf(const ParameterSpecs& specs, const std::vector<ParameterAssignment>& set) {
+  try {
+    specs.resolve(set, "sampler 'normal'");
+  } catch (const ConfigError& error) {
+    return error.what();
+  }
+  return "no error";
+}
+
+TEST(Parameters, DefaultsWhenNothingIsSet) {
+  const ParameterSet values = exampleSpecs().resolve({}, "test");
+  EXPECT_EQ(values.integer("samples_per_axis"), 5);
+  EXPECT_DOUBLE_EQ(values.real("sigma"), 0.5);
+  EXPECT_EQ(values.text("variant"), "quantile");
+  EXPECT_FALSE(values.boolean("verbose"));
+  EXPECT_EQ(values.canonical(),
+            "samples_per_axis=5;sigma=0.5;variant=quantile;verbose=false;label=none");
+}
+
+TEST(Parameters, AssignmentsOverrideInOrder) {
+  const ParameterSet values = exampleSpecs().resolve(
+      parseAssignments({"sigma=0.25", "variant=random", "verbose=yes", "sigma=2", "label=a=b"},
+                       "--set"),
+      "test");
+  EXPECT_DOUBLE_EQ(values.real("sigma"), 2.0);
+  EXPECT_EQ(values.text("variant"), "random");
+  EXPECT_TRUE(values.boolean("verbose"));
+  EXPECT_EQ(values.text("label"), "a=b");
+  // A real parameter takes an integer literal; the value is the same double.
+  EXPECT_DOUBLE_EQ(exampleSpecs().resolve({{"sigma", "3", "x"}}, "t").real("sigma"), 3.0);
+}
+
+TEST(Parameters, UnknownNameSuggestsTheClosest) {
+  const std::string message = errorOf(exampleSpecs(), {{"sigm", "0.3", "--set"}});
+  EXPECT_NE(message.find("--set: sampler 'normal': unknown parameter 'sigm'"), std::string::npos)
+      << message;
+  EXPECT_NE(message.find("did you mean 'sigma'"), std::string::npos) << message;
+  EXPECT_NE(message.find("samples_per_axis, sigma, variant"), std::string::npos) << message;
+}
+
+TEST(Parameters, WrongTypeAndOutOfRangeNameTheExpectedValues) {
+  const auto specs = exampleSpecs();
+  EXPECT_NE(errorOf(specs, {{"samples_per_axis", "2.5", "f:3:4"}})
+                .find("f:3:4: sampler 'normal': parameter 'samples_per_axis': expected an "
+                      "integer in [1, 64], got '2.5'"),
+            std::string::npos);
+  EXPECT_NE(errorOf(specs, {{"samples_per_axis", "65", "x"}}).find("[1, 64], got '65'"),
+            std::string::npos);
+  EXPECT_NE(errorOf(specs, {{"sigma", "0.01", "x"}}).find("a number in [0.05, 10], got '0.01'"),
+            std::string::npos);
+  EXPECT_NE(errorOf(specs, {{"sigma", "nan", "x"}}).find("a number in"), std::string::npos);
+  EXPECT_NE(errorOf(specs, {{"sigma", "", "x"}}).find("a number in"), std::string::npos);
+  EXPECT_NE(errorOf(specs, {{"verbose", "maybe", "x"}}).find("expected true or false"),
+            std::string::npos);
+  const std::string choice = errorOf(specs, {{"variant", "quantil", "x"}});
+  EXPECT_NE(choice.find("expected one of quantile|random (did you mean 'quantile'?)"),
+            std::string::npos)
+      << choice;
+}
+
+TEST(Parameters, MalformedSetItemsAreRejected) {
+  EXPECT_THROW(parseAssignments({"sigma"}, "--set"), ConfigError);
+  EXPECT_THROW(parseAssignments({"=3"}, "--set"), ConfigError);
+}
+
+TEST(Parameters, DeclarationsAreChecked) {
+  EXPECT_THROW(ParameterSpecs().real("a", 1, 0, 1, "").real("a", 1, 0, 1, ""), InvalidArgument);
+  EXPECT_THROW(ParameterSpecs().real("a", 2, 0, 1, "default out of range"), ConfigError);
+  EXPECT_THROW(ParameterSpecs().choice("c", "x", {"a", "b"}, "default not a choice"), ConfigError);
+  EXPECT_THROW(exampleSpecs().resolve({}, "t").real("undeclared"), InvalidArgument);
+}
+
+TEST(Parameters, YamlMappingsKeepTheirLocations) {
+  const YamlReader reader =
+      YamlReader::loadString("params:\n  sigma: 0.3\n  variant: random\n", "exp.yaml");
+  const auto assignments = assignmentsFromYaml(reader["params"]);
+  ASSERT_EQ(assignments.size(), 2u);
+  EXPECT_EQ(assignments[0].name, "sigma");
+  EXPECT_EQ(assignments[0].value, "0.3");
+  EXPECT_EQ(assignments[0].where, "exp.yaml:2:10: params.sigma");
+  const YamlReader bad = YamlReader::loadString("params:\n  sigma: [1, 2]\n", "exp.yaml");
+  EXPECT_THROW(assignmentsFromYaml(bad["params"]), ConfigError);
+}
+
+}  // namespace
+}  // namespace kinolab
