@@ -1,22 +1,53 @@
-# Installs the build into a private prefix, then configures, builds and runs the consumer
-# project against it. Run with cmake -P; fails on the first step that fails.
+# Installs the build into a private prefix, then configures and builds the consumer project
+# against it, runs its program, and loads its plugins into the installed kinolab. Run with
+# cmake -P; fails on the first step that does not do what it should.
 file(REMOVE_RECURSE "${WORK_DIR}")
 
-function(run_step)
+# run_step(EXPECT 0|FAIL COMMAND ...): the output lands in step_output.
+function(run_step expect)
   execute_process(COMMAND ${ARGN} RESULT_VARIABLE result OUTPUT_VARIABLE output
                   ERROR_VARIABLE output)
-  if(NOT result EQUAL 0)
+  if(expect STREQUAL "OK" AND NOT result EQUAL 0)
     message(FATAL_ERROR "step failed: ${ARGN}\n${output}")
+  elseif(expect STREQUAL "FAIL" AND result EQUAL 0)
+    message(FATAL_ERROR "step should have failed: ${ARGN}\n${output}")
   endif()
   set(step_output "${output}" PARENT_SCOPE)
 endfunction()
 
-run_step(${CMAKE_COMMAND} --install "${KINOLAB_BUILD_DIR}" --prefix "${WORK_DIR}/prefix")
-run_step(${CMAKE_COMMAND} -S "${CONSUMER_SOURCE_DIR}" -B "${WORK_DIR}/build"
-         -DCMAKE_PREFIX_PATH=${WORK_DIR}/prefix -DCMAKE_BUILD_TYPE=Release)
-run_step(${CMAKE_COMMAND} --build "${WORK_DIR}/build")
-run_step("${WORK_DIR}/build/consumer")
-if(NOT step_output MATCHES "kinolab [0-9]+\\.[0-9]+\\.[0-9]+ distance 0\\.5")
-  message(FATAL_ERROR "unexpected consumer output: ${step_output}")
-endif()
-message(STATUS "consumer output: ${step_output}")
+function(expect_output pattern)
+  if(NOT step_output MATCHES "${pattern}")
+    message(FATAL_ERROR "expected output matching '${pattern}', got:\n${step_output}")
+  endif()
+endfunction()
+
+set(prefix "${WORK_DIR}/prefix")
+set(build "${WORK_DIR}/build")
+run_step(OK ${CMAKE_COMMAND} --install "${KINOLAB_BUILD_DIR}" --prefix "${prefix}")
+run_step(OK ${CMAKE_COMMAND} -S "${CONSUMER_SOURCE_DIR}" -B "${build}"
+         -DCMAKE_PREFIX_PATH=${prefix} -DCMAKE_BUILD_TYPE=Release)
+run_step(OK ${CMAKE_COMMAND} --build "${build}")
+
+run_step(OK "${build}/consumer")
+expect_output("kinolab [0-9]+\\.[0-9]+\\.[0-9]+ distance 0\\.5")
+
+# The installed command loads the plugin and lists it beside the built-in samplers.
+set(kinolab "${prefix}/bin/kinolab")
+run_step(OK "${kinolab}" --plugin "${build}/libaxes_sampler.so" list samplers --json)
+expect_output("\"key\": \"axes\"")
+expect_output("\"origin\": \"[^\"]*libaxes_sampler.so\"")
+expect_output("\"key\": \"uniform\"")
+
+# The plugin passes the sampler conformance suite.
+run_step(OK ${CMAKE_COMMAND} -E env "KINOLAB_TEST_PLUGINS=${build}/libaxes_sampler.so"
+         "${TEST_BINARY}" "--gtest_filter=Registered/SamplerConformance.*/axes")
+expect_output("PASSED.* 2 tests")
+
+# Broken libraries are refused, naming the library and the reason.
+run_step(FAIL "${kinolab}" --plugin "${build}/libclashing_sampler.so" list)
+expect_output("sampler 'uniform' from [^ ]*libclashing_sampler.so is already registered")
+run_step(FAIL "${kinolab}" --plugin "${build}/libno_entry_point.so" list)
+expect_output("libno_entry_point.so': no kinolab entry point")
+run_step(FAIL "${kinolab}" --plugin "${build}/libmissing.so" list)
+expect_output("libmissing.so': no such file")
+message(STATUS "out-of-tree program and plugins: as expected")
