@@ -171,6 +171,28 @@ TEST(IntegratorChainTest, ReportsTheControlLimitAndTheViolationTime) {
   EXPECT_TRUE(chain.withinLimits(start, {0.0, 2.0, 0.0}, 0.5, limits));
 }
 
+TEST(IntegratorChainTest, FastLimitVerdictAgreesWithTheDetailedCheck) {
+  Rng rng(2024);
+  const DynamicLimits limits = DynamicLimits::uniform(2.0, 3.0, 4.0, 6.0);
+  for (int order = 2; order <= 4; ++order) {
+    const IntegratorChain chain(order);
+    int rejected = 0;
+    for (int trial = 0; trial < 20000; ++trial) {
+      // States mostly inside the limits, controls up to their bound, so both verdicts occur.
+      ChainState start = randomState(rng, order, 1.0);
+      start.col(1) *= 2.0;
+      const Eigen::Vector3d control = randomControl(rng, limits.bound[order].x());
+      const double duration = rng.uniform(0.05, 1.5);
+      const bool fast = chain.withinLimits(start, control, duration, limits);
+      ASSERT_EQ(fast, !chain.checkLimits(start, control, duration, limits))
+          << "order " << order << " trial " << trial;
+      rejected += fast ? 0 : 1;
+    }
+    EXPECT_GT(rejected, 2000) << order;
+    EXPECT_LT(rejected, 18000) << order;
+  }
+}
+
 TEST(IntegratorChainTest, RejectsUnsupportedOrders) {
   EXPECT_THROW(IntegratorChain(1), InvalidArgument);
   EXPECT_THROW(IntegratorChain(5), InvalidArgument);

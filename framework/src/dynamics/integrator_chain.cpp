@@ -165,4 +165,37 @@ std::optional<LimitViolation> IntegratorChain::checkLimits(const ChainState& sta
   return first;
 }
 
+bool IntegratorChain::withinLimits(const ChainState& state, const Eigen::Vector3d& control,
+                                   double duration, const DynamicLimits& limits) const {
+  using Eigen::Array3d;
+  const auto within = [](const Array3d& value, const Eigen::Vector3d& bound) {
+    return (value.abs() <= bound.array()).all();
+  };
+  if (!within(control.array(), limits.bound[order_])) return false;
+  if (order_ == 2) {
+    // Velocity is linear in time: its extremes are at the ends.
+    const Array3d v0 = state.col(1).array();
+    return within(v0, limits.bound[1]) && within(v0 + control.array() * duration, limits.bound[1]);
+  }
+  if (order_ == 3) {
+    const Array3d v0 = state.col(1).array();
+    const Array3d a0 = state.col(2).array();
+    const Array3d u = control.array();
+    if (!within(a0, limits.bound[2]) || !within(a0 + u * duration, limits.bound[2])) return false;
+    const Array3d v_end = v0 + a0 * duration + 0.5 * u * duration * duration;
+    if (!within(v0, limits.bound[1]) || !within(v_end, limits.bound[1])) return false;
+    // Velocity is quadratic: its vertex, where acceleration a0 + u t vanishes, if inside.
+    for (int axis = 0; axis < 3; ++axis) {
+      if (u[axis] == 0.0) continue;
+      const double vertex_time = -a0[axis] / u[axis];
+      if (vertex_time > 0.0 && vertex_time < duration &&
+          std::abs(v0[axis] - 0.5 * a0[axis] * a0[axis] / u[axis]) > limits.bound[1][axis]) {
+        return false;
+      }
+    }
+    return true;
+  }
+  return !checkLimits(state, control, duration, limits);
+}
+
 }  // namespace kinolab

@@ -63,10 +63,10 @@ class IntegratorChain {
   /// The first limit the primitive breaks over [0, duration] (control included), if any.
   std::optional<LimitViolation> checkLimits(const ChainState& state, const Eigen::Vector3d& control,
                                             double duration, const DynamicLimits& limits) const;
+  /// The same verdict as `!checkLimits(...)`, without locating the violation: closed-form
+  /// per-axis tests for orders 2 and 3 (the hot path of edge evaluation).
   bool withinLimits(const ChainState& state, const Eigen::Vector3d& control, double duration,
-                    const DynamicLimits& limits) const {
-    return !checkLimits(state, control, duration, limits);
-  }
+                    const DynamicLimits& limits) const;
 
  private:
   int order_;

@@ -1,0 +1,178 @@
+#include "kinolab/primitives/edge_evaluator.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include "kinolab/core/error.hpp"
+#include "kinolab/core/text.hpp"
+
+namespace kinolab {
+namespace {
+
+/// t^m / m! for m = 0..order.
+std::array<double, 5> powersOver(double t, int order) {
+  std::array<double, 5> powers{1.0, 0.0, 0.0, 0.0, 0.0};
+  for (int m = 1; m <= order; ++m) powers[m] = powers[m - 1] * t / m;
+  return powers;
+}
+
+Eigen::Vector3d positionFromPowers(const ChainState& start, const Eigen::Vector3d& control,
+                                   int order, const std::array<double, 5>& powers) {
+  Eigen::Vector3d position = start.col(0) + control * powers[order];
+  for (int m = 1; m < order; ++m) position += start.col(m) * powers[m];
+  return position;
+}
+
+void require(bool condition, const std::string& what) {
+  if (!condition) throw InvalidArgument("edge evaluator: " + what);
+}
+
+}  // namespace
+
+EdgeEvaluator::EdgeEvaluator(std::shared_ptr<const World> world, EdgeEvaluatorSettings settings)
+    : world_(std::move(world)), settings_(settings), chain_(settings.order) {
+  require(world_ != nullptr, "no world");
+  require(std::isfinite(settings_.duration) && settings_.duration > 0.0,
+          "duration (tau) must be positive");
+  require(settings_.robot_radius >= 0.0, "robot_radius must be >= 0");
+  require(settings_.safety_distance > 0.0, "safety_distance must be positive");
+  const CostWeights& w = settings_.weights;
+  require(w.duration >= 0 && w.length >= 0 && w.control_effort >= 0 && w.obstacle >= 0,
+          "cost weights must be non-negative");
+  const double voxel = world_->esdf().resolution();
+  if (settings_.sampling.mode == EdgeSampling::Mode::kCount) {
+    require(settings_.sampling.samples >= 1, "samples (K) must be >= 1");
+    for (int k = 1; k <= settings_.sampling.samples; ++k) {
+      sample_powers_.push_back(
+          powersOver(settings_.duration * k / settings_.sampling.samples, settings_.order));
+    }
+  } else {
+    require(settings_.sampling.spacing > 0.0 && settings_.sampling.spacing <= 0.5 * voxel,
+            "spacing must be in (0, half a voxel = " + formatNumber(0.5 * voxel) + " m], got " +
+                formatNumber(settings_.sampling.spacing));
+  }
+  // Per axis, neighbouring voxel values differ by at most one voxel (both free) or two (at a
+  // surface); the interpolant's gradient is bounded by sqrt(3) times that. Cells touching an
+  // obstacle never exceed sqrt(3) voxels in value, so a radius at least that large keeps the
+  // test inside all-free cells, where the smaller constant holds.
+  lipschitz_ = std::sqrt(3.0) * (settings_.robot_radius >= std::sqrt(3.0) * voxel ? 1.0 : 2.0);
+}
+
+Eigen::Vector3d EdgeEvaluator::positionAt(const ChainState& start, const Eigen::Vector3d& control,
+                                          double t) const {
+  return positionFromPowers(start, control, settings_.order, powersOver(t, settings_.order));
+}
+
+double EdgeEvaluator::speedBound(const ChainState& start, const Eigen::Vector3d& control) const {
+  // Per axis |v(t)| <= sum of |coefficient| t^m / m! at t = tau.
+  const std::array<double, 5> powers = powersOver(settings_.duration, settings_.order);
+  Eigen::Array3d bound = control.array().abs() * powers[settings_.order - 1];
+  for (int m = 1; m < settings_.order; ++m) bound += start.col(m).array().abs() * powers[m - 1];
+  return bound.matrix().norm();
+}
+
+int EdgeEvaluator::sampleCount(const ChainState& start, const Eigen::Vector3d& control) const {
+  if (settings_.sampling.mode == EdgeSampling::Mode::kCount) return settings_.sampling.samples;
+  const double path_bound = speedBound(start, control) * settings_.duration;
+  constexpr double kMaxSamples = 100000.0;
+  return static_cast<int>(
+      std::clamp(std::ceil(path_bound / settings_.sampling.spacing), 1.0, kMaxSamples));
+}
+
+double EdgeEvaluator::collisionThreshold(const ChainState& start, const Eigen::Vector3d& control,
+                                         int samples) const {
+  if (!settings_.certify) return settings_.robot_radius;
+  const double gap = speedBound(start, control) * settings_.duration / samples;
+  return settings_.robot_radius + 0.5 * lipschitz_ * gap;
+}
+
+double EdgeEvaluator::mapFreeCost(const Eigen::Vector3d& control) const {
+  const CostWeights& w = settings_.weights;
+  return (w.duration + w.control_effort * control.squaredNorm()) * settings_.duration;
+}
+
+double EdgeEvaluator::penalty(double distance) const {
+  const double depth = 1.0 - (distance - settings_.robot_radius) / settings_.safety_distance;
+  return depth > 0.0 ? depth * depth : 0.0;
+}
+
+EdgeEvaluation EdgeEvaluator::partial(const ChainState& start,
+                                      const Eigen::Vector3d& control) const {
+  EdgeEvaluation result;
+  result.end = chain_.propagate(start, control, settings_.duration);
+  result.within_limits = chain_.withinLimits(start, control, settings_.duration, settings_.limits);
+  if (!result.within_limits) return result;
+  result.samples = sampleCount(start, control);
+  // The end sample exactly as full evaluation computes it, so the shared terms agree.
+  const Eigen::Vector3d end =
+      settings_.sampling.mode == EdgeSampling::Mode::kCount
+          ? positionFromPowers(start, control, settings_.order, sample_powers_.back())
+          : positionAt(start, control, settings_.duration);
+  result.length = (end - start.col(0)).norm();
+  result.esdf_queries = 1;
+  const World& world = *world_;
+  if (!world.bounds().contains(end)) {
+    result.collision_time = settings_.duration;
+    return result;
+  }
+  const double distance = world.esdf().distance(end);
+  if (distance < settings_.robot_radius) {
+    result.collision_time = settings_.duration;
+    return result;
+  }
+  result.collision_free = true;
+  result.obstacle_cost =
+      settings_.weights.obstacle * penalty(distance) * settings_.duration / result.samples;
+  result.cost =
+      mapFreeCost(control) + settings_.weights.length * result.length + result.obstacle_cost;
+  return result;
+}
+
+EdgeEvaluation EdgeEvaluator::full(const ChainState& start, const Eigen::Vector3d& control) const {
+  EdgeEvaluation result;
+  result.end = chain_.propagate(start, control, settings_.duration);
+  result.within_limits = chain_.withinLimits(start, control, settings_.duration, settings_.limits);
+  if (!result.within_limits) return result;
+  const int samples = sampleCount(start, control);
+  result.samples = samples;
+  const double threshold = collisionThreshold(start, control, samples);
+  const bool fixed = settings_.sampling.mode == EdgeSampling::Mode::kCount;
+  const World& world = *world_;
+  const Esdf& esdf = world.esdf();
+  const Box& bounds = world.bounds();
+  const int order = settings_.order;
+  const double step = settings_.duration / samples;
+  Eigen::Vector3d previous = start.col(0);
+  double penalty_sum = 0.0;
+  for (int k = 1; k <= samples; ++k) {
+    const Eigen::Vector3d position =
+        fixed ? positionFromPowers(start, control, order, sample_powers_[k - 1])
+              : positionAt(start, control, k == samples ? settings_.duration : step * k);
+    ++result.esdf_queries;
+    const double distance = bounds.contains(position) ? esdf.distance(position) : -INFINITY;
+    if (distance < threshold) {
+      result.collision_time = step * k;
+      return result;
+    }
+    penalty_sum += penalty(distance);
+    result.length += (position - previous).norm();
+    previous = position;
+  }
+  result.collision_free = true;
+  result.obstacle_cost = settings_.weights.obstacle * penalty_sum * step;
+  result.cost =
+      mapFreeCost(control) + settings_.weights.length * result.length + result.obstacle_cost;
+  return result;
+}
+
+std::vector<Eigen::Vector3d> EdgeEvaluator::samplePositions(const ChainState& start,
+                                                            const Eigen::Vector3d& control) const {
+  const int samples = sampleCount(start, control);
+  std::vector<Eigen::Vector3d> positions;
+  for (int k = 1; k <= samples; ++k) {
+    positions.push_back(positionAt(start, control, settings_.duration * k / samples));
+  }
+  return positions;
+}
+
+}  // namespace kinolab

@@ -1,0 +1,204 @@
+#include "kinolab/primitives/edge_evaluator.hpp"
+
+#include <gtest/gtest.h>
+
+#include "kinolab/core/error.hpp"
+#include "kinolab/core/random.hpp"
+#include "kinolab/core/yaml_reader.hpp"
+
+namespace kinolab {
+namespace {
+
+std::shared_ptr<const World> worldFrom(const std::string& text) {
+  return World::build(WorldSpec::fromYaml(YamlReader::loadString(text, "spec.yaml"), "."));
+}
+
+/// 10 m x 10 m x 3 m at 0.1 m: a small dense forest with a ground plane.
+std::shared_ptr<const World> smallForest() {
+  static const auto world = worldFrom(
+      "seed: 3\nresolution: 0.1\nbounds: {min: [0, 0, 0], max: [10, 10, 3]}\n"
+      "generators: [{type: forest, density: 0.25, trunk_radius: [0.1, 0.3], "
+      "trunk_height: [2.5, 3], min_spacing: 0.5, ground_plane: true}]\n");
+  return world;
+}
+
+ChainState stateAt(const Eigen::Vector3d& position, const Eigen::Vector3d& velocity) {
+  ChainState state = ChainState::Zero();
+  state.col(0) = position;
+  state.col(1) = velocity;
+  return state;
+}
+
+TEST(EdgeEvaluator, MapFreeTermsByHand) {
+  const auto world = worldFrom(
+      "resolution: 0.1\nbounds: {min: [0, 0, 0], max: [10, 10, 3]}\ngenerators: [{type: empty}]\n");
+  EdgeEvaluatorSettings settings;
+  settings.duration = 0.5;
+  settings.weights = {2.0, 3.0, 0.5, 1.0};
+  const EdgeEvaluator evaluator(world, settings);
+  // Constant velocity 1 m/s along x, no control: a straight 0.5 m.
+  const ChainState start = stateAt({2, 5, 1.5}, {1, 0, 0});
+  const EdgeEvaluation full = evaluator.full(start, Eigen::Vector3d::Zero());
+  ASSERT_TRUE(full.valid());
+  EXPECT_DOUBLE_EQ(full.length, 0.5);
+  EXPECT_DOUBLE_EQ(full.obstacle_cost, 0.0);  // far from anything in an empty world
+  EXPECT_NEAR(full.cost, 2.0 * 0.5 + 3.0 * 0.5, 1e-12);
+  // Control effort |u|^2 tau, and the end state of x = x0 + v t + u t^2 / 2.
+  const Eigen::Vector3d control(1.0, 2.0, 0.0);
+  const EdgeEvaluation curved = evaluator.full(start, control);
+  const EdgeEvaluation partial = evaluator.partial(start, control);
+  EXPECT_NEAR(curved.end(0, 0), 2.0 + 0.5 + 0.125, 1e-12);
+  EXPECT_NEAR(curved.end(1, 1), 1.0, 1e-12);
+  EXPECT_NEAR(partial.cost - 3.0 * partial.length, 2.0 * 0.5 + 0.5 * 5.0 * 0.5, 1e-12);
+  EXPECT_GT(curved.length, partial.length);  // polyline through the samples vs the chord
+}
+
+TEST(EdgeEvaluator, PolylineLengthConvergesToTheArcLength) {
+  const auto world = worldFrom(
+      "resolution: 0.1\nbounds: {min: [0, 0, 0], max: [10, 10, 3]}\ngenerators: [{type: empty}]\n");
+  const ChainState start = stateAt({3, 5, 1.5}, {2, 0, 0});
+  const Eigen::Vector3d control(0, 3, 0);
+  // Arc length of (2t, 1.5 t^2) over [0, 1] by a fine midpoint rule.
+  double arc = 0.0;
+  for (int i = 0; i < 100000; ++i) {
+    const double t = (i + 0.5) / 100000.0;
+    arc += std::hypot(2.0, 3.0 * t) / 100000.0;
+  }
+  double previous_error = INFINITY;
+  for (const int samples : {2, 8, 32}) {
+    EdgeEvaluatorSettings settings;
+    settings.duration = 1.0;
+    settings.limits = DynamicLimits::uniform(5.0, 5.0);
+    settings.sampling.samples = samples;
+    const EdgeEvaluation full = EdgeEvaluator(world, settings).full(start, control);
+    ASSERT_TRUE(full.valid());
+    const double error = arc - full.length;
+    EXPECT_GE(error, 0.0);  // a polyline through points of a curve is never longer
+    EXPECT_LT(error, previous_error);
+    previous_error = error;
+  }
+  EXPECT_LT(previous_error, 1e-3);
+}
+
+TEST(EdgeEvaluator, ObstaclePenaltyIsAQuadratureOverTheSamples) {
+  // A wall at x >= 5; fly along it at 0.4 m from its face, so every sample has the same ESDF.
+  const auto world = worldFrom(
+      "resolution: 0.1\nbounds: {min: [0, 0, 0], max: [10, 10, 3]}\n"
+      "generators: [{type: box_list, boxes: [{min: [5, 0, 0], max: [10, 10, 3]}]}]\n");
+  EdgeEvaluatorSettings settings;
+  settings.duration = 0.5;
+  settings.robot_radius = 0.2;
+  settings.safety_distance = 0.5;
+  settings.weights = {0.0, 0.0, 0.0, 4.0};
+  settings.sampling.samples = 5;
+  const EdgeEvaluator evaluator(world, settings);
+  const ChainState start = stateAt({4.55, 2, 1.55}, {0, 1, 0});  // a voxel centre
+  const double distance = world->esdf().distance(start.col(0));
+  EXPECT_NEAR(distance, 0.5, 1e-6);  // from the centre at 4.55 to the wall's first centre 5.05
+  const double phi = std::pow(1.0 - (distance - 0.2) / 0.5, 2);
+  const EdgeEvaluation full = evaluator.full(start, Eigen::Vector3d::Zero());
+  const EdgeEvaluation partial = evaluator.partial(start, Eigen::Vector3d::Zero());
+  ASSERT_TRUE(full.valid() && partial.valid());
+  EXPECT_NEAR(full.obstacle_cost, 4.0 * phi * 0.5, 1e-6);
+  EXPECT_NEAR(partial.obstacle_cost, 4.0 * phi * 0.5 / 5, 1e-6);
+  EXPECT_EQ(full.esdf_queries, 5);
+  EXPECT_EQ(partial.esdf_queries, 1);
+}
+
+/// Partial <= full on every primitive; partial rejection implies full rejection; and full
+/// evaluation finds every collision a dense check (2000 points per primitive) finds.
+void checkAgainstDenseChecking(const EdgeEvaluatorSettings& settings, int* dense_collisions,
+                               int* missed) {
+  const auto world = smallForest();
+  const EdgeEvaluator evaluator(world, settings);
+  const IntegratorChain& chain = evaluator.chain();
+  Rng rng(17);
+  *dense_collisions = 0;
+  *missed = 0;
+  for (int trial = 0; trial < 4000; ++trial) {
+    ChainState start = ChainState::Zero();
+    do {
+      start.col(0) =
+          Eigen::Vector3d(rng.uniform(0.5, 9.5), rng.uniform(0.5, 9.5), rng.uniform(0.5, 2.5));
+    } while (world->distance(start.col(0)) < settings.robot_radius);
+    for (int k = 1; k < settings.order; ++k) {
+      for (int axis = 0; axis < 3; ++axis) start(axis, k) = rng.uniform(-1.5, 1.5);
+    }
+    const double u = settings.limits.bound[settings.order].x();
+    const Eigen::Vector3d control(rng.uniform(-u, u), rng.uniform(-u, u), rng.uniform(-u, u));
+    const EdgeEvaluation partial = evaluator.partial(start, control);
+    const EdgeEvaluation full = evaluator.full(start, control);
+    ASSERT_EQ(partial.within_limits, full.within_limits);
+    ASSERT_EQ(partial.end, full.end);
+    if (!partial.valid()) {
+      ASSERT_FALSE(full.valid()) << trial;
+    } else if (full.valid()) {
+      ASSERT_LE(partial.cost, full.cost * (1.0 + 1e-12)) << trial;
+    }
+    if (!full.within_limits) continue;
+    bool dense_collision = false;
+    for (int i = 1; i <= 2000 && !dense_collision; ++i) {
+      const Eigen::Vector3d p = chain.stateAt(start, control, settings.duration * i / 2000).col(0);
+      dense_collision = !world->isFree(p, settings.robot_radius);
+    }
+    if (dense_collision) {
+      ++*dense_collisions;
+      if (full.collision_free) ++*missed;
+    }
+  }
+}
+
+TEST(EdgeEvaluator, FullEvaluationFindsEveryDenseCollision) {
+  for (const auto mode : {EdgeSampling::Mode::kCount, EdgeSampling::Mode::kSpacing}) {
+    for (const int order : {2, 3}) {
+      EdgeEvaluatorSettings settings;
+      settings.order = order;
+      settings.limits = DynamicLimits::uniform(2.0, 3.0, 6.0);
+      settings.sampling.mode = mode;
+      int dense = 0;
+      int missed = 0;
+      checkAgainstDenseChecking(settings, &dense, &missed);
+      EXPECT_GT(dense, 200) << "the forest should make many primitives collide";
+      EXPECT_EQ(missed, 0) << "order " << order;
+    }
+  }
+  // Small robots take the larger Lipschitz constant and stay safe too.
+  EdgeEvaluatorSettings small;
+  small.robot_radius = 0.05;
+  int dense = 0;
+  int missed = 0;
+  checkAgainstDenseChecking(small, &dense, &missed);
+  EXPECT_GT(dense, 100);
+  EXPECT_EQ(missed, 0);
+}
+
+TEST(EdgeEvaluator, WithoutTheMarginSparseSamplesMissCollisions) {
+  // The test above has teeth: two samples per edge and no margin miss thin trunks.
+  EdgeEvaluatorSettings settings;
+  settings.certify = false;
+  settings.sampling.samples = 2;
+  int dense = 0;
+  int missed = 0;
+  checkAgainstDenseChecking(settings, &dense, &missed);
+  EXPECT_GT(missed, 0);
+}
+
+TEST(EdgeEvaluator, RejectsBadSettings) {
+  const auto world = smallForest();
+  EdgeEvaluatorSettings settings;
+  settings.sampling.mode = EdgeSampling::Mode::kSpacing;
+  settings.sampling.spacing = 0.06;  // coarser than half of the 0.1 m voxel
+  EXPECT_THROW(EdgeEvaluator(world, settings), InvalidArgument);
+  settings = {};
+  settings.sampling.samples = 0;
+  EXPECT_THROW(EdgeEvaluator(world, settings), InvalidArgument);
+  settings = {};
+  settings.weights.obstacle = -1.0;
+  EXPECT_THROW(EdgeEvaluator(world, settings), InvalidArgument);
+  settings = {};
+  settings.duration = 0.0;
+  EXPECT_THROW(EdgeEvaluator(world, settings), InvalidArgument);
+}
+
+}  // namespace
+}  // namespace kinolab
