@@ -56,6 +56,10 @@ EdgeEvaluator::EdgeEvaluator(std::shared_ptr<const World> world, EdgeEvaluatorSe
   // obstacle never exceed sqrt(3) voxels in value, so a radius at least that large keeps the
   // test inside all-free cells, where the smaller constant holds.
   lipschitz_ = std::sqrt(3.0) * (settings_.robot_radius >= std::sqrt(3.0) * voxel ? 1.0 : 2.0);
+  // The trilinear value mixes the eight voxels around a point, all within a voxel diagonal of
+  // the nearest one, and neighbouring values differ by at most two voxels per voxel step.
+  far_slack_ = 2.0 * std::sqrt(3.0) * voxel;
+  inverse_safety_distance_ = 1.0 / settings_.safety_distance;
 }
 
 Eigen::Vector3d EdgeEvaluator::positionAt(const ChainState& start, const Eigen::Vector3d& control,
@@ -89,11 +93,6 @@ double EdgeEvaluator::collisionThreshold(const ChainState& start, const Eigen::V
 double EdgeEvaluator::mapFreeCost(const Eigen::Vector3d& control) const {
   const CostWeights& w = settings_.weights;
   return (w.duration + w.control_effort * control.squaredNorm()) * settings_.duration;
-}
-
-double EdgeEvaluator::penalty(double distance) const {
-  const double depth = 1.0 - (distance - settings_.robot_radius) / settings_.safety_distance;
-  return depth > 0.0 ? depth * depth : 0.0;
 }
 
 EdgeEvaluation EdgeEvaluator::partial(const ChainState& start,
@@ -142,6 +141,10 @@ EdgeEvaluation EdgeEvaluator::full(const ChainState& start, const Eigen::Vector3
   const Box& bounds = world.bounds();
   const int order = settings_.order;
   const double step = settings_.duration / samples;
+  // Far from every obstacle the penalty is zero and no collision is possible, and the cheap
+  // nearest-voxel value tells so: it is within far_slack_ of the trilinear value.
+  const double far =
+      std::max(threshold, settings_.robot_radius + settings_.safety_distance) + far_slack_;
   Eigen::Vector3d previous = start.col(0);
   double penalty_sum = 0.0;
   for (int k = 1; k <= samples; ++k) {
@@ -149,14 +152,19 @@ EdgeEvaluation EdgeEvaluator::full(const ChainState& start, const Eigen::Vector3
         fixed ? positionFromPowers(start, control, order, sample_powers_[k - 1])
               : positionAt(start, control, k == samples ? settings_.duration : step * k);
     ++result.esdf_queries;
-    const double distance = bounds.contains(position) ? esdf.distance(position) : -INFINITY;
+    result.length += (position - previous).norm();
+    previous = position;
+    if (!bounds.contains(position)) {
+      result.collision_time = step * k;
+      return result;
+    }
+    if (esdf.nearestDistance(position) >= far) continue;
+    const double distance = esdf.distance(position);
     if (distance < threshold) {
       result.collision_time = step * k;
       return result;
     }
     penalty_sum += penalty(distance);
-    result.length += (position - previous).norm();
-    previous = position;
   }
   result.collision_free = true;
   result.obstacle_cost = settings_.weights.obstacle * penalty_sum * step;

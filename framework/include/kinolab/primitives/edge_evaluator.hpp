@@ -103,12 +103,18 @@ class EdgeEvaluator {
   double speedBound(const ChainState& start, const Eigen::Vector3d& control) const;
   /// The weighted terms that need no map: duration and control effort.
   double mapFreeCost(const Eigen::Vector3d& control) const;
-  double penalty(double distance) const;
+  /// phi of the clearance at an ESDF distance (inline: once per sample).
+  double penalty(double distance) const {
+    const double depth = 1.0 - (distance - settings_.robot_radius) * inverse_safety_distance_;
+    return depth > 0.0 ? depth * depth : 0.0;
+  }
 
   std::shared_ptr<const World> world_;
   EdgeEvaluatorSettings settings_;
   IntegratorChain chain_;
   double lipschitz_;
+  double far_slack_;  ///< bound on |trilinear - nearest-voxel| ESDF value
+  double inverse_safety_distance_;
   /// For the fixed-count mode: t_k^m / m! per sample k (rows) and power m = 1..order.
   std::vector<std::array<double, 5>> sample_powers_;
 };
