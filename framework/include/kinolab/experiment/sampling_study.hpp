@@ -1,0 +1,89 @@
+#pragma once
+
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "kinolab/core/parameters.hpp"
+#include "kinolab/dynamics/integrator_chain.hpp"
+
+namespace kinolab {
+
+/// The paper's Table I as an experiment: for each sampler, primitives from a set of
+/// representative initial states (at rest, and moving in seeded random directions), and per
+/// state the ratio alpha of useful samples (endpoint farther than `threshold` from every other
+/// endpoint), the mean nearest-neighbour distance L of the endpoints, and the count of
+/// primitives that break the dynamic limits.
+struct SamplingStudyConfig {
+  struct Sampler {
+    std::string id;    ///< name in tables and CSV
+    std::string type;  ///< registry key
+    ParameterSet parameters;
+    std::optional<double> paper_alpha;  ///< the paper's figure, for the side-by-side table
+    std::optional<double> paper_l;
+  };
+
+  std::string name;
+  std::string source;  ///< the file it was read from
+  std::uint64_t seed = 1;
+  int order = 2;
+  double duration = 0.4;
+  DynamicLimits limits;
+  Propagation propagation = Propagation::kExact;
+  int euler_steps = 1;
+  double threshold = 0.1;
+  bool rest_state = true;
+  int moving_states = 20;
+  double min_speed = 0.5;
+  double max_speed = 2.0;
+  std::vector<Sampler> samplers;
+
+  /// Reads and validates a `kind: sampling_study` file (unknown keys, types, ranges, sampler
+  /// types and parameters are ConfigErrors with file, line and key path).
+  static SamplingStudyConfig fromFile(const std::string& path);
+};
+
+/// One sampler from one initial state.
+struct SamplingStudyRow {
+  std::string sampler;
+  int state = 0;              ///< index in the state list; 0 is rest when it is included
+  double speed = 0.0;         ///< initial speed
+  int controls = 0;           ///< M
+  int useful = 0;             ///< samples whose endpoint has no other within the threshold
+  int limit_breaking = 0;     ///< primitives that break a limit somewhere over tau
+  int useful_feasible = 0;    ///< useful and within the limits
+  double alpha = 0.0;         ///< useful / M
+  double mean_nearest = 0.0;  ///< L, metres (NaN when M = 1)
+};
+
+/// Per-sampler means over the states.
+struct SamplingStudySummary {
+  std::string sampler;
+  std::string type;
+  int controls = 0;
+  double alpha = 0.0;
+  double alpha_sd = 0.0;
+  double mean_nearest = 0.0;
+  double mean_nearest_sd = 0.0;
+  double limit_breaking_share = 0.0;  ///< of all primitives over all states
+  double alpha_feasible = 0.0;
+  std::optional<double> paper_alpha;
+  std::optional<double> paper_l;
+};
+
+/// The initial states of the study (positions at the origin), seeded.
+std::vector<ChainState> samplingStudyStates(const SamplingStudyConfig& config);
+
+/// Runs every sampler from every state. Samplers are looked up in the registry.
+std::vector<SamplingStudyRow> runSamplingStudy(const SamplingStudyConfig& config);
+
+std::vector<SamplingStudySummary> summarizeSamplingStudy(const SamplingStudyConfig& config,
+                                                         const std::vector<SamplingStudyRow>& rows);
+
+/// alpha's numerator and L for a set of endpoints: useful = no other endpoint within
+/// `threshold` (distance <= threshold counts as within).
+void endpointSpread(const std::vector<Eigen::Vector3d>& endpoints, double threshold, int* useful,
+                    double* mean_nearest);
+
+}  // namespace kinolab

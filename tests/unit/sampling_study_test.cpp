@@ -1,0 +1,103 @@
+#include "kinolab/experiment/sampling_study.hpp"
+
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+
+#include "kinolab/builtin_plugins.hpp"
+#include "kinolab/core/error.hpp"
+
+namespace kinolab {
+namespace {
+
+std::string writeStudy(const std::string& name, const std::string& text) {
+  const auto path = std::filesystem::temp_directory_path() / ("kinolab_" + name + ".yaml");
+  std::ofstream(path) << text;
+  return path.string();
+}
+
+const char* kStudy =
+    "kind: sampling_study\nname: t\nseed: 5\nthreshold: 0.1\n"
+    "dynamics: {order: 2, duration: 0.4, limits: {velocity: 2.0, acceleration: 3.0}}\n"
+    "states: {rest: true, moving: 4, speed: [0.5, 2.0]}\n"
+    "samplers:\n"
+    "  - {id: coarse, type: uniform, params: {samples_per_axis: 5}}\n"
+    "  - {id: fine, type: uniform, params: {samples_per_axis: 7}}\n";
+
+TEST(SamplingStudy, EndpointSpreadByHand) {
+  // Three points on a line at 0, 0.05 and 0.3: the first two are within 0.1 of each other.
+  int useful = 0;
+  double mean = 0.0;
+  endpointSpread({{0, 0, 0}, {0.05, 0, 0}, {0.3, 0, 0}}, 0.1, &useful, &mean);
+  EXPECT_EQ(useful, 1);
+  EXPECT_NEAR(mean, (0.05 + 0.05 + 0.25) / 3.0, 1e-12);
+  endpointSpread({{0, 0, 0}}, 0.1, &useful, &mean);
+  EXPECT_EQ(useful, 1);
+  EXPECT_TRUE(std::isnan(mean));
+}
+
+TEST(SamplingStudy, UniformGridsMatchTheirClosedForm) {
+  registerBuiltinPlugins();
+  const auto config = SamplingStudyConfig::fromFile(writeStudy("study", kStudy));
+  const auto rows = runSamplingStudy(config);
+  ASSERT_EQ(rows.size(), 2u * 5u);
+  for (const auto& row : rows) {
+    // Endpoints are p + v tau + u tau^2 / 2: the control grid scaled by tau^2 / 2, whatever
+    // the state. 5 per axis over +-3: spacing 1.5 * 0.08 = 0.12 m > 0.1, all useful;
+    // 7 per axis: 1.0 * 0.08 = 0.08 m, none.
+    const bool coarse = row.sampler == "coarse";
+    EXPECT_EQ(row.controls, coarse ? 125 : 343);
+    EXPECT_EQ(row.useful, coarse ? 125 : 0);
+    EXPECT_NEAR(row.mean_nearest, coarse ? 0.12 : 0.08, 1e-9);
+    if (row.state == 0) {
+      EXPECT_EQ(row.limit_breaking, 0);  // at rest: |a| tau <= 1.2 < 2
+    }
+  }
+  // Moving states break limits with the controls that push along their velocity.
+  int breaking = 0;
+  for (const auto& row : rows) breaking += row.limit_breaking;
+  EXPECT_GT(breaking, 0);
+  const auto summaries = summarizeSamplingStudy(config, rows);
+  ASSERT_EQ(summaries.size(), 2u);
+  EXPECT_DOUBLE_EQ(summaries[0].alpha, 1.0);
+  EXPECT_DOUBLE_EQ(summaries[0].alpha_sd, 0.0);
+  // Seeded: the same file gives the same states.
+  EXPECT_EQ(samplingStudyStates(config)[3], samplingStudyStates(config)[3]);
+  EXPECT_GT(samplingStudyStates(config)[3].col(1).norm(), 0.5 - 1e-12);
+}
+
+std::string errorOf(const std::string& text) {
+  try {
+    SamplingStudyConfig::fromFile(writeStudy("bad", text));
+  } catch (const Error& error) {
+    return error.what();
+  }
+  return "no error";
+}
+
+TEST(SamplingStudy, BadFilesNameTheKey) {
+  registerBuiltinPlugins();
+  std::string text = kStudy;
+  EXPECT_NE(errorOf(text + "treshold: 0.2\n")
+                .find("unknown key 'treshold' (did you mean "
+                      "'threshold'?)"),
+            std::string::npos);
+  std::string unknown_type = text;
+  unknown_type.replace(unknown_type.find("type: uniform"), 13, "type: uniformm");
+  EXPECT_NE(errorOf(unknown_type).find("samplers[0].type: unknown sampler 'uniformm'"),
+            std::string::npos)
+      << errorOf(unknown_type);
+  std::string bad_param = text;
+  bad_param.replace(bad_param.find("samples_per_axis: 5"), 19, "samples_per_axis: 0");
+  EXPECT_NE(errorOf(bad_param).find("samplers[0].params.samples_per_axis: sampler 'uniform': "
+                                    "parameter 'samples_per_axis': expected an integer in [1, 64]"),
+            std::string::npos)
+      << errorOf(bad_param);
+  std::string no_limit = text;
+  no_limit.replace(no_limit.find("acceleration: 3.0"), 17, "jerk: 3.0");
+  EXPECT_NE(errorOf(no_limit).find("missing required key 'acceleration'"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace kinolab
