@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
-# The main job: install what is missing, build, and build the demo worlds with their
-# pictures into out/worlds/. (The paper reproduction replaces this once the experiment
-# runner exists.)
+# The main job: install what is missing, build, build the demo worlds with their pictures
+# into out/worlds/, and run the paper's Table I sampling study into out/sampling_study/.
+# (The paper reproduction replaces this once the experiment runner exists.)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/setup_debian.sh
@@ -9,4 +9,6 @@ bash scripts/build.sh
 for world in forest complex walls geb079; do
   ./build/framework/kinolab world "configs/worlds/$world.yaml" --out "out/worlds/$world"
 done
-echo "demo: pictures in out/worlds/*/top_view.png and out/worlds/*/esdf_slice.png"
+./build/framework/kinolab sampling-study experiments/paper_table1_samplers.yaml
+echo "demo: pictures in out/worlds/*/top_view.png and out/worlds/*/esdf_slice.png;"
+echo "      Table I in out/sampling_study/paper_table1_samplers/summary.csv"
