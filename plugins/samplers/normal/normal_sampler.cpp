@@ -34,16 +34,7 @@ class NormalSampler final : public ControlSampler {
       return controlGrid(values, u_max);
     }
     const int count = samples_per_axis_ * samples_per_axis_ * samples_per_axis_;
-    std::vector<Eigen::Vector3d> controls;
-    controls.reserve(count);
-    for (int i = 0; i < count; ++i) {
-      Eigen::Vector3d control;
-      for (int axis = 0; axis < 3; ++axis) {
-        control[axis] = truncatedQuantile(rng.uniform01()) * u_max[axis];
-      }
-      controls.push_back(control);
-    }
-    return controls;
+    return independentControls(count, u_max, [&] { return truncatedQuantile(rng.uniform01()); });
   }
 
  private:

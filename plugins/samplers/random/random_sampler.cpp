@@ -15,14 +15,7 @@ class RandomSampler final : public ControlSampler {
  protected:
   std::vector<Eigen::Vector3d> doSample(const Eigen::Vector3d& u_max, Rng& rng) const override {
     const int count = samples_per_axis_ * samples_per_axis_ * samples_per_axis_;
-    std::vector<Eigen::Vector3d> controls;
-    controls.reserve(count);
-    for (int i = 0; i < count; ++i) {
-      Eigen::Vector3d control;
-      for (int axis = 0; axis < 3; ++axis) control[axis] = rng.uniform(-1.0, 1.0) * u_max[axis];
-      controls.push_back(control);
-    }
-    return controls;
+    return independentControls(count, u_max, [&rng] { return rng.uniform(-1.0, 1.0); });
   }
 
  private:

@@ -31,6 +31,21 @@ class ControlSampler {
 std::vector<Eigen::Vector3d> controlGrid(const std::vector<double>& unit_values,
                                          const Eigen::Vector3d& u_max);
 
+/// `count` controls whose components are drawn independently: `unit_draw()` returns a
+/// fraction of u_max in [-1, 1], called for x, y, z of each control in turn.
+template <typename UnitDraw>
+std::vector<Eigen::Vector3d> independentControls(int count, const Eigen::Vector3d& u_max,
+                                                 UnitDraw&& unit_draw) {
+  std::vector<Eigen::Vector3d> controls;
+  controls.reserve(static_cast<std::size_t>(count));
+  for (int i = 0; i < count; ++i) {
+    Eigen::Vector3d control;
+    for (int axis = 0; axis < 3; ++axis) control[axis] = unit_draw() * u_max[axis];
+    controls.push_back(control);
+  }
+  return controls;
+}
+
 template <>
 PluginRegistry<ControlSampler>& pluginRegistry<ControlSampler>();
 
