@@ -23,6 +23,20 @@ Eigen::Vector3d positionFromPowers(const ChainState& start, const Eigen::Vector3
   return position;
 }
 
+/// The state after t from the powers t^m / m!: column k is the (k)-th derivative. Column 0
+/// is computed exactly as positionFromPowers does, so end state and last sample agree.
+ChainState stateFromPowers(const ChainState& start, const Eigen::Vector3d& control, int order,
+                           const std::array<double, 5>& powers) {
+  ChainState state = ChainState::Zero();
+  state.col(0) = positionFromPowers(start, control, order, powers);
+  for (int k = 1; k < order; ++k) {
+    Eigen::Vector3d value = start.col(k) + control * powers[order - k];
+    for (int m = k + 1; m < order; ++m) value += start.col(m) * powers[m - k];
+    state.col(k) = value;
+  }
+  return state;
+}
+
 void require(bool condition, const std::string& what) {
   if (!condition) throw InvalidArgument("edge evaluator: " + what);
 }
@@ -40,12 +54,14 @@ EdgeEvaluator::EdgeEvaluator(std::shared_ptr<const World> world, EdgeEvaluatorSe
   require(w.duration >= 0 && w.length >= 0 && w.control_effort >= 0 && w.obstacle >= 0,
           "cost weights must be non-negative");
   const double voxel = world_->esdf().resolution();
+  end_powers_ = powersOver(settings_.duration, settings_.order);
   if (settings_.sampling.mode == EdgeSampling::Mode::kCount) {
     require(settings_.sampling.samples >= 1, "samples (K) must be >= 1");
-    for (int k = 1; k <= settings_.sampling.samples; ++k) {
-      sample_powers_.push_back(
-          powersOver(settings_.duration * k / settings_.sampling.samples, settings_.order));
+    const int samples = settings_.sampling.samples;
+    for (int k = 1; k < samples; ++k) {
+      sample_powers_.push_back(powersOver(settings_.duration * k / samples, settings_.order));
     }
+    sample_powers_.push_back(end_powers_);
   } else {
     require(settings_.sampling.spacing > 0.0 && settings_.sampling.spacing <= 0.5 * voxel,
             "spacing must be in (0, half a voxel = " + formatNumber(0.5 * voxel) + " m], got " +
@@ -62,32 +78,23 @@ EdgeEvaluator::EdgeEvaluator(std::shared_ptr<const World> world, EdgeEvaluatorSe
   inverse_safety_distance_ = 1.0 / settings_.safety_distance;
 }
 
-Eigen::Vector3d EdgeEvaluator::positionAt(const ChainState& start, const Eigen::Vector3d& control,
-                                          double t) const {
-  return positionFromPowers(start, control, settings_.order, powersOver(t, settings_.order));
+ChainState EdgeEvaluator::endState(const ChainState& start, const Eigen::Vector3d& control) const {
+  return stateFromPowers(start, control, settings_.order, end_powers_);
 }
 
-double EdgeEvaluator::speedBound(const ChainState& start, const Eigen::Vector3d& control) const {
-  // Per axis |v(t)| <= sum of |coefficient| t^m / m! at t = tau.
-  const std::array<double, 5> powers = powersOver(settings_.duration, settings_.order);
-  Eigen::Array3d bound = control.array().abs() * powers[settings_.order - 1];
-  for (int m = 1; m < settings_.order; ++m) bound += start.col(m).array().abs() * powers[m - 1];
-  return bound.matrix().norm();
+double EdgeEvaluator::pathBound(const ChainState& start, const Eigen::Vector3d& control) const {
+  // Per axis |v(t)| <= sum of |coefficient| t^m / m! at t = tau; times tau for the path.
+  const int order = settings_.order;
+  Eigen::Array3d bound = control.array().abs() * end_powers_[order - 1];
+  for (int m = 1; m < order; ++m) bound += start.col(m).array().abs() * end_powers_[m - 1];
+  return bound.matrix().norm() * settings_.duration;
 }
 
-int EdgeEvaluator::sampleCount(const ChainState& start, const Eigen::Vector3d& control) const {
+int EdgeEvaluator::sampleCountFor(double path_bound) const {
   if (settings_.sampling.mode == EdgeSampling::Mode::kCount) return settings_.sampling.samples;
-  const double path_bound = speedBound(start, control) * settings_.duration;
   constexpr double kMaxSamples = 100000.0;
   return static_cast<int>(
       std::clamp(std::ceil(path_bound / settings_.sampling.spacing), 1.0, kMaxSamples));
-}
-
-double EdgeEvaluator::collisionThreshold(const ChainState& start, const Eigen::Vector3d& control,
-                                         int samples) const {
-  if (!settings_.certify) return settings_.robot_radius;
-  const double gap = speedBound(start, control) * settings_.duration / samples;
-  return settings_.robot_radius + 0.5 * lipschitz_ * gap;
 }
 
 double EdgeEvaluator::mapFreeCost(const Eigen::Vector3d& control) const {
@@ -98,15 +105,12 @@ double EdgeEvaluator::mapFreeCost(const Eigen::Vector3d& control) const {
 EdgeEvaluation EdgeEvaluator::partial(const ChainState& start,
                                       const Eigen::Vector3d& control) const {
   EdgeEvaluation result;
-  result.end = chain_.propagate(start, control, settings_.duration);
+  result.end = endState(start, control);
   result.within_limits = chain_.withinLimits(start, control, settings_.duration, settings_.limits);
   if (!result.within_limits) return result;
   result.samples = sampleCount(start, control);
-  // The end sample exactly as full evaluation computes it, so the shared terms agree.
-  const Eigen::Vector3d end =
-      settings_.sampling.mode == EdgeSampling::Mode::kCount
-          ? positionFromPowers(start, control, settings_.order, sample_powers_.back())
-          : positionAt(start, control, settings_.duration);
+  // The end state's position is the last sample of full evaluation, bit for bit.
+  const Eigen::Vector3d end = result.end.col(0);
   result.length = (end - start.col(0)).norm();
   result.esdf_queries = 1;
   const World& world = *world_;
@@ -129,12 +133,15 @@ EdgeEvaluation EdgeEvaluator::partial(const ChainState& start,
 
 EdgeEvaluation EdgeEvaluator::full(const ChainState& start, const Eigen::Vector3d& control) const {
   EdgeEvaluation result;
-  result.end = chain_.propagate(start, control, settings_.duration);
+  result.end = endState(start, control);
   result.within_limits = chain_.withinLimits(start, control, settings_.duration, settings_.limits);
   if (!result.within_limits) return result;
-  const int samples = sampleCount(start, control);
+  const double path_bound = pathBound(start, control);
+  const int samples = sampleCountFor(path_bound);
   result.samples = samples;
-  const double threshold = collisionThreshold(start, control, samples);
+  // With `certify`, samples at most path_bound / K apart: a Lipschitz margin over half that.
+  const double threshold =
+      settings_.robot_radius + (settings_.certify ? 0.5 * lipschitz_ * path_bound / samples : 0.0);
   const bool fixed = settings_.sampling.mode == EdgeSampling::Mode::kCount;
   const World& world = *world_;
   const Esdf& esdf = world.esdf();
@@ -149,8 +156,9 @@ EdgeEvaluation EdgeEvaluator::full(const ChainState& start, const Eigen::Vector3
   double penalty_sum = 0.0;
   for (int k = 1; k <= samples; ++k) {
     const Eigen::Vector3d position =
-        fixed ? positionFromPowers(start, control, order, sample_powers_[k - 1])
-              : positionAt(start, control, k == samples ? settings_.duration : step * k);
+        fixed          ? positionFromPowers(start, control, order, sample_powers_[k - 1])
+        : k == samples ? result.end.col(0)
+                       : positionFromPowers(start, control, order, powersOver(step * k, order));
     ++result.esdf_queries;
     result.length += (position - previous).norm();
     previous = position;
@@ -171,16 +179,6 @@ EdgeEvaluation EdgeEvaluator::full(const ChainState& start, const Eigen::Vector3
   result.cost =
       mapFreeCost(control) + settings_.weights.length * result.length + result.obstacle_cost;
   return result;
-}
-
-std::vector<Eigen::Vector3d> EdgeEvaluator::samplePositions(const ChainState& start,
-                                                            const Eigen::Vector3d& control) const {
-  const int samples = sampleCount(start, control);
-  std::vector<Eigen::Vector3d> positions;
-  for (int k = 1; k <= samples; ++k) {
-    positions.push_back(positionAt(start, control, settings_.duration * k / samples));
-  }
-  return positions;
 }
 
 }  // namespace kinolab

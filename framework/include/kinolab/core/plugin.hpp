@@ -43,8 +43,6 @@ class PluginRegistrar {
          }});
   }
 
-  const std::string& origin() const { return origin_; }
-
   /// Checks every pending key against the registries and each other, then adds them all.
   void commit();
 

@@ -87,20 +87,16 @@ class EdgeEvaluator {
   EdgeEvaluation full(const ChainState& start, const Eigen::Vector3d& control) const;
 
   /// The number of samples K full evaluation uses for this primitive.
-  int sampleCount(const ChainState& start, const Eigen::Vector3d& control) const;
-  /// The sample positions, k = 1..K (for figures and tests).
-  std::vector<Eigen::Vector3d> samplePositions(const ChainState& start,
-                                               const Eigen::Vector3d& control) const;
-  /// The clearance below which a full-evaluation sample counts as colliding, for K samples.
-  double collisionThreshold(const ChainState& start, const Eigen::Vector3d& control,
-                            int samples) const;
+  int sampleCount(const ChainState& start, const Eigen::Vector3d& control) const {
+    return sampleCountFor(pathBound(start, control));
+  }
 
  private:
-  /// Position at time t (closed form).
-  Eigen::Vector3d positionAt(const ChainState& start, const Eigen::Vector3d& control,
-                             double t) const;
-  /// An upper bound on the speed over the primitive.
-  double speedBound(const ChainState& start, const Eigen::Vector3d& control) const;
+  /// The end state after tau (closed form, from the precomputed powers of tau).
+  ChainState endState(const ChainState& start, const Eigen::Vector3d& control) const;
+  /// An upper bound on the path length over the primitive (speed bound times tau).
+  double pathBound(const ChainState& start, const Eigen::Vector3d& control) const;
+  int sampleCountFor(double path_bound) const;
   /// The weighted terms that need no map: duration and control effort.
   double mapFreeCost(const Eigen::Vector3d& control) const;
   /// phi of the clearance at an ESDF distance (inline: once per sample).
@@ -115,7 +111,9 @@ class EdgeEvaluator {
   double lipschitz_;
   double far_slack_;  ///< bound on |trilinear - nearest-voxel| ESDF value
   double inverse_safety_distance_;
-  /// For the fixed-count mode: t_k^m / m! per sample k (rows) and power m = 1..order.
+  /// tau^m / m!, m = 0..order.
+  std::array<double, 5> end_powers_;
+  /// For the fixed-count mode: t_k^m / m! per sample k (rows), the last row is end_powers_.
   std::vector<std::array<double, 5>> sample_powers_;
 };
 
