@@ -9,7 +9,7 @@ PACKAGES=(
   build-essential cmake pkg-config git
   # C++ libraries
   libeigen3-dev liboctomap-dev libyaml-cpp-dev libpng-dev libxxhash-dev libcli11-dev
-  nlohmann-json3-dev libboost-dev libgtest-dev libbenchmark-dev
+  nlohmann-json3-dev libboost-dev libfcl-dev libgtest-dev libbenchmark-dev
   # Python (Debian's interpreter and packages; the Python package index is not needed)
   python3 python3-numpy python3-scipy python3-yaml python3-pytest
 )

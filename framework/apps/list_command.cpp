@@ -5,6 +5,7 @@
 #include <nlohmann/json.hpp>
 
 #include "commands.hpp"
+#include "kinolab/planner/planner.hpp"
 #include "kinolab/primitives/control_sampler.hpp"
 
 namespace kinolab::apps {
@@ -16,7 +17,10 @@ struct Kind {
 };
 
 /// Every plugin kind, in the order they are listed.
-std::vector<Kind> allKinds() { return {{"samplers", pluginRegistry<ControlSampler>().list()}}; }
+std::vector<Kind> allKinds() {
+  return {{"planners", pluginRegistry<Planner>().list()},
+          {"samplers", pluginRegistry<ControlSampler>().list()}};
+}
 
 nlohmann::json toJson(const ParameterValue& value) {
   return std::visit([](const auto& v) { return nlohmann::json(v); }, value);

@@ -2,10 +2,10 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
-#include <fstream>
 
 #include "commands.hpp"
 #include "kinolab/core/error.hpp"
+#include "kinolab/core/files.hpp"
 #include "kinolab/core/text.hpp"
 #include "kinolab/experiment/sampling_study.hpp"
 
@@ -22,17 +22,6 @@ std::string orDash(const std::optional<double>& value, const char* format) {
   char buffer[32];
   std::snprintf(buffer, sizeof(buffer), format, *value);
   return buffer;
-}
-
-/// Writes through a temporary file and renames it, so a reader never sees half a table.
-void writeAtomically(const std::filesystem::path& path, const std::string& text) {
-  const std::filesystem::path temporary = path.string() + ".tmp";
-  {
-    std::ofstream out(temporary);
-    out << text;
-    if (!out.flush()) throw FileError(temporary.string() + ": cannot write");
-  }
-  std::filesystem::rename(temporary, path);
 }
 
 void runSamplingStudyCommand(const SamplingStudyOptions& options) {
@@ -86,8 +75,8 @@ void runSamplingStudyCommand(const SamplingStudyOptions& options) {
                (s.paper_alpha ? formatNumber(*s.paper_alpha) : "") + "," +
                (s.paper_l ? formatNumber(*s.paper_l) : "") + "\n";
   }
-  writeAtomically(out / "sampling_study.csv", per_state);
-  writeAtomically(out / "summary.csv", summary);
+  writeFileAtomically((out / "sampling_study.csv").string(), per_state);
+  writeFileAtomically((out / "summary.csv").string(), summary);
   std::printf("wrote %s/{sampling_study.csv, summary.csv}\n", out.string().c_str());
 }
 

@@ -132,6 +132,11 @@ const ParameterValue& ParameterSet::find(std::string_view name) const {
   throw InvalidArgument("parameter '" + std::string(name) + "' was never declared");
 }
 
+bool ParameterSet::has(std::string_view name) const {
+  return std::any_of(values_.begin(), values_.end(),
+                     [name](const auto& entry) { return entry.first == name; });
+}
+
 std::string ParameterSet::canonical() const {
   std::string text;
   for (const auto& [name, value] : values_) {

@@ -59,4 +59,14 @@ std::string join(const std::vector<std::string>& words, std::string_view separat
   return result;
 }
 
+std::string formatPoint(const Eigen::Vector3d& point) {
+  std::string text = "(";
+  for (int axis = 0; axis < 3; ++axis) {
+    if (axis > 0) text += ", ";
+    text += formatNumber(point[axis]);
+  }
+  text += ')';
+  return text;
+}
+
 }  // namespace kinolab

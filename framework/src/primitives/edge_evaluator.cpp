@@ -119,6 +119,7 @@ EdgeEvaluation EdgeEvaluator::partial(const ChainState& start,
     return result;
   }
   const double distance = world.esdf().distance(end);
+  result.end_distance = distance;
   if (distance < settings_.robot_radius) {
     result.collision_time = settings_.duration;
     return result;
@@ -131,6 +132,24 @@ EdgeEvaluation EdgeEvaluator::partial(const ChainState& start,
   return result;
 }
 
+double EdgeEvaluator::sampleMargin(double path_bound, int samples) const {
+  // Samples are at most path_bound / K apart along the path: a Lipschitz margin over half that.
+  return settings_.certify ? 0.5 * lipschitz_ * path_bound / samples : 0.0;
+}
+
+Eigen::Vector3d EdgeEvaluator::samplePosition(const ChainState& start,
+                                              const Eigen::Vector3d& control,
+                                              const Eigen::Vector3d& end, int k,
+                                              int samples) const {
+  const int order = settings_.order;
+  if (settings_.sampling.mode == EdgeSampling::Mode::kCount) {
+    return positionFromPowers(start, control, order, sample_powers_[k - 1]);
+  }
+  if (k == samples) return end;
+  return positionFromPowers(start, control, order,
+                            powersOver(settings_.duration * k / samples, order));
+}
+
 EdgeEvaluation EdgeEvaluator::full(const ChainState& start, const Eigen::Vector3d& control) const {
   EdgeEvaluation result;
   result.end = endState(start, control);
@@ -139,26 +158,24 @@ EdgeEvaluation EdgeEvaluator::full(const ChainState& start, const Eigen::Vector3
   const double path_bound = pathBound(start, control);
   const int samples = sampleCountFor(path_bound);
   result.samples = samples;
-  // With `certify`, samples at most path_bound / K apart: a Lipschitz margin over half that.
-  const double threshold =
-      settings_.robot_radius + (settings_.certify ? 0.5 * lipschitz_ * path_bound / samples : 0.0);
-  const bool fixed = settings_.sampling.mode == EdgeSampling::Mode::kCount;
+  const double margin = sampleMargin(path_bound, samples);
   const World& world = *world_;
   const Esdf& esdf = world.esdf();
   const Box& bounds = world.bounds();
-  const int order = settings_.order;
   const double step = settings_.duration / samples;
   // Far from every obstacle the penalty is zero and no collision is possible, and the cheap
   // nearest-voxel value tells so: it is within far_slack_ of the trilinear value.
-  const double far =
-      std::max(threshold, settings_.robot_radius + settings_.safety_distance) + far_slack_;
+  const double far = std::max(settings_.robot_radius + 2.0 * margin,
+                              settings_.robot_radius + settings_.safety_distance) +
+                     far_slack_;
+  const Eigen::Vector3d end = result.end.col(0);
   Eigen::Vector3d previous = start.col(0);
   double penalty_sum = 0.0;
+  // The first sample alone covers the stretch from the start (whose clearance is only known
+  // to be above the radius): twice the margin.
+  double threshold = settings_.robot_radius + 2.0 * margin;
   for (int k = 1; k <= samples; ++k) {
-    const Eigen::Vector3d position =
-        fixed          ? positionFromPowers(start, control, order, sample_powers_[k - 1])
-        : k == samples ? result.end.col(0)
-                       : positionFromPowers(start, control, order, powersOver(step * k, order));
+    const Eigen::Vector3d position = samplePosition(start, control, end, k, samples);
     ++result.esdf_queries;
     result.length += (position - previous).norm();
     previous = position;
@@ -166,12 +183,16 @@ EdgeEvaluation EdgeEvaluator::full(const ChainState& start, const Eigen::Vector3
       result.collision_time = step * k;
       return result;
     }
-    if (esdf.nearestDistance(position) >= far) continue;
+    if (esdf.nearestDistance(position) >= far) {
+      threshold = settings_.robot_radius + margin;
+      continue;
+    }
     const double distance = esdf.distance(position);
     if (distance < threshold) {
       result.collision_time = step * k;
       return result;
     }
+    threshold = settings_.robot_radius + margin;
     penalty_sum += penalty(distance);
   }
   result.collision_free = true;
@@ -179,6 +200,55 @@ EdgeEvaluation EdgeEvaluator::full(const ChainState& start, const Eigen::Vector3
   result.cost =
       mapFreeCost(control) + settings_.weights.length * result.length + result.obstacle_cost;
   return result;
+}
+
+EdgeEvaluation EdgeEvaluator::controlOnly(const ChainState& start,
+                                          const Eigen::Vector3d& control) const {
+  EdgeEvaluation result;
+  result.end = endState(start, control);
+  result.within_limits = chain_.withinLimits(start, control, settings_.duration, settings_.limits);
+  if (!result.within_limits) return result;
+  result.samples = sampleCount(start, control);
+  const Eigen::Vector3d end = result.end.col(0);
+  result.length = (end - start.col(0)).norm();
+  if (!world_->bounds().contains(end)) {
+    result.collision_time = settings_.duration;
+    return result;
+  }
+  result.collision_free = true;
+  result.cost = mapFreeCost(control) + settings_.weights.length * result.length;
+  return result;
+}
+
+bool EdgeEvaluator::certify(const ChainState& start, double start_distance,
+                            const Eigen::Vector3d& control, EdgeEvaluation& evaluation) const {
+  if (!evaluation.valid() || !std::isfinite(evaluation.end_distance)) return false;
+  const double path_bound = pathBound(start, control);
+  const int samples = sampleCountFor(path_bound);
+  const double needed = std::max(settings_.robot_radius + 2.0 * sampleMargin(path_bound, samples),
+                                 settings_.robot_radius + settings_.safety_distance);
+  const double lower = 0.5 * (start_distance + evaluation.end_distance - lipschitz_ * path_bound);
+  if (lower < needed) return false;
+  // Every sample within half the path bound of an endpoint: both endpoints that far inside.
+  const Box& bounds = world_->bounds();
+  const Eigen::Vector3d inset = Eigen::Vector3d::Constant(0.5 * path_bound);
+  const Box inner{bounds.min + inset, bounds.max - inset};
+  const Eigen::Vector3d end = evaluation.end.col(0);
+  if (!inner.contains(start.col(0)) || !inner.contains(end)) return false;
+  evaluation.samples = samples;
+  evaluation.obstacle_cost = 0.0;
+  evaluation.length = 0.0;
+  if (settings_.weights.length > 0.0) {
+    // The polyline full evaluation measures, through the same sample positions.
+    Eigen::Vector3d previous = start.col(0);
+    for (int k = 1; k <= samples; ++k) {
+      const Eigen::Vector3d position = samplePosition(start, control, end, k, samples);
+      evaluation.length += (position - previous).norm();
+      previous = position;
+    }
+  }
+  evaluation.cost = mapFreeCost(control) + settings_.weights.length * evaluation.length;
+  return true;
 }
 
 }  // namespace kinolab

@@ -49,6 +49,8 @@ class ParameterSet {
   double real(std::string_view name) const { return std::get<double>(find(name)); }
   /// A choice or text value.
   const std::string& text(std::string_view name) const { return std::get<std::string>(find(name)); }
+  /// True when the parameter was declared.
+  bool has(std::string_view name) const;
 
   const std::vector<std::pair<std::string, ParameterValue>>& values() const { return values_; }
   /// "name=value;..." in declaration order: what a run hash includes.

@@ -1,5 +1,6 @@
 #pragma once
 
+#include <Eigen/Core>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -15,6 +16,9 @@ std::string didYouMean(std::string_view word, const std::vector<std::string>& ca
 
 /// The shortest decimal text that reads back as the same double ("0.1", "1e-06", "inf").
 std::string formatNumber(double value);
+
+/// "(x, y, z)" with formatNumber() components.
+std::string formatPoint(const Eigen::Vector3d& point);
 
 /// The words joined by `separator`.
 std::string join(const std::vector<std::string>& words, std::string_view separator);

@@ -49,11 +49,12 @@ struct EdgeEvaluation {
   /// Sum of the weighted cost terms; for a partial evaluation a lower bound of the full cost.
   /// Infinite when the edge breaks a limit or collides.
   double cost = INFINITY;
-  double obstacle_cost = 0.0;    ///< the obstacle term (weighted) within `cost`
-  double length = 0.0;           ///< chord (partial) or polyline through the samples (full)
-  int samples = 0;               ///< samples the full evaluation uses (partial: the same K)
-  int esdf_queries = 0;          ///< samples actually looked up
-  double collision_time = -1.0;  ///< time of the first colliding sample, or -1
+  double obstacle_cost = 0.0;      ///< the obstacle term (weighted) within `cost`
+  double length = 0.0;             ///< chord (partial) or polyline through the samples (full)
+  int samples = 0;                 ///< samples the full evaluation uses (partial: the same K)
+  int esdf_queries = 0;            ///< samples actually looked up
+  double collision_time = -1.0;    ///< time of the first colliding sample, or -1
+  double end_distance = INFINITY;  ///< ESDF at the end (partial evaluation), if looked up
 
   bool valid() const { return within_limits && collision_free; }
 };
@@ -71,8 +72,9 @@ struct EdgeEvaluation {
 /// With `certify`, full evaluation treats a sample as colliding when its clearance is below
 /// L g / 2, g bounding the distance between consecutive samples and L the Lipschitz constant
 /// of the trilinear ESDF (sqrt(3) where the robot radius is at least a voxel diagonal, else
-/// 2 sqrt(3)): then every point of the primitive closer than the radius to an obstacle, as
-/// dense checking would find it, is caught.
+/// 2 sqrt(3)); the first sample, which alone covers the stretch from the start, uses L g.
+/// Then every point of the primitive closer than the radius to an obstacle, as dense
+/// checking would find it, is caught.
 class EdgeEvaluator {
  public:
   EdgeEvaluator(std::shared_ptr<const World> world, EdgeEvaluatorSettings settings);
@@ -85,6 +87,17 @@ class EdgeEvaluator {
   EdgeEvaluation partial(const ChainState& start, const Eigen::Vector3d& control) const;
   /// Every sample: the edge's true cost, or infinity when it breaks a limit or collides.
   EdgeEvaluation full(const ChainState& start, const Eigen::Vector3d& control) const;
+  /// No map query: end state, limits, the map bounds at the end, and the cost terms that need
+  /// no map (a lower bound of the full cost, weaker than partial).
+  EdgeEvaluation controlOnly(const ChainState& start, const Eigen::Vector3d& control) const;
+  /// Upgrades a valid partial evaluation to the full one without sampling the ESDF when the
+  /// Lipschitz bound proves it: every point of the primitive is within half the path bound l
+  /// of an endpoint, so its distance is at least (d_start + d_end - L l) / 2. When that is
+  /// beyond both the collision threshold of full evaluation and the penalty band, full
+  /// evaluation would find no collision and a zero obstacle term, so the cost is exact.
+  /// Returns false (and leaves `evaluation` as it was) when the bound cannot tell.
+  bool certify(const ChainState& start, double start_distance, const Eigen::Vector3d& control,
+               EdgeEvaluation& evaluation) const;
 
   /// The number of samples K full evaluation uses for this primitive.
   int sampleCount(const ChainState& start, const Eigen::Vector3d& control) const {
@@ -99,6 +112,11 @@ class EdgeEvaluator {
   int sampleCountFor(double path_bound) const;
   /// The weighted terms that need no map: duration and control effort.
   double mapFreeCost(const Eigen::Vector3d& control) const;
+  /// The collision threshold of full evaluation for samples after the first and the first.
+  double sampleMargin(double path_bound, int samples) const;
+  /// Position of sample k (1..samples) of a primitive whose end position is `end`.
+  Eigen::Vector3d samplePosition(const ChainState& start, const Eigen::Vector3d& control,
+                                 const Eigen::Vector3d& end, int k, int samples) const;
   /// phi of the clearance at an ESDF distance (inline: once per sample).
   double penalty(double distance) const {
     const double depth = 1.0 - (distance - settings_.robot_radius) * inverse_safety_distance_;

@@ -1,0 +1,136 @@
+#pragma once
+
+#include <Eigen/Core>
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <string_view>
+#include <utility>
+#include <vector>
+
+#include "kinolab/core/parameters.hpp"
+#include "kinolab/core/plugin_registry.hpp"
+#include "kinolab/core/stop_condition.hpp"
+#include "kinolab/dynamics/integrator_chain.hpp"
+#include "kinolab/trajectory/trajectory.hpp"
+#include "kinolab/validation/trajectory_checker.hpp"
+#include "kinolab/world/world.hpp"
+
+namespace kinolab {
+
+class ControlSampler;
+
+/// How a planning call ended.
+enum class PlanStatus {
+  kExact,              ///< a trajectory into the goal region
+  kApproximate,        ///< budget spent: the trajectory to the node closest to the goal
+  kNoSolution,         ///< the search space is exhausted without reaching the goal
+  kTimeout,            ///< budget spent with nothing better than the start
+  kInvalidStart,       ///< the start is outside the map, in collision or beyond the limits
+  kInvalidGoal,        ///< the goal is outside the map or in collision
+  kInvalidTrajectory,  ///< the planner returned a trajectory the checker rejects
+};
+
+/// "exact", "approximate", "no_solution", "timeout", "invalid_start", "invalid_goal",
+/// "invalid_trajectory".
+std::string_view toString(PlanStatus status);
+
+/// One planning problem. The goal is a position; the region around it is the planner's
+/// `goal_radius`.
+struct PlanningQuery {
+  ChainState start = ChainState::Zero();
+  Eigen::Vector3d goal = Eigen::Vector3d::Zero();
+};
+
+/// The body, limits and goal tolerance a planner plans for: what the checker holds its
+/// output to.
+struct PlanningModel {
+  double robot_radius = 0.25;
+  DynamicLimits limits;
+  int limited_derivatives = 2;  ///< limits apply to derivatives 1..this
+  double goal_radius = 0.5;
+};
+
+/// One edge of a planner's search tree or graph, for figures (the paper's Fig. 6).
+struct SearchTreeEdge {
+  enum class State { kPartial, kFull, kCertified, kRejected };
+  std::vector<Eigen::Vector3d> points;  ///< from the parent to the child
+  State state = State::kFull;
+  bool closed = false;  ///< the child was expanded (or reached the goal)
+};
+using SearchTree = std::vector<SearchTreeEdge>;
+std::string_view toString(SearchTreeEdge::State state);
+
+/// A named statistic a planner reports (counters and times); the runner stores them all.
+using Statistics = std::vector<std::pair<std::string, double>>;
+
+struct PlanResult {
+  PlanStatus status = PlanStatus::kNoSolution;
+  Trajectory trajectory;               ///< empty when there is none
+  double cost = INFINITY;              ///< the planner's own cost of the trajectory
+  double distance_to_goal = INFINITY;  ///< D: from the trajectory's closest point (or start)
+  double planning_time_ms = 0.0;       ///< around the planner's work only (no checking)
+  Statistics statistics;
+  CheckResult check;    ///< the independent checker's verdict on the trajectory
+  std::string message;  ///< why, for statuses other than exact
+};
+
+/// What a planner is set up with: the world, its control sampler (for planners that declare
+/// a `sampler` parameter) and the seed of its random streams.
+struct PlannerContext {
+  std::shared_ptr<const World> world;
+  std::shared_ptr<const ControlSampler> sampler;
+  std::uint64_t seed = 0;
+};
+
+/// The planner contract. A planner is configured from its parameters (by its factory), set
+/// up once per world, then asked to plan queries. plan() is the same for every planner: it
+/// rejects invalid starts and goals, times the planner's own work, and runs the independent
+/// checker on what it returns; a plugin implements the protected steps.
+class Planner {
+ public:
+  virtual ~Planner() = default;
+
+  void setup(const PlannerContext& context);
+  /// Plans one query within `budget`. With `tree`, the planner's search tree is written there.
+  PlanResult plan(const PlanningQuery& query, const Budget& budget, SearchTree* tree = nullptr);
+  /// Forgets everything from earlier queries (setup stays).
+  void reset() { doReset(); }
+
+  bool isSetup() const { return world_ != nullptr; }
+  const World& world() const;
+  PlanningModel model() const { return planningModel(); }
+
+ protected:
+  virtual void doSetup(const PlannerContext& context) = 0;
+  /// Plans from a valid start to a valid goal. The status, trajectory, cost and statistics
+  /// are the planner's; plan() adds the time, D and the checker's verdict.
+  virtual PlanResult doPlan(const PlanningQuery& query, StopCondition& stop, SearchTree* tree) = 0;
+  virtual void doReset() {}
+  virtual PlanningModel planningModel() const = 0;
+  /// The planner's own budget (from its parameters); plan() uses the tighter of this and
+  /// the caller's.
+  virtual Budget ownBudget() const { return {}; }
+
+ private:
+  std::shared_ptr<const World> world_;
+  std::unique_ptr<TrajectoryChecker> checker_;
+};
+
+template <>
+PluginRegistry<Planner>& pluginRegistry<Planner>();
+
+/// A planner created from its registered key and assignments. A planner that declares a
+/// `sampler` parameter gets that sampler, configured by the assignments named `sampler.NAME`;
+/// every assignment is validated before anything is created.
+struct ConfiguredPlanner {
+  std::unique_ptr<Planner> planner;
+  ParameterSet parameters;
+  std::shared_ptr<const ControlSampler> sampler;  ///< null for planners without one
+  std::string sampler_key;
+  ParameterSet sampler_parameters;
+};
+ConfiguredPlanner configurePlanner(std::string_view key,
+                                   const std::vector<ParameterAssignment>& assignments);
+
+}  // namespace kinolab

@@ -1,0 +1,174 @@
+#pragma once
+
+#include <Eigen/Core>
+#include <array>
+#include <cstdint>
+#include <memory>
+#include <unordered_map>
+#include <vector>
+
+#include "kinolab/core/stop_condition.hpp"
+#include "kinolab/planner/planner.hpp"
+#include "kinolab/primitives/edge_evaluator.hpp"
+
+namespace kinolab {
+
+/// When an edge's collision and obstacle cost are evaluated.
+enum class EvaluationMode {
+  kEager,  ///< fully, when its parent is expanded (classic MP-A*)
+  kLazy,   ///< a lower bound at expansion; fully when its entry is first popped
+};
+
+/// Which candidates of the same state the lazy search keeps.
+enum class DuplicateRule {
+  kLwa,   ///< every candidate cheaper than the state's best evaluated one (optimal)
+  kSeed,  ///< the paper's Algorithm 1 read literally: the first candidate only
+};
+
+/// The lower bound the lazy search queues a candidate with.
+enum class LowerBound {
+  kEndpoint,     ///< partial evaluation: collision and obstacle share at the end sample
+  kControlOnly,  ///< time, length and control terms only: no map query
+  kLipschitz,    ///< endpoint, and certified exact (evaluated) when the ESDF bound proves it
+};
+
+/// Lower bounds on the cost to the goal region, consistent with every edge's lower bound.
+enum class Heuristic {
+  kEuclidean,  ///< w_T |d| / |v_max| + w_L |d|, d = distance to the goal ball
+  kMinTime,    ///< w_T max_i(|d_i| / v_max_i) + w_L |d| (MPL's minimum-time bound, ref. [2])
+};
+
+struct SearchSettings {
+  EdgeEvaluatorSettings edges;
+  EvaluationMode mode = EvaluationMode::kLazy;
+  DuplicateRule duplicate_rule = DuplicateRule::kLwa;
+  LowerBound lower_bound = LowerBound::kEndpoint;
+  Heuristic heuristic = Heuristic::kMinTime;
+  double heuristic_weight = 1.0;  ///< epsilon >= 1: cost within epsilon times the optimum
+  double cost_weight = 1.0;       ///< weight of g in the priority; 0 = greedy best-first
+  /// State keys: position, velocity, acceleration (also used for jerk) rounded to these.
+  std::array<double, 3> key_resolution = {0.01, 0.01, 0.01};
+  double goal_radius = 0.5;
+};
+
+/// Counters of one search; see statistics() for their names.
+struct SearchCounters {
+  long long expansions = 0;
+  long long pops = 0;
+  long long partial_evaluations = 0;
+  long long full_evaluations = 0;
+  long long certified_edges = 0;
+  long long rejected_edges = 0;  ///< full evaluations that found a collision or limit breach
+  long long esdf_queries = 0;
+  long long open_peak = 0;
+  long long candidates = 0;
+  double evaluation_seconds = 0.0;
+};
+
+/// The motion-primitive A* core shared by the lazy and eager planners and by any new
+/// search-based plugin. Open-list entries are candidates (state, parent, control, cost,
+/// evaluation state); a state is closed only when an evaluated candidate for it is popped;
+/// a popped unevaluated candidate is fully evaluated and re-queued with its true cost (or
+/// dropped when the edge is invalid); the goal test happens on an evaluated pop inside the
+/// goal region. The open list is a binary heap with lazy deletion (stale entries are
+/// skipped when popped); candidates live in one array addressed by index.
+///
+/// With a consistent heuristic (both choices are, for weight 1) lazy with the `lwa` rule
+/// and eager return the same cost. States are keyed by rounding position and derivatives
+/// to `key_resolution` relative to the start: on the lattice a control grid spans this is
+/// exact; with sampled controls optimality is with respect to that discretisation.
+class MotionPrimitiveSearch {
+ public:
+  enum class Outcome { kGoal, kExhausted, kBudget };
+
+  MotionPrimitiveSearch(std::shared_ptr<const World> world, std::vector<Eigen::Vector3d> controls,
+                        SearchSettings settings);
+
+  const SearchSettings& settings() const { return settings_; }
+  const EdgeEvaluator& evaluator() const { return evaluator_; }
+  const std::vector<Eigen::Vector3d>& controls() const { return controls_; }
+
+  /// Searches from `start` (assumed valid) towards `goal`.
+  Outcome search(const ChainState& start, const Eigen::Vector3d& goal, StopCondition& stop);
+
+  /// After search(): the path to the goal (kGoal) or to the closed state nearest the goal.
+  Trajectory trajectory() const;
+  /// Cost of that path (sum of its edges' full costs).
+  double cost() const;
+  const SearchCounters& counters() const { return counters_; }
+  /// The counters by name, for results: expansions, pops, partial_evaluations, ...
+  Statistics statistics() const;
+  /// Every candidate edge with its evaluation state (for figures).
+  SearchTree tree(int points_per_edge = 6) const;
+
+  /// The heuristic from a position.
+  double heuristic(const Eigen::Vector3d& position) const;
+
+  /// Frees the memory of the last search.
+  void clear();
+
+ private:
+  using Key = std::array<std::int32_t, 12>;
+  struct KeyHash {
+    std::size_t operator()(const Key& key) const;
+  };
+  struct Slot {
+    double best_f = INFINITY;  ///< lowest priority of an evaluated candidate queued (lwa, eager)
+    int closed = -1;           ///< the candidate that closed the state
+    bool seen = false;         ///< a candidate was queued (seed rule)
+  };
+  enum class Evaluation : std::uint8_t { kPartial, kFull, kCertified, kRejected };
+  struct Candidate {
+    ChainState state;
+    double g = 0.0;
+    double distance = 0.0;  ///< ESDF at the state's position (INFINITY when not looked up)
+    int parent = -1;
+    int control = -1;
+    int slot = -1;
+    Evaluation evaluation = Evaluation::kFull;
+  };
+  struct HeapEntry {
+    double f;
+    double g;
+    int candidate;
+    /// Heap order: smallest f first; among equal f the deeper (larger g), then the older.
+    struct Later {
+      bool operator()(const HeapEntry& a, const HeapEntry& b) const {
+        if (a.f != b.f) return a.f > b.f;
+        if (a.g != b.g) return a.g < b.g;
+        return a.candidate > b.candidate;
+      }
+    };
+  };
+
+  Key keyOf(const ChainState& state) const;
+  /// f = cost_weight g + heuristic_weight h.
+  double priority(const Candidate& candidate) const;
+  int slotOf(const ChainState& state);
+  void push(int candidate);
+  void expand(int node);
+  /// Lazy: turns a popped partial candidate into an evaluated one; false when it is dropped.
+  bool evaluateFully(Candidate& candidate);
+
+  std::shared_ptr<const World> world_;
+  std::vector<Eigen::Vector3d> controls_;
+  SearchSettings settings_;
+  EdgeEvaluator evaluator_;
+  Eigen::Vector3d inverse_v_max_;
+  double inverse_speed_ = 0.0;
+
+  // The last search.
+  ChainState start_;
+  Eigen::Vector3d goal_;
+  std::vector<Candidate> candidates_;
+  std::vector<Slot> slots_;
+  std::unordered_map<Key, int, KeyHash> slot_index_;
+  std::vector<HeapEntry> heap_;
+  std::vector<EdgeEvaluation> evaluations_;  // scratch: one per control
+  std::vector<std::uint8_t> certified_;      // scratch: one per control
+  int goal_candidate_ = -1;
+  int nearest_candidate_ = -1;  ///< closed, nearest the goal
+  SearchCounters counters_;
+};
+
+}  // namespace kinolab

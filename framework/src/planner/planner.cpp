@@ -1,0 +1,182 @@
+#include "kinolab/planner/planner.hpp"
+
+#include <algorithm>
+#include <chrono>
+
+#include "kinolab/core/error.hpp"
+#include "kinolab/core/text.hpp"
+#include "kinolab/primitives/control_sampler.hpp"
+
+namespace kinolab {
+namespace {
+
+/// Why a position cannot be a start or goal, or "" when it can.
+std::string positionProblem(const World& world, const Eigen::Vector3d& position, double radius) {
+  if (!position.allFinite()) return "is not finite";
+  if (!world.bounds().contains(position)) {
+    const Box& b = world.bounds();
+    return formatPoint(position) + " is outside the map " + formatPoint(b.min) + " .. " +
+           formatPoint(b.max);
+  }
+  const double distance = world.distance(position);
+  if (distance < radius) {
+    return formatPoint(position) + " is in collision: clearance " + formatNumber(distance) +
+           " m is below the robot radius " + formatNumber(radius) + " m";
+  }
+  return "";
+}
+
+}  // namespace
+
+std::string_view toString(PlanStatus status) {
+  switch (status) {
+    case PlanStatus::kExact:
+      return "exact";
+    case PlanStatus::kApproximate:
+      return "approximate";
+    case PlanStatus::kNoSolution:
+      return "no_solution";
+    case PlanStatus::kTimeout:
+      return "timeout";
+    case PlanStatus::kInvalidStart:
+      return "invalid_start";
+    case PlanStatus::kInvalidGoal:
+      return "invalid_goal";
+    case PlanStatus::kInvalidTrajectory:
+      return "invalid_trajectory";
+  }
+  return "unknown";
+}
+
+std::string_view toString(SearchTreeEdge::State state) {
+  switch (state) {
+    case SearchTreeEdge::State::kPartial:
+      return "partial";
+    case SearchTreeEdge::State::kFull:
+      return "full";
+    case SearchTreeEdge::State::kCertified:
+      return "certified";
+    case SearchTreeEdge::State::kRejected:
+      return "rejected";
+  }
+  return "unknown";
+}
+
+template <>
+PluginRegistry<Planner>& pluginRegistry<Planner>() {
+  static PluginRegistry<Planner> registry("planner");
+  return registry;
+}
+
+const World& Planner::world() const {
+  if (!world_) throw InvalidArgument("planner: setup() was not called");
+  return *world_;
+}
+
+void Planner::setup(const PlannerContext& context) {
+  if (!context.world) throw InvalidArgument("planner: setup without a world");
+  doSetup(context);
+  const PlanningModel model = planningModel();
+  CheckerSettings settings;
+  settings.robot_radius = model.robot_radius;
+  settings.limits = model.limits;
+  settings.max_derivative = model.limited_derivatives;
+  checker_ = std::make_unique<TrajectoryChecker>(context.world, settings);
+  world_ = context.world;
+}
+
+PlanResult Planner::plan(const PlanningQuery& query, const Budget& budget, SearchTree* tree) {
+  const World& map = world();
+  const PlanningModel model = planningModel();
+  PlanResult result;
+  const Eigen::Vector3d start = query.start.col(0);
+  result.distance_to_goal = (start - query.goal).norm();
+  if (std::string problem = positionProblem(map, start, model.robot_radius); !problem.empty()) {
+    result.status = PlanStatus::kInvalidStart;
+    result.message = "start " + problem;
+    return result;
+  }
+  for (int k = 1; k < model.limited_derivatives; ++k) {
+    const Eigen::Vector3d excess = query.start.col(k).cwiseAbs() - model.limits.bound[k];
+    if (excess.maxCoeff() > 0.0) {
+      result.status = PlanStatus::kInvalidStart;
+      result.message = "start derivative " + std::to_string(k) + " " +
+                       formatPoint(query.start.col(k)) + " exceeds the limit " +
+                       formatPoint(model.limits.bound[k]);
+      return result;
+    }
+  }
+  if (std::string problem = positionProblem(map, query.goal, model.robot_radius);
+      !problem.empty()) {
+    result.status = PlanStatus::kInvalidGoal;
+    result.message = "goal " + problem;
+    return result;
+  }
+
+  const Budget own = ownBudget();
+  StopCondition stop(Budget{std::min(budget.time_limit, own.time_limit),
+                            std::min(budget.max_iterations, own.max_iterations)});
+  const auto begin = std::chrono::steady_clock::now();
+  result = doPlan(query, stop, tree);
+  result.planning_time_ms =
+      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - begin).count();
+
+  if (result.trajectory.empty()) {
+    result.distance_to_goal = (start - query.goal).norm();
+    return result;
+  }
+  CheckQuery check_query;
+  check_query.start = query.start;
+  check_query.goal = query.goal;
+  check_query.goal_radius = model.goal_radius;
+  check_query.require_goal = result.status == PlanStatus::kExact;
+  const auto check_begin = std::chrono::steady_clock::now();
+  result.check = checker_->check(result.trajectory, check_query);
+  result.statistics.emplace_back(
+      "time_check_ms",
+      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - check_begin)
+          .count());
+  result.distance_to_goal = result.trajectory.closestDistance(query.goal, checker_->spacing());
+  if (!result.check.valid && result.status != PlanStatus::kNoSolution) {
+    result.message = std::string(toString(result.status)) + " trajectory rejected by the " +
+                     result.check.check + " check at t = " + formatNumber(result.check.time) +
+                     " s: " + result.check.detail;
+    result.status = PlanStatus::kInvalidTrajectory;
+  }
+  return result;
+}
+
+ConfiguredPlanner configurePlanner(std::string_view key,
+                                   const std::vector<ParameterAssignment>& assignments) {
+  static constexpr std::string_view kPrefix = "sampler.";
+  std::vector<ParameterAssignment> own;
+  std::vector<ParameterAssignment> for_sampler;
+  for (const auto& assignment : assignments) {
+    if (assignment.name.starts_with(kPrefix)) {
+      ParameterAssignment inner = assignment;
+      inner.name = assignment.name.substr(kPrefix.size());
+      for_sampler.push_back(std::move(inner));
+    } else {
+      own.push_back(assignment);
+    }
+  }
+  const PluginRegistry<Planner>& planners = pluginRegistry<Planner>();
+  ConfiguredPlanner configured;
+  configured.parameters = planners.resolve(key, own);
+  const bool uses_sampler = planners.info(key).parameters.find("sampler") != nullptr;
+  if (uses_sampler) {
+    configured.sampler_key = configured.parameters.text("sampler");
+    const auto& samplers = pluginRegistry<ControlSampler>();
+    configured.sampler_parameters = samplers.resolve(configured.sampler_key, for_sampler);
+    configured.sampler =
+        samplers.createResolved(configured.sampler_key, configured.sampler_parameters);
+  } else if (!for_sampler.empty()) {
+    throw ConfigError(for_sampler.front().where + ": planner '" + std::string(key) +
+                      "' uses no control sampler, so 'sampler." + for_sampler.front().name +
+                      "' cannot be set");
+  }
+  configured.planner = planners.createResolved(key, configured.parameters);
+  return configured;
+}
+
+}  // namespace kinolab

@@ -1,0 +1,322 @@
+#include "kinolab/search/motion_primitive_search.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+
+#include "kinolab/core/error.hpp"
+
+namespace kinolab {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double secondsSince(Clock::time_point begin) {
+  return std::chrono::duration<double>(Clock::now() - begin).count();
+}
+
+}  // namespace
+
+std::size_t MotionPrimitiveSearch::KeyHash::operator()(const Key& key) const {
+  // SplitMix64-style mixing of the packed components.
+  std::uint64_t hash = 0x9E3779B97F4A7C15ull;
+  for (std::size_t i = 0; i < key.size(); i += 2) {
+    std::uint64_t word = (static_cast<std::uint64_t>(static_cast<std::uint32_t>(key[i])) << 32) |
+                         static_cast<std::uint32_t>(key[i + 1]);
+    word ^= hash;
+    word = (word ^ (word >> 30)) * 0xBF58476D1CE4E5B9ull;
+    word = (word ^ (word >> 27)) * 0x94D049BB133111EBull;
+    hash = word ^ (word >> 31);
+  }
+  return static_cast<std::size_t>(hash);
+}
+
+MotionPrimitiveSearch::MotionPrimitiveSearch(std::shared_ptr<const World> world,
+                                             std::vector<Eigen::Vector3d> controls,
+                                             SearchSettings settings)
+    : world_(std::move(world)),
+      controls_(std::move(controls)),
+      settings_(settings),
+      evaluator_(world_, settings_.edges) {
+  if (controls_.empty()) throw InvalidArgument("motion-primitive search: no controls");
+  if (!(settings_.heuristic_weight >= 1.0)) {
+    throw InvalidArgument("motion-primitive search: heuristic_weight must be >= 1");
+  }
+  if (!(settings_.cost_weight >= 0.0)) {
+    throw InvalidArgument("motion-primitive search: cost_weight must be >= 0");
+  }
+  for (double resolution : settings_.key_resolution) {
+    if (!(resolution > 0.0)) {
+      throw InvalidArgument("motion-primitive search: key resolutions must be positive");
+    }
+  }
+  const Eigen::Vector3d v_max = settings_.edges.limits.bound[1];
+  inverse_v_max_ = v_max.cwiseInverse();  // infinite limits give 0: no time bound
+  inverse_speed_ = std::isfinite(v_max.norm()) ? 1.0 / v_max.norm() : 0.0;
+  evaluations_.resize(controls_.size());
+  certified_.assign(controls_.size(), 0);
+}
+
+double MotionPrimitiveSearch::heuristic(const Eigen::Vector3d& position) const {
+  const Eigen::Vector3d offset = (position - goal_).cwiseAbs();
+  const double radius = settings_.goal_radius;
+  const double distance = std::max(offset.norm() - radius, 0.0);
+  const CostWeights& w = settings_.edges.weights;
+  double time = 0.0;
+  if (settings_.heuristic == Heuristic::kEuclidean) {
+    time = distance * inverse_speed_;
+  } else {
+    // The goal ball lies inside the cube of half-width R: per axis, the distance to that cube.
+    time = ((offset.array() - radius).max(0.0) * inverse_v_max_.array()).maxCoeff();
+  }
+  return w.duration * time + w.length * distance;
+}
+
+MotionPrimitiveSearch::Key MotionPrimitiveSearch::keyOf(const ChainState& state) const {
+  Key key{};
+  const int order = settings_.edges.order;
+  for (int k = 0; k < order; ++k) {
+    const double inverse = 1.0 / settings_.key_resolution[std::min(k, 2)];
+    for (int axis = 0; axis < 3; ++axis) {
+      const double scaled = std::round((state(axis, k) - start_(axis, k)) * inverse);
+      key[3 * k + axis] = static_cast<std::int32_t>(std::clamp(scaled, -2.0e9, 2.0e9));
+    }
+  }
+  return key;
+}
+
+int MotionPrimitiveSearch::slotOf(const ChainState& state) {
+  const auto [it, inserted] =
+      slot_index_.try_emplace(keyOf(state), static_cast<int>(slots_.size()));
+  if (inserted) slots_.emplace_back();
+  return it->second;
+}
+
+double MotionPrimitiveSearch::priority(const Candidate& candidate) const {
+  return settings_.cost_weight * candidate.g +
+         settings_.heuristic_weight * heuristic(candidate.state.col(0));
+}
+
+void MotionPrimitiveSearch::push(int candidate) {
+  const Candidate& c = candidates_[candidate];
+  heap_.push_back({priority(c), c.g, candidate});
+  std::push_heap(heap_.begin(), heap_.end(), HeapEntry::Later{});
+  counters_.open_peak =
+      std::max<long long>(counters_.open_peak, static_cast<long long>(heap_.size()));
+}
+
+void MotionPrimitiveSearch::clear() {
+  candidates_ = {};
+  slots_ = {};
+  slot_index_ = {};
+  heap_ = {};
+  goal_candidate_ = -1;
+  nearest_candidate_ = -1;
+  counters_ = {};
+}
+
+bool MotionPrimitiveSearch::evaluateFully(Candidate& candidate) {
+  const Candidate& parent = candidates_[candidate.parent];
+  const auto begin = Clock::now();
+  const EdgeEvaluation full = evaluator_.full(parent.state, controls_[candidate.control]);
+  counters_.evaluation_seconds += secondsSince(begin);
+  ++counters_.full_evaluations;
+  counters_.esdf_queries += full.esdf_queries;
+  if (!full.valid()) {
+    candidate.evaluation = Evaluation::kRejected;
+    ++counters_.rejected_edges;
+    return false;
+  }
+  candidate.g = parent.g + full.cost;
+  candidate.evaluation = Evaluation::kFull;
+  Slot& slot = slots_[candidate.slot];
+  if (settings_.duplicate_rule == DuplicateRule::kLwa) {
+    const double f = priority(candidate);
+    if (f > slot.best_f) return false;
+    slot.best_f = f;
+  }
+  return true;
+}
+
+void MotionPrimitiveSearch::expand(int node) {
+  ++counters_.expansions;
+  const ChainState parent_state = candidates_[node].state;
+  const double parent_g = candidates_[node].g;
+  const double parent_distance = candidates_[node].distance;
+  const bool lazy = settings_.mode == EvaluationMode::kLazy;
+
+  // Evaluate every primitive first (timed as evaluation), then queue them.
+  const auto begin = Clock::now();
+  for (std::size_t i = 0; i < controls_.size(); ++i) {
+    EdgeEvaluation& evaluation = evaluations_[i];
+    if (!lazy) {
+      evaluation = evaluator_.full(parent_state, controls_[i]);
+      ++counters_.full_evaluations;
+      if (evaluation.within_limits && !evaluation.collision_free) ++counters_.rejected_edges;
+    } else if (settings_.lower_bound == LowerBound::kControlOnly) {
+      evaluation = evaluator_.controlOnly(parent_state, controls_[i]);
+      ++counters_.partial_evaluations;
+    } else {
+      evaluation = evaluator_.partial(parent_state, controls_[i]);
+      ++counters_.partial_evaluations;
+      certified_[i] = settings_.lower_bound == LowerBound::kLipschitz &&
+                      evaluator_.certify(parent_state, parent_distance, controls_[i], evaluation);
+      counters_.certified_edges += certified_[i];
+    }
+    counters_.esdf_queries += evaluation.esdf_queries;
+  }
+  counters_.evaluation_seconds += secondsSince(begin);
+
+  for (std::size_t i = 0; i < controls_.size(); ++i) {
+    const EdgeEvaluation& evaluation = evaluations_[i];
+    if (!evaluation.valid()) continue;
+    const int slot_index = slotOf(evaluation.end);
+    Slot& slot = slots_[slot_index];
+    if (slot.closed >= 0) continue;
+    Evaluation state = Evaluation::kFull;
+    if (lazy) state = certified_[i] ? Evaluation::kCertified : Evaluation::kPartial;
+    Candidate candidate;
+    candidate.state = evaluation.end;
+    candidate.g = parent_g + evaluation.cost;
+    if (settings_.duplicate_rule == DuplicateRule::kSeed && lazy) {
+      if (slot.seen) continue;
+      slot.seen = true;
+    } else {
+      // A candidate queued behind an evaluated one of the same state would be dropped when
+      // popped, as that one closes the state first (a partial f is a lower bound of the
+      // full f), so it is not queued at all. Equal priorities are kept: the tie-break decides.
+      const double f = priority(candidate);
+      if (f > slot.best_f) continue;
+      if (state != Evaluation::kPartial) slot.best_f = f;
+    }
+    candidate.distance = evaluation.end_distance;
+    candidate.parent = node;
+    candidate.control = static_cast<int>(i);
+    candidate.slot = slot_index;
+    candidate.evaluation = state;
+    candidates_.push_back(candidate);
+    push(static_cast<int>(candidates_.size()) - 1);
+  }
+}
+
+MotionPrimitiveSearch::Outcome MotionPrimitiveSearch::search(const ChainState& start,
+                                                             const Eigen::Vector3d& goal,
+                                                             StopCondition& stop) {
+  clear();
+  start_ = start;
+  goal_ = goal;
+  candidates_.reserve(1 << 16);
+  Candidate root;
+  root.state = start;
+  root.distance = world_->distance(start.col(0));
+  root.slot = slotOf(start);
+  candidates_.push_back(root);
+  slots_[root.slot].best_f = priority(root);
+  slots_[root.slot].seen = true;
+  push(0);
+
+  double nearest = INFINITY;
+  Outcome outcome = Outcome::kExhausted;
+  while (!heap_.empty()) {
+    if (stop.expired(counters_.expansions)) {
+      outcome = Outcome::kBudget;
+      break;
+    }
+    std::pop_heap(heap_.begin(), heap_.end(), HeapEntry::Later{});
+    const int index = heap_.back().candidate;
+    heap_.pop_back();
+    ++counters_.pops;
+    Candidate& candidate = candidates_[index];
+    // Stale: the state was closed by a cheaper candidate.
+    if (slots_[candidate.slot].closed >= 0) continue;
+    if (candidate.evaluation == Evaluation::kPartial) {
+      if (evaluateFully(candidate)) push(index);
+      continue;
+    }
+    slots_[candidate.slot].closed = index;
+    const double distance = (candidate.state.col(0) - goal_).norm();
+    if (distance < nearest) {
+      nearest = distance;
+      nearest_candidate_ = index;
+    }
+    if (distance <= settings_.goal_radius) {
+      goal_candidate_ = index;
+      outcome = Outcome::kGoal;
+      break;
+    }
+    expand(index);
+  }
+  counters_.candidates = static_cast<long long>(candidates_.size());
+  return outcome;
+}
+
+Trajectory MotionPrimitiveSearch::trajectory() const {
+  const int last = goal_candidate_ >= 0 ? goal_candidate_ : nearest_candidate_;
+  std::vector<int> path;
+  for (int i = last; i > 0; i = candidates_[i].parent) path.push_back(i);
+  Trajectory trajectory;
+  for (auto it = path.rbegin(); it != path.rend(); ++it) {
+    const Candidate& candidate = candidates_[*it];
+    trajectory.append(TrajectorySegment::primitive(
+        candidates_[candidate.parent].state, controls_[candidate.control], settings_.edges.order,
+        settings_.edges.duration));
+  }
+  return trajectory;
+}
+
+double MotionPrimitiveSearch::cost() const {
+  const int last = goal_candidate_ >= 0 ? goal_candidate_ : nearest_candidate_;
+  return last >= 0 ? candidates_[last].g : INFINITY;
+}
+
+Statistics MotionPrimitiveSearch::statistics() const {
+  const auto value = [](long long count) { return static_cast<double>(count); };
+  return {{"expansions", value(counters_.expansions)},
+          {"pops", value(counters_.pops)},
+          {"partial_evaluations", value(counters_.partial_evaluations)},
+          {"full_evaluations", value(counters_.full_evaluations)},
+          {"certified_edges", value(counters_.certified_edges)},
+          {"rejected_edges", value(counters_.rejected_edges)},
+          {"esdf_queries", value(counters_.esdf_queries)},
+          {"open_peak", value(counters_.open_peak)},
+          {"candidates", value(counters_.candidates)},
+          {"closed_states",
+           value(static_cast<long long>(std::count_if(
+               slots_.begin(), slots_.end(), [](const Slot& slot) { return slot.closed >= 0; })))},
+          {"time_evaluation_ms", 1e3 * counters_.evaluation_seconds}};
+}
+
+SearchTree MotionPrimitiveSearch::tree(int points_per_edge) const {
+  SearchTree tree;
+  tree.reserve(candidates_.size());
+  const IntegratorChain& chain = evaluator_.chain();
+  const double tau = settings_.edges.duration;
+  for (std::size_t i = 1; i < candidates_.size(); ++i) {
+    const Candidate& candidate = candidates_[i];
+    SearchTreeEdge edge;
+    const ChainState& from = candidates_[candidate.parent].state;
+    for (int p = 0; p < points_per_edge; ++p) {
+      const double t = tau * p / (points_per_edge - 1);
+      edge.points.push_back(chain.stateAt(from, controls_[candidate.control], t).col(0));
+    }
+    switch (candidate.evaluation) {
+      case Evaluation::kPartial:
+        edge.state = SearchTreeEdge::State::kPartial;
+        break;
+      case Evaluation::kFull:
+        edge.state = SearchTreeEdge::State::kFull;
+        break;
+      case Evaluation::kCertified:
+        edge.state = SearchTreeEdge::State::kCertified;
+        break;
+      case Evaluation::kRejected:
+        edge.state = SearchTreeEdge::State::kRejected;
+        break;
+    }
+    edge.closed = slots_[candidate.slot].closed == static_cast<int>(i);
+    tree.push_back(std::move(edge));
+  }
+  return tree;
+}
+
+}  // namespace kinolab

@@ -1,0 +1,197 @@
+#include "kinolab/validation/trajectory_checker.hpp"
+
+#include <fcl/fcl.h>
+#include <octomap/OcTree.h>
+
+#include <algorithm>
+#include <cmath>
+
+#include "kinolab/core/error.hpp"
+#include "kinolab/core/text.hpp"
+
+namespace kinolab {
+namespace {
+
+const char* kAxes[] = {"x", "y", "z"};
+const char* kDerivatives[] = {"position", "velocity", "acceleration", "jerk", "snap"};
+
+/// An upper bound on the speed over a segment: sum_k k |c_k| T^(k-1) per axis.
+double speedBound(const TrajectorySegment& segment) {
+  Eigen::Array3d bound = Eigen::Array3d::Zero();
+  for (int k = 1; k < segment.coefficients.cols(); ++k) {
+    bound += k * segment.coefficients.col(k).array().abs() * std::pow(segment.duration, k - 1);
+  }
+  return bound.matrix().norm();
+}
+
+}  // namespace
+
+/// The world's occupied voxels as an OctoMap tree wrapped for FCL. The tree is built in grid
+/// coordinates (world minus the grid origin), so its cubes are exactly the grid's voxels.
+struct TrajectoryChecker::Fcl {
+  Eigen::Vector3d origin;
+  std::shared_ptr<fcl::CollisionObjectd> tree;
+  std::shared_ptr<fcl::Sphered> sphere;
+  mutable fcl::CollisionObjectd body;
+
+  Fcl(const VoxelGrid& grid, double radius)
+      : origin(grid.origin()), sphere(std::make_shared<fcl::Sphered>(radius)), body(sphere) {
+    auto octree = std::make_shared<octomap::OcTree>(grid.resolution());
+    const Eigen::Vector3i& dims = grid.dims();
+    for (int ix = 0; ix < dims.x(); ++ix) {
+      for (int iy = 0; iy < dims.y(); ++iy) {
+        for (int iz = 0; iz < dims.z(); ++iz) {
+          if (!grid.occupied(grid.index(ix, iy, iz))) continue;
+          const double r = grid.resolution();
+          octree->updateNode(octomap::point3d(static_cast<float>((ix + 0.5) * r),
+                                              static_cast<float>((iy + 0.5) * r),
+                                              static_cast<float>((iz + 0.5) * r)),
+                             true, /*lazy_eval=*/true);
+        }
+      }
+    }
+    octree->updateInnerOccupancy();
+    tree = std::make_shared<fcl::CollisionObjectd>(
+        std::make_shared<fcl::OcTreed>(std::shared_ptr<const octomap::OcTree>(octree)));
+    tree->computeAABB();
+  }
+
+  bool collides(const Eigen::Vector3d& position) const {
+    body.setTranslation(position - origin);
+    body.computeAABB();
+    fcl::CollisionRequestd request;
+    fcl::CollisionResultd result;
+    fcl::collide(&body, tree.get(), request, result);
+    return result.isCollision();
+  }
+};
+
+TrajectoryChecker::TrajectoryChecker(std::shared_ptr<const World> world, CheckerSettings settings)
+    : world_(std::move(world)), settings_(std::move(settings)) {
+  if (!world_) throw InvalidArgument("trajectory checker: no world");
+  if (!(settings_.robot_radius >= 0.0)) {
+    throw InvalidArgument("trajectory checker: robot_radius must be >= 0");
+  }
+  if (settings_.max_derivative < 1 || settings_.max_derivative > 4) {
+    throw InvalidArgument("trajectory checker: max_derivative must be in [1, 4]");
+  }
+  const double voxel = world_->esdf().resolution();
+  spacing_ = settings_.spacing > 0.0 ? settings_.spacing : std::min(0.25 * voxel, 0.025);
+  const double fcl_radius = settings_.robot_radius - std::sqrt(3.0) * voxel;
+  // Below that the ESDF test cannot exclude a point inside an occupied cube: no FCL check.
+  if (settings_.use_fcl && fcl_radius > 0.0) {
+    fcl_ = std::make_unique<Fcl>(world_->grid(), fcl_radius);
+  }
+}
+
+TrajectoryChecker::~TrajectoryChecker() = default;
+TrajectoryChecker::TrajectoryChecker(TrajectoryChecker&&) noexcept = default;
+TrajectoryChecker& TrajectoryChecker::operator=(TrajectoryChecker&&) noexcept = default;
+
+bool TrajectoryChecker::fclCollides(const Eigen::Vector3d& position) const {
+  return fcl_ && fcl_->collides(position);
+}
+
+CheckResult TrajectoryChecker::check(const Trajectory& trajectory, const CheckQuery& query) const {
+  CheckResult result;
+  result.fcl_radius = fcl_ ? fcl_->sphere->radius : 0.0;
+  const auto fail = [&result](std::string check, double time, const Eigen::Vector3d& position,
+                              std::string detail) {
+    result.valid = false;
+    result.check = std::move(check);
+    result.time = time;
+    result.position = position;
+    result.detail = std::move(detail);
+    return result;
+  };
+  if (trajectory.empty()) return fail("empty", 0.0, query.start.col(0), "no trajectory");
+
+  // Start: position and every derivative below the control.
+  const double tol = settings_.tolerance;
+  for (int k = 0; k < settings_.max_derivative; ++k) {
+    const Eigen::Vector3d value = trajectory.evaluate(0.0, k);
+    if ((value - query.start.col(k)).cwiseAbs().maxCoeff() > tol) {
+      return fail("start", 0.0, trajectory.startPosition(),
+                  std::string(kDerivatives[k]) + " at t = 0 is " + formatPoint(value) +
+                      ", the query's start has " + formatPoint(query.start.col(k)));
+    }
+  }
+
+  // Limits, on both sides of every joint and at the position samples in between.
+  const DynamicLimits& limits = settings_.limits;
+  double segment_start = 0.0;
+  std::vector<std::pair<double, double>> times;  // (global time, local time) per segment
+  for (const auto& segment : trajectory.segments()) {
+    const double path = speedBound(segment) * segment.duration;
+    const int steps = std::clamp(static_cast<int>(std::ceil(path / spacing_)), 1, 1000000);
+    times.clear();
+    for (int i = 0; i <= steps; ++i) {
+      const double local = segment.duration * i / steps;
+      times.emplace_back(segment_start + local, local);
+    }
+    for (const auto& [time, local] : times) {
+      for (int k = 1; k <= settings_.max_derivative; ++k) {
+        const Eigen::Vector3d value = segment.evaluate(local, k);
+        for (int axis = 0; axis < 3; ++axis) {
+          const double bound = limits.bound[k][axis];
+          if (std::abs(value[axis]) > bound * (1.0 + tol) + tol) {
+            return fail("limits", time, segment.evaluate(local),
+                        std::string(kDerivatives[k]) + " " + kAxes[axis] + " = " +
+                            formatNumber(value[axis]) + " exceeds the limit " +
+                            formatNumber(bound));
+          }
+        }
+      }
+    }
+    segment_start += segment.duration;
+  }
+
+  // Collision: every position sample against the map bounds and the ESDF, then FCL.
+  const World& world = *world_;
+  double clearance_sum = 0.0;
+  result.min_clearance = INFINITY;
+  segment_start = 0.0;
+  for (const auto& segment : trajectory.segments()) {
+    const double path = speedBound(segment) * segment.duration;
+    const int steps = std::clamp(static_cast<int>(std::ceil(path / spacing_)), 1, 1000000);
+    for (int i = 0; i <= steps; ++i) {
+      const double local = segment.duration * i / steps;
+      const double time = segment_start + local;
+      const Eigen::Vector3d position = segment.evaluate(local);
+      ++result.samples;
+      if (!world.bounds().contains(position)) {
+        return fail("bounds", time, position,
+                    "position " + formatPoint(position) + " leaves the map");
+      }
+      const double clearance = world.distance(position) - settings_.robot_radius;
+      result.min_clearance = std::min(result.min_clearance, clearance);
+      clearance_sum += clearance;
+      if (clearance < -1e-9) {
+        return fail("esdf", time, position,
+                    "ESDF distance " + formatNumber(clearance + settings_.robot_radius) +
+                        " m is below the robot radius " + formatNumber(settings_.robot_radius));
+      }
+      if (fcl_ && fcl_->collides(position)) {
+        return fail("fcl", time, position,
+                    "FCL: a sphere of radius " + formatNumber(fcl_->sphere->radius) +
+                        " m touches an occupied voxel");
+      }
+    }
+    segment_start += segment.duration;
+  }
+  result.mean_clearance = clearance_sum / result.samples;
+
+  if (query.require_goal) {
+    const Eigen::Vector3d end = trajectory.endPosition();
+    const double distance = (end - query.goal).norm();
+    if (distance > query.goal_radius + tol) {
+      return fail("goal", trajectory.duration(), end,
+                  "ends " + formatNumber(distance) + " m from the goal " + formatPoint(query.goal) +
+                      ", outside the goal radius " + formatNumber(query.goal_radius));
+    }
+  }
+  result.valid = true;
+  return result;
+}
+
+}  // namespace kinolab

@@ -1,0 +1,21 @@
+// `lazy_mp_astar`: the paper's lazy motion-primitive A*: edges are queued with a lower bound
+// and fully evaluated only when popped. With the `lwa` duplicate rule it returns the same
+// cost as eager_mp_astar; `seed` is the paper's Algorithm 1 read literally.
+#include "kinolab/core/plugin.hpp"
+#include "kinolab/search/motion_primitive_planner.hpp"
+
+KINOLAB_REGISTER_PLUGINS(registrar) {
+  using namespace kinolab;
+  registrar.add<Planner>(
+      "lazy_mp_astar", "lazy motion-primitive A*: lower bound at expansion, full check at pop",
+      motionPrimitiveParameters()
+          .choice("duplicate_rule", "lwa", {"lwa", "seed"},
+                  "lwa: keep every cheaper candidate of a state (optimal); seed: the paper's "
+                  "literal rule, first candidate only")
+          .choice("lower_bound", "endpoint", {"endpoint", "control_only", "lipschitz"},
+                  "queued cost: end-sample obstacle term; no map term; or endpoint plus "
+                  "Lipschitz certification of clear edges"),
+      [](const ParameterSet& parameters) {
+        return std::make_unique<MotionPrimitivePlanner>(parameters, EvaluationMode::kLazy);
+      });
+}
