@@ -3,24 +3,16 @@
 #include <gtest/gtest.h>
 
 #include <cctype>
-#include <cstdlib>
-#include <sstream>
 
-#include "kinolab/builtin_plugins.hpp"
 #include "kinolab/core/plugin.hpp"
 #include "kinolab/primitives/control_sampler.hpp"
+#include "support/test_plugins.hpp"
 
 namespace kinolab {
 namespace {
 
 std::vector<std::string> registeredSamplers() {
-  registerBuiltinPlugins();
-  if (const char* extra = std::getenv("KINOLAB_TEST_PLUGINS")) {
-    std::istringstream paths(extra);
-    for (std::string path; std::getline(paths, path, ':');) {
-      if (!path.empty()) loadPluginLibrary(path);
-    }
-  }
+  test::loadTestPlugins();
   return pluginRegistry<ControlSampler>().keys();
 }
 

@@ -1,0 +1,74 @@
+#pragma once
+
+#include <map>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "kinolab/core/random.hpp"
+#include "kinolab/core/yaml_reader.hpp"
+#include "kinolab/planner/planner.hpp"
+#include "kinolab/world/world.hpp"
+
+namespace kinolab::test {
+
+/// Small worlds (12 m x 12 m x 3 m at 0.1 m) of each generator, built once per process.
+inline std::shared_ptr<const World> smallWorld(const std::string& kind) {
+  static std::map<std::string, std::shared_ptr<const World>> worlds;
+  if (auto found = worlds.find(kind); found != worlds.end()) return found->second;
+  const std::string head =
+      "name: " + kind + "\nseed: 11\nresolution: 0.1\nbounds: {min: [0, 0, 0], max: [12, 12, 3]}\n";
+  std::string generators;
+  if (kind == "forest") {
+    generators =
+        "generators: [{type: forest, density: 0.15, trunk_radius: [0.15, 0.3], "
+        "trunk_height: [2.5, 3], min_spacing: 0.8, ground_plane: true}]\n";
+  } else if (kind == "boxes") {
+    generators =
+        "generators: [{type: boxes, count: 25, size_x: [0.5, 2], size_y: [0.5, 2], "
+        "size_z: [0.5, 3], on_ground: true}]\n";
+  } else if (kind == "walls") {
+    generators =
+        "generators: [{type: walls, cell_size: 4.0, thickness: 0.3, height: 3.0, "
+        "gap_width: 1.5, extra_openings: 0.3, border: true}]\n";
+  } else {
+    generators = "generators: [{type: empty}]\n";
+  }
+  auto world = World::build(
+      WorldSpec::fromYaml(YamlReader::loadString(head + generators, kind + ".yaml"), "."));
+  worlds.emplace(kind, world);
+  return world;
+}
+
+/// Seeded start/goal pairs at rest, both with `clearance` (m) of free space, at least
+/// `min_distance` and at most `max_distance` apart, at heights in [0.8, 2.2] m.
+inline std::vector<PlanningQuery> randomQueries(const World& world, int count, std::uint64_t seed,
+                                                double min_distance, double max_distance,
+                                                double clearance) {
+  Rng rng(seed);
+  const Box& bounds = world.bounds();
+  const auto draw = [&] {
+    for (;;) {
+      const Eigen::Vector3d p(rng.uniform(bounds.min.x() + 0.5, bounds.max.x() - 0.5),
+                              rng.uniform(bounds.min.y() + 0.5, bounds.max.y() - 0.5),
+                              rng.uniform(0.8, 2.2));
+      if (world.isFree(p, clearance)) return p;
+    }
+  };
+  std::vector<PlanningQuery> queries;
+  while (static_cast<int>(queries.size()) < count) {
+    PlanningQuery query;
+    query.start.col(0) = draw();
+    query.goal = draw();
+    const double distance = (query.goal - query.start.col(0)).norm();
+    if (distance >= min_distance && distance <= max_distance) queries.push_back(query);
+  }
+  return queries;
+}
+
+/// `key=value` items as assignments.
+inline std::vector<ParameterAssignment> assignments(const std::vector<std::string>& items) {
+  return parseAssignments(items, "test");
+}
+
+}  // namespace kinolab::test
