@@ -78,18 +78,39 @@ MotionPrimitiveSearch::Key MotionPrimitiveSearch::keyOf(const ChainState& state)
   for (int k = 0; k < order; ++k) {
     const double inverse = 1.0 / settings_.key_resolution[std::min(k, 2)];
     for (int axis = 0; axis < 3; ++axis) {
-      const double scaled = std::round((state(axis, k) - start_(axis, k)) * inverse);
-      key[3 * k + axis] = static_cast<std::int32_t>(std::clamp(scaled, -2.0e9, 2.0e9));
+      // Round half up: floor(x + 0.5) by truncation and a correction (no libm call).
+      const double shifted =
+          std::clamp((state(axis, k) - start_(axis, k)) * inverse, -2.0e9, 2.0e9) + 0.5;
+      auto rounded = static_cast<std::int32_t>(shifted);
+      if (rounded > shifted) --rounded;
+      key[3 * k + axis] = rounded;
     }
   }
   return key;
 }
 
 int MotionPrimitiveSearch::slotOf(const ChainState& state) {
-  const auto [it, inserted] =
-      slot_index_.try_emplace(keyOf(state), static_cast<int>(slots_.size()));
-  if (inserted) slots_.emplace_back();
-  return it->second;
+  if (2 * (slots_.size() + 1) > table_.size()) {
+    // Grow and re-insert every slot.
+    table_.assign(std::max<std::size_t>(1024, 2 * table_.size()), -1);
+    const std::size_t mask = table_.size() - 1;
+    for (std::size_t i = 0; i < slots_.size(); ++i) {
+      std::size_t position = KeyHash{}(slots_[i].key) & mask;
+      while (table_[position] >= 0) position = (position + 1) & mask;
+      table_[position] = static_cast<int>(i);
+    }
+  }
+  const Key key = keyOf(state);
+  const std::size_t mask = table_.size() - 1;
+  for (std::size_t position = KeyHash{}(key)&mask;; position = (position + 1) & mask) {
+    const int index = table_[position];
+    if (index < 0) {
+      table_[position] = static_cast<int>(slots_.size());
+      slots_.push_back(Slot{key});
+      return table_[position];
+    }
+    if (slots_[index].key == key) return index;
+  }
 }
 
 double MotionPrimitiveSearch::priority(const Candidate& candidate) const {
@@ -108,8 +129,16 @@ void MotionPrimitiveSearch::push(int candidate) {
 void MotionPrimitiveSearch::clear() {
   candidates_ = {};
   slots_ = {};
-  slot_index_ = {};
+  table_ = {};
   heap_ = {};
+  prepare();
+}
+
+void MotionPrimitiveSearch::prepare() {
+  candidates_.clear();
+  slots_.clear();
+  std::fill(table_.begin(), table_.end(), -1);
+  heap_.clear();
   goal_candidate_ = -1;
   nearest_candidate_ = -1;
   counters_ = {};
@@ -202,10 +231,9 @@ void MotionPrimitiveSearch::expand(int node) {
 MotionPrimitiveSearch::Outcome MotionPrimitiveSearch::search(const ChainState& start,
                                                              const Eigen::Vector3d& goal,
                                                              StopCondition& stop) {
-  clear();
+  prepare();
   start_ = start;
   goal_ = goal;
-  candidates_.reserve(1 << 16);
   Candidate root;
   root.state = start;
   root.distance = world_->distance(start.col(0));
