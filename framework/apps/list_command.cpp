@@ -1,4 +1,5 @@
 // `kinolab list [KIND] [--json]`: every registered plugin with its parameters.
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <iostream>
@@ -57,8 +58,12 @@ void printText(const Kind& kind) {
   for (const PluginInfo* plugin : kind.plugins) {
     std::printf("  %-16s %s\n", plugin->key.c_str(), plugin->description.c_str());
     std::printf("  %-16s from %s\n", "", plugin->origin.c_str());
+    int width = 0;
     for (const auto& spec : plugin->parameters.all()) {
-      std::printf("      %-18s %-7s default %-10s %-18s %s\n", spec.name.c_str(),
+      width = std::max(width, static_cast<int>(spec.name.size()));
+    }
+    for (const auto& spec : plugin->parameters.all()) {
+      std::printf("      %-*s %-7s default %-10s %-18s %s\n", width, spec.name.c_str(),
                   spec.typeName().c_str(), formatParameterValue(spec.default_value).c_str(),
                   spec.rangeText().c_str(), spec.doc.c_str());
     }

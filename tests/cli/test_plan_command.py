@@ -1,0 +1,113 @@
+"""`kinolab plan` end to end: the JSON summary, the files it writes, and bad input."""
+
+import csv
+import json
+
+import pytest
+
+WORLD = """name: small_forest
+seed: 4
+resolution: 0.1
+bounds: {min: [0, 0, 0], max: [10, 10, 3]}
+generators:
+  - {type: forest, density: 0.1, trunk_radius: [0.15, 0.25], trunk_height: [2.5, 3],
+     min_spacing: 1.0, ground_plane: true}
+"""
+
+FAST = ["--set", "sampler.samples_per_axis=3", "--set", "heuristic_weight=2"]
+
+
+@pytest.fixture
+def world(tmp_path):
+    path = tmp_path / "world.yaml"
+    path.write_text(WORLD)
+    return path
+
+
+def last_json(result):
+    return json.loads(result.stdout.strip().splitlines()[-1])
+
+
+@pytest.mark.parametrize("planner", ["lazy_mp_astar", "eager_mp_astar", "greedy_mp"])
+def test_plan_prints_a_checked_json_summary_and_writes_files(kinolab, world, tmp_path, planner):
+    out = tmp_path / "out"
+    result = kinolab("plan", "--world", world, "--planner", planner, *FAST,
+                     "--start", "1,1,1.5", "--goal", "8.5,8,1.5", "--out", out)
+    assert result.returncode == 0, result.stderr
+    summary = last_json(result)
+    for key in ("status", "cost", "time_ms", "expansions", "pops", "partial_evaluations",
+                "full_evaluations", "distance_to_goal", "checker"):
+        assert key in summary, key
+    assert summary["status"] == "exact"
+    assert summary["checker"]["valid"] is True
+    assert summary["distance_to_goal"] <= 0.5
+    assert summary["expansions"] > 0 and summary["time_ms"] > 0
+    if planner == "lazy_mp_astar":
+        assert summary["partial_evaluations"] > summary["full_evaluations"] > 0
+    assert json.loads((out / "result.json").read_text()) == summary
+
+    rows = list(csv.DictReader((out / "trajectory.csv").open()))
+    assert list(rows[0]) == ["t", "x", "y", "z", "vx", "vy", "vz", "ax", "ay", "az",
+                             "jx", "jy", "jz"]
+    assert [float(rows[0][k]) for k in ("x", "y", "z", "vx")] == [1.0, 1.0, 1.5, 0.0]
+    assert float(rows[1]["t"]) == pytest.approx(0.01)
+    assert float(rows[-1]["t"]) == pytest.approx(summary["duration"])
+    end = [float(rows[-1][k]) for k in ("x", "y", "z")]
+    assert sum((a - b) ** 2 for a, b in zip(end, (8.5, 8, 1.5))) ** 0.5 <= 0.5 + 1e-6
+
+    tree = list(csv.DictReader((out / "tree.csv").open()))
+    states = {row["state"] for row in tree}
+    assert "full" in states or "certified" in states
+    if planner == "lazy_mp_astar":
+        assert "partial" in states
+    assert any(row["closed"] == "1" for row in tree)
+
+
+def test_infeasible_queries_are_statuses_not_crashes(kinolab, world):
+    outside = kinolab("plan", "--world", world, "--planner", "lazy_mp_astar", *FAST,
+                      "--start", "-3,1,1.5", "--goal", "8,8,1.5")
+    assert outside.returncode == 0, outside.stderr
+    summary = last_json(outside)
+    assert summary["status"] == "invalid_start" and "outside the map" in summary["message"]
+    assert summary["checker"]["valid"] is False
+    floor = kinolab("plan", "--world", world, "--planner", "eager_mp_astar", *FAST,
+                    "--start", "1,1,1.5", "--goal", "5,5,0.02")
+    assert last_json(floor)["status"] == "invalid_goal"
+    assert "in collision" in last_json(floor)["message"]
+
+
+@pytest.mark.parametrize("arguments, message", [
+    (["--start", "1,2", "--goal", "8,8,1.5"], "--start '1,2': expected three numbers x,y,z"),
+    (["--start", "1,a,2", "--goal", "8,8,1.5"], "'a' is not a number"),
+    (["--planner", "lazy_mp_astr"], "unknown planner 'lazy_mp_astr' (did you mean 'lazy_mp_astar'?)"),
+    (["--set", "heuristic_weigth=2"], "did you mean 'heuristic_weight'"),
+    (["--set", "heuristic_weight=0.5"], "heuristic_weight"),
+    (["--set", "lower_bound=lipschits"], "did you mean 'lipschitz'"),
+    (["--set", "sampler.sigma=0.3"], "sigma"),
+    (["--set", "sampler=gauss"], "unknown sampler 'gauss'"),
+    (["--world", "missing.yaml"], "missing.yaml"),
+])
+def test_bad_input_fails_with_a_clear_message(kinolab, world, arguments, message):
+    base = {"--world": str(world), "--planner": "lazy_mp_astar", "--start": "1,1,1.5",
+            "--goal": "8,8,1.5"}
+    extra = []
+    for i in range(0, len(arguments), 2):
+        if arguments[i] in base:
+            base[arguments[i]] = arguments[i + 1]
+        else:
+            extra += arguments[i:i + 2]
+    args = [item for pair in base.items() for item in pair] + extra
+    result = kinolab("plan", *args)
+    assert result.returncode == 1, result.stdout
+    assert message in result.stderr, result.stderr
+
+
+def test_list_shows_the_planners(kinolab):
+    result = kinolab("list", "planners", "--json")
+    assert result.returncode == 0, result.stderr
+    planners = {p["key"]: p for p in json.loads(result.stdout)["planners"]}
+    assert {"eager_mp_astar", "lazy_mp_astar", "greedy_mp"} <= set(planners)
+    lazy = {p["name"]: p for p in planners["lazy_mp_astar"]["parameters"]}
+    assert lazy["duplicate_rule"]["choices"] == ["lwa", "seed"]
+    assert lazy["lower_bound"]["choices"] == ["endpoint", "control_only", "lipschitz"]
+    assert lazy["heuristic_weight"]["minimum"] == 1.0
