@@ -25,7 +25,8 @@ set(prefix "${WORK_DIR}/prefix")
 set(build "${WORK_DIR}/build")
 run_step(OK ${CMAKE_COMMAND} --install "${KINOLAB_BUILD_DIR}" --prefix "${prefix}")
 run_step(OK ${CMAKE_COMMAND} -S "${CONSUMER_SOURCE_DIR}" -B "${build}"
-         -DCMAKE_PREFIX_PATH=${prefix} -DCMAKE_BUILD_TYPE=Release)
+         -DCMAKE_PREFIX_PATH=${prefix} -DCMAKE_BUILD_TYPE=Release
+         -DKINOLAB_SOURCE_DIR=${CONSUMER_SOURCE_DIR}/../..)
 run_step(OK ${CMAKE_COMMAND} --build "${build}")
 
 run_step(OK "${build}/consumer")
@@ -46,6 +47,10 @@ expect_output("PASSED.* 2 tests")
 # Broken libraries are refused, naming the library and the reason.
 run_step(FAIL "${kinolab}" --plugin "${build}/libclashing_sampler.so" list)
 expect_output("sampler 'uniform' from [^ ]*libclashing_sampler.so is already registered")
+# The example planner builds out of tree as it is; its key is the built-in one, so loading it
+# into kinolab is refused by name (a researcher's copy gets its own key).
+run_step(FAIL "${kinolab}" --plugin "${build}/libgreedy_mp.so" list planners)
+expect_output("planner 'greedy_mp' from [^ ]*libgreedy_mp.so is already registered; pick another key")
 run_step(FAIL "${kinolab}" --plugin "${build}/libno_entry_point.so" list)
 expect_output("libno_entry_point.so': no kinolab entry point")
 run_step(FAIL "${kinolab}" --plugin "${build}/libmissing.so" list)
