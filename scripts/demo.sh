@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # The main job: install what is missing, build, build the demo worlds with their pictures
-# into out/worlds/, and run the paper's Table I sampling study into out/sampling_study/.
+# into out/worlds/, run the paper's Table I sampling study into out/sampling_study/, and plan
+# one forest query with eager and lazy MP-A* into out/plan/.
 # (The paper reproduction replaces this once the experiment runner exists.)
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -10,5 +11,10 @@ for world in forest complex walls geb079; do
   ./build/framework/kinolab world "configs/worlds/$world.yaml" --out "out/worlds/$world"
 done
 ./build/framework/kinolab sampling-study experiments/paper_table1_samplers.yaml
+for planner in eager_mp_astar lazy_mp_astar; do
+  ./build/framework/kinolab plan --world configs/worlds/forest.yaml --planner "$planner" \
+    --set heuristic_weight=2 --start 2,2,1.5 --goal 14,12,1.5 --out "out/plan/$planner"
+done
 echo "demo: pictures in out/worlds/*/top_view.png and out/worlds/*/esdf_slice.png;"
-echo "      Table I in out/sampling_study/paper_table1_samplers/summary.csv"
+echo "      Table I in out/sampling_study/paper_table1_samplers/summary.csv;"
+echo "      lazy and eager MP-A* on the forest in out/plan/*/{trajectory,tree}.csv"
