@@ -104,31 +104,21 @@ double EdgeEvaluator::mapFreeCost(const Eigen::Vector3d& control) const {
 
 EdgeEvaluation EdgeEvaluator::partial(const ChainState& start,
                                       const Eigen::Vector3d& control) const {
-  EdgeEvaluation result;
-  result.end = endState(start, control);
-  result.within_limits = chain_.withinLimits(start, control, settings_.duration, settings_.limits);
-  if (!result.within_limits) return result;
-  result.samples = sampleCount(start, control);
+  EdgeEvaluation result = controlOnly(start, control);
+  if (!result.collision_free) return result;  // breaks a limit or leaves the map
   // The end state's position is the last sample of full evaluation, bit for bit.
-  const Eigen::Vector3d end = result.end.col(0);
-  result.length = (end - start.col(0)).norm();
+  const double distance = world_->esdf().distance(result.end.col(0));
   result.esdf_queries = 1;
-  const World& world = *world_;
-  if (!world.bounds().contains(end)) {
-    result.collision_time = settings_.duration;
-    return result;
-  }
-  const double distance = world.esdf().distance(end);
   result.end_distance = distance;
   if (distance < settings_.robot_radius) {
+    result.collision_free = false;
     result.collision_time = settings_.duration;
+    result.cost = INFINITY;
     return result;
   }
-  result.collision_free = true;
   result.obstacle_cost =
       settings_.weights.obstacle * penalty(distance) * settings_.duration / result.samples;
-  result.cost =
-      mapFreeCost(control) + settings_.weights.length * result.length + result.obstacle_cost;
+  result.cost += result.obstacle_cost;
   return result;
 }
 
