@@ -95,6 +95,16 @@ TEST_P(PlannerConformance, InvalidStartsAndGoalsGetTheirStatus) {
   EXPECT_EQ(planner.plan(goal_blocked, kBudget).status, PlanStatus::kInvalidGoal);
 }
 
+TEST_P(PlannerConformance, AStartInsideTheGoalRegionIsSolvedByStayingPut) {
+  ConfiguredPlanner configured = makePlanner(GetParam());
+  PlanningQuery query = solvableQuery();
+  query.goal = query.start.col(0) + Eigen::Vector3d(0.1, 0.0, 0.0);
+  const PlanResult result = configured.planner->plan(query, kBudget);
+  EXPECT_EQ(result.status, PlanStatus::kExact) << result.message;
+  EXPECT_TRUE(result.check.valid) << result.check.detail;
+  EXPECT_LE(result.distance_to_goal, configured.planner->model().goal_radius);
+}
+
 TEST_P(PlannerConformance, UnknownParametersAreRefused) {
   EXPECT_THROW(configurePlanner(GetParam(), test::assignments({"no_such_parameter=1"})),
                ConfigError);

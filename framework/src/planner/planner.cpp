@@ -123,6 +123,14 @@ PlanResult Planner::plan(const PlanningQuery& query, const Budget& budget, Searc
 
   if (result.trajectory.empty()) {
     result.distance_to_goal = (start - query.goal).norm();
+    if (result.status == PlanStatus::kExact) {
+      // Nothing to fly is a valid answer only when the start is already in the goal region.
+      result.check.valid = result.distance_to_goal <= model.goal_radius;
+      result.check.check = result.check.valid ? "" : "empty";
+      result.check.detail = result.check.valid ? "the start is inside the goal region"
+                                               : "exact status without a trajectory";
+      if (!result.check.valid) result.status = PlanStatus::kInvalidTrajectory;
+    }
     return result;
   }
   CheckQuery check_query;
