@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cstdio>
+#include <ostream>
 
 #include "kinolab/planner/planner.hpp"
 #include "support/planning.hpp"
@@ -17,6 +18,8 @@ struct Case {
   std::string world;
   int order;
 };
+
+void PrintTo(const Case& c, std::ostream* out) { *out << c.world << ", order " << c.order; }
 
 std::vector<std::string> settingsFor(int order) {
   // 27 controls (3 per axis); no time budget, so runs are deterministic; an expansion cap
