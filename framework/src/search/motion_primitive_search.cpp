@@ -114,8 +114,7 @@ int MotionPrimitiveSearch::slotOf(const ChainState& state) {
 }
 
 double MotionPrimitiveSearch::priority(const Candidate& candidate) const {
-  return settings_.cost_weight * candidate.g +
-         settings_.heuristic_weight * heuristic(candidate.state.col(0));
+  return settings_.cost_weight * candidate.g + settings_.heuristic_weight * candidate.h;
 }
 
 void MotionPrimitiveSearch::push(int candidate) {
@@ -207,6 +206,7 @@ void MotionPrimitiveSearch::expand(int node) {
     Candidate candidate;
     candidate.state = evaluation.end;
     candidate.g = parent_g + evaluation.cost;
+    candidate.h = heuristic(candidate.state.col(0));
     if (settings_.duplicate_rule == DuplicateRule::kSeed && lazy) {
       if (slot.seen) continue;
       slot.seen = true;
@@ -236,6 +236,7 @@ MotionPrimitiveSearch::Outcome MotionPrimitiveSearch::search(const ChainState& s
   goal_ = goal;
   Candidate root;
   root.state = start;
+  root.h = heuristic(start.col(0));
   root.distance = world_->distance(start.col(0));
   root.slot = slotOf(start);
   candidates_.push_back(root);

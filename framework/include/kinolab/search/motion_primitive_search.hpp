@@ -121,6 +121,7 @@ class MotionPrimitiveSearch {
   struct Candidate {
     ChainState state;
     double g = 0.0;
+    double h = 0.0;         ///< heuristic at the state, computed once
     double distance = 0.0;  ///< ESDF at the state's position (INFINITY when not looked up)
     int parent = -1;
     int control = -1;
