@@ -1,0 +1,332 @@
+#include "bspline_smoother.hpp"
+
+#include <ceres/ceres.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+
+#include "kinolab/core/text.hpp"
+
+namespace kinolab::rrt {
+namespace {
+
+template <typename T>
+T hinge(const T& x) {
+  return x > T(0) ? x : T(0);
+}
+
+/// Smoothness: the third difference of four consecutive control points (jerk times dt^3),
+/// independent of the time allocation.
+struct SmoothnessCost {
+  double scale;
+  template <typename T>
+  bool operator()(const T* p0, const T* p1, const T* p2, const T* p3, T* residual) const {
+    for (int axis = 0; axis < 3; ++axis) {
+      residual[axis] = scale * (p3[axis] - 3.0 * p2[axis] + 3.0 * p1[axis] - p0[axis]);
+    }
+    return true;
+  }
+};
+
+/// Guidance: a control point's offset from where the time-allocated path put it.
+struct GuideCost {
+  double scale;
+  Eigen::Vector3d target;
+  template <typename T>
+  bool operator()(const T* p, T* residual) const {
+    for (int axis = 0; axis < 3; ++axis) residual[axis] = scale * (p[axis] - T(target[axis]));
+    return true;
+  }
+};
+
+/// Velocity limit on V_i = (P_{i+1} - P_i) / dt, per axis, as a distance: the excess of
+/// |P_{i+1} - P_i| over v_max dt.
+struct VelocityCost {
+  double scale;
+  Eigen::Vector3d reach;  // v_max dt per axis
+  template <typename T>
+  bool operator()(const T* p0, const T* p1, T* residual) const {
+    using std::abs;
+    for (int axis = 0; axis < 3; ++axis) {
+      residual[axis] = scale * hinge(abs(p1[axis] - p0[axis]) - T(reach[axis]));
+    }
+    return true;
+  }
+};
+
+/// Acceleration limit on A_i = (P_{i+2} - 2 P_{i+1} + P_i) / dt^2, as a distance.
+struct AccelerationCost {
+  double scale;
+  Eigen::Vector3d reach;  // a_max dt^2 per axis
+  template <typename T>
+  bool operator()(const T* p0, const T* p1, const T* p2, T* residual) const {
+    using std::abs;
+    for (int axis = 0; axis < 3; ++axis) {
+      residual[axis] = scale * hinge(abs(p2[axis] - 2.0 * p1[axis] + p0[axis]) - T(reach[axis]));
+    }
+    return true;
+  }
+};
+
+/// Keeps a control point inside the map (the curve then stays inside: the box is convex).
+struct BoundsCost {
+  double scale;
+  Eigen::Vector3d low;
+  Eigen::Vector3d high;
+  template <typename T>
+  bool operator()(const T* p, T* residual) const {
+    for (int axis = 0; axis < 3; ++axis) {
+      residual[axis] = scale * (hinge(T(low[axis]) - p[axis]) + hinge(p[axis] - T(high[axis])));
+    }
+    return true;
+  }
+};
+
+/// Obstacle penalty at one curve point p = sum_j b_j P_{i+j}: scale (threshold - d(p)) where
+/// the trilinear ESDF value d is below the threshold, with the ESDF's analytic gradient:
+/// d residual / d P_{i+j} = -scale b_j grad d(p).
+class ObstacleCost final : public ceres::SizedCostFunction<1, 3, 3, 3, 3> {
+ public:
+  ObstacleCost(const Esdf& esdf, const Eigen::Vector4d& weights, double threshold, double scale)
+      : esdf_(esdf), weights_(weights), threshold_(threshold), scale_(scale) {}
+
+  bool Evaluate(double const* const* parameters, double* residuals,
+                double** jacobians) const override {
+    Eigen::Vector3d point = Eigen::Vector3d::Zero();
+    for (int j = 0; j < 4; ++j) point += weights_[j] * Eigen::Map<const Eigen::Vector3d>(parameters[j]);
+    Eigen::Vector3d gradient;
+    const double excess = threshold_ - esdf_.distanceWithGradient(point, &gradient);
+    const bool active = excess > 0.0;
+    residuals[0] = active ? scale_ * excess : 0.0;
+    if (jacobians) {
+      for (int j = 0; j < 4; ++j) {
+        if (!jacobians[j]) continue;
+        Eigen::Map<Eigen::RowVector3d> row(jacobians[j]);
+        if (active) {
+          row = -scale_ * weights_[j] * gradient.transpose();
+        } else {
+          row.setZero();
+        }
+      }
+    }
+    return true;
+  }
+
+ private:
+  const Esdf& esdf_;
+  Eigen::Vector4d weights_;
+  double threshold_;
+  double scale_;
+};
+
+/// The point at arc length `s` along a polyline.
+Eigen::Vector3d pointAt(const std::vector<Eigen::Vector3d>& path, double s) {
+  for (std::size_t leg = 1; leg < path.size(); ++leg) {
+    const double leg_length = (path[leg] - path[leg - 1]).norm();
+    if (s <= leg_length || leg + 1 == path.size()) {
+      const double t = leg_length > 0.0 ? std::clamp(s / leg_length, 0.0, 1.0) : 0.0;
+      return path[leg - 1] + t * (path[leg] - path[leg - 1]);
+    }
+    s -= leg_length;
+  }
+  return path.back();
+}
+
+/// Arc length travelled at time t by a rest-to-rest trapezoidal speed profile over `length`
+/// (cruise speed v, acceleration a), and that profile's duration.
+struct SpeedProfile {
+  double length, speed, acceleration, ramp, duration;
+  SpeedProfile(double length_, double v, double a) : length(length_), acceleration(a) {
+    speed = std::min(v, std::sqrt(length * a));
+    ramp = speed / a;
+    duration = length / speed + ramp;
+  }
+  double at(double t) const {
+    if (t <= ramp) return 0.5 * acceleration * t * t;
+    if (t >= duration - ramp) {
+      const double left = duration - t;
+      return length - 0.5 * acceleration * left * left;
+    }
+    return 0.5 * acceleration * ramp * ramp + speed * (t - ramp);
+  }
+};
+
+double polylineLength(const std::vector<Eigen::Vector3d>& path) {
+  double length = 0.0;
+  for (std::size_t i = 1; i < path.size(); ++i) length += (path[i] - path[i - 1]).norm();
+  return length;
+}
+
+/// The factor that scales the knot interval so that the tightest velocity or acceleration
+/// control point is exactly at its limit (> 1: a limit is broken; < 1: all are slack).
+double limitFactor(const UniformBspline& spline, const DynamicLimits& limits) {
+  double factor = 0.0;
+  for (int derivative = 1; derivative <= 2; ++derivative) {
+    const Eigen::Matrix3Xd points = spline.derivativeControlPoints(derivative);
+    const Eigen::Vector3d peak = points.cwiseAbs().rowwise().maxCoeff();
+    const double ratio = peak.cwiseQuotient(limits.bound[derivative]).maxCoeff();
+    factor = std::max(factor, std::pow(ratio, 1.0 / derivative));
+  }
+  return factor;
+}
+
+CheckerSettings clearanceCheck(const SmootherSettings& settings) {
+  CheckerSettings check;
+  check.robot_radius = settings.robot_radius;
+  check.limits = settings.limits;
+  check.max_derivative = 2;
+  check.use_fcl = false;  // the planner's own check; the independent one runs FCL afterwards
+  return check;
+}
+
+}  // namespace
+
+BsplineSmoother::BsplineSmoother(std::shared_ptr<const World> world,
+                                 const SmootherSettings& settings)
+    : world_(world), settings_(settings), checker_(world, clearanceCheck(settings)) {}
+
+SmootherResult BsplineSmoother::smooth(const ChainState& start,
+                                       const std::vector<Eigen::Vector3d>& path,
+                                       StopCondition& stop) const {
+  const auto begin = std::chrono::steady_clock::now();
+  SmootherResult result;
+  const SpeedProfile profile(polylineLength(path),
+                             settings_.initial_speed * settings_.limits.bound[1].minCoeff(),
+                             settings_.initial_speed * settings_.limits.bound[2].minCoeff());
+  const Eigen::Vector3d low = world_->bounds().min;
+  const Eigen::Vector3d high = world_->bounds().max;
+  const bool at_rest = start.col(1).isZero() && start.col(2).isZero();
+
+  double spacing = settings_.knot_spacing;
+  double weight_obstacle = settings_.weight_obstacle;
+  int rounds = 0;  // solved
+  int ceres_iterations = 0;
+  int reallocations = 0;
+  double initial_cost = NAN;
+  double final_cost = NAN;
+  while (rounds < settings_.max_rounds) {
+    if (rounds > 0 && stop.elapsed() >= stop.budget().time_limit) {
+      result.problem += "; the time budget ran out before another round";
+      break;
+    }
+    ++rounds;
+    // Fit: the leading points of the start state, the path sampled at equal times of a
+    // trapezoidal speed profile as interior points, and three copies of the end (rest).
+    const int pieces =
+        std::max(3, static_cast<int>(std::ceil(profile.duration * profile.speed / spacing)));
+    double interval = profile.duration / pieces;
+    const int count = pieces + 5;
+    Eigen::Matrix3Xd control(3, count);
+    control.leftCols<3>() = UniformBspline::startControlPoints(start, interval);
+    for (int j = 1; j < pieces; ++j) control.col(2 + j) = pointAt(path, profile.at(j * interval));
+    control.rightCols<3>().colwise() = path.back();
+
+    ceres::Problem problem;
+    for (int i = 0; i < count; ++i) problem.AddParameterBlock(control.col(i).data(), 3);
+    for (const int i : {0, 1, 2, count - 3, count - 2, count - 1}) {
+      problem.SetParameterBlockConstant(control.col(i).data());
+    }
+    const auto block = [&](int i) { return control.col(i).data(); };
+    const double smooth_scale = std::sqrt(settings_.weight_smoothness);
+    const double obstacle_scale = std::sqrt(weight_obstacle / settings_.obstacle_samples);
+    const double threshold = settings_.robot_radius + settings_.safety_distance;
+    for (int i = 0; i + 3 < count; ++i) {
+      problem.AddResidualBlock(
+          new ceres::AutoDiffCostFunction<SmoothnessCost, 3, 3, 3, 3, 3>(
+              new SmoothnessCost{smooth_scale}),
+          nullptr, block(i), block(i + 1), block(i + 2), block(i + 3));
+      for (int k = 0; k < settings_.obstacle_samples; ++k) {
+        const double u = static_cast<double>(k) / settings_.obstacle_samples;
+        problem.AddResidualBlock(new ObstacleCost(world_->esdf(), UniformBspline::basis(u),
+                                                  threshold, obstacle_scale),
+                                 nullptr, block(i), block(i + 1), block(i + 2), block(i + 3));
+      }
+    }
+    const double feasibility_scale = std::sqrt(settings_.weight_feasibility);
+    const Eigen::Vector3d velocity_reach = settings_.limits.bound[1] * interval;
+    const Eigen::Vector3d acceleration_reach = settings_.limits.bound[2] * interval * interval;
+    for (int i = 0; i + 1 < count; ++i) {
+      problem.AddResidualBlock(new ceres::AutoDiffCostFunction<VelocityCost, 3, 3, 3>(
+                                   new VelocityCost{feasibility_scale, velocity_reach}),
+                               nullptr, block(i), block(i + 1));
+    }
+    for (int i = 0; i + 2 < count; ++i) {
+      problem.AddResidualBlock(new ceres::AutoDiffCostFunction<AccelerationCost, 3, 3, 3, 3>(
+                                   new AccelerationCost{feasibility_scale, acceleration_reach}),
+                               nullptr, block(i), block(i + 1), block(i + 2));
+    }
+    const double guide_scale = std::sqrt(settings_.weight_guide);
+    for (int i = 3; i < count - 3; ++i) {
+      if (guide_scale > 0.0) {
+        problem.AddResidualBlock(new ceres::AutoDiffCostFunction<GuideCost, 3, 3>(
+                                     new GuideCost{guide_scale, control.col(i)}),
+                                 nullptr, block(i));
+      }
+      problem.AddResidualBlock(new ceres::AutoDiffCostFunction<BoundsCost, 3, 3>(
+                                   new BoundsCost{obstacle_scale, low, high}),
+                               nullptr, block(i));
+    }
+
+    ceres::Solver::Options options;
+    options.linear_solver_type = ceres::SPARSE_NORMAL_CHOLESKY;
+    options.max_num_iterations = settings_.max_solver_iterations;
+    options.logging_type = ceres::SILENT;
+    options.num_threads = 1;
+    if (std::isfinite(stop.budget().time_limit)) {
+      options.max_solver_time_in_seconds =
+          std::max(stop.budget().time_limit - stop.elapsed(), 1e-3);
+    }
+    ceres::Solver::Summary summary;
+    ceres::Solve(options, &problem, &summary);
+    ceres_iterations += static_cast<int>(summary.iterations.size());
+    if (rounds == 1) initial_cost = summary.initial_cost;
+    final_cost = summary.final_cost;
+
+    // Time re-allocation: scale the knot interval until the tightest velocity or
+    // acceleration control point is at its limit (stretching when a limit is broken,
+    // compressing when all are slack). At rest the leading points do not depend on the
+    // interval, so one scaling suffices; otherwise they move with it and the loop repeats.
+    for (int attempt = 0; attempt < 20; ++attempt) {
+      const double factor = limitFactor(UniformBspline(control, interval), settings_.limits);
+      if (!(factor > 0.0) || (factor <= 1.0 && factor > 1.0 - 1e-6)) break;
+      interval *= factor * (1.0 + 1e-9);
+      ++reallocations;
+      if (!at_rest) control.leftCols<3>() = UniformBspline::startControlPoints(start, interval);
+    }
+    result.spline.emplace(control, interval);
+
+    CheckQuery query;
+    query.start = start;
+    query.require_goal = false;
+    const CheckResult check = checker_.check(result.spline->toTrajectory(), query);
+    result.valid = check.valid;
+    if (check.valid) {
+      result.problem.clear();
+      break;
+    }
+    result.problem = "round " + std::to_string(rounds) + ": " + check.check + " check at t = " +
+                     formatNumber(check.time) + " s: " + check.detail;
+    if (check.check != "esdf" && check.check != "bounds") break;  // more rounds cannot help
+    spacing *= 0.5;
+    weight_obstacle *= 4.0;
+  }
+
+  Statistics& stats = result.statistics;
+  stats.emplace_back("smoothing_rounds", rounds);
+  stats.emplace_back("ceres_iterations", ceres_iterations);
+  stats.emplace_back("ceres_initial_cost", initial_cost);
+  stats.emplace_back("ceres_final_cost", final_cost);
+  stats.emplace_back("time_reallocations", reallocations);
+  if (result.spline) {
+    stats.emplace_back("control_points", static_cast<double>(result.spline->controlPoints().cols()));
+    stats.emplace_back("knot_interval", result.spline->interval());
+  }
+  stats.emplace_back("time_smooth_ms",
+                     std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() -
+                                                               begin)
+                         .count());
+  return result;
+}
+
+}  // namespace kinolab::rrt

@@ -1,0 +1,60 @@
+#pragma once
+
+#include <Eigen/Core>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "kinolab/core/stop_condition.hpp"
+#include "kinolab/dynamics/integrator_chain.hpp"
+#include "kinolab/planner/planner.hpp"
+#include "kinolab/trajectory/uniform_bspline.hpp"
+#include "kinolab/validation/trajectory_checker.hpp"
+#include "kinolab/world/world.hpp"
+
+namespace kinolab::rrt {
+
+/// The back end: a uniform cubic B-spline through a collision-free path, optimised with Ceres
+/// (Ceres stays inside the .cpp).
+struct SmootherSettings {
+  double knot_spacing = 0.5;   ///< control points along the path this far apart at first, m
+  double initial_speed = 0.7;  ///< first time allocation: this fraction of the speed limit
+  double robot_radius = 0.25;
+  double safety_distance = 0.25;  ///< the obstacle penalty acts below radius + this, m
+  DynamicLimits limits = DynamicLimits::uniform(2.0, 3.0);
+  double weight_smoothness = 1.0;   ///< on sum |P_{i+3} - 3 P_{i+2} + 3 P_{i+1} - P_i|^2
+  double weight_obstacle = 10.0;    ///< on sum (radius + safety - d)^2 over span samples
+  double weight_guide = 1.0;        ///< on sum |P_i - P_i,0|^2 (the time-allocated path)
+  double weight_feasibility = 10.0;  ///< on velocity / acceleration excess (scaled to metres)
+  int obstacle_samples = 4;           ///< ESDF samples per span
+  int max_solver_iterations = 100;    ///< per Ceres solve
+  int max_rounds = 4;                 ///< re-solves after a collision (denser, heavier)
+};
+
+struct SmootherResult {
+  std::optional<UniformBspline> spline;  ///< the last one tried, valid or not
+  bool valid = false;                    ///< the last spline passed the (ESDF) check
+  std::string problem;                   ///< why not, in words
+  Statistics statistics;
+};
+
+class BsplineSmoother {
+ public:
+  BsplineSmoother(std::shared_ptr<const World> world, const SmootherSettings& settings);
+
+  /// A smooth trajectory from `start` (any state within the limits) along `path` to rest at
+  /// its last point. Rounds: fit control points to the path, solve, rescale time until the
+  /// velocity and acceleration control points are within the limits, check the clearance;
+  /// on a collision, start again from the path with half the knot spacing and four times the
+  /// obstacle weight.
+  SmootherResult smooth(const ChainState& start, const std::vector<Eigen::Vector3d>& path,
+                        StopCondition& stop) const;
+
+ private:
+  std::shared_ptr<const World> world_;
+  SmootherSettings settings_;
+  TrajectoryChecker checker_;
+};
+
+}  // namespace kinolab::rrt

@@ -1,0 +1,251 @@
+#include "rrt_front_end.hpp"
+
+#include <ompl/base/PlannerData.h>
+#include <ompl/base/PlannerTerminationCondition.h>
+#include <ompl/base/ProblemDefinition.h>
+#include <ompl/base/SpaceInformation.h>
+#include <ompl/base/goals/GoalState.h>
+#include <ompl/base/objectives/PathLengthOptimizationObjective.h>
+#include <ompl/base/spaces/RealVectorStateSpace.h>
+#include <ompl/geometric/PathGeometric.h>
+#include <ompl/geometric/PathSimplifier.h>
+#include <ompl/geometric/planners/rrt/RRTstar.h>
+#include <ompl/util/Console.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+
+#include "kinolab/core/text.hpp"
+
+namespace kinolab::rrt {
+namespace {
+
+namespace ob = ompl::base;
+namespace og = ompl::geometric;
+
+Eigen::Vector3d toVector(const ob::State* state) {
+  const double* values = state->as<ob::RealVectorStateSpace::StateType>()->values;
+  return {values[0], values[1], values[2]};
+}
+
+void fromVector(const Eigen::Vector3d& point, ob::State* state) {
+  double* values = state->as<ob::RealVectorStateSpace::StateType>()->values;
+  for (int axis = 0; axis < 3; ++axis) values[axis] = point[axis];
+}
+
+// OMPL's random streams are seeded from one process-wide generator; each of these classes
+// re-seeds its own stream so that a run depends on its seed only.
+class SeededSampler final : public ob::RealVectorStateSampler {
+ public:
+  SeededSampler(const ob::StateSpace* space, std::uint32_t seed)
+      : ob::RealVectorStateSampler(space) {
+    rng_.setLocalSeed(seed);
+  }
+};
+
+class SeededRrtStar final : public og::RRTstar {
+ public:
+  SeededRrtStar(const ob::SpaceInformationPtr& si, std::uint32_t seed) : og::RRTstar(si) {
+    rng_.setLocalSeed(seed);
+  }
+  std::size_t treeSize() const { return nn_ ? nn_->size() : 0; }
+};
+
+class SeededSimplifier final : public og::PathSimplifier {
+ public:
+  SeededSimplifier(const ob::SpaceInformationPtr& si, std::uint32_t seed)
+      : og::PathSimplifier(si) {
+    rng_.setLocalSeed(seed);
+  }
+};
+
+double millisecondsSince(std::chrono::steady_clock::time_point begin) {
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - begin)
+      .count();
+}
+
+std::vector<Eigen::Vector3d> waypoints(const og::PathGeometric& path) {
+  std::vector<Eigen::Vector3d> points;
+  points.reserve(path.getStateCount());
+  for (std::size_t i = 0; i < path.getStateCount(); ++i) points.push_back(toVector(path.getState(i)));
+  return points;
+}
+
+}  // namespace
+
+const std::vector<double>& progressGridMs() {
+  static const std::vector<double> grid = [] {
+    std::vector<double> times;
+    for (double decade = 1.0; decade <= 1e5; decade *= 10.0) {
+      for (const double step : {1.0, 2.0, 5.0}) times.push_back(step * decade);
+    }
+    return times;
+  }();
+  return grid;
+}
+
+struct RrtFrontEnd::Ompl {
+  std::shared_ptr<const World> world;
+  FrontEndSettings settings;
+  std::shared_ptr<ob::RealVectorStateSpace> space;
+  ob::SpaceInformationPtr si;
+  std::uint32_t seed = 0;  // of the sampler the next solve allocates
+  long long validity_checks = 0;
+};
+
+RrtFrontEnd::RrtFrontEnd(std::shared_ptr<const World> world, const FrontEndSettings& settings)
+    : ompl_(std::make_unique<Ompl>()) {
+  ompl::msg::setLogLevel(ompl::msg::LOG_WARN);
+  Ompl& o = *ompl_;
+  o.world = std::move(world);
+  o.settings = settings;
+  o.space = std::make_shared<ob::RealVectorStateSpace>(3);
+  ob::RealVectorBounds bounds(3);
+  const Box& box = o.world->bounds();
+  for (int axis = 0; axis < 3; ++axis) {
+    bounds.setLow(axis, box.min[axis]);
+    bounds.setHigh(axis, box.max[axis]);
+  }
+  o.space->setBounds(bounds);
+  Ompl* shared = ompl_.get();
+  o.space->setStateSamplerAllocator([shared](const ob::StateSpace* space) {
+    return std::make_shared<SeededSampler>(space, shared->seed);
+  });
+  o.si = std::make_shared<ob::SpaceInformation>(o.space);
+  o.si->setStateValidityChecker([shared](const ob::State* state) {
+    ++shared->validity_checks;
+    return shared->world->isFree(toVector(state), shared->settings.clearance);
+  });
+  o.si->setStateValidityCheckingResolution(settings.motion_resolution /
+                                           o.space->getMaximumExtent());
+  o.si->setup();
+}
+
+RrtFrontEnd::~RrtFrontEnd() = default;
+
+FrontEndResult RrtFrontEnd::plan(const Eigen::Vector3d& start, const Eigen::Vector3d& goal,
+                                 std::uint32_t seed, StopCondition& stop, SearchTree* tree) {
+  Ompl& o = *ompl_;
+  const FrontEndSettings& settings = o.settings;
+  o.seed = seed;
+  o.validity_checks = 0;
+  o.si->getMotionValidator()->resetMotionCounter();
+
+  auto problem = std::make_shared<ob::ProblemDefinition>(o.si);
+  ob::ScopedState<> start_state(o.space);
+  fromVector(start, start_state.get());
+  problem->addStartState(start_state);
+  auto goal_region = std::make_shared<ob::GoalState>(o.si);
+  ob::ScopedState<> goal_state(o.space);
+  fromVector(goal, goal_state.get());
+  goal_region->setState(goal_state);
+  goal_region->setThreshold(settings.goal_radius);
+  problem->setGoal(goal_region);
+  problem->setOptimizationObjective(std::make_shared<ob::PathLengthOptimizationObjective>(o.si));
+
+  auto planner = std::make_shared<SeededRrtStar>(o.si, seed);
+  if (settings.range > 0.0) planner->setRange(settings.range);
+  planner->setGoalBias(settings.goal_bias);
+  planner->setRewireFactor(settings.rewire_factor);
+  planner->setKNearest(settings.k_nearest);
+  planner->setDelayCC(settings.delay_collision_checking);
+  planner->setProblemDefinition(problem);
+  planner->setup();
+
+  // The termination condition runs once per iteration: it applies the budget, stops after
+  // the refinement iterations, and records the anytime progress on the fixed grid.
+  FrontEndResult result;
+  const std::vector<double>& grid = progressGridMs();
+  std::vector<double> progress;
+  long long first_iteration = -1;
+  double first_ms = NAN;
+  double first_cost = NAN;
+  const auto begin = std::chrono::steady_clock::now();
+  const ob::PlannerTerminationCondition condition([&] {
+    const long long iterations = planner->numIterations();
+    const double cost = planner->bestCost().value();
+    const double now_ms = millisecondsSince(begin);
+    while (progress.size() < grid.size() && grid[progress.size()] <= now_ms) {
+      progress.push_back(cost);
+    }
+    if (first_iteration < 0 && std::isfinite(cost)) {
+      first_iteration = iterations;
+      first_ms = now_ms;
+      first_cost = cost;
+    }
+    if (first_iteration >= 0 && iterations - first_iteration >= settings.refine_iterations) {
+      return true;
+    }
+    return stop.expired(iterations);
+  });
+  const ob::PlannerStatus status = planner->solve(condition);
+  const double rrt_ms = millisecondsSince(begin);
+  result.iterations = planner->numIterations();
+
+  if (status == ob::PlannerStatus::EXACT_SOLUTION ||
+      status == ob::PlannerStatus::APPROXIMATE_SOLUTION) {
+    result.outcome = problem->hasApproximateSolution() ? FrontEndResult::Outcome::kApproximate
+                                                       : FrontEndResult::Outcome::kExact;
+    auto& path = static_cast<og::PathGeometric&>(*problem->getSolutionPath());
+    const std::size_t raw_vertices = path.getStateCount();
+    const double raw_length = path.length();
+    const auto simplify_begin = std::chrono::steady_clock::now();
+    if (settings.simplify) {
+      // Iteration-bounded (not timed) so that the result depends on the seed only.
+      SeededSimplifier simplifier(o.si, seed ^ 0x9e3779b9u);
+      for (int round = 0; round < 5 && simplifier.reduceVertices(path); ++round) {
+      }
+      for (int round = 0; round < 5 && simplifier.shortcutPath(path); ++round) {
+      }
+    }
+    result.statistics.emplace_back("time_simplify_ms", millisecondsSince(simplify_begin));
+    result.path = waypoints(path);
+    result.path_length = path.length();
+    result.statistics.emplace_back("path_vertices_raw", static_cast<double>(raw_vertices));
+    result.statistics.emplace_back("path_length_raw", raw_length);
+    result.statistics.emplace_back("path_vertices", static_cast<double>(path.getStateCount()));
+    result.statistics.emplace_back("path_length", result.path_length);
+  }
+
+  if (tree) {
+    ob::PlannerData data(o.si);
+    planner->getPlannerData(data);
+    tree->clear();
+    std::vector<unsigned int> children;
+    for (unsigned int parent = 0; parent < data.numVertices(); ++parent) {
+      data.getEdges(parent, children);
+      for (const unsigned int child : children) {
+        SearchTreeEdge edge;
+        edge.points = {toVector(data.getVertex(parent).getState()),
+                       toVector(data.getVertex(child).getState())};
+        edge.state = SearchTreeEdge::State::kFull;
+        edge.closed = true;
+        tree->push_back(std::move(edge));
+      }
+    }
+  }
+
+  const ob::MotionValidatorPtr& motions = o.si->getMotionValidator();
+  Statistics& stats = result.statistics;
+  stats.emplace_back("iterations", static_cast<double>(result.iterations));
+  stats.emplace_back("tree_size", static_cast<double>(planner->treeSize()));
+  stats.emplace_back("collision_checks", static_cast<double>(o.validity_checks));
+  stats.emplace_back("motion_checks",
+                     static_cast<double>(motions->getValidMotionCount() +
+                                         motions->getInvalidMotionCount()));
+  stats.emplace_back("motion_checks_invalid",
+                     static_cast<double>(motions->getInvalidMotionCount()));
+  stats.emplace_back("first_solution_iteration",
+                     first_iteration < 0 ? NAN : static_cast<double>(first_iteration));
+  stats.emplace_back("first_solution_ms", first_ms);
+  stats.emplace_back("first_solution_cost", first_cost);
+  stats.emplace_back("best_cost", planner->bestCost().value());
+  stats.emplace_back("time_rrt_ms", rrt_ms);
+  for (std::size_t i = 0; i < progress.size(); ++i) {
+    stats.emplace_back("best_cost_at_" + formatNumber(grid[i]) + "ms", progress[i]);
+  }
+  return result;
+}
+
+}  // namespace kinolab::rrt

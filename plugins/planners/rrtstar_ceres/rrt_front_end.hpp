@@ -1,0 +1,58 @@
+#pragma once
+
+#include <Eigen/Core>
+#include <cstdint>
+#include <memory>
+#include <vector>
+
+#include "kinolab/core/stop_condition.hpp"
+#include "kinolab/planner/planner.hpp"
+#include "kinolab/world/world.hpp"
+
+namespace kinolab::rrt {
+
+/// The geometric front end: OMPL's RRT* in the world's bounds (OMPL stays inside the .cpp).
+struct FrontEndSettings {
+  double range = 1.5;          ///< longest tree edge, m (0: OMPL's choice, 20 % of the extent)
+  double goal_bias = 0.05;     ///< probability of sampling the goal
+  double rewire_factor = 1.1;  ///< scales RRT*'s rewiring radius or k
+  bool k_nearest = true;       ///< rewire over k nearest (else a radius)
+  bool delay_collision_checking = true;
+  double clearance = 0.35;          ///< a valid state's ESDF value: body radius + margin, m
+  double motion_resolution = 0.05;  ///< spacing of checked states along a motion, m
+  bool simplify = true;             ///< OMPL's vertex reduction and shortcutting afterwards
+  long long refine_iterations = 1000;  ///< iterations after the first exact solution
+  double goal_radius = 0.5;
+};
+
+struct FrontEndResult {
+  enum class Outcome { kExact, kApproximate, kNone };
+  Outcome outcome = Outcome::kNone;
+  std::vector<Eigen::Vector3d> path;  ///< start .. end, every motion collision-checked
+  double path_length = 0.0;
+  long long iterations = 0;
+  Statistics statistics;
+};
+
+/// Times, from the start of planning, at which the anytime best cost is recorded: a fixed
+/// 1-2-5 grid (1 ms .. 100 s), the same for every run so curves can be aggregated.
+const std::vector<double>& progressGridMs();
+
+class RrtFrontEnd {
+ public:
+  RrtFrontEnd(std::shared_ptr<const World> world, const FrontEndSettings& settings);
+  ~RrtFrontEnd();
+  RrtFrontEnd(const RrtFrontEnd&) = delete;
+  RrtFrontEnd& operator=(const RrtFrontEnd&) = delete;
+
+  /// One RRT* run from `start` towards the goal ball, seeded by `seed` (the same seed and
+  /// iteration budget give the same path). With `tree`, the final tree's edges go there.
+  FrontEndResult plan(const Eigen::Vector3d& start, const Eigen::Vector3d& goal,
+                      std::uint32_t seed, StopCondition& stop, SearchTree* tree);
+
+ private:
+  struct Ompl;
+  std::unique_ptr<Ompl> ompl_;
+};
+
+}  // namespace kinolab::rrt

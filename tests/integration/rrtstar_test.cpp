@@ -1,0 +1,165 @@
+// The TGK analogue (rrtstar_ceres) and its front end alone (rrtstar) on seeded worlds:
+// success rates, reproducibility by seed, statistics, moving starts and budgets.
+#include <gtest/gtest.h>
+
+#include <cstdio>
+
+#include "kinolab/planner/planner.hpp"
+#include "support/planning.hpp"
+
+namespace kinolab {
+namespace {
+
+ConfiguredPlanner makePlanner(const std::string& key, const std::string& world,
+                              std::uint64_t seed, std::vector<std::string> items = {}) {
+  items.push_back("time_limit=0");  // iteration-bounded: the same on every machine
+  items.push_back("max_iterations=20000");
+  ConfiguredPlanner configured = configurePlanner(key, test::assignments(items));
+  configured.planner->setup({test::smallWorld(world), nullptr, seed});
+  return configured;
+}
+
+double statistic(const PlanResult& result, const std::string& name) {
+  for (const auto& [key, value] : result.statistics) {
+    if (key == name) return value;
+  }
+  ADD_FAILURE() << "no statistic " << name;
+  return NAN;
+}
+
+struct SuccessCase {
+  std::string planner;
+  std::string world;
+  double min_rate;  // measured: see the printed line
+};
+
+class RrtStarSuccess : public ::testing::TestWithParam<SuccessCase> {};
+
+// Queries 3-12 m apart with 0.6 m of clearance at both ends; refinement shortened to 300
+// iterations to keep the test quick. Every exact answer must pass the independent checker.
+TEST_P(RrtStarSuccess, FindsCheckerValidTrajectoriesForMostQueries) {
+  const SuccessCase& c = GetParam();
+  ConfiguredPlanner configured = makePlanner(c.planner, c.world, 3, {"refine_iterations=300"});
+  const auto queries = test::randomQueries(*test::smallWorld(c.world), 50, 17, 3.0, 12.0, 0.6);
+  int valid = 0;
+  int rejected = 0;
+  for (const PlanningQuery& query : queries) {
+    const PlanResult result = configured.planner->plan(query, Budget{});
+    if (result.status == PlanStatus::kExact) {
+      EXPECT_TRUE(result.check.valid);
+      EXPECT_LE(result.distance_to_goal, 0.5 + 1e-9);
+      ++valid;
+    } else if (result.status == PlanStatus::kInvalidTrajectory) {
+      ++rejected;
+    }
+  }
+  const double rate = static_cast<double>(valid) / static_cast<double>(queries.size());
+  std::printf("[ %s on %s ] checker-valid exact %d / %zu, rejected by the checker %d\n",
+              c.planner.c_str(), c.world.c_str(), valid, queries.size(), rejected);
+  EXPECT_GE(rate, c.min_rate);
+}
+
+INSTANTIATE_TEST_SUITE_P(Worlds, RrtStarSuccess,
+                         ::testing::Values(SuccessCase{"rrtstar_ceres", "forest", 0.95},
+                                           SuccessCase{"rrtstar_ceres", "walls", 0.9},
+                                           SuccessCase{"rrtstar", "forest", 0.95},
+                                           SuccessCase{"rrtstar", "walls", 0.9}),
+                         [](const ::testing::TestParamInfo<SuccessCase>& param) {
+                           return param.param.planner + "_" + param.param.world;
+                         });
+
+PlanningQuery wallsQuery() {
+  return test::randomQueries(*test::smallWorld("walls"), 1, 23, 7.0, 11.0, 0.6).front();
+}
+
+TEST(RrtStar, SameSeedSameTrajectoryOtherSeedOtherTree) {
+  const PlanningQuery query = wallsQuery();
+  const PlanResult a = makePlanner("rrtstar_ceres", "walls", 5).planner->plan(query, Budget{});
+  const PlanResult b = makePlanner("rrtstar_ceres", "walls", 5).planner->plan(query, Budget{});
+  const PlanResult c = makePlanner("rrtstar_ceres", "walls", 6).planner->plan(query, Budget{});
+  ASSERT_EQ(a.status, PlanStatus::kExact) << a.message;
+  EXPECT_EQ(b.status, a.status);
+  EXPECT_EQ(b.cost, a.cost);
+  EXPECT_EQ(b.trajectory.duration(), a.trajectory.duration());
+  for (double t = 0.0; t < a.trajectory.duration(); t += 0.5) {
+    EXPECT_EQ(b.trajectory.evaluate(t), a.trajectory.evaluate(t));
+  }
+  EXPECT_EQ(statistic(b, "tree_size"), statistic(a, "tree_size"));
+  EXPECT_EQ(statistic(b, "collision_checks"), statistic(a, "collision_checks"));
+  // Another seed grows another tree.
+  EXPECT_NE(statistic(c, "path_length_raw"), statistic(a, "path_length_raw"));
+}
+
+TEST(RrtStar, ReportsBothStagesAndAnytimeProgress) {
+  const PlanningQuery query = wallsQuery();
+  ConfiguredPlanner configured = makePlanner("rrtstar_ceres", "walls", 5);
+  SearchTree tree;
+  const PlanResult result = configured.planner->plan(query, Budget{}, &tree);
+  ASSERT_EQ(result.status, PlanStatus::kExact) << result.message;
+  const double iterations = statistic(result, "iterations");
+  EXPECT_EQ(iterations, statistic(result, "first_solution_iteration") + 1000);  // refinement
+  EXPECT_GT(statistic(result, "tree_size"), 10.0);
+  EXPECT_LE(statistic(result, "tree_size"), iterations + 1);
+  EXPECT_EQ(static_cast<double>(tree.size()), statistic(result, "tree_size") - 1);
+  EXPECT_GT(statistic(result, "collision_checks"), statistic(result, "tree_size"));
+  EXPECT_GT(statistic(result, "ceres_iterations"), 0.0);
+  EXPECT_LE(statistic(result, "ceres_final_cost"), statistic(result, "ceres_initial_cost"));
+  EXPECT_EQ(statistic(result, "smoothing_valid"), 1.0);
+  EXPECT_LE(statistic(result, "path_length"), statistic(result, "path_length_raw") + 1e-9);
+  EXPECT_LE(statistic(result, "best_cost"), statistic(result, "first_solution_cost"));
+  const double stages = statistic(result, "time_rrt_ms") + statistic(result, "time_simplify_ms") +
+                        statistic(result, "time_smooth_ms");
+  EXPECT_LE(stages, result.planning_time_ms + 1e-6);
+  // The best cost on the 1-2-5 ms grid never rises, and is finite once a solution exists.
+  double previous = INFINITY;
+  int points = 0;
+  for (const auto& [name, value] : result.statistics) {
+    if (name.rfind("best_cost_at_", 0) != 0) continue;
+    ++points;
+    if (std::isfinite(previous)) {
+      EXPECT_LE(value, previous) << name;
+    }
+    if (std::isfinite(value)) previous = value;
+  }
+  EXPECT_GT(points, 0);
+  EXPECT_NEAR(result.cost, result.trajectory.length(), 1e-9);
+}
+
+TEST(RrtStar, SmoothingStartsFromAMovingStateFrontEndAloneRefuses) {
+  PlanningQuery query = test::randomQueries(*test::smallWorld("forest"), 1, 29, 5.0, 8.0, 0.8)
+                            .front();
+  const Eigen::Vector3d toward = (query.goal - query.start.col(0)).normalized();
+  query.start.col(1) = 1.0 * toward;
+  query.start.col(2) = Eigen::Vector3d(0.5, -0.5, 0.0);
+  const PlanResult smooth = makePlanner("rrtstar_ceres", "forest", 2).planner->plan(query, Budget{});
+  ASSERT_EQ(smooth.status, PlanStatus::kExact) << smooth.message;
+  EXPECT_LT((smooth.trajectory.evaluate(0.0, 1) - query.start.col(1)).norm(), 1e-9);
+  EXPECT_LT((smooth.trajectory.evaluate(0.0, 2) - query.start.col(2)).norm(), 1e-9);
+  const PlanResult alone = makePlanner("rrtstar", "forest", 2).planner->plan(query, Budget{});
+  EXPECT_EQ(alone.status, PlanStatus::kInvalidStart);
+  EXPECT_NE(alone.message.find("at rest"), std::string::npos) << alone.message;
+}
+
+TEST(RrtStar, AnIterationBudgetGivesAnApproximateAnswerShortOfTheGoal) {
+  const PlanningQuery query = wallsQuery();
+  ConfiguredPlanner configured = makePlanner("rrtstar", "walls", 5);
+  const PlanResult result = configured.planner->plan(query, Budget{INFINITY, 3});
+  EXPECT_EQ(statistic(result, "iterations"), 3.0);
+  ASSERT_TRUE(result.status == PlanStatus::kApproximate || result.status == PlanStatus::kTimeout)
+      << toString(result.status);
+  if (result.status == PlanStatus::kApproximate) {
+    EXPECT_TRUE(result.check.valid) << result.check.detail;
+    EXPECT_GT(result.distance_to_goal, 0.5);
+  }
+}
+
+TEST(RrtStar, StartsTooCloseForTheMarginAreRefusedByName) {
+  PlanningQuery query = wallsQuery();
+  ConfiguredPlanner configured = makePlanner("rrtstar", "walls", 5, {"clearance_margin=5"});
+  const PlanResult result = configured.planner->plan(query, Budget{});
+  EXPECT_EQ(result.status, PlanStatus::kInvalidStart);
+  EXPECT_NE(result.message.find("clearance_margin"), std::string::npos) << result.message;
+}
+
+}  // namespace
+}  // namespace kinolab
