@@ -10,8 +10,8 @@
 namespace kinolab {
 namespace {
 
-ConfiguredPlanner makePlanner(const std::string& key, const std::string& world,
-                              std::uint64_t seed, std::vector<std::string> items = {}) {
+ConfiguredPlanner makePlanner(const std::string& key, const std::string& world, std::uint64_t seed,
+                              std::vector<std::string> items = {}) {
   items.push_back("time_limit=0");  // iteration-bounded: the same on every machine
   items.push_back("max_iterations=20000");
   ConfiguredPlanner configured = configurePlanner(key, test::assignments(items));
@@ -126,18 +126,39 @@ TEST(RrtStar, ReportsBothStagesAndAnytimeProgress) {
 }
 
 TEST(RrtStar, SmoothingStartsFromAMovingStateFrontEndAloneRefuses) {
-  PlanningQuery query = test::randomQueries(*test::smallWorld("forest"), 1, 29, 5.0, 8.0, 0.8)
-                            .front();
+  PlanningQuery query =
+      test::randomQueries(*test::smallWorld("forest"), 1, 29, 5.0, 8.0, 0.8).front();
   const Eigen::Vector3d toward = (query.goal - query.start.col(0)).normalized();
   query.start.col(1) = 1.0 * toward;
   query.start.col(2) = Eigen::Vector3d(0.5, -0.5, 0.0);
-  const PlanResult smooth = makePlanner("rrtstar_ceres", "forest", 2).planner->plan(query, Budget{});
+  const PlanResult smooth =
+      makePlanner("rrtstar_ceres", "forest", 2).planner->plan(query, Budget{});
   ASSERT_EQ(smooth.status, PlanStatus::kExact) << smooth.message;
   EXPECT_LT((smooth.trajectory.evaluate(0.0, 1) - query.start.col(1)).norm(), 1e-9);
   EXPECT_LT((smooth.trajectory.evaluate(0.0, 2) - query.start.col(2)).norm(), 1e-9);
   const PlanResult alone = makePlanner("rrtstar", "forest", 2).planner->plan(query, Budget{});
   EXPECT_EQ(alone.status, PlanStatus::kInvalidStart);
   EXPECT_NE(alone.message.find("at rest"), std::string::npos) << alone.message;
+}
+
+TEST(RrtStar, SmoothingRepairsCollisionsWithDenserKnots) {
+  // Knots 2 m apart cut the corners of the path around walls, and the obstacle penalty
+  // starts only 0.1 m beyond the radius. Later rounds halve the spacing and raise the
+  // obstacle weight until the trajectory is clear.
+  const PlanningQuery query = wallsQuery();
+  ConfiguredPlanner configured =
+      makePlanner("rrtstar_ceres", "walls", 5, {"knot_spacing=2", "safety_distance=0.1"});
+  const PlanResult result = configured.planner->plan(query, Budget{});
+  ASSERT_EQ(result.status, PlanStatus::kExact) << result.message;
+  EXPECT_TRUE(result.check.valid);
+  EXPECT_GT(statistic(result, "smoothing_rounds"), 1.0);
+  // With a single round the same corner cut is handed to the checker, which rejects it.
+  ConfiguredPlanner single = makePlanner("rrtstar_ceres", "walls", 5,
+                                         {"knot_spacing=2", "safety_distance=0.1", "max_rounds=1"});
+  const PlanResult cut = single.planner->plan(query, Budget{});
+  EXPECT_EQ(cut.status, PlanStatus::kInvalidTrajectory);
+  EXPECT_EQ(statistic(cut, "smoothing_valid"), 0.0);
+  EXPECT_FALSE(cut.check.valid);
 }
 
 TEST(RrtStar, AnIterationBudgetGivesAnApproximateAnswerShortOfTheGoal) {

@@ -24,8 +24,8 @@ TEST(UniformBspline, PiecewisePolynomialMatchesTheBasis) {
   EXPECT_DOUBLE_EQ(trajectory.duration(), 6 * 0.3);
   for (int span = 0; span < spline.spans(); ++span) {
     for (const double u : {0.0, 0.25, 0.5, 0.9}) {
-      const Eigen::Vector3d expected = spline.controlPoints().middleCols<4>(span) *
-                                       UniformBspline::basis(u);
+      const Eigen::Vector3d expected =
+          spline.controlPoints().middleCols<4>(span) * UniformBspline::basis(u);
       EXPECT_LT((trajectory.evaluate((span + u) * 0.3) - expected).norm(), 1e-12);
     }
   }
@@ -128,8 +128,8 @@ TEST(StopAndGo, StopsAtEveryWaypointWithinThePerAxisLimits) {
     if (segment.evaluate(0.0, 1).norm() < 1e-9) stops.push_back(segment.evaluate(0.0));
   }
   stops.push_back(trajectory.endPosition());
-  const std::vector<Eigen::Vector3d> expected = {
-      waypoints[0], waypoints[1], waypoints[3], waypoints[4]};
+  const std::vector<Eigen::Vector3d> expected = {waypoints[0], waypoints[1], waypoints[3],
+                                                 waypoints[4]};
   ASSERT_EQ(stops.size(), expected.size());
   for (std::size_t i = 0; i < stops.size(); ++i) EXPECT_LT((stops[i] - expected[i]).norm(), 1e-9);
   EXPECT_LT((trajectory.endPosition() - waypoints.back()).norm(), 1e-12);

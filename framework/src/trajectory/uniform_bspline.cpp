@@ -113,8 +113,8 @@ Trajectory stopAndGo(const std::vector<Eigen::Vector3d>& waypoints, const Dynami
     trajectory.append(quadratic(position, Eigen::Vector3d::Zero(), up, ramp_time));
     position += 0.5 * up * ramp_time * ramp_time;
     if (cruise_time > 1e-12) {
-      trajectory.append(quadratic(position, speed * direction, Eigen::Vector3d::Zero(),
-                                  cruise_time));
+      trajectory.append(
+          quadratic(position, speed * direction, Eigen::Vector3d::Zero(), cruise_time));
       position += speed * direction * cruise_time;
     }
     trajectory.append(quadratic(position, speed * direction, -up, ramp_time));

@@ -94,7 +94,8 @@ class ObstacleCost final : public ceres::SizedCostFunction<1, 3, 3, 3, 3> {
   bool Evaluate(double const* const* parameters, double* residuals,
                 double** jacobians) const override {
     Eigen::Vector3d point = Eigen::Vector3d::Zero();
-    for (int j = 0; j < 4; ++j) point += weights_[j] * Eigen::Map<const Eigen::Vector3d>(parameters[j]);
+    for (int j = 0; j < 4; ++j)
+      point += weights_[j] * Eigen::Map<const Eigen::Vector3d>(parameters[j]);
     Eigen::Vector3d gradient;
     const double excess = threshold_ - esdf_.distanceWithGradient(point, &gradient);
     const bool active = excess > 0.0;
@@ -232,15 +233,14 @@ SmootherResult BsplineSmoother::smooth(const ChainState& start,
     const double obstacle_scale = std::sqrt(weight_obstacle / settings_.obstacle_samples);
     const double threshold = settings_.robot_radius + settings_.safety_distance;
     for (int i = 0; i + 3 < count; ++i) {
-      problem.AddResidualBlock(
-          new ceres::AutoDiffCostFunction<SmoothnessCost, 3, 3, 3, 3, 3>(
-              new SmoothnessCost{smooth_scale}),
-          nullptr, block(i), block(i + 1), block(i + 2), block(i + 3));
+      problem.AddResidualBlock(new ceres::AutoDiffCostFunction<SmoothnessCost, 3, 3, 3, 3, 3>(
+                                   new SmoothnessCost{smooth_scale}),
+                               nullptr, block(i), block(i + 1), block(i + 2), block(i + 3));
       for (int k = 0; k < settings_.obstacle_samples; ++k) {
         const double u = static_cast<double>(k) / settings_.obstacle_samples;
-        problem.AddResidualBlock(new ObstacleCost(world_->esdf(), UniformBspline::basis(u),
-                                                  threshold, obstacle_scale),
-                                 nullptr, block(i), block(i + 1), block(i + 2), block(i + 3));
+        problem.AddResidualBlock(
+            new ObstacleCost(world_->esdf(), UniformBspline::basis(u), threshold, obstacle_scale),
+            nullptr, block(i), block(i + 1), block(i + 2), block(i + 3));
       }
     }
     const double feasibility_scale = std::sqrt(settings_.weight_feasibility);
@@ -305,8 +305,8 @@ SmootherResult BsplineSmoother::smooth(const ChainState& start,
       result.problem.clear();
       break;
     }
-    result.problem = "round " + std::to_string(rounds) + ": " + check.check + " check at t = " +
-                     formatNumber(check.time) + " s: " + check.detail;
+    result.problem = "round " + std::to_string(rounds) + ": " + check.check +
+                     " check at t = " + formatNumber(check.time) + " s: " + check.detail;
     if (check.check != "esdf" && check.check != "bounds") break;  // more rounds cannot help
     spacing *= 0.5;
     weight_obstacle *= 4.0;
@@ -319,13 +319,13 @@ SmootherResult BsplineSmoother::smooth(const ChainState& start,
   stats.emplace_back("ceres_final_cost", final_cost);
   stats.emplace_back("time_reallocations", reallocations);
   if (result.spline) {
-    stats.emplace_back("control_points", static_cast<double>(result.spline->controlPoints().cols()));
+    stats.emplace_back("control_points",
+                       static_cast<double>(result.spline->controlPoints().cols()));
     stats.emplace_back("knot_interval", result.spline->interval());
   }
-  stats.emplace_back("time_smooth_ms",
-                     std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() -
-                                                               begin)
-                         .count());
+  stats.emplace_back(
+      "time_smooth_ms",
+      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - begin).count());
   return result;
 }
 

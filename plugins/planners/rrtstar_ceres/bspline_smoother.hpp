@@ -23,13 +23,13 @@ struct SmootherSettings {
   double robot_radius = 0.25;
   double safety_distance = 0.25;  ///< the obstacle penalty acts below radius + this, m
   DynamicLimits limits = DynamicLimits::uniform(2.0, 3.0);
-  double weight_smoothness = 1.0;   ///< on sum |P_{i+3} - 3 P_{i+2} + 3 P_{i+1} - P_i|^2
-  double weight_obstacle = 10.0;    ///< on sum (radius + safety - d)^2 over span samples
-  double weight_guide = 1.0;        ///< on sum |P_i - P_i,0|^2 (the time-allocated path)
+  double weight_smoothness = 1.0;    ///< on sum |P_{i+3} - 3 P_{i+2} + 3 P_{i+1} - P_i|^2
+  double weight_obstacle = 10.0;     ///< on sum (radius + safety - d)^2 over span samples
+  double weight_guide = 0.01;        ///< on sum |P_i - P_i,0|^2 (the time-allocated path)
   double weight_feasibility = 10.0;  ///< on velocity / acceleration excess (scaled to metres)
-  int obstacle_samples = 4;           ///< ESDF samples per span
-  int max_solver_iterations = 100;    ///< per Ceres solve
-  int max_rounds = 4;                 ///< re-solves after a collision (denser, heavier)
+  int obstacle_samples = 4;          ///< ESDF samples per span
+  int max_solver_iterations = 100;   ///< per Ceres solve
+  int max_rounds = 4;                ///< re-solves after a collision (denser, heavier)
 };
 
 struct SmootherResult {

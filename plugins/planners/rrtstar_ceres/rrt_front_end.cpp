@@ -54,8 +54,7 @@ class SeededRrtStar final : public og::RRTstar {
 
 class SeededSimplifier final : public og::PathSimplifier {
  public:
-  SeededSimplifier(const ob::SpaceInformationPtr& si, std::uint32_t seed)
-      : og::PathSimplifier(si) {
+  SeededSimplifier(const ob::SpaceInformationPtr& si, std::uint32_t seed) : og::PathSimplifier(si) {
     rng_.setLocalSeed(seed);
   }
 };
@@ -68,7 +67,8 @@ double millisecondsSince(std::chrono::steady_clock::time_point begin) {
 std::vector<Eigen::Vector3d> waypoints(const og::PathGeometric& path) {
   std::vector<Eigen::Vector3d> points;
   points.reserve(path.getStateCount());
-  for (std::size_t i = 0; i < path.getStateCount(); ++i) points.push_back(toVector(path.getState(i)));
+  for (std::size_t i = 0; i < path.getStateCount(); ++i)
+    points.push_back(toVector(path.getState(i)));
   return points;
 }
 
@@ -231,9 +231,8 @@ FrontEndResult RrtFrontEnd::plan(const Eigen::Vector3d& start, const Eigen::Vect
   stats.emplace_back("iterations", static_cast<double>(result.iterations));
   stats.emplace_back("tree_size", static_cast<double>(planner->treeSize()));
   stats.emplace_back("collision_checks", static_cast<double>(o.validity_checks));
-  stats.emplace_back("motion_checks",
-                     static_cast<double>(motions->getValidMotionCount() +
-                                         motions->getInvalidMotionCount()));
+  stats.emplace_back("motion_checks", static_cast<double>(motions->getValidMotionCount() +
+                                                          motions->getInvalidMotionCount()));
   stats.emplace_back("motion_checks_invalid",
                      static_cast<double>(motions->getInvalidMotionCount()));
   stats.emplace_back("first_solution_iteration",

@@ -18,9 +18,9 @@ struct FrontEndSettings {
   double rewire_factor = 1.1;  ///< scales RRT*'s rewiring radius or k
   bool k_nearest = true;       ///< rewire over k nearest (else a radius)
   bool delay_collision_checking = true;
-  double clearance = 0.35;          ///< a valid state's ESDF value: body radius + margin, m
-  double motion_resolution = 0.05;  ///< spacing of checked states along a motion, m
-  bool simplify = true;             ///< OMPL's vertex reduction and shortcutting afterwards
+  double clearance = 0.35;             ///< a valid state's ESDF value: body radius + margin, m
+  double motion_resolution = 0.05;     ///< spacing of checked states along a motion, m
+  bool simplify = true;                ///< OMPL's vertex reduction and shortcutting afterwards
   long long refine_iterations = 1000;  ///< iterations after the first exact solution
   double goal_radius = 0.5;
 };
@@ -47,8 +47,8 @@ class RrtFrontEnd {
 
   /// One RRT* run from `start` towards the goal ball, seeded by `seed` (the same seed and
   /// iteration budget give the same path). With `tree`, the final tree's edges go there.
-  FrontEndResult plan(const Eigen::Vector3d& start, const Eigen::Vector3d& goal,
-                      std::uint32_t seed, StopCondition& stop, SearchTree* tree);
+  FrontEndResult plan(const Eigen::Vector3d& start, const Eigen::Vector3d& goal, std::uint32_t seed,
+                      StopCondition& stop, SearchTree* tree);
 
  private:
   struct Ompl;

@@ -44,7 +44,7 @@ ParameterSpecs smoothingParameters() {
       .real("safety_distance", 0.25, 0.0, 10.0,
             "the obstacle penalty acts below the radius plus this, m")
       .real("weight_smoothness", 1.0, 0.0, 1e6, "weight of the jerk (third difference) term")
-      .real("weight_guide", 1.0, 0.0, 1e6,
+      .real("weight_guide", 0.01, 0.0, 1e6,
             "weight keeping control points near the time-allocated path (0: free)")
       .real("weight_obstacle", 10.0, 0.0, 1e6, "weight of the ESDF obstacle penalty")
       .real("weight_feasibility", 10.0, 0.0, 1e6, "weight of the velocity/acceleration penalty")
@@ -90,8 +90,7 @@ class RrtStarPlanner final : public Planner {
     settings.rewire_factor = parameters_.real("rewire_factor");
     settings.k_nearest = parameters_.boolean("k_nearest");
     settings.delay_collision_checking = parameters_.boolean("delay_collision_checking");
-    settings.clearance =
-        parameters_.real("robot_radius") + parameters_.real("clearance_margin");
+    settings.clearance = parameters_.real("robot_radius") + parameters_.real("clearance_margin");
     settings.motion_resolution =
         parameters_.real("motion_resolution") * context.world->esdf().resolution();
     settings.simplify = parameters_.boolean("simplify");
@@ -110,8 +109,9 @@ class RrtStarPlanner final : public Planner {
     const bool at_rest = query.start.col(1).isZero() && query.start.col(2).isZero();
     if (!smoother_ && !at_rest) {
       result.status = PlanStatus::kInvalidStart;
-      result.message = "rrtstar flies its path stop-and-go, so it starts at rest (use "
-                       "rrtstar_ceres for a moving start)";
+      result.message =
+          "rrtstar flies its path stop-and-go, so it starts at rest (use "
+          "rrtstar_ceres for a moving start)";
       return result;
     }
     if (const double clearance = world_->distance(start); clearance < clearance_) {
