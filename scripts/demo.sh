@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # The main job: install what is missing, build, build the demo worlds with their pictures
 # into out/worlds/, run the paper's Table I sampling study into out/sampling_study/, and plan
-# one forest query with eager and lazy MP-A* into out/plan/.
+# one forest query with eager and lazy MP-A* and the TGK analogue into out/plan/.
 # (The paper reproduction replaces this once the experiment runner exists.)
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -15,6 +15,8 @@ for planner in eager_mp_astar lazy_mp_astar; do
   ./build/framework/kinolab plan --world configs/worlds/forest.yaml --planner "$planner" \
     --set heuristic_weight=2 --start 2,2,1.5 --goal 14,12,1.5 --out "out/plan/$planner"
 done
+./build/framework/kinolab plan --world configs/worlds/forest.yaml --planner rrtstar_ceres \
+  --start 2,2,1.5 --goal 14,12,1.5 --out out/plan/rrtstar_ceres
 echo "demo: pictures in out/worlds/*/top_view.png and out/worlds/*/esdf_slice.png;"
 echo "      Table I in out/sampling_study/paper_table1_samplers/summary.csv;"
-echo "      lazy and eager MP-A* on the forest in out/plan/*/{trajectory,tree}.csv"
+echo "      lazy and eager MP-A* and rrtstar_ceres on the forest in out/plan/*/{trajectory,tree}.csv"

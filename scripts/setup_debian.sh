@@ -10,6 +10,9 @@ PACKAGES=(
   # C++ libraries
   libeigen3-dev liboctomap-dev libyaml-cpp-dev libpng-dev libxxhash-dev libcli11-dev
   nlohmann-json3-dev libboost-dev libfcl-dev libgtest-dev libbenchmark-dev
+  # the TGK analogue: OMPL (and the Boost libraries it links) and Ceres
+  libompl-dev libboost-serialization-dev libboost-filesystem-dev libboost-system-dev
+  libceres-dev
   # Python (Debian's interpreter and packages; the Python package index is not needed)
   python3 python3-numpy python3-scipy python3-yaml python3-pytest
 )

@@ -106,8 +106,43 @@ def test_list_shows_the_planners(kinolab):
     result = kinolab("list", "planners", "--json")
     assert result.returncode == 0, result.stderr
     planners = {p["key"]: p for p in json.loads(result.stdout)["planners"]}
-    assert {"eager_mp_astar", "lazy_mp_astar", "greedy_mp"} <= set(planners)
+    assert {"eager_mp_astar", "lazy_mp_astar", "greedy_mp", "rrtstar_ceres", "rrtstar"} <= set(planners)
     lazy = {p["name"]: p for p in planners["lazy_mp_astar"]["parameters"]}
     assert lazy["duplicate_rule"]["choices"] == ["lwa", "seed"]
     assert lazy["lower_bound"]["choices"] == ["endpoint", "control_only", "lipschitz"]
     assert lazy["heuristic_weight"]["minimum"] == 1.0
+
+
+@pytest.mark.parametrize("planner", ["rrtstar_ceres", "rrtstar"])
+def test_the_tgk_analogue_plans_and_reports_both_stages(kinolab, world, tmp_path, planner):
+    out = tmp_path / "out"
+    args = ("plan", "--world", world, "--planner", planner, "--set", "refine_iterations=200",
+            "--start", "1,1,1.5", "--goal", "8.5,8,1.5", "--seed", "9", "--out", out)
+    result = kinolab(*args)
+    assert result.returncode == 0, result.stderr
+    summary = last_json(result)
+    assert summary["status"] == "exact" and summary["checker"]["valid"] is True
+    assert summary["iterations"] == summary["first_solution_iteration"] + 200
+    for key in ("tree_size", "collision_checks", "time_rrt_ms", "best_cost_at_1ms"):
+        assert key in summary, key
+    if planner == "rrtstar_ceres":
+        assert summary["ceres_iterations"] > 0 and summary["smoothing_valid"] == 1
+        assert summary["jerk_integral"] > 0
+    tree = list(csv.DictReader((out / "tree.csv").open()))
+    assert len({row["edge"] for row in tree}) == summary["tree_size"] - 1
+    # The same seed repeats the run exactly (time aside).
+    again = last_json(kinolab(*args))
+    assert again["length"] == summary["length"] and again["duration"] == summary["duration"]
+
+
+@pytest.mark.parametrize("arguments, message", [
+    (["--set", "refine_iterations=-1"], "refine_iterations"),
+    (["--set", "knot_spacin=0.3"], "did you mean 'knot_spacing'"),
+    (["--set", "goal_bias=1.5"], "goal_bias"),
+    (["--set", "sampler.sigma=0.3"], "uses no control sampler"),
+])
+def test_the_tgk_analogue_refuses_bad_parameters(kinolab, world, arguments, message):
+    result = kinolab("plan", "--world", world, "--planner", "rrtstar_ceres", "--start", "1,1,1.5",
+                     "--goal", "8,8,1.5", *arguments)
+    assert result.returncode == 1, result.stdout
+    assert message in result.stderr, result.stderr
