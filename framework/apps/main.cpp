@@ -19,11 +19,14 @@ int main(int argc, char** argv) {
   app.footer("Run 'kinolab COMMAND --help' for the options of one command.");
   kinolab::apps::addListCommand(app);
   kinolab::apps::addPlanCommand(app);
+  kinolab::apps::addRunCommand(app);
   kinolab::apps::addSamplingStudyCommand(app);
   kinolab::apps::addWorldCommand(app);
   try {
     kinolab::registerBuiltinPlugins();
     app.parse(argc, argv);
+  } catch (const CLI::RuntimeError& error) {
+    return error.get_exit_code();
   } catch (const CLI::ParseError& error) {
     return app.exit(error);
   } catch (const kinolab::Error& error) {

@@ -47,6 +47,10 @@ YamlReader YamlReader::loadString(const std::string& text, const std::string& so
   }
 }
 
+YamlReader YamlReader::fromNode(YAML::Node node, const std::string& source) {
+  return YamlReader(std::move(node), std::make_shared<const std::string>(source), "");
+}
+
 std::string YamlReader::where() const {
   std::string text = *source_;
   const YAML::Mark mark = node_.Mark();

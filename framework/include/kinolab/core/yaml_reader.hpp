@@ -25,6 +25,10 @@ class YamlReader {
   static YamlReader loadFile(const std::string& path);
   /// Parses text; `source` names it in messages.
   static YamlReader loadString(const std::string& text, const std::string& source);
+  /// Reads an already parsed (e.g. merged or edited) document; `source` names it in messages.
+  static YamlReader fromNode(YAML::Node node, const std::string& source);
+  /// The node underneath (for documents that are edited before they are read).
+  const YAML::Node& node() const { return node_; }
 
   /// "file:line:column: key.path" for messages.
   std::string where() const;

@@ -1,0 +1,126 @@
+// `kinolab run`: an experiment file into a results database; `kinolab merge`: shard
+// databases into one.
+#include <cstdio>
+#include <iostream>
+
+#include "commands.hpp"
+#include "kinolab/core/error.hpp"
+#include "kinolab/experiment/experiment.hpp"
+#include "kinolab/experiment/results_store.hpp"
+#include "kinolab/experiment/runner.hpp"
+#include "kinolab/world/world_cache.hpp"
+
+namespace kinolab::apps {
+namespace {
+
+struct RunOptions {
+  std::string experiment;
+  RunnerOptions runner;
+  std::string shard;
+  bool dry_run = false;
+};
+
+void parseShard(const std::string& text, RunnerOptions& runner) {
+  const std::size_t slash = text.find('/');
+  try {
+    std::size_t used = 0;
+    if (slash == std::string::npos) throw std::invalid_argument(text);
+    runner.shard_index = std::stoi(text.substr(0, slash), &used);
+    if (used != slash) throw std::invalid_argument(text);
+    runner.shard_count = std::stoi(text.substr(slash + 1), &used);
+    if (used != text.size() - slash - 1) throw std::invalid_argument(text);
+  } catch (const std::exception&) {
+    throw ConfigError("--shard '" + text + "': expected i/N, e.g. 2/8");
+  }
+  if (runner.shard_count < 1 || runner.shard_index < 1 || runner.shard_index > runner.shard_count) {
+    throw ConfigError("--shard '" + text + "': expected 1 <= i <= N");
+  }
+}
+
+int runCommand(RunOptions& options) {
+  if (!options.shard.empty()) parseShard(options.shard, options.runner);
+  const Experiment experiment = Experiment::fromFile(options.experiment);
+  if (options.dry_run) {
+    const auto runs =
+        shardOf(experiment.runs(), options.runner.shard_index, options.runner.shard_count);
+    std::cout << describeRuns(experiment, runs);
+    return 0;
+  }
+  if (options.runner.out_dir.empty()) throw ConfigError("--out DIR is required (or --dry-run)");
+  const RunnerSummary summary = runExperiment(experiment, options.runner);
+  std::string statuses;
+  for (const auto& [status, count] : summary.by_status) {
+    statuses += (statuses.empty() ? "" : ", ") + std::to_string(count) + " " + status;
+  }
+  std::printf(
+      "%s: %lld runs ran (%s), %lld were already done, %lld planned, %.1f s -> %s/results.sqlite\n",
+      summary.interrupted ? "interrupted" : "done", summary.finished,
+      statuses.empty() ? "none" : statuses.c_str(), summary.skipped, summary.planned,
+      summary.seconds, options.runner.out_dir.c_str());
+  if (summary.interrupted) {
+    std::printf("resume with: kinolab run %s --out %s --resume\n", options.experiment.c_str(),
+                options.runner.out_dir.c_str());
+    return 130;
+  }
+  return 0;
+}
+
+}  // namespace
+
+void addRunCommand(CLI::App& app) {
+  auto options = std::make_shared<RunOptions>();
+  options->runner.cache_dir = WorldCache::defaultDirectory();
+  CLI::App* command = app.add_subcommand(
+      "run",
+      "Run an experiment file (worlds x queries x planners x repetitions x sweep) into "
+      "DIR/results.sqlite, each run in an isolated worker process");
+  command->add_option("experiment", options->experiment, "Experiment YAML (experiments/*.yaml)")
+      ->required();
+  command->add_option("--out", options->runner.out_dir, "Output directory for results.sqlite");
+  command->add_option("-j,--jobs", options->runner.jobs, "Worker processes at a time")
+      ->capture_default_str();
+  command->add_flag("--resume", options->runner.resume,
+                    "Continue a stopped run: only the runs missing from the database run");
+  command->add_option("--shard", options->shard,
+                      "Run the deterministic i-th of N parts (i/N), for array jobs");
+  command->add_flag("--dry-run", options->dry_run,
+                    "Validate and print the expanded runs (count and table); run nothing");
+  command->add_option("--cache-dir", options->runner.cache_dir, "World cache directory")
+      ->capture_default_str();
+  command
+      ->add_option("--grace", options->runner.grace_seconds,
+                   "Seconds past its time budget before a worker is killed (timeout)")
+      ->capture_default_str();
+  command->footer(
+      "A run's status is its planner's (exact, approximate, no_solution, timeout, "
+      "invalid_start, invalid_goal, invalid_trajectory) or the runner's: crash (the worker "
+      "died), timeout (killed past the budget), oom (memory budget), error (an exception).\n"
+      "Exit status 0 when every run finished (whatever their statuses), 1 for bad input, "
+      "130 when interrupted (the database is resumable).");
+  command->callback([options] {
+    const int code = runCommand(*options);
+    if (code != 0) throw CLI::RuntimeError(code);
+  });
+
+  auto inputs = std::make_shared<std::vector<std::string>>();
+  auto output = std::make_shared<std::string>();
+  auto partial = std::make_shared<bool>(false);
+  CLI::App* merge =
+      app.add_subcommand("merge", "Join the shard databases of one experiment into a new database");
+  merge->add_option("output", *output, "The merged database to create (must not exist)")
+      ->required();
+  merge->add_option("shards", *inputs, "Shard databases (DIR/results.sqlite of each shard)")
+      ->required();
+  merge->add_flag("--partial", *partial, "Accept missing or incomplete shards");
+  merge->footer(
+      "Refuses shards of different experiments (config hashes), repeated shards, and (without "
+      "--partial) missing or incomplete ones.");
+  merge->callback([inputs, output, partial] {
+    ResultsStore::merge(*output, *inputs, *partial);
+    ResultsStore merged(*output);
+    std::printf("merged %zu shard(s): %lld runs -> %s\n", inputs->size(), merged.runCount(),
+                output->c_str());
+  });
+}
+
+}  // namespace kinolab::apps

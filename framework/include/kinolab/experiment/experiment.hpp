@@ -1,0 +1,116 @@
+#pragma once
+
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "kinolab/core/parameters.hpp"
+#include "kinolab/planner/planner.hpp"
+#include "kinolab/world/world_spec.hpp"
+
+namespace kinolab {
+
+/// How the queries of a world are made: a fixed list, seeded random pairs, and seeded pairs
+/// across the world from one side to the other (in that order).
+struct QuerySpec {
+  struct Random {
+    int count = 0;
+    double min_distance = 5.0;
+    double max_distance = INFINITY;
+    double clearance = 0.6;
+    double height[2] = {1.0, 2.0};
+  };
+  struct Across {
+    int count = 0;
+    int axis = 0;         ///< 0: from low x to high x, 1: along y
+    double margin = 1.0;  ///< start and goal this far inside the two faces, m
+    double clearance = 0.6;
+    double height[2] = {1.0, 2.0};
+  };
+  std::vector<std::pair<Eigen::Vector3d, Eigen::Vector3d>> fixed;
+  Random random;
+  Across across;
+
+  int count() const { return static_cast<int>(fixed.size()) + random.count + across.count; }
+  /// The queries of one world, deterministic in `seed` and the world. A random or across
+  /// query that cannot be placed in 100000 draws is a ConfigError naming `world_id`.
+  std::vector<PlanningQuery> make(const World& world, const std::string& world_id,
+                                  std::uint64_t seed) const;
+  /// Exact text of everything that determines the queries.
+  std::string canonicalText() const;
+};
+
+/// One planner of an experiment: its registry key, its parameters and (for planners that
+/// declare one) its sampler, all resolved and validated.
+struct ExperimentPlanner {
+  std::string id;
+  std::string type;
+  std::vector<ParameterAssignment> assignments;  ///< own and `sampler.NAME` ones
+  ParameterSet parameters;
+  std::string sampler;
+  ParameterSet sampler_parameters;
+  /// Everything that determines its behaviour, as text.
+  std::string canonicalText() const;
+};
+
+struct ExperimentWorld {
+  std::string id;
+  WorldSpec spec;
+};
+
+/// Budgets of one run: planning time (passed to the planner), memory of the worker process,
+/// and iterations (expansions, tree iterations; 0: none).
+struct ExperimentBudget {
+  double time = 10.0;          ///< s; the worker is killed at time + grace
+  long long memory_mb = 4096;  ///< address space the worker may add
+  long long iterations = 0;
+};
+
+/// One point of the sweep: a complete, validated configuration.
+struct ExperimentVariant {
+  std::string label;  ///< "planners.lazy.params.heuristic_weight=2, ..." ("" without a sweep)
+  std::vector<ExperimentWorld> worlds;
+  QuerySpec queries;
+  std::vector<ExperimentPlanner> planners;
+  int repetitions = 1;
+  ExperimentBudget budget;
+};
+
+/// One run: a planner on a query of a world, one repetition, in one variant.
+struct RunSpec {
+  std::string hash;  ///< content hash of everything that defines the run (hex)
+  std::size_t variant = 0;
+  std::size_t world = 0;  ///< index into the variant's worlds
+  int query = 0;          ///< index into that world's queries
+  std::size_t planner = 0;
+  int repetition = 0;
+  std::uint64_t seed = 0;  ///< from the master seed, world, query and repetition
+};
+
+/// An experiment file (`kind: planning`), with `extends:` resolved and its sweep expanded.
+/// Every variant is validated before anything runs: unknown keys, type mismatches, unknown
+/// plugins or parameters, out-of-range values and missing files are ConfigErrors naming the
+/// file, line and key path.
+struct Experiment {
+  std::string name;
+  std::string source;  ///< the file
+  std::uint64_t seed = 1;
+  std::vector<std::string> plugins;  ///< libraries loaded before validation
+  bool store_trajectories = false;
+  bool store_trees = false;
+  std::vector<ExperimentVariant> variants;
+  std::string canonical;    ///< the expanded configuration as YAML text
+  std::string config_hash;  ///< hash of `canonical` (hex): shards of one experiment share it
+
+  static Experiment fromFile(const std::string& path);
+
+  /// Every run, ordered by variant, world, query, planner, repetition.
+  std::vector<RunSpec> runs() const;
+};
+
+/// Shard `index` of `count` (1-based): the runs whose position in the hash order is
+/// index - 1 modulo count; deterministic and disjoint, together complete.
+std::vector<RunSpec> shardOf(const std::vector<RunSpec>& runs, int index, int count);
+
+}  // namespace kinolab

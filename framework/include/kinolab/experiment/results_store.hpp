@@ -1,0 +1,91 @@
+#pragma once
+
+#include <cmath>
+#include <map>
+#include <optional>
+#include <set>
+#include <string>
+#include <utility>
+#include <vector>
+
+struct sqlite3;
+
+namespace kinolab {
+
+/// One finished run as stored: what defines it, its status and every metric. Numbers that
+/// do not apply (no trajectory, a crash) are NaN and stored as NULL.
+struct RunRecord {
+  std::string run_hash;
+  int variant = 0;
+  std::string sweep;  ///< the variant's sweep label
+  std::string world;
+  std::string world_hash;
+  int query = 0;
+  std::string planner;       ///< the experiment's id
+  std::string planner_type;  ///< the registry key
+  std::string sampler;
+  int repetition = 0;
+  std::string seed;  ///< hex (64-bit)
+  double start[3] = {0, 0, 0};
+  double goal[3] = {0, 0, 0};
+
+  /// A planner status (exact, approximate, no_solution, timeout, invalid_start,
+  /// invalid_goal, invalid_trajectory) or a runner one (crash, timeout, oom, error).
+  std::string status;
+  std::string message;
+  double planning_time_ms = NAN;
+  double cost = NAN;
+  double distance_to_goal = NAN;
+  double duration = NAN;
+  double length = NAN;
+  double jerk_integral = NAN;
+  double min_clearance = NAN;
+  double mean_clearance = NAN;
+  int checker_valid = 0;
+  std::string checker_check;
+  std::string checker_detail;
+  double peak_memory_mb = NAN;  ///< the worker's maximum resident set
+  double wall_time_ms = NAN;    ///< the worker, from fork to exit
+  std::string started_at;       ///< UTC, ISO 8601
+  std::vector<std::pair<std::string, double>> statistics;
+  std::string trajectory_csv;  ///< when the experiment stores trajectories
+  std::string tree_csv;        ///< when it stores search trees
+};
+
+/// The results database of one experiment (SQLite, WAL journal): a `meta` table (the
+/// expanded config, its hash, provenance), `runs` (one row per run keyed by `run_hash`),
+/// `statistics` (run_hash, name, value: every statistic a planner reported), and optional
+/// `trajectories` and `trees` (CSV text). Every run is written in its own transaction, so a
+/// kill at any moment loses at most the runs in flight.
+class ResultsStore {
+ public:
+  explicit ResultsStore(const std::string& path);
+  ~ResultsStore();
+  ResultsStore(const ResultsStore&) = delete;
+  ResultsStore& operator=(const ResultsStore&) = delete;
+
+  const std::string& path() const { return path_; }
+
+  std::optional<std::string> meta(const std::string& key) const;
+  std::map<std::string, std::string> allMeta() const;
+  void setMeta(const std::map<std::string, std::string>& values);
+
+  /// The hashes of every stored run.
+  std::set<std::string> runHashes() const;
+  long long runCount() const;
+  void insert(const RunRecord& record);
+
+  /// Joins shard databases into `output` (which must not exist yet). Refuses inputs whose
+  /// config hashes differ, that are not shards of the same count, that repeat a shard, or
+  /// that are incomplete (a shard's `runs_planned` above its stored runs) unless `partial`.
+  static void merge(const std::string& output, const std::vector<std::string>& inputs,
+                    bool partial);
+
+ private:
+  void execute(const std::string& sql) const;
+
+  std::string path_;
+  sqlite3* db_ = nullptr;
+};
+
+}  // namespace kinolab

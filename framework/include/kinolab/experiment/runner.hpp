@@ -1,0 +1,48 @@
+#pragma once
+
+#include <map>
+#include <string>
+
+#include "kinolab/experiment/experiment.hpp"
+
+namespace kinolab {
+
+struct RunnerOptions {
+  std::string out_dir;
+  int jobs = 1;
+  bool resume = false;
+  int shard_index = 1;
+  int shard_count = 1;
+  std::string cache_dir;       ///< built worlds (WorldCache)
+  double grace_seconds = 5.0;  ///< a worker is killed this long after its time budget
+};
+
+struct RunnerSummary {
+  long long planned = 0;   ///< runs of this shard
+  long long skipped = 0;   ///< already in the database (resume)
+  long long finished = 0;  ///< run now
+  std::map<std::string, long long> by_status;
+  bool interrupted = false;
+  double seconds = 0.0;
+};
+
+/// Runs an experiment into out_dir/results.sqlite. Worlds are built (or loaded from the
+/// cache) once, before any worker starts, and shared copy-on-write; each run executes in a
+/// forked worker process with an address-space limit, killed past its time budget plus the
+/// grace: a crash, hang, exhausted memory or exception becomes that run's status (crash,
+/// timeout, oom, error) and the experiment goes on. Each finished run is one transaction.
+/// With `resume` only the runs missing from the database run; without it, a database that
+/// already holds runs is an error (nothing is overwritten). SIGINT and SIGTERM stop it
+/// cleanly: workers in flight are killed and not recorded, and the database stays
+/// resumable. Progress goes to stderr: a bar on a terminal, log lines otherwise.
+RunnerSummary runExperiment(const Experiment& experiment, const RunnerOptions& options);
+
+/// What `kinolab run --dry-run` prints: the run count and a table of variants, worlds,
+/// queries and planners.
+std::string describeRuns(const Experiment& experiment, const std::vector<RunSpec>& runs);
+
+/// Provenance of this process: kinolab version, git commit and dirty flag, compiler and
+/// flags, library versions, CPU model, host.
+std::map<std::string, std::string> provenance();
+
+}  // namespace kinolab

@@ -1,0 +1,530 @@
+#include "kinolab/experiment/experiment.hpp"
+
+#include <algorithm>
+#include <filesystem>
+#include <map>
+#include <set>
+
+#include "kinolab/core/error.hpp"
+#include "kinolab/core/hash.hpp"
+#include "kinolab/core/plugin.hpp"
+#include "kinolab/core/random.hpp"
+#include "kinolab/core/text.hpp"
+#include "kinolab/core/yaml_reader.hpp"
+#include "kinolab/world/world.hpp"
+
+namespace kinolab {
+namespace {
+
+namespace fs = std::filesystem;
+
+// ---- documents: extends, sweep -----------------------------------------------------------
+
+/// Mappings merge key by key (the child wins); lists and scalars are replaced whole.
+YAML::Node merge(const YAML::Node& base, const YAML::Node& child) {
+  if (!base.IsMap() || !child.IsMap()) return YAML::Clone(child);
+  YAML::Node merged = YAML::Clone(base);
+  for (const auto& entry : child) {
+    const std::string key = entry.first.Scalar();
+    merged[key] =
+        merged[key].IsDefined() ? merge(merged[key], entry.second) : YAML::Clone(entry.second);
+  }
+  return merged;
+}
+
+/// The file with its `extends:` chain merged in (the key itself removed).
+YAML::Node loadWithBase(const std::string& path, std::vector<std::string>& chain) {
+  const std::string canonical = fs::weakly_canonical(path).string();
+  if (std::find(chain.begin(), chain.end(), canonical) != chain.end()) {
+    throw ConfigError(path + ": extends itself through " + join(chain, " -> "));
+  }
+  chain.push_back(canonical);
+  const YamlReader file = YamlReader::loadFile(path);
+  YAML::Node node = YAML::Clone(file.node());
+  if (!node.IsMap()) file.fail("expected a mapping (an experiment), got something else");
+  if (const auto base = file.optional("extends")) {
+    const std::string base_path =
+        (fs::path(path).parent_path() / base->as<std::string>()).lexically_normal().string();
+    if (!fs::is_regular_file(base_path)) base->fail("no such file: " + base_path);
+    node.remove("extends");
+    return merge(loadWithBase(base_path, chain), node);
+  }
+  return node;
+}
+
+/// Sets `value` at a dotted path: mapping keys by name (a missing last key is added), list
+/// items by their `id` or their index.
+void setPath(YAML::Node root, const std::string& path, const YAML::Node& value,
+             const YamlReader& at) {
+  std::vector<std::string> parts;
+  std::size_t begin = 0;
+  for (std::size_t dot = path.find('.'); begin <= path.size(); dot = path.find('.', begin)) {
+    if (dot == std::string::npos) dot = path.size();
+    parts.push_back(path.substr(begin, dot - begin));
+    begin = dot + 1;
+  }
+  YAML::Node node = root;
+  std::string so_far;
+  for (std::size_t i = 0; i < parts.size(); ++i) {
+    const std::string& part = parts[i];
+    const bool last = i + 1 == parts.size();
+    so_far += (i == 0 ? "" : ".") + part;
+    if (node.IsSequence()) {
+      YAML::Node found;
+      for (std::size_t k = 0; k < node.size(); ++k) {
+        const YAML::Node item = node[k];
+        if ((item.IsMap() && item["id"] && item["id"].Scalar() == part) ||
+            std::to_string(k) == part) {
+          found.reset(item);
+          break;
+        }
+      }
+      if (!found.IsDefined()) at.fail("sweep path '" + path + "': no list item '" + part + "'");
+      if (last) {
+        at.fail("sweep path '" + path + "' names a whole list item; name one of its keys");
+      }
+      node.reset(found);
+    } else if (node.IsMap()) {
+      if (last) {
+        node[part] = YAML::Clone(value);
+        return;
+      }
+      YAML::Node child = node[part];
+      if (!child.IsDefined()) {
+        at.fail("sweep path '" + path + "': no key '" + part + "' (" + so_far + ")");
+      }
+      node.reset(child);
+    } else {
+      at.fail("sweep path '" + path + "': '" + part + "' is below a value");
+    }
+  }
+}
+
+struct SweepPoint {
+  std::vector<std::pair<std::string, YAML::Node>> values;  // path, value
+  std::vector<YamlReader> where;                           // for messages
+};
+
+/// grid (cartesian product) x zip (parallel lists) x list (explicit points).
+std::vector<SweepPoint> expandSweep(const YamlReader& sweep) {
+  std::vector<SweepPoint> points(1);
+  const auto product = [&](const std::vector<SweepPoint>& options) {
+    std::vector<SweepPoint> next;
+    for (const SweepPoint& point : points) {
+      for (const SweepPoint& option : options) {
+        SweepPoint combined = point;
+        combined.values.insert(combined.values.end(), option.values.begin(), option.values.end());
+        combined.where.insert(combined.where.end(), option.where.begin(), option.where.end());
+        next.push_back(std::move(combined));
+      }
+    }
+    points = std::move(next);
+  };
+  if (const auto grid = sweep.optional("grid")) {
+    for (const auto& [path, values] : grid->entries()) {
+      std::vector<SweepPoint> options;
+      for (const YamlReader& value : values.items()) {
+        options.push_back({{{path, value.node()}}, {value}});
+      }
+      if (options.empty()) values.fail("a grid axis needs at least one value");
+      product(options);
+    }
+  }
+  if (const auto zip = sweep.optional("zip")) {
+    std::vector<SweepPoint> rows;
+    std::size_t length = 0;
+    for (const auto& [path, values] : zip->entries()) {
+      const std::vector<YamlReader> items = values.items();
+      if (rows.empty()) {
+        length = items.size();
+        rows.resize(length);
+        if (length == 0) values.fail("a zip axis needs at least one value");
+      } else if (items.size() != length) {
+        values.fail("zip axes must have equal lengths: " + std::to_string(items.size()) +
+                    " values here, " + std::to_string(length) + " in the first axis");
+      }
+      for (std::size_t i = 0; i < items.size(); ++i) {
+        rows[i].values.emplace_back(path, items[i].node());
+        rows[i].where.push_back(items[i]);
+      }
+    }
+    if (!rows.empty()) product(rows);
+  }
+  if (const auto list = sweep.optional("list")) {
+    std::vector<SweepPoint> options;
+    for (const YamlReader& item : list->items()) {
+      SweepPoint option;
+      for (const auto& [path, value] : item.entries()) {
+        option.values.emplace_back(path, value.node());
+        option.where.push_back(value);
+      }
+      if (option.values.empty()) item.fail("a sweep list item needs at least one path: value");
+      options.push_back(std::move(option));
+    }
+    if (options.empty()) list->fail("a sweep list needs at least one item");
+    product(options);
+  }
+  sweep.finish();
+  return points;
+}
+
+std::string scalarText(const YAML::Node& node) {
+  if (node.IsScalar()) return node.Scalar();
+  YAML::Emitter out;
+  out << YAML::Flow << node;
+  return out.c_str();
+}
+
+// ---- reading one variant -----------------------------------------------------------------
+
+std::array<double, 2> height(const YamlReader& node) {
+  return node.getInterval("height", std::array<double, 2>{1.0, 2.0}, -1e4, 1e4);
+}
+
+QuerySpec readQueries(const YamlReader& node) {
+  QuerySpec spec;
+  if (const auto fixed = node.optional("fixed")) {
+    for (const YamlReader& item : fixed->items()) {
+      const auto start = item.getVector3("start");
+      const auto goal = item.getVector3("goal");
+      spec.fixed.emplace_back(Eigen::Vector3d(start[0], start[1], start[2]),
+                              Eigen::Vector3d(goal[0], goal[1], goal[2]));
+      item.finish();
+    }
+  }
+  if (const auto random = node.optional("random")) {
+    QuerySpec::Random& r = spec.random;
+    r.count = static_cast<int>(random->getInteger("count", std::nullopt, 1, 1000000));
+    r.min_distance = random->getNumber("min_distance", 5.0, 0.0, 1e6);
+    r.max_distance = random->getNumber("max_distance", 1e6, 0.0, 1e6);
+    if (r.max_distance < r.min_distance) {
+      (*random)["max_distance"].fail("max_distance is below min_distance");
+    }
+    r.clearance = random->getNumber("clearance", 0.6, 0.0, 100.0);
+    const auto h = height(*random);
+    r.height[0] = h[0];
+    r.height[1] = h[1];
+    random->finish();
+  }
+  if (const auto across = node.optional("across")) {
+    QuerySpec::Across& a = spec.across;
+    a.count = static_cast<int>(across->getInteger("count", std::nullopt, 1, 1000000));
+    const std::string axis = across->get<std::string>("axis", "x");
+    if (axis != "x" && axis != "y") (*across)["axis"].fail("expected x or y, got '" + axis + "'");
+    a.axis = axis == "x" ? 0 : 1;
+    a.margin = across->getNumber("margin", 1.0, 0.0, 1e4);
+    a.clearance = across->getNumber("clearance", 0.6, 0.0, 100.0);
+    const auto h = height(*across);
+    a.height[0] = h[0];
+    a.height[1] = h[1];
+    across->finish();
+  }
+  node.finish();
+  if (spec.count() == 0) node.fail("no queries: give fixed, random or across");
+  return spec;
+}
+
+ExperimentPlanner readPlanner(const YamlReader& node) {
+  ExperimentPlanner planner;
+  planner.id = node.get<std::string>("id");
+  planner.type = node.get<std::string>("type");
+  if (const auto params = node.optional("params")) {
+    planner.assignments = assignmentsFromYaml(*params);
+  }
+  if (const auto sampler = node.optional("sampler")) {
+    const YamlReader type = (*sampler)["type"];
+    planner.assignments.push_back({"sampler", type.as<std::string>(), type.where()});
+    if (const auto params = sampler->optional("params")) {
+      for (ParameterAssignment assignment : assignmentsFromYaml(*params)) {
+        assignment.name = "sampler." + assignment.name;
+        planner.assignments.push_back(std::move(assignment));
+      }
+    }
+    sampler->finish();
+  }
+  node.finish();
+  try {
+    ConfiguredPlanner configured = configurePlanner(planner.type, planner.assignments);
+    planner.parameters = std::move(configured.parameters);
+    planner.sampler = configured.sampler_key;
+    planner.sampler_parameters = std::move(configured.sampler_parameters);
+  } catch (const ConfigError& error) {
+    const std::string message = error.what();
+    // Registry errors about the key itself do not know where it was written.
+    if (message.find(".yaml") == std::string::npos) node["type"].fail(message);
+    throw;
+  }
+  return planner;
+}
+
+ExperimentVariant readVariant(const YamlReader& root, const std::string& directory,
+                              const std::map<std::string, std::string>& spec_directories) {
+  ExperimentVariant variant;
+  std::set<std::string> ids;
+  for (const YamlReader& item : root["worlds"].items()) {
+    ExperimentWorld world;
+    world.id = item.get<std::string>("id");
+    if (!ids.insert("world " + world.id).second) item["id"].fail("duplicate world id");
+    const auto found = spec_directories.find(world.id);
+    world.spec = WorldSpec::fromYaml(item["spec"],
+                                     found != spec_directories.end() ? found->second : directory);
+    item.finish();
+    variant.worlds.push_back(std::move(world));
+  }
+  if (variant.worlds.empty()) root["worlds"].fail("no worlds");
+  variant.queries = readQueries(root["queries"]);
+  for (const YamlReader& item : root["planners"].items()) {
+    ExperimentPlanner planner = readPlanner(item);
+    if (!ids.insert("planner " + planner.id).second) item["id"].fail("duplicate planner id");
+    variant.planners.push_back(std::move(planner));
+  }
+  if (variant.planners.empty()) root["planners"].fail("no planners");
+  variant.repetitions = static_cast<int>(root.getInteger("repetitions", 1, 1, 100000));
+  if (const auto budget = root.optional("budget")) {
+    variant.budget.time = budget->getNumber("time", 10.0, 0.001, 1e6);
+    variant.budget.memory_mb = budget->getInteger("memory_mb", 4096, 16, 1 << 24);
+    variant.budget.iterations = budget->getInteger("iterations", 0, 0, 1LL << 50);
+    budget->finish();
+  }
+  return variant;
+}
+
+}  // namespace
+
+// ---- queries -------------------------------------------------------------------------------
+
+std::vector<PlanningQuery> QuerySpec::make(const World& world, const std::string& world_id,
+                                           std::uint64_t seed) const {
+  std::vector<PlanningQuery> queries;
+  for (const auto& [start, goal] : fixed) {
+    PlanningQuery query;
+    query.start.col(0) = start;
+    query.goal = goal;
+    queries.push_back(query);
+  }
+  const Box& box = world.bounds();
+  const auto fail = [&](const std::string& what) {
+    throw ConfigError("queries: could not place " + what + " in world '" + world_id +
+                      "' in 100000 draws; lower the clearance or distances");
+  };
+  Rng rng = Rng::derive(seed, "queries/" + world_id);
+  const auto draw = [&](const Eigen::Vector3d& low, const Eigen::Vector3d& high, double clear,
+                        const std::string& what) {
+    for (int attempt = 0; attempt < 100000; ++attempt) {
+      const Eigen::Vector3d p(rng.uniform(low.x(), high.x()), rng.uniform(low.y(), high.y()),
+                              rng.uniform(low.z(), high.z()));
+      if (world.isFree(p, clear)) return p;
+    }
+    fail(what);
+    return Eigen::Vector3d(Eigen::Vector3d::Zero());
+  };
+  const auto heights = [&](const double(&h)[2], Eigen::Vector3d& low, Eigen::Vector3d& high) {
+    low.z() = std::max(box.min.z(), box.min.z() + h[0]);
+    high.z() = std::min(box.max.z(), box.min.z() + h[1]);
+  };
+  if (random.count > 0) {
+    Eigen::Vector3d low = box.min;
+    Eigen::Vector3d high = box.max;
+    heights(random.height, low, high);
+    for (int i = 0; i < random.count; ++i) {
+      for (int attempt = 0;; ++attempt) {
+        if (attempt == 100000) fail("a random pair");
+        PlanningQuery query;
+        query.start.col(0) = draw(low, high, random.clearance, "a random start");
+        query.goal = draw(low, high, random.clearance, "a random goal");
+        const double distance = (query.goal - query.start.col(0)).norm();
+        if (distance >= random.min_distance && distance <= random.max_distance) {
+          queries.push_back(query);
+          break;
+        }
+      }
+    }
+  }
+  for (int i = 0; i < across.count; ++i) {
+    Eigen::Vector3d low = box.min;
+    Eigen::Vector3d high = box.max;
+    heights(across.height, low, high);
+    const int a = across.axis;
+    Eigen::Vector3d start_low = low, start_high = high, goal_low = low, goal_high = high;
+    start_low[a] = box.min[a] + across.margin;
+    start_high[a] = box.min[a] + across.margin + world.esdf().resolution();
+    goal_low[a] = box.max[a] - across.margin - world.esdf().resolution();
+    goal_high[a] = box.max[a] - across.margin;
+    PlanningQuery query;
+    query.start.col(0) = draw(start_low, start_high, across.clearance, "an across start");
+    query.goal = draw(goal_low, goal_high, across.clearance, "an across goal");
+    queries.push_back(query);
+  }
+  return queries;
+}
+
+std::string QuerySpec::canonicalText() const {
+  std::string text;
+  for (const auto& [start, goal] : fixed) {
+    text += "fixed " + formatPoint(start) + " " + formatPoint(goal) + ";";
+  }
+  text += "random " + std::to_string(random.count) + " " + formatNumber(random.min_distance) + " " +
+          formatNumber(random.max_distance) + " " + formatNumber(random.clearance) + " " +
+          formatNumber(random.height[0]) + " " + formatNumber(random.height[1]) + ";";
+  text += "across " + std::to_string(across.count) + " " + std::to_string(across.axis) + " " +
+          formatNumber(across.margin) + " " + formatNumber(across.clearance) + " " +
+          formatNumber(across.height[0]) + " " + formatNumber(across.height[1]);
+  return text;
+}
+
+std::string ExperimentPlanner::canonicalText() const {
+  return type + "{" + parameters.canonical() + "}" + sampler + "{" +
+         sampler_parameters.canonical() + "}";
+}
+
+// ---- the experiment -------------------------------------------------------------------------
+
+Experiment Experiment::fromFile(const std::string& path) {
+  std::vector<std::string> chain;
+  YAML::Node document = loadWithBase(path, chain);
+  const std::string source =
+      chain.size() > 1
+          ? path + " (extends " +
+                join(std::vector<std::string>(chain.begin() + 1, chain.end()), ", ") + ")"
+          : path;
+  const std::string directory = fs::path(path).parent_path().string();
+  Experiment experiment;
+  experiment.source = path;
+
+  // World specs given as files are read in, so that a sweep can reach into them.
+  std::map<std::string, std::string> spec_directories;
+  {
+    const YamlReader root = YamlReader::fromNode(document, source);
+    if (const auto worlds = root.optional("worlds")) {
+      for (const YamlReader& item : worlds->items()) {
+        const auto spec = item.optional("spec");
+        if (!spec || spec->isMap()) continue;
+        const std::string file =
+            (fs::path(directory) / spec->as<std::string>()).lexically_normal().string();
+        if (!fs::is_regular_file(file)) spec->fail("no such world spec file: " + file);
+        YAML::Node node = item.node();
+        node["spec"] = YAML::Clone(YamlReader::loadFile(file).node());
+        spec_directories[item.get<std::string>("id")] = fs::path(file).parent_path().string();
+      }
+    }
+  }
+
+  const YamlReader root = YamlReader::fromNode(document, source);
+  const std::string kind = root.get<std::string>("kind", "planning");
+  if (kind != "planning") {
+    root["kind"].fail("expected 'planning' (kinolab run), got '" + kind +
+                      "'; sampling studies run with kinolab sampling-study");
+  }
+  experiment.name = root.get<std::string>("name");
+  experiment.seed = static_cast<std::uint64_t>(root.getInteger("seed", 1, 0, 1LL << 62));
+  if (const auto plugins = root.optional("plugins")) {
+    for (const YamlReader& item : plugins->items()) {
+      std::string file = item.as<std::string>();
+      if (fs::path(file).is_relative()) file = (fs::path(directory) / file).string();
+      if (!fs::is_regular_file(file)) item.fail("no such plugin library: " + file);
+      loadPluginLibrary(file);
+      experiment.plugins.push_back(file);
+    }
+  }
+  if (const auto store = root.optional("store")) {
+    experiment.store_trajectories = store->get<bool>("trajectories", false);
+    experiment.store_trees = store->get<bool>("trees", false);
+    store->finish();
+  }
+  std::vector<SweepPoint> points(1);
+  if (const auto sweep = root.optional("sweep")) points = expandSweep(*sweep);
+  // The keys every variant reads; marked read here so that finish() sees only unknown ones.
+  for (const char* key : {"worlds", "queries", "planners", "repetitions", "budget"}) {
+    (void)root.optional(key);
+  }
+  root.finish();
+
+  YAML::Node base = YAML::Clone(document);
+  base.remove("sweep");
+  for (const SweepPoint& point : points) {
+    YAML::Node variant_node = YAML::Clone(base);
+    std::string label;
+    for (std::size_t i = 0; i < point.values.size(); ++i) {
+      const auto& [key, value] = point.values[i];
+      setPath(variant_node, key, value, point.where[i]);
+      label += (label.empty() ? "" : ", ") + key + "=" + scalarText(value);
+    }
+    const YamlReader reader = YamlReader::fromNode(variant_node, source);
+    for (const char* key : {"kind", "name", "seed", "plugins", "store"}) (void)reader.optional(key);
+    ExperimentVariant variant = readVariant(reader, directory, spec_directories);
+    reader.finish();
+    variant.label = label;
+    experiment.canonical += "--- # " + (label.empty() ? std::string("(no sweep)") : label) + "\n" +
+                            YAML::Dump(variant_node) + "\n";
+    experiment.variants.push_back(std::move(variant));
+  }
+  experiment.config_hash = toHex(hashString(experiment.canonical));
+  return experiment;
+}
+
+std::vector<RunSpec> Experiment::runs() const {
+  std::vector<RunSpec> runs;
+  for (std::size_t v = 0; v < variants.size(); ++v) {
+    const ExperimentVariant& variant = variants[v];
+    const std::string budget = formatNumber(variant.budget.time) + "/" +
+                               std::to_string(variant.budget.memory_mb) + "/" +
+                               std::to_string(variant.budget.iterations);
+    const std::string queries = variant.queries.canonicalText();
+    for (std::size_t w = 0; w < variant.worlds.size(); ++w) {
+      const ExperimentWorld& world = variant.worlds[w];
+      const std::string world_text = world.id + ":" + toHex(world.spec.hash());
+      for (int q = 0; q < variant.queries.count(); ++q) {
+        for (int r = 0; r < variant.repetitions; ++r) {
+          const std::string the_case =
+              "world=" + world.id + ";query=" + std::to_string(q) + ";rep=" + std::to_string(r);
+          const std::uint64_t seed = hashString(the_case, seed);
+          for (std::size_t p = 0; p < variant.planners.size(); ++p) {
+            RunSpec run;
+            run.variant = v;
+            run.world = w;
+            run.query = q;
+            run.planner = p;
+            run.repetition = r;
+            run.seed = seed;
+            run.hash = toHex(hashString(world_text + "|" + queries + "|" + the_case + "|" +
+                                            variant.planners[p].id + "=" +
+                                            variant.planners[p].canonicalText() + "|" + budget,
+                                        seed));
+            runs.push_back(std::move(run));
+          }
+        }
+      }
+    }
+  }
+  // Planner order within a case, and variant order, do not matter to a hash; one hash per run.
+  std::set<std::string> seen;
+  for (const RunSpec& run : runs) {
+    if (!seen.insert(run.hash).second) {
+      throw ConfigError(source + ": two runs of the sweep are identical (" + run.hash +
+                        "); remove the duplicate sweep value");
+    }
+  }
+  return runs;
+}
+
+std::vector<RunSpec> shardOf(const std::vector<RunSpec>& runs, int index, int count) {
+  if (count < 1 || index < 1 || index > count) {
+    throw ConfigError("--shard " + std::to_string(index) + "/" + std::to_string(count) +
+                      ": expected i/N with 1 <= i <= N");
+  }
+  std::vector<std::string> hashes;
+  for (const RunSpec& run : runs) hashes.push_back(run.hash);
+  std::sort(hashes.begin(), hashes.end());
+  std::set<std::string> mine;
+  for (std::size_t i = static_cast<std::size_t>(index - 1); i < hashes.size();
+       i += static_cast<std::size_t>(count)) {
+    mine.insert(hashes[i]);
+  }
+  std::vector<RunSpec> shard;
+  for (const RunSpec& run : runs) {
+    if (mine.count(run.hash)) shard.push_back(run);
+  }
+  return shard;
+}
+
+}  // namespace kinolab

@@ -1,0 +1,292 @@
+#include "kinolab/experiment/results_store.hpp"
+
+#include <sqlite3.h>
+
+#include <cmath>
+#include <filesystem>
+
+#include "kinolab/core/error.hpp"
+
+namespace kinolab {
+namespace {
+
+constexpr const char* kSchema = R"sql(
+CREATE TABLE IF NOT EXISTS meta (key TEXT PRIMARY KEY, value TEXT NOT NULL);
+CREATE TABLE IF NOT EXISTS runs (
+  run_hash TEXT PRIMARY KEY, variant INTEGER, sweep TEXT, world TEXT, world_hash TEXT,
+  query INTEGER, planner TEXT, planner_type TEXT, sampler TEXT, repetition INTEGER, seed TEXT,
+  start_x REAL, start_y REAL, start_z REAL, goal_x REAL, goal_y REAL, goal_z REAL,
+  status TEXT NOT NULL, message TEXT, planning_time_ms REAL, cost REAL, distance_to_goal REAL,
+  duration REAL, length REAL, jerk_integral REAL, min_clearance REAL, mean_clearance REAL,
+  checker_valid INTEGER, checker_check TEXT, checker_detail TEXT, peak_memory_mb REAL,
+  wall_time_ms REAL, started_at TEXT);
+CREATE TABLE IF NOT EXISTS statistics (
+  run_hash TEXT NOT NULL, name TEXT NOT NULL, value REAL, PRIMARY KEY (run_hash, name));
+CREATE TABLE IF NOT EXISTS trajectories (run_hash TEXT PRIMARY KEY, csv TEXT NOT NULL);
+CREATE TABLE IF NOT EXISTS trees (run_hash TEXT PRIMARY KEY, csv TEXT NOT NULL);
+)sql";
+
+constexpr const char* kRunColumns =
+    "run_hash, variant, sweep, world, world_hash, query, planner, planner_type, sampler, "
+    "repetition, seed, start_x, start_y, start_z, goal_x, goal_y, goal_z, status, message, "
+    "planning_time_ms, cost, distance_to_goal, duration, length, jerk_integral, min_clearance, "
+    "mean_clearance, checker_valid, checker_check, checker_detail, peak_memory_mb, "
+    "wall_time_ms, started_at";
+
+/// A prepared statement, finalised on scope exit.
+class Statement {
+ public:
+  Statement(sqlite3* db, const std::string& sql, const std::string& path) : db_(db) {
+    if (sqlite3_prepare_v2(db, sql.c_str(), -1, &statement_, nullptr) != SQLITE_OK) {
+      throw FileError(path + ": SQLite: " + sqlite3_errmsg(db));
+    }
+  }
+  ~Statement() { sqlite3_finalize(statement_); }
+  Statement(const Statement&) = delete;
+  Statement& operator=(const Statement&) = delete;
+
+  /// Binds the next parameter (1, 2, ... after each reset()).
+  void add(const std::string& text) {
+    sqlite3_bind_text(statement_, ++next_, text.c_str(), static_cast<int>(text.size()),
+                      SQLITE_TRANSIENT);
+  }
+  void add(double value) {
+    if (std::isfinite(value)) {
+      sqlite3_bind_double(statement_, ++next_, value);
+    } else {
+      sqlite3_bind_null(statement_, ++next_);
+    }
+  }
+  void add(int value) { sqlite3_bind_int(statement_, ++next_, value); }
+  /// True while there is a row.
+  bool step(const std::string& path) {
+    const int code = sqlite3_step(statement_);
+    if (code == SQLITE_ROW) return true;
+    if (code == SQLITE_DONE) return false;
+    throw FileError(path + ": SQLite: " + sqlite3_errmsg(db_));
+  }
+  void reset() {
+    next_ = 0;
+    sqlite3_reset(statement_);
+    sqlite3_clear_bindings(statement_);
+  }
+  std::string text(int column) const {
+    const auto* value = sqlite3_column_text(statement_, column);
+    return value ? reinterpret_cast<const char*>(value) : "";
+  }
+  long long integer(int column) const { return sqlite3_column_int64(statement_, column); }
+
+ private:
+  sqlite3* db_;
+  sqlite3_stmt* statement_ = nullptr;
+  int next_ = 0;
+};
+
+}  // namespace
+
+ResultsStore::ResultsStore(const std::string& path) : path_(path) {
+  if (sqlite3_open_v2(path.c_str(), &db_, SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE, nullptr) !=
+      SQLITE_OK) {
+    const std::string message = db_ ? sqlite3_errmsg(db_) : "out of memory";
+    sqlite3_close(db_);
+    throw FileError(path + ": cannot open the results database: " + message);
+  }
+  sqlite3_busy_timeout(db_, 10000);
+  try {
+    execute("PRAGMA journal_mode=WAL; PRAGMA synchronous=NORMAL;");
+    execute(kSchema);
+  } catch (...) {
+    sqlite3_close(db_);
+    throw;
+  }
+}
+
+ResultsStore::~ResultsStore() { sqlite3_close(db_); }
+
+void ResultsStore::execute(const std::string& sql) const {
+  char* error = nullptr;
+  if (sqlite3_exec(db_, sql.c_str(), nullptr, nullptr, &error) != SQLITE_OK) {
+    const std::string message = error ? error : "unknown error";
+    sqlite3_free(error);
+    throw FileError(path_ + ": SQLite: " + message +
+                    " (is it a kinolab results database, and writable?)");
+  }
+}
+
+std::optional<std::string> ResultsStore::meta(const std::string& key) const {
+  Statement query(db_, "SELECT value FROM meta WHERE key = ?", path_);
+  query.add(key);
+  if (!query.step(path_)) return std::nullopt;
+  return query.text(0);
+}
+
+std::map<std::string, std::string> ResultsStore::allMeta() const {
+  std::map<std::string, std::string> values;
+  Statement query(db_, "SELECT key, value FROM meta", path_);
+  while (query.step(path_)) values[query.text(0)] = query.text(1);
+  return values;
+}
+
+void ResultsStore::setMeta(const std::map<std::string, std::string>& values) {
+  execute("BEGIN IMMEDIATE");
+  try {
+    Statement insert(db_, "INSERT OR REPLACE INTO meta (key, value) VALUES (?, ?)", path_);
+    for (const auto& [key, value] : values) {
+      insert.add(key);
+      insert.add(value);
+      insert.step(path_);
+      insert.reset();
+    }
+    execute("COMMIT");
+  } catch (...) {
+    execute("ROLLBACK");
+    throw;
+  }
+}
+
+std::set<std::string> ResultsStore::runHashes() const {
+  std::set<std::string> hashes;
+  Statement query(db_, "SELECT run_hash FROM runs", path_);
+  while (query.step(path_)) hashes.insert(query.text(0));
+  return hashes;
+}
+
+long long ResultsStore::runCount() const {
+  Statement query(db_, "SELECT COUNT(*) FROM runs", path_);
+  query.step(path_);
+  return query.integer(0);
+}
+
+void ResultsStore::insert(const RunRecord& r) {
+  execute("BEGIN IMMEDIATE");
+  try {
+    Statement run(
+        db_,
+        std::string("INSERT INTO runs (") + kRunColumns +
+            ") VALUES (?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?)",
+        path_);
+    run.add(r.run_hash);
+    run.add(r.variant);
+    for (const std::string* text : {&r.sweep, &r.world, &r.world_hash}) run.add(*text);
+    run.add(r.query);
+    for (const std::string* text : {&r.planner, &r.planner_type, &r.sampler}) run.add(*text);
+    run.add(r.repetition);
+    run.add(r.seed);
+    for (const double v : r.start) run.add(v);
+    for (const double v : r.goal) run.add(v);
+    run.add(r.status);
+    run.add(r.message);
+    for (const double v : {r.planning_time_ms, r.cost, r.distance_to_goal, r.duration, r.length,
+                           r.jerk_integral, r.min_clearance, r.mean_clearance}) {
+      run.add(v);
+    }
+    run.add(r.checker_valid);
+    run.add(r.checker_check);
+    run.add(r.checker_detail);
+    run.add(r.peak_memory_mb);
+    run.add(r.wall_time_ms);
+    run.add(r.started_at);
+    run.step(path_);
+    Statement statistic(db_, "INSERT INTO statistics (run_hash, name, value) VALUES (?, ?, ?)",
+                        path_);
+    for (const auto& [name, value] : r.statistics) {
+      statistic.add(r.run_hash);
+      statistic.add(name);
+      statistic.add(value);
+      statistic.step(path_);
+      statistic.reset();
+    }
+    if (!r.trajectory_csv.empty()) {
+      Statement trajectory(db_, "INSERT INTO trajectories (run_hash, csv) VALUES (?, ?)", path_);
+      trajectory.add(r.run_hash);
+      trajectory.add(r.trajectory_csv);
+      trajectory.step(path_);
+    }
+    if (!r.tree_csv.empty()) {
+      Statement tree(db_, "INSERT INTO trees (run_hash, csv) VALUES (?, ?)", path_);
+      tree.add(r.run_hash);
+      tree.add(r.tree_csv);
+      tree.step(path_);
+    }
+    execute("COMMIT");
+  } catch (...) {
+    execute("ROLLBACK");
+    throw;
+  }
+}
+
+void ResultsStore::merge(const std::string& output, const std::vector<std::string>& inputs,
+                         bool partial) {
+  if (inputs.empty()) throw ConfigError("merge: no shard databases given");
+  if (std::filesystem::exists(output)) {
+    throw FileError(output + ": exists already; merge writes a new database");
+  }
+  std::string config_hash;
+  std::string shard_count;
+  std::set<std::string> shards;
+  for (const std::string& input : inputs) {
+    if (!std::filesystem::is_regular_file(input)) throw FileError(input + ": no such database");
+    ResultsStore shard(input);
+    const auto hash = shard.meta("config_hash");
+    const auto which = shard.meta("shard");
+    const auto planned = shard.meta("runs_planned");
+    if (!hash || !which || !planned) {
+      throw FileError(input + ": not a kinolab results database (no config hash or shard)");
+    }
+    if (config_hash.empty()) config_hash = *hash;
+    if (*hash != config_hash) {
+      throw ConfigError("merge: " + input + " holds another experiment (config hash " + *hash +
+                        ", the first input has " + config_hash + ")");
+    }
+    const std::string count = which->substr(which->find('/') + 1);
+    if (shard_count.empty()) shard_count = count;
+    if (count != shard_count) {
+      throw ConfigError("merge: " + input + " is shard " + *which +
+                        " but the first input is one of " + shard_count);
+    }
+    if (!shards.insert(*which).second) {
+      throw ConfigError("merge: shard " + *which + " is given twice (" + input + ")");
+    }
+    const long long stored = shard.runCount();
+    if (!partial && stored < std::stoll(*planned)) {
+      throw ConfigError("merge: " + input + " (shard " + *which +
+                        ") is incomplete: " + std::to_string(stored) + " of " + *planned +
+                        " runs; finish it with kinolab run --resume --shard " + *which +
+                        ", or pass --partial");
+    }
+  }
+  if (!partial && shards.size() != static_cast<std::size_t>(std::stoll(shard_count))) {
+    throw ConfigError("merge: " + std::to_string(shards.size()) + " of " + shard_count +
+                      " shards given; pass every shard, or --partial");
+  }
+
+  long long planned_total = 0;
+  for (const std::string& input : inputs) {
+    planned_total += std::stoll(*ResultsStore(input).meta("runs_planned"));
+  }
+  try {
+    ResultsStore merged(output);
+    for (std::size_t i = 0; i < inputs.size(); ++i) {
+      // One shard at a time: SQLite attaches a few databases at most, and not in a transaction.
+      std::string quoted;
+      for (const char c : inputs[i]) quoted += c == '\'' ? std::string("''") : std::string(1, c);
+      merged.execute("ATTACH DATABASE '" + quoted + "' AS shard");
+      merged.execute("BEGIN IMMEDIATE");
+      for (const char* table : {"runs", "statistics", "trajectories", "trees"}) {
+        merged.execute(std::string("INSERT OR IGNORE INTO ") + table + " SELECT * FROM shard." +
+                       table);
+      }
+      if (i == 0) merged.execute("INSERT INTO meta SELECT * FROM shard.meta");
+      merged.execute("COMMIT");
+      merged.execute("DETACH DATABASE shard");
+    }
+    merged.setMeta({{"shard", "1/1"},
+                    {"runs_planned", std::to_string(planned_total)},
+                    {"merged_from", std::to_string(inputs.size()) + " shards"}});
+  } catch (...) {
+    for (const char* suffix : {"", "-wal", "-shm"}) std::filesystem::remove(output + suffix);
+    throw;
+  }
+}
+
+}  // namespace kinolab
