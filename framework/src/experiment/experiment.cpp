@@ -477,7 +477,7 @@ std::vector<RunSpec> Experiment::runs() const {
         for (int r = 0; r < variant.repetitions; ++r) {
           const std::string the_case =
               "world=" + world.id + ";query=" + std::to_string(q) + ";rep=" + std::to_string(r);
-          const std::uint64_t seed = hashString(the_case, seed);
+          const std::uint64_t case_seed = hashString(the_case, seed);
           for (std::size_t p = 0; p < variant.planners.size(); ++p) {
             RunSpec run;
             run.variant = v;
@@ -485,7 +485,7 @@ std::vector<RunSpec> Experiment::runs() const {
             run.query = q;
             run.planner = p;
             run.repetition = r;
-            run.seed = seed;
+            run.seed = case_seed;
             run.hash = toHex(hashString(world_text + "|" + queries + "|" + the_case + "|" +
                                             variant.planners[p].id + "=" +
                                             variant.planners[p].canonicalText() + "|" + budget,
