@@ -20,16 +20,20 @@ namespace fs = std::filesystem;
 
 // ---- documents: extends, sweep -----------------------------------------------------------
 
-/// Mappings merge key by key (the child wins); lists and scalars are replaced whole.
-YAML::Node merge(const YAML::Node& base, const YAML::Node& child) {
-  if (!base.IsMap() || !child.IsMap()) return YAML::Clone(child);
-  YAML::Node merged = YAML::Clone(base);
+/// Mappings merge key by key (the child wins); lists and scalars are replaced whole. Nodes
+/// are shared, not copied, so that every value keeps its file position for messages.
+YAML::Node merge(YAML::Node base, const YAML::Node& child) {
+  if (!base.IsMap() || !child.IsMap()) return child;
   for (const auto& entry : child) {
     const std::string key = entry.first.Scalar();
-    merged[key] =
-        merged[key].IsDefined() ? merge(merged[key], entry.second) : YAML::Clone(entry.second);
+    YAML::Node existing = base[key];
+    if (existing.IsDefined() && existing.IsMap() && entry.second.IsMap()) {
+      merge(existing, entry.second);
+    } else {
+      base[key] = entry.second;
+    }
   }
-  return merged;
+  return base;
 }
 
 /// The file with its `extends:` chain merged in (the key itself removed).
@@ -40,7 +44,7 @@ YAML::Node loadWithBase(const std::string& path, std::vector<std::string>& chain
   }
   chain.push_back(canonical);
   const YamlReader file = YamlReader::loadFile(path);
-  YAML::Node node = YAML::Clone(file.node());
+  YAML::Node node = file.node();
   if (!node.IsMap()) file.fail("expected a mapping (an experiment), got something else");
   if (const auto base = file.optional("extends")) {
     const std::string base_path =
@@ -64,36 +68,31 @@ void setPath(YAML::Node root, const std::string& path, const YAML::Node& value,
     begin = dot + 1;
   }
   YAML::Node node = root;
-  std::string so_far;
   for (std::size_t i = 0; i < parts.size(); ++i) {
     const std::string& part = parts[i];
     const bool last = i + 1 == parts.size();
-    so_far += (i == 0 ? "" : ".") + part;
     if (node.IsSequence()) {
       YAML::Node found;
-      for (std::size_t k = 0; k < node.size(); ++k) {
+      bool matched = false;
+      for (std::size_t k = 0; k < node.size() && !matched; ++k) {
         const YAML::Node item = node[k];
-        if ((item.IsMap() && item["id"] && item["id"].Scalar() == part) ||
-            std::to_string(k) == part) {
-          found.reset(item);
-          break;
-        }
+        matched = (item.IsMap() && item["id"] && item["id"].Scalar() == part) ||
+                  std::to_string(k) == part;
+        if (matched) found.reset(item);
       }
-      if (!found.IsDefined()) at.fail("sweep path '" + path + "': no list item '" + part + "'");
+      if (!matched) at.fail("sweep path '" + path + "': no list item '" + part + "'");
       if (last) {
         at.fail("sweep path '" + path + "' names a whole list item; name one of its keys");
       }
       node.reset(found);
     } else if (node.IsMap()) {
       if (last) {
-        node[part] = YAML::Clone(value);
+        node[part] = value;
         return;
       }
-      YAML::Node child = node[part];
-      if (!child.IsDefined()) {
-        at.fail("sweep path '" + path + "': no key '" + part + "' (" + so_far + ")");
-      }
-      node.reset(child);
+      // A missing mapping is created; validation then rejects a key that does not exist.
+      if (!node[part].IsDefined()) node[part] = YAML::Node(YAML::NodeType::Map);
+      node.reset(node[part]);
     } else {
       at.fail("sweep path '" + path + "': '" + part + "' is below a value");
     }
@@ -248,10 +247,14 @@ ExperimentPlanner readPlanner(const YamlReader& node) {
     planner.parameters = std::move(configured.parameters);
     planner.sampler = configured.sampler_key;
     planner.sampler_parameters = std::move(configured.sampler_parameters);
-  } catch (const ConfigError& error) {
+  } catch (const Error& error) {
+    // Registry errors about a key itself (an unknown planner or sampler) do not know where
+    // it was written; errors about assignments do.
     const std::string message = error.what();
-    // Registry errors about the key itself do not know where it was written.
-    if (message.find(".yaml") == std::string::npos) node["type"].fail(message);
+    const std::string where = node.where();
+    if (message.find(where.substr(0, where.find(':'))) == std::string::npos) {
+      node["type"].fail(message);
+    }
     throw;
   }
   return planner;
@@ -379,35 +382,45 @@ std::string ExperimentPlanner::canonicalText() const {
 
 // ---- the experiment -------------------------------------------------------------------------
 
-Experiment Experiment::fromFile(const std::string& path) {
+namespace {
+
+/// The experiment file with its `extends:` chain merged, and world specs given as files read
+/// in (so that a sweep can reach into them); `spec_directories` gets each such world's folder.
+YAML::Node loadDocument(const std::string& path, std::string& source,
+                        std::map<std::string, std::string>& spec_directories) {
   std::vector<std::string> chain;
   YAML::Node document = loadWithBase(path, chain);
-  const std::string source =
-      chain.size() > 1
-          ? path + " (extends " +
-                join(std::vector<std::string>(chain.begin() + 1, chain.end()), ", ") + ")"
-          : path;
+  source = path;
+  if (chain.size() > 1) {
+    source +=
+        " (extends " + join(std::vector<std::string>(chain.begin() + 1, chain.end()), ", ") + ")";
+  }
+  const std::string directory = fs::path(path).parent_path().string();
+  const YamlReader root = YamlReader::fromNode(document, source);
+  if (const auto worlds = root.optional("worlds")) {
+    for (const YamlReader& item : worlds->items()) {
+      const auto spec = item.optional("spec");
+      if (!spec || spec->isMap()) continue;
+      const std::string file =
+          (fs::path(directory) / spec->as<std::string>()).lexically_normal().string();
+      if (!fs::is_regular_file(file)) spec->fail("no such world spec file: " + file);
+      YAML::Node node = item.node();
+      node["spec"] = YamlReader::loadFile(file).node();
+      spec_directories[item.get<std::string>("id")] = fs::path(file).parent_path().string();
+    }
+  }
+  return document;
+}
+
+}  // namespace
+
+Experiment Experiment::fromFile(const std::string& path) {
+  std::string source;
+  std::map<std::string, std::string> spec_directories;
+  const YAML::Node document = loadDocument(path, source, spec_directories);
   const std::string directory = fs::path(path).parent_path().string();
   Experiment experiment;
   experiment.source = path;
-
-  // World specs given as files are read in, so that a sweep can reach into them.
-  std::map<std::string, std::string> spec_directories;
-  {
-    const YamlReader root = YamlReader::fromNode(document, source);
-    if (const auto worlds = root.optional("worlds")) {
-      for (const YamlReader& item : worlds->items()) {
-        const auto spec = item.optional("spec");
-        if (!spec || spec->isMap()) continue;
-        const std::string file =
-            (fs::path(directory) / spec->as<std::string>()).lexically_normal().string();
-        if (!fs::is_regular_file(file)) spec->fail("no such world spec file: " + file);
-        YAML::Node node = item.node();
-        node["spec"] = YAML::Clone(YamlReader::loadFile(file).node());
-        spec_directories[item.get<std::string>("id")] = fs::path(file).parent_path().string();
-      }
-    }
-  }
 
   const YamlReader root = YamlReader::fromNode(document, source);
   const std::string kind = root.get<std::string>("kind", "planning");
@@ -439,10 +452,12 @@ Experiment Experiment::fromFile(const std::string& path) {
   }
   root.finish();
 
-  YAML::Node base = YAML::Clone(document);
-  base.remove("sweep");
   for (const SweepPoint& point : points) {
-    YAML::Node variant_node = YAML::Clone(base);
+    // A fresh copy of the file per variant: nodes keep their positions for messages.
+    std::string variant_source;
+    std::map<std::string, std::string> variant_directories;
+    YAML::Node variant_node = loadDocument(path, variant_source, variant_directories);
+    variant_node.remove("sweep");
     std::string label;
     for (std::size_t i = 0; i < point.values.size(); ++i) {
       const auto& [key, value] = point.values[i];

@@ -2,6 +2,7 @@
 
 #include <poll.h>
 #include <signal.h>
+#include <sys/prctl.h>
 #include <sys/resource.h>
 #include <sys/time.h>
 #include <sys/wait.h>
@@ -97,6 +98,8 @@ void limitMemory(long long budget_mb) {
                        const std::shared_ptr<const World>& world, const PlanningQuery& query) {
   std::signal(SIGINT, SIG_IGN);  // the runner decides what happens on Ctrl-C
   std::signal(SIGTERM, SIG_DFL);
+  prctl(PR_SET_PDEATHSIG, SIGKILL);  // a killed runner takes its workers with it
+  if (getppid() == 1) _exit(1);      // ... also when it died before the line above
   const ExperimentVariant& variant = experiment.variants[run.variant];
   limitMemory(variant.budget.memory_mb);
   nlohmann::json out;

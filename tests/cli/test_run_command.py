@@ -1,0 +1,280 @@
+"""`kinolab run` and `kinolab merge` end to end: isolation of misbehaving plugins, resume
+after SIGKILL, shards, Ctrl-C, and malformed experiment files."""
+
+import os
+import random
+import signal
+import sqlite3
+import subprocess
+import time
+from pathlib import Path
+
+import pytest
+
+from conftest import BINARY, SOURCE_DIR
+
+MISBEHAVING = os.environ.get(
+    "KINOLAB_MISBEHAVING", str(SOURCE_DIR / "build" / "tests" / "libkinolab_test_misbehaving.so"))
+
+WORLD = """
+  - id: small
+    spec:
+      name: small
+      seed: 4
+      resolution: 0.1
+      bounds: {min: [0, 0, 0], max: [10, 10, 3]}
+      generators:
+        - {type: forest, density: 0.1, trunk_radius: [0.15, 0.25], trunk_height: [2.5, 3],
+           min_spacing: 1.0, ground_plane: true}
+"""
+
+LAZY = """
+  - id: lazy
+    type: lazy_mp_astar
+    sampler: {type: uniform, params: {samples_per_axis: 3}}
+    params: {heuristic_weight: 2}
+"""
+
+
+def experiment(tmp_path, planners, queries="random: {count: 4, min_distance: 3, max_distance: 8}",
+               extra="", name="test", plugins=True):
+    text = f"kind: planning\nname: {name}\nseed: 3\n"
+    if plugins:
+        text += f"plugins: [{MISBEHAVING}]\n"
+    text += f"worlds:{WORLD}queries:\n  {queries}\nplanners:{planners}{extra}"
+    path = tmp_path / f"{name}.yaml"
+    path.write_text(text)
+    return path
+
+
+def rows(database, skip_times=True):
+    """Every run and statistic, without the figures that depend on the machine."""
+    connection = sqlite3.connect(database)
+    connection.row_factory = sqlite3.Row
+    timing = {"planning_time_ms", "wall_time_ms", "peak_memory_mb", "started_at"}
+    runs = {}
+    for row in connection.execute("SELECT * FROM runs"):
+        runs[row["run_hash"]] = {k: row[k] for k in row.keys() if not (skip_times and k in timing)}
+    for run_hash, name, value in connection.execute("SELECT * FROM statistics"):
+        if skip_times and ("time" in name or name.endswith("_ms")):
+            continue
+        runs[run_hash][f"stat.{name}"] = value
+    connection.close()
+    return runs
+
+
+def meta(database):
+    connection = sqlite3.connect(database)
+    values = dict(connection.execute("SELECT key, value FROM meta"))
+    connection.close()
+    return values
+
+
+def test_dry_run_prints_the_expanded_runs(kinolab, tmp_path):
+    sweep = """
+sweep:
+  grid:
+    planners.lazy.params.heuristic_weight: [1, 2, 3]
+  zip:
+    planners.lazy.sampler.params.samples_per_axis: [3, 5]
+    budget.time: [5, 10]
+repetitions: 2
+"""
+    path = experiment(tmp_path, LAZY, extra=sweep, plugins=False)
+    result = kinolab("run", path, "--dry-run")
+    assert result.returncode == 0, result.stderr
+    # 3 x 2 variants x 1 world x 4 queries x 1 planner x 2 repetitions
+    assert ": 48 runs" in result.stdout
+    assert "planners.lazy.params.heuristic_weight=3, planners.lazy.sampler.params." in result.stdout
+    assert kinolab("run", path, "--dry-run", "--shard", "2/3").stdout.count("\n") > 3
+    assert ": 16 runs" in kinolab("run", path, "--dry-run", "--shard", "2/3").stdout
+
+
+def test_misbehaving_plugins_get_their_status_and_the_rest_completes(kinolab, tmp_path):
+    planners = LAZY + "".join(f"""
+  - id: {kind}
+    type: test_{kind}
+""" for kind in ("crash", "hang", "oom", "throw"))
+    path = experiment(tmp_path, planners, extra="budget: {time: 1, memory_mb: 256}\n")
+    result = kinolab("run", path, "--out", tmp_path / "out", "-j", "2", "--grace", "1")
+    assert result.returncode == 0, result.stderr
+    runs = rows(tmp_path / "out" / "results.sqlite").values()
+    assert len(runs) == 20
+    status = {}
+    for run in runs:
+        status.setdefault(run["planner"], set()).add(run["status"])
+    assert status == {"lazy": {"exact"}, "crash": {"crash"}, "hang": {"timeout"},
+                      "oom": {"oom"}, "throw": {"error"}}
+    messages = {run["planner"]: run["message"] for run in runs}
+    assert "signal 11" in messages["crash"]
+    assert "test_throw always throws" in messages["throw"]
+    assert "256 MB" in messages["oom"]
+    assert "ignored its time budget" in messages["hang"]
+    assert all(run["checker_valid"] == 1 for run in runs if run["planner"] == "lazy")
+    provenance = meta(tmp_path / "out" / "results.sqlite")
+    for key in ("config", "config_hash", "provenance.git_commit", "provenance.compiler",
+                "provenance.ompl_version", "provenance.ceres_version", "provenance.cpu",
+                "provenance.host", "started_at", "finished_at"):
+        assert provenance.get(key), key
+
+
+def deterministic(tmp_path, name="resume", sleep_ms=60):
+    planners = LAZY + f"""
+  - id: slow
+    type: test_trivial
+    params: {{sleep_ms: {sleep_ms}}}
+"""
+    return experiment(tmp_path, planners, name=name,
+                      queries="random: {count: 12, min_distance: 3, max_distance: 8}")
+
+
+def test_resume_after_sigkill_at_random_moments_equals_an_uninterrupted_run(kinolab, tmp_path):
+    path = deterministic(tmp_path)
+    reference = kinolab("run", path, "--out", tmp_path / "reference")
+    assert reference.returncode == 0, reference.stderr
+    expected = rows(tmp_path / "reference" / "results.sqlite")
+    assert len(expected) == 24
+
+    out = tmp_path / "killed"
+    env = dict(os.environ, KINOLAB_CACHE_DIR=str(tmp_path / "cache"))
+    rng = random.Random(5)
+    kills = 0
+    for attempt in range(40):
+        process = subprocess.Popen([BINARY, "run", str(path), "--out", str(out), "--resume"],
+                                   stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, env=env)
+        time.sleep(rng.uniform(0.05, 0.5))
+        if process.poll() is not None:
+            assert process.returncode == 0
+            break
+        process.send_signal(signal.SIGKILL)
+        process.wait()
+        kills += 1
+    else:
+        pytest.fail("the runner never finished")
+    assert kills >= 2
+    assert rows(out / "results.sqlite") == expected
+
+
+def test_ctrl_c_stops_cleanly_and_resume_finishes(kinolab, tmp_path):
+    path = deterministic(tmp_path, name="interrupt", sleep_ms=300)
+    out = tmp_path / "out"
+    env = dict(os.environ, KINOLAB_CACHE_DIR=str(tmp_path / "cache"))
+    process = subprocess.Popen([BINARY, "run", str(path), "--out", str(out)],
+                               stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env)
+    time.sleep(1.0)
+    process.send_signal(signal.SIGINT)
+    stdout, _ = process.communicate(timeout=60)
+    assert process.returncode == 130
+    assert "resume with" in stdout
+    done = len(rows(out / "results.sqlite"))
+    assert 0 < done < 24
+    again = kinolab("run", path, "--out", out)
+    assert again.returncode == 1 and "--resume" in again.stderr
+    resumed = kinolab("run", path, "--out", out, "--resume")
+    assert resumed.returncode == 0, resumed.stderr
+    assert f"{done} were already done" in resumed.stdout
+    assert len(rows(out / "results.sqlite")) == 24
+
+
+def test_three_shards_merged_equal_the_unsharded_run(kinolab, tmp_path):
+    path = deterministic(tmp_path, name="shards")
+    whole = kinolab("run", path, "--out", tmp_path / "whole", "-j", "2")
+    assert whole.returncode == 0, whole.stderr
+    databases = []
+    for shard in (1, 2, 3):
+        out = tmp_path / f"shard{shard}"
+        result = kinolab("run", path, "--out", out, "--shard", f"{shard}/3")
+        assert result.returncode == 0, result.stderr
+        databases.append(out / "results.sqlite")
+    sizes = [len(rows(db)) for db in databases]
+    assert sum(sizes) == 24 and min(sizes) >= 7
+
+    missing = kinolab("merge", tmp_path / "two.sqlite", *databases[:2])
+    assert missing.returncode == 1 and "2 of 3 shards" in missing.stderr
+    merged = kinolab("merge", tmp_path / "merged.sqlite", *databases)
+    assert merged.returncode == 0, merged.stderr
+    assert rows(tmp_path / "merged.sqlite") == rows(tmp_path / "whole" / "results.sqlite")
+    assert meta(tmp_path / "merged.sqlite")["config_hash"] == meta(databases[0])["config_hash"]
+
+    (tmp_path / "other").mkdir()
+    other = deterministic(tmp_path / "other", name="shards")
+    other.write_text(other.read_text().replace("seed: 3", "seed: 4"))
+    kinolab("run", other, "--out", tmp_path / "other_shard", "--shard", "3/3")
+    mixed = kinolab("merge", tmp_path / "mixed.sqlite", databases[0], databases[1],
+                    tmp_path / "other_shard" / "results.sqlite")
+    assert mixed.returncode == 1 and "holds another experiment" in mixed.stderr
+    assert not (tmp_path / "mixed.sqlite").exists()
+
+
+def test_an_output_directory_of_another_experiment_is_refused(kinolab, tmp_path):
+    first = experiment(tmp_path, LAZY, plugins=False, name="first")
+    second = experiment(tmp_path, LAZY.replace("heuristic_weight: 2", "heuristic_weight: 3"),
+                        plugins=False, name="second")
+    assert kinolab("run", first, "--out", tmp_path / "out").returncode == 0
+    result = kinolab("run", second, "--out", tmp_path / "out", "--resume")
+    assert result.returncode == 1 and "holds another experiment" in result.stderr
+
+
+MALFORMED = [
+    ("planners: [{id: a, type: lazy_mp_astr}]", "unknown planner 'lazy_mp_astr'"),
+    ("planners: [{id: a, type: lazy_mp_astar, params: {heuristic_weigth: 2}}]",
+     "did you mean 'heuristic_weight'"),
+    ("planners: [{id: a, type: lazy_mp_astar, params: {heuristic_weight: 0.5}}]",
+     "heuristic_weight"),
+    ("planners: [{id: a, type: lazy_mp_astar, params: {heuristic_weight: fast}}]",
+     "heuristic_weight"),
+    ("planners: [{id: a, type: lazy_mp_astar, sampler: {type: gauss}}]", "unknown sampler 'gauss'"),
+    ("planners: [{id: a, type: lazy_mp_astar, sampler: {type: normal, params: {sigmaa: 1}}}]",
+     "did you mean 'sigma'"),
+    ("planners: [{id: a, type: rrtstar, sampler: {type: normal}}]", "unknown parameter 'sampler'"),
+    ("planners: [{id: a, type: lazy_mp_astar}, {id: a, type: eager_mp_astar}]",
+     "duplicate planner id"),
+    ("planners: [{type: lazy_mp_astar}]", "missing required key 'id'"),
+    ("planners: []", "no planners"),
+    ("planner: [{id: a, type: lazy_mp_astar}]", "unknown key 'planner'"),
+    ("repetitions: 0", "repetitions"),
+    ("repetitions: many", "repetitions"),
+    ("budget: {time: -1}", "budget.time"),
+    ("budget: {memroy_mb: 100}", "did you mean 'memory_mb'"),
+    ("queries: {random: {count: 0}}", "queries.random.count"),
+    ("queries: {random: {count: 2, min_distance: 5, max_distance: 1}}", "max_distance"),
+    ("queries: ~", "no queries"),
+    ("queries: {across: {count: 1, axis: z}}", "expected x or y"),
+    ("queries: {fixed: [{start: [1, 2], goal: [3, 3, 1]}]}", "queries.fixed"),
+    ("worlds: [{id: w, spec: missing.yaml}]", "no such world spec file"),
+    ("worlds: [{id: w, spec: {name: w, resolution: 0.1, generators: [{type: forrest}]}}]",
+     "forrest"),
+    ("kind: sampling_study", "sampling studies run with kinolab sampling-study"),
+    ("sweep: {grid: {planners.b.params.heuristic_weight: [1, 2]}}", "no list item 'b'"),
+    ("sweep: {grid: {planners.a.parms.heuristic_weight: [1, 2]}}", "did you mean 'params'"),
+    ("sweep: {zip: {planners.a.params.heuristic_weight: [1, 2], budget.time: [1]}}",
+     "equal lengths"),
+    ("sweep: {grid: {planners.a.params.heuristic_weight: [1, 0.5]}}", "heuristic_weight"),
+    ("sweep: {gird: {budget.time: [1]}}", "did you mean 'grid'"),
+    ("extends: nowhere.yaml", "no such file"),
+    ("plugins: [nowhere.so]", "no such plugin library"),
+    ("seed: [1]", "seed"),
+]
+
+
+@pytest.mark.parametrize("override, message", MALFORMED,
+                         ids=[f"{i:02d}" for i in range(len(MALFORMED))])
+def test_malformed_experiment_files_fail_with_the_expected_message(kinolab, tmp_path, override,
+                                                                   message):
+    base = tmp_path / "base.yaml"
+    base.write_text(f"""kind: planning
+name: base
+seed: 1
+worlds:{WORLD}queries:
+  random: {{count: 2, min_distance: 3, max_distance: 8}}
+planners: [{{id: a, type: lazy_mp_astar}}]
+""")
+    # Mappings merge with the base, lists replace it: each file changes one thing.
+    path = tmp_path / "broken.yaml"
+    path.write_text(override + "\n" if override.startswith("extends:")
+                    else f"extends: base.yaml\n{override}\n")
+    result = kinolab("run", path, "--out", tmp_path / "out")
+    assert result.returncode == 1, result.stdout + result.stderr
+    assert message in result.stderr, result.stderr
+    assert "broken.yaml" in result.stderr, result.stderr
+    assert not (tmp_path / "out").exists()

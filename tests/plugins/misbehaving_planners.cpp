@@ -1,0 +1,73 @@
+// Test-only planners for the experiment runner (a plugin library, never built into kinolab):
+// each misbehaves in one way, so the runner's isolation can be tested. `test_trivial` does
+// nothing at all (after an optional sleep): the runner's overhead per run.
+#include <chrono>
+#include <csignal>
+#include <stdexcept>
+#include <thread>
+#include <vector>
+
+#include "kinolab/core/plugin.hpp"
+#include "kinolab/planner/planner.hpp"
+
+namespace {
+
+using namespace kinolab;
+
+enum class Misbehaviour { kNone, kCrash, kHang, kAllocate, kThrow };
+
+class MisbehavingPlanner final : public Planner {
+ public:
+  MisbehavingPlanner(Misbehaviour what, const ParameterSet& parameters)
+      : what_(what), sleep_ms_(parameters.real("sleep_ms")) {}
+
+ protected:
+  void doSetup(const PlannerContext&) override {}
+  PlanResult doPlan(const PlanningQuery&, StopCondition&, SearchTree*) override {
+    if (sleep_ms_ > 0.0) {
+      std::this_thread::sleep_for(std::chrono::duration<double, std::milli>(sleep_ms_));
+    }
+    switch (what_) {
+      case Misbehaviour::kCrash:
+        std::raise(SIGSEGV);
+        break;
+      case Misbehaviour::kHang:
+        for (;;) std::this_thread::sleep_for(std::chrono::milliseconds(100));
+      case Misbehaviour::kAllocate: {
+        std::vector<std::vector<char>> blocks;
+        for (;;) blocks.emplace_back(std::size_t{64} << 20, 'x');
+      }
+      case Misbehaviour::kThrow:
+        throw std::runtime_error("test_throw always throws");
+      case Misbehaviour::kNone:
+        break;
+    }
+    PlanResult result;
+    result.status = PlanStatus::kNoSolution;
+    result.message = "test_trivial plans nothing";
+    result.statistics = {{"sleep_ms", sleep_ms_}};
+    return result;
+  }
+  PlanningModel planningModel() const override { return {}; }
+
+ private:
+  Misbehaviour what_;
+  double sleep_ms_;
+};
+
+}  // namespace
+
+KINOLAB_REGISTER_PLUGINS(registrar) {
+  const auto add = [&](const char* key, const char* doc, Misbehaviour what) {
+    registrar.add<Planner>(
+        key, doc, ParameterSpecs().real("sleep_ms", 0.0, 0.0, 1e6, "sleep this long first, ms"),
+        [what](const ParameterSet& parameters) {
+          return std::make_unique<MisbehavingPlanner>(what, parameters);
+        });
+  };
+  add("test_trivial", "does nothing: no_solution at once (runner overhead)", Misbehaviour::kNone);
+  add("test_crash", "dies of SIGSEGV", Misbehaviour::kCrash);
+  add("test_hang", "never returns, ignoring its budget", Misbehaviour::kHang);
+  add("test_oom", "allocates without bound", Misbehaviour::kAllocate);
+  add("test_throw", "throws an exception", Misbehaviour::kThrow);
+}
