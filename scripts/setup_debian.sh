@@ -13,6 +13,8 @@ PACKAGES=(
   # the TGK analogue: OMPL (and the Boost libraries it links) and Ceres
   libompl-dev libboost-serialization-dev libboost-filesystem-dev libboost-system-dev
   libceres-dev
+  # the experiment runner's results database
+  libsqlite3-dev
   # Python (Debian's interpreter and packages; the Python package index is not needed)
   python3 python3-numpy python3-scipy python3-yaml python3-pytest
 )

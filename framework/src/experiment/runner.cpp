@@ -29,6 +29,7 @@
 #include "kinolab/core/version.hpp"
 #include "kinolab/experiment/results_store.hpp"
 #include "kinolab/planner/result_csv.hpp"
+#include "kinolab/validation/trajectory_checker.hpp"
 #include "kinolab/world/world_cache.hpp"
 
 namespace kinolab {
@@ -406,6 +407,9 @@ RunnerSummary runExperiment(const Experiment& experiment, const RunnerOptions& o
   const WorldCache cache(options.cache_dir.empty() ? WorldCache::defaultDirectory()
                                                    : options.cache_dir);
   std::map<std::uint64_t, std::shared_ptr<const World>> worlds;
+  // A checker per world, kept while workers run: their collision models are built here once
+  // and inherited by every worker (the body radius is irrelevant to the shared model).
+  std::vector<TrajectoryChecker> shared_checkers;
   std::map<std::pair<std::size_t, std::size_t>, std::vector<PlanningQuery>> queries;
   for (const RunSpec* run : pending) {
     const ExperimentVariant& variant = experiment.variants[run->variant];
@@ -415,6 +419,9 @@ RunnerSummary runExperiment(const Experiment& experiment, const RunnerOptions& o
       std::fprintf(stderr, "run: world %s (%s)\n", world.id.c_str(),
                    toHex(world.spec.hash()).c_str());
       built = cache.loadOrBuild(world.spec).world;
+      CheckerSettings settings;
+      settings.robot_radius = 1e3;
+      shared_checkers.emplace_back(built, settings);
     }
     auto& list = queries[{run->variant, run->world}];
     if (list.empty()) list = variant.queries.make(*built, world.id, experiment.seed);

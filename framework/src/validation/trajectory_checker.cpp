@@ -5,6 +5,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <map>
+#include <mutex>
 
 #include "kinolab/core/error.hpp"
 #include "kinolab/core/text.hpp"
@@ -26,35 +28,55 @@ double speedBound(const TrajectorySegment& segment) {
 
 }  // namespace
 
+namespace {
+
 /// The world's occupied voxels as an OctoMap tree wrapped for FCL. The tree is built in grid
 /// coordinates (world minus the grid origin), so its cubes are exactly the grid's voxels.
+/// Building it scans the whole grid (tens of milliseconds for a large world), so checkers of
+/// one world share one tree: it lives while a checker holds it, and a world outlives its
+/// checkers, so the world's address identifies it. (The experiment runner builds it before
+/// forking workers, which then inherit it.)
+std::shared_ptr<const fcl::CollisionObjectd> sharedOctree(const World& world) {
+  static std::mutex mutex;
+  static std::map<const World*, std::weak_ptr<const fcl::CollisionObjectd>> trees;
+  const std::lock_guard<std::mutex> lock(mutex);
+  if (auto tree = trees[&world].lock()) return tree;
+  const VoxelGrid& grid = world.grid();
+  auto octree = std::make_shared<octomap::OcTree>(grid.resolution());
+  const Eigen::Vector3i& dims = grid.dims();
+  const double r = grid.resolution();
+  for (int ix = 0; ix < dims.x(); ++ix) {
+    for (int iy = 0; iy < dims.y(); ++iy) {
+      for (int iz = 0; iz < dims.z(); ++iz) {
+        if (!grid.occupied(grid.index(ix, iy, iz))) continue;
+        octree->updateNode(
+            octomap::point3d(static_cast<float>((ix + 0.5) * r), static_cast<float>((iy + 0.5) * r),
+                             static_cast<float>((iz + 0.5) * r)),
+            true, /*lazy_eval=*/true);
+      }
+    }
+  }
+  octree->updateInnerOccupancy();
+  auto tree = std::make_shared<fcl::CollisionObjectd>(
+      std::make_shared<fcl::OcTreed>(std::shared_ptr<const octomap::OcTree>(octree)));
+  tree->computeAABB();
+  trees[&world] = tree;
+  return tree;
+}
+
+}  // namespace
+
 struct TrajectoryChecker::Fcl {
   Eigen::Vector3d origin;
-  std::shared_ptr<fcl::CollisionObjectd> tree;
+  std::shared_ptr<const fcl::CollisionObjectd> tree;
   std::shared_ptr<fcl::Sphered> sphere;
   mutable fcl::CollisionObjectd body;
 
-  Fcl(const VoxelGrid& grid, double radius)
-      : origin(grid.origin()), sphere(std::make_shared<fcl::Sphered>(radius)), body(sphere) {
-    auto octree = std::make_shared<octomap::OcTree>(grid.resolution());
-    const Eigen::Vector3i& dims = grid.dims();
-    for (int ix = 0; ix < dims.x(); ++ix) {
-      for (int iy = 0; iy < dims.y(); ++iy) {
-        for (int iz = 0; iz < dims.z(); ++iz) {
-          if (!grid.occupied(grid.index(ix, iy, iz))) continue;
-          const double r = grid.resolution();
-          octree->updateNode(octomap::point3d(static_cast<float>((ix + 0.5) * r),
-                                              static_cast<float>((iy + 0.5) * r),
-                                              static_cast<float>((iz + 0.5) * r)),
-                             true, /*lazy_eval=*/true);
-        }
-      }
-    }
-    octree->updateInnerOccupancy();
-    tree = std::make_shared<fcl::CollisionObjectd>(
-        std::make_shared<fcl::OcTreed>(std::shared_ptr<const octomap::OcTree>(octree)));
-    tree->computeAABB();
-  }
+  Fcl(const World& world, double radius)
+      : origin(world.grid().origin()),
+        tree(sharedOctree(world)),
+        sphere(std::make_shared<fcl::Sphered>(radius)),
+        body(sphere) {}
 
   bool collides(const Eigen::Vector3d& position) const {
     body.setTranslation(position - origin);
@@ -80,7 +102,7 @@ TrajectoryChecker::TrajectoryChecker(std::shared_ptr<const World> world, Checker
   const double fcl_radius = settings_.robot_radius - std::sqrt(3.0) * voxel;
   // Below that the ESDF test cannot exclude a point inside an occupied cube: no FCL check.
   if (settings_.use_fcl && fcl_radius > 0.0) {
-    fcl_ = std::make_unique<Fcl>(world_->grid(), fcl_radius);
+    fcl_ = std::make_unique<Fcl>(*world_, fcl_radius);
   }
 }
 
