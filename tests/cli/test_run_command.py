@@ -278,3 +278,21 @@ planners: [{{id: a, type: lazy_mp_astar}}]
     assert message in result.stderr, result.stderr
     assert "broken.yaml" in result.stderr, result.stderr
     assert not (tmp_path / "out").exists()
+
+
+SHIPPED = sorted(p for p in (SOURCE_DIR / "experiments").rglob("*.yaml")
+                 if "kind: sampling_study" not in p.read_text())
+
+
+@pytest.mark.parametrize("path", SHIPPED, ids=[p.stem for p in SHIPPED])
+def test_every_shipped_experiment_validates(kinolab, path):
+    result = kinolab("run", path, "--dry-run")
+    assert result.returncode == 0, result.stderr
+    assert " runs\n" in result.stdout
+
+
+def test_a_reference_planner_the_sweep_does_not_touch_runs_once(kinolab):
+    result = kinolab("run", SOURCE_DIR / "experiments" / "ablations" / "lazy_duplicate_rule.yaml",
+                     "--dry-run")
+    # 30 queries: eager once, lazy with lwa and with seed.
+    assert ": 90 runs" in result.stdout, result.stdout

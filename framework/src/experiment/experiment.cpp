@@ -511,15 +511,14 @@ std::vector<RunSpec> Experiment::runs() const {
       }
     }
   }
-  // Planner order within a case, and variant order, do not matter to a hash; one hash per run.
+  // A run that does not change between variants (a reference planner the sweep does not
+  // touch) has the same hash in each: it runs once, in the first variant that has it.
   std::set<std::string> seen;
-  for (const RunSpec& run : runs) {
-    if (!seen.insert(run.hash).second) {
-      throw ConfigError(source + ": two runs of the sweep are identical (" + run.hash +
-                        "); remove the duplicate sweep value");
-    }
+  std::vector<RunSpec> unique;
+  for (RunSpec& run : runs) {
+    if (seen.insert(run.hash).second) unique.push_back(std::move(run));
   }
-  return runs;
+  return unique;
 }
 
 std::vector<RunSpec> shardOf(const std::vector<RunSpec>& runs, int index, int count) {

@@ -105,7 +105,8 @@ struct Experiment {
 
   static Experiment fromFile(const std::string& path);
 
-  /// Every run, ordered by variant, world, query, planner, repetition.
+  /// Every run, ordered by variant, world, query, planner, repetition. A run the sweep does
+  /// not change (same hash in several variants) appears once, in its first variant.
   std::vector<RunSpec> runs() const;
 };
 
