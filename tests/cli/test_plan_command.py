@@ -5,14 +5,7 @@ import json
 
 import pytest
 
-WORLD = """name: small_forest
-seed: 4
-resolution: 0.1
-bounds: {min: [0, 0, 0], max: [10, 10, 3]}
-generators:
-  - {type: forest, density: 0.1, trunk_radius: [0.15, 0.25], trunk_height: [2.5, 3],
-     min_spacing: 1.0, ground_plane: true}
-"""
+from conftest import SMALL_FOREST as WORLD
 
 FAST = ["--set", "sampler.samples_per_axis=3", "--set", "heuristic_weight=2"]
 

@@ -6,27 +6,18 @@ import random
 import signal
 import sqlite3
 import subprocess
+import textwrap
 import time
 from pathlib import Path
 
 import pytest
 
-from conftest import BINARY, SOURCE_DIR
+from conftest import BINARY, SMALL_FOREST, SOURCE_DIR
 
 MISBEHAVING = os.environ.get(
     "KINOLAB_MISBEHAVING", str(SOURCE_DIR / "build" / "tests" / "libkinolab_test_misbehaving.so"))
 
-WORLD = """
-  - id: small
-    spec:
-      name: small
-      seed: 4
-      resolution: 0.1
-      bounds: {min: [0, 0, 0], max: [10, 10, 3]}
-      generators:
-        - {type: forest, density: 0.1, trunk_radius: [0.15, 0.25], trunk_height: [2.5, 3],
-           min_spacing: 1.0, ground_plane: true}
-"""
+WORLD = "\n  - id: small\n    spec:\n" + textwrap.indent(SMALL_FOREST, " " * 6)
 
 LAZY = """
   - id: lazy
