@@ -233,6 +233,9 @@ MALFORMED = [
     ("queries: {across: {count: 1, axis: z}}", "expected x or y"),
     ("queries: {fixed: [{start: [1, 2], goal: [3, 3, 1]}]}", "queries.fixed"),
     ("worlds: [{id: w, spec: missing.yaml}]", "no such world spec file"),
+    ("worlds: [{id: w, map: missing.bt, resolution: 0.1}]", "no such map file"),
+    ("worlds: [{id: w, map: " + str(SOURCE_DIR / "data/maps/geb079.bt") + "}]",
+     "missing required key 'resolution'"),
     ("worlds: [{id: w, spec: {name: w, resolution: 0.1, generators: [{type: forrest}]}}]",
      "forrest"),
     ("kind: sampling_study", "sampling studies run with kinolab sampling-study"),
@@ -280,6 +283,20 @@ def test_every_shipped_experiment_validates(kinolab, path):
     result = kinolab("run", path, "--dry-run")
     assert result.returncode == 0, result.stderr
     assert " runs\n" in result.stdout
+
+
+def test_a_map_file_is_a_world(kinolab, tmp_path):
+    path = tmp_path / "map.yaml"
+    path.write_text(f"""kind: planning
+name: map
+worlds: [{{id: corridor, map: {SOURCE_DIR / "data/maps/geb079.bt"}, resolution: 0.08}}]
+queries: {{random: {{count: 3, min_distance: 2, clearance: 0.4}}}}
+planners: [{{id: lazy, type: lazy_mp_astar, params: {{heuristic_weight: 2}}}}]
+""")
+    result = kinolab("run", path, "--out", tmp_path / "out")
+    assert result.returncode == 0, result.stderr
+    runs = rows(tmp_path / "out" / "results.sqlite").values()
+    assert len(runs) == 3 and all(run["world"] == "corridor" for run in runs)
 
 
 def test_a_reference_planner_the_sweep_does_not_touch_runs_once(kinolab):

@@ -399,6 +399,26 @@ YAML::Node loadDocument(const std::string& path, std::string& source,
   const YamlReader root = YamlReader::fromNode(document, source);
   if (const auto worlds = root.optional("worlds")) {
     for (const YamlReader& item : worlds->items()) {
+      if (const auto map = item.optional("map")) {
+        // `map: FILE` (an OctoMap .bt/.ot) with `resolution`: a spec of one octomap generator.
+        const std::string file =
+            (fs::path(directory) / map->as<std::string>()).lexically_normal().string();
+        if (!fs::is_regular_file(file)) map->fail("no such map file: " + file);
+        YAML::Node generator(YAML::NodeType::Map);
+        generator["type"] = "octomap";
+        generator["file"] = fs::absolute(file).string();
+        generator["unknown"] = "free";
+        YAML::Node spec(YAML::NodeType::Map);
+        spec["name"] = item.get<std::string>("id");
+        spec["resolution"] = item["resolution"].node();
+        spec["generators"].push_back(generator);
+        YAML::Node node = item.node();
+        if (node["spec"]) item["spec"].fail("give either spec or map, not both");
+        node.remove("map");
+        node.remove("resolution");
+        node["spec"] = spec;
+        continue;
+      }
       const auto spec = item.optional("spec");
       if (!spec || spec->isMap()) continue;
       const std::string file =
