@@ -152,7 +152,18 @@ def test_ctrl_c_stops_cleanly_and_resume_finishes(kinolab, tmp_path):
     env = dict(os.environ, KINOLAB_CACHE_DIR=str(tmp_path / "cache"))
     process = subprocess.Popen([BINARY, "run", str(path), "--out", str(out)],
                                stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env)
-    time.sleep(1.0)
+    # Interrupt once at least one run is stored (the database exists by then).
+    database = out / "results.sqlite"
+    def stored():
+        try:
+            return len(rows(database)) if database.exists() else 0
+        except sqlite3.Error:  # created but its tables not yet committed
+            return 0
+
+    for _ in range(600):
+        if stored() > 0:
+            break
+        time.sleep(0.05)
     process.send_signal(signal.SIGINT)
     stdout, _ = process.communicate(timeout=60)
     assert process.returncode == 130
