@@ -1,6 +1,7 @@
 #include "kinolab/world/world_cache.hpp"
 
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <filesystem>
 #include <fstream>
@@ -12,9 +13,10 @@ namespace {
 class WorldCacheTest : public ::testing::Test {
  protected:
   void SetUp() override {
-    directory_ =
-        std::filesystem::temp_directory_path() /
-        ("kinolab_cache_test_" + std::to_string(::testing::UnitTest::GetInstance()->random_seed()));
+    // One folder per test and process: ctest runs these tests in parallel processes.
+    directory_ = std::filesystem::temp_directory_path() /
+                 ("kinolab_cache_test_" + std::to_string(getpid()) + "_" +
+                  ::testing::UnitTest::GetInstance()->current_test_info()->name());
     std::filesystem::remove_all(directory_);
     spec_ =
         WorldSpec::fromYaml(YamlReader::loadString("name: small\nseed: 3\nresolution: 0.2\n"
