@@ -22,6 +22,9 @@ CREATE TABLE IF NOT EXISTS runs (
   wall_time_ms REAL, started_at TEXT);
 CREATE TABLE IF NOT EXISTS statistics (
   run_hash TEXT NOT NULL, name TEXT NOT NULL, value REAL, PRIMARY KEY (run_hash, name));
+CREATE TABLE IF NOT EXISTS worlds (
+  world_hash TEXT PRIMARY KEY, id TEXT, resolution REAL, origin_x REAL, origin_y REAL,
+  origin_z REAL, nx INTEGER, ny INTEGER, nz INTEGER, top BLOB, side BLOB);
 CREATE TABLE IF NOT EXISTS trajectories (run_hash TEXT PRIMARY KEY, csv TEXT NOT NULL);
 CREATE TABLE IF NOT EXISTS trees (run_hash TEXT PRIMARY KEY, csv TEXT NOT NULL);
 )sql";
@@ -58,6 +61,9 @@ class Statement {
     }
   }
   void add(int value) { sqlite3_bind_int(statement_, ++next_, value); }
+  void addBlob(const void* data, std::size_t size) {
+    sqlite3_bind_blob(statement_, ++next_, data, static_cast<int>(size), SQLITE_TRANSIENT);
+  }
   /// True while there is a row.
   bool step(const std::string& path) {
     const int code = sqlite3_step(statement_);
@@ -215,6 +221,21 @@ void ResultsStore::insert(const RunRecord& r) {
   }
 }
 
+void ResultsStore::insertWorld(const WorldRecord& w) {
+  Statement insert(db_,
+                   "INSERT OR IGNORE INTO worlds (world_hash, id, resolution, origin_x, origin_y, "
+                   "origin_z, nx, ny, nz, top, side) VALUES (?,?,?,?,?,?,?,?,?,?,?)",
+                   path_);
+  insert.add(w.world_hash);
+  insert.add(w.id);
+  insert.add(w.resolution);
+  for (const double v : w.origin) insert.add(v);
+  for (const int n : w.dims) insert.add(n);
+  insert.addBlob(w.top.data(), w.top.size() * sizeof(std::uint16_t));
+  insert.addBlob(w.side.data(), w.side.size());
+  insert.step(path_);
+}
+
 void ResultsStore::merge(const std::string& output, const std::vector<std::string>& inputs,
                          bool partial) {
   if (inputs.empty()) throw ConfigError("merge: no shard databases given");
@@ -272,7 +293,7 @@ void ResultsStore::merge(const std::string& output, const std::vector<std::strin
       for (const char c : inputs[i]) quoted += c == '\'' ? std::string("''") : std::string(1, c);
       merged.execute("ATTACH DATABASE '" + quoted + "' AS shard");
       merged.execute("BEGIN IMMEDIATE");
-      for (const char* table : {"runs", "statistics", "trajectories", "trees"}) {
+      for (const char* table : {"runs", "statistics", "worlds", "trajectories", "trees"}) {
         merged.execute(std::string("INSERT OR IGNORE INTO ") + table + " SELECT * FROM shard." +
                        table);
       }

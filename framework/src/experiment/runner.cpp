@@ -237,6 +237,33 @@ RunRecord recordOf(const Experiment& experiment, const Worker& worker, int wait_
   return record;
 }
 
+/// The top and side views of a world for the report's figures.
+WorldRecord worldRecord(const World& world, const std::string& id) {
+  const VoxelGrid& grid = world.grid();
+  const Eigen::Vector3i& n = grid.dims();
+  WorldRecord record;
+  record.world_hash = toHex(world.specHash());
+  record.id = id;
+  record.resolution = grid.resolution();
+  for (int axis = 0; axis < 3; ++axis) {
+    record.origin[axis] = grid.origin()[axis];
+    record.dims[axis] = n[axis];
+  }
+  record.top.assign(static_cast<std::size_t>(n.x()) * n.y(), 0);
+  record.side.assign(static_cast<std::size_t>(n.x()) * n.z(), 0);
+  for (int x = 0; x < n.x(); ++x) {
+    for (int y = 0; y < n.y(); ++y) {
+      for (int z = 0; z < n.z(); ++z) {
+        if (!grid.occupied(grid.index(x, y, z))) continue;
+        auto& top = record.top[static_cast<std::size_t>(x) * n.y() + y];
+        top = std::max<std::uint16_t>(top, static_cast<std::uint16_t>(z + 1));
+        record.side[static_cast<std::size_t>(x) * n.z() + z] = 1;
+      }
+    }
+  }
+  return record;
+}
+
 bool failed(const std::string& status) { return status != "exact" && status != "approximate"; }
 
 /// Progress on stderr: a bar redrawn in place on a terminal, a line every 10 s or 10 %
@@ -419,6 +446,7 @@ RunnerSummary runExperiment(const Experiment& experiment, const RunnerOptions& o
       std::fprintf(stderr, "run: world %s (%s)\n", world.id.c_str(),
                    toHex(world.spec.hash()).c_str());
       built = cache.loadOrBuild(world.spec).world;
+      store.insertWorld(worldRecord(*built, world.id));
       CheckerSettings settings;
       settings.robot_radius = 1e3;
       shared_checkers.emplace_back(built, settings);

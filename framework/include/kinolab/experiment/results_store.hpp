@@ -1,6 +1,7 @@
 #pragma once
 
 #include <cmath>
+#include <cstdint>
 #include <map>
 #include <optional>
 #include <set>
@@ -52,11 +53,24 @@ struct RunRecord {
   std::string tree_csv;        ///< when it stores search trees
 };
 
+/// A world as the report draws it: its grid geometry, a top view (per x, y column the
+/// height of the highest occupied voxel, in voxels: 0 when the column is free) and a side
+/// view (per x, z: 1 when any voxel along y is occupied).
+struct WorldRecord {
+  std::string world_hash;
+  std::string id;
+  double resolution = 0.0;
+  double origin[3] = {0, 0, 0};
+  int dims[3] = {0, 0, 0};
+  std::vector<std::uint16_t> top;  ///< nx * ny, index x * ny + y
+  std::vector<std::uint8_t> side;  ///< nx * nz, index x * nz + z
+};
+
 /// The results database of one experiment (SQLite, WAL journal): a `meta` table (the
 /// expanded config, its hash, provenance), `runs` (one row per run keyed by `run_hash`),
-/// `statistics` (run_hash, name, value: every statistic a planner reported), and optional
-/// `trajectories` and `trees` (CSV text). Every run is written in its own transaction, so a
-/// kill at any moment loses at most the runs in flight.
+/// `statistics` (run_hash, name, value: every statistic a planner reported), `worlds` (for
+/// figures), and optional `trajectories` and `trees` (CSV text). Every run is written in its own
+/// transaction, so a kill at any moment loses at most the runs in flight.
 class ResultsStore {
  public:
   explicit ResultsStore(const std::string& path);
@@ -74,6 +88,8 @@ class ResultsStore {
   std::set<std::string> runHashes() const;
   long long runCount() const;
   void insert(const RunRecord& record);
+  /// Stores a world's views once (a world already stored is left as it is).
+  void insertWorld(const WorldRecord& world);
 
   /// Joins shard databases into `output` (which must not exist yet). Refuses inputs whose
   /// config hashes differ, that are not shards of the same count, that repeat a shard, or
