@@ -461,7 +461,15 @@ Experiment Experiment::fromFile(const std::string& path) {
   }
   if (const auto store = root.optional("store")) {
     experiment.store_trajectories = store->get<bool>("trajectories", false);
-    experiment.store_trees = store->get<bool>("trees", false);
+    // trees: true (every run), false, or N (the first N queries of each world: trees are big).
+    if (const auto trees = store->optional("trees")) {
+      const std::string text = trees->as<std::string>();
+      if (text == "true" || text == "false") {
+        experiment.store_tree_queries = text == "true" ? -1 : 0;
+      } else {
+        experiment.store_tree_queries = static_cast<int>(store->getInteger("trees", 0, 0, 1000000));
+      }
+    }
     store->finish();
   }
   std::vector<SweepPoint> points(1);

@@ -111,8 +111,9 @@ void limitMemory(long long budget_mb) {
     Budget budget{variant.budget.time, std::numeric_limits<long long>::max()};
     if (variant.budget.iterations > 0) budget.max_iterations = variant.budget.iterations;
     SearchTree tree;
-    const PlanResult result =
-        configured.planner->plan(query, budget, experiment.store_trees ? &tree : nullptr);
+    const bool store_tree =
+        experiment.store_tree_queries < 0 || run.query < experiment.store_tree_queries;
+    const PlanResult result = configured.planner->plan(query, budget, store_tree ? &tree : nullptr);
     out = {{"status", toString(result.status)},
            {"message", result.message},
            {"planning_time_ms", result.planning_time_ms},
@@ -129,7 +130,7 @@ void limitMemory(long long budget_mb) {
       out["mean_clearance"] = finite(result.check.mean_clearance);
       if (experiment.store_trajectories) out["trajectory"] = trajectoryCsv(result.trajectory, 0.05);
     }
-    if (experiment.store_trees) out["tree"] = treeCsv(tree);
+    if (store_tree) out["tree"] = treeCsv(tree);
     nlohmann::json statistics = nlohmann::json::array();
     for (const auto& [name, value] : result.statistics) {
       statistics.push_back({name, finite(value)});

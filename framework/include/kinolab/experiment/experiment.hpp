@@ -98,7 +98,8 @@ struct Experiment {
   std::uint64_t seed = 1;
   std::vector<std::string> plugins;  ///< libraries loaded before validation
   bool store_trajectories = false;
-  bool store_trees = false;
+  /// Search trees of queries 0 .. store_tree_queries - 1 of each world (-1: all, 0: none).
+  int store_tree_queries = 0;
   std::vector<ExperimentVariant> variants;
   std::string canonical;    ///< the expanded configuration as YAML text
   std::string config_hash;  ///< hash of `canonical` (hex): shards of one experiment share it
