@@ -16,7 +16,8 @@ PACKAGES=(
   # the experiment runner's results database
   libsqlite3-dev
   # Python (Debian's interpreter and packages; the Python package index is not needed)
-  python3 python3-numpy python3-scipy python3-yaml python3-pytest
+  python3 python3-numpy python3-scipy python3-yaml python3-pytest python3-pandas
+  python3-matplotlib python3-jinja2
 )
 
 missing=()

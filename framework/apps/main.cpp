@@ -19,6 +19,7 @@ int main(int argc, char** argv) {
   app.footer("Run 'kinolab COMMAND --help' for the options of one command.");
   kinolab::apps::addListCommand(app);
   kinolab::apps::addPlanCommand(app);
+  kinolab::apps::addReportCommand(app);
   kinolab::apps::addRunCommand(app);
   kinolab::apps::addSamplingStudyCommand(app);
   kinolab::apps::addWorldCommand(app);

@@ -1,0 +1,38 @@
+"""python3 -m kinolab_analysis report DIR [DIR...] [--out REPORT_DIR] [--compare DIR2]"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from . import report
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(prog="kinolab report",
+                                     description="Write an HTML report (figures, tables) of "
+                                                 "kinolab results databases.")
+    sub = parser.add_subparsers(dest="command", required=True)
+    rep = sub.add_parser("report", help="write a report directory")
+    rep.add_argument("results", nargs="+", type=Path,
+                     help="results directories (or results.sqlite files) of one experiment")
+    rep.add_argument("--out", type=Path, help="report directory (default: RESULTS/report)")
+    rep.add_argument("--compare", type=Path, help="a second result set to compare with")
+    rep.add_argument("--sampling-study", type=Path,
+                     help="a sampling study's summary.csv for Table I (default: "
+                          "RESULTS/sampling_study/*/summary.csv when present)")
+    args = parser.parse_args(argv)
+    first = args.results[0]
+    out = args.out or ((first if first.is_dir() else first.parent) / "report")
+    try:
+        written = report.write(args.results, out, args.compare, args.sampling_study)
+    except (FileNotFoundError, ValueError) as error:
+        print(f"kinolab report: error: {error}", file=sys.stderr)
+        return 1
+    print(report.terminal_summary(written))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

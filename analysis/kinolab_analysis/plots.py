@@ -1,0 +1,250 @@
+"""Figures, each a matplotlib Figure (Agg backend: no display needed)."""
+
+from __future__ import annotations
+
+import math
+import re
+
+import matplotlib
+
+matplotlib.use("Agg")
+
+import matplotlib.pyplot as plt  # noqa: E402
+from matplotlib.collections import LineCollection  # noqa: E402
+import numpy as np  # noqa: E402
+import pandas as pd  # noqa: E402
+
+from . import stats  # noqa: E402
+from .data import Results, World  # noqa: E402
+
+COLOURS = plt.rcParams["axes.prop_cycle"].by_key()["color"]
+
+
+def _colour(index: int) -> str:
+    return COLOURS[index % len(COLOURS)]
+
+
+def ecdf(runs: pd.DataFrame, by: str = "planner") -> plt.Figure:
+    """Time-to-solve ECDFs: failures count as never solved, so a curve ends at its
+    planner's success rate."""
+    figure, axis = plt.subplots(figsize=(6, 4))
+    for index, (name, group) in enumerate(runs.groupby(by, sort=False)):
+        x, y = stats.ecdf_unsolved(group["planning_time_ms"], group["success"])
+        if x.size:
+            axis.step(np.concatenate([[x[0]], x]), np.concatenate([[0], y]), where="post",
+                      label=f"{name} ({y[-1]:.0%})", color=_colour(index))
+    axis.set_xscale("log")
+    axis.set_xlabel("planning time (ms)")
+    axis.set_ylabel("share of runs solved")
+    axis.set_ylim(0, 1.02)
+    axis.grid(alpha=0.3)
+    axis.legend(fontsize=8)
+    axis.set_title("Time to solve (failures count as unsolved)")
+    figure.tight_layout()
+    return figure
+
+
+def boxes(runs: pd.DataFrame, metrics: list[tuple[str, str, str]],
+          by: str = "planner") -> plt.Figure:
+    """Box plots of each metric over successful runs, one box per planner."""
+    metrics = [m for m in metrics if m[0] in runs.columns]
+    figure, axes = plt.subplots(1, len(metrics), figsize=(3.2 * len(metrics), 3.6), squeeze=False)
+    names = list(dict.fromkeys(runs[by]))
+    ok = runs[runs["success"]]
+    for axis, (column, label, unit) in zip(axes[0], metrics):
+        data = [ok.loc[ok[by] == name, column].dropna().to_numpy(dtype=float) for name in names]
+        axis.boxplot(data, labels=names, showfliers=True)
+        axis.set_title(f"{label} ({unit})" if unit else label, fontsize=10)
+        axis.tick_params(axis="x", labelrotation=45, labelsize=8)
+        if column == "planning_time_ms":
+            axis.set_yscale("log")
+        axis.grid(alpha=0.3, axis="y")
+    figure.tight_layout()
+    return figure
+
+
+def per_world(runs: pd.DataFrame, by: str = "planner") -> plt.Figure:
+    """Success rate (Wilson interval) and median planning time per world and planner."""
+    worlds = list(dict.fromkeys(runs["world"]))
+    names = list(dict.fromkeys(runs[by]))
+    figure, (left, right) = plt.subplots(1, 2, figsize=(10, 3.8))
+    width = 0.8 / max(1, len(names))
+    for index, name in enumerate(names):
+        rates, errors, times = [], [[], []], []
+        for world in worlds:
+            group = runs[(runs["world"] == world) & (runs[by] == name)]
+            rate = stats.wilson(int(group["success"].sum()), len(group))
+            rates.append(rate.estimate)
+            errors[0].append(rate.estimate - rate.low)
+            errors[1].append(rate.high - rate.estimate)
+            solved = group.loc[group["success"], "planning_time_ms"]
+            times.append(float(solved.median()) if len(solved) else math.nan)
+        x = np.arange(len(worlds)) + (index - (len(names) - 1) / 2) * width
+        left.bar(x, rates, width, yerr=errors, label=name, color=_colour(index), capsize=2)
+        right.bar(x, times, width, label=name, color=_colour(index))
+    for axis, title in ((left, "success rate (95 % Wilson)"), (right, "median planning time (ms)")):
+        axis.set_xticks(np.arange(len(worlds)), worlds)
+        axis.set_title(title, fontsize=10)
+        axis.grid(alpha=0.3, axis="y")
+    left.set_ylim(0, 1.05)
+    right.legend(fontsize=8)
+    figure.tight_layout()
+    return figure
+
+
+def sweep(runs: pd.DataFrame, metric: str = "planning_time_ms",
+          by: str = "planner") -> plt.Figure | None:
+    """A metric's median (bootstrap interval) over successful runs against the sweep
+    value, per planner; None without a sweep."""
+    labels = list(dict.fromkeys(runs["sweep"].fillna("")))
+    if len(labels) < 2:
+        return None
+    figure, axis = plt.subplots(figsize=(7, 4))
+    for index, (name, group) in enumerate(runs.groupby(by, sort=False)):
+        medians, low, high, xs = [], [], [], []
+        for position, label in enumerate(labels):
+            values = group.loc[(group["sweep"] == label) & group["success"], metric]
+            if values.empty:
+                continue
+            interval = stats.bootstrap(values.to_numpy(dtype=float))
+            xs.append(position)
+            medians.append(interval.estimate)
+            low.append(interval.estimate - interval.low)
+            high.append(interval.high - interval.estimate)
+        if xs:
+            axis.errorbar(xs, medians, yerr=[low, high], marker="o", capsize=3, label=name,
+                          color=_colour(index))
+    short = [re.sub(r"[^,=]*\.", "", label) for label in labels]
+    axis.set_xticks(range(len(labels)), short, rotation=30, ha="right", fontsize=8)
+    axis.set_ylabel(f"median {metric}")
+    axis.grid(alpha=0.3)
+    axis.legend(fontsize=8)
+    axis.set_title("Sweep")
+    figure.tight_layout()
+    return figure
+
+
+def trajectories(results: Results, world: World, query: int) -> plt.Figure | None:
+    """One query of one world: the obstacles from above and from the side, with the
+    trajectory of every planner that stored one."""
+    runs = results.runs
+    chosen = runs[(runs["world_hash"] == world.world_hash) & (runs["query"] == query)]
+    paths = []
+    for index, (_, run) in enumerate(chosen.iterrows()):
+        trajectory = results.trajectory(run["run_hash"])
+        if trajectory is not None and len(trajectory):
+            paths.append((run["planner"], run["success"], trajectory, _colour(index)))
+    if not paths:
+        return None
+    r = world.resolution
+    nx, ny, nz = world.dims
+    extent_top = [world.origin[0], world.origin[0] + nx * r, world.origin[1], world.origin[1] + ny * r]
+    extent_side = [world.origin[0], world.origin[0] + nx * r, world.origin[2], world.origin[2] + nz * r]
+    figure, (top, side) = plt.subplots(2, 1, figsize=(7, 9),
+                                       gridspec_kw={"height_ratios": [ny, max(nz * 2, ny // 4)]})
+    heights = np.ma.masked_equal(world.top.T.astype(float) * r, 0)
+    top.imshow(heights, origin="lower", extent=extent_top, cmap="Greys", vmin=0,
+               interpolation="nearest")
+    side.imshow(world.side.T, origin="lower", extent=extent_side, cmap="Greys", aspect="auto",
+                interpolation="nearest")
+    for name, success, trajectory, colour in paths:
+        style = "-" if success else "--"
+        top.plot(trajectory["x"], trajectory["y"], style, color=colour, lw=1.5, label=name)
+        side.plot(trajectory["x"], trajectory["z"], style, color=colour, lw=1.5)
+    run = chosen.iloc[0]
+    for axis, (a, b) in ((top, ("x", "y")), (side, ("x", "z"))):
+        axis.plot(run[f"start_{a}"], run[f"start_{b}"], "o", color="green", ms=7)
+        axis.plot(run[f"goal_{a}"], run[f"goal_{b}"], "*", color="red", ms=11)
+        axis.set_xlabel(f"{a} (m)")
+        axis.set_ylabel(f"{b} (m)")
+    top.set_title(f"{world.id}, query {query}: top view (darker = taller)")
+    side.set_title("side view (obstacles projected along y)")
+    top.legend(fontsize=8, loc="upper left")
+    figure.tight_layout()
+    return figure
+
+
+def search_tree(results: Results, run: pd.Series, world: World | None) -> plt.Figure | None:
+    """The lazy search tree from above (the paper's Fig. 6): partially evaluated edges
+    (queued on their lower bound, never fully checked) and fully evaluated ones in two
+    colours, the trajectory on top."""
+    tree = results.tree(run["run_hash"])
+    if tree is None or tree.empty:
+        return None
+    figure, axis = plt.subplots(figsize=(7, 7))
+    if world is not None:
+        r = world.resolution
+        nx, ny, _ = world.dims
+        extent = [world.origin[0], world.origin[0] + nx * r, world.origin[1], world.origin[1] + ny * r]
+        axis.imshow(np.ma.masked_equal(world.top.T.astype(float), 0), origin="lower",
+                    extent=extent, cmap="Greys", vmin=0, interpolation="nearest", alpha=0.6)
+    colours = {"partial": "#f4a261", "full": "#2a9d8f", "certified": "#264653",
+               "rejected": "#e63946"}
+    for state, edges in tree.groupby("state"):
+        segments = [group[["x", "y"]].to_numpy() for _, group in edges.groupby("edge")]
+        partial = state == "partial"
+        axis.add_collection(LineCollection(segments, colors=colours.get(state, "grey"),
+                                           lw=0.5 if partial else 1.6, zorder=1 if partial else 3,
+                                           label=f"{state} ({len(segments)})"))
+    trajectory = results.trajectory(run["run_hash"])
+    if trajectory is not None:
+        axis.plot(trajectory["x"], trajectory["y"], color="black", lw=0.8, ls="--", zorder=4,
+                  label="trajectory")
+    xs, ys = tree["x"], tree["y"]
+    margin = 1.0
+    axis.set_xlim(xs.min() - margin, xs.max() + margin)
+    axis.set_ylim(ys.min() - margin, ys.max() + margin)
+    axis.set_aspect("equal")
+    axis.legend(fontsize=8)
+    axis.set_title(f"{run['planner']} search tree, {run['world']} query {run['query']}")
+    figure.tight_layout()
+    return figure
+
+
+def anytime(runs: pd.DataFrame, by: str = "planner") -> plt.Figure | None:
+    """RRT* anytime curves: median best path cost at each time of the fixed grid
+    (best_cost_at_<t>ms), over runs that had a solution by then."""
+    columns = [c for c in runs.columns if re.fullmatch(r"best_cost_at_[0-9.e+]+ms", str(c))]
+    if not columns:
+        return None
+    times = sorted((float(c[len("best_cost_at_"):-2]), c) for c in columns)
+    figure, axis = plt.subplots(figsize=(6, 4))
+    drawn = False
+    for index, (name, group) in enumerate(runs.groupby(by, sort=False)):
+        xs, ys = [], []
+        for t, column in times:
+            values = group[column].to_numpy(dtype=float)
+            values = values[np.isfinite(values)]
+            if values.size:
+                xs.append(t)
+                ys.append(float(np.median(values)))
+        if xs:
+            axis.plot(xs, ys, marker="o", ms=3, label=name, color=_colour(index))
+            drawn = True
+    if not drawn:
+        plt.close(figure)
+        return None
+    axis.set_xscale("log")
+    axis.set_xlabel("time (ms)")
+    axis.set_ylabel("median best path length (m)")
+    axis.grid(alpha=0.3)
+    axis.legend(fontsize=8)
+    axis.set_title("RRT* anytime progress")
+    figure.tight_layout()
+    return figure
+
+
+def sampling_study(table: pd.DataFrame) -> plt.Figure:
+    """Table I as bars: alpha and L per sampler, kinolab beside the paper."""
+    figure, axes = plt.subplots(1, 2, figsize=(9, 3.6))
+    x = np.arange(len(table))
+    for axis, (label, paper, ours) in zip(axes, (("alpha", "paper alpha", "kinolab alpha"),
+                                                 ("L (m)", "paper L (m)", "kinolab L (m)"))):
+        axis.bar(x - 0.2, table[paper], 0.4, label="paper", color="#bbbbbb")
+        axis.bar(x + 0.2, table[ours], 0.4, label="kinolab", color=_colour(0))
+        axis.set_xticks(x, table["sampler"], rotation=20)
+        axis.set_title(label)
+        axis.grid(alpha=0.3, axis="y")
+    axes[0].legend(fontsize=8)
+    figure.tight_layout()
+    return figure

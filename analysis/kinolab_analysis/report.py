@@ -1,0 +1,278 @@
+"""`kinolab report`: a results database (or several) into a self-contained HTML report,
+figures as PNG and SVG, tables as Markdown and LaTeX, and a summary on the terminal."""
+
+from __future__ import annotations
+
+import base64
+import io
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import jinja2
+import matplotlib.pyplot as plt
+import numpy as np
+import pandas as pd
+
+from . import plots, stats, tables
+from .data import Results, load
+
+TEMPLATE = """<!DOCTYPE html>
+<html lang="en"><head><meta charset="utf-8">
+<title>kinolab report: {{ name }}</title>
+<style>
+body { font-family: sans-serif; max-width: 1100px; margin: 2em auto; color: #222; }
+table { border-collapse: collapse; margin: 1em 0; font-size: 0.85em; }
+th, td { border-bottom: 1px solid #ccc; padding: 0.25em 0.6em; text-align: right; }
+th:first-child, td:first-child { text-align: left; }
+th { border-bottom: 2px solid #444; }
+img { max-width: 100%; }
+.note { color: #555; font-size: 0.9em; }
+dl { display: grid; grid-template-columns: max-content auto; gap: 0.2em 1em; font-size: 0.85em; }
+dt { font-weight: bold; }
+</style></head>
+<body data-figures="{{ figures|length }}">
+<h1>kinolab report: {{ name }}</h1>
+<p class="note">{{ databases }} &middot; config {{ meta.get('config_hash', '?') }} &middot;
+written by kinolab {{ meta.get('provenance.kinolab_version', '?') }}</p>
+
+<h2>Experiment and provenance</h2>
+<dl>{% for key, value in provenance %}<dt>{{ key }}</dt><dd>{{ value }}</dd>{% endfor %}</dl>
+
+<h2>Runs by status</h2>
+<p class="note">Every run is counted: failures, crashes and timeouts included. Success =
+exact status and accepted by the independent checker.</p>
+{{ tables['status_counts'] }}
+
+{% if 'paper_table1' in tables %}
+<h2>The paper's Table I beside kinolab (sampling study)</h2>
+{{ tables['paper_table1'] }}
+{% endif %}
+
+<h2>The paper's Table II beside kinolab</h2>
+<p class="note">Medians with bootstrap 95 % intervals (T and N over successful runs, D over
+all runs); p: two-sided one-sample Wilcoxon test of kinolab's values against the paper's
+figure. Planner families: TGK = rrtstar_ceres, MP-A* = eager_mp_astar, Lazy =
+lazy_mp_astar.</p>
+{{ tables['paper_table2'] }}
+
+<h2>Per planner</h2>
+<p class="note">Success rate with Wilson 95 % intervals; medians of successful runs with
+bootstrap 95 % intervals.</p>
+{{ tables['summary'] }}
+
+<h2>Paired comparisons</h2>
+<p class="note">Planners on the cases both ran (same world, query, repetition and sweep
+value): McNemar (exact) on success, Wilcoxon signed-rank on planning time and cost over
+cases both solved, with the matched-pairs rank-biserial correlation as effect size (> 0: a
+larger); p-values Holm-corrected over the whole table.</p>
+{{ tables['paired'] }}
+
+{% if 'compare' in tables %}
+<h2>Compared with {{ compare_name }}</h2>
+<p class="note">The same planners on the same cases in both result sets: medians (successful
+runs) in each, and Wilcoxon signed-rank on planning time over cases both solved
+(Holm-corrected).</p>
+{{ tables['compare'] }}
+{% endif %}
+
+{% for figure in figures %}
+<h2>{{ figure.title }}</h2>
+<p class="note">{{ figure.caption }}</p>
+<img src="data:image/png;base64,{{ figure.png }}" alt="{{ figure.title }}" data-figure="{{ figure.name }}">
+{% endfor %}
+
+{% if 'per_world' in tables %}
+<h2>Per world</h2>
+{{ tables['per_world'] }}
+{% endif %}
+
+<script>
+// For headless checks: how many figures decoded.
+window.addEventListener("load", () => {
+  const images = [...document.querySelectorAll("img[data-figure]")];
+  document.body.dataset.figuresLoaded = images.filter(i => i.complete && i.naturalWidth > 0).length;
+});
+</script>
+</body></html>
+"""
+
+
+@dataclass
+class Figure:
+    name: str
+    title: str
+    caption: str
+    png: str = ""
+
+
+@dataclass
+class Report:
+    out: Path
+    tables: dict[str, pd.DataFrame] = field(default_factory=dict)
+    figures: list[Figure] = field(default_factory=list)
+
+
+def _html(table: pd.DataFrame) -> str:
+    frame = table.copy()
+    for column in frame.columns:
+        frame[column] = frame[column].map(tables.text)
+    return frame.to_html(index=False, escape=True, border=0)
+
+
+def _save(figure: plt.Figure, report: Report, name: str, title: str, caption: str) -> None:
+    directory = report.out / "figures"
+    directory.mkdir(parents=True, exist_ok=True)
+    figure.savefig(directory / f"{name}.svg")
+    buffer = io.BytesIO()
+    figure.savefig(buffer, format="png", dpi=110)
+    (directory / f"{name}.png").write_bytes(buffer.getvalue())
+    plt.close(figure)
+    report.figures.append(Figure(name, title, caption,
+                                 base64.b64encode(buffer.getvalue()).decode("ascii")))
+
+
+def _summary_columns(summary: pd.DataFrame) -> pd.DataFrame:
+    keep = [c for c in summary.columns if not c.startswith("mean ")]
+    renamed = {c: c.replace("median ", "") for c in keep}
+    return summary[keep].rename(columns=renamed)
+
+
+def _compare(a: Results, b: Results) -> pd.DataFrame:
+    key = ["planner"] + tables.CASE
+    left = a.runs.set_index(key)
+    right = b.runs.set_index(key)
+    shared = left.index.intersection(right.index)
+    rows = []
+    for planner in dict.fromkeys(a.runs["planner"]):
+        cases = [k for k in shared if k[0] == planner]
+        if not cases:
+            continue
+        l, r = left.loc[cases], right.loc[cases]
+        both = l["success"].to_numpy() & r["success"].to_numpy()
+        test = stats.wilcoxon(l["planning_time_ms"].to_numpy(dtype=float)[both],
+                              r["planning_time_ms"].to_numpy(dtype=float)[both])
+        _, _, p_success = stats.mcnemar(l["success"], r["success"])
+        rows.append({"planner": planner, "cases": len(cases),
+                     "success A": stats.wilson(int(l["success"].sum()), len(cases)),
+                     "success B": stats.wilson(int(r["success"].sum()), len(cases)),
+                     "p success": p_success,
+                     "T A (ms)": stats.bootstrap(l.loc[l["success"], "planning_time_ms"]),
+                     "T B (ms)": stats.bootstrap(r.loc[r["success"], "planning_time_ms"]),
+                     "rank-biserial T": test.rank_biserial, "p T": test.p})
+    table = pd.DataFrame(rows)
+    if not table.empty:
+        table["p T (Holm)"] = stats.holm(table["p T"].tolist())
+    return table
+
+
+def find_sampling_study(directory: Path) -> Path | None:
+    found = sorted(directory.glob("sampling_study/*/summary.csv"))
+    return found[0] if found else None
+
+
+def write(paths: list[Path], out: Path, compare: Path | None = None,
+          sampling_csv: Path | None = None) -> Report:
+    """Writes the report directory and returns what it holds."""
+    results = load(paths)
+    runs = results.runs
+    report = Report(out)
+    out.mkdir(parents=True, exist_ok=True)
+
+    report.tables["status_counts"] = tables.status_counts(runs).reset_index()
+    report.tables["paper_table2"] = tables.paper_table2(runs)
+    report.tables["summary"] = _summary_columns(tables.summary(runs))
+    if runs["world"].nunique() > 1:
+        report.tables["per_world"] = _summary_columns(
+            tables.summary(runs, by=["world", "planner"],
+                           metrics=[m for m in tables.METRICS if m[0] == "planning_time_ms"]))
+    if runs["sweep"].fillna("").nunique() > 1:
+        report.tables["sweep"] = _summary_columns(
+            tables.summary(runs, by=["sweep", "planner"],
+                           metrics=[m for m in tables.METRICS
+                                    if m[0] in ("planning_time_ms", "expansions", "cost")]))
+    report.tables["paired"] = tables.paired(runs)
+    sampling_csv = sampling_csv or find_sampling_study(paths[0] if paths[0].is_dir()
+                                                       else paths[0].parent)
+    if sampling_csv is not None:
+        report.tables["paper_table1"] = tables.paper_table1(sampling_csv)
+    compare_name = ""
+    if compare is not None:
+        other = load(compare)
+        compare_name = str(compare)
+        report.tables["compare"] = _compare(results, other)
+
+    _save(plots.ecdf(runs), report, "ecdf_planning_time", "Time to solve",
+          "ECDF of planning time per planner; failed runs count as never solved.")
+    _save(plots.boxes(runs, [m for m in tables.METRICS if m[0] in
+                             ("planning_time_ms", "expansions", "duration", "length",
+                              "jerk_integral")]),
+          report, "metrics", "Metrics per planner", "Box plots over successful runs.")
+    if runs["world"].nunique() > 1:
+        _save(plots.per_world(runs), report, "per_world", "Per world",
+              "Success rate (Wilson 95 %) and median planning time per world.")
+    if (figure := plots.sweep(runs)) is not None:
+        _save(figure, report, "sweep", "Sweep", "Median planning time (bootstrap 95 %) "
+              "against the swept value.")
+    if sampling_csv is not None:
+        _save(plots.sampling_study(report.tables["paper_table1"]), report, "sampling_study",
+              "Sampling study (Table I)", "alpha and L per sampler, kinolab beside the paper.")
+    for world in results.worlds.values():
+        # The query most planners solved, the first on ties.
+        cases = runs[runs["world_hash"] == world.world_hash].groupby("query")["success"].sum()
+        if cases.empty:
+            continue
+        query = int(cases.idxmax())
+        if (figure := plots.trajectories(results, world, query)) is not None:
+            _save(figure, report, f"trajectories_{world.id}", f"Trajectories in {world.id}",
+                  f"Query {query}: every planner's trajectory (dashed: not a success) from "
+                  "above and from the side; start green, goal red.")
+    with_trees = [run for _, run in runs.iterrows() if run["planner_type"] == "lazy_mp_astar"]
+    for run in with_trees:
+        world = results.worlds.get(run["world_hash"])
+        if (figure := plots.search_tree(results, run, world)) is not None:
+            _save(figure, report, "lazy_search_tree", "Lazy search tree (the paper's Fig. 6)",
+                  "Edges only partially evaluated (queued on their lower bound) and fully "
+                  "evaluated ones, in two colours; the trajectory in black.")
+            break
+    if (figure := plots.anytime(runs)) is not None:
+        _save(figure, report, "rrtstar_anytime", "RRT* anytime cost",
+              "Median best path length on the fixed time grid, over runs with a solution.")
+
+    table_directory = out / "tables"
+    table_directory.mkdir(exist_ok=True)
+    for name, table in report.tables.items():
+        (table_directory / f"{name}.md").write_text(tables.to_markdown(table))
+        (table_directory / f"{name}.tex").write_text(
+            tables.to_latex(table, f"{results.meta.get('name', '')}: {name.replace('_', ' ')}"))
+
+    provenance = [("experiment", results.meta.get("name", "?")),
+                  ("source", results.meta.get("source", "?")),
+                  ("runs stored / planned", f"{len(runs)} / {results.meta.get('runs_planned', '?')}"),
+                  ("started", results.meta.get("started_at", "?")),
+                  ("finished", results.meta.get("finished_at", "not finished"))]
+    provenance += [(k[len("provenance."):], v) for k, v in sorted(results.meta.items())
+                   if k.startswith("provenance.")]
+    html = jinja2.Environment(autoescape=True).from_string(TEMPLATE).render(
+        name=results.meta.get("name", "results"), meta=results.meta,
+        databases=", ".join(str(p) for p in results.paths), provenance=provenance,
+        tables={k: jinja2.utils.markupsafe.Markup(_html(v)) for k, v in report.tables.items()},
+        figures=report.figures, compare_name=compare_name)
+    (out / "index.html").write_text(html)
+    return report
+
+
+def terminal_summary(report: Report) -> str:
+    """What `kinolab report` prints."""
+    lines = [f"report: {report.out / 'index.html'}"]
+    counts = report.tables["status_counts"]
+    lines.append("runs by status:")
+    lines += ["  " + line for line in tables.to_markdown(counts).splitlines()]
+    lines.append("the paper's Table II beside kinolab (medians, 95 % intervals):")
+    table2 = report.tables["paper_table2"]
+    columns = ["planner", "runs", "success", "paper T (ms)", "kinolab T (ms)", "paper N",
+               "kinolab N", "paper D (m)", "kinolab D (m)"]
+    lines += ["  " + line for line in tables.to_markdown(table2[columns]).splitlines()]
+    lines.append(f"{len(report.figures)} figures (PNG and SVG) in {report.out / 'figures'}; "
+                 f"tables (Markdown, LaTeX) in {report.out / 'tables'}")
+    return "\n".join(lines)

@@ -1,0 +1,149 @@
+"""Statistics with intervals and paired tests, as plain typed functions."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Callable, Sequence
+
+import numpy as np
+import pandas as pd
+from scipy import stats as sps
+
+Z95 = 1.959963984540054
+
+
+@dataclass(frozen=True)
+class Interval:
+    """An estimate with its 95 % interval."""
+
+    estimate: float
+    low: float
+    high: float
+
+    def format(self, digits: int = 3) -> str:
+        if not math.isfinite(self.estimate):
+            return "-"
+        return f"{self.estimate:.{digits}g} [{self.low:.{digits}g}, {self.high:.{digits}g}]"
+
+
+def wilson(successes: int, n: int, z: float = Z95) -> Interval:
+    """The success rate with its Wilson score interval (NaN when n == 0)."""
+    if n == 0:
+        return Interval(math.nan, math.nan, math.nan)
+    p = successes / n
+    denominator = 1 + z * z / n
+    centre = (p + z * z / (2 * n)) / denominator
+    half = z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / denominator
+    return Interval(p, max(0.0, centre - half), min(1.0, centre + half))
+
+
+def bootstrap(values: Sequence[float], statistic: Callable[[np.ndarray], float] = np.median,
+              resamples: int = 2000, seed: int = 0) -> Interval:
+    """The statistic of the finite values with a percentile bootstrap 95 % interval."""
+    data = np.asarray(values, dtype=float)
+    data = data[np.isfinite(data)]
+    if data.size == 0:
+        return Interval(math.nan, math.nan, math.nan)
+    estimate = float(statistic(data))
+    if data.size == 1:
+        return Interval(estimate, estimate, estimate)
+    rng = np.random.default_rng(seed)
+    samples = data[rng.integers(0, data.size, size=(resamples, data.size))]
+    if statistic in (np.median, np.mean):
+        replicates = statistic(samples, axis=1)
+    else:
+        replicates = np.apply_along_axis(statistic, 1, samples)
+    low, high = np.percentile(replicates, [2.5, 97.5])
+    return Interval(estimate, float(low), float(high))
+
+
+def holm(pvalues: Sequence[float]) -> list[float]:
+    """Holm-Bonferroni adjusted p-values (NaN stays NaN, not counted)."""
+    p = np.asarray(pvalues, dtype=float)
+    finite = np.where(np.isfinite(p))[0]
+    adjusted = np.full(p.shape, math.nan)
+    m = finite.size
+    running = 0.0
+    for rank, index in enumerate(finite[np.argsort(p[finite], kind="stable")]):
+        running = max(running, min(1.0, (m - rank) * p[index]))
+        adjusted[index] = running
+    return adjusted.tolist()
+
+
+def mcnemar(a_success: Sequence[bool], b_success: Sequence[bool]) -> tuple[int, int, float]:
+    """Exact McNemar test on paired successes: (A only, B only, two-sided p)."""
+    a = np.asarray(a_success, dtype=bool)
+    b = np.asarray(b_success, dtype=bool)
+    a_only = int(np.sum(a & ~b))
+    b_only = int(np.sum(~a & b))
+    if a_only + b_only == 0:
+        return a_only, b_only, 1.0
+    p = sps.binomtest(a_only, a_only + b_only, 0.5).pvalue
+    return a_only, b_only, float(p)
+
+
+@dataclass(frozen=True)
+class PairedTest:
+    n: int
+    median_difference: float  # median of a - b
+    p: float                  # Wilcoxon signed-rank, two-sided
+    rank_biserial: float      # matched-pairs rank-biserial correlation, in [-1, 1]
+
+
+def wilcoxon(a: Sequence[float], b: Sequence[float]) -> PairedTest:
+    """Wilcoxon signed-rank test of paired values (pairs with a NaN dropped) and the
+    matched-pairs rank-biserial correlation r = (R+ - R-) / (R+ + R-) (> 0: a larger)."""
+    x = np.asarray(a, dtype=float)
+    y = np.asarray(b, dtype=float)
+    keep = np.isfinite(x) & np.isfinite(y)
+    d = x[keep] - y[keep]
+    n = int(d.size)
+    if n == 0:
+        return PairedTest(0, math.nan, math.nan, math.nan)
+    nonzero = d[d != 0]
+    if nonzero.size == 0:
+        return PairedTest(n, 0.0, 1.0, 0.0)
+    ranks = sps.rankdata(np.abs(nonzero))
+    r_plus = float(ranks[nonzero > 0].sum())
+    r_minus = float(ranks[nonzero < 0].sum())
+    p = float(sps.wilcoxon(nonzero).pvalue)
+    return PairedTest(n, float(np.median(d)), p, (r_plus - r_minus) / (r_plus + r_minus))
+
+
+def vargha_delaney_a(a: Sequence[float], b: Sequence[float]) -> float:
+    """A = P(a > b) + P(a = b) / 2 for independent samples (0.5: no effect)."""
+    x = np.asarray(a, dtype=float)
+    y = np.asarray(b, dtype=float)
+    x = x[np.isfinite(x)]
+    y = y[np.isfinite(y)]
+    if x.size == 0 or y.size == 0:
+        return math.nan
+    greater = (x[:, None] > y[None, :]).sum()
+    equal = (x[:, None] == y[None, :]).sum()
+    return float((greater + 0.5 * equal) / (x.size * y.size))
+
+
+def one_sample_wilcoxon(values: Sequence[float], reference: float) -> float:
+    """Two-sided p of the Wilcoxon signed-rank test that the values' median is `reference`."""
+    d = np.asarray(values, dtype=float) - reference
+    d = d[np.isfinite(d) & (d != 0)]
+    if d.size == 0:
+        return math.nan
+    return float(sps.wilcoxon(d).pvalue)
+
+
+def ecdf_unsolved(times: Sequence[float], solved: Sequence[bool]) -> tuple[np.ndarray, np.ndarray]:
+    """The time-to-solve ECDF with failures counted as never solved: x = sorted solve times,
+    y = share of all runs solved by then (it ends at the success rate, not at 1)."""
+    t = np.asarray(times, dtype=float)
+    ok = np.asarray(solved, dtype=bool) & np.isfinite(t)
+    n = t.size
+    x = np.sort(t[ok])
+    y = np.arange(1, x.size + 1) / n if n else np.array([])
+    return x, y
+
+
+def is_success(runs: pd.DataFrame) -> pd.Series:
+    """Exact and accepted by the independent checker."""
+    return (runs["status"] == "exact") & (runs["checker_valid"] == 1)

@@ -1,0 +1,171 @@
+"""Summary tables: counts by status, per-planner statistics with intervals, paired
+comparisons, and the paper's tables beside what kinolab measured."""
+
+from __future__ import annotations
+
+import itertools
+import math
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from . import stats
+
+CASE = ["sweep", "world", "query", "repetition"]
+
+# Metrics summarised over successful runs: (column, label, unit).
+METRICS = [
+    ("planning_time_ms", "T", "ms"),
+    ("expansions", "N", ""),
+    ("partial_evaluations", "partial evals", ""),
+    ("full_evaluations", "full evals", ""),
+    ("cost", "cost", ""),
+    ("distance_to_goal", "D", "m"),
+    ("duration", "duration", "s"),
+    ("length", "length", "m"),
+    ("jerk_integral", "jerk", "m^2/s^5"),
+    ("min_clearance", "min clearance", "m"),
+]
+
+# The paper's Table II (T ms, N, D m) and Table I (alpha, L m).
+PAPER_TABLE2 = {"TGK": (8.78, math.nan, 2.27), "MP-A*": (6.82, 973.0, 2.31),
+                "Lazy": (3.87, 1254.0, 2.25)}
+PAPER_TABLE1 = {"random": (0.60, 0.049), "uniform": (0.84, 0.069), "normal": (0.94, 0.079)}
+
+
+def status_counts(runs: pd.DataFrame, by: str = "planner") -> pd.DataFrame:
+    """Runs per status (every status, failures included), with the total."""
+    table = runs.pivot_table(index=by, columns="status", values="run_hash", aggfunc="count",
+                             fill_value=0)
+    table["total"] = table.sum(axis=1)
+    return table
+
+
+def summary(runs: pd.DataFrame, by: list[str] | None = None,
+            metrics: list[tuple[str, str, str]] | None = None) -> pd.DataFrame:
+    """Per group: runs, successes, the success rate (Wilson interval) and, over the
+    successful runs, median and mean of each metric with bootstrap intervals."""
+    by = by or ["planner"]
+    metrics = metrics or [m for m in METRICS if m[0] in runs.columns]
+    rows = []
+    for key, group in runs.groupby(by if len(by) > 1 else by[0], sort=False, dropna=False):
+        key = key if isinstance(key, tuple) else (key,)
+        row = dict(zip(by, key))
+        ok = group[group["success"]]
+        row["runs"] = len(group)
+        row["failed"] = len(group) - len(ok)
+        row["success"] = stats.wilson(len(ok), len(group))
+        for column, _, _ in metrics:
+            values = ok[column].to_numpy(dtype=float)
+            row[f"median {column}"] = stats.bootstrap(values, np.median)
+            row[f"mean {column}"] = stats.bootstrap(values, np.mean)
+        rows.append(row)
+    return pd.DataFrame(rows)
+
+
+def paired(runs: pd.DataFrame, metrics: tuple[str, ...] = ("planning_time_ms", "cost"),
+           by: str = "planner") -> pd.DataFrame:
+    """Every pair of planners on the cases both ran: McNemar on success, Wilcoxon
+    signed-rank on each metric over cases both solved, with effect sizes; p-values
+    Holm-corrected over the whole table."""
+    rows = []
+    names = list(dict.fromkeys(runs[by]))
+    for a, b in itertools.combinations(names, 2):
+        left = runs[runs[by] == a].set_index(CASE)
+        right = runs[runs[by] == b].set_index(CASE)
+        shared = left.index.intersection(right.index)
+        if shared.empty:
+            continue
+        left, right = left.loc[shared], right.loc[shared]
+        a_only, b_only, p = stats.mcnemar(left["success"], right["success"])
+        rows.append({"a": a, "b": b, "test": "McNemar", "metric": "success",
+                     "n": len(shared), "effect": f"{a} only {a_only}, {b} only {b_only}",
+                     "effect size": (a_only - b_only) / len(shared), "p": p})
+        both = left["success"].to_numpy() & right["success"].to_numpy()
+        for metric in metrics:
+            if metric not in left.columns:
+                continue
+            test = stats.wilcoxon(left[metric].to_numpy(dtype=float)[both],
+                                  right[metric].to_numpy(dtype=float)[both])
+            rows.append({"a": a, "b": b, "test": "Wilcoxon", "metric": metric, "n": test.n,
+                         "effect": f"median a-b {test.median_difference:.3g}",
+                         "effect size": test.rank_biserial, "p": test.p})
+    table = pd.DataFrame(rows)
+    if not table.empty:
+        table["p (Holm)"] = stats.holm(table["p"].tolist())
+    return table
+
+
+def paper_table2(runs: pd.DataFrame) -> pd.DataFrame:
+    """The paper's T, N, D beside the medians kinolab measured for the same planner
+    families (successful runs; D over all runs), with intervals and the one-sample
+    Wilcoxon p of each difference."""
+    rows = []
+    for family, (t, n, d) in PAPER_TABLE2.items():
+        group = runs[runs["paper"] == family]
+        ok = group[group["success"]]
+        row = {"planner": family, "runs": len(group),
+               "success": stats.wilson(int(group["success"].sum()), len(group))}
+        for label, column, paper_value, subset in (("T (ms)", "planning_time_ms", t, ok),
+                                                   ("N", "expansions", n, ok),
+                                                   ("D (m)", "distance_to_goal", d, group)):
+            values = subset[column].to_numpy(dtype=float) if column in subset else np.array([])
+            row[f"paper {label}"] = paper_value
+            row[f"kinolab {label}"] = stats.bootstrap(values, np.median)
+            row[f"p {label}"] = (stats.one_sample_wilcoxon(values, paper_value)
+                                 if math.isfinite(paper_value) else math.nan)
+        rows.append(row)
+    return pd.DataFrame(rows)
+
+
+def paper_table1(summary_csv: Path) -> pd.DataFrame:
+    """The sampling study's summary beside the paper's Table I."""
+    study = pd.read_csv(summary_csv)
+    rows = []
+    for _, row in study.iterrows():
+        name = str(row.get("sampler", row.iloc[0]))
+        paper = PAPER_TABLE1.get(name, (math.nan, math.nan))
+        rows.append({"sampler": name, "paper alpha": paper[0],
+                     "kinolab alpha": float(row.get("alpha", math.nan)),
+                     "paper L (m)": paper[1], "kinolab L (m)": float(row.get("L", math.nan))})
+    return pd.DataFrame(rows)
+
+
+def text(value: object, digits: int = 3) -> str:
+    """A cell as text: intervals as 'estimate [low, high]', numbers with `digits`."""
+    if isinstance(value, stats.Interval):
+        return value.format(digits)
+    if isinstance(value, (float, np.floating)):
+        if not math.isfinite(value):
+            return "-"
+        if abs(value) < 1e-3 and value != 0:
+            return f"{value:.1e}"
+        return f"{value:.{digits}g}"
+    return str(value)
+
+
+def to_markdown(table: pd.DataFrame) -> str:
+    header = "| " + " | ".join(str(c) for c in table.columns) + " |"
+    rule = "|" + "|".join("---" for _ in table.columns) + "|"
+    body = ["| " + " | ".join(text(v) for v in row) + " |" for row in table.itertuples(index=False)]
+    return "\n".join([header, rule, *body]) + "\n"
+
+
+def _latex_escape(value: str) -> str:
+    for old, new in (("\\", r"\textbackslash{}"), ("&", r"\&"), ("%", r"\%"), ("_", r"\_"),
+                     ("#", r"\#"), ("^", r"\^{}"), ("*", r"$^*$")):
+        value = value.replace(old, new)
+    return value
+
+
+def to_latex(table: pd.DataFrame, caption: str) -> str:
+    """A booktabs table."""
+    columns = "l" + "r" * (len(table.columns) - 1)
+    lines = [r"\begin{table}[t]", r"\centering", f"\\caption{{{_latex_escape(caption)}}}",
+             f"\\begin{{tabular}}{{{columns}}}", r"\toprule",
+             " & ".join(_latex_escape(str(c)) for c in table.columns) + r" \\", r"\midrule"]
+    for row in table.itertuples(index=False):
+        lines.append(" & ".join(_latex_escape(text(v)) for v in row) + r" \\")
+    lines += [r"\bottomrule", r"\end{tabular}", r"\end{table}"]
+    return "\n".join(lines) + "\n"

@@ -1,0 +1,89 @@
+// `kinolab report`: runs the analysis package (analysis/kinolab_analysis, Python) with the
+// interpreter the build found, on a results directory.
+#include <unistd.h>
+
+#include <cstdlib>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "commands.hpp"
+#include "kinolab/core/error.hpp"
+#include "kinolab/core/version.hpp"
+
+namespace kinolab::apps {
+namespace {
+
+struct ReportOptions {
+  std::vector<std::string> results;
+  std::string out;
+  std::string compare;
+  std::string sampling_study;
+};
+
+/// The folder holding the kinolab_analysis package: $KINOLAB_ANALYSIS_DIR, the source
+/// tree's analysis/, or share/kinolab/analysis beside an installed binary.
+std::string analysisDirectory() {
+  namespace fs = std::filesystem;
+  if (const char* set = std::getenv("KINOLAB_ANALYSIS_DIR")) return set;
+  const fs::path source = fs::path(kSourceDir) / "analysis";
+  if (fs::is_directory(source / "kinolab_analysis")) return source.string();
+  const fs::path installed =
+      fs::read_symlink("/proc/self/exe").parent_path().parent_path() / "share/kinolab/analysis";
+  if (fs::is_directory(installed / "kinolab_analysis")) return installed.string();
+  throw FileError("kinolab report: the analysis package is in neither " + source.string() +
+                  " nor " + installed.string() + "; set KINOLAB_ANALYSIS_DIR");
+}
+
+[[noreturn]] void runReport(const ReportOptions& options) {
+  const std::string directory = analysisDirectory();
+  const char* existing = std::getenv("PYTHONPATH");
+  const std::string path = directory + (existing && *existing ? ":" + std::string(existing) : "");
+  setenv("PYTHONPATH", path.c_str(), 1);
+  setenv("MPLBACKEND", "Agg", 1);
+  std::vector<std::string> arguments = {kPythonExecutable, "-m", "kinolab_analysis", "report"};
+  arguments.insert(arguments.end(), options.results.begin(), options.results.end());
+  for (const auto& [flag, value] :
+       {std::pair{"--out", options.out}, std::pair{"--compare", options.compare},
+        std::pair{"--sampling-study", options.sampling_study}}) {
+    if (!value.empty()) {
+      arguments.emplace_back(flag);
+      arguments.push_back(value);
+    }
+  }
+  std::vector<char*> argv;
+  for (std::string& argument : arguments) argv.push_back(argument.data());
+  argv.push_back(nullptr);
+  execv(kPythonExecutable, argv.data());
+  throw FileError(std::string("kinolab report: cannot run ") + kPythonExecutable +
+                  " (install python3, python3-pandas, python3-scipy, python3-matplotlib and "
+                  "python3-jinja2: scripts/setup_debian.sh)");
+}
+
+}  // namespace
+
+void addReportCommand(CLI::App& app) {
+  auto options = std::make_shared<ReportOptions>();
+  CLI::App* command = app.add_subcommand(
+      "report",
+      "Write a self-contained HTML report (figures as PNG and SVG, tables as Markdown and "
+      "LaTeX) of a results directory and print a summary");
+  command
+      ->add_option("results", options->results,
+                   "Results directories (or results.sqlite files) of one experiment")
+      ->required();
+  command->add_option("--out", options->out, "Report directory (default: RESULTS/report)");
+  command->add_option("--compare", options->compare,
+                      "A second result set to report side by side (e.g. before a change)");
+  command->add_option("--sampling-study", options->sampling_study,
+                      "A sampling study's summary.csv for Table I (default: "
+                      "RESULTS/sampling_study/*/summary.csv when present)");
+  command->footer(
+      "Statistics: Wilson intervals for success rates, bootstrap intervals for "
+      "medians, Wilcoxon signed-rank and McNemar for paired comparisons, "
+      "Holm-corrected. Runs with the interpreter " +
+      std::string(kPythonExecutable) + ".");
+  command->callback([options] { runReport(*options); });
+}
+
+}  // namespace kinolab::apps
