@@ -120,15 +120,18 @@ def paper_table2(runs: pd.DataFrame) -> pd.DataFrame:
 
 
 def paper_table1(summary_csv: Path) -> pd.DataFrame:
-    """The sampling study's summary beside the paper's Table I."""
+    """The sampling study's summary (kinolab sampling-study's summary.csv) beside the
+    paper's Table I: alpha and L (mean nearest-neighbour distance of endpoints)."""
     study = pd.read_csv(summary_csv)
     rows = []
     for _, row in study.iterrows():
-        name = str(row.get("sampler", row.iloc[0]))
+        name = str(row["sampler"])
         paper = PAPER_TABLE1.get(name, (math.nan, math.nan))
-        rows.append({"sampler": name, "paper alpha": paper[0],
-                     "kinolab alpha": float(row.get("alpha", math.nan)),
-                     "paper L (m)": paper[1], "kinolab L (m)": float(row.get("L", math.nan))})
+        rows.append({"sampler": name,
+                     "paper alpha": float(row.get("paper_alpha", paper[0])),
+                     "kinolab alpha": float(row["alpha"]),
+                     "paper L (m)": float(row.get("paper_mean_nearest", paper[1])),
+                     "kinolab L (m)": float(row["mean_nearest"])})
     return pd.DataFrame(rows)
 
 

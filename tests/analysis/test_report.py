@@ -1,0 +1,132 @@
+"""`kinolab report` on a real small results database written by `kinolab run`, and the HTML
+report rendered in headless Chromium."""
+
+import os
+import re
+import shutil
+import subprocess
+from pathlib import Path
+
+import pytest
+
+SOURCE_DIR = Path(__file__).resolve().parents[2]
+BINARY = os.environ.get("KINOLAB_BIN", str(SOURCE_DIR / "build" / "framework" / "kinolab"))
+
+EXPERIMENT = """kind: planning
+name: report_test
+seed: 5
+worlds:
+  - id: small
+    spec:
+      name: small
+      seed: 4
+      resolution: 0.1
+      bounds: {min: [0, 0, 0], max: [10, 10, 3]}
+      generators:
+        - {type: forest, density: 0.1, trunk_radius: [0.15, 0.25], trunk_height: [2.5, 3],
+           min_spacing: 1.0, ground_plane: true}
+queries:
+  random: {count: 6, min_distance: 4, max_distance: 9}
+planners:
+  - id: eager
+    type: eager_mp_astar
+    sampler: {type: uniform, params: {samples_per_axis: 3}}
+    params: {heuristic_weight: HW}
+  - id: lazy
+    type: lazy_mp_astar
+    sampler: {type: uniform, params: {samples_per_axis: 3}}
+    params: {heuristic_weight: HW}
+  - id: tgk
+    type: rrtstar_ceres
+    params: {refine_iterations: 100}
+budget: {time: 5}
+store: {trajectories: true, trees: 1}
+"""
+
+
+def kinolab(*args, cache):
+    env = dict(os.environ, KINOLAB_CACHE_DIR=str(cache))
+    return subprocess.run([BINARY, *map(str, args)], capture_output=True, text=True, env=env,
+                          timeout=600)
+
+
+@pytest.fixture(scope="module")
+def results(tmp_path_factory):
+    """Two result sets of the same cases (heuristic weight 2, then 3)."""
+    base = tmp_path_factory.mktemp("report")
+    out = {}
+    for weight in (2, 3):
+        path = base / f"hw{weight}.yaml"
+        path.write_text(EXPERIMENT.replace("HW", str(weight)))
+        directory = base / f"hw{weight}"
+        run = kinolab("run", path, "--out", directory, "-j", "2", cache=base / "cache")
+        assert run.returncode == 0, run.stderr
+        out[weight] = directory
+    return out
+
+
+@pytest.fixture(scope="module")
+def report(results):
+    directory = results[2] / "report"
+    result = kinolab("report", results[2], "--out", directory, "--compare", results[3],
+                     cache=results[2].parent / "cache")
+    assert result.returncode == 0, result.stderr
+    return directory, result.stdout
+
+
+def test_the_report_directory_holds_html_figures_and_tables(report):
+    directory, stdout = report
+    html = (directory / "index.html").read_text()
+    figures = sorted(p.stem for p in (directory / "figures").glob("*.png"))
+    for name in ("ecdf_planning_time", "metrics", "trajectories_small", "lazy_search_tree",
+                 "rrtstar_anytime"):
+        assert name in figures, figures
+        assert (directory / "figures" / f"{name}.svg").stat().st_size > 1000
+    for name in ("status_counts", "paper_table2", "summary", "paired", "compare"):
+        assert (directory / "tables" / f"{name}.md").read_text().startswith("|")
+        assert r"\toprule" in (directory / "tables" / f"{name}.tex").read_text()
+    # Self-contained: every image is embedded, nothing is fetched.
+    assert html.count('src="data:image/png;base64,') == len(figures)
+    assert not re.search(r'(src|href)="(https?:)?//', html)
+    # It opens with the experiment and provenance, then the counts and the paper's table.
+    order = [html.index(s) for s in ("Experiment and provenance", "Runs by status",
+                                     "Table II beside kinolab", "Compared with")]
+    assert order == sorted(order)
+    for key in ("git_commit", "compiler", "ompl_version", "cpu"):
+        assert f"<dt>{key}</dt>" in html
+    # The terminal summary.
+    assert "Table II" in stdout and "MP-A*" in stdout and "Lazy" in stdout
+
+
+def test_the_report_counts_every_run(report, results):
+    directory, _ = report
+    counts = (directory / "tables" / "status_counts.md").read_text()
+    totals = [int(line.split("|")[-2]) for line in counts.splitlines()[2:]]
+    assert sum(totals) == 18  # 6 queries x 3 planners, whatever their status
+
+
+def test_a_missing_results_directory_is_a_clear_error(tmp_path):
+    result = kinolab("report", tmp_path / "nothing", cache=tmp_path / "cache")
+    assert result.returncode == 1
+    assert "no results database" in result.stderr
+
+
+def test_the_report_renders_in_headless_chromium(report, tmp_path):
+    chromium = shutil.which("chromium")
+    assert chromium, "Debian's chromium is missing: bash scripts/setup_debian.sh installs it"
+    directory, _ = report
+    result = subprocess.run(
+        [chromium, "--headless=new", "--no-sandbox", "--disable-gpu", "--disable-dev-shm-usage",
+         f"--user-data-dir={tmp_path / 'profile'}", "--virtual-time-budget=10000",
+         "--enable-logging=stderr", "--v=0", "--dump-dom",
+         (directory / "index.html").resolve().as_uri()],
+        capture_output=True, text=True, timeout=120)
+    assert result.returncode == 0, result.stderr[-2000:]
+    dom = result.stdout
+    console = [line for line in result.stderr.splitlines() if "CONSOLE" in line]
+    assert not [line for line in console if "Uncaught" in line or "rror" in line], console
+    expected = int(re.search(r'data-figures="(\d+)"', dom).group(1))
+    loaded = int(re.search(r'data-figures-loaded="(\d+)"', dom).group(1))
+    assert expected >= 5 and loaded == expected
+    assert dom.count("<table") >= 5
+    assert "Table II beside kinolab" in dom

@@ -1,0 +1,162 @@
+"""The analysis package's statistics on synthetic data with known answers (by hand, or by
+scipy called directly)."""
+
+import math
+
+import numpy as np
+import pandas as pd
+import pytest
+from scipy import stats as sps
+
+from kinolab_analysis import stats, tables
+
+
+def test_wilson_interval_matches_the_textbook_values():
+    # 8 of 10: the Wilson 95 % interval is [0.4902, 0.9433] (Newcombe 1998, table I).
+    interval = stats.wilson(8, 10)
+    assert interval.estimate == 0.8
+    assert interval.low == pytest.approx(0.4902, abs=1e-4)
+    assert interval.high == pytest.approx(0.9433, abs=1e-4)
+    # All successes: the upper bound is 1, the lower one n / (n + z^2).
+    all_ok = stats.wilson(20, 20)
+    assert all_ok.high == 1.0
+    assert all_ok.low == pytest.approx(20 / (20 + stats.Z95 ** 2), abs=1e-12)
+    assert math.isnan(stats.wilson(0, 0).estimate)
+
+
+def test_holm_adjustment_by_hand():
+    # Sorted 0.01, 0.03, 0.04 times 3, 2, 1 -> 0.03, 0.06, 0.04 -> monotone 0.03, 0.06, 0.06.
+    assert stats.holm([0.01, 0.04, 0.03]) == pytest.approx([0.03, 0.06, 0.06])
+    adjusted = stats.holm([0.5, math.nan, 0.01])
+    assert adjusted[0] == pytest.approx(0.5) and adjusted[2] == pytest.approx(0.02)
+    assert math.isnan(adjusted[1])
+
+
+def test_mcnemar_exact_by_hand():
+    a = [True] * 5 + [True] + [False] * 9 + [False] * 5
+    b = [True] * 5 + [False] + [True] * 9 + [False] * 5
+    a_only, b_only, p = stats.mcnemar(a, b)
+    assert (a_only, b_only) == (1, 9)
+    assert p == pytest.approx(2 * (1 + 10) / 1024)  # 2 P(X <= 1), X ~ Binomial(10, 1/2)
+    assert stats.mcnemar([True, False], [True, False])[2] == 1.0
+
+
+def test_wilcoxon_agrees_with_scipy_and_the_effect_size_by_hand():
+    rng = np.random.default_rng(1)
+    a = rng.normal(10, 2, 40)
+    b = a - rng.normal(0.8, 1, 40)
+    test = stats.wilcoxon(a, b)
+    assert test.p == pytest.approx(sps.wilcoxon(a - b).pvalue)
+    assert test.n == 40
+    d = a - b
+    ranks = sps.rankdata(np.abs(d))
+    expected = (ranks[d > 0].sum() - ranks[d < 0].sum()) / ranks.sum()
+    assert test.rank_biserial == pytest.approx(expected)
+    assert stats.wilcoxon([2, 3, 4], [1, 1, 1]).rank_biserial == 1.0  # a always larger
+    # Pairs with a missing value are dropped.
+    assert stats.wilcoxon([1, math.nan, 3], [0, 1, 2]).n == 2
+
+
+def test_vargha_delaney_a_by_hand():
+    assert stats.vargha_delaney_a([1, 2, 3], [1, 2, 3]) == 0.5
+    assert stats.vargha_delaney_a([4, 5], [1, 2]) == 1.0
+    assert stats.vargha_delaney_a([1, 2], [4, 5]) == 0.0
+    assert stats.vargha_delaney_a([1, 3], [2]) == 0.5
+
+
+def test_bootstrap_interval_is_seeded_and_covers_the_median():
+    rng = np.random.default_rng(3)
+    values = rng.exponential(2.0, 400)
+    first = stats.bootstrap(values, np.median, seed=7)
+    assert first == stats.bootstrap(values, np.median, seed=7)
+    assert first.estimate == pytest.approx(np.median(values))
+    assert first.low < first.estimate < first.high
+    assert first.low < 2.0 * math.log(2) < first.high  # the true median
+    constant = stats.bootstrap([5.0] * 10)
+    assert (constant.low, constant.high) == (5.0, 5.0)
+    assert math.isnan(stats.bootstrap([math.nan]).estimate)
+
+
+def test_time_to_solve_ecdf_counts_failures_as_unsolved():
+    x, y = stats.ecdf_unsolved([1.0, 2.0, 3.0, 4.0], [True, False, True, True])
+    assert x.tolist() == [1.0, 3.0, 4.0]
+    assert y.tolist() == [0.25, 0.5, 0.75]
+
+
+def synthetic_runs(n=30, seed=0):
+    """Planner 'fast' takes 1 ms less than 'slow' on every case; 'flaky' fails a third."""
+    rng = np.random.default_rng(seed)
+    rows = []
+    for query in range(n):
+        base = rng.uniform(5, 10)
+        for planner, offset, success in (("slow", 0.0, True), ("fast", -1.0, True),
+                                         ("flaky", 0.5, query % 3 != 0)):
+            rows.append({"run_hash": f"{planner}{query}", "planner": planner,
+                         "planner_type": {"slow": "eager_mp_astar", "fast": "lazy_mp_astar",
+                                          "flaky": "rrtstar_ceres"}[planner],
+                         "sweep": "", "world": "w", "query": query, "repetition": 0,
+                         "status": "exact" if success else "crash",
+                         "checker_valid": 1 if success else 0,
+                         "planning_time_ms": base + offset if success else math.nan,
+                         "expansions": 100.0, "distance_to_goal": 0.1, "cost": base})
+    runs = pd.DataFrame(rows)
+    runs["success"] = stats.is_success(runs)
+    runs["paper"] = runs["planner_type"].map({"rrtstar_ceres": "TGK", "eager_mp_astar": "MP-A*",
+                                              "lazy_mp_astar": "Lazy"})
+    return runs
+
+
+def test_summary_and_status_counts_never_drop_failures():
+    runs = synthetic_runs()
+    counts = tables.status_counts(runs)
+    assert counts.loc["flaky", "crash"] == 10 and counts.loc["flaky", "total"] == 30
+    summary = tables.summary(runs).set_index("planner")
+    assert summary.loc["flaky", "runs"] == 30 and summary.loc["flaky", "failed"] == 10
+    assert summary.loc["flaky", "success"].estimate == pytest.approx(20 / 30)
+    slow = runs[runs["planner"] == "slow"]["planning_time_ms"]
+    assert summary.loc["slow", "median planning_time_ms"].estimate == pytest.approx(slow.median())
+
+
+def test_paired_comparisons_find_the_constant_difference():
+    table = tables.paired(synthetic_runs())
+    row = table[(table["a"] == "slow") & (table["b"] == "fast") &
+                (table["metric"] == "planning_time_ms")].iloc[0]
+    assert row["n"] == 30
+    assert row["effect size"] == 1.0  # slow is larger on every case
+    assert row["p"] == pytest.approx(sps.wilcoxon(np.ones(30)).pvalue)
+    success = table[(table["a"] == "slow") & (table["b"] == "flaky") &
+                    (table["test"] == "McNemar")].iloc[0]
+    assert success["p"] == pytest.approx(2 * 0.5 ** 10)  # 10 discordant pairs, all one way
+    assert (table["p (Holm)"] >= table["p"] - 1e-15).all()
+
+
+def test_paper_table_two_beside_the_measured_medians():
+    table = tables.paper_table2(synthetic_runs()).set_index("planner")
+    assert table.loc["MP-A*", "paper T (ms)"] == 6.82
+    assert table.loc["Lazy", "kinolab N"].estimate == 100.0
+    measured = synthetic_runs().query("planner == 'fast'")["planning_time_ms"]
+    assert table.loc["Lazy", "p T (ms)"] == pytest.approx(
+        sps.wilcoxon(measured - 3.87).pvalue)
+
+
+def test_tables_as_markdown_and_booktabs_latex():
+    table = pd.DataFrame({"planner": ["a_b"], "T": [stats.Interval(1.0, 0.5, 2.0)],
+                          "p": [math.nan]})
+    markdown = tables.to_markdown(table)
+    assert markdown.splitlines()[0] == "| planner | T | p |"
+    assert "| a_b | 1 [0.5, 2] | - |" in markdown
+    latex = tables.to_latex(table, "caption")
+    for command in (r"\toprule", r"\midrule", r"\bottomrule", r"a\_b"):
+        assert command in latex
+
+
+def test_paper_table_one_from_a_sampling_study_summary(tmp_path):
+    csv = tmp_path / "summary.csv"
+    csv.write_text("sampler,type,controls,alpha,mean_nearest,paper_alpha,paper_mean_nearest\n"
+                   "uniform,uniform,125,0.9,0.07,0.84,0.069\n"
+                   "mine,uniform,125,0.5,0.02,,\n")
+    table = tables.paper_table1(csv).set_index("sampler")
+    assert table.loc["uniform", "kinolab alpha"] == 0.9
+    assert table.loc["uniform", "paper L (m)"] == 0.069
+    assert table.loc["mine", "kinolab L (m)"] == 0.02
+    assert math.isnan(table.loc["mine", "paper alpha"])
