@@ -46,6 +46,9 @@ exact status and accepted by the independent checker.</p>
 
 {% if 'paper_table1' in tables %}
 <h2>The paper's Table I beside kinolab (sampling study)</h2>
+<p class="note">alpha: share of useful samples; L: mean nearest-neighbour distance of
+primitive endpoints; p: one-sample Wilcoxon test over the study's initial states against
+the paper's figure.</p>
 {{ tables['paper_table1'] }}
 {% endif %}
 
@@ -82,10 +85,14 @@ runs) in each, and Wilcoxon signed-rank on planning time over cases both solved
 <img src="data:image/png;base64,{{ figure.png }}" alt="{{ figure.title }}" data-figure="{{ figure.name }}">
 {% endfor %}
 
-{% if 'per_world' in tables %}
-<h2>Per world</h2>
-{{ tables['per_world'] }}
-{% endif %}
+<h2>Means per planner</h2>
+<p class="note">Means of successful runs with bootstrap 95 % intervals.</p>
+{{ tables['means'] }}
+{% for key, title in [('per_world', 'Per world'), ('per_sampler', 'Per sampler'),
+                      ('sweep', 'Per sweep value')] %}{% if key in tables %}
+<h2>{{ title }}</h2>
+{{ tables[key] }}
+{% endif %}{% endfor %}
 
 <script>
 // For headless checks: how many figures decoded.
@@ -181,7 +188,15 @@ def write(paths: list[Path], out: Path, compare: Path | None = None,
 
     report.tables["status_counts"] = tables.status_counts(runs).reset_index()
     report.tables["paper_table2"] = tables.paper_table2(runs)
-    report.tables["summary"] = _summary_columns(tables.summary(runs))
+    full_summary = tables.summary(runs)
+    report.tables["summary"] = _summary_columns(full_summary)
+    report.tables["means"] = full_summary[["planner"] + [c for c in full_summary.columns
+                                                         if c.startswith("mean ")]]
+    if runs["sampler"].fillna("").nunique() > 1:
+        report.tables["per_sampler"] = _summary_columns(
+            tables.summary(runs, by=["sampler", "planner"],
+                           metrics=[m for m in tables.METRICS
+                                    if m[0] in ("planning_time_ms", "expansions")]))
     if runs["world"].nunique() > 1:
         report.tables["per_world"] = _summary_columns(
             tables.summary(runs, by=["world", "planner"],

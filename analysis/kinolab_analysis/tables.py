@@ -121,17 +121,29 @@ def paper_table2(runs: pd.DataFrame) -> pd.DataFrame:
 
 def paper_table1(summary_csv: Path) -> pd.DataFrame:
     """The sampling study's summary (kinolab sampling-study's summary.csv) beside the
-    paper's Table I: alpha and L (mean nearest-neighbour distance of endpoints)."""
+    paper's Table I: alpha and L (mean nearest-neighbour distance of endpoints), with the
+    one-sample Wilcoxon p of each difference over the study's initial states (from the
+    sampling_study.csv beside it, when present)."""
     study = pd.read_csv(summary_csv)
+    per_state_csv = summary_csv.parent / "sampling_study.csv"
+    per_state = pd.read_csv(per_state_csv) if per_state_csv.is_file() else None
     rows = []
     for _, row in study.iterrows():
         name = str(row["sampler"])
         paper = PAPER_TABLE1.get(name, (math.nan, math.nan))
-        rows.append({"sampler": name,
-                     "paper alpha": float(row.get("paper_alpha", paper[0])),
-                     "kinolab alpha": float(row["alpha"]),
-                     "paper L (m)": float(row.get("paper_mean_nearest", paper[1])),
-                     "kinolab L (m)": float(row["mean_nearest"])})
+        paper_alpha = float(row.get("paper_alpha", paper[0]))
+        paper_l = float(row.get("paper_mean_nearest", paper[1]))
+        states = per_state[per_state["sampler"] == name] if per_state is not None else None
+        p_alpha = p_l = math.nan
+        if states is not None and len(states):
+            if math.isfinite(paper_alpha):
+                p_alpha = stats.one_sample_wilcoxon(states["alpha"], paper_alpha)
+            if math.isfinite(paper_l):
+                p_l = stats.one_sample_wilcoxon(states["mean_nearest"], paper_l)
+        rows.append({"sampler": name, "paper alpha": paper_alpha,
+                     "kinolab alpha": float(row["alpha"]), "p alpha": p_alpha,
+                     "paper L (m)": paper_l, "kinolab L (m)": float(row["mean_nearest"]),
+                     "p L": p_l})
     return pd.DataFrame(rows)
 
 

@@ -160,3 +160,11 @@ def test_paper_table_one_from_a_sampling_study_summary(tmp_path):
     assert table.loc["uniform", "paper L (m)"] == 0.069
     assert table.loc["mine", "kinolab L (m)"] == 0.02
     assert math.isnan(table.loc["mine", "paper alpha"])
+    assert math.isnan(table.loc["uniform", "p alpha"])  # no per-state file beside it
+    (tmp_path / "sampling_study.csv").write_text(
+        "sampler,state,alpha,mean_nearest\n" +
+        "".join(f"uniform,{i},{0.9 + 0.01 * i},0.07\n" for i in range(8)))
+    table = tables.paper_table1(csv).set_index("sampler")
+    alphas = [0.9 + 0.01 * i for i in range(8)]
+    assert table.loc["uniform", "p alpha"] == pytest.approx(
+        sps.wilcoxon(np.array(alphas) - 0.84).pvalue)
