@@ -5,6 +5,7 @@ import os
 import re
 import shutil
 import subprocess
+import textwrap
 from pathlib import Path
 
 import pytest
@@ -18,13 +19,7 @@ seed: 5
 worlds:
   - id: small
     spec:
-      name: small
-      seed: 4
-      resolution: 0.1
-      bounds: {min: [0, 0, 0], max: [10, 10, 3]}
-      generators:
-        - {type: forest, density: 0.1, trunk_radius: [0.15, 0.25], trunk_height: [2.5, 3],
-           min_spacing: 1.0, ground_plane: true}
+SPEC
 queries:
   random: {count: 6, min_distance: 4, max_distance: 9}
 planners:
@@ -42,6 +37,10 @@ planners:
 budget: {time: 5}
 store: {trajectories: true, trees: 1}
 """
+
+
+EXPERIMENT = EXPERIMENT.replace(
+    "SPEC\n", textwrap.indent((SOURCE_DIR / "tests/support/small_forest.yaml").read_text(), " " * 6))
 
 
 def kinolab(*args, cache):

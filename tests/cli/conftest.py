@@ -8,14 +8,7 @@ import pytest
 
 SOURCE_DIR = Path(os.environ.get("KINOLAB_SOURCE_DIR", Path(__file__).resolve().parents[2]))
 # A small forest world spec (10 m x 10 m x 3 m) the command tests plan in.
-SMALL_FOREST = """name: small_forest
-seed: 4
-resolution: 0.1
-bounds: {min: [0, 0, 0], max: [10, 10, 3]}
-generators:
-  - {type: forest, density: 0.1, trunk_radius: [0.15, 0.25], trunk_height: [2.5, 3],
-     min_spacing: 1.0, ground_plane: true}
-"""
+SMALL_FOREST = (SOURCE_DIR / "tests" / "support" / "small_forest.yaml").read_text()
 
 BINARY = os.environ.get("KINOLAB_BIN", str(SOURCE_DIR / "build" / "framework" / "kinolab"))
 
