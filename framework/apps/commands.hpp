@@ -9,6 +9,7 @@ void addListCommand(CLI::App& app);
 void addPlanCommand(CLI::App& app);
 void addReportCommand(CLI::App& app);
 void addRunCommand(CLI::App& app);
+void addSlurmCommand(CLI::App& app);
 void addSamplingStudyCommand(CLI::App& app);
 void addWorldCommand(CLI::App& app);
 

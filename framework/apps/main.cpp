@@ -21,6 +21,7 @@ int main(int argc, char** argv) {
   kinolab::apps::addPlanCommand(app);
   kinolab::apps::addReportCommand(app);
   kinolab::apps::addRunCommand(app);
+  kinolab::apps::addSlurmCommand(app);
   kinolab::apps::addSamplingStudyCommand(app);
   kinolab::apps::addWorldCommand(app);
   try {
