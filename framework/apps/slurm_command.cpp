@@ -1,6 +1,5 @@
 // `kinolab slurm`: an experiment as a Slurm array job of shards plus a dependent merge job;
 // `kinolab slurm-status`: how far it got.
-#include <sys/wait.h>
 #include <unistd.h>
 
 #include <cstdio>
@@ -13,6 +12,7 @@
 #include "commands.hpp"
 #include "kinolab/core/error.hpp"
 #include "kinolab/core/files.hpp"
+#include "kinolab/core/process.hpp"
 #include "kinolab/core/text.hpp"
 #include "kinolab/experiment/experiment.hpp"
 #include "kinolab/experiment/results_store.hpp"
@@ -42,18 +42,8 @@ std::string quote(const std::string& text) {
   return quoted + "'";
 }
 
-/// Runs a Slurm client with a timeout (clients block while the controller is down);
-/// returns its exit status and output.
-std::pair<int, std::string> client(const std::string& command) {
-  std::string output;
-  FILE* pipe = popen(("timeout 60 " + command + " 2>&1").c_str(), "r");
-  if (!pipe) throw Error("slurm: cannot run " + command);
-  char buffer[512];
-  while (std::fgets(buffer, sizeof(buffer), pipe)) output += buffer;
-  const int status = pclose(pipe);
-  while (!output.empty() && (output.back() == '\n' || output.back() == ' ')) output.pop_back();
-  return {WIFEXITED(status) ? WEXITSTATUS(status) : 1, output};
-}
+/// A Slurm client call; under a timeout, since clients block while the controller is down.
+CommandOutput client(const std::string& command) { return runCommand(command, 60); }
 
 std::string selfPath() { return fs::read_symlink("/proc/self/exe").string(); }
 

@@ -107,6 +107,7 @@ def test_misbehaving_plugins_get_their_status_and_the_rest_completes(kinolab, tm
                 "provenance.ompl_version", "provenance.ceres_version", "provenance.cpu",
                 "provenance.host", "started_at", "finished_at"):
         assert provenance.get(key), key
+    assert provenance["plugins"] == MISBEHAVING
 
 
 def deterministic(tmp_path, name="resume", sleep_ms=60):

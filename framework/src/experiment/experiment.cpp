@@ -247,15 +247,10 @@ ExperimentPlanner readPlanner(const YamlReader& node) {
     planner.parameters = std::move(configured.parameters);
     planner.sampler = configured.sampler_key;
     planner.sampler_parameters = std::move(configured.sampler_parameters);
-  } catch (const Error& error) {
-    // Registry errors about a key itself (an unknown planner or sampler) do not know where
-    // it was written; errors about assignments do.
-    const std::string message = error.what();
-    const std::string where = node.where();
-    if (message.find(where.substr(0, where.find(':'))) == std::string::npos) {
-      node["type"].fail(message);
-    }
-    throw;
+  } catch (const PluginError& error) {
+    // An unknown planner or sampler key: the registry cannot know where it was written.
+    // (Errors about assignments are ConfigErrors that carry their own position.)
+    node.fail(error.what());
   }
   return planner;
 }

@@ -25,6 +25,7 @@
 
 #include "kinolab/core/error.hpp"
 #include "kinolab/core/hash.hpp"
+#include "kinolab/core/process.hpp"
 #include "kinolab/core/text.hpp"
 #include "kinolab/core/version.hpp"
 #include "kinolab/experiment/results_store.hpp"
@@ -49,17 +50,6 @@ std::string utcNow() {
   char text[32];
   std::strftime(text, sizeof(text), "%Y-%m-%dT%H:%M:%SZ", &tm);
   return text;
-}
-
-std::string command(const std::string& line) {
-  std::string output;
-  if (FILE* pipe = popen(line.c_str(), "r")) {
-    char buffer[256];
-    while (std::fgets(buffer, sizeof(buffer), pipe)) output += buffer;
-    pclose(pipe);
-  }
-  while (!output.empty() && (output.back() == '\n' || output.back() == ' ')) output.pop_back();
-  return output;
 }
 
 std::string duration(double s) {
@@ -324,13 +314,14 @@ std::map<std::string, std::string> provenance() {
   std::map<std::string, std::string> values;
   values["kinolab_version"] = kVersion;
   const std::string git = std::string("git -C '") + kSourceDir + "' ";
-  const std::string commit = command(git + "rev-parse HEAD 2>/dev/null");
+  const CommandOutput head = runCommand(git + "rev-parse HEAD");
+  const std::string commit = head.status == 0 ? head.output : "";
   values["git_commit"] = commit.empty() ? "unknown" : commit;
   values["git_dirty"] =
       commit.empty()
           ? "unknown"
-          : (command(git + "status --porcelain --untracked-files=no 2>/dev/null").empty() ? "false"
-                                                                                          : "true");
+          : (runCommand(git + "status --porcelain --untracked-files=no").output.empty() ? "false"
+                                                                                        : "true");
   values["compiler"] = kCompiler;
   values["compiler_flags"] = kCompilerFlags;
   values["build_type"] = kBuildType;
@@ -417,6 +408,7 @@ RunnerSummary runExperiment(const Experiment& experiment, const RunnerOptions& o
                                              {"config_hash", experiment.config_hash},
                                              {"shard", shard},
                                              {"runs_planned", std::to_string(runs.size())},
+                                             {"plugins", join(experiment.plugins, "\n")},
                                              {"last_started_at", utcNow()}};
   if (!store.meta("started_at")) meta["started_at"] = meta["last_started_at"];
   for (const auto& [key, value] : provenance()) meta["provenance." + key] = value;

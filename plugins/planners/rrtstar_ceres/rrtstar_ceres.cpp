@@ -98,7 +98,6 @@ class RrtStarPlanner final : public Planner {
     settings.goal_radius = parameters_.real("goal_radius");
     front_end_ = std::make_unique<RrtFrontEnd>(context.world, settings);
     clearance_ = settings.clearance;
-    world_ = context.world;
     seed_ = context.seed;
     if (smoother_settings_) smoother_.emplace(context.world, *smoother_settings_);
   }
@@ -114,7 +113,7 @@ class RrtStarPlanner final : public Planner {
           "rrtstar_ceres for a moving start)";
       return result;
     }
-    if (const double clearance = world_->distance(start); clearance < clearance_) {
+    if (const double clearance = world().distance(start); clearance < clearance_) {
       result.status = PlanStatus::kInvalidStart;
       result.message = "start clearance " + formatNumber(clearance) +
                        " m is below robot_radius + clearance_margin = " + formatNumber(clearance_) +
@@ -170,7 +169,6 @@ class RrtStarPlanner final : public Planner {
   DynamicLimits limits_;
   Budget budget_;
   std::optional<SmootherSettings> smoother_settings_;
-  std::shared_ptr<const World> world_;
   std::uint64_t seed_ = 0;
   double clearance_ = 0.0;
   std::unique_ptr<RrtFrontEnd> front_end_;
