@@ -5,17 +5,15 @@ from __future__ import annotations
 
 import base64
 import io
-import math
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import jinja2
 import matplotlib.pyplot as plt
-import numpy as np
 import pandas as pd
 
-from . import plots, stats, tables
-from .data import Results, load
+from . import plots, tables
+from .data import load
 
 TEMPLATE = """<!DOCTYPE html>
 <html lang="en"><head><meta charset="utf-8">
@@ -73,9 +71,9 @@ larger); p-values Holm-corrected over the whole table.</p>
 
 {% if 'compare' in tables %}
 <h2>Compared with {{ compare_name }}</h2>
-<p class="note">The same planners on the same cases in both result sets: medians (successful
-runs) in each, and Wilcoxon signed-rank on planning time over cases both solved
-(Holm-corrected).</p>
+<p class="note">Each planner on the cases both result sets ran (A: this one, B: the other):
+success rates and median planning times side by side, McNemar on success and Wilcoxon
+signed-rank on planning time and cost over cases both solved (Holm-corrected).</p>
 {{ tables['compare'] }}
 {% endif %}
 
@@ -145,34 +143,6 @@ def _summary_columns(summary: pd.DataFrame) -> pd.DataFrame:
     return summary[keep].rename(columns=renamed)
 
 
-def _compare(a: Results, b: Results) -> pd.DataFrame:
-    key = ["planner"] + tables.CASE
-    left = a.runs.set_index(key)
-    right = b.runs.set_index(key)
-    shared = left.index.intersection(right.index)
-    rows = []
-    for planner in dict.fromkeys(a.runs["planner"]):
-        cases = [k for k in shared if k[0] == planner]
-        if not cases:
-            continue
-        l, r = left.loc[cases], right.loc[cases]
-        both = l["success"].to_numpy() & r["success"].to_numpy()
-        test = stats.wilcoxon(l["planning_time_ms"].to_numpy(dtype=float)[both],
-                              r["planning_time_ms"].to_numpy(dtype=float)[both])
-        _, _, p_success = stats.mcnemar(l["success"], r["success"])
-        rows.append({"planner": planner, "cases": len(cases),
-                     "success A": stats.wilson(int(l["success"].sum()), len(cases)),
-                     "success B": stats.wilson(int(r["success"].sum()), len(cases)),
-                     "p success": p_success,
-                     "T A (ms)": stats.bootstrap(l.loc[l["success"], "planning_time_ms"]),
-                     "T B (ms)": stats.bootstrap(r.loc[r["success"], "planning_time_ms"]),
-                     "rank-biserial T": test.rank_biserial, "p T": test.p})
-    table = pd.DataFrame(rows)
-    if not table.empty:
-        table["p T (Holm)"] = stats.holm(table["p T"].tolist())
-    return table
-
-
 def find_sampling_study(directory: Path) -> Path | None:
     found = sorted(directory.glob("sampling_study/*/summary.csv"))
     return found[0] if found else None
@@ -215,7 +185,7 @@ def write(paths: list[Path], out: Path, compare: Path | None = None,
     if compare is not None:
         other = load(compare)
         compare_name = str(compare)
-        report.tables["compare"] = _compare(results, other)
+        report.tables["compare"] = tables.compare(runs, other.runs)
 
     _save(plots.ecdf(runs), report, "ecdf_planning_time", "Time to solve",
           "ECDF of planning time per planner; failed runs count as never solved.")

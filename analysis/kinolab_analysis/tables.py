@@ -64,37 +64,72 @@ def summary(runs: pd.DataFrame, by: list[str] | None = None,
     return pd.DataFrame(rows)
 
 
-def paired(runs: pd.DataFrame, metrics: tuple[str, ...] = ("planning_time_ms", "cost"),
-           by: str = "planner") -> pd.DataFrame:
-    """Every pair of planners on the cases both ran: McNemar on success, Wilcoxon
-    signed-rank on each metric over cases both solved, with effect sizes; p-values
-    Holm-corrected over the whole table."""
-    rows = []
-    names = list(dict.fromkeys(runs[by]))
-    for a, b in itertools.combinations(names, 2):
-        left = runs[runs[by] == a].set_index(CASE)
-        right = runs[runs[by] == b].set_index(CASE)
-        shared = left.index.intersection(right.index)
-        if shared.empty:
-            continue
-        left, right = left.loc[shared], right.loc[shared]
-        a_only, b_only, p = stats.mcnemar(left["success"], right["success"])
-        rows.append({"a": a, "b": b, "test": "McNemar", "metric": "success",
-                     "n": len(shared), "effect": f"{a} only {a_only}, {b} only {b_only}",
-                     "effect size": (a_only - b_only) / len(shared), "p": p})
-        both = left["success"].to_numpy() & right["success"].to_numpy()
-        for metric in metrics:
-            if metric not in left.columns:
-                continue
+def paired_tests(left: pd.DataFrame, right: pd.DataFrame, names: tuple[str, str],
+                 metrics: tuple[str, ...]) -> list[dict]:
+    """Two sets of runs on the same cases, row for row: McNemar (exact) on success, and
+    Wilcoxon signed-rank on each metric over the cases both solved, with effect sizes
+    (success: (a only - b only) / n; metrics: matched-pairs rank-biserial, > 0: a larger)."""
+    a, b = names
+    n = len(left)
+    a_only, b_only, p = stats.mcnemar(left["success"], right["success"])
+    rows = [{"test": "McNemar", "metric": "success", "n": n,
+             "effect": f"{a} only {a_only}, {b} only {b_only}",
+             "effect size": (a_only - b_only) / n, "p": p}]
+    both = left["success"].to_numpy() & right["success"].to_numpy()
+    for metric in metrics:
+        if metric in left.columns and metric in right.columns:
             test = stats.wilcoxon(left[metric].to_numpy(dtype=float)[both],
                                   right[metric].to_numpy(dtype=float)[both])
-            rows.append({"a": a, "b": b, "test": "Wilcoxon", "metric": metric, "n": test.n,
-                         "effect": f"median a-b {test.median_difference:.3g}",
+            rows.append({"test": "Wilcoxon", "metric": metric, "n": test.n,
+                         "effect": f"median {a} - {b} {test.median_difference:.3g}",
                          "effect size": test.rank_biserial, "p": test.p})
+    return rows
+
+
+def _aligned(left: pd.DataFrame, right: pd.DataFrame) -> tuple[pd.DataFrame, pd.DataFrame]:
+    """The runs of both on the cases both ran, in the same order."""
+    left, right = left.set_index(CASE), right.set_index(CASE)
+    shared = left.index.intersection(right.index)
+    return left.loc[shared], right.loc[shared]
+
+
+def _with_holm(rows: list[dict]) -> pd.DataFrame:
     table = pd.DataFrame(rows)
     if not table.empty:
         table["p (Holm)"] = stats.holm(table["p"].tolist())
     return table
+
+
+def paired(runs: pd.DataFrame, metrics: tuple[str, ...] = ("planning_time_ms", "cost"),
+           by: str = "planner") -> pd.DataFrame:
+    """Every pair of planners on the cases both ran (paired_tests), p-values
+    Holm-corrected over the whole table."""
+    rows = []
+    names = list(dict.fromkeys(runs[by]))
+    for a, b in itertools.combinations(names, 2):
+        left, right = _aligned(runs[runs[by] == a], runs[runs[by] == b])
+        if len(left):
+            rows += [{"a": a, "b": b, **row} for row in paired_tests(left, right, (a, b), metrics)]
+    return _with_holm(rows)
+
+
+def compare(a: pd.DataFrame, b: pd.DataFrame,
+            metrics: tuple[str, ...] = ("planning_time_ms", "cost")) -> pd.DataFrame:
+    """Two result sets (A, B), each planner on the cases both ran: success rates and median
+    planning times side by side, then paired_tests, Holm-corrected over the table."""
+    rows = []
+    for planner in dict.fromkeys(a["planner"]):
+        left, right = _aligned(a[a["planner"] == planner], b[b["planner"] == planner])
+        if not len(left):
+            continue
+        side_by_side = {"planner": planner, "cases": len(left),
+                        "success A": stats.wilson(int(left["success"].sum()), len(left)),
+                        "success B": stats.wilson(int(right["success"].sum()), len(right)),
+                        "T A (ms)": stats.bootstrap(left.loc[left["success"], "planning_time_ms"]),
+                        "T B (ms)": stats.bootstrap(right.loc[right["success"], "planning_time_ms"])}
+        rows += [{**side_by_side, **row}
+                 for row in paired_tests(left, right, ("A", "B"), metrics)]
+    return _with_holm(rows)
 
 
 def paper_table2(runs: pd.DataFrame) -> pd.DataFrame:

@@ -168,3 +168,18 @@ def test_paper_table_one_from_a_sampling_study_summary(tmp_path):
     alphas = [0.9 + 0.01 * i for i in range(8)]
     assert table.loc["uniform", "p alpha"] == pytest.approx(
         sps.wilcoxon(np.array(alphas) - 0.84).pvalue)
+
+
+def test_compare_two_result_sets_case_by_case():
+    before = synthetic_runs()
+    after = before.copy()
+    after["planning_time_ms"] = after["planning_time_ms"] * 0.5  # twice as fast
+    table = tables.compare(after, before)
+    slow = table[table["planner"] == "slow"]
+    success = slow[slow["test"] == "McNemar"].iloc[0]
+    assert success["cases"] == 30 and success["p"] == 1.0
+    time_row = slow[slow["metric"] == "planning_time_ms"].iloc[0]
+    assert time_row["effect size"] == -1.0  # A (after) smaller on every case
+    assert time_row["T A (ms)"].estimate == pytest.approx(time_row["T B (ms)"].estimate / 2)
+    assert time_row["p"] == pytest.approx(sps.wilcoxon(np.ones(30)).pvalue)
+    assert (table["p (Holm)"] >= table["p"] - 1e-15).all()

@@ -2,11 +2,13 @@
 
 import os
 import subprocess
+import sys
 from pathlib import Path
 
 import pytest
 
 SOURCE_DIR = Path(os.environ.get("KINOLAB_SOURCE_DIR", Path(__file__).resolve().parents[2]))
+sys.path.insert(0, str(SOURCE_DIR / "tests" / "support"))  # results.py
 # A small forest world spec (10 m x 10 m x 3 m) the command tests plan in.
 SMALL_FOREST = (SOURCE_DIR / "tests" / "support" / "small_forest.yaml").read_text()
 

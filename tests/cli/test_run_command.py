@@ -8,11 +8,11 @@ import sqlite3
 import subprocess
 import textwrap
 import time
-from pathlib import Path
 
 import pytest
 
 from conftest import BINARY, SMALL_FOREST, SOURCE_DIR
+from results import meta, rows
 
 MISBEHAVING = os.environ.get(
     "KINOLAB_MISBEHAVING", str(SOURCE_DIR / "build" / "tests" / "libkinolab_test_misbehaving.so"))
@@ -36,29 +36,6 @@ def experiment(tmp_path, planners, queries="random: {count: 4, min_distance: 3, 
     path = tmp_path / f"{name}.yaml"
     path.write_text(text)
     return path
-
-
-def rows(database, skip_times=True):
-    """Every run and statistic, without the figures that depend on the machine."""
-    connection = sqlite3.connect(database)
-    connection.row_factory = sqlite3.Row
-    timing = {"planning_time_ms", "wall_time_ms", "peak_memory_mb", "started_at"}
-    runs = {}
-    for row in connection.execute("SELECT * FROM runs"):
-        runs[row["run_hash"]] = {k: row[k] for k in row.keys() if not (skip_times and k in timing)}
-    for run_hash, name, value in connection.execute("SELECT * FROM statistics"):
-        if skip_times and ("time" in name or name.endswith("_ms")):
-            continue
-        runs[run_hash][f"stat.{name}"] = value
-    connection.close()
-    return runs
-
-
-def meta(database):
-    connection = sqlite3.connect(database)
-    values = dict(connection.execute("SELECT key, value FROM meta"))
-    connection.close()
-    return values
 
 
 def test_dry_run_prints_the_expanded_runs(kinolab, tmp_path):

@@ -7,11 +7,10 @@ installed when missing. Every client call has a timeout (clients block while the
 down), and every daemon started here is stopped by its PID at the end."""
 
 import os
-import shutil
 import signal
 import socket
-import sqlite3
 import subprocess
+import sys
 import textwrap
 import time
 from pathlib import Path
@@ -19,6 +18,8 @@ from pathlib import Path
 import pytest
 
 SOURCE_DIR = Path(__file__).resolve().parents[2]
+sys.path.insert(0, str(SOURCE_DIR / "tests" / "support"))
+from results import rows  # noqa: E402
 BINARY = os.environ.get("KINOLAB_BIN", str(SOURCE_DIR / "build" / "framework" / "kinolab"))
 PACKAGES = ["slurmctld", "slurmd", "slurm-client", "munge"]
 CONTROLLER_PORT = 16817
@@ -150,20 +151,16 @@ budget: {time: 5}
 """
 
 
-def rows(database):
-    """Every run without the figures that depend on the machine (as the runner tests)."""
-    with sqlite3.connect(database) as db:
-        db.row_factory = sqlite3.Row
-        skip = {"planning_time_ms", "wall_time_ms", "peak_memory_mb", "started_at"}
-        return {row["run_hash"]: {k: row[k] for k in row.keys() if k not in skip}
-                for row in db.execute("SELECT * FROM runs")}
+def write_experiment(directory):
+    spec = (SOURCE_DIR / "tests" / "support" / "small_forest.yaml").read_text()
+    experiment = directory / "slurm_test.yaml"
+    experiment.write_text(EXPERIMENT.replace("SPEC", textwrap.indent(spec, " " * 6)))
+    return experiment
 
 
 def test_three_shards_on_slurm_merge_to_the_local_unsharded_run(cluster, tmp_path):
     env, _ = cluster
-    spec = (SOURCE_DIR / "tests" / "support" / "small_forest.yaml").read_text()
-    experiment = tmp_path / "slurm_test.yaml"
-    experiment.write_text(EXPERIMENT.replace("SPEC", textwrap.indent(spec, " " * 6)))
+    experiment = write_experiment(tmp_path)
     cache = tmp_path / "cache"
     out = tmp_path / "cluster"
 
@@ -202,9 +199,7 @@ def test_three_shards_on_slurm_merge_to_the_local_unsharded_run(cluster, tmp_pat
 
 def test_the_merge_refuses_a_partial_set_of_shards(cluster, tmp_path):
     env, _ = cluster
-    spec = (SOURCE_DIR / "tests" / "support" / "small_forest.yaml").read_text()
-    experiment = tmp_path / "slurm_test.yaml"
-    experiment.write_text(EXPERIMENT.replace("SPEC", textwrap.indent(spec, " " * 6)))
+    experiment = write_experiment(tmp_path)
     out = tmp_path / "partial"
     result = client(BINARY, "run", experiment, "--out", out / "shards" / "1", "--shard", "1/3",
                     env=env, timeout=300)
