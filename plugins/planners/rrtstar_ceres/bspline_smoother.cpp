@@ -206,6 +206,8 @@ SmootherResult BsplineSmoother::smooth(const ChainState& start,
   int reallocations = 0;
   double initial_cost = NAN;
   double final_cost = NAN;
+  double control_points = NAN;  // of the last spline
+  double knot_interval = NAN;
   while (rounds < settings_.max_rounds) {
     if (rounds > 0 && stop.elapsed() >= stop.budget().time_limit) {
       result.problem += "; the time budget ran out before another round";
@@ -294,12 +296,15 @@ SmootherResult BsplineSmoother::smooth(const ChainState& start,
       ++reallocations;
       if (!at_rest) control.leftCols<3>() = UniformBspline::startControlPoints(start, interval);
     }
-    result.spline.emplace(control, interval);
+    const UniformBspline spline(control, interval);
+    result.trajectory = spline.toTrajectory();
+    control_points = static_cast<double>(control.cols());
+    knot_interval = interval;
 
     CheckQuery query;
     query.start = start;
     query.require_goal = false;
-    const CheckResult check = checker_.check(result.spline->toTrajectory(), query);
+    const CheckResult check = checker_.check(result.trajectory, query);
     result.valid = check.valid;
     if (check.valid) {
       result.problem.clear();
@@ -318,11 +323,8 @@ SmootherResult BsplineSmoother::smooth(const ChainState& start,
   stats.emplace_back("ceres_initial_cost", initial_cost);
   stats.emplace_back("ceres_final_cost", final_cost);
   stats.emplace_back("time_reallocations", reallocations);
-  if (result.spline) {
-    stats.emplace_back("control_points",
-                       static_cast<double>(result.spline->controlPoints().cols()));
-    stats.emplace_back("knot_interval", result.spline->interval());
-  }
+  stats.emplace_back("control_points", control_points);
+  stats.emplace_back("knot_interval", knot_interval);
   stats.emplace_back(
       "time_smooth_ms",
       std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - begin).count());

@@ -2,7 +2,6 @@
 
 #include <Eigen/Core>
 #include <memory>
-#include <optional>
 #include <string>
 #include <vector>
 
@@ -33,9 +32,9 @@ struct SmootherSettings {
 };
 
 struct SmootherResult {
-  std::optional<UniformBspline> spline;  ///< the last one tried, valid or not
-  bool valid = false;                    ///< the last spline passed the (ESDF) check
-  std::string problem;                   ///< why not, in words
+  Trajectory trajectory;  ///< the last spline tried, valid or not (empty if none was)
+  bool valid = false;     ///< it passed the planner's own (ESDF) check
+  std::string problem;    ///< why not, in words
   Statistics statistics;
 };
 

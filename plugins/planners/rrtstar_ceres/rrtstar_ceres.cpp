@@ -137,16 +137,15 @@ class RrtStarPlanner final : public Planner {
       result.message = "budget spent after " + std::to_string(path.iterations) +
                        " iterations: the path to the vertex closest to the goal";
     }
-    if (path.path_length <= 0.0) {
-      // The start is already in the goal region: nothing to fly.
-    } else if (smoother_) {
+    // A path of length 0 (the start is in the goal region) leaves nothing to fly.
+    if (smoother_ && path.path_length > 0.0) {
       SmootherResult smoothed = smoother_->smooth(query.start, path.path, stop);
       result.statistics.insert(result.statistics.end(), smoothed.statistics.begin(),
                                smoothed.statistics.end());
       result.statistics.emplace_back("smoothing_valid", smoothed.valid ? 1.0 : 0.0);
       if (!smoothed.valid) result.message = "smoothing failed: " + smoothed.problem;
-      if (smoothed.spline) result.trajectory = smoothed.spline->toTrajectory();
-    } else {
+      result.trajectory = std::move(smoothed.trajectory);
+    } else if (path.path_length > 0.0) {
       result.trajectory = stopAndGo(path.path, limits_);
     }
     result.cost = result.trajectory.empty() ? INFINITY : result.trajectory.length();
