@@ -4,6 +4,7 @@
 
 #include <vector>
 
+#include "kinolab/world/world_spec.hpp"
 #include "kinolab/builtin_plugins.hpp"
 #include "kinolab/core/random.hpp"
 #include "kinolab/primitives/control_sampler.hpp"

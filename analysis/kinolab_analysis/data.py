@@ -10,8 +10,9 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-# Where a run's planner family sits in the paper's Table II.
-PAPER_PLANNERS = {"rrtstar_ceres": "TGK", "eager_mp_astar": "MP-A*", "lazy_mp_astar": "Lazy"}
+# The results database layout this package reads (meta `schema_version`); version 1
+# databases (written before the schema was declared) are upgraded in memory by `load`.
+SCHEMA_VERSION = 2
 
 
 @dataclass
@@ -35,6 +36,24 @@ class Results:
     runs: pd.DataFrame                 # one row per run, statistics as extra columns
     meta: dict[str, str]               # of the first database
     worlds: dict[str, World] = field(default_factory=dict)
+    # The declaration of every column and statistic (name, kind, planner_type, type, unit,
+    # doc, clock), as `kinolab list metrics` prints it.
+    metrics: pd.DataFrame = field(default_factory=pd.DataFrame)
+
+    def reproduces(self) -> tuple[str, dict[str, str]] | None:
+        """The paper the experiment reproduces and its planner id -> row mapping."""
+        paper = self.meta.get("reproduces.paper")
+        if not paper:
+            return None
+        rows = dict(line.split("=", 1) for line in
+                    self.meta.get("reproduces.rows", "").splitlines() if "=" in line)
+        return paper, rows
+
+    def clock_metrics(self) -> set[str]:
+        """Names of the clock figures (they vary from run to run of the same case)."""
+        if self.metrics.empty:
+            return set()
+        return set(self.metrics.loc[self.metrics["clock"] == 1, "name"])
 
     def connection(self, run_hash: str) -> sqlite3.Connection:
         path = self.runs.loc[self.runs["run_hash"] == run_hash, "database"].iloc[0]
@@ -62,23 +81,47 @@ def database_path(path: str | Path) -> Path:
     return path
 
 
+def _upgrade_v1(runs: pd.DataFrame) -> pd.DataFrame:
+    """A version 1 runs table in version 2 terms: `success` is derived with the one
+    definition (exact and checker-valid), and a worker the runner killed is `killed`
+    (version 1 called it `timeout`, like a planner that spent its own budget)."""
+    runs = runs.copy()
+    killed = (runs["status"] == "timeout") & runs["message"].fillna("").str.startswith("killed after")
+    runs.loc[killed, "status"] = "killed"
+    runs["success"] = ((runs["status"] == "exact") & (runs["checker_valid"] == 1)).astype(int)
+    return runs
+
+
 def load(paths: str | Path | list[str | Path]) -> Results:
-    """Loads results databases (directories or files) into one Results."""
+    """Loads results databases (directories or files) into one Results. Columns are read by
+    name; what they mean comes from the database's `metrics` table."""
     if isinstance(paths, (str, Path)):
         paths = [paths]
     files = [database_path(p) for p in paths]
     frames = []
     meta: dict[str, str] = {}
     worlds: dict[str, World] = {}
+    metrics = []
     for index, file in enumerate(files):
         with sqlite3.connect(file) as db:
             try:
                 runs = pd.read_sql("SELECT * FROM runs", db)
                 statistics = pd.read_sql("SELECT run_hash, name, value FROM statistics", db)
                 this_meta = dict(db.execute("SELECT key, value FROM meta").fetchall())
-                world_rows = db.execute("SELECT * FROM worlds").fetchall()
+                world_rows = pd.read_sql("SELECT * FROM worlds", db)
+                tables = {row[0] for row in
+                          db.execute("SELECT name FROM sqlite_master WHERE type = 'table'")}
+                if "metrics" in tables:
+                    metrics.append(pd.read_sql("SELECT * FROM metrics", db))
             except (sqlite3.DatabaseError, pd.errors.DatabaseError) as error:
                 raise ValueError(f"{file}: not a kinolab results database ({error})") from error
+        version = int(this_meta.get("schema_version", "1"))
+        if version > SCHEMA_VERSION:
+            raise ValueError(f"{file}: results schema version {version} is newer than this "
+                             f"analysis package reads ({SCHEMA_VERSION}); use the kinolab that "
+                             "wrote it")
+        if version == 1:
+            runs = _upgrade_v1(runs)
         if index == 0:
             meta = this_meta
         if not statistics.empty:
@@ -88,14 +131,19 @@ def load(paths: str | Path | list[str | Path]) -> Results:
             runs = runs.merge(wide, left_on="run_hash", right_index=True, how="left")
         runs["database"] = str(file)
         frames.append(runs)
-        for row in world_rows:
-            (world_hash, world_id, resolution, ox, oy, oz, nx, ny, nz, top, side) = row
-            worlds[world_hash] = World(
-                world_hash, world_id, resolution, np.array([ox, oy, oz]), (nx, ny, nz),
-                np.frombuffer(top, dtype="<u2").reshape(nx, ny),
-                np.frombuffer(side, dtype=np.uint8).reshape(nx, nz))
+        for _, row in world_rows.iterrows():
+            nx, ny, nz = int(row["nx"]), int(row["ny"]), int(row["nz"])
+            worlds[row["world_hash"]] = World(
+                row["world_hash"], row["id"], float(row["resolution"]),
+                np.array([row["origin_x"], row["origin_y"], row["origin_z"]]), (nx, ny, nz),
+                np.frombuffer(row["top"], dtype="<u2").reshape(nx, ny),
+                np.frombuffer(row["side"], dtype=np.uint8).reshape(nx, nz))
     runs = pd.concat(frames, ignore_index=True) if frames else pd.DataFrame()
     runs = runs.drop_duplicates("run_hash")
-    runs["success"] = (runs["status"] == "exact") & (runs["checker_valid"] == 1)
-    runs["paper"] = runs["planner_type"].map(PAPER_PLANNERS)
-    return Results(files, runs, meta, worlds)
+    runs["success"] = runs["success"].fillna(0).astype(bool)
+    results = Results(files, runs, meta, worlds,
+                      pd.concat(metrics, ignore_index=True).drop_duplicates(["name", "planner_type"])
+                      if metrics else pd.DataFrame())
+    reproduced = results.reproduces()
+    runs["paper"] = runs["planner"].map(reproduced[1]) if reproduced else None
+    return results

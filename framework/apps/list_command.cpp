@@ -1,4 +1,5 @@
-// `kinolab list [KIND] [--json]`: every registered plugin with its parameters.
+// `kinolab list [KIND] [--json]`: every registered plugin with its parameters and statistics;
+// `kinolab list metrics`: the result schema, every metric and statistic a run can carry.
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -6,6 +7,7 @@
 #include <nlohmann/json.hpp>
 
 #include "commands.hpp"
+#include "kinolab/experiment/results_store.hpp"
 #include "kinolab/planner/planner.hpp"
 #include "kinolab/primitives/control_sampler.hpp"
 
@@ -25,6 +27,51 @@ std::vector<Kind> allKinds() {
 
 nlohmann::json toJson(const ParameterValue& value) {
   return std::visit([](const auto& v) { return nlohmann::json(v); }, value);
+}
+
+nlohmann::json toJson(const MetricSpecs& specs) {
+  nlohmann::json list = nlohmann::json::array();
+  for (const MetricSpec& spec : specs.all()) {
+    list.push_back({{"name", spec.name},
+                    {"type", spec.typeName()},
+                    {"unit", spec.unit},
+                    {"clock", spec.clock},
+                    {"doc", spec.doc}});
+  }
+  return list;
+}
+
+void printMetrics(const char* title, const MetricSpecs& specs) {
+  std::printf("  %s\n", title);
+  for (const MetricSpec& spec : specs.all()) {
+    std::printf("      %-26s %-8s %-8s %-5s %s\n", spec.name.c_str(), spec.typeName().c_str(),
+                spec.unit.empty() ? "-" : spec.unit.c_str(), spec.clock ? "clock" : "",
+                spec.doc.c_str());
+  }
+}
+
+/// The result schema: result and runner metrics (columns of `runs`), then the statistics
+/// every planner reports and each planner's own.
+void listMetrics(bool json) {
+  const auto planners = pluginRegistry<Planner>().list();
+  if (json) {
+    nlohmann::json statistics = {{"common", toJson(commonStatistics())}};
+    for (const PluginInfo* planner : planners) statistics[planner->key] = toJson(planner->statistics);
+    std::cout << nlohmann::json{{"result", toJson(resultMetrics())},
+                                {"runner", toJson(runnerMetrics())},
+                                {"statistics", statistics}}
+                     .dump(2)
+              << '\n';
+    return;
+  }
+  std::printf("metrics (name, type, unit, clock figure, meaning)\n");
+  printMetrics("every result (columns of results.sqlite's runs table):", resultMetrics());
+  printMetrics("the runner, for every run (runs table):", runnerMetrics());
+  printMetrics("statistics of every planner (statistics table):", commonStatistics());
+  for (const PluginInfo* planner : planners) {
+    const std::string title = "statistics of planner '" + planner->key + "':";
+    printMetrics(title.c_str(), planner->statistics);
+  }
 }
 
 nlohmann::json toJson(const PluginInfo& plugin) {
@@ -50,7 +97,8 @@ nlohmann::json toJson(const PluginInfo& plugin) {
   return {{"key", plugin.key},
           {"description", plugin.description},
           {"origin", plugin.origin},
-          {"parameters", parameters}};
+          {"parameters", parameters},
+          {"statistics", toJson(plugin.statistics)}};
 }
 
 void printText(const Kind& kind) {
@@ -76,6 +124,7 @@ struct ListOptions {
 };
 
 void runList(const ListOptions& options) {
+  if (options.kind == "metrics") return listMetrics(options.json);
   std::vector<Kind> kinds = allKinds();
   if (!options.kind.empty()) {
     std::erase_if(kinds, [&](const Kind& kind) { return kind.name != options.kind; });
@@ -101,7 +150,10 @@ void addListCommand(CLI::App& app) {
       "List the registered plugins (built-in and loaded with --plugin) and their parameters");
   std::vector<std::string> kind_names;
   for (const auto& kind : allKinds()) kind_names.push_back(kind.name);
-  command->add_option("kind", options->kind, "Only this kind of plugin")
+  kind_names.push_back("metrics");
+  command->add_option("kind", options->kind,
+                      "Only this kind of plugin, or `metrics`: every metric and statistic a run "
+                      "can carry (the result schema)")
       ->check(CLI::IsMember(kind_names));
   command->add_flag("--json", options->json, "Print JSON instead of a table");
   command->footer("Set a parameter with --set name=value or under `params:` in a config.");

@@ -51,13 +51,6 @@ Eigen::Vector3d parsePoint(const std::string& text, const std::string& option) {
   return point;
 }
 
-nlohmann::json toJson(const Eigen::Vector3d& v) { return {v.x(), v.y(), v.z()}; }
-
-/// JSON has no infinity or NaN: those become null.
-nlohmann::json number(double value) {
-  return std::isfinite(value) ? nlohmann::json(value) : nlohmann::json(nullptr);
-}
-
 void runPlan(const PlanOptions& options) {
   const Eigen::Vector3d start = parsePoint(options.start, "--start");
   const Eigen::Vector3d goal = parsePoint(options.goal, "--goal");
@@ -92,31 +85,15 @@ void runPlan(const PlanOptions& options) {
     }
   }
 
-  nlohmann::json json = {{"status", toString(result.status)},
-                         {"message", result.message},
-                         {"planner", options.planner},
-                         {"world", load.world->name()},
-                         {"seed", options.seed},
-                         {"cost", number(result.cost)},
-                         {"time_ms", result.planning_time_ms},
-                         {"distance_to_goal", number(result.distance_to_goal)}};
-  for (const auto& [name, value] : result.statistics) json[name] = number(value);
-  for (const char* counter : {"expansions", "pops", "partial_evaluations", "full_evaluations"}) {
-    if (!json.contains(counter)) json[counter] = 0;
-  }
-  if (!result.trajectory.empty()) {
-    json["duration"] = result.trajectory.duration();
-    json["length"] = result.trajectory.length();
-    json["jerk_integral"] = result.trajectory.jerkIntegral();
-  }
-  json["checker"] = {{"valid", result.check.valid},
-                     {"check", result.check.check},
-                     {"detail", result.check.detail},
-                     {"time", result.check.time},
-                     {"position", toJson(result.check.position)},
-                     {"min_clearance", number(result.check.min_clearance)},
-                     {"mean_clearance", number(result.check.mean_clearance)},
-                     {"samples", result.check.samples}};
+  // Every result metric, then every statistic, by their declared names and types.
+  nlohmann::ordered_json json = {{"planner", options.planner},
+                                 {"world", load.world->name()},
+                                 {"seed", options.seed}};
+  json.update(nlohmann::ordered_json::parse(toJson(resultValues(result), resultMetrics())));
+  MetricSpecs statistics = commonStatistics();
+  statistics.include(configured.info->statistics);
+  json.update(nlohmann::ordered_json::parse(
+      toJson(statisticValues(result.statistics), statistics)));
 
   if (!options.out_dir.empty()) {
     std::filesystem::create_directories(options.out_dir);

@@ -53,8 +53,9 @@ int runCommand(RunOptions& options) {
     statuses += (statuses.empty() ? "" : ", ") + std::to_string(count) + " " + status;
   }
   std::printf(
-      "%s: %lld runs ran (%s), %lld were already done, %lld planned, %.1f s -> %s/results.sqlite\n",
-      summary.interrupted ? "interrupted" : "done", summary.finished,
+      "%s: %lld runs ran, %lld succeeded (%s), %lld were already done, %lld planned, %.1f s -> "
+      "%s/results.sqlite\n",
+      summary.interrupted ? "interrupted" : "done", summary.finished, summary.succeeded,
       statuses.empty() ? "none" : statuses.c_str(), summary.skipped, summary.planned,
       summary.seconds, options.runner.out_dir.c_str());
   if (summary.interrupted) {

@@ -71,7 +71,7 @@ def test_misbehaving_plugins_get_their_status_and_the_rest_completes(kinolab, tm
     status = {}
     for run in runs:
         status.setdefault(run["planner"], set()).add(run["status"])
-    assert status == {"lazy": {"exact"}, "crash": {"crash"}, "hang": {"timeout"},
+    assert status == {"lazy": {"exact"}, "crash": {"crash"}, "hang": {"killed"},
                       "oom": {"oom"}, "throw": {"error"}}
     messages = {run["planner"]: run["message"] for run in runs}
     assert "signal 11" in messages["crash"]

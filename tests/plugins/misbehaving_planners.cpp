@@ -1,6 +1,8 @@
 // Test-only planners for the experiment runner (a plugin library, never built into kinolab):
 // each misbehaves in one way, so the runner's isolation can be tested. `test_trivial` does
-// nothing at all (after an optional sleep): the runner's overhead per run.
+// nothing at all (after an optional sleep): the runner's overhead per run. `test_metric`
+// reports one statistic of its own, declared in one line, to show that it reaches every
+// output without other edits (and, when told to, one it does not declare).
 #include <chrono>
 #include <csignal>
 #include <stdexcept>
@@ -55,6 +57,27 @@ class MisbehavingPlanner final : public Planner {
   double sleep_ms_;
 };
 
+/// Reports `probe_answer` (declared) and, with `undeclared`, `probe_undeclared` (not).
+class MetricPlanner final : public Planner {
+ public:
+  explicit MetricPlanner(const ParameterSet& parameters)
+      : undeclared_(parameters.boolean("undeclared")) {}
+
+ protected:
+  void doSetup(const PlannerContext&) override {}
+  PlanResult doPlan(const PlanningQuery&, StopCondition&, SearchTree*) override {
+    PlanResult result;
+    result.message = "test_metric plans nothing";
+    result.statistics.emplace_back("probe_answer", 42.0);
+    if (undeclared_) result.statistics.emplace_back("probe_undeclared", 1.0);
+    return result;
+  }
+  PlanningModel planningModel() const override { return {}; }
+
+ private:
+  bool undeclared_;
+};
+
 }  // namespace
 
 KINOLAB_REGISTER_PLUGINS(registrar) {
@@ -63,11 +86,17 @@ KINOLAB_REGISTER_PLUGINS(registrar) {
         key, doc, ParameterSpecs().real("sleep_ms", 0.0, 0.0, 1e6, "sleep this long first, ms"),
         [what](const ParameterSet& parameters) {
           return std::make_unique<MisbehavingPlanner>(what, parameters);
-        });
+        },
+        MetricSpecs().clock("sleep_ms", "how long it slept"));
   };
   add("test_trivial", "does nothing: no_solution at once (runner overhead)", Misbehaviour::kNone);
   add("test_crash", "dies of SIGSEGV", Misbehaviour::kCrash);
   add("test_hang", "never returns, ignoring its budget", Misbehaviour::kHang);
   add("test_oom", "allocates without bound", Misbehaviour::kAllocate);
   add("test_throw", "throws an exception", Misbehaviour::kThrow);
+  registrar.add<Planner>(
+      "test_metric", "reports a statistic of its own (and, if told, an undeclared one)",
+      ParameterSpecs().boolean("undeclared", false, "also report an undeclared statistic"),
+      [](const ParameterSet& parameters) { return std::make_unique<MetricPlanner>(parameters); },
+      MetricSpecs().counter("probe_answer", "the answer this test planner always reports"));
 }

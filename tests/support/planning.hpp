@@ -9,6 +9,7 @@
 #include "kinolab/core/yaml_reader.hpp"
 #include "kinolab/planner/planner.hpp"
 #include "kinolab/world/world.hpp"
+#include "kinolab/world/world_spec.hpp"
 
 namespace kinolab::test {
 

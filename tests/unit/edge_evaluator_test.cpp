@@ -5,6 +5,7 @@
 #include "kinolab/core/error.hpp"
 #include "kinolab/core/random.hpp"
 #include "kinolab/core/yaml_reader.hpp"
+#include "kinolab/world/world_spec.hpp"
 
 namespace kinolab {
 namespace {

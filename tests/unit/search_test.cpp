@@ -3,6 +3,7 @@
 #include "kinolab/core/random.hpp"
 #include "kinolab/primitives/control_sampler.hpp"
 #include "kinolab/search/motion_primitive_search.hpp"
+#include "kinolab/search/search_policies.hpp"
 #include "support/planning.hpp"
 #include "support/test_plugins.hpp"
 
@@ -22,28 +23,29 @@ ChainState randomState(Rng& rng, const World& world, int order) {
   return state;
 }
 
-TEST(MotionPrimitiveSearch, HeuristicsAreConsistentWithEveryLowerBound) {
+TEST(SearchHeuristic, EveryBuiltInHeuristicIsConsistentWithTheWeakestLowerBound) {
   const auto world = test::smallWorld("forest");
   Rng rng(4);
-  for (const Heuristic heuristic : {Heuristic::kEuclidean, Heuristic::kMinTime}) {
-    SearchSettings settings;
-    settings.heuristic = heuristic;
-    settings.edges.weights.length = 0.5;
-    const auto controls = controlGrid({-1.0, -0.3, 0.0, 0.6, 1.0}, Eigen::Vector3d::Constant(3.0));
-    MotionPrimitiveSearch search(world, controls, settings);
-    StopCondition stop(Budget{INFINITY, 0});  // sets the goal, expands nothing
-    const Eigen::Vector3d goal(10.0, 9.0, 1.5);
-    search.search(randomState(rng, *world, 2), goal, stop);
+  EdgeEvaluatorSettings settings;
+  settings.weights.length = 0.5;
+  const EdgeEvaluator evaluator(world, settings);
+  const double goal_radius = 0.5;
+  const EuclideanHeuristic euclidean(settings, goal_radius);
+  const MinTimeHeuristic min_time(settings, goal_radius);
+  const auto controls = controlGrid({-1.0, -0.3, 0.0, 0.6, 1.0}, Eigen::Vector3d::Constant(3.0));
+  const Eigen::Vector3d goal(10.0, 9.0, 1.5);
+  for (const SearchHeuristic* heuristic : {static_cast<const SearchHeuristic*>(&euclidean),
+                                           static_cast<const SearchHeuristic*>(&min_time)}) {
     int checked = 0;
     for (int trial = 0; trial < 300; ++trial) {
       const ChainState state = randomState(rng, *world, 2);
       for (const auto& control : controls) {
-        const EdgeEvaluation bound = search.evaluator().controlOnly(state, control);
+        const EdgeEvaluation bound = evaluator.controlOnly(state, control);
         if (!bound.valid()) continue;
         ++checked;
         // h(parent) <= c(edge) + h(child) for the weakest edge cost the search queues.
-        EXPECT_LE(search.heuristic(state.col(0)),
-                  bound.cost + search.heuristic(bound.end.col(0)) + 1e-12);
+        EXPECT_LE(heuristic->estimate(state, goal),
+                  bound.cost + heuristic->estimate(bound.end, goal) + 1e-12);
       }
     }
     EXPECT_GT(checked, 5000);

@@ -7,6 +7,10 @@
 #include <fstream>
 #include <functional>
 
+#include "kinolab/core/error.hpp"
+#include "kinolab/core/yaml_reader.hpp"
+#include "kinolab/world/world_spec.hpp"
+
 namespace kinolab {
 namespace {
 

@@ -6,7 +6,10 @@
 #include <filesystem>
 #include <fstream>
 
+#include "kinolab/core/error.hpp"
+#include "kinolab/core/yaml_reader.hpp"
 #include "kinolab/world/world_spec.hpp"
+
 
 namespace kinolab {
 namespace {

@@ -79,6 +79,7 @@ ParameterValue parseValue(const ParameterSpec& spec, const std::string& text,
       }
       return text;
     case ParameterType::kText:
+    case ParameterType::kSampler:
       return text;
   }
   return reject("a value");
@@ -98,6 +99,8 @@ std::string ParameterSpec::typeName() const {
       return "choice";
     case ParameterType::kText:
       return "text";
+    case ParameterType::kSampler:
+      return "sampler";
   }
   return "?";
 }
@@ -120,6 +123,8 @@ std::string ParameterSpec::rangeText() const {
       return join(choices, "|");
     case ParameterType::kText:
       return "any text";
+    case ParameterType::kSampler:
+      return "a sampler key (kinolab list samplers)";
   }
   return "?";
 }
@@ -184,6 +189,32 @@ ParameterSpecs& ParameterSpecs::choice(std::string name, std::string default_val
 ParameterSpecs& ParameterSpecs::text(std::string name, std::string default_value, std::string doc) {
   return add(
       {std::move(name), ParameterType::kText, std::move(default_value), 0, 0, {}, std::move(doc)});
+}
+
+ParameterSpecs& ParameterSpecs::sampler(std::string name, std::string default_value,
+                                        std::string doc) {
+  if (samplerParameter()) {
+    throw InvalidArgument("parameter '" + name + "': a plugin takes at most one sampler");
+  }
+  return add({std::move(name), ParameterType::kSampler, std::move(default_value), 0, 0, {},
+              std::move(doc)});
+}
+
+ParameterSpecs& ParameterSpecs::include(const ParameterSpecs& group) {
+  for (const ParameterSpec& spec : group.specs_) {
+    if (spec.type == ParameterType::kSampler && samplerParameter()) {
+      throw InvalidArgument("parameter '" + spec.name + "': a plugin takes at most one sampler");
+    }
+    add(spec);
+  }
+  return *this;
+}
+
+const ParameterSpec* ParameterSpecs::samplerParameter() const {
+  for (const auto& spec : specs_) {
+    if (spec.type == ParameterType::kSampler) return &spec;
+  }
+  return nullptr;
 }
 
 const ParameterSpec* ParameterSpecs::find(std::string_view name) const {

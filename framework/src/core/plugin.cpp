@@ -7,6 +7,14 @@
 #include <set>
 
 namespace kinolab {
+namespace {
+
+std::map<std::string, std::string>& libraryVersions() {
+  static std::map<std::string, std::string> versions;
+  return versions;
+}
+
+}  // namespace
 
 void PluginRegistrar::commit() {
   for (std::size_t i = 0; i < pending_.size(); ++i) {
@@ -23,7 +31,12 @@ void PluginRegistrar::commit() {
   }
   for (auto& item : pending_) item.apply();
   pending_.clear();
+  auto& versions = libraryVersions();
+  for (auto& [name, version] : libraries_) versions.emplace(std::move(name), std::move(version));
+  libraries_.clear();
 }
+
+const std::map<std::string, std::string>& pluginLibraryVersions() { return libraryVersions(); }
 
 void loadPluginLibrary(const std::string& path) {
   static std::mutex mutex;

@@ -231,11 +231,18 @@ ExperimentPlanner readPlanner(const YamlReader& node) {
     planner.assignments = assignmentsFromYaml(*params);
   }
   if (const auto sampler = node.optional("sampler")) {
+    // `sampler:` sets the planner's declared sampler parameter, whatever its name.
+    std::string name = "sampler";
+    if (const auto& planners = pluginRegistry<Planner>(); planners.contains(planner.type)) {
+      if (const ParameterSpec* spec = planners.info(planner.type).parameters.samplerParameter()) {
+        name = spec->name;
+      }
+    }
     const YamlReader type = (*sampler)["type"];
-    planner.assignments.push_back({"sampler", type.as<std::string>(), type.where()});
+    planner.assignments.push_back({name, type.as<std::string>(), type.where()});
     if (const auto params = sampler->optional("params")) {
       for (ParameterAssignment assignment : assignmentsFromYaml(*params)) {
-        assignment.name = "sampler." + assignment.name;
+        assignment.name = name + "." + assignment.name;
         planner.assignments.push_back(std::move(assignment));
       }
     }
@@ -467,6 +474,27 @@ Experiment Experiment::fromFile(const std::string& path) {
     }
     store->finish();
   }
+  std::optional<YamlReader> reproduces = root.optional("reproduces");
+  if (reproduces) {
+    const YamlReader paper = (*reproduces)["paper"];
+    experiment.reproduces_paper = paper.as<std::string>();
+    const auto known = reproducibleRows().find(experiment.reproduces_paper);
+    if (known == reproducibleRows().end()) {
+      std::vector<std::string> names;
+      for (const auto& [name, rows] : reproducibleRows()) names.push_back(name);
+      paper.fail("unknown paper '" + experiment.reproduces_paper + "'" +
+                 didYouMean(experiment.reproduces_paper, names) + "; known: " + join(names, ", "));
+    }
+    for (const auto& [id, row] : (*reproduces)["rows"].entries()) {
+      const std::string name = row.as<std::string>();
+      if (std::find(known->second.begin(), known->second.end(), name) == known->second.end()) {
+        row.fail("'" + name + "' is not a row of " + experiment.reproduces_paper +
+                 "; its rows: " + join(known->second, ", "));
+      }
+      experiment.reproduces_rows.emplace_back(id, name);
+    }
+    reproduces->finish();
+  }
   std::vector<SweepPoint> points(1);
   if (const auto sweep = root.optional("sweep")) points = expandSweep(*sweep);
   // The keys every variant reads; marked read here so that finish() sees only unknown ones.
@@ -488,7 +516,9 @@ Experiment Experiment::fromFile(const std::string& path) {
       label += (label.empty() ? "" : ", ") + key + "=" + scalarText(value);
     }
     const YamlReader reader = YamlReader::fromNode(variant_node, source);
-    for (const char* key : {"kind", "name", "seed", "plugins", "store"}) (void)reader.optional(key);
+    for (const char* key : {"kind", "name", "seed", "plugins", "store", "reproduces"}) {
+      (void)reader.optional(key);
+    }
     ExperimentVariant variant = readVariant(reader, directory, spec_directories);
     reader.finish();
     variant.label = label;
@@ -497,7 +527,23 @@ Experiment Experiment::fromFile(const std::string& path) {
     experiment.variants.push_back(std::move(variant));
   }
   experiment.config_hash = toHex(hashString(experiment.canonical));
+  // Every row names a planner id of every variant.
+  for (const auto& [id, row] : experiment.reproduces_rows) {
+    for (const ExperimentVariant& variant : experiment.variants) {
+      const bool found = std::any_of(variant.planners.begin(), variant.planners.end(),
+                                     [&](const ExperimentPlanner& p) { return p.id == id; });
+      if (!found) (*reproduces)["rows"][id].fail("no planner has the id '" + id + "'");
+    }
+  }
   return experiment;
+}
+
+const std::map<std::string, std::vector<std::string>>& reproducibleRows() {
+  static const std::map<std::string, std::vector<std::string>> papers = {
+      // Wang, Shen, Chen, Lu: "Towards Efficient Motion Planning for UAVs: Lazy A* Search with
+      // Motion Primitives", Table II.
+      {"lazy_mp_astar_paper", {"TGK", "MP-A*", "Lazy"}}};
+  return papers;
 }
 
 std::vector<RunSpec> Experiment::runs() const {

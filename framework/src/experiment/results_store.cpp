@@ -4,24 +4,51 @@
 
 #include <cmath>
 #include <filesystem>
+#include <string_view>
 
 #include "kinolab/core/error.hpp"
 
 namespace kinolab {
+
+const MetricSpecs& runnerMetrics() {
+  static const MetricSpecs specs =
+      MetricSpecs()
+          .real("peak_memory_mb", "MB", "the worker process's maximum resident set")
+          .clock("wall_time_ms", "the worker process, from fork to exit")
+          .text("started_at", "when the run started, UTC, ISO 8601");
+  return specs;
+}
+
+std::string RunRecord::text(std::string_view name) const {
+  for (const auto& [key, item] : metrics) {
+    if (const auto* text = std::get_if<std::string>(&item); key == name && text) return *text;
+  }
+  return "";
+}
+
+double RunRecord::number(std::string_view name) const {
+  for (const auto& [key, item] : metrics) {
+    if (const auto* number = std::get_if<double>(&item); key == name && number) return *number;
+  }
+  return NAN;
+}
+
 namespace {
 
-constexpr const char* kSchema = R"sql(
+/// The identity columns of `runs`: what defines a run. The metric columns follow them.
+constexpr const char* kIdentityColumns =
+    "run_hash TEXT PRIMARY KEY, variant INTEGER, sweep TEXT, world TEXT, world_hash TEXT, "
+    "query INTEGER, planner TEXT, planner_type TEXT, sampler TEXT, repetition INTEGER, seed TEXT, "
+    "start_x REAL, start_y REAL, start_z REAL, goal_x REAL, goal_y REAL, goal_z REAL";
+constexpr int kIdentityCount = 17;
+
+constexpr const char* kTables = R"sql(
 CREATE TABLE IF NOT EXISTS meta (key TEXT PRIMARY KEY, value TEXT NOT NULL);
-CREATE TABLE IF NOT EXISTS runs (
-  run_hash TEXT PRIMARY KEY, variant INTEGER, sweep TEXT, world TEXT, world_hash TEXT,
-  query INTEGER, planner TEXT, planner_type TEXT, sampler TEXT, repetition INTEGER, seed TEXT,
-  start_x REAL, start_y REAL, start_z REAL, goal_x REAL, goal_y REAL, goal_z REAL,
-  status TEXT NOT NULL, message TEXT, planning_time_ms REAL, cost REAL, distance_to_goal REAL,
-  duration REAL, length REAL, jerk_integral REAL, min_clearance REAL, mean_clearance REAL,
-  checker_valid INTEGER, checker_check TEXT, checker_detail TEXT, peak_memory_mb REAL,
-  wall_time_ms REAL, started_at TEXT);
 CREATE TABLE IF NOT EXISTS statistics (
   run_hash TEXT NOT NULL, name TEXT NOT NULL, value REAL, PRIMARY KEY (run_hash, name));
+CREATE TABLE IF NOT EXISTS metrics (
+  name TEXT NOT NULL, kind TEXT NOT NULL, planner_type TEXT NOT NULL, type TEXT, unit TEXT,
+  doc TEXT, clock INTEGER, PRIMARY KEY (name, planner_type));
 CREATE TABLE IF NOT EXISTS worlds (
   world_hash TEXT PRIMARY KEY, id TEXT, resolution REAL, origin_x REAL, origin_y REAL,
   origin_z REAL, nx INTEGER, ny INTEGER, nz INTEGER, top BLOB, side BLOB);
@@ -29,12 +56,40 @@ CREATE TABLE IF NOT EXISTS trajectories (run_hash TEXT PRIMARY KEY, csv TEXT NOT
 CREATE TABLE IF NOT EXISTS trees (run_hash TEXT PRIMARY KEY, csv TEXT NOT NULL);
 )sql";
 
-constexpr const char* kRunColumns =
-    "run_hash, variant, sweep, world, world_hash, query, planner, planner_type, sampler, "
-    "repetition, seed, start_x, start_y, start_z, goal_x, goal_y, goal_z, status, message, "
-    "planning_time_ms, cost, distance_to_goal, duration, length, jerk_integral, min_clearance, "
-    "mean_clearance, checker_valid, checker_check, checker_detail, peak_memory_mb, "
-    "wall_time_ms, started_at";
+/// Every metric column of `runs`, in order: the result metrics, then the runner's.
+std::vector<const MetricSpec*> metricColumns() {
+  std::vector<const MetricSpec*> columns;
+  for (const MetricSpecs* specs : {&resultMetrics(), &runnerMetrics()}) {
+    for (const MetricSpec& spec : specs->all()) columns.push_back(&spec);
+  }
+  return columns;
+}
+
+std::string sqlType(MetricType type) {
+  switch (type) {
+    case MetricType::kInteger:
+    case MetricType::kBoolean:
+      return "INTEGER";
+    case MetricType::kText:
+      return "TEXT";
+    case MetricType::kReal:
+      break;
+  }
+  return "REAL";
+}
+
+std::string runsTable() {
+  std::string sql = std::string("CREATE TABLE IF NOT EXISTS runs (") + kIdentityColumns;
+  for (const MetricSpec* spec : metricColumns()) sql += ", " + spec->name + " " + sqlType(spec->type);
+  return sql + ");";
+}
+
+const MetricValue* findValue(const MetricValues& values, std::string_view name) {
+  for (const auto& [key, value] : values) {
+    if (key == name) return &value;
+  }
+  return nullptr;
+}
 
 /// A prepared statement, finalised on scope exit.
 class Statement {
@@ -61,6 +116,19 @@ class Statement {
     }
   }
   void add(int value) { sqlite3_bind_int(statement_, ++next_, value); }
+  /// A metric value as its declared type: none is NULL.
+  void add(const MetricValue* value, MetricType type) {
+    const auto* number = value ? std::get_if<double>(value) : nullptr;
+    const auto* text = value ? std::get_if<std::string>(value) : nullptr;
+    if (text) {
+      add(*text);
+    } else if (number && std::isfinite(*number) && type != MetricType::kReal &&
+               type != MetricType::kText) {
+      sqlite3_bind_int64(statement_, ++next_, static_cast<sqlite3_int64>(std::llround(*number)));
+    } else {
+      add(number ? *number : NAN);
+    }
+  }
   void addBlob(const void* data, std::size_t size) {
     sqlite3_bind_blob(statement_, ++next_, data, static_cast<int>(size), SQLITE_TRANSIENT);
   }
@@ -100,7 +168,9 @@ ResultsStore::ResultsStore(const std::string& path) : path_(path) {
   sqlite3_busy_timeout(db_, 10000);
   try {
     execute("PRAGMA journal_mode=WAL; PRAGMA synchronous=NORMAL;");
-    execute(kSchema);
+    execute(kTables);
+    // A database of another schema version keeps its runs table (schemaVersion() tells).
+    execute(runsTable());
   } catch (...) {
     sqlite3_close(db_);
     throw;
@@ -164,13 +234,16 @@ long long ResultsStore::runCount() const {
 }
 
 void ResultsStore::insert(const RunRecord& r) {
+  const std::vector<const MetricSpec*> columns = metricColumns();
+  std::string names = "run_hash, variant, sweep, world, world_hash, query, planner, "
+                      "planner_type, sampler, repetition, seed, start_x, start_y, start_z, "
+                      "goal_x, goal_y, goal_z";
+  for (const MetricSpec* spec : columns) names += ", " + spec->name;
+  std::string marks = "?";
+  for (std::size_t i = 1; i < kIdentityCount + columns.size(); ++i) marks += ",?";
   execute("BEGIN IMMEDIATE");
   try {
-    Statement run(
-        db_,
-        std::string("INSERT INTO runs (") + kRunColumns +
-            ") VALUES (?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?)",
-        path_);
+    Statement run(db_, "INSERT INTO runs (" + names + ") VALUES (" + marks + ")", path_);
     run.add(r.run_hash);
     run.add(r.variant);
     for (const std::string* text : {&r.sweep, &r.world, &r.world_hash}) run.add(*text);
@@ -180,25 +253,14 @@ void ResultsStore::insert(const RunRecord& r) {
     run.add(r.seed);
     for (const double v : r.start) run.add(v);
     for (const double v : r.goal) run.add(v);
-    run.add(r.status);
-    run.add(r.message);
-    for (const double v : {r.planning_time_ms, r.cost, r.distance_to_goal, r.duration, r.length,
-                           r.jerk_integral, r.min_clearance, r.mean_clearance}) {
-      run.add(v);
-    }
-    run.add(r.checker_valid);
-    run.add(r.checker_check);
-    run.add(r.checker_detail);
-    run.add(r.peak_memory_mb);
-    run.add(r.wall_time_ms);
-    run.add(r.started_at);
+    for (const MetricSpec* spec : columns) run.add(findValue(r.metrics, spec->name), spec->type);
     run.step(path_);
     Statement statistic(db_, "INSERT INTO statistics (run_hash, name, value) VALUES (?, ?, ?)",
                         path_);
     for (const auto& [name, value] : r.statistics) {
       statistic.add(r.run_hash);
       statistic.add(name);
-      statistic.add(value);
+      statistic.add(&value, MetricType::kReal);
       statistic.step(path_);
       statistic.reset();
     }
@@ -219,6 +281,36 @@ void ResultsStore::insert(const RunRecord& r) {
     execute("ROLLBACK");
     throw;
   }
+}
+
+void ResultsStore::declareMetrics(const std::string& kind, const std::string& planner_type,
+                                  const MetricSpecs& specs) {
+  execute("BEGIN IMMEDIATE");
+  try {
+    Statement insert(db_,
+                     "INSERT OR REPLACE INTO metrics (name, kind, planner_type, type, unit, doc, "
+                     "clock) VALUES (?, ?, ?, ?, ?, ?, ?)",
+                     path_);
+    for (const MetricSpec& spec : specs.all()) {
+      const std::string type = spec.typeName();
+      for (const std::string* text : {&spec.name, &kind, &planner_type, &type, &spec.unit, &spec.doc}) {
+        insert.add(*text);
+      }
+      insert.add(spec.clock ? 1 : 0);
+      insert.step(path_);
+      insert.reset();
+    }
+    execute("COMMIT");
+  } catch (...) {
+    execute("ROLLBACK");
+    throw;
+  }
+}
+
+std::optional<int> ResultsStore::schemaVersion() const {
+  if (const auto version = meta("schema_version")) return std::stoi(*version);
+  if (meta("config_hash")) return 1;  // written before versions were recorded
+  return std::nullopt;
 }
 
 void ResultsStore::insertWorld(const WorldRecord& w) {

@@ -25,6 +25,7 @@
 
 #include "kinolab/core/error.hpp"
 #include "kinolab/core/hash.hpp"
+#include "kinolab/core/plugin.hpp"
 #include "kinolab/core/process.hpp"
 #include "kinolab/core/text.hpp"
 #include "kinolab/core/version.hpp"
@@ -64,15 +65,6 @@ std::string duration(double s) {
   return text;
 }
 
-double numberOr(const nlohmann::json& json, const char* key) {
-  const auto found = json.find(key);
-  return found != json.end() && found->is_number() ? found->get<double>() : NAN;
-}
-
-nlohmann::json finite(double value) {
-  return std::isfinite(value) ? nlohmann::json(value) : nlohmann::json(nullptr);
-}
-
 /// Limits the worker's address space to what it has now plus the budget.
 void limitMemory(long long budget_mb) {
   long long pages = 0;
@@ -93,7 +85,7 @@ void limitMemory(long long budget_mb) {
   if (getppid() == 1) _exit(1);      // ... also when it died before the line above
   const ExperimentVariant& variant = experiment.variants[run.variant];
   limitMemory(variant.budget.memory_mb);
-  nlohmann::json out;
+  nlohmann::json out;  // {"metrics": {...}, "statistics": {...}, "trajectory", "tree"}
   try {
     const ExperimentPlanner& spec = variant.planners[run.planner];
     ConfiguredPlanner configured = configurePlanner(spec.type, spec.assignments);
@@ -104,34 +96,20 @@ void limitMemory(long long budget_mb) {
     const bool store_tree =
         experiment.store_tree_queries < 0 || run.query < experiment.store_tree_queries;
     const PlanResult result = configured.planner->plan(query, budget, store_tree ? &tree : nullptr);
-    out = {{"status", toString(result.status)},
-           {"message", result.message},
-           {"planning_time_ms", result.planning_time_ms},
-           {"cost", finite(result.cost)},
-           {"distance_to_goal", finite(result.distance_to_goal)},
-           {"checker_valid", result.check.valid},
-           {"checker_check", result.check.check},
-           {"checker_detail", result.check.detail}};
-    if (!result.trajectory.empty()) {
-      out["duration"] = result.trajectory.duration();
-      out["length"] = result.trajectory.length();
-      out["jerk_integral"] = finite(result.trajectory.jerkIntegral());
-      out["min_clearance"] = finite(result.check.min_clearance);
-      out["mean_clearance"] = finite(result.check.mean_clearance);
-      if (experiment.store_trajectories) out["trajectory"] = trajectoryCsv(result.trajectory, 0.05);
+    out["metrics"] = nlohmann::json::parse(toJson(resultValues(result), resultMetrics()));
+    out["statistics"] = nlohmann::json::parse(
+        toJson(statisticValues(result.statistics), configured.info->statistics));
+    if (!result.trajectory.empty() && experiment.store_trajectories) {
+      out["trajectory"] = trajectoryCsv(result.trajectory, 0.05);
     }
     if (store_tree) out["tree"] = treeCsv(tree);
-    nlohmann::json statistics = nlohmann::json::array();
-    for (const auto& [name, value] : result.statistics) {
-      statistics.push_back({name, finite(value)});
-    }
-    out["statistics"] = std::move(statistics);
   } catch (const std::bad_alloc&) {
-    out = {{"status", "oom"},
-           {"message", "out of memory: the run exceeded its budget of " +
-                           std::to_string(variant.budget.memory_mb) + " MB"}};
+    out = {{"metrics",
+            {{"status", "oom"},
+             {"message", "out of memory: the run exceeded its budget of " +
+                             std::to_string(variant.budget.memory_mb) + " MB"}}}};
   } catch (const std::exception& error) {
-    out = {{"status", "error"}, {"message", error.what()}};
+    out = {{"metrics", {{"status", "error"}, {"message", error.what()}}}};
   }
   const std::string text = out.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
   std::size_t written = 0;
@@ -177,54 +155,41 @@ RunRecord recordOf(const Experiment& experiment, const Worker& worker, int wait_
     record.start[axis] = query.start(axis, 0);
     record.goal[axis] = query.goal[axis];
   }
-  record.peak_memory_mb = static_cast<double>(usage.ru_maxrss) / 1024.0;
-  record.wall_time_ms = (seconds() - worker.started) * 1000.0;
-  record.started_at = worker.started_at;
+  const double wall_time_ms = (seconds() - worker.started) * 1000.0;
+  const auto finish = [&](std::string status, std::string message) {
+    record.metrics.insert(record.metrics.begin(), {{"status", std::move(status)},
+                                                   {"message", std::move(message)},
+                                                   {"success", 0.0}});
+  };
+  record.metrics = {{"peak_memory_mb", static_cast<double>(usage.ru_maxrss) / 1024.0},
+                    {"wall_time_ms", wall_time_ms},
+                    {"started_at", worker.started_at}};
 
   if (worker.killed_for_time) {
-    record.status = "timeout";
-    record.message = "killed after " + formatNumber(record.wall_time_ms / 1000.0) +
-                     " s: the planner ignored its time budget of " +
-                     formatNumber(variant.budget.time) + " s";
+    finish("killed", "killed after " + formatNumber(wall_time_ms / 1000.0) +
+                         " s: the planner ignored its time budget of " +
+                         formatNumber(variant.budget.time) + " s");
     return record;
   }
   if (WIFSIGNALED(wait_status)) {
-    record.status = "crash";
-    record.message = std::string("the worker died of signal ") +
-                     std::to_string(WTERMSIG(wait_status)) + " (" +
-                     strsignal(WTERMSIG(wait_status)) + ")";
+    finish("crash", std::string("the worker died of signal ") +
+                        std::to_string(WTERMSIG(wait_status)) + " (" +
+                        strsignal(WTERMSIG(wait_status)) + ")");
     return record;
   }
-  nlohmann::json out = nlohmann::json::parse(worker.output, nullptr, false);
+  const nlohmann::json out = nlohmann::json::parse(worker.output, nullptr, false);
   if (!WIFEXITED(wait_status) || WEXITSTATUS(wait_status) != 0 || out.is_discarded() ||
-      !out.contains("status")) {
-    record.status = "crash";
-    record.message = "the worker exited with status " +
-                     std::to_string(WIFEXITED(wait_status) ? WEXITSTATUS(wait_status) : -1) +
-                     " without a result";
+      !out.contains("metrics") || !out["metrics"].contains("status")) {
+    finish("crash", "the worker exited with status " +
+                        std::to_string(WIFEXITED(wait_status) ? WEXITSTATUS(wait_status) : -1) +
+                        " without a result");
     return record;
   }
-  record.status = out["status"].get<std::string>();
-  record.message = out.value("message", "");
-  record.planning_time_ms = numberOr(out, "planning_time_ms");
-  record.cost = numberOr(out, "cost");
-  record.distance_to_goal = numberOr(out, "distance_to_goal");
-  record.duration = numberOr(out, "duration");
-  record.length = numberOr(out, "length");
-  record.jerk_integral = numberOr(out, "jerk_integral");
-  record.min_clearance = numberOr(out, "min_clearance");
-  record.mean_clearance = numberOr(out, "mean_clearance");
-  record.checker_valid = out.value("checker_valid", false) ? 1 : 0;
-  record.checker_check = out.value("checker_check", "");
-  record.checker_detail = out.value("checker_detail", "");
+  MetricValues metrics = metricValuesFromJson(out["metrics"].dump());
+  record.metrics.insert(record.metrics.begin(), metrics.begin(), metrics.end());
+  if (out.contains("statistics")) record.statistics = metricValuesFromJson(out["statistics"].dump());
   record.trajectory_csv = out.value("trajectory", "");
   record.tree_csv = out.value("tree", "");
-  if (out.contains("statistics")) {
-    for (const auto& item : out["statistics"]) {
-      record.statistics.emplace_back(item[0].get<std::string>(),
-                                     item[1].is_number() ? item[1].get<double>() : NAN);
-    }
-  }
   return record;
 }
 
@@ -255,8 +220,6 @@ WorldRecord worldRecord(const World& world, const std::string& id) {
   return record;
 }
 
-bool failed(const std::string& status) { return status != "exact" && status != "approximate"; }
-
 /// Progress on stderr: a bar redrawn in place on a terminal, a line every 10 s or 10 %
 /// otherwise.
 class Progress {
@@ -264,10 +227,10 @@ class Progress {
   Progress(long long total, long long already)
       : total_(total), done_(already), tty_(isatty(STDERR_FILENO)), begin_(seconds()) {}
 
-  void update(const std::string& status) {
+  void update(bool success) {
     ++done_;
     ++ran_;
-    failed_ += failed(status) ? 1 : 0;
+    failed_ += success ? 0 : 1;
     const double now = seconds();
     const bool milestone = total_ > 0 && done_ * 10 / total_ != (done_ - 1) * 10 / total_;
     if (tty_ || now - last_line_ >= 10.0 || milestone || done_ == total_) {
@@ -289,10 +252,10 @@ class Progress {
       const int width = 30;
       const int filled = total_ > 0 ? static_cast<int>(width * done_ / total_) : width;
       const std::string bar = std::string(filled, '#') + std::string(width - filled, '.');
-      std::snprintf(text, sizeof(text), "\r[%s] %lld/%lld done, %lld failed, %.1f runs/s, %s left ",
+      std::snprintf(text, sizeof(text), "\r[%s] %lld/%lld done, %lld unsolved, %.1f runs/s, %s left ",
                     bar.c_str(), done_, total_, failed_, rate, duration(left).c_str());
     } else {
-      std::snprintf(text, sizeof(text), "run: %lld/%lld done, %lld failed, %.1f runs/s, %s left\n",
+      std::snprintf(text, sizeof(text), "run: %lld/%lld done, %lld unsolved, %.1f runs/s, %s left\n",
                     done_, total_, failed_, rate, duration(left).c_str());
     }
     std::fputs(text, stderr);
@@ -328,8 +291,9 @@ std::map<std::string, std::string> provenance() {
   values["eigen_version"] = std::to_string(EIGEN_WORLD_VERSION) + "." +
                             std::to_string(EIGEN_MAJOR_VERSION) + "." +
                             std::to_string(EIGEN_MINOR_VERSION);
-  values["ompl_version"] = kOmplVersion;
-  values["ceres_version"] = kCeresVersion;
+  for (const auto& [library, version] : pluginLibraryVersions()) {
+    values[library + "_version"] = version;
+  }
   values["fcl_version"] = kFclVersion;
   values["octomap_version"] = kOctomapVersion;
   std::ifstream cpuinfo("/proc/cpuinfo");
@@ -396,6 +360,12 @@ RunnerSummary runExperiment(const Experiment& experiment, const RunnerOptions& o
       throw ConfigError(store.path() + " holds shard " + *store.meta("shard") + ", not " + shard);
     }
   }
+  if (const auto version = store.schemaVersion(); version && *version != kResultsSchemaVersion) {
+    throw ConfigError(store.path() + " holds results of schema version " +
+                      std::to_string(*version) + "; this kinolab writes version " +
+                      std::to_string(kResultsSchemaVersion) +
+                      ": run into a new --out directory (kinolab report still reads the old one)");
+  }
   const std::set<std::string> done = store.runHashes();
   if (!done.empty() && !options.resume) {
     throw ConfigError(store.path() + " already holds " + std::to_string(done.size()) +
@@ -408,11 +378,31 @@ RunnerSummary runExperiment(const Experiment& experiment, const RunnerOptions& o
                                              {"config_hash", experiment.config_hash},
                                              {"shard", shard},
                                              {"runs_planned", std::to_string(runs.size())},
+                                             {"schema_version",
+                                              std::to_string(kResultsSchemaVersion)},
                                              {"plugins", join(experiment.plugins, "\n")},
                                              {"last_started_at", utcNow()}};
   if (!store.meta("started_at")) meta["started_at"] = meta["last_started_at"];
+  if (!experiment.reproduces_paper.empty()) {
+    // What the report shows the paper's tables for: "id=row" lines.
+    meta["reproduces.paper"] = experiment.reproduces_paper;
+    std::string rows;
+    for (const auto& [id, row] : experiment.reproduces_rows) rows += id + "=" + row + "\n";
+    meta["reproduces.rows"] = rows;
+  }
   for (const auto& [key, value] : provenance()) meta["provenance." + key] = value;
   store.setMeta(meta);
+  store.declareMetrics("result", "", resultMetrics());
+  store.declareMetrics("runner", "", runnerMetrics());
+  std::set<std::string> planner_types;
+  for (const ExperimentVariant& variant : experiment.variants) {
+    for (const ExperimentPlanner& planner : variant.planners) planner_types.insert(planner.type);
+  }
+  for (const std::string& type : planner_types) {
+    MetricSpecs statistics = commonStatistics();
+    statistics.include(pluginRegistry<Planner>().info(type).statistics);
+    store.declareMetrics("statistic", type, statistics);
+  }
 
   std::vector<const RunSpec*> pending;
   for (const RunSpec& run : runs) {
@@ -529,9 +519,11 @@ RunnerSummary runExperiment(const Experiment& experiment, const RunnerOptions& o
           const RunRecord record =
               recordOf(experiment, worker, status, usage, queryOf(*worker.run));
           store.insert(record);
+          const bool success = record.number("success") == 1.0;
           ++summary.finished;
-          ++summary.by_status[record.status];
-          progress.update(record.status);
+          summary.succeeded += success ? 1 : 0;
+          ++summary.by_status[record.text("status")];
+          progress.update(success);
         }
         fds.erase(fds.begin() + static_cast<std::ptrdiff_t>(i));
         workers.erase(workers.begin() + static_cast<std::ptrdiff_t>(i));

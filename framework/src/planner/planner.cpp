@@ -120,6 +120,7 @@ PlanResult Planner::plan(const PlanningQuery& query, const Budget& budget, Searc
   result = doPlan(query, stop, tree);
   result.planning_time_ms =
       std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - begin).count();
+  if (info_) checkStatisticsDeclared(result, info_->statistics, info_->key);
 
   if (result.trajectory.empty()) {
     result.distance_to_goal = (start - query.goal).norm();
@@ -154,36 +155,63 @@ PlanResult Planner::plan(const PlanningQuery& query, const Budget& budget, Searc
   return result;
 }
 
+ParameterSpecs motionParameters(double default_time_limit) {
+  return ParameterSpecs()
+      .real("robot_radius", 0.25, 0.0, 10.0, "body radius: clearance below this collides, m")
+      .real("max_velocity", 2.0, 0.01, 100.0, "per-axis velocity limit, m/s")
+      .real("max_acceleration", 3.0, 0.01, 1000.0, "per-axis acceleration limit, m/s^2")
+      .real("goal_radius", 0.5, 0.001, 100.0, "goal region: positions this close to the goal, m")
+      .real("time_limit", default_time_limit, 0.0, 1e6, "planning time budget, s (0: none)");
+}
+
+PlanningModel planningModelFrom(const ParameterSet& parameters) {
+  PlanningModel model;
+  model.robot_radius = parameters.real("robot_radius");
+  model.limits = DynamicLimits::uniform(parameters.real("max_velocity"),
+                                        parameters.real("max_acceleration"));
+  model.limited_derivatives = 2;
+  model.goal_radius = parameters.real("goal_radius");
+  return model;
+}
+
+Budget timeBudgetFrom(const ParameterSet& parameters) {
+  Budget budget;
+  if (const double limit = parameters.real("time_limit"); limit > 0.0) budget.time_limit = limit;
+  return budget;
+}
+
 ConfiguredPlanner configurePlanner(std::string_view key,
                                    const std::vector<ParameterAssignment>& assignments) {
-  static constexpr std::string_view kPrefix = "sampler.";
+  const PluginRegistry<Planner>& planners = pluginRegistry<Planner>();
+  const ParameterSpec* sampler = planners.info(key).parameters.samplerParameter();
+  const std::string prefix = (sampler ? sampler->name : std::string("sampler")) + ".";
   std::vector<ParameterAssignment> own;
   std::vector<ParameterAssignment> for_sampler;
   for (const auto& assignment : assignments) {
-    if (assignment.name.starts_with(kPrefix)) {
+    if (assignment.name.starts_with(prefix)) {
       ParameterAssignment inner = assignment;
-      inner.name = assignment.name.substr(kPrefix.size());
+      inner.name = assignment.name.substr(prefix.size());
       for_sampler.push_back(std::move(inner));
     } else {
       own.push_back(assignment);
     }
   }
-  const PluginRegistry<Planner>& planners = pluginRegistry<Planner>();
   ConfiguredPlanner configured;
   configured.parameters = planners.resolve(key, own);
-  const bool uses_sampler = planners.info(key).parameters.find("sampler") != nullptr;
-  if (uses_sampler) {
-    configured.sampler_key = configured.parameters.text("sampler");
+  if (sampler) {
+    configured.sampler_key = configured.parameters.text(sampler->name);
     const auto& samplers = pluginRegistry<ControlSampler>();
     configured.sampler_parameters = samplers.resolve(configured.sampler_key, for_sampler);
     configured.sampler =
         samplers.createResolved(configured.sampler_key, configured.sampler_parameters);
   } else if (!for_sampler.empty()) {
     throw ConfigError(for_sampler.front().where + ": planner '" + std::string(key) +
-                      "' uses no control sampler, so 'sampler." + for_sampler.front().name +
+                      "' uses no control sampler, so '" + prefix + for_sampler.front().name +
                       "' cannot be set");
   }
   configured.planner = planners.createResolved(key, configured.parameters);
+  configured.info = &planners.info(key);
+  configured.planner->info_ = configured.info;
   return configured;
 }
 

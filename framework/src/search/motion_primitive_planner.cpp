@@ -8,12 +8,11 @@ namespace kinolab {
 
 ParameterSpecs motionPrimitiveParameters() {
   return ParameterSpecs()
-      .text("sampler", "uniform",
-            "control sampler (kinolab list samplers); set its parameters as sampler.NAME")
+      .sampler("sampler", "uniform",
+               "control sampler (kinolab list samplers); set its parameters as sampler.NAME")
       .integer("order", 2, 2, 4, "integrator chain order: 2 acceleration, 3 jerk, 4 snap control")
       .real("tau", 0.4, 0.01, 5.0, "primitive duration, s")
-      .real("max_velocity", 2.0, 0.01, 100.0, "per-axis velocity limit, m/s")
-      .real("max_acceleration", 3.0, 0.01, 1000.0, "per-axis acceleration limit, m/s^2")
+      .include(motionParameters(10.0))
       .real("max_jerk", 10.0, 0.01, 10000.0, "per-axis jerk limit (order >= 3), m/s^3")
       .real("max_snap", 50.0, 0.01, 100000.0, "per-axis snap limit (order 4), m/s^4")
       .real("weight_duration", 1.0, 0.0, 1e6, "cost per second of flight")
@@ -23,7 +22,6 @@ ParameterSpecs motionPrimitiveParameters() {
       .integer("edge_samples", 10, 1, 10000, "K: ESDF samples per edge in full evaluation")
       .real("edge_spacing", 0.0, 0.0, 10.0,
             "> 0: sample edges this far apart (at most half a voxel) instead of K samples, m")
-      .real("robot_radius", 0.25, 0.0, 10.0, "body radius: clearance below this collides, m")
       .real("safety_distance", 0.5, 0.001, 100.0, "obstacle penalty band beyond the radius, m")
       .choice("heuristic", "min_time", {"euclidean", "min_time"},
               "euclidean: |d| / |v_max|; min_time: max_i |d_i| / v_max_i (MPL)")
@@ -33,56 +31,68 @@ ParameterSpecs motionPrimitiveParameters() {
       .real("key_velocity_resolution", 0.01, 1e-6, 10.0, "state key: velocity rounding, m/s")
       .real("key_acceleration_resolution", 0.01, 1e-6, 100.0,
             "state key: acceleration (and jerk) rounding")
-      .real("goal_radius", 0.5, 0.001, 100.0, "goal region: positions this close to the goal, m")
-      .real("time_limit", 10.0, 0.0, 1e6, "planning time budget, s (0: none)")
       .integer("max_expansions", 0, 0, 1000000000, "expansion budget (0: none)");
 }
 
-SearchSettings searchSettingsFrom(const ParameterSet& parameters, EvaluationMode mode) {
-  SearchSettings settings;
-  settings.mode = mode;
+MetricSpecs motionPrimitiveStatistics() {
+  return MetricSpecs()
+      .counter("expansions", "states expanded (N)")
+      .counter("pops", "open-list entries popped, stale ones included")
+      .counter("partial_evaluations", "edges queued with a lower bound (lazy)")
+      .counter("full_evaluations", "edges fully evaluated")
+      .counter("certified_edges", "lower-bound edges proved exact without full evaluation")
+      .counter("rejected_edges", "full evaluations that found a collision")
+      .counter("esdf_queries", "ESDF look-ups by edge evaluation")
+      .counter("open_peak", "largest open list")
+      .counter("candidates", "candidate edges created")
+      .counter("closed_states", "states closed")
+      .clock("time_evaluation_ms", "time spent evaluating edges (within planning_time_ms)")
+      .counter("controls", "size of the control set")
+      .real("heuristic_weight", "", "epsilon: the heuristic's weight");
+}
+
+MotionPrimitiveConfig MotionPrimitiveConfig::fromParameters(const ParameterSet& parameters) {
+  MotionPrimitiveConfig config;
+  SearchSettings& settings = config.settings;
+  const PlanningModel model = planningModelFrom(parameters);
   EdgeEvaluatorSettings& edges = settings.edges;
   edges.order = static_cast<int>(parameters.integer("order"));
   edges.duration = parameters.real("tau");
-  edges.limits =
-      DynamicLimits::uniform(parameters.real("max_velocity"), parameters.real("max_acceleration"),
-                             parameters.real("max_jerk"), parameters.real("max_snap"));
+  edges.limits = DynamicLimits::uniform(model.limits.bound[1].x(), model.limits.bound[2].x(),
+                                        parameters.real("max_jerk"), parameters.real("max_snap"));
   edges.weights.duration = parameters.real("weight_duration");
   edges.weights.length = parameters.real("weight_length");
   edges.weights.control_effort = parameters.real("weight_control");
   edges.weights.obstacle = parameters.real("weight_obstacle");
-  edges.robot_radius = parameters.real("robot_radius");
+  edges.robot_radius = model.robot_radius;
   edges.safety_distance = parameters.real("safety_distance");
   const double spacing = parameters.real("edge_spacing");
   edges.sampling.mode = spacing > 0.0 ? EdgeSampling::Mode::kSpacing : EdgeSampling::Mode::kCount;
   edges.sampling.samples = static_cast<int>(parameters.integer("edge_samples"));
   if (spacing > 0.0) edges.sampling.spacing = spacing;
-  settings.heuristic =
-      parameters.text("heuristic") == "euclidean" ? Heuristic::kEuclidean : Heuristic::kMinTime;
   settings.heuristic_weight = parameters.real("heuristic_weight");
   settings.key_resolution = {parameters.real("key_position_resolution"),
                              parameters.real("key_velocity_resolution"),
                              parameters.real("key_acceleration_resolution")};
-  settings.goal_radius = parameters.real("goal_radius");
-  if (parameters.has("duplicate_rule")) {
-    settings.duplicate_rule =
-        parameters.text("duplicate_rule") == "seed" ? DuplicateRule::kSeed : DuplicateRule::kLwa;
+  settings.goal_radius = model.goal_radius;
+
+  config.policies.edges = std::make_shared<FullEvaluationPolicy>();
+  if (parameters.text("heuristic") == "euclidean") {
+    config.policies.heuristic = std::make_shared<EuclideanHeuristic>(edges, settings.goal_radius);
+  } else {
+    config.policies.heuristic = std::make_shared<MinTimeHeuristic>(edges, settings.goal_radius);
   }
-  if (parameters.has("lower_bound")) {
-    const std::string& bound = parameters.text("lower_bound");
-    settings.lower_bound = bound == "control_only" ? LowerBound::kControlOnly
-                           : bound == "lipschitz"  ? LowerBound::kLipschitz
-                                                   : LowerBound::kEndpoint;
+  config.budget = timeBudgetFrom(parameters);
+  if (const long long limit = parameters.integer("max_expansions"); limit > 0) {
+    config.budget.max_iterations = limit;
   }
-  if (parameters.has("cost_weight")) settings.cost_weight = parameters.real("cost_weight");
-  return settings;
+  return config;
 }
 
-MotionPrimitivePlanner::MotionPrimitivePlanner(const ParameterSet& parameters, EvaluationMode mode)
-    : settings_(searchSettingsFrom(parameters, mode)) {
-  if (const double limit = parameters.real("time_limit"); limit > 0.0) budget_.time_limit = limit;
-  if (const long long limit = parameters.integer("max_expansions"); limit > 0) {
-    budget_.max_iterations = limit;
+MotionPrimitivePlanner::MotionPrimitivePlanner(MotionPrimitiveConfig config)
+    : config_(std::move(config)) {
+  if (!config_.policies.edges || !config_.policies.heuristic) {
+    throw InvalidArgument("motion-primitive planner: an edge policy and a heuristic are needed");
   }
 }
 
@@ -95,17 +105,18 @@ void MotionPrimitivePlanner::doSetup(const PlannerContext& context) {
   if (!context.sampler) {
     throw InvalidArgument("motion-primitive planner: set up without a control sampler");
   }
-  const Eigen::Vector3d u_max = settings_.edges.limits.bound[settings_.edges.order];
-  auto controls = context.sampler->sample(u_max, context.seed);
-  if (settings_.edges.sampling.mode == EdgeSampling::Mode::kSpacing) {
+  const EdgeEvaluatorSettings& edges = config_.settings.edges;
+  auto controls = context.sampler->sample(edges.limits.bound[edges.order], context.seed);
+  if (edges.sampling.mode == EdgeSampling::Mode::kSpacing) {
     const double half_voxel = 0.5 * context.world->esdf().resolution();
-    if (settings_.edges.sampling.spacing > half_voxel) {
-      throw ConfigError("edge_spacing " + formatNumber(settings_.edges.sampling.spacing) +
+    if (edges.sampling.spacing > half_voxel) {
+      throw ConfigError("edge_spacing " + formatNumber(edges.sampling.spacing) +
                         " m is coarser than half a voxel of world '" + context.world->name() +
                         "' (" + formatNumber(half_voxel) + " m)");
     }
   }
-  search_ = std::make_unique<MotionPrimitiveSearch>(context.world, std::move(controls), settings_);
+  search_ = std::make_unique<MotionPrimitiveSearch>(context.world, std::move(controls),
+                                                    config_.settings, config_.policies);
 }
 
 void MotionPrimitivePlanner::doReset() {
@@ -114,10 +125,10 @@ void MotionPrimitivePlanner::doReset() {
 
 PlanningModel MotionPrimitivePlanner::planningModel() const {
   PlanningModel model;
-  model.robot_radius = settings_.edges.robot_radius;
-  model.limits = settings_.edges.limits;
-  model.limited_derivatives = settings_.edges.order;
-  model.goal_radius = settings_.goal_radius;
+  model.robot_radius = config_.settings.edges.robot_radius;
+  model.limits = config_.settings.edges.limits;
+  model.limited_derivatives = config_.settings.edges.order;
+  model.goal_radius = config_.settings.goal_radius;
   return model;
 }
 
@@ -144,7 +155,7 @@ PlanResult MotionPrimitivePlanner::doPlan(const PlanningQuery& query, StopCondit
   }
   result.statistics = search.statistics();
   result.statistics.emplace_back("controls", static_cast<double>(search.controls().size()));
-  result.statistics.emplace_back("heuristic_weight", settings_.heuristic_weight);
+  result.statistics.emplace_back("heuristic_weight", config_.settings.heuristic_weight);
   if (tree) *tree = search.tree();
   return result;
 }

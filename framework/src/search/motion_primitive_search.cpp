@@ -33,12 +33,16 @@ std::size_t MotionPrimitiveSearch::KeyHash::operator()(const Key& key) const {
 
 MotionPrimitiveSearch::MotionPrimitiveSearch(std::shared_ptr<const World> world,
                                              std::vector<Eigen::Vector3d> controls,
-                                             SearchSettings settings)
+                                             SearchSettings settings, SearchPolicies policies)
     : world_(std::move(world)),
       controls_(std::move(controls)),
       settings_(settings),
+      policies_(std::move(policies)),
       evaluator_(world_, settings_.edges) {
   if (controls_.empty()) throw InvalidArgument("motion-primitive search: no controls");
+  if (!policies_.edges || !policies_.heuristic) {
+    throw InvalidArgument("motion-primitive search: an edge policy and a heuristic are needed");
+  }
   if (!(settings_.heuristic_weight >= 1.0)) {
     throw InvalidArgument("motion-primitive search: heuristic_weight must be >= 1");
   }
@@ -50,26 +54,8 @@ MotionPrimitiveSearch::MotionPrimitiveSearch(std::shared_ptr<const World> world,
       throw InvalidArgument("motion-primitive search: key resolutions must be positive");
     }
   }
-  const Eigen::Vector3d v_max = settings_.edges.limits.bound[1];
-  inverse_v_max_ = v_max.cwiseInverse();  // infinite limits give 0: no time bound
-  inverse_speed_ = std::isfinite(v_max.norm()) ? 1.0 / v_max.norm() : 0.0;
   evaluations_.resize(controls_.size());
-  certified_.assign(controls_.size(), 0);
-}
-
-double MotionPrimitiveSearch::heuristic(const Eigen::Vector3d& position) const {
-  const Eigen::Vector3d offset = (position - goal_).cwiseAbs();
-  const double radius = settings_.goal_radius;
-  const double distance = std::max(offset.norm() - radius, 0.0);
-  const CostWeights& w = settings_.edges.weights;
-  double time = 0.0;
-  if (settings_.heuristic == Heuristic::kEuclidean) {
-    time = distance * inverse_speed_;
-  } else {
-    // The goal ball lies inside the cube of half-width R: per axis, the distance to that cube.
-    time = ((offset.array() - radius).max(0.0) * inverse_v_max_.array()).maxCoeff();
-  }
-  return w.duration * time + w.length * distance;
+  estimates_.resize(controls_.size());
 }
 
 MotionPrimitiveSearch::Key MotionPrimitiveSearch::keyOf(const ChainState& state) const {
@@ -171,25 +157,22 @@ void MotionPrimitiveSearch::expand(int node) {
   const ChainState parent_state = candidates_[node].state;
   const double parent_g = candidates_[node].g;
   const double parent_distance = candidates_[node].distance;
-  const bool lazy = settings_.mode == EvaluationMode::kLazy;
+  const EdgeEvaluationPolicy& policy = *policies_.edges;
+  const SearchHeuristic& heuristic = *policies_.heuristic;
 
   // Evaluate every primitive first (timed as evaluation), then queue them.
   const auto begin = Clock::now();
   for (std::size_t i = 0; i < controls_.size(); ++i) {
     EdgeEvaluation& evaluation = evaluations_[i];
-    if (!lazy) {
-      evaluation = evaluator_.full(parent_state, controls_[i]);
+    const EdgeEstimate estimate =
+        policy.evaluate(evaluator_, parent_state, parent_distance, controls_[i], evaluation);
+    estimates_[i] = estimate;
+    if (estimate == EdgeEstimate::kFull) {
       ++counters_.full_evaluations;
       if (evaluation.within_limits && !evaluation.collision_free) ++counters_.rejected_edges;
-    } else if (settings_.lower_bound == LowerBound::kControlOnly) {
-      evaluation = evaluator_.controlOnly(parent_state, controls_[i]);
-      ++counters_.partial_evaluations;
     } else {
-      evaluation = evaluator_.partial(parent_state, controls_[i]);
       ++counters_.partial_evaluations;
-      certified_[i] = settings_.lower_bound == LowerBound::kLipschitz &&
-                      evaluator_.certify(parent_state, parent_distance, controls_[i], evaluation);
-      counters_.certified_edges += certified_[i];
+      counters_.certified_edges += estimate == EdgeEstimate::kCertified;
     }
     counters_.esdf_queries += evaluation.esdf_queries;
   }
@@ -201,28 +184,29 @@ void MotionPrimitiveSearch::expand(int node) {
     const int slot_index = slotOf(evaluation.end);
     Slot& slot = slots_[slot_index];
     if (slot.closed >= 0) continue;
-    Evaluation state = Evaluation::kFull;
-    if (lazy) state = certified_[i] ? Evaluation::kCertified : Evaluation::kPartial;
+    const EdgeEstimate estimate = estimates_[i];
     Candidate candidate;
     candidate.state = evaluation.end;
     candidate.g = parent_g + evaluation.cost;
-    candidate.h = heuristic(candidate.state.col(0));
-    if (settings_.duplicate_rule == DuplicateRule::kSeed && lazy) {
+    candidate.h = heuristic.estimate(candidate.state, goal_);
+    if (settings_.duplicate_rule == DuplicateRule::kSeed) {
       if (slot.seen) continue;
       slot.seen = true;
     } else {
       // A candidate queued behind an evaluated one of the same state would be dropped when
-      // popped, as that one closes the state first (a partial f is a lower bound of the
+      // popped, as that one closes the state first (a lower-bound f is a lower bound of the
       // full f), so it is not queued at all. Equal priorities are kept: the tie-break decides.
       const double f = priority(candidate);
       if (f > slot.best_f) continue;
-      if (state != Evaluation::kPartial) slot.best_f = f;
+      if (estimate != EdgeEstimate::kLowerBound) slot.best_f = f;
     }
     candidate.distance = evaluation.end_distance;
     candidate.parent = node;
     candidate.control = static_cast<int>(i);
     candidate.slot = slot_index;
-    candidate.evaluation = state;
+    candidate.evaluation = estimate == EdgeEstimate::kFull        ? Evaluation::kFull
+                           : estimate == EdgeEstimate::kCertified ? Evaluation::kCertified
+                                                                  : Evaluation::kPartial;
     candidates_.push_back(candidate);
     push(static_cast<int>(candidates_.size()) - 1);
   }
@@ -236,7 +220,7 @@ MotionPrimitiveSearch::Outcome MotionPrimitiveSearch::search(const ChainState& s
   goal_ = goal;
   Candidate root;
   root.state = start;
-  root.h = heuristic(start.col(0));
+  root.h = policies_.heuristic->estimate(start, goal_);
   root.distance = world_->distance(start.col(0));
   root.slot = slotOf(start);
   candidates_.push_back(root);

@@ -7,6 +7,7 @@
 #include <numeric>
 
 #include "kinolab/core/error.hpp"
+#include "kinolab/core/yaml_reader.hpp"
 #include "kinolab/world/world_generator.hpp"
 
 namespace kinolab {

@@ -7,6 +7,7 @@
 #include <sstream>
 
 #include "kinolab/core/error.hpp"
+#include "kinolab/core/yaml_reader.hpp"
 #include "kinolab/core/hash.hpp"
 #include "kinolab/world/world_generator.hpp"
 

@@ -1,5 +1,7 @@
 #include "kinolab/world/world.hpp"
 
+#include "kinolab/world/world_spec.hpp"
+
 namespace kinolab {
 
 World::World(std::string name, std::uint64_t spec_hash, VoxelGrid grid, Esdf esdf)

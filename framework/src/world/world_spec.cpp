@@ -4,6 +4,7 @@
 #include <sstream>
 
 #include "kinolab/core/hash.hpp"
+#include "kinolab/core/yaml_reader.hpp"
 
 namespace kinolab {
 namespace {

@@ -8,6 +8,8 @@ KINOLAB_REGISTER_PLUGINS(registrar) {
   registrar.add<Planner>(
       "eager_mp_astar", "motion-primitive A*, every edge fully evaluated at expansion",
       motionPrimitiveParameters(), [](const ParameterSet& parameters) {
-        return std::make_unique<MotionPrimitivePlanner>(parameters, EvaluationMode::kEager);
-      });
+        return std::make_unique<MotionPrimitivePlanner>(
+            MotionPrimitiveConfig::fromParameters(parameters));
+      },
+      motionPrimitiveStatistics());
 }

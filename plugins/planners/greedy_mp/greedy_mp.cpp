@@ -11,6 +11,9 @@ KINOLAB_REGISTER_PLUGINS(registrar) {
       motionPrimitiveParameters().real("cost_weight", 0.0, 0.0, 1.0,
                                        "weight of the cost so far in the priority (0: greedy)"),
       [](const ParameterSet& parameters) {
-        return std::make_unique<MotionPrimitivePlanner>(parameters, EvaluationMode::kEager);
-      });
+        auto config = MotionPrimitiveConfig::fromParameters(parameters);
+        config.settings.cost_weight = parameters.real("cost_weight");
+        return std::make_unique<MotionPrimitivePlanner>(std::move(config));
+      },
+      motionPrimitiveStatistics());
 }

@@ -331,4 +331,6 @@ SmootherResult BsplineSmoother::smooth(const ChainState& start,
   return result;
 }
 
+std::string ceresVersion() { return CERES_VERSION_STRING; }
+
 }  // namespace kinolab::rrt

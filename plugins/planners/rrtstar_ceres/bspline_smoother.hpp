@@ -56,4 +56,7 @@ class BsplineSmoother {
   TrajectoryChecker checker_;
 };
 
+/// The Ceres release this plugin was built against, for provenance.
+std::string ceresVersion();
+
 }  // namespace kinolab::rrt

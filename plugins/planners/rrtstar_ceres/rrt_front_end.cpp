@@ -1,6 +1,7 @@
 #include "rrt_front_end.hpp"
 
 #include <ompl/base/PlannerData.h>
+#include <ompl/config.h>
 #include <ompl/base/PlannerTerminationCondition.h>
 #include <ompl/base/ProblemDefinition.h>
 #include <ompl/base/SpaceInformation.h>
@@ -245,6 +246,12 @@ FrontEndResult RrtFrontEnd::plan(const Eigen::Vector3d& start, const Eigen::Vect
     stats.emplace_back("best_cost_at_" + formatNumber(grid[i]) + "ms", progress[i]);
   }
   return result;
+}
+
+std::string omplVersion() {
+  // Debian's ompl/config.h leaves OMPL_VERSION empty; the numeric parts are set.
+  return std::to_string(OMPL_MAJOR_VERSION) + "." + std::to_string(OMPL_MINOR_VERSION) + "." +
+         std::to_string(OMPL_PATCH_VERSION);
 }
 
 }  // namespace kinolab::rrt

@@ -3,6 +3,7 @@
 #include <Eigen/Core>
 #include <cstdint>
 #include <memory>
+#include <string>
 #include <vector>
 
 #include "kinolab/core/stop_condition.hpp"
@@ -54,5 +55,8 @@ class RrtFrontEnd {
   struct Ompl;
   std::unique_ptr<Ompl> ompl_;
 };
+
+/// The OMPL release this plugin was built against ("1.5.2"), for provenance.
+std::string omplVersion();
 
 }  // namespace kinolab::rrt

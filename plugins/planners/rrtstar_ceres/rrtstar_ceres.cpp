@@ -23,18 +23,14 @@ ParameterSpecs frontEndParameters() {
       .real("rewire_factor", 1.1, 1.0, 10.0, "scales RRT*'s rewiring neighbourhood")
       .boolean("k_nearest", true, "rewire over the k nearest vertices (else within a radius)")
       .boolean("delay_collision_checking", true, "check a neighbour's edge only when it would win")
-      .real("robot_radius", 0.25, 0.0, 10.0, "body radius: clearance below this collides, m")
+      .include(motionParameters(5.0))
       .real("clearance_margin", 0.1, 0.0, 10.0,
             "RRT* states need the radius plus this much clearance, m")
       .real("motion_resolution", 0.5, 0.05, 10.0, "RRT* motions are checked every this many voxels")
       .boolean("simplify", true, "OMPL's vertex reduction and shortcutting of the path")
       .integer("refine_iterations", 1000, 0, 1000000000,
                "RRT* iterations after the first solution (0: stop at the first)")
-      .integer("max_iterations", 0, 0, 1000000000, "RRT* iteration budget (0: none)")
-      .real("time_limit", 5.0, 0.0, 1e6, "planning time budget, s (0: none)")
-      .real("max_velocity", 2.0, 0.01, 100.0, "per-axis velocity limit, m/s")
-      .real("max_acceleration", 3.0, 0.01, 1000.0, "per-axis acceleration limit, m/s^2")
-      .real("goal_radius", 0.5, 0.001, 100.0, "goal region: positions this close to the goal, m");
+      .integer("max_iterations", 0, 0, 1000000000, "RRT* iteration budget (0: none)");
 }
 
 ParameterSpecs smoothingParameters() {
@@ -54,14 +50,49 @@ ParameterSpecs smoothingParameters() {
                "solves: after a collision, again with half the knot spacing, 4x obstacle weight");
 }
 
+MetricSpecs frontEndStatistics() {
+  MetricSpecs specs;
+  specs.clock("time_simplify_ms", "OMPL path simplification")
+      .counter("path_vertices_raw", "RRT* path vertices before simplification")
+      .real("path_length_raw", "m", "RRT* path length before simplification")
+      .counter("path_vertices", "path vertices after simplification")
+      .real("path_length", "m", "path length after simplification")
+      .counter("iterations", "RRT* iterations")
+      .counter("tree_size", "RRT* tree vertices")
+      .counter("collision_checks", "state validity checks (ESDF clearance)")
+      .counter("motion_checks", "motion validity checks")
+      .counter("motion_checks_invalid", "motion checks that found a collision")
+      .counter("first_solution_iteration", "iteration of the first exact solution")
+      .clock("first_solution_ms", "time to the first exact solution")
+      .real("first_solution_cost", "m", "path length of the first exact solution")
+      .real("best_cost", "m", "RRT*'s best path length")
+      .clock("time_rrt_ms", "RRT* (front end) time");
+  for (const double ms : progressGridMs()) {
+    specs.real("best_cost_at_" + formatNumber(ms) + "ms", "m",
+               "best path length after this much planning time (anytime progress)");
+  }
+  return specs;
+}
+
+MetricSpecs smoothingStatistics() {
+  return frontEndStatistics()
+      .counter("smoothing_rounds", "Ceres solves")
+      .counter("ceres_iterations", "Ceres iterations over all solves")
+      .real("ceres_initial_cost", "", "objective before the first solve")
+      .real("ceres_final_cost", "", "objective after the last solve")
+      .counter("time_reallocations", "time re-allocations until the limits hold")
+      .counter("control_points", "B-spline control points")
+      .real("knot_interval", "s", "B-spline knot interval")
+      .clock("time_smooth_ms", "Ceres smoothing (back end) time")
+      .boolean("smoothing_valid", "the smoothed trajectory passed the smoother's own check");
+}
+
 class RrtStarPlanner final : public Planner {
  public:
-  RrtStarPlanner(const ParameterSet& parameters, bool smooth) : parameters_(parameters) {
-    limits_ = DynamicLimits::uniform(parameters.real("max_velocity"),
-                                     parameters.real("max_acceleration"));
-    if (const double limit = parameters.real("time_limit"); limit > 0.0) {
-      budget_.time_limit = limit;
-    }
+  RrtStarPlanner(const ParameterSet& parameters, bool smooth)
+      : parameters_(parameters),
+        model_(planningModelFrom(parameters)),
+        budget_(timeBudgetFrom(parameters)) {
     if (const long long limit = parameters.integer("max_iterations"); limit > 0) {
       budget_.max_iterations = limit;
     }
@@ -69,9 +100,9 @@ class RrtStarPlanner final : public Planner {
       SmootherSettings& s = smoother_settings_.emplace();
       s.knot_spacing = parameters.real("knot_spacing");
       s.initial_speed = parameters.real("initial_speed");
-      s.robot_radius = parameters.real("robot_radius");
+      s.robot_radius = model_.robot_radius;
       s.safety_distance = parameters.real("safety_distance");
-      s.limits = limits_;
+      s.limits = model_.limits;
       s.weight_smoothness = parameters.real("weight_smoothness");
       s.weight_guide = parameters.real("weight_guide");
       s.weight_obstacle = parameters.real("weight_obstacle");
@@ -90,12 +121,12 @@ class RrtStarPlanner final : public Planner {
     settings.rewire_factor = parameters_.real("rewire_factor");
     settings.k_nearest = parameters_.boolean("k_nearest");
     settings.delay_collision_checking = parameters_.boolean("delay_collision_checking");
-    settings.clearance = parameters_.real("robot_radius") + parameters_.real("clearance_margin");
+    settings.clearance = model_.robot_radius + parameters_.real("clearance_margin");
     settings.motion_resolution =
         parameters_.real("motion_resolution") * context.world->esdf().resolution();
     settings.simplify = parameters_.boolean("simplify");
     settings.refine_iterations = parameters_.integer("refine_iterations");
-    settings.goal_radius = parameters_.real("goal_radius");
+    settings.goal_radius = model_.goal_radius;
     front_end_ = std::make_unique<RrtFrontEnd>(context.world, settings);
     clearance_ = settings.clearance;
     seed_ = context.seed;
@@ -146,26 +177,19 @@ class RrtStarPlanner final : public Planner {
       if (!smoothed.valid) result.message = "smoothing failed: " + smoothed.problem;
       result.trajectory = std::move(smoothed.trajectory);
     } else if (path.path_length > 0.0) {
-      result.trajectory = stopAndGo(path.path, limits_);
+      result.trajectory = stopAndGo(path.path, model_.limits);
     }
     result.cost = result.trajectory.empty() ? INFINITY : result.trajectory.length();
     return result;
   }
 
-  PlanningModel planningModel() const override {
-    PlanningModel model;
-    model.robot_radius = parameters_.real("robot_radius");
-    model.limits = limits_;
-    model.limited_derivatives = 2;
-    model.goal_radius = parameters_.real("goal_radius");
-    return model;
-  }
+  PlanningModel planningModel() const override { return model_; }
 
   Budget ownBudget() const override { return budget_; }
 
  private:
   ParameterSet parameters_;
-  DynamicLimits limits_;
+  PlanningModel model_;
   Budget budget_;
   std::optional<SmootherSettings> smoother_settings_;
   std::uint64_t seed_ = 0;
@@ -179,15 +203,19 @@ class RrtStarPlanner final : public Planner {
 
 KINOLAB_REGISTER_PLUGINS(registrar) {
   using namespace kinolab;
+  registrar.library("ompl", rrt::omplVersion());
+  registrar.library("ceres", rrt::ceresVersion());
   registrar.add<Planner>(
       "rrtstar_ceres",
       "TGK analogue: OMPL RRT* path, Ceres-smoothed uniform cubic B-spline (jerk, ESDF, limits)",
       rrt::smoothingParameters(), [](const ParameterSet& parameters) {
         return std::make_unique<rrt::RrtStarPlanner>(parameters, true);
-      });
+      },
+      rrt::smoothingStatistics());
   registrar.add<Planner>(
       "rrtstar", "OMPL RRT* path alone, flown stop-and-go at the limits (ablation of the smoother)",
       rrt::frontEndParameters(), [](const ParameterSet& parameters) {
         return std::make_unique<rrt::RrtStarPlanner>(parameters, false);
-      });
+      },
+      rrt::frontEndStatistics());
 }

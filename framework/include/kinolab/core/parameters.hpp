@@ -11,7 +11,9 @@ namespace kinolab {
 
 class YamlReader;
 
-enum class ParameterType { kBoolean, kInteger, kReal, kChoice, kText };
+/// kSampler: the key of a control sampler plugin; a planner that declares one is given that
+/// sampler, configured by assignments named `NAME.PARAMETER`.
+enum class ParameterType { kBoolean, kInteger, kReal, kChoice, kText, kSampler };
 
 /// A parameter value: bool, integer, real, or text (choices and free text).
 using ParameterValue = std::variant<bool, long long, double, std::string>;
@@ -27,7 +29,7 @@ struct ParameterSpec {
   std::vector<std::string> choices;  // choice
   std::string doc;
 
-  /// "bool", "int", "real", "choice" or "text".
+  /// "bool", "int", "real", "choice", "text" or "sampler".
   std::string typeName() const;
   /// What values are accepted: "[0, 1]", "quantile|random", "true|false", "any text".
   std::string rangeText() const;
@@ -77,9 +79,15 @@ class ParameterSpecs {
   ParameterSpecs& choice(std::string name, std::string default_value,
                          std::vector<std::string> choices, std::string doc);
   ParameterSpecs& text(std::string name, std::string default_value, std::string doc);
+  /// The control sampler the plugin draws its controls from (at most one per plugin).
+  ParameterSpecs& sampler(std::string name, std::string default_value, std::string doc);
+  /// Appends a declared group (e.g. motionParameters()); a name declared twice is an error.
+  ParameterSpecs& include(const ParameterSpecs& group);
 
   const std::vector<ParameterSpec>& all() const { return specs_; }
   const ParameterSpec* find(std::string_view name) const;
+  /// The sampler parameter, or null for a plugin that takes no sampler.
+  const ParameterSpec* samplerParameter() const;
 
   /// The defaults with `assignments` applied in order. An unknown name, a value of the wrong
   /// type or out of range throws ConfigError naming where the value came from, `owner` (e.g.

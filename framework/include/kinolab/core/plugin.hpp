@@ -7,11 +7,15 @@
 //                                   [](const ParameterSet& p) { return ...; });
 //   }
 //
+// A planner also declares the statistics it reports (a fifth argument, MetricSpecs): each
+// reaches `kinolab plan`'s JSON, results.sqlite and the report with no other edit.
+//
 // The same source builds in-tree (a folder under plugins/, compiled into kinolab) and
 // out-of-tree (a shared library built against an installed kinolab and loaded with
 // `--plugin PATH`); `kinolab_add_plugin()` in CMake chooses which.
 
 #include <functional>
+#include <map>
 #include <string>
 #include <vector>
 
@@ -20,7 +24,7 @@
 
 /// Bumped whenever a change to the plugin-facing headers breaks binary compatibility; a
 /// library built against another version is refused when loaded.
-#define KINOLAB_PLUGIN_ABI_VERSION 1
+#define KINOLAB_PLUGIN_ABI_VERSION 2
 
 namespace kinolab {
 
@@ -32,15 +36,23 @@ class PluginRegistrar {
 
   template <typename Interface>
   void add(std::string key, std::string description, ParameterSpecs parameters,
-           PluginFactory<Interface> factory) {
+           PluginFactory<Interface> factory, MetricSpecs statistics = {}) {
     PluginRegistry<Interface>& registry = pluginRegistry<Interface>();
-    PluginInfo info{std::move(key), std::move(description), std::move(parameters), origin_};
+    PluginInfo info{std::move(key), std::move(description), std::move(parameters), origin_,
+                    std::move(statistics)};
     pending_.push_back(
         {registry.kind(), info.key,
          [&registry](const std::string& k) { return registry.contains(k); },
          [&registry, info = std::move(info), factory = std::move(factory)]() mutable {
            registry.add(std::move(info), std::move(factory));
          }});
+  }
+
+  /// Records the version of a third-party library the plugins of this library use
+  /// (`library("ompl", OMPL_VERSION)`); it goes into every results database's provenance as
+  /// `<name>_version`.
+  void library(std::string name, std::string version) {
+    libraries_.emplace_back(std::move(name), std::move(version));
   }
 
   /// Checks every pending key against the registries and each other, then adds them all.
@@ -56,7 +68,12 @@ class PluginRegistrar {
 
   std::string origin_;
   std::vector<Pending> pending_;
+  std::vector<std::pair<std::string, std::string>> libraries_;
 };
+
+/// The third-party libraries registered plugins declared with PluginRegistrar::library(), by
+/// name (a name declared twice keeps its first version).
+const std::map<std::string, std::string>& pluginLibraryVersions();
 
 /// Loads a plugin library (once per path): checks its ABI version, calls its
 /// `kinolab_register_plugins` entry point and commits what it registered. A missing file, a

@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "kinolab/core/error.hpp"
+#include "kinolab/core/metric_specs.hpp"
 #include "kinolab/core/parameters.hpp"
 #include "kinolab/core/text.hpp"
 
@@ -19,6 +20,8 @@ struct PluginInfo {
   std::string description;  ///< one line
   ParameterSpecs parameters;
   std::string origin;  ///< "built-in" or the path of the shared library it came from
+  /// The statistics its instances report (planners); results carry exactly these.
+  MetricSpecs statistics;
 };
 
 template <typename Interface>

@@ -1,6 +1,7 @@
 #pragma once
 
 #include <cstdint>
+#include <map>
 #include <optional>
 #include <string>
 #include <vector>
@@ -100,6 +101,11 @@ struct Experiment {
   bool store_trajectories = false;
   /// Search trees of queries 0 .. store_tree_queries - 1 of each world (-1: all, 0: none).
   int store_tree_queries = 0;
+  /// What the experiment reproduces (`reproduces:`): a paper the report knows
+  /// ("lazy_mp_astar_paper") and which planner id stands for which of its rows. Empty: none,
+  /// and the report shows no paper's tables.
+  std::string reproduces_paper;
+  std::vector<std::pair<std::string, std::string>> reproduces_rows;  ///< planner id, row
   std::vector<ExperimentVariant> variants;
   std::string canonical;    ///< the expanded configuration as YAML text
   std::string config_hash;  ///< hash of `canonical` (hex): shards of one experiment share it
@@ -110,6 +116,10 @@ struct Experiment {
   /// not change (same hash in several variants) appears once, in its first variant.
   std::vector<RunSpec> runs() const;
 };
+
+/// The papers an experiment can say it reproduces, with the rows of their tables
+/// (analysis/kinolab_analysis/tables.py holds the papers' figures for these rows).
+const std::map<std::string, std::vector<std::string>>& reproducibleRows();
 
 /// Shard `index` of `count` (1-based): the runs whose position in the hash order is
 /// index - 1 modulo count; deterministic and disjoint, together complete.

@@ -9,12 +9,21 @@
 #include <utility>
 #include <vector>
 
+#include "kinolab/planner/metrics.hpp"
+
 struct sqlite3;
 
 namespace kinolab {
 
-/// One finished run as stored: what defines it, its status and every metric. Numbers that
-/// do not apply (no trajectory, a crash) are NaN and stored as NULL.
+/// What the runner measures of every run beside the planner's result.
+const MetricSpecs& runnerMetrics();
+
+/// The version of the results database layout this kinolab writes (meta `schema_version`).
+/// Version 2 derives the runs table and the `metrics` table from the declared metrics.
+inline constexpr int kResultsSchemaVersion = 2;
+
+/// One finished run as stored: what defines it, then the values of resultMetrics() and
+/// runnerMetrics() (by name; a missing or none value is NULL) and the planner's statistics.
 struct RunRecord {
   std::string run_hash;
   int variant = 0;
@@ -30,27 +39,15 @@ struct RunRecord {
   double start[3] = {0, 0, 0};
   double goal[3] = {0, 0, 0};
 
-  /// A planner status (exact, approximate, no_solution, timeout, invalid_start,
-  /// invalid_goal, invalid_trajectory) or a runner one (crash, timeout, oom, error).
-  std::string status;
-  std::string message;
-  double planning_time_ms = NAN;
-  double cost = NAN;
-  double distance_to_goal = NAN;
-  double duration = NAN;
-  double length = NAN;
-  double jerk_integral = NAN;
-  double min_clearance = NAN;
-  double mean_clearance = NAN;
-  int checker_valid = 0;
-  std::string checker_check;
-  std::string checker_detail;
-  double peak_memory_mb = NAN;  ///< the worker's maximum resident set
-  double wall_time_ms = NAN;    ///< the worker, from fork to exit
-  std::string started_at;       ///< UTC, ISO 8601
-  std::vector<std::pair<std::string, double>> statistics;
+  MetricValues metrics;  ///< resultMetrics() and runnerMetrics(), by name
+  MetricValues statistics;
   std::string trajectory_csv;  ///< when the experiment stores trajectories
   std::string tree_csv;        ///< when it stores search trees
+
+  /// The text of a metric ("" when it is none or absent).
+  std::string text(std::string_view name) const;
+  /// A numeric metric (NaN when it is none or absent).
+  double number(std::string_view name) const;
 };
 
 /// A world as the report draws it: its grid geometry, a top view (per x, y column the
@@ -67,9 +64,11 @@ struct WorldRecord {
 };
 
 /// The results database of one experiment (SQLite, WAL journal): a `meta` table (the
-/// expanded config, its hash, provenance), `runs` (one row per run keyed by `run_hash`),
-/// `statistics` (run_hash, name, value: every statistic a planner reported), `worlds` (for
-/// figures), and optional `trajectories` and `trees` (CSV text). Every run is written in its own
+/// expanded config, its hash, provenance, `schema_version`), `runs` (one row per run keyed by
+/// `run_hash`: the identity columns, then one column per result and runner metric),
+/// `statistics` (run_hash, name, value: every statistic a planner reported), `metrics` (the
+/// declaration of every column and statistic: kind, planner type, type, unit, doc, clock),
+/// `worlds` (for figures), and optional `trajectories` and `trees` (CSV text). Every run is written in its own
 /// transaction, so a kill at any moment loses at most the runs in flight.
 class ResultsStore {
  public:
@@ -90,6 +89,13 @@ class ResultsStore {
   void insert(const RunRecord& record);
   /// Stores a world's views once (a world already stored is left as it is).
   void insertWorld(const WorldRecord& world);
+  /// Declares metrics in the `metrics` table: `kind` is "result", "runner" or "statistic";
+  /// statistics are declared per planner type.
+  void declareMetrics(const std::string& kind, const std::string& planner_type,
+                      const MetricSpecs& specs);
+  /// The schema version of the stored runs (1 for databases written before versions were
+  /// recorded), or none for a database without runs or meta.
+  std::optional<int> schemaVersion() const;
 
   /// Joins shard databases into `output` (which must not exist yet). Refuses inputs whose
   /// config hashes differ, that are not shards of the same count, that repeat a shard, or

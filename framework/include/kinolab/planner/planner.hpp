@@ -10,6 +10,7 @@
 
 #include "kinolab/core/parameters.hpp"
 #include "kinolab/core/plugin_registry.hpp"
+#include "kinolab/planner/metrics.hpp"
 #include "kinolab/core/stop_condition.hpp"
 #include "kinolab/dynamics/integrator_chain.hpp"
 #include "kinolab/trajectory/trajectory.hpp"
@@ -19,6 +20,7 @@
 namespace kinolab {
 
 class ControlSampler;
+struct ConfiguredPlanner;
 
 /// How a planning call ended.
 enum class PlanStatus {
@@ -76,7 +78,7 @@ struct PlanResult {
 };
 
 /// What a planner is set up with: the world, its control sampler (for planners that declare
-/// a `sampler` parameter) and the seed of its random streams.
+/// a sampler parameter, ParameterSpecs::sampler()) and the seed of its random streams.
 struct PlannerContext {
   std::shared_ptr<const World> world;
   std::shared_ptr<const ControlSampler> sampler;
@@ -113,18 +115,35 @@ class Planner {
   virtual Budget ownBudget() const { return {}; }
 
  private:
+  friend ConfiguredPlanner configurePlanner(std::string_view,
+                                            const std::vector<ParameterAssignment>&);
+
   std::shared_ptr<const World> world_;
   std::unique_ptr<TrajectoryChecker> checker_;
+  /// Set for planners made by configurePlanner(): plan() holds their statistics to the
+  /// registration's declaration.
+  const PluginInfo* info_ = nullptr;
 };
 
 template <>
 PluginRegistry<Planner>& pluginRegistry<Planner>();
 
+/// The motion parameters most planners share, declared once: `robot_radius`,
+/// `max_velocity`, `max_acceleration` (per axis), `goal_radius` and `time_limit` (with the
+/// planner's own default). Include them with ParameterSpecs::include().
+ParameterSpecs motionParameters(double default_time_limit);
+/// The body, velocity and acceleration limits and goal region of motionParameters().
+PlanningModel planningModelFrom(const ParameterSet& parameters);
+/// The `time_limit` of motionParameters() as a budget (0: none).
+Budget timeBudgetFrom(const ParameterSet& parameters);
+
 /// A planner created from its registered key and assignments. A planner that declares a
-/// `sampler` parameter gets that sampler, configured by the assignments named `sampler.NAME`;
-/// every assignment is validated before anything is created.
+/// sampler parameter (ParameterSpecs::sampler(), e.g. `sampler`) gets that sampler,
+/// configured by the assignments named `sampler.NAME`; every assignment is validated before
+/// anything is created.
 struct ConfiguredPlanner {
   std::unique_ptr<Planner> planner;
+  const PluginInfo* info = nullptr;  ///< its registration: key, parameters, statistics
   ParameterSet parameters;
   std::shared_ptr<const ControlSampler> sampler;  ///< null for planners without one
   std::string sampler_key;

@@ -1,7 +1,6 @@
 #pragma once
 
 #include <memory>
-#include <optional>
 
 #include "kinolab/core/parameters.hpp"
 #include "kinolab/planner/planner.hpp"
@@ -10,22 +9,33 @@
 namespace kinolab {
 
 /// The parameters every motion-primitive planner declares: sampler, dynamics, limits, cost
-/// weights, edge sampling, body, heuristic, state keys, goal region and budgets. A plugin adds
-/// its own (e.g. the lazy options) after these.
+/// weights, edge sampling, body (motionParameters()), heuristic, state keys, goal region and
+/// budgets. A plugin adds its own (e.g. the lazy options) after these.
 ParameterSpecs motionPrimitiveParameters();
+/// The statistics every MotionPrimitivePlanner reports (the search's counters and times);
+/// a plugin that reports more includes these in its own declaration.
+MetricSpecs motionPrimitiveStatistics();
 
-/// Search settings from parameters declared by motionPrimitiveParameters() (and, when
-/// declared, `duplicate_rule`, `lower_bound` and `cost_weight`).
-SearchSettings searchSettingsFrom(const ParameterSet& parameters, EvaluationMode mode);
+/// Everything a MotionPrimitivePlanner is built from. fromParameters() reads the parameters
+/// of motionPrimitiveParameters() (and no others) and sets eager defaults: full evaluation,
+/// the `heuristic` parameter's choice, the lwa duplicate rule, cost weight 1. A plugin then
+/// sets what its own parameters choose: a lazy edge policy, its own heuristic, another
+/// duplicate rule or cost weight.
+struct MotionPrimitiveConfig {
+  SearchSettings settings;
+  SearchPolicies policies;
+  Budget budget;
+
+  static MotionPrimitiveConfig fromParameters(const ParameterSet& parameters);
+};
 
 /// A planner on the motion-primitive search core: draws its control set from the sampler at
 /// setup, searches each query, and returns the path (or, on a budget stop, the path to the
-/// state nearest the goal). Plugins register it with their settings; see
+/// state nearest the goal). Plugins register it with their config; see
 /// docs/adding_a_planner.md.
 class MotionPrimitivePlanner : public Planner {
  public:
-  /// From parameters declared by motionPrimitiveParameters() (plus the plugin's own).
-  MotionPrimitivePlanner(const ParameterSet& parameters, EvaluationMode mode);
+  explicit MotionPrimitivePlanner(MotionPrimitiveConfig config);
 
   /// The search of the last setup (for tests and benchmarks).
   const MotionPrimitiveSearch& search() const;
@@ -35,11 +45,10 @@ class MotionPrimitivePlanner : public Planner {
   PlanResult doPlan(const PlanningQuery& query, StopCondition& stop, SearchTree* tree) override;
   void doReset() override;
   PlanningModel planningModel() const override;
-  Budget ownBudget() const override { return budget_; }
+  Budget ownBudget() const override { return config_.budget; }
 
  private:
-  SearchSettings settings_;
-  Budget budget_;
+  MotionPrimitiveConfig config_;
   std::unique_ptr<MotionPrimitiveSearch> search_;
 };
 

@@ -9,45 +9,31 @@
 #include "kinolab/core/stop_condition.hpp"
 #include "kinolab/planner/planner.hpp"
 #include "kinolab/primitives/edge_evaluator.hpp"
+#include "kinolab/search/search_policies.hpp"
 
 namespace kinolab {
 
-/// When an edge's collision and obstacle cost are evaluated.
-enum class EvaluationMode {
-  kEager,  ///< fully, when its parent is expanded (classic MP-A*)
-  kLazy,   ///< a lower bound at expansion; fully when its entry is first popped
-};
-
-/// Which candidates of the same state the lazy search keeps.
+/// Which candidates of the same state the search keeps.
 enum class DuplicateRule {
   kLwa,   ///< every candidate cheaper than the state's best evaluated one (optimal)
-  kSeed,  ///< the paper's Algorithm 1 read literally: the first candidate only
-};
-
-/// The lower bound the lazy search queues a candidate with.
-enum class LowerBound {
-  kEndpoint,     ///< partial evaluation: collision and obstacle share at the end sample
-  kControlOnly,  ///< time, length and control terms only: no map query
-  kLipschitz,    ///< endpoint, and certified exact (evaluated) when the ESDF bound proves it
-};
-
-/// Lower bounds on the cost to the goal region, consistent with every edge's lower bound.
-enum class Heuristic {
-  kEuclidean,  ///< w_T |d| / |v_max| + w_L |d|, d = distance to the goal ball
-  kMinTime,    ///< w_T max_i(|d_i| / v_max_i) + w_L |d| (MPL's minimum-time bound, ref. [2])
+  kSeed,  ///< the paper's Algorithm 1 read literally: the first candidate only (lazy)
 };
 
 struct SearchSettings {
   EdgeEvaluatorSettings edges;
-  EvaluationMode mode = EvaluationMode::kLazy;
   DuplicateRule duplicate_rule = DuplicateRule::kLwa;
-  LowerBound lower_bound = LowerBound::kEndpoint;
-  Heuristic heuristic = Heuristic::kMinTime;
   double heuristic_weight = 1.0;  ///< epsilon >= 1: cost within epsilon times the optimum
   double cost_weight = 1.0;       ///< weight of g in the priority; 0 = greedy best-first
   /// State keys: position, velocity, acceleration (also used for jerk) rounded to these.
   std::array<double, 3> key_resolution = {0.01, 0.01, 0.01};
   double goal_radius = 0.5;
+};
+
+/// The policies a plugin gives the search (kinolab/search/search_policies.hpp).
+struct SearchPolicies {
+  /// How edges are evaluated at expansion: full (eager) or a lower bound (lazy).
+  std::shared_ptr<const EdgeEvaluationPolicy> edges;
+  std::shared_ptr<const SearchHeuristic> heuristic;
 };
 
 /// Counters of one search; see statistics() for their names.
@@ -72,8 +58,8 @@ struct SearchCounters {
 /// goal region. The open list is a binary heap with lazy deletion (stale entries are
 /// skipped when popped); candidates live in one array addressed by index.
 ///
-/// With a consistent heuristic (both choices are, for weight 1) lazy with the `lwa` rule
-/// and eager return the same cost. States are keyed by rounding position and derivatives
+/// With a consistent heuristic and weight 1, lazy (a lower-bound edge policy) with the `lwa`
+/// rule and eager (full evaluation) return the same cost. States are keyed by rounding position and derivatives
 /// to `key_resolution` relative to the start: on the lattice a control grid spans this is
 /// exact; with sampled controls optimality is with respect to that discretisation.
 class MotionPrimitiveSearch {
@@ -81,9 +67,10 @@ class MotionPrimitiveSearch {
   enum class Outcome { kGoal, kExhausted, kBudget };
 
   MotionPrimitiveSearch(std::shared_ptr<const World> world, std::vector<Eigen::Vector3d> controls,
-                        SearchSettings settings);
+                        SearchSettings settings, SearchPolicies policies);
 
   const SearchSettings& settings() const { return settings_; }
+  const SearchPolicies& policies() const { return policies_; }
   const EdgeEvaluator& evaluator() const { return evaluator_; }
   const std::vector<Eigen::Vector3d>& controls() const { return controls_; }
 
@@ -99,9 +86,6 @@ class MotionPrimitiveSearch {
   Statistics statistics() const;
   /// Every candidate edge with its evaluation state (for figures).
   SearchTree tree(int points_per_edge = 6) const;
-
-  /// The heuristic from a position.
-  double heuristic(const Eigen::Vector3d& position) const;
 
   /// Frees the memory of the last search (search() reuses it otherwise).
   void clear();
@@ -150,15 +134,14 @@ class MotionPrimitiveSearch {
   void prepare();
   void push(int candidate);
   void expand(int node);
-  /// Lazy: turns a popped partial candidate into an evaluated one; false when it is dropped.
+  /// Turns a popped lower-bound candidate into an evaluated one; false when it is dropped.
   bool evaluateFully(Candidate& candidate);
 
   std::shared_ptr<const World> world_;
   std::vector<Eigen::Vector3d> controls_;
   SearchSettings settings_;
+  SearchPolicies policies_;
   EdgeEvaluator evaluator_;
-  Eigen::Vector3d inverse_v_max_;
-  double inverse_speed_ = 0.0;
 
   // The last search.
   ChainState start_;
@@ -171,7 +154,7 @@ class MotionPrimitiveSearch {
   std::vector<int> table_;
   std::vector<HeapEntry> heap_;
   std::vector<EdgeEvaluation> evaluations_;  // scratch: one per control
-  std::vector<std::uint8_t> certified_;      // scratch: one per control
+  std::vector<EdgeEstimate> estimates_;      // scratch: one per control
   int goal_candidate_ = -1;
   int nearest_candidate_ = -1;  ///< closed, nearest the goal
   SearchCounters counters_;

@@ -6,9 +6,10 @@
 
 #include "kinolab/world/esdf.hpp"
 #include "kinolab/world/voxel_grid.hpp"
-#include "kinolab/world/world_spec.hpp"
 
 namespace kinolab {
+
+struct WorldSpec;
 
 /// A built world: the occupancy grid and its exact signed distance field. Immutable once
 /// built and shared read-only as std::shared_ptr<const World>. A robot or inflation radius

@@ -7,10 +7,11 @@
 #include <vector>
 
 #include "kinolab/core/random.hpp"
-#include "kinolab/core/yaml_reader.hpp"
 #include "kinolab/world/voxel_grid.hpp"
 
 namespace kinolab {
+
+class YamlReader;
 
 /// One step of building a world: it adds occupied voxels to the grid. A world spec lists
 /// several, applied in order (their union is the world), each with its own random stream.

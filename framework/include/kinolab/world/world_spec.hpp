@@ -5,11 +5,12 @@
 #include <string>
 #include <vector>
 
-#include "kinolab/core/yaml_reader.hpp"
 #include "kinolab/world/voxel_grid.hpp"
 #include "kinolab/world/world_generator.hpp"
 
 namespace kinolab {
+
+class YamlReader;
 
 /// What defines a world: bounds, resolution, seed and an ordered list of generators.
 /// Read from YAML (configs/worlds/*.yaml):

@@ -1,0 +1,57 @@
+#pragma once
+
+#include <string>
+#include <string_view>
+#include <utility>
+#include <variant>
+#include <vector>
+
+namespace kinolab {
+
+enum class MetricType { kReal, kInteger, kBoolean, kText };
+
+/// One metric or statistic a run can carry, declared once: everything that stores, prints or
+/// reads results (the plan command's JSON, the worker's JSON, the SQLite tables, the Python
+/// loader, `kinolab list metrics`) derives from this declaration.
+struct MetricSpec {
+  std::string name;
+  MetricType type = MetricType::kReal;
+  std::string unit;  ///< "ms", "m", "count", "" (none)
+  std::string doc;   ///< one line
+  bool clock = false;  ///< a clock figure: varies from run to run of the same case
+
+  /// "real", "integer", "boolean" or "text".
+  std::string typeName() const;
+};
+
+/// A declared list of metrics, built fluently (as ParameterSpecs):
+///
+///   MetricSpecs().counter("expansions", "states expanded")
+///                .clock("time_evaluation_ms", "time spent evaluating edges");
+class MetricSpecs {
+ public:
+  MetricSpecs& real(std::string name, std::string unit, std::string doc);
+  /// A count (integer, unit "count").
+  MetricSpecs& counter(std::string name, std::string doc);
+  /// A clock figure in milliseconds.
+  MetricSpecs& clock(std::string name, std::string doc);
+  MetricSpecs& boolean(std::string name, std::string doc);
+  MetricSpecs& text(std::string name, std::string doc);
+  /// Appends another list; a name declared twice is an error.
+  MetricSpecs& include(const MetricSpecs& other);
+
+  const std::vector<MetricSpec>& all() const { return specs_; }
+  const MetricSpec* find(std::string_view name) const;
+
+ private:
+  MetricSpecs& add(MetricSpec spec);
+
+  std::vector<MetricSpec> specs_;
+};
+
+/// A metric's value: none (not applicable: no trajectory, a crash), a number (booleans and
+/// integers too), or text.
+using MetricValue = std::variant<std::monostate, double, std::string>;
+using MetricValues = std::vector<std::pair<std::string, MetricValue>>;
+
+}  // namespace kinolab

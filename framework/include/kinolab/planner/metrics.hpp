@@ -1,0 +1,43 @@
+#pragma once
+
+#include <string>
+#include <string_view>
+
+#include "kinolab/core/metric_specs.hpp"
+
+namespace kinolab {
+
+struct PlanResult;
+enum class PlanStatus;
+
+/// The metrics of every planning result, whatever the planner: status, message, success,
+/// planning time, cost, D, trajectory duration, length and jerk, clearances and the
+/// independent checker's verdict.
+const MetricSpecs& resultMetrics();
+/// The statistics Planner::plan() adds to every planner's own (the checker's time).
+const MetricSpecs& commonStatistics();
+
+/// The one definition of a successful run: an exact solution the independent checker
+/// accepts. Approximate answers, budget stops and rejected trajectories are not successes.
+bool isSuccess(PlanStatus status, bool checker_valid);
+/// The same for a stored status name ("exact", ...).
+bool isSuccess(std::string_view status, bool checker_valid);
+
+/// The values of resultMetrics() for a result, in declaration order.
+MetricValues resultValues(const PlanResult& result);
+
+/// A planner's statistics as metric values (NaN and infinity become none).
+MetricValues statisticValues(const std::vector<std::pair<std::string, double>>& statistics);
+
+/// A JSON object of `values`, typed by `specs` where they declare the name (booleans as
+/// true/false, integers as integers), numbers otherwise; none is null.
+std::string toJson(const MetricValues& values, const MetricSpecs& specs);
+/// The values of a JSON object written by toJson() (booleans become 1 or 0).
+MetricValues metricValuesFromJson(const std::string& json);
+
+/// Throws PluginError naming `planner` when it reported a statistic that `declared` (its
+/// registration's statistics and commonStatistics()) does not declare, or one twice.
+void checkStatisticsDeclared(const PlanResult& result, const MetricSpecs& declared,
+                             std::string_view planner);
+
+}  // namespace kinolab

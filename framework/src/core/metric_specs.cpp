@@ -1,0 +1,59 @@
+#include "kinolab/core/metric_specs.hpp"
+
+#include "kinolab/core/error.hpp"
+
+namespace kinolab {
+
+std::string MetricSpec::typeName() const {
+  switch (type) {
+    case MetricType::kReal:
+      return "real";
+    case MetricType::kInteger:
+      return "integer";
+    case MetricType::kBoolean:
+      return "boolean";
+    case MetricType::kText:
+      return "text";
+  }
+  return "?";
+}
+
+MetricSpecs& MetricSpecs::add(MetricSpec spec) {
+  if (find(spec.name)) throw InvalidArgument("metric '" + spec.name + "' declared twice");
+  specs_.push_back(std::move(spec));
+  return *this;
+}
+
+MetricSpecs& MetricSpecs::real(std::string name, std::string unit, std::string doc) {
+  return add({std::move(name), MetricType::kReal, std::move(unit), std::move(doc), false});
+}
+
+MetricSpecs& MetricSpecs::counter(std::string name, std::string doc) {
+  return add({std::move(name), MetricType::kInteger, "count", std::move(doc), false});
+}
+
+MetricSpecs& MetricSpecs::clock(std::string name, std::string doc) {
+  return add({std::move(name), MetricType::kReal, "ms", std::move(doc), true});
+}
+
+MetricSpecs& MetricSpecs::boolean(std::string name, std::string doc) {
+  return add({std::move(name), MetricType::kBoolean, "", std::move(doc), false});
+}
+
+MetricSpecs& MetricSpecs::text(std::string name, std::string doc) {
+  return add({std::move(name), MetricType::kText, "", std::move(doc), false});
+}
+
+MetricSpecs& MetricSpecs::include(const MetricSpecs& other) {
+  for (const MetricSpec& spec : other.specs_) add(spec);
+  return *this;
+}
+
+const MetricSpec* MetricSpecs::find(std::string_view name) const {
+  for (const MetricSpec& spec : specs_) {
+    if (spec.name == name) return &spec;
+  }
+  return nullptr;
+}
+
+}  // namespace kinolab
