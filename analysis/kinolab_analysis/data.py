@@ -10,6 +10,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from . import stats
+
 # The results database layout this package reads (meta `schema_version`); version 1
 # databases (written before the schema was declared) are upgraded in memory by `load`.
 SCHEMA_VERSION = 2
@@ -88,7 +90,7 @@ def _upgrade_v1(runs: pd.DataFrame) -> pd.DataFrame:
     runs = runs.copy()
     killed = (runs["status"] == "timeout") & runs["message"].fillna("").str.startswith("killed after")
     runs.loc[killed, "status"] = "killed"
-    runs["success"] = ((runs["status"] == "exact") & (runs["checker_valid"] == 1)).astype(int)
+    runs["success"] = stats.is_success(runs).astype(int)
     return runs
 
 

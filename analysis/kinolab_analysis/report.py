@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import base64
 import io
+import sqlite3
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -13,7 +14,7 @@ import matplotlib.pyplot as plt
 import pandas as pd
 
 from . import plots, tables
-from .data import load
+from .data import Results, load
 
 TEMPLATE = """<!DOCTYPE html>
 <html lang="en"><head><meta charset="utf-8">
@@ -50,12 +51,13 @@ the paper's figure.</p>
 {{ tables['paper_table1'] }}
 {% endif %}
 
+{% if 'paper_table2' in tables %}
 <h2>The paper's Table II beside kinolab</h2>
 <p class="note">Medians with bootstrap 95 % intervals (T and N over successful runs, D over
 all runs); p: two-sided one-sample Wilcoxon test of kinolab's values against the paper's
-figure. Planner families: TGK = rrtstar_ceres, MP-A* = eager_mp_astar, Lazy =
-lazy_mp_astar.</p>
+figure. Rows as the experiment's <code>reproduces:</code> maps them: {{ paper_rows }}.</p>
 {{ tables['paper_table2'] }}
+{% endif %}
 
 <h2>Per planner</h2>
 <p class="note">Success rate with Wilson 95 % intervals; medians of successful runs with
@@ -86,6 +88,12 @@ signed-rank on planning time and cost over cases both solved (Holm-corrected).</
 <h2>Means per planner</h2>
 <p class="note">Means of successful runs with bootstrap 95 % intervals.</p>
 {{ tables['means'] }}
+{% if 'statistics' in tables %}
+<h2>Planner statistics</h2>
+<p class="note">Every statistic each planner declares (kinolab list metrics), median over all
+its runs with bootstrap 95 % intervals; clock figures vary from run to run.</p>
+{{ tables['statistics'] }}
+{% endif %}
 {% for key, title in [('per_world', 'Per world'), ('per_sampler', 'Per sampler'),
                       ('sweep', 'Per sweep value')] %}{% if key in tables %}
 <h2>{{ title }}</h2>
@@ -143,6 +151,24 @@ def _summary_columns(summary: pd.DataFrame) -> pd.DataFrame:
     return summary[keep].rename(columns=renamed)
 
 
+def _tree_run(results: Results) -> pd.Series | None:
+    """The run whose stored search tree the report draws: the first (by planner, then
+    query) whose tree has partially evaluated edges, else the first with any tree."""
+    runs = results.runs.sort_values(["planner", "query"])
+    with_trees = []
+    for database in runs["database"].unique():
+        with sqlite3.connect(database) as db:
+            with_trees += [row[0] for row in db.execute("SELECT run_hash FROM trees")]
+    if not with_trees:
+        return None
+    candidates = runs[runs["run_hash"].isin(with_trees)]
+    for _, run in candidates.iterrows():
+        tree = results.tree(run["run_hash"])
+        if tree is not None and (tree["state"] == "partial").any():
+            return run
+    return candidates.iloc[0]
+
+
 def find_sampling_study(directory: Path) -> Path | None:
     found = sorted(directory.glob("sampling_study/*/summary.csv"))
     return found[0] if found else None
@@ -157,7 +183,10 @@ def write(paths: list[Path], out: Path, compare: Path | None = None,
     out.mkdir(parents=True, exist_ok=True)
 
     report.tables["status_counts"] = tables.status_counts(runs).reset_index()
-    report.tables["paper_table2"] = tables.paper_table2(runs)
+    # The paper's tables only for an experiment that says what it reproduces.
+    reproduced = results.reproduces()
+    if reproduced:
+        report.tables["paper_table2"] = tables.paper_table2(runs)
     full_summary = tables.summary(runs)
     report.tables["summary"] = _summary_columns(full_summary)
     report.tables["means"] = full_summary[["planner"] + [c for c in full_summary.columns
@@ -176,9 +205,12 @@ def write(paths: list[Path], out: Path, compare: Path | None = None,
             tables.summary(runs, by=["sweep", "planner"],
                            metrics=[m for m in tables.METRICS
                                     if m[0] in ("planning_time_ms", "expansions", "cost")]))
+    if not (statistics := tables.statistics(runs, results.metrics)).empty:
+        report.tables["statistics"] = statistics
     report.tables["paired"] = tables.paired(runs)
-    sampling_csv = sampling_csv or find_sampling_study(paths[0] if paths[0].is_dir()
-                                                       else paths[0].parent)
+    if reproduced:
+        sampling_csv = sampling_csv or find_sampling_study(paths[0] if paths[0].is_dir()
+                                                           else paths[0].parent)
     if sampling_csv is not None:
         report.tables["paper_table1"] = tables.paper_table1(sampling_csv)
     compare_name = ""
@@ -212,14 +244,13 @@ def write(paths: list[Path], out: Path, compare: Path | None = None,
             _save(figure, report, f"trajectories_{world.id}", f"Trajectories in {world.id}",
                   f"Query {query}: every planner's trajectory (dashed: not a success) from "
                   "above and from the side; start green, goal red.")
-    with_trees = [run for _, run in runs.iterrows() if run["planner_type"] == "lazy_mp_astar"]
-    for run in with_trees:
+    if (run := _tree_run(results)) is not None:
         world = results.worlds.get(run["world_hash"])
         if (figure := plots.search_tree(results, run, world)) is not None:
-            _save(figure, report, "lazy_search_tree", "Lazy search tree (the paper's Fig. 6)",
+            _save(figure, report, "search_tree", f"Search tree of {run['planner']}"
+                  + (" (the paper's Fig. 6)" if reproduced else ""),
                   "Edges only partially evaluated (queued on their lower bound) and fully "
                   "evaluated ones, in two colours; the trajectory in black.")
-            break
     if (figure := plots.anytime(runs)) is not None:
         _save(figure, report, "rrtstar_anytime", "RRT* anytime cost",
               "Median best path length on the fixed time grid, over runs with a solution.")
@@ -242,7 +273,9 @@ def write(paths: list[Path], out: Path, compare: Path | None = None,
         name=results.meta.get("name", "results"), meta=results.meta,
         databases=", ".join(str(p) for p in results.paths), provenance=provenance,
         tables={k: jinja2.utils.markupsafe.Markup(_html(v)) for k, v in report.tables.items()},
-        figures=report.figures, compare_name=compare_name)
+        figures=report.figures, compare_name=compare_name,
+        paper_rows=", ".join(f"{row} = {planner}" for planner, row in reproduced[1].items())
+        if reproduced else "")
     (out / "index.html").write_text(html)
     return report
 
@@ -253,11 +286,15 @@ def terminal_summary(report: Report) -> str:
     counts = report.tables["status_counts"]
     lines.append("runs by status:")
     lines += ["  " + line for line in tables.to_markdown(counts).splitlines()]
-    lines.append("the paper's Table II beside kinolab (medians, 95 % intervals):")
-    table2 = report.tables["paper_table2"]
-    columns = ["planner", "runs", "success", "paper T (ms)", "kinolab T (ms)", "paper N",
-               "kinolab N", "paper D (m)", "kinolab D (m)"]
-    lines += ["  " + line for line in tables.to_markdown(table2[columns]).splitlines()]
+    if "paper_table2" in report.tables:
+        lines.append("the paper's Table II beside kinolab (medians, 95 % intervals):")
+        table2 = report.tables["paper_table2"]
+        columns = ["planner", "runs", "success", "paper T (ms)", "kinolab T (ms)", "paper N",
+                   "kinolab N", "paper D (m)", "kinolab D (m)"]
+        lines += ["  " + line for line in tables.to_markdown(table2[columns]).splitlines()]
+    else:
+        lines.append("per planner (medians, 95 % intervals):")
+        lines += ["  " + line for line in tables.to_markdown(report.tables["summary"]).splitlines()]
     lines.append(f"{len(report.figures)} figures (PNG and SVG) in {report.out / 'figures'}; "
                  f"tables (Markdown, LaTeX) in {report.out / 'tables'}")
     return "\n".join(lines)

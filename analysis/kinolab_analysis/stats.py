@@ -145,5 +145,7 @@ def ecdf_unsolved(times: Sequence[float], solved: Sequence[bool]) -> tuple[np.nd
 
 
 def is_success(runs: pd.DataFrame) -> pd.Series:
-    """Exact and accepted by the independent checker."""
+    """Exact and accepted by the independent checker: kinolab's one definition (C++
+    `isSuccess`), which the runner stores as the `success` column. Only data that predates
+    that column (version 1 databases, synthetic frames) needs it computed here."""
     return (runs["status"] == "exact") & (runs["checker_valid"] == 1)

@@ -64,6 +64,29 @@ def summary(runs: pd.DataFrame, by: list[str] | None = None,
     return pd.DataFrame(rows)
 
 
+def statistics(runs: pd.DataFrame, metrics: pd.DataFrame) -> pd.DataFrame:
+    """Per planner, every statistic its planner type declares (the database's `metrics`
+    table) with its unit, the runs that report it and the median over them (bootstrap 95 %):
+    a statistic describes a run, solved or not, so every run counts."""
+    if metrics.empty:
+        return pd.DataFrame()
+    declared = metrics[metrics["kind"] == "statistic"]
+    rows = []
+    for planner, group in runs.groupby("planner", sort=False):
+        mine = declared[declared["planner_type"].isin(set(group["planner_type"]))]
+        for _, spec in mine.drop_duplicates("name").iterrows():
+            name = spec["name"]
+            if name not in group.columns:
+                continue
+            values = group[name].dropna().to_numpy(dtype=float)
+            if len(values) == 0:
+                continue
+            rows.append({"planner": planner, "statistic": name, "unit": spec["unit"],
+                         "clock": bool(spec["clock"]), "runs": len(values),
+                         "median": stats.bootstrap(values, np.median)})
+    return pd.DataFrame(rows)
+
+
 def paired_tests(left: pd.DataFrame, right: pd.DataFrame, names: tuple[str, str],
                  metrics: tuple[str, ...]) -> list[dict]:
     """Two sets of runs on the same cases, row for row: McNemar (exact) on success, and

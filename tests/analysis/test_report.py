@@ -4,7 +4,9 @@ report rendered in headless Chromium."""
 import os
 import re
 import shutil
+import sqlite3
 import subprocess
+import sys
 import textwrap
 from pathlib import Path
 
@@ -36,6 +38,7 @@ planners:
     params: {refine_iterations: 100}
 budget: {time: 5}
 store: {trajectories: true, trees: 1}
+reproduces: {paper: lazy_mp_astar_paper, rows: {eager: MP-A*, lazy: Lazy, tgk: TGK}}
 """
 
 
@@ -77,7 +80,7 @@ def test_the_report_directory_holds_html_figures_and_tables(report):
     directory, stdout = report
     html = (directory / "index.html").read_text()
     figures = sorted(p.stem for p in (directory / "figures").glob("*.png"))
-    for name in ("ecdf_planning_time", "metrics", "trajectories_small", "lazy_search_tree",
+    for name in ("ecdf_planning_time", "metrics", "trajectories_small", "search_tree",
                  "rrtstar_anytime"):
         assert name in figures, figures
         assert (directory / "figures" / f"{name}.svg").stat().st_size > 1000
@@ -129,3 +132,44 @@ def test_the_report_renders_in_headless_chromium(report, tmp_path):
     assert expected >= 5 and loaded == expected
     assert dom.count("<table") >= 5
     assert "Table II beside kinolab" in dom
+
+
+def test_an_experiment_that_reproduces_no_paper_gets_no_paper_tables(tmp_path):
+    """Reports work for any planners: the paper's tables appear only when the experiment
+    says what it reproduces, not because a plugin key matches."""
+    path = tmp_path / "plain.yaml"
+    text = EXPERIMENT.replace("HW", "2").split("reproduces:")[0]
+    path.write_text(text.replace("name: report_test", "name: plain"))
+    run = kinolab("run", path, "--out", tmp_path / "plain", "-j", "2", cache=tmp_path / "cache")
+    assert run.returncode == 0, run.stderr
+    result = kinolab("report", tmp_path / "plain", cache=tmp_path / "cache")
+    assert result.returncode == 0, result.stderr
+    html = (tmp_path / "plain" / "report" / "index.html").read_text()
+    assert "Table II" not in html and "Table I" not in html
+    assert not (tmp_path / "plain" / "report" / "tables" / "paper_table2.md").exists()
+    assert "Table II" not in result.stdout and "per planner" in result.stdout
+    # The lazy planner's tree is still drawn (chosen by its partial edges, not its key).
+    assert (tmp_path / "plain" / "report" / "figures" / "search_tree.png").is_file()
+
+
+def test_a_version_1_database_loads_with_one_success_definition(results, tmp_path):
+    """Databases written before the schema was declared (no schema_version, no success
+    column, `timeout` for a killed worker) load, upgraded in memory."""
+    sys.path.insert(0, str(SOURCE_DIR / "analysis"))
+    from kinolab_analysis.data import load
+
+    old = tmp_path / "old.sqlite"
+    shutil.copy(results[2] / "results.sqlite", old)
+    with sqlite3.connect(old) as db:
+        db.execute("DELETE FROM meta WHERE key = 'schema_version'")
+        db.execute("DROP TABLE metrics")
+        db.execute("ALTER TABLE runs DROP COLUMN success")
+        db.execute("UPDATE runs SET status = 'timeout', message = 'killed after 6 s: ...' "
+                   "WHERE planner = 'tgk' AND query = 0")
+    loaded = load(old).runs.set_index("run_hash")
+    stored = load(results[2]).runs.set_index("run_hash")
+    killed = (loaded["planner"] == "tgk") & (loaded["query"] == 0)
+    assert set(loaded.loc[killed, "status"]) == {"killed"}
+    assert not loaded.loc[killed, "success"].any()
+    # Everywhere else the derived success equals the one the runner stored.
+    assert loaded.loc[~killed, "success"].equals(stored.loc[loaded.index[~killed], "success"])
