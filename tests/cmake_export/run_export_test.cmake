@@ -55,4 +55,35 @@ run_step(FAIL "${kinolab}" --plugin "${build}/libno_entry_point.so" list)
 expect_output("libno_entry_point.so': no kinolab entry point")
 run_step(FAIL "${kinolab}" --plugin "${build}/libmissing.so" list)
 expect_output("libmissing.so': no such file")
+# The out-of-tree lower bound plans with eager's cost, and an experiment uses it.
+set(bound "${build}/liblower_bound_plugin.so")
+set(world "${CONSUMER_SOURCE_DIR}/../support/small_forest.yaml")
+set(env ${CMAKE_COMMAND} -E env "KINOLAB_CACHE_DIR=${WORK_DIR}/cache")
+foreach(planner lazy_scaled_bound eager_mp_astar)
+  run_step(OK ${env} "${kinolab}" --plugin "${bound}" plan --world "${world}" --planner ${planner}
+           --set sampler.samples_per_axis=3 --set heuristic_weight=1 --start 1,1,1.5
+           --goal 8.5,8,1.5)
+  string(REGEX MATCH "{[^\n]*}[\n]*$" json "${step_output}")
+  string(JSON status GET "${json}" status)
+  string(JSON cost_${planner} GET "${json}" cost)
+  if(NOT status STREQUAL "exact")
+    message(FATAL_ERROR "${planner}: status ${status}\n${step_output}")
+  endif()
+endforeach()
+# Equal up to floating-point ties: the first 9 characters of the printed costs.
+string(SUBSTRING "${cost_lazy_scaled_bound}" 0 9 lazy_cost)
+string(SUBSTRING "${cost_eager_mp_astar}" 0 9 eager_cost)
+if(NOT lazy_cost STREQUAL eager_cost)
+  message(FATAL_ERROR "lazy_scaled_bound cost ${cost_lazy_scaled_bound} != eager ${cost_eager_mp_astar}")
+endif()
+file(READ "${world}" world_text)
+string(REPLACE "\n" "\n      " world_text "${world_text}")
+file(WRITE "${WORK_DIR}/bound.yaml" "kind: planning\nname: bound\nseed: 4\nplugins: [${bound}]\n"
+  "worlds:\n  - id: small\n    spec:\n      ${world_text}\n"
+  "queries:\n  random: {count: 3, min_distance: 3, max_distance: 7}\n"
+  "planners:\n  - id: scaled\n    type: lazy_scaled_bound\n"
+  "    sampler: {type: uniform, params: {samples_per_axis: 3}}\n"
+  "    params: {bound_scale: 0.25}\n")
+run_step(OK ${env} "${kinolab}" run "${WORK_DIR}/bound.yaml" --out "${WORK_DIR}/bound")
+expect_output("3 runs ran, 3 succeeded")
 message(STATUS "out-of-tree program and plugins: as expected")

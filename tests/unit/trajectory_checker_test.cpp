@@ -104,7 +104,9 @@ TEST(TrajectoryChecker, FclAgreesWithTheEsdfWhereTheModelsOverlap) {
   const VoxelGrid& grid = world->grid();
   for (int ix = 0; ix < grid.dims().x(); ++ix) {
     const VoxelIndex voxel(ix, 60, 10);
-    if (grid.occupied(voxel)) EXPECT_TRUE(checker.fclCollides(grid.center(voxel)));
+    if (grid.occupied(voxel)) {
+      EXPECT_TRUE(checker.fclCollides(grid.center(voxel)));
+    }
   }
 }
 

@@ -21,6 +21,11 @@ WorldSpec WorldSpec::fromFile(const std::string& path) {
   return spec;
 }
 
+WorldSpec WorldSpec::fromText(const std::string& text, const std::string& source,
+                             const std::string& spec_directory) {
+  return fromYaml(YamlReader::loadString(text, source), spec_directory);
+}
+
 WorldSpec WorldSpec::fromYaml(const YamlReader& node, const std::string& spec_directory) {
   if (!node.isMap()) node.fail("expected a world spec (a mapping with resolution and generators)");
   WorldSpec spec;

@@ -32,6 +32,10 @@ struct WorldSpec {
 
   /// Loads and validates a spec file; errors name the file, line and key path.
   static WorldSpec fromFile(const std::string& path);
+  /// Parses a spec from YAML text; `source` names it in messages, `spec_directory` resolves
+  /// relative map paths.
+  static WorldSpec fromText(const std::string& text, const std::string& source,
+                            const std::string& spec_directory);
   /// Reads a spec from a YAML mapping (e.g. inline in an experiment file);
   /// `spec_directory` resolves relative map paths.
   static WorldSpec fromYaml(const YamlReader& node, const std::string& spec_directory);
