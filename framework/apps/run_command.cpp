@@ -20,29 +20,12 @@ struct RunOptions {
   bool dry_run = false;
 };
 
-void parseShard(const std::string& text, RunnerOptions& runner) {
-  const std::size_t slash = text.find('/');
-  try {
-    std::size_t used = 0;
-    if (slash == std::string::npos) throw std::invalid_argument(text);
-    runner.shard_index = std::stoi(text.substr(0, slash), &used);
-    if (used != slash) throw std::invalid_argument(text);
-    runner.shard_count = std::stoi(text.substr(slash + 1), &used);
-    if (used != text.size() - slash - 1) throw std::invalid_argument(text);
-  } catch (const std::exception&) {
-    throw ConfigError("--shard '" + text + "': expected i/N, e.g. 2/8");
-  }
-  if (runner.shard_count < 1 || runner.shard_index < 1 || runner.shard_index > runner.shard_count) {
-    throw ConfigError("--shard '" + text + "': expected 1 <= i <= N");
-  }
-}
-
 int runCommand(RunOptions& options) {
-  if (!options.shard.empty()) parseShard(options.shard, options.runner);
+  if (!options.shard.empty()) options.runner.shard = Shard::parse(options.shard);
   const Experiment experiment = Experiment::fromFile(options.experiment);
   if (options.dry_run) {
     const auto runs =
-        shardOf(experiment.runs(), options.runner.shard_index, options.runner.shard_count);
+        options.runner.shard.select(experiment.runs());
     std::cout << describeRuns(experiment, runs);
     return 0;
   }

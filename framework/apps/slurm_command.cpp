@@ -16,6 +16,7 @@
 #include "kinolab/core/text.hpp"
 #include "kinolab/experiment/experiment.hpp"
 #include "kinolab/experiment/results_store.hpp"
+#include "kinolab/experiment/shard.hpp"
 #include "kinolab/world/world_cache.hpp"
 
 namespace kinolab::apps {
@@ -88,7 +89,7 @@ void runSlurm(const SlurmOptions& o) {
                       "\n#SBATCH --cpus-per-task=" + std::to_string(o.cpus_per_task) + "\n";
   if (!o.memory.empty()) array += "#SBATCH --mem=" + o.memory + "\n";
   array += "set -euo pipefail\nexec " + quote(selfPath()) + " run " + quote(experiment_path) +
-           " \\\n  --out " + quote((out / "shards").string()) +
+           " \\\n  --out " + quote(Shard::parentDirectory(out.string())) +
            "/\"$SLURM_ARRAY_TASK_ID\" --shard \"$SLURM_ARRAY_TASK_ID/" + shards +
            "\" --resume \\\n  -j \"${SLURM_CPUS_PER_TASK:-1}\" --cache-dir " + quote(cache) + "\n";
   std::string merge = "#!/bin/bash\n# kinolab: joins the " + shards +
@@ -99,7 +100,7 @@ void runSlurm(const SlurmOptions& o) {
                       quote((out / "results.sqlite").string());
   for (int shard = 1; shard <= o.shards; ++shard) {
     merge +=
-        " \\\n  " + quote((out / "shards" / std::to_string(shard) / "results.sqlite").string());
+        " \\\n  " + quote((fs::path(Shard::directory(out.string(), shard)) / "results.sqlite").string());
   }
   merge += "\n";
 
@@ -165,7 +166,7 @@ void runStatus(const std::string& directory) {
   }
   long long done = 0, planned = 0;
   for (int shard = 1; shard <= shards; ++shard) {
-    const fs::path file = out / "shards" / std::to_string(shard) / "results.sqlite";
+    const fs::path file = fs::path(Shard::directory(out.string(), shard)) / "results.sqlite";
     if (!fs::exists(file)) {
       std::printf("  shard %d/%d: not started\n", shard, shards);
       continue;

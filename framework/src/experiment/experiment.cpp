@@ -590,24 +590,4 @@ std::vector<RunSpec> Experiment::runs() const {
   return unique;
 }
 
-std::vector<RunSpec> shardOf(const std::vector<RunSpec>& runs, int index, int count) {
-  if (count < 1 || index < 1 || index > count) {
-    throw ConfigError("--shard " + std::to_string(index) + "/" + std::to_string(count) +
-                      ": expected i/N with 1 <= i <= N");
-  }
-  std::vector<std::string> hashes;
-  for (const RunSpec& run : runs) hashes.push_back(run.hash);
-  std::sort(hashes.begin(), hashes.end());
-  std::set<std::string> mine;
-  for (std::size_t i = static_cast<std::size_t>(index - 1); i < hashes.size();
-       i += static_cast<std::size_t>(count)) {
-    mine.insert(hashes[i]);
-  }
-  std::vector<RunSpec> shard;
-  for (const RunSpec& run : runs) {
-    if (mine.count(run.hash)) shard.push_back(run);
-  }
-  return shard;
-}
-
 }  // namespace kinolab

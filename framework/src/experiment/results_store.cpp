@@ -7,6 +7,7 @@
 #include <string_view>
 
 #include "kinolab/core/error.hpp"
+#include "kinolab/experiment/shard.hpp"
 
 namespace kinolab {
 
@@ -335,8 +336,8 @@ void ResultsStore::merge(const std::string& output, const std::vector<std::strin
     throw FileError(output + ": exists already; merge writes a new database");
   }
   std::string config_hash;
-  std::string shard_count;
-  std::set<std::string> shards;
+  int shard_count = 0;
+  std::set<int> shards;
   for (const std::string& input : inputs) {
     if (!std::filesystem::is_regular_file(input)) throw FileError(input + ": no such database");
     ResultsStore shard(input);
@@ -346,18 +347,23 @@ void ResultsStore::merge(const std::string& output, const std::vector<std::strin
     if (!hash || !which || !planned) {
       throw FileError(input + ": not a kinolab results database (no config hash or shard)");
     }
+    if (shard.schemaVersion() != kResultsSchemaVersion) {
+      throw ConfigError("merge: " + input + " holds results of schema version " +
+                        std::to_string(shard.schemaVersion().value_or(0)) +
+                        "; this kinolab merges version " + std::to_string(kResultsSchemaVersion));
+    }
     if (config_hash.empty()) config_hash = *hash;
     if (*hash != config_hash) {
       throw ConfigError("merge: " + input + " holds another experiment (config hash " + *hash +
                         ", the first input has " + config_hash + ")");
     }
-    const std::string count = which->substr(which->find('/') + 1);
-    if (shard_count.empty()) shard_count = count;
-    if (count != shard_count) {
+    const Shard parsed = Shard::parse(*which, input + ": shard");
+    if (shard_count == 0) shard_count = parsed.count;
+    if (parsed.count != shard_count) {
       throw ConfigError("merge: " + input + " is shard " + *which +
-                        " but the first input is one of " + shard_count);
+                        " but the first input is one of " + std::to_string(shard_count));
     }
-    if (!shards.insert(*which).second) {
+    if (!shards.insert(parsed.index).second) {
       throw ConfigError("merge: shard " + *which + " is given twice (" + input + ")");
     }
     const long long stored = shard.runCount();
@@ -368,8 +374,9 @@ void ResultsStore::merge(const std::string& output, const std::vector<std::strin
                         ", or pass --partial");
     }
   }
-  if (!partial && shards.size() != static_cast<std::size_t>(std::stoll(shard_count))) {
-    throw ConfigError("merge: " + std::to_string(shards.size()) + " of " + shard_count +
+  if (!partial && shards.size() != static_cast<std::size_t>(shard_count)) {
+    throw ConfigError("merge: " + std::to_string(shards.size()) + " of " +
+                      std::to_string(shard_count) +
                       " shards given; pass every shard, or --partial");
   }
 

@@ -343,10 +343,9 @@ RunnerSummary runExperiment(const Experiment& experiment, const RunnerOptions& o
   const double begin = seconds();
   RunnerSummary summary;
   const std::vector<RunSpec> runs =
-      shardOf(experiment.runs(), options.shard_index, options.shard_count);
+      options.shard.select(experiment.runs());
   summary.planned = static_cast<long long>(runs.size());
-  const std::string shard =
-      std::to_string(options.shard_index) + "/" + std::to_string(options.shard_count);
+  const std::string shard = options.shard.text();
 
   std::filesystem::create_directories(options.out_dir);
   ResultsStore store((std::filesystem::path(options.out_dir) / "results.sqlite").string());

@@ -121,8 +121,5 @@ struct Experiment {
 /// (analysis/kinolab_analysis/tables.py holds the papers' figures for these rows).
 const std::map<std::string, std::vector<std::string>>& reproducibleRows();
 
-/// Shard `index` of `count` (1-based): the runs whose position in the hash order is
-/// index - 1 modulo count; deterministic and disjoint, together complete.
-std::vector<RunSpec> shardOf(const std::vector<RunSpec>& runs, int index, int count);
 
 }  // namespace kinolab

@@ -4,6 +4,7 @@
 #include <string>
 
 #include "kinolab/experiment/experiment.hpp"
+#include "kinolab/experiment/shard.hpp"
 
 namespace kinolab {
 
@@ -11,8 +12,7 @@ struct RunnerOptions {
   std::string out_dir;
   int jobs = 1;
   bool resume = false;
-  int shard_index = 1;
-  int shard_count = 1;
+  Shard shard;
   std::string cache_dir;       ///< built worlds (WorldCache)
   double grace_seconds = 5.0;  ///< a worker is killed this long after its time budget
 };

@@ -1,0 +1,218 @@
+// The experiment module as a library: sweep expansion, `extends:`, seeds and run hashes,
+// shard partition, `reproduces:` validation and the merge refusals.
+#include "kinolab/experiment/experiment.hpp"
+
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <filesystem>
+#include <fstream>
+#include <set>
+
+#include "kinolab/core/error.hpp"
+#include "kinolab/experiment/results_store.hpp"
+#include "kinolab/experiment/shard.hpp"
+#include "support/test_plugins.hpp"
+
+namespace kinolab {
+namespace {
+
+namespace fs = std::filesystem;
+
+class ExperimentTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    test::loadTestPlugins();
+    directory_ = fs::temp_directory_path() /
+                 ("kinolab_experiment_test_" + std::to_string(getpid()) + "_" +
+                  ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    fs::remove_all(directory_);
+    fs::create_directories(directory_);
+    fs::copy_file(fs::path(KINOLAB_SOURCE_DIR) / "tests/support/small_forest.yaml",
+                  directory_ / "small_forest.yaml");
+  }
+  void TearDown() override { fs::remove_all(directory_); }
+
+  /// Writes `name` with a small experiment around `planners` plus `extra`.
+  std::string write(const std::string& name, const std::string& body) const {
+    const fs::path path = directory_ / name;
+    std::ofstream(path) << body;
+    return path.string();
+  }
+  std::string experiment(const std::string& name, const std::string& extra,
+                         int queries = 3) const {
+    return write(name, "kind: planning\nname: " + name +
+                           "\nseed: 7\nworlds:\n  - {id: small, spec: small_forest.yaml}\n"
+                           "queries:\n  random: {count: " +
+                           std::to_string(queries) +
+                           ", min_distance: 3, max_distance: 8}\n"
+                           "planners:\n"
+                           "  - {id: eager, type: eager_mp_astar, params: {heuristic_weight: 2}}\n"
+                           "  - {id: lazy, type: lazy_mp_astar, params: {heuristic_weight: 2}}\n" +
+                           extra);
+  }
+
+  fs::path directory_;
+};
+
+TEST_F(ExperimentTest, GridZipAndListSweepsExpandToTheirProductOfVariants) {
+  const Experiment e = Experiment::fromFile(experiment("sweep.yaml", R"(sweep:
+  grid:
+    planners.eager.params.heuristic_weight: [1.5, 2, 3]
+  zip:
+    planners.lazy.params.lower_bound: [endpoint, lipschitz]
+    budget.time: [5, 8]
+repetitions: 2
+)"));
+  ASSERT_EQ(e.variants.size(), 6u);  // 3 grid values x 2 zipped pairs
+  std::set<std::string> labels;
+  for (const ExperimentVariant& variant : e.variants) labels.insert(variant.label);
+  EXPECT_EQ(labels.size(), 6u);
+  EXPECT_EQ(e.variants.front().repetitions, 2);
+  // A zipped pair moves together.
+  for (const ExperimentVariant& variant : e.variants) {
+    const bool lipschitz = variant.planners[1].parameters.text("lower_bound") == "lipschitz";
+    EXPECT_EQ(variant.budget.time, lipschitz ? 8.0 : 5.0) << variant.label;
+  }
+  // A run a sweep axis does not change runs once: lazy's runs do not depend on eager's
+  // heuristic weight (2 distinct lazy configurations, not 6), eager's change with it and
+  // with the budget (6); each x 3 queries x 2 repetitions.
+  EXPECT_EQ(e.runs().size(), 2u * 6u + 6u * 6u);
+}
+
+TEST_F(ExperimentTest, ExtendsMergesMappingsAndTheChildWins) {
+  write("base.yaml", "kind: planning\nname: base\nseed: 7\n"
+                     "worlds:\n  - {id: small, spec: small_forest.yaml}\n"
+                     "queries:\n  random: {count: 2, min_distance: 3, max_distance: 8}\n"
+                     "planners:\n  - {id: eager, type: eager_mp_astar}\n"
+                     "budget: {time: 3, memory_mb: 512}\n");
+  const Experiment e = Experiment::fromFile(
+      write("child.yaml", "extends: base.yaml\nname: child\nbudget: {time: 9}\n"));
+  EXPECT_EQ(e.name, "child");
+  EXPECT_EQ(e.variants.front().budget.time, 9.0);
+  EXPECT_EQ(e.variants.front().budget.memory_mb, 512);  // kept from the base
+  EXPECT_EQ(e.runs().size(), 2u);
+  write("loop_a.yaml", "extends: loop_b.yaml\n");
+  write("loop_b.yaml", "extends: loop_a.yaml\n");
+  EXPECT_THROW(Experiment::fromFile((directory_ / "loop_a.yaml").string()), ConfigError);
+}
+
+TEST_F(ExperimentTest, SeedsArePairedAcrossPlannersAndHashesAreStableAndDistinct) {
+  const Experiment e = Experiment::fromFile(experiment("seeds.yaml", "repetitions: 2\n"));
+  const std::vector<RunSpec> runs = e.runs();
+  ASSERT_EQ(runs.size(), 3u * 2u * 2u);
+  std::set<std::string> hashes;
+  for (const RunSpec& run : runs) hashes.insert(run.hash);
+  EXPECT_EQ(hashes.size(), runs.size());
+  for (const RunSpec& a : runs) {
+    for (const RunSpec& b : runs) {
+      const bool same_case = a.query == b.query && a.repetition == b.repetition;
+      // Every planner sees the same case with the same seed; other cases get other seeds.
+      EXPECT_EQ(a.seed == b.seed, same_case);
+    }
+  }
+  // The same file gives the same hashes; another master seed gives other ones.
+  const Experiment again = Experiment::fromFile(experiment("seeds.yaml", "repetitions: 2\n"));
+  EXPECT_EQ(again.config_hash, e.config_hash);
+  EXPECT_EQ(again.runs().front().hash, runs.front().hash);
+  std::string text;
+  std::getline(std::ifstream(directory_ / "seeds.yaml"), text, '\0');
+  text.replace(text.find("seed: 7"), 7, "seed: 8");
+  const Experiment reseeded = Experiment::fromFile(write("seeds.yaml", text));
+  EXPECT_NE(reseeded.runs().front().hash, runs.front().hash);
+  EXPECT_NE(reseeded.config_hash, e.config_hash);
+}
+
+TEST_F(ExperimentTest, ShardsPartitionTheRunsAndParseOnce) {
+  const Experiment e = Experiment::fromFile(experiment("shards.yaml", "repetitions: 3\n", 5));
+  const std::vector<RunSpec> runs = e.runs();
+  for (const int count : {1, 2, 3, 7, 40}) {
+    std::multiset<std::string> seen;
+    for (int index = 1; index <= count; ++index) {
+      const std::vector<RunSpec> part = Shard{index, count}.select(runs);
+      EXPECT_LE(part.size(), runs.size() / count + 1);
+      for (const RunSpec& run : part) seen.insert(run.hash);
+    }
+    EXPECT_EQ(seen.size(), runs.size()) << count;
+    std::set<std::string> unique(seen.begin(), seen.end());
+    EXPECT_EQ(unique.size(), runs.size()) << count;  // disjoint
+  }
+  EXPECT_EQ(Shard::parse("2/8"), (Shard{2, 8}));
+  EXPECT_EQ(Shard::parse("2/8").text(), "2/8");
+  for (const char* bad : {"", "2", "0/3", "4/3", "1/0", "a/2", "1/2x", "-1/2", "1//2"}) {
+    EXPECT_THROW(Shard::parse(bad), ConfigError) << bad;
+  }
+}
+
+TEST_F(ExperimentTest, ReproducesNamesAKnownPaperAndThePlannersOfItsRows) {
+  const Experiment e = Experiment::fromFile(experiment(
+      "paper.yaml", "reproduces: {paper: lazy_mp_astar_paper, rows: {eager: MP-A*, lazy: Lazy}}\n"));
+  EXPECT_EQ(e.reproduces_paper, "lazy_mp_astar_paper");
+  ASSERT_EQ(e.reproduces_rows.size(), 2u);
+  EXPECT_EQ(e.reproduces_rows[1], (std::pair<std::string, std::string>{"lazy", "Lazy"}));
+  const auto fails = [&](const std::string& extra, const std::string& message) {
+    try {
+      Experiment::fromFile(experiment("bad.yaml", extra));
+      ADD_FAILURE() << "accepted: " << extra;
+    } catch (const ConfigError& error) {
+      EXPECT_NE(std::string(error.what()).find(message), std::string::npos) << error.what();
+    }
+  };
+  fails("reproduces: {paper: lazy_paper, rows: {}}\n", "unknown paper 'lazy_paper'");
+  fails("reproduces: {paper: lazy_mp_astar_paper, rows: {eager: Eager}}\n", "not a row");
+  fails("reproduces: {paper: lazy_mp_astar_paper, rows: {tgk: TGK}}\n", "no planner has the id");
+  fails("reproduces: {paper: lazy_mp_astar_paper, rows: {}, colour: red}\n", "colour");
+}
+
+TEST_F(ExperimentTest, MergeRefusesMixedRepeatedIncompleteAndOldShards) {
+  const auto shard = [&](const std::string& name, const std::string& which,
+                         const std::string& config_hash, int planned, int stored,
+                         const std::string& version = std::to_string(kResultsSchemaVersion)) {
+    const std::string path = (directory_ / (name + ".sqlite")).string();
+    ResultsStore store(path);
+    store.setMeta({{"config_hash", config_hash},
+                   {"shard", which},
+                   {"runs_planned", std::to_string(planned)},
+                   {"schema_version", version}});
+    for (int i = 0; i < stored; ++i) {
+      RunRecord record;
+      record.run_hash = name + std::to_string(i);
+      record.metrics = {{"status", std::string("exact")}, {"success", 1.0}};
+      store.insert(record);
+    }
+    return path;
+  };
+  const std::string a = shard("a", "1/2", "h", 2, 2);
+  const std::string b = shard("b", "2/2", "h", 1, 1);
+  const std::string out = (directory_ / "merged.sqlite").string();
+  ResultsStore::merge(out, {a, b}, false);
+  EXPECT_EQ(ResultsStore(out).runCount(), 3);
+  EXPECT_EQ(ResultsStore(out).meta("shard"), "1/1");
+
+  const auto refuses = [&](const std::vector<std::string>& inputs, const std::string& message) {
+    const std::string target = (directory_ / "refused.sqlite").string();
+    try {
+      ResultsStore::merge(target, inputs, false);
+      ADD_FAILURE() << "merged: " << message;
+    } catch (const Error& error) {
+      EXPECT_NE(std::string(error.what()).find(message), std::string::npos) << error.what();
+    }
+    EXPECT_FALSE(fs::exists(target));  // nothing half-written is left
+  };
+  refuses({a, shard("other", "2/2", "other_hash", 1, 1)}, "holds another experiment");
+  refuses({a, a}, "given twice");
+  refuses({a, shard("three", "2/3", "h", 1, 1)}, "but the first input is one of 2");
+  refuses({a}, "1 of 2 shards given");
+  refuses({a, shard("short", "2/2", "h", 3, 1)}, "is incomplete: 1 of 3");
+  refuses({a, shard("old", "2/2", "h", 1, 1, "1")}, "schema version 1");
+  // Merge never overwrites: `out` is there already, and keeps its runs.
+  EXPECT_THROW(ResultsStore::merge(out, {a, b}, false), FileError);
+  EXPECT_EQ(ResultsStore(out).runCount(), 3);
+  // --partial accepts a missing shard.
+  const std::string partial = (directory_ / "partial.sqlite").string();
+  ResultsStore::merge(partial, {a}, true);
+  EXPECT_EQ(ResultsStore(partial).runCount(), 2);
+}
+
+}  // namespace
+}  // namespace kinolab
