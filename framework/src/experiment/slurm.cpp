@@ -1,0 +1,113 @@
+#include "kinolab/experiment/slurm.hpp"
+
+#include <cstdio>
+#include <filesystem>
+#include <sstream>
+
+#include "kinolab/core/error.hpp"
+#include "kinolab/experiment/shard.hpp"
+
+namespace kinolab {
+namespace {
+
+namespace fs = std::filesystem;
+
+std::string header(const SlurmRequest& request, const std::string& name, const std::string& logs) {
+  std::string text = "#SBATCH --job-name=" + name + "\n#SBATCH --output=" + logs + "\n";
+  if (!request.partition.empty()) text += "#SBATCH --partition=" + request.partition + "\n";
+  if (!request.time.empty()) text += "#SBATCH --time=" + request.time + "\n";
+  return text;
+}
+
+std::string in(const std::string& directory, const std::string& name) {
+  return (fs::path(directory) / name).string();
+}
+
+}  // namespace
+
+void SlurmRequest::validate() const {
+  if (shards < 1) throw ConfigError("--shards " + std::to_string(shards) + ": expected >= 1");
+  if (cpus_per_task < 1) {
+    throw ConfigError("--cpus-per-task " + std::to_string(cpus_per_task) + ": expected >= 1");
+  }
+  if (time.empty()) return;
+  int h = 0, m = 0, s = 0;
+  char rest = 0;
+  if (std::sscanf(time.c_str(), "%d:%d:%d%c", &h, &m, &s, &rest) != 3 || h < 0 || m < 0 ||
+      m > 59 || s < 0 || s > 59) {
+    throw ConfigError("--time '" + time + "': expected HH:MM:SS, e.g. 02:00:00");
+  }
+}
+
+std::string SlurmLayout::arrayScript() const { return in(out, "kinolab_shards.sh"); }
+std::string SlurmLayout::mergeScript() const { return in(out, "kinolab_merge.sh"); }
+std::string SlurmLayout::jobsFile() const { return in(out, "slurm_jobs.txt"); }
+std::string SlurmLayout::logs() const { return in(out, "logs"); }
+std::string SlurmLayout::merged() const { return in(out, "results.sqlite"); }
+std::string SlurmLayout::shardDatabase(int index) const {
+  return in(Shard::directory(out, index), "results.sqlite");
+}
+
+SlurmScripts slurmScripts(const Experiment& experiment, const std::string& experiment_path,
+                          const SlurmLayout& layout, const SlurmRequest& request,
+                          const std::string& kinolab_path, const std::string& cache_dir) {
+  request.validate();
+  const std::string shards = std::to_string(request.shards);
+  const std::string job = "kinolab-" + experiment.name;
+  SlurmScripts scripts;
+  scripts.array = "#!/bin/bash\n# kinolab: experiment '" + experiment.name + "' (" +
+                  std::to_string(experiment.runs().size()) + " runs) as " + shards +
+                  " shards, one array task each.\n"
+                  "# Submitted by `kinolab slurm`; to rerun one failed shard K alone:\n"
+                  "#   sbatch --array=K " +
+                  layout.arrayScript() + "   (it resumes), then sbatch " + layout.mergeScript() +
+                  "\n" + header(request, job, in(layout.logs(), "shard_%a.out")) +
+                  "#SBATCH --array=1-" + shards +
+                  "\n#SBATCH --cpus-per-task=" + std::to_string(request.cpus_per_task) + "\n";
+  if (!request.memory.empty()) scripts.array += "#SBATCH --mem=" + request.memory + "\n";
+  scripts.array += "set -euo pipefail\nexec " + shellQuote(kinolab_path) + " run " +
+                   shellQuote(experiment_path) + " \\\n  --out " +
+                   shellQuote(Shard::parentDirectory(layout.out)) +
+                   "/\"$SLURM_ARRAY_TASK_ID\" --shard \"$SLURM_ARRAY_TASK_ID/" + shards +
+                   "\" --resume \\\n  -j \"${SLURM_CPUS_PER_TASK:-1}\" --cache-dir " +
+                   shellQuote(cache_dir) + "\n";
+  scripts.merge = "#!/bin/bash\n# kinolab: joins the " + shards +
+                  " shard databases into results.sqlite (refuses partial or mixed inputs).\n" +
+                  header(request, job + "-merge", in(layout.logs(), "merge.out")) +
+                  "set -euo pipefail\nrm -f " + shellQuote(layout.merged()) + "*\nexec " +
+                  shellQuote(kinolab_path) + " merge " + shellQuote(layout.merged());
+  for (int shard = 1; shard <= request.shards; ++shard) {
+    scripts.merge += " \\\n  " + shellQuote(layout.shardDatabase(shard));
+  }
+  scripts.merge += "\n";
+  return scripts;
+}
+
+std::string SlurmJobs::text() const {
+  return "array " + array_job + "\nmerge " + merge_job + "\nshards " + std::to_string(shards) +
+         "\n";
+}
+
+SlurmJobs SlurmJobs::parse(const std::string& text, const std::string& source) {
+  SlurmJobs jobs;
+  std::istringstream lines(text);
+  std::string key;
+  while (lines >> key) {
+    if (key == "array") lines >> jobs.array_job;
+    else if (key == "merge") lines >> jobs.merge_job;
+    else if (key == "shards") lines >> jobs.shards;
+    else throw FileError(source + ": unknown entry '" + key + "'");
+  }
+  if (jobs.array_job.empty() || jobs.merge_job.empty() || jobs.shards < 1) {
+    throw FileError(source + ": expected 'array ID', 'merge ID' and 'shards N'");
+  }
+  return jobs;
+}
+
+std::string shellQuote(const std::string& text) {
+  std::string quoted = "'";
+  for (const char c : text) quoted += c == '\'' ? std::string("'\\''") : std::string(1, c);
+  return quoted + "'";
+}
+
+}  // namespace kinolab
