@@ -90,10 +90,8 @@ void runPlan(const PlanOptions& options) {
                                  {"world", load.world->name()},
                                  {"seed", options.seed}};
   json.update(nlohmann::ordered_json::parse(toJson(resultValues(result), resultMetrics())));
-  MetricSpecs statistics = commonStatistics();
-  statistics.include(configured.info->statistics);
   json.update(nlohmann::ordered_json::parse(
-      toJson(statisticValues(result.statistics), statistics)));
+      toJson(statisticValues(result.statistics), declaredStatistics(*configured.info))));
 
   if (!options.out_dir.empty()) {
     std::filesystem::create_directories(options.out_dir);

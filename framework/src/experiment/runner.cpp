@@ -1,22 +1,14 @@
 #include "kinolab/experiment/runner.hpp"
 
-#include <poll.h>
 #include <signal.h>
-#include <sys/prctl.h>
-#include <sys/resource.h>
-#include <sys/time.h>
 #include <sys/wait.h>
-#include <unistd.h>
 
 #include <Eigen/Core>
 #include <algorithm>
-#include <array>
 #include <chrono>
 #include <cmath>
 #include <csignal>
 #include <cstring>
-#include <ctime>
-#include <deque>
 #include <filesystem>
 #include <fstream>
 #include <map>
@@ -29,6 +21,7 @@
 #include "kinolab/core/process.hpp"
 #include "kinolab/core/text.hpp"
 #include "kinolab/core/version.hpp"
+#include "kinolab/experiment/process_pool.hpp"
 #include "kinolab/experiment/results_store.hpp"
 #include "kinolab/planner/result_csv.hpp"
 #include "kinolab/validation/trajectory_checker.hpp"
@@ -44,15 +37,6 @@ double seconds() {
   return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
 }
 
-std::string utcNow() {
-  const std::time_t now = std::time(nullptr);
-  std::tm tm{};
-  gmtime_r(&now, &tm);
-  char text[32];
-  std::strftime(text, sizeof(text), "%Y-%m-%dT%H:%M:%SZ", &tm);
-  return text;
-}
-
 std::string duration(double s) {
   if (!std::isfinite(s)) return "--:--";
   const long total = std::lround(s);
@@ -65,27 +49,13 @@ std::string duration(double s) {
   return text;
 }
 
-/// Limits the worker's address space to what it has now plus the budget.
-void limitMemory(long long budget_mb) {
-  long long pages = 0;
-  std::ifstream("/proc/self/statm") >> pages;
-  const rlim_t limit = static_cast<rlim_t>(pages * sysconf(_SC_PAGESIZE)) +
-                       static_cast<rlim_t>(budget_mb) * 1024 * 1024;
-  const rlimit value{limit, limit};
-  setrlimit(RLIMIT_AS, &value);
-}
-
-/// The worker: plan one run and write its result as JSON to `fd`, then exit without
-/// running the parent's destructors (its database connection belongs to the parent).
-[[noreturn]] void work(int fd, const Experiment& experiment, const RunSpec& run,
+/// One run, inside its worker process: plan and return the result as JSON text
+/// ({"metrics": {...}, "statistics": {...}, "trajectory", "tree"}). Every failure the run
+/// can report itself (out of memory, an exception) becomes its status.
+std::string planOneRun(const Experiment& experiment, const RunSpec& run,
                        const std::shared_ptr<const World>& world, const PlanningQuery& query) {
-  std::signal(SIGINT, SIG_IGN);  // the runner decides what happens on Ctrl-C
-  std::signal(SIGTERM, SIG_DFL);
-  prctl(PR_SET_PDEATHSIG, SIGKILL);  // a killed runner takes its workers with it
-  if (getppid() == 1) _exit(1);      // ... also when it died before the line above
   const ExperimentVariant& variant = experiment.variants[run.variant];
-  limitMemory(variant.budget.memory_mb);
-  nlohmann::json out;  // {"metrics": {...}, "statistics": {...}, "trajectory", "tree"}
+  nlohmann::json out;
   try {
     const ExperimentPlanner& spec = variant.planners[run.planner];
     ConfiguredPlanner configured = configurePlanner(spec.type, spec.assignments);
@@ -98,7 +68,7 @@ void limitMemory(long long budget_mb) {
     const PlanResult result = configured.planner->plan(query, budget, store_tree ? &tree : nullptr);
     out["metrics"] = nlohmann::json::parse(toJson(resultValues(result), resultMetrics()));
     out["statistics"] = nlohmann::json::parse(
-        toJson(statisticValues(result.statistics), configured.info->statistics));
+        toJson(statisticValues(result.statistics), declaredStatistics(*configured.info)));
     if (!result.trajectory.empty() && experiment.store_trajectories) {
       out["trajectory"] = trajectoryCsv(result.trajectory, 0.05);
     }
@@ -111,31 +81,12 @@ void limitMemory(long long budget_mb) {
   } catch (const std::exception& error) {
     out = {{"metrics", {{"status", "error"}, {"message", error.what()}}}};
   }
-  const std::string text = out.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
-  std::size_t written = 0;
-  while (written < text.size()) {
-    const ssize_t n = write(fd, text.data() + written, text.size() - written);
-    if (n <= 0) break;
-    written += static_cast<std::size_t>(n);
-  }
-  _exit(0);
+  return out.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
 }
 
-struct Worker {
-  pid_t pid = -1;
-  int fd = -1;
-  std::string output;
-  const RunSpec* run = nullptr;
-  double started = 0.0;
-  double deadline = 0.0;
-  bool killed_for_time = false;
-  std::string started_at;
-};
-
 /// The record of a finished worker, from its output and how it ended.
-RunRecord recordOf(const Experiment& experiment, const Worker& worker, int wait_status,
-                   const rusage& usage, const PlanningQuery& query) {
-  const RunSpec& run = *worker.run;
+RunRecord recordOf(const Experiment& experiment, const RunSpec& run, const WorkerOutcome& worker,
+                   const PlanningQuery& query) {
   const ExperimentVariant& variant = experiment.variants[run.variant];
   const ExperimentWorld& world = variant.worlds[run.world];
   const ExperimentPlanner& planner = variant.planners[run.planner];
@@ -155,13 +106,14 @@ RunRecord recordOf(const Experiment& experiment, const Worker& worker, int wait_
     record.start[axis] = query.start(axis, 0);
     record.goal[axis] = query.goal[axis];
   }
-  const double wall_time_ms = (seconds() - worker.started) * 1000.0;
+  const double wall_time_ms = worker.wall_ms;
+  const int wait_status = worker.wait_status;
   const auto finish = [&](std::string status, std::string message) {
     record.metrics.insert(record.metrics.begin(), {{"status", std::move(status)},
                                                    {"message", std::move(message)},
                                                    {"success", 0.0}});
   };
-  record.metrics = {{"peak_memory_mb", static_cast<double>(usage.ru_maxrss) / 1024.0},
+  record.metrics = {{"peak_memory_mb", static_cast<double>(worker.usage.ru_maxrss) / 1024.0},
                     {"wall_time_ms", wall_time_ms},
                     {"started_at", worker.started_at}};
 
@@ -338,17 +290,13 @@ std::string describeRuns(const Experiment& experiment, const std::vector<RunSpec
   return text;
 }
 
-RunnerSummary runExperiment(const Experiment& experiment, const RunnerOptions& options) {
-  if (options.jobs < 1) throw ConfigError("-j " + std::to_string(options.jobs) + ": expected >= 1");
-  const double begin = seconds();
-  RunnerSummary summary;
-  const std::vector<RunSpec> runs =
-      options.shard.select(experiment.runs());
-  summary.planned = static_cast<long long>(runs.size());
-  const std::string shard = options.shard.text();
+namespace {
 
-  std::filesystem::create_directories(options.out_dir);
-  ResultsStore store((std::filesystem::path(options.out_dir) / "results.sqlite").string());
+/// Checks the shard's database: refuses another experiment, another shard, another schema
+/// and (without --resume) one that holds runs; records the meta and the metric declarations.
+void prepareStore(ResultsStore& store, const Experiment& experiment, const RunnerOptions& options,
+                  std::size_t planned) {
+  const std::string shard = options.shard.text();
   if (const auto stored = store.meta("config_hash")) {
     if (*stored != experiment.config_hash) {
       throw ConfigError(store.path() + " holds another experiment (config hash " + *stored +
@@ -365,22 +313,21 @@ RunnerSummary runExperiment(const Experiment& experiment, const RunnerOptions& o
                       std::to_string(kResultsSchemaVersion) +
                       ": run into a new --out directory (kinolab report still reads the old one)");
   }
-  const std::set<std::string> done = store.runHashes();
-  if (!done.empty() && !options.resume) {
-    throw ConfigError(store.path() + " already holds " + std::to_string(done.size()) +
+  if (const long long stored = store.runCount(); stored > 0 && !options.resume) {
+    throw ConfigError(store.path() + " already holds " + std::to_string(stored) +
                       " runs; pass --resume to run only the missing ones, or choose another "
                       "--out directory");
   }
-  std::map<std::string, std::string> meta = {{"name", experiment.name},
-                                             {"source", experiment.source},
-                                             {"config", experiment.canonical},
-                                             {"config_hash", experiment.config_hash},
-                                             {"shard", shard},
-                                             {"runs_planned", std::to_string(runs.size())},
-                                             {"schema_version",
-                                              std::to_string(kResultsSchemaVersion)},
-                                             {"plugins", join(experiment.plugins, "\n")},
-                                             {"last_started_at", utcNow()}};
+  std::map<std::string, std::string> meta = {
+      {"name", experiment.name},
+      {"source", experiment.source},
+      {"config", experiment.canonical},
+      {"config_hash", experiment.config_hash},
+      {"shard", shard},
+      {"runs_planned", std::to_string(planned)},
+      {"schema_version", std::to_string(kResultsSchemaVersion)},
+      {"plugins", join(experiment.plugins, "\n")},
+      {"last_started_at", utcNow()}};
   if (!store.meta("started_at")) meta["started_at"] = meta["last_started_at"];
   if (!experiment.reproduces_paper.empty()) {
     // What the report shows the paper's tables for: "id=row" lines.
@@ -398,11 +345,87 @@ RunnerSummary runExperiment(const Experiment& experiment, const RunnerOptions& o
     for (const ExperimentPlanner& planner : variant.planners) planner_types.insert(planner.type);
   }
   for (const std::string& type : planner_types) {
-    MetricSpecs statistics = commonStatistics();
-    statistics.include(pluginRegistry<Planner>().info(type).statistics);
-    store.declareMetrics("statistic", type, statistics);
+    store.declareMetrics("statistic", type, declaredStatistics(pluginRegistry<Planner>().info(type)));
   }
+}
 
+/// The worlds and queries of the pending runs, built before the first worker so that every
+/// worker shares them (copy-on-write), with one collision model per world.
+struct SharedInputs {
+  std::map<std::uint64_t, std::shared_ptr<const World>> worlds;
+  /// Kept while workers run: their collision models are built here once and inherited by
+  /// every worker (the body radius is irrelevant to the shared model).
+  std::vector<TrajectoryChecker> checkers;
+  std::map<std::pair<std::size_t, std::size_t>, std::vector<PlanningQuery>> queries;
+
+  const std::shared_ptr<const World>& world(const Experiment& experiment,
+                                            const RunSpec& run) const {
+    return worlds.at(experiment.variants[run.variant].worlds[run.world].spec.hash());
+  }
+  const PlanningQuery& query(const RunSpec& run) const {
+    return queries.at({run.variant, run.world}).at(static_cast<std::size_t>(run.query));
+  }
+};
+
+SharedInputs prepareInputs(const Experiment& experiment, const std::vector<const RunSpec*>& pending,
+                           const std::string& cache_dir, ResultsStore& store) {
+  const WorldCache cache(cache_dir.empty() ? WorldCache::defaultDirectory() : cache_dir);
+  SharedInputs inputs;
+  for (const RunSpec* run : pending) {
+    const ExperimentVariant& variant = experiment.variants[run->variant];
+    const ExperimentWorld& world = variant.worlds[run->world];
+    auto& built = inputs.worlds[world.spec.hash()];
+    if (!built) {
+      std::fprintf(stderr, "run: world %s (%s)\n", world.id.c_str(),
+                   toHex(world.spec.hash()).c_str());
+      built = cache.loadOrBuild(world.spec).world;
+      store.insertWorld(worldRecord(*built, world.id));
+      CheckerSettings settings;
+      settings.robot_radius = 1e3;
+      inputs.checkers.emplace_back(built, settings);
+    }
+    auto& list = inputs.queries[{run->variant, run->world}];
+    if (list.empty()) list = variant.queries.make(*built, world.id, experiment.seed);
+  }
+  return inputs;
+}
+
+/// SIGINT and SIGTERM set g_stop_signal while it lives; the old handlers come back after.
+class StopSignals {
+ public:
+  StopSignals() {
+    g_stop_signal = 0;
+    struct sigaction action {};
+    action.sa_handler = onStopSignal;
+    sigemptyset(&action.sa_mask);
+    sigaction(SIGINT, &action, &old_int_);
+    sigaction(SIGTERM, &action, &old_term_);
+  }
+  ~StopSignals() {
+    sigaction(SIGINT, &old_int_, nullptr);
+    sigaction(SIGTERM, &old_term_, nullptr);
+  }
+  StopSignals(const StopSignals&) = delete;
+  StopSignals& operator=(const StopSignals&) = delete;
+
+ private:
+  struct sigaction old_int_ {};
+  struct sigaction old_term_ {};
+};
+
+}  // namespace
+
+RunnerSummary runExperiment(const Experiment& experiment, const RunnerOptions& options) {
+  const double begin = seconds();
+  RunnerSummary summary;
+  ProcessPool pool(options.jobs);
+  const std::vector<RunSpec> runs = options.shard.select(experiment.runs());
+  summary.planned = static_cast<long long>(runs.size());
+  std::filesystem::create_directories(options.out_dir);
+  ResultsStore store((std::filesystem::path(options.out_dir) / "results.sqlite").string());
+  prepareStore(store, experiment, options, runs.size());
+
+  const std::set<std::string> done = store.runHashes();
   std::vector<const RunSpec*> pending;
   for (const RunSpec& run : runs) {
     if (done.count(run.hash)) {
@@ -411,136 +434,38 @@ RunnerSummary runExperiment(const Experiment& experiment, const RunnerOptions& o
       pending.push_back(&run);
     }
   }
-
-  // Worlds and queries, built before the first worker so that every worker shares them.
-  const WorldCache cache(options.cache_dir.empty() ? WorldCache::defaultDirectory()
-                                                   : options.cache_dir);
-  std::map<std::uint64_t, std::shared_ptr<const World>> worlds;
-  // A checker per world, kept while workers run: their collision models are built here once
-  // and inherited by every worker (the body radius is irrelevant to the shared model).
-  std::vector<TrajectoryChecker> shared_checkers;
-  std::map<std::pair<std::size_t, std::size_t>, std::vector<PlanningQuery>> queries;
-  for (const RunSpec* run : pending) {
-    const ExperimentVariant& variant = experiment.variants[run->variant];
-    const ExperimentWorld& world = variant.worlds[run->world];
-    auto& built = worlds[world.spec.hash()];
-    if (!built) {
-      std::fprintf(stderr, "run: world %s (%s)\n", world.id.c_str(),
-                   toHex(world.spec.hash()).c_str());
-      built = cache.loadOrBuild(world.spec).world;
-      store.insertWorld(worldRecord(*built, world.id));
-      CheckerSettings settings;
-      settings.robot_radius = 1e3;
-      shared_checkers.emplace_back(built, settings);
-    }
-    auto& list = queries[{run->variant, run->world}];
-    if (list.empty()) list = variant.queries.make(*built, world.id, experiment.seed);
-  }
+  const SharedInputs inputs = prepareInputs(experiment, pending, options.cache_dir, store);
 
   std::fprintf(stderr, "run: %s, shard %s: %zu runs, %lld already done, %zu to run, -j %d\n",
-               experiment.name.c_str(), shard.c_str(), runs.size(), summary.skipped, pending.size(),
-               options.jobs);
-  g_stop_signal = 0;
-  struct sigaction action {};
-  action.sa_handler = onStopSignal;
-  sigemptyset(&action.sa_mask);
-  struct sigaction old_int {
-  }, old_term{};
-  sigaction(SIGINT, &action, &old_int);
-  sigaction(SIGTERM, &action, &old_term);
-
+               experiment.name.c_str(), options.shard.text().c_str(), runs.size(),
+               summary.skipped, pending.size(), options.jobs);
+  const StopSignals signals;
   Progress progress(summary.planned, summary.skipped);
-  std::deque<const RunSpec*> queue(pending.begin(), pending.end());
-  std::vector<Worker> workers;
-  const auto queryOf = [&](const RunSpec& run) -> const PlanningQuery& {
-    return queries.at({run.variant, run.world}).at(static_cast<std::size_t>(run.query));
-  };
-  try {
-    while ((!queue.empty() && !g_stop_signal) || !workers.empty()) {
-      while (!g_stop_signal && !queue.empty() && static_cast<int>(workers.size()) < options.jobs) {
-        const RunSpec& run = *queue.front();
-        queue.pop_front();
-        int pipe_fds[2];
-        if (pipe(pipe_fds) != 0) throw Error("run: cannot create a pipe");
-        const auto& world =
-            worlds.at(experiment.variants[run.variant].worlds[run.world].spec.hash());
-        std::fflush(nullptr);
-        const pid_t pid = fork();
-        if (pid < 0) throw Error("run: cannot fork a worker");
-        if (pid == 0) {
-          close(pipe_fds[0]);
-          work(pipe_fds[1], experiment, run, world, queryOf(run));
-        }
-        close(pipe_fds[1]);
-        Worker worker;
-        worker.pid = pid;
-        worker.fd = pipe_fds[0];
-        worker.run = &run;
-        worker.started = seconds();
-        const ExperimentBudget& budget = experiment.variants[run.variant].budget;
-        worker.deadline = worker.started + budget.time + options.grace_seconds;
-        worker.started_at = utcNow();
-        workers.push_back(std::move(worker));
-      }
-      if (g_stop_signal) {
-        for (Worker& worker : workers) kill(worker.pid, SIGKILL);
-      }
-
-      std::vector<pollfd> fds;
-      for (const Worker& worker : workers) fds.push_back({worker.fd, POLLIN, 0});
-      poll(fds.data(), fds.size(), 50);
-      const double now = seconds();
-      for (std::size_t i = 0; i < workers.size();) {
-        Worker& worker = workers[i];
-        bool closed = false;
-        if (fds[i].revents & (POLLIN | POLLHUP | POLLERR)) {
-          char buffer[65536];
-          const ssize_t n = read(worker.fd, buffer, sizeof(buffer));
-          if (n > 0) {
-            worker.output.append(buffer, static_cast<std::size_t>(n));
-          } else {
-            closed = true;
-          }
-        }
-        if (!closed && now > worker.deadline && !worker.killed_for_time) {
-          worker.killed_for_time = true;
-          kill(worker.pid, SIGKILL);
-        }
-        if (!closed) {
-          ++i;
-          continue;
-        }
-        close(worker.fd);
-        int status = 0;
-        rusage usage{};
-        wait4(worker.pid, &status, 0, &usage);
-        if (!g_stop_signal) {
-          const RunRecord record =
-              recordOf(experiment, worker, status, usage, queryOf(*worker.run));
-          store.insert(record);
-          const bool success = record.number("success") == 1.0;
-          ++summary.finished;
-          summary.succeeded += success ? 1 : 0;
-          ++summary.by_status[record.text("status")];
-          progress.update(success);
-        }
-        fds.erase(fds.begin() + static_cast<std::ptrdiff_t>(i));
-        workers.erase(workers.begin() + static_cast<std::ptrdiff_t>(i));
-      }
+  std::size_t next = 0;
+  while ((next < pending.size() && !g_stop_signal) || !pool.empty()) {
+    while (!g_stop_signal && next < pending.size() && !pool.full()) {
+      const RunSpec& run = *pending[next];
+      const ExperimentBudget& budget = experiment.variants[run.variant].budget;
+      pool.start(next++, budget.time + options.grace_seconds, budget.memory_mb, [&] {
+        return planOneRun(experiment, run, inputs.world(experiment, run), inputs.query(run));
+      });
     }
-  } catch (...) {
-    for (Worker& worker : workers) {
-      kill(worker.pid, SIGKILL);
-      waitpid(worker.pid, nullptr, 0);
-      close(worker.fd);
+    if (g_stop_signal) {
+      pool.killAll();  // runs in flight are not recorded: the database stays resumable
+      break;
     }
-    sigaction(SIGINT, &old_int, nullptr);
-    sigaction(SIGTERM, &old_term, nullptr);
-    throw;
+    for (const WorkerOutcome& outcome : pool.poll(50)) {
+      const RunSpec& run = *pending[outcome.tag];
+      const RunRecord record = recordOf(experiment, run, outcome, inputs.query(run));
+      store.insert(record);
+      const bool success = record.number("success") == 1.0;
+      ++summary.finished;
+      summary.succeeded += success ? 1 : 0;
+      ++summary.by_status[record.text("status")];
+      progress.update(success);
+    }
   }
   progress.finish();
-  sigaction(SIGINT, &old_int, nullptr);
-  sigaction(SIGTERM, &old_term, nullptr);
   summary.interrupted = g_stop_signal != 0;
   if (!summary.interrupted) store.setMeta({{"finished_at", utcNow()}});
   summary.seconds = seconds() - begin;

@@ -129,7 +129,7 @@ void checkStatisticsDeclared(const PlanResult& result, const MetricSpecs& declar
                              std::string_view planner) {
   std::set<std::string_view> seen;
   for (const auto& [name, value] : result.statistics) {
-    if (!declared.find(name) && !commonStatistics().find(name)) {
+    if (!declared.find(name)) {
       throw PluginError("planner '" + std::string(planner) + "' reported the statistic '" + name +
                         "', which it does not declare; add it to the MetricSpecs of its "
                         "registration (kinolab list metrics shows what is declared)");

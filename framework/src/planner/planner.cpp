@@ -120,7 +120,7 @@ PlanResult Planner::plan(const PlanningQuery& query, const Budget& budget, Searc
   result = doPlan(query, stop, tree);
   result.planning_time_ms =
       std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - begin).count();
-  if (info_) checkStatisticsDeclared(result, info_->statistics, info_->key);
+  if (declared_statistics_) checkStatisticsDeclared(result, *declared_statistics_, key_);
 
   if (result.trajectory.empty()) {
     result.distance_to_goal = (start - query.goal).norm();
@@ -180,6 +180,10 @@ Budget timeBudgetFrom(const ParameterSet& parameters) {
   return budget;
 }
 
+MetricSpecs declaredStatistics(const PluginInfo& planner) {
+  return MetricSpecs(commonStatistics()).include(planner.statistics);
+}
+
 ConfiguredPlanner configurePlanner(std::string_view key,
                                    const std::vector<ParameterAssignment>& assignments) {
   const PluginRegistry<Planner>& planners = pluginRegistry<Planner>();
@@ -211,7 +215,8 @@ ConfiguredPlanner configurePlanner(std::string_view key,
   }
   configured.planner = planners.createResolved(key, configured.parameters);
   configured.info = &planners.info(key);
-  configured.planner->info_ = configured.info;
+  configured.planner->key_ = configured.info->key;
+  configured.planner->declared_statistics_ = declaredStatistics(*configured.info);
   return configured;
 }
 

@@ -35,8 +35,8 @@ std::string toJson(const MetricValues& values, const MetricSpecs& specs);
 /// The values of a JSON object written by toJson() (booleans become 1 or 0).
 MetricValues metricValuesFromJson(const std::string& json);
 
-/// Throws PluginError naming `planner` when it reported a statistic that `declared` (its
-/// registration's statistics and commonStatistics()) does not declare, or one twice.
+/// Throws PluginError naming `planner` when it reported a statistic that `declared`
+/// (declaredStatistics()) does not declare, or one twice.
 void checkStatisticsDeclared(const PlanResult& result, const MetricSpecs& declared,
                              std::string_view planner);
 

@@ -3,6 +3,7 @@
 #include <Eigen/Core>
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <string>
 #include <string_view>
 #include <utility>
@@ -121,8 +122,9 @@ class Planner {
   std::shared_ptr<const World> world_;
   std::unique_ptr<TrajectoryChecker> checker_;
   /// Set for planners made by configurePlanner(): plan() holds their statistics to the
-  /// registration's declaration.
-  const PluginInfo* info_ = nullptr;
+  /// registration's declaration (declaredStatistics()).
+  std::string key_;
+  std::optional<MetricSpecs> declared_statistics_;
 };
 
 template <>
@@ -136,6 +138,10 @@ ParameterSpecs motionParameters(double default_time_limit);
 PlanningModel planningModelFrom(const ParameterSet& parameters);
 /// The `time_limit` of motionParameters() as a budget (0: none).
 Budget timeBudgetFrom(const ParameterSet& parameters);
+
+/// Every statistic a registered planner may report: its registration's and
+/// commonStatistics().
+MetricSpecs declaredStatistics(const PluginInfo& planner);
 
 /// A planner created from its registered key and assignments. A planner that declares a
 /// sampler parameter (ParameterSpecs::sampler(), e.g. `sampler`) gets that sampler,

@@ -1,0 +1,126 @@
+// The runner's process pool on its own: outputs come back, crashes and overruns become
+// outcomes, at most `jobs` workers run at once, memory is limited.
+#include "kinolab/experiment/process_pool.hpp"
+
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <csignal>
+#include <map>
+#include <set>
+#include <thread>
+#include <vector>
+
+#include "kinolab/core/error.hpp"
+
+namespace kinolab {
+namespace {
+
+std::vector<WorkerOutcome> drain(ProcessPool& pool) {
+  std::vector<WorkerOutcome> outcomes;
+  while (!pool.empty()) {
+    for (WorkerOutcome& outcome : pool.poll(20)) outcomes.push_back(std::move(outcome));
+  }
+  return outcomes;
+}
+
+TEST(ProcessPool, OutputsComeBackTaggedAndLargeOnesWhole) {
+  ProcessPool pool(2);
+  const std::string large(300000, 'x');  // more than a pipe buffer
+  pool.start(7, 10.0, 256, [] { return std::string("seven"); });
+  pool.start(8, 10.0, 256, [&] { return large; });
+  EXPECT_TRUE(pool.full());
+  std::map<std::size_t, std::string> outputs;
+  for (const WorkerOutcome& outcome : drain(pool)) {
+    EXPECT_TRUE(WIFEXITED(outcome.wait_status) && WEXITSTATUS(outcome.wait_status) == 0);
+    EXPECT_FALSE(outcome.killed_for_time);
+    EXPECT_GT(outcome.usage.ru_maxrss, 0);
+    EXPECT_EQ(outcome.started_at.size(), 20u);  // 2026-11-23T11:05:00Z
+    outputs[outcome.tag] = outcome.output;
+  }
+  EXPECT_EQ(outputs[7], "seven");
+  EXPECT_EQ(outputs[8], large);
+}
+
+TEST(ProcessPool, ACrashIsASignalAndAnOverrunIsKilled) {
+  ProcessPool pool(2);
+  pool.start(1, 10.0, 256, []() -> std::string {
+    std::raise(SIGSEGV);
+    return "unreachable";
+  });
+  pool.start(2, 0.2, 256, [] {
+    std::this_thread::sleep_for(std::chrono::seconds(30));
+    return std::string("too late");
+  });
+  const auto begin = std::chrono::steady_clock::now();
+  for (const WorkerOutcome& outcome : drain(pool)) {
+    ASSERT_TRUE(WIFSIGNALED(outcome.wait_status)) << outcome.tag;
+    if (outcome.tag == 1) {
+      EXPECT_EQ(WTERMSIG(outcome.wait_status), SIGSEGV);
+      EXPECT_FALSE(outcome.killed_for_time);
+    } else {
+      EXPECT_EQ(WTERMSIG(outcome.wait_status), SIGKILL);
+      EXPECT_TRUE(outcome.killed_for_time);
+      EXPECT_TRUE(outcome.output.empty());
+    }
+  }
+  // Killed at its deadline, not after its 30 s sleep.
+  EXPECT_LT(std::chrono::steady_clock::now() - begin, std::chrono::seconds(20));
+}
+
+TEST(ProcessPool, NeverRunsMoreThanItsJobsAtOnce) {
+  ProcessPool pool(2);
+  std::set<std::size_t> finished;
+  std::size_t started = 0;
+  int most = 0;
+  int running = 0;
+  while (finished.size() < 6) {
+    while (started < 6 && !pool.full()) {
+      pool.start(started++, 10.0, 256, [] {
+        std::this_thread::sleep_for(std::chrono::milliseconds(50));
+        return std::to_string(getpid());
+      });
+      most = std::max(most, ++running);
+    }
+    for (const WorkerOutcome& outcome : pool.poll(20)) {
+      finished.insert(outcome.tag);
+      --running;
+    }
+  }
+  EXPECT_EQ(most, 2);
+  EXPECT_THROW(ProcessPool(0), ConfigError);
+}
+
+TEST(ProcessPool, AWorkerAllocatingPastItsBudgetFailsInsideItself) {
+  ProcessPool pool(1);
+  pool.start(0, 10.0, 64, [] {
+    try {
+      std::vector<std::vector<char>> blocks;
+      for (int i = 0; i < 64; ++i) blocks.emplace_back(std::size_t{16} << 20, 'x');
+      return std::string("allocated 1 GiB within 64 MB");
+    } catch (const std::bad_alloc&) {
+      return std::string("bad_alloc");
+    }
+  });
+  const std::vector<WorkerOutcome> outcomes = drain(pool);
+  ASSERT_EQ(outcomes.size(), 1u);
+  EXPECT_EQ(outcomes.front().output, "bad_alloc");
+}
+
+TEST(ProcessPool, KillAllLeavesNothingRunning) {
+  ProcessPool pool(2);
+  for (std::size_t i = 0; i < 2; ++i) {
+    pool.start(i, 60.0, 256, [] {
+      std::this_thread::sleep_for(std::chrono::seconds(60));
+      return std::string();
+    });
+  }
+  pool.killAll();
+  EXPECT_TRUE(pool.empty());
+  EXPECT_TRUE(pool.poll(0).empty());
+}
+
+}  // namespace
+}  // namespace kinolab
