@@ -5,6 +5,7 @@
 #include <vector>
 
 #include "kinolab/core/random.hpp"
+#include "kinolab/experiment/query_sampler.hpp"
 #include "kinolab/planner/planner.hpp"
 #include "kinolab/world/world_cache.hpp"
 
@@ -22,23 +23,9 @@ inline const std::shared_ptr<const World>& forest() {
 /// 50 queries 8 to 20 m apart at 1-2 m height, 0.6 m clear at both ends, at rest.
 inline const std::vector<PlanningQuery>& queries() {
   static const auto list = [] {
-    const World& world = *forest();
     Rng rng(2024);
-    const auto draw = [&] {
-      for (;;) {
-        const Eigen::Vector3d p(rng.uniform(1, 39), rng.uniform(1, 39), rng.uniform(1.0, 2.0));
-        if (world.isFree(p, 0.6)) return p;
-      }
-    };
-    std::vector<PlanningQuery> result;
-    while (result.size() < 50) {
-      PlanningQuery query;
-      query.start.col(0) = draw();
-      query.goal = draw();
-      const double distance = (query.goal - query.start.col(0)).norm();
-      if (distance >= 8.0 && distance <= 20.0) result.push_back(query);
-    }
-    return result;
+    const FreeQueryRegion region{Box{{1.0, 1.0, 1.0}, {39.0, 39.0, 2.0}}, 0.6, 8.0, 20.0};
+    return sampleFreeQueries(*forest(), region, 50, rng, "forest");
   }();
   return list;
 }

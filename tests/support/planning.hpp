@@ -7,6 +7,7 @@
 
 #include "kinolab/core/random.hpp"
 #include "kinolab/core/yaml_reader.hpp"
+#include "kinolab/experiment/query_sampler.hpp"
 #include "kinolab/planner/planner.hpp"
 #include "kinolab/world/world.hpp"
 #include "kinolab/world/world_spec.hpp"
@@ -42,29 +43,17 @@ inline std::shared_ptr<const World> smallWorld(const std::string& kind) {
 }
 
 /// Seeded start/goal pairs at rest, both with `clearance` (m) of free space, at least
-/// `min_distance` and at most `max_distance` apart, at heights in [0.8, 2.2] m.
+/// `min_distance` and at most `max_distance` apart, 0.5 m inside the map's sides, at heights
+/// in [0.8, 2.2] m (the shared sampler, kinolab/experiment/query_sampler.hpp).
 inline std::vector<PlanningQuery> randomQueries(const World& world, int count, std::uint64_t seed,
                                                 double min_distance, double max_distance,
                                                 double clearance) {
   Rng rng(seed);
   const Box& bounds = world.bounds();
-  const auto draw = [&] {
-    for (;;) {
-      const Eigen::Vector3d p(rng.uniform(bounds.min.x() + 0.5, bounds.max.x() - 0.5),
-                              rng.uniform(bounds.min.y() + 0.5, bounds.max.y() - 0.5),
-                              rng.uniform(0.8, 2.2));
-      if (world.isFree(p, clearance)) return p;
-    }
-  };
-  std::vector<PlanningQuery> queries;
-  while (static_cast<int>(queries.size()) < count) {
-    PlanningQuery query;
-    query.start.col(0) = draw();
-    query.goal = draw();
-    const double distance = (query.goal - query.start.col(0)).norm();
-    if (distance >= min_distance && distance <= max_distance) queries.push_back(query);
-  }
-  return queries;
+  const Box region{{bounds.min.x() + 0.5, bounds.min.y() + 0.5, 0.8},
+                   {bounds.max.x() - 0.5, bounds.max.y() - 0.5, 2.2}};
+  return sampleFreeQueries(world, {region, clearance, min_distance, max_distance}, count, rng,
+                           world.name());
 }
 
 /// `key=value` items as assignments.

@@ -1,5 +1,5 @@
 // The experiment module as a library: sweep expansion, `extends:`, seeds and run hashes,
-// shard partition, `reproduces:` validation and the merge refusals.
+// shard partition, `reproduces:` validation, the merge refusals and the free-query sampler.
 #include "kinolab/experiment/experiment.hpp"
 
 #include <gtest/gtest.h>
@@ -10,8 +10,11 @@
 #include <set>
 
 #include "kinolab/core/error.hpp"
+#include "kinolab/experiment/query_sampler.hpp"
 #include "kinolab/experiment/results_store.hpp"
 #include "kinolab/experiment/shard.hpp"
+#include "kinolab/world/world.hpp"
+#include "kinolab/world/world_spec.hpp"
 #include "support/test_plugins.hpp"
 
 namespace kinolab {
@@ -212,6 +215,36 @@ TEST_F(ExperimentTest, MergeRefusesMixedRepeatedIncompleteAndOldShards) {
   const std::string partial = (directory_ / "partial.sqlite").string();
   ResultsStore::merge(partial, {a}, true);
   EXPECT_EQ(ResultsStore(partial).runCount(), 2);
+}
+
+TEST(QuerySampler, PairsAreFreeInTheRegionAtTheirDistancesAndImpossibleOnesAreRefused) {
+  const auto world = World::build(WorldSpec::fromFile(
+      (fs::path(KINOLAB_SOURCE_DIR) / "tests/support/small_forest.yaml").string()));
+  const Box region{{1.0, 1.0, 1.0}, {9.0, 9.0, 2.0}};
+  Rng rng(3);
+  const auto queries = sampleFreeQueries(*world, {region, 0.5, 4.0, 7.0}, 40, rng, "small");
+  ASSERT_EQ(queries.size(), 40u);
+  for (const PlanningQuery& query : queries) {
+    for (const Eigen::Vector3d& p : {Eigen::Vector3d(query.start.col(0)), query.goal}) {
+      EXPECT_TRUE(region.contains(p));
+      EXPECT_GE(world->distance(p), 0.5);
+    }
+    const double distance = (query.goal - query.start.col(0)).norm();
+    EXPECT_GE(distance, 4.0);
+    EXPECT_LE(distance, 7.0);
+    EXPECT_TRUE(query.start.rightCols(3).isZero());  // at rest
+  }
+  Rng again(3);
+  EXPECT_EQ(sampleFreeQueries(*world, {region, 0.5, 4.0, 7.0}, 40, again, "small")[17].goal,
+            queries[17].goal);
+  try {
+    sampleFreeQueries(*world, {region, 0.5, 50.0, 60.0}, 1, rng, "small", 1000);
+    ADD_FAILURE() << "a pair 50 m apart in a 10 m world";
+  } catch (const ConfigError& error) {
+    EXPECT_NE(std::string(error.what()).find("world 'small'"), std::string::npos);
+  }
+  EXPECT_THROW(sampleFreePosition(*world, region, 100.0, rng, "a start", "small", 1000),
+               ConfigError);
 }
 
 }  // namespace

@@ -11,6 +11,7 @@
 #include "kinolab/core/random.hpp"
 #include "kinolab/core/text.hpp"
 #include "kinolab/core/yaml_reader.hpp"
+#include "kinolab/experiment/query_sampler.hpp"
 #include "kinolab/world/world.hpp"
 
 namespace kinolab {
@@ -308,56 +309,34 @@ std::vector<PlanningQuery> QuerySpec::make(const World& world, const std::string
     queries.push_back(query);
   }
   const Box& box = world.bounds();
-  const auto fail = [&](const std::string& what) {
-    throw ConfigError("queries: could not place " + what + " in world '" + world_id +
-                      "' in 100000 draws; lower the clearance or distances");
-  };
   Rng rng = Rng::derive(seed, "queries/" + world_id);
-  const auto draw = [&](const Eigen::Vector3d& low, const Eigen::Vector3d& high, double clear,
-                        const std::string& what) {
-    for (int attempt = 0; attempt < 100000; ++attempt) {
-      const Eigen::Vector3d p(rng.uniform(low.x(), high.x()), rng.uniform(low.y(), high.y()),
-                              rng.uniform(low.z(), high.z()));
-      if (world.isFree(p, clear)) return p;
-    }
-    fail(what);
-    return Eigen::Vector3d(Eigen::Vector3d::Zero());
-  };
-  const auto heights = [&](const double(&h)[2], Eigen::Vector3d& low, Eigen::Vector3d& high) {
-    low.z() = std::max(box.min.z(), box.min.z() + h[0]);
-    high.z() = std::min(box.max.z(), box.min.z() + h[1]);
+  // Heights are above the map's floor, within the map.
+  const auto region = [&](const double(&h)[2]) {
+    Box inside = box;
+    inside.min.z() = std::max(box.min.z(), box.min.z() + h[0]);
+    inside.max.z() = std::min(box.max.z(), box.min.z() + h[1]);
+    return inside;
   };
   if (random.count > 0) {
-    Eigen::Vector3d low = box.min;
-    Eigen::Vector3d high = box.max;
-    heights(random.height, low, high);
-    for (int i = 0; i < random.count; ++i) {
-      for (int attempt = 0;; ++attempt) {
-        if (attempt == 100000) fail("a random pair");
-        PlanningQuery query;
-        query.start.col(0) = draw(low, high, random.clearance, "a random start");
-        query.goal = draw(low, high, random.clearance, "a random goal");
-        const double distance = (query.goal - query.start.col(0)).norm();
-        if (distance >= random.min_distance && distance <= random.max_distance) {
-          queries.push_back(query);
-          break;
-        }
-      }
-    }
+    const FreeQueryRegion spec{region(random.height), random.clearance, random.min_distance,
+                               random.max_distance};
+    const auto drawn = sampleFreeQueries(world, spec, random.count, rng, world_id);
+    queries.insert(queries.end(), drawn.begin(), drawn.end());
   }
+  const double voxel = world.esdf().resolution();
   for (int i = 0; i < across.count; ++i) {
-    Eigen::Vector3d low = box.min;
-    Eigen::Vector3d high = box.max;
-    heights(across.height, low, high);
     const int a = across.axis;
-    Eigen::Vector3d start_low = low, start_high = high, goal_low = low, goal_high = high;
-    start_low[a] = box.min[a] + across.margin;
-    start_high[a] = box.min[a] + across.margin + world.esdf().resolution();
-    goal_low[a] = box.max[a] - across.margin - world.esdf().resolution();
-    goal_high[a] = box.max[a] - across.margin;
+    Box start_face = region(across.height);
+    Box goal_face = start_face;
+    start_face.min[a] = box.min[a] + across.margin;
+    start_face.max[a] = box.min[a] + across.margin + voxel;
+    goal_face.min[a] = box.max[a] - across.margin - voxel;
+    goal_face.max[a] = box.max[a] - across.margin;
     PlanningQuery query;
-    query.start.col(0) = draw(start_low, start_high, across.clearance, "an across start");
-    query.goal = draw(goal_low, goal_high, across.clearance, "an across goal");
+    query.start.col(0) =
+        sampleFreePosition(world, start_face, across.clearance, rng, "an across start", world_id);
+    query.goal =
+        sampleFreePosition(world, goal_face, across.clearance, rng, "an across goal", world_id);
     queries.push_back(query);
   }
   return queries;

@@ -1,0 +1,50 @@
+#include "kinolab/experiment/query_sampler.hpp"
+
+#include "kinolab/core/error.hpp"
+
+namespace kinolab {
+namespace {
+
+[[noreturn]] void cannotPlace(const std::string& what, const std::string& world_id, int draws) {
+  throw ConfigError("queries: could not place " + what + " in world '" + world_id + "' in " +
+                    std::to_string(draws) + " draws; lower the clearance or distances");
+}
+
+}  // namespace
+
+Eigen::Vector3d sampleFreePosition(const World& world, const Box& region, double clearance,
+                                   Rng& rng, const std::string& what, const std::string& world_id,
+                                   int max_draws) {
+  for (int draw = 0; draw < max_draws; ++draw) {
+    const Eigen::Vector3d p(rng.uniform(region.min.x(), region.max.x()),
+                            rng.uniform(region.min.y(), region.max.y()),
+                            rng.uniform(region.min.z(), region.max.z()));
+    if (world.isFree(p, clearance)) return p;
+  }
+  cannotPlace(what, world_id, max_draws);
+}
+
+std::vector<PlanningQuery> sampleFreeQueries(const World& world, const FreeQueryRegion& spec,
+                                             int count, Rng& rng, const std::string& world_id,
+                                             int max_draws) {
+  std::vector<PlanningQuery> queries;
+  queries.reserve(static_cast<std::size_t>(std::max(count, 0)));
+  for (int i = 0; i < count; ++i) {
+    for (int attempt = 0;; ++attempt) {
+      if (attempt == max_draws) cannotPlace("a random pair", world_id, max_draws);
+      PlanningQuery query;
+      query.start.col(0) = sampleFreePosition(world, spec.region, spec.clearance, rng,
+                                              "a random start", world_id, max_draws);
+      query.goal = sampleFreePosition(world, spec.region, spec.clearance, rng, "a random goal",
+                                      world_id, max_draws);
+      const double distance = (query.goal - query.start.col(0)).norm();
+      if (distance >= spec.min_distance && distance <= spec.max_distance) {
+        queries.push_back(query);
+        break;
+      }
+    }
+  }
+  return queries;
+}
+
+}  // namespace kinolab
