@@ -51,12 +51,6 @@ class Results:
                     self.meta.get("reproduces.rows", "").splitlines() if "=" in line)
         return paper, rows
 
-    def clock_metrics(self) -> set[str]:
-        """Names of the clock figures (they vary from run to run of the same case)."""
-        if self.metrics.empty:
-            return set()
-        return set(self.metrics.loc[self.metrics["clock"] == 1, "name"])
-
     def connection(self, run_hash: str) -> sqlite3.Connection:
         path = self.runs.loc[self.runs["run_hash"] == run_hash, "database"].iloc[0]
         return sqlite3.connect(path)

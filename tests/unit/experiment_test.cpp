@@ -3,6 +3,7 @@
 #include "kinolab/experiment/experiment.hpp"
 
 #include <gtest/gtest.h>
+#include <sqlite3.h>
 #include <unistd.h>
 
 #include <filesystem>
@@ -173,6 +174,7 @@ TEST_F(ExperimentTest, MergeRefusesMixedRepeatedIncompleteAndOldShards) {
                          const std::string& version = std::to_string(kResultsSchemaVersion)) {
     const std::string path = (directory_ / (name + ".sqlite")).string();
     ResultsStore store(path);
+    store.declareMetrics("result", "", resultMetrics());
     store.setMeta({{"config_hash", config_hash},
                    {"shard", which},
                    {"runs_planned", std::to_string(planned)},
@@ -191,6 +193,16 @@ TEST_F(ExperimentTest, MergeRefusesMixedRepeatedIncompleteAndOldShards) {
   ResultsStore::merge(out, {a, b}, false);
   EXPECT_EQ(ResultsStore(out).runCount(), 3);
   EXPECT_EQ(ResultsStore(out).meta("shard"), "1/1");
+  {  // The declarations travel with the runs.
+    sqlite3* db = nullptr;
+    ASSERT_EQ(sqlite3_open(out.c_str(), &db), SQLITE_OK);
+    sqlite3_stmt* count = nullptr;
+    sqlite3_prepare_v2(db, "SELECT COUNT(*) FROM metrics", -1, &count, nullptr);
+    ASSERT_EQ(sqlite3_step(count), SQLITE_ROW);
+    EXPECT_EQ(sqlite3_column_int(count, 0), static_cast<int>(resultMetrics().all().size()));
+    sqlite3_finalize(count);
+    sqlite3_close(db);
+  }
 
   const auto refuses = [&](const std::vector<std::string>& inputs, const std::string& message) {
     const std::string target = (directory_ / "refused.sqlite").string();

@@ -36,6 +36,11 @@ MetricSpecs& MetricSpecs::clock(std::string name, std::string doc) {
   return add({std::move(name), MetricType::kReal, "ms", std::move(doc), true});
 }
 
+MetricSpecs& MetricSpecs::machine(std::string name, MetricType type, std::string unit,
+                                  std::string doc) {
+  return add({std::move(name), type, std::move(unit), std::move(doc), true});
+}
+
 MetricSpecs& MetricSpecs::boolean(std::string name, std::string doc) {
   return add({std::move(name), MetricType::kBoolean, "", std::move(doc), false});
 }

@@ -14,9 +14,10 @@ namespace kinolab {
 const MetricSpecs& runnerMetrics() {
   static const MetricSpecs specs =
       MetricSpecs()
-          .real("peak_memory_mb", "MB", "the worker process's maximum resident set")
+          .machine("peak_memory_mb", MetricType::kReal, "MB",
+                   "the worker process's maximum resident set")
           .clock("wall_time_ms", "the worker process, from fork to exit")
-          .text("started_at", "when the run started, UTC, ISO 8601");
+          .machine("started_at", MetricType::kText, "", "when the run started, UTC, ISO 8601");
   return specs;
 }
 
@@ -392,7 +393,7 @@ void ResultsStore::merge(const std::string& output, const std::vector<std::strin
       for (const char c : inputs[i]) quoted += c == '\'' ? std::string("''") : std::string(1, c);
       merged.execute("ATTACH DATABASE '" + quoted + "' AS shard");
       merged.execute("BEGIN IMMEDIATE");
-      for (const char* table : {"runs", "statistics", "worlds", "trajectories", "trees"}) {
+      for (const char* table : {"runs", "statistics", "metrics", "worlds", "trajectories", "trees"}) {
         merged.execute(std::string("INSERT OR IGNORE INTO ") + table + " SELECT * FROM shard." +
                        table);
       }

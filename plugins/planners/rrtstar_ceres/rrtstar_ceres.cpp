@@ -68,8 +68,8 @@ MetricSpecs frontEndStatistics() {
       .real("best_cost", "m", "RRT*'s best path length")
       .clock("time_rrt_ms", "RRT* (front end) time");
   for (const double ms : progressGridMs()) {
-    specs.real("best_cost_at_" + formatNumber(ms) + "ms", "m",
-               "best path length after this much planning time (anytime progress)");
+    specs.machine("best_cost_at_" + formatNumber(ms) + "ms", MetricType::kReal, "m",
+                  "best path length after this much planning time (anytime progress)");
   }
   return specs;
 }

@@ -18,7 +18,10 @@ struct MetricSpec {
   MetricType type = MetricType::kReal;
   std::string unit;  ///< "ms", "m", "count", "" (none)
   std::string doc;   ///< one line
-  bool clock = false;  ///< a clock figure: varies from run to run of the same case
+  /// A figure of the machine (a time, a memory peak, a date, or a value sampled on the
+  /// clock): it varies from run to run of the same case, so comparisons of repeated runs
+  /// leave it out.
+  bool clock = false;
 
   /// "real", "integer", "boolean" or "text".
   std::string typeName() const;
@@ -35,6 +38,9 @@ class MetricSpecs {
   MetricSpecs& counter(std::string name, std::string doc);
   /// A clock figure in milliseconds.
   MetricSpecs& clock(std::string name, std::string doc);
+  /// Another figure of the machine (MetricSpec::clock): memory, a date, a value sampled on
+  /// the clock.
+  MetricSpecs& machine(std::string name, MetricType type, std::string unit, std::string doc);
   MetricSpecs& boolean(std::string name, std::string doc);
   MetricSpecs& text(std::string name, std::string doc);
   /// Appends another list; a name declared twice is an error.
