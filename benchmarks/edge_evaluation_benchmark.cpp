@@ -4,11 +4,11 @@
 
 #include <vector>
 
-#include "kinolab/world/world_spec.hpp"
 #include "kinolab/builtin_plugins.hpp"
 #include "kinolab/core/random.hpp"
 #include "kinolab/primitives/control_sampler.hpp"
 #include "kinolab/primitives/edge_evaluator.hpp"
+#include "kinolab/world/world_spec.hpp"
 
 namespace kinolab {
 namespace {

@@ -56,7 +56,9 @@ void listMetrics(bool json) {
   const auto planners = pluginRegistry<Planner>().list();
   if (json) {
     nlohmann::json statistics = {{"common", toJson(commonStatistics())}};
-    for (const PluginInfo* planner : planners) statistics[planner->key] = toJson(planner->statistics);
+    for (const PluginInfo* planner : planners) {
+      statistics[planner->key] = toJson(planner->statistics);
+    }
     std::cout << nlohmann::json{{"result", toJson(resultMetrics())},
                                 {"runner", toJson(runnerMetrics())},
                                 {"statistics", statistics}}
@@ -151,9 +153,10 @@ void addListCommand(CLI::App& app) {
   std::vector<std::string> kind_names;
   for (const auto& kind : allKinds()) kind_names.push_back(kind.name);
   kind_names.push_back("metrics");
-  command->add_option("kind", options->kind,
-                      "Only this kind of plugin, or `metrics`: every metric and statistic a run "
-                      "can carry (the result schema)")
+  command
+      ->add_option("kind", options->kind,
+                   "Only this kind of plugin, or `metrics`: every metric and statistic a run "
+                   "can carry (the result schema)")
       ->check(CLI::IsMember(kind_names));
   command->add_flag("--json", options->json, "Print JSON instead of a table");
   command->footer("Set a parameter with --set name=value or under `params:` in a config.");

@@ -86,9 +86,8 @@ void runPlan(const PlanOptions& options) {
   }
 
   // Every result metric, then every statistic, by their declared names and types.
-  nlohmann::ordered_json json = {{"planner", options.planner},
-                                 {"world", load.world->name()},
-                                 {"seed", options.seed}};
+  nlohmann::ordered_json json = {
+      {"planner", options.planner}, {"world", load.world->name()}, {"seed", options.seed}};
   json.update(nlohmann::ordered_json::parse(toJson(resultValues(result), resultMetrics())));
   json.update(nlohmann::ordered_json::parse(
       toJson(statisticValues(result.statistics), declaredStatistics(*configured.info))));

@@ -24,8 +24,7 @@ int runCommand(RunOptions& options) {
   if (!options.shard.empty()) options.runner.shard = Shard::parse(options.shard);
   const Experiment experiment = Experiment::fromFile(options.experiment);
   if (options.dry_run) {
-    const auto runs =
-        options.runner.shard.select(experiment.runs());
+    const auto runs = options.runner.shard.select(experiment.runs());
     std::cout << describeRuns(experiment, runs);
     return 0;
   }

@@ -133,8 +133,7 @@ void addSlurmCommand(CLI::App& app) {
   command->add_option("experiment", o->experiment, "Experiment YAML")->required();
   command->add_option("--out", o->out_dir, "Output directory (shared by the cluster's nodes)")
       ->required();
-  command->add_option("--shards", o->request.shards, "Number of array tasks (shards)")
-      ->required();
+  command->add_option("--shards", o->request.shards, "Number of array tasks (shards)")->required();
   command->add_option("--partition", o->request.partition, "Slurm partition");
   command->add_option("--time", o->request.time, "Time limit of each shard, HH:MM:SS");
   command->add_option("--cpus-per-task", o->request.cpus_per_task, "CPUs per shard (its -j)")

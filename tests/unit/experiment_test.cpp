@@ -43,8 +43,7 @@ class ExperimentTest : public ::testing::Test {
     std::ofstream(path) << body;
     return path.string();
   }
-  std::string experiment(const std::string& name, const std::string& extra,
-                         int queries = 3) const {
+  std::string experiment(const std::string& name, const std::string& extra, int queries = 3) const {
     return write(name, "kind: planning\nname: " + name +
                            "\nseed: 7\nworlds:\n  - {id: small, spec: small_forest.yaml}\n"
                            "queries:\n  random: {count: " +
@@ -85,11 +84,12 @@ repetitions: 2
 }
 
 TEST_F(ExperimentTest, ExtendsMergesMappingsAndTheChildWins) {
-  write("base.yaml", "kind: planning\nname: base\nseed: 7\n"
-                     "worlds:\n  - {id: small, spec: small_forest.yaml}\n"
-                     "queries:\n  random: {count: 2, min_distance: 3, max_distance: 8}\n"
-                     "planners:\n  - {id: eager, type: eager_mp_astar}\n"
-                     "budget: {time: 3, memory_mb: 512}\n");
+  write("base.yaml",
+        "kind: planning\nname: base\nseed: 7\n"
+        "worlds:\n  - {id: small, spec: small_forest.yaml}\n"
+        "queries:\n  random: {count: 2, min_distance: 3, max_distance: 8}\n"
+        "planners:\n  - {id: eager, type: eager_mp_astar}\n"
+        "budget: {time: 3, memory_mb: 512}\n");
   const Experiment e = Experiment::fromFile(
       write("child.yaml", "extends: base.yaml\nname: child\nbudget: {time: 9}\n"));
   EXPECT_EQ(e.name, "child");
@@ -149,8 +149,9 @@ TEST_F(ExperimentTest, ShardsPartitionTheRunsAndParseOnce) {
 }
 
 TEST_F(ExperimentTest, ReproducesNamesAKnownPaperAndThePlannersOfItsRows) {
-  const Experiment e = Experiment::fromFile(experiment(
-      "paper.yaml", "reproduces: {paper: lazy_mp_astar_paper, rows: {eager: MP-A*, lazy: Lazy}}\n"));
+  const Experiment e = Experiment::fromFile(
+      experiment("paper.yaml",
+                 "reproduces: {paper: lazy_mp_astar_paper, rows: {eager: MP-A*, lazy: Lazy}}\n"));
   EXPECT_EQ(e.reproduces_paper, "lazy_mp_astar_paper");
   ASSERT_EQ(e.reproduces_rows.size(), 2u);
   EXPECT_EQ(e.reproduces_rows[1], (std::pair<std::string, std::string>{"lazy", "Lazy"}));

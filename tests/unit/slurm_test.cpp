@@ -62,8 +62,7 @@ TEST_F(SlurmTest, ScriptsRunEveryShardAndMergeTheirDatabases) {
     EXPECT_NE(scripts.merge.find(shellQuote(layout.shardDatabase(shard))), std::string::npos);
   }
   EXPECT_EQ(layout.shardDatabase(2), "/shared/it's here/shards/2/results.sqlite");
-  EXPECT_NE(scripts.merge.find(" merge '/shared/it'\\''s here/results.sqlite'"),
-            std::string::npos);
+  EXPECT_NE(scripts.merge.find(" merge '/shared/it'\\''s here/results.sqlite'"), std::string::npos);
 }
 
 TEST_F(SlurmTest, BadRequestsAreRefusedNamingTheOption) {

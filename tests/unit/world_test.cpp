@@ -10,7 +10,6 @@
 #include "kinolab/core/yaml_reader.hpp"
 #include "kinolab/world/world_spec.hpp"
 
-
 namespace kinolab {
 namespace {
 

@@ -196,7 +196,12 @@ ParameterSpecs& ParameterSpecs::sampler(std::string name, std::string default_va
   if (samplerParameter()) {
     throw InvalidArgument("parameter '" + name + "': a plugin takes at most one sampler");
   }
-  return add({std::move(name), ParameterType::kSampler, std::move(default_value), 0, 0, {},
+  return add({std::move(name),
+              ParameterType::kSampler,
+              std::move(default_value),
+              0,
+              0,
+              {},
               std::move(doc)});
 }
 

@@ -82,7 +82,8 @@ std::string sqlType(MetricType type) {
 
 std::string runsTable() {
   std::string sql = std::string("CREATE TABLE IF NOT EXISTS runs (") + kIdentityColumns;
-  for (const MetricSpec* spec : metricColumns()) sql += ", " + spec->name + " " + sqlType(spec->type);
+  for (const MetricSpec* spec : metricColumns())
+    sql += ", " + spec->name + " " + sqlType(spec->type);
   return sql + ");";
 }
 
@@ -237,9 +238,10 @@ long long ResultsStore::runCount() const {
 
 void ResultsStore::insert(const RunRecord& r) {
   const std::vector<const MetricSpec*> columns = metricColumns();
-  std::string names = "run_hash, variant, sweep, world, world_hash, query, planner, "
-                      "planner_type, sampler, repetition, seed, start_x, start_y, start_z, "
-                      "goal_x, goal_y, goal_z";
+  std::string names =
+      "run_hash, variant, sweep, world, world_hash, query, planner, "
+      "planner_type, sampler, repetition, seed, start_x, start_y, start_z, "
+      "goal_x, goal_y, goal_z";
   for (const MetricSpec* spec : columns) names += ", " + spec->name;
   std::string marks = "?";
   for (std::size_t i = 1; i < kIdentityCount + columns.size(); ++i) marks += ",?";
@@ -295,7 +297,8 @@ void ResultsStore::declareMetrics(const std::string& kind, const std::string& pl
                      path_);
     for (const MetricSpec& spec : specs.all()) {
       const std::string type = spec.typeName();
-      for (const std::string* text : {&spec.name, &kind, &planner_type, &type, &spec.unit, &spec.doc}) {
+      for (const std::string* text :
+           {&spec.name, &kind, &planner_type, &type, &spec.unit, &spec.doc}) {
         insert.add(*text);
       }
       insert.add(spec.clock ? 1 : 0);
@@ -393,7 +396,8 @@ void ResultsStore::merge(const std::string& output, const std::vector<std::strin
       for (const char c : inputs[i]) quoted += c == '\'' ? std::string("''") : std::string(1, c);
       merged.execute("ATTACH DATABASE '" + quoted + "' AS shard");
       merged.execute("BEGIN IMMEDIATE");
-      for (const char* table : {"runs", "statistics", "metrics", "worlds", "trajectories", "trees"}) {
+      for (const char* table :
+           {"runs", "statistics", "metrics", "worlds", "trajectories", "trees"}) {
         merged.execute(std::string("INSERT OR IGNORE INTO ") + table + " SELECT * FROM shard." +
                        table);
       }

@@ -109,9 +109,9 @@ RunRecord recordOf(const Experiment& experiment, const RunSpec& run, const Worke
   const double wall_time_ms = worker.wall_ms;
   const int wait_status = worker.wait_status;
   const auto finish = [&](std::string status, std::string message) {
-    record.metrics.insert(record.metrics.begin(), {{"status", std::move(status)},
-                                                   {"message", std::move(message)},
-                                                   {"success", 0.0}});
+    record.metrics.insert(
+        record.metrics.begin(),
+        {{"status", std::move(status)}, {"message", std::move(message)}, {"success", 0.0}});
   };
   record.metrics = {{"peak_memory_mb", static_cast<double>(worker.usage.ru_maxrss) / 1024.0},
                     {"wall_time_ms", wall_time_ms},
@@ -139,7 +139,8 @@ RunRecord recordOf(const Experiment& experiment, const RunSpec& run, const Worke
   }
   MetricValues metrics = metricValuesFromJson(out["metrics"].dump());
   record.metrics.insert(record.metrics.begin(), metrics.begin(), metrics.end());
-  if (out.contains("statistics")) record.statistics = metricValuesFromJson(out["statistics"].dump());
+  if (out.contains("statistics"))
+    record.statistics = metricValuesFromJson(out["statistics"].dump());
   record.trajectory_csv = out.value("trajectory", "");
   record.tree_csv = out.value("tree", "");
   return record;
@@ -204,11 +205,13 @@ class Progress {
       const int width = 30;
       const int filled = total_ > 0 ? static_cast<int>(width * done_ / total_) : width;
       const std::string bar = std::string(filled, '#') + std::string(width - filled, '.');
-      std::snprintf(text, sizeof(text), "\r[%s] %lld/%lld done, %lld unsolved, %.1f runs/s, %s left ",
-                    bar.c_str(), done_, total_, failed_, rate, duration(left).c_str());
-    } else {
-      std::snprintf(text, sizeof(text), "run: %lld/%lld done, %lld unsolved, %.1f runs/s, %s left\n",
+      std::snprintf(text, sizeof(text),
+                    "\r[%s] %lld/%lld done, %lld unsolved, %.1f runs/s, %s left ", bar.c_str(),
                     done_, total_, failed_, rate, duration(left).c_str());
+    } else {
+      std::snprintf(text, sizeof(text),
+                    "run: %lld/%lld done, %lld unsolved, %.1f runs/s, %s left\n", done_, total_,
+                    failed_, rate, duration(left).c_str());
     }
     std::fputs(text, stderr);
     std::fflush(stderr);
@@ -345,7 +348,8 @@ void prepareStore(ResultsStore& store, const Experiment& experiment, const Runne
     for (const ExperimentPlanner& planner : variant.planners) planner_types.insert(planner.type);
   }
   for (const std::string& type : planner_types) {
-    store.declareMetrics("statistic", type, declaredStatistics(pluginRegistry<Planner>().info(type)));
+    store.declareMetrics("statistic", type,
+                         declaredStatistics(pluginRegistry<Planner>().info(type)));
   }
 }
 
@@ -437,8 +441,8 @@ RunnerSummary runExperiment(const Experiment& experiment, const RunnerOptions& o
   const SharedInputs inputs = prepareInputs(experiment, pending, options.cache_dir, store);
 
   std::fprintf(stderr, "run: %s, shard %s: %zu runs, %lld already done, %zu to run, -j %d\n",
-               experiment.name.c_str(), options.shard.text().c_str(), runs.size(),
-               summary.skipped, pending.size(), options.jobs);
+               experiment.name.c_str(), options.shard.text().c_str(), runs.size(), summary.skipped,
+               pending.size(), options.jobs);
   const StopSignals signals;
   Progress progress(summary.planned, summary.skipped);
   std::size_t next = 0;

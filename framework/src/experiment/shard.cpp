@@ -22,8 +22,7 @@ Shard Shard::parse(std::string_view text, std::string_view where) {
   Shard shard;
   if (slash == std::string_view::npos || !parseWhole(text.substr(0, slash), shard.index) ||
       !parseWhole(text.substr(slash + 1), shard.count)) {
-    throw ConfigError(std::string(where) + " '" + std::string(text) +
-                      "': expected i/N, e.g. 2/8");
+    throw ConfigError(std::string(where) + " '" + std::string(text) + "': expected i/N, e.g. 2/8");
   }
   if (shard.count < 1 || shard.index < 1 || shard.index > shard.count) {
     throw ConfigError(std::string(where) + " '" + std::string(text) +

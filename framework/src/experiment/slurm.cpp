@@ -33,8 +33,8 @@ void SlurmRequest::validate() const {
   if (time.empty()) return;
   int h = 0, m = 0, s = 0;
   char rest = 0;
-  if (std::sscanf(time.c_str(), "%d:%d:%d%c", &h, &m, &s, &rest) != 3 || h < 0 || m < 0 ||
-      m > 59 || s < 0 || s > 59) {
+  if (std::sscanf(time.c_str(), "%d:%d:%d%c", &h, &m, &s, &rest) != 3 || h < 0 || m < 0 || m > 59 ||
+      s < 0 || s > 59) {
     throw ConfigError("--time '" + time + "': expected HH:MM:SS, e.g. 02:00:00");
   }
 }
@@ -93,10 +93,14 @@ SlurmJobs SlurmJobs::parse(const std::string& text, const std::string& source) {
   std::istringstream lines(text);
   std::string key;
   while (lines >> key) {
-    if (key == "array") lines >> jobs.array_job;
-    else if (key == "merge") lines >> jobs.merge_job;
-    else if (key == "shards") lines >> jobs.shards;
-    else throw FileError(source + ": unknown entry '" + key + "'");
+    if (key == "array")
+      lines >> jobs.array_job;
+    else if (key == "merge")
+      lines >> jobs.merge_job;
+    else if (key == "shards")
+      lines >> jobs.shards;
+    else
+      throw FileError(source + ": unknown entry '" + key + "'");
   }
   if (jobs.array_job.empty() || jobs.merge_job.empty() || jobs.shards < 1) {
     throw FileError(source + ": expected 'array ID', 'merge ID' and 'shards N'");

@@ -167,8 +167,8 @@ ParameterSpecs motionParameters(double default_time_limit) {
 PlanningModel planningModelFrom(const ParameterSet& parameters) {
   PlanningModel model;
   model.robot_radius = parameters.real("robot_radius");
-  model.limits = DynamicLimits::uniform(parameters.real("max_velocity"),
-                                        parameters.real("max_acceleration"));
+  model.limits =
+      DynamicLimits::uniform(parameters.real("max_velocity"), parameters.real("max_acceleration"));
   model.limited_derivatives = 2;
   model.goal_radius = parameters.real("goal_radius");
   return model;

@@ -28,7 +28,8 @@ double MinTimeHeuristic::estimate(const ChainState& state, const Eigen::Vector3d
   const Eigen::Vector3d offset = (state.col(0) - goal).cwiseAbs();
   const double distance = std::max(offset.norm() - goal_radius_, 0.0);
   // The goal ball lies inside the cube of half-width R: per axis, the distance to that cube.
-  const double time = ((offset.array() - goal_radius_).max(0.0) * inverse_v_max_.array()).maxCoeff();
+  const double time =
+      ((offset.array() - goal_radius_).max(0.0) * inverse_v_max_.array()).maxCoeff();
   return weight_duration_ * time + weight_length_ * distance;
 }
 

@@ -7,8 +7,8 @@
 #include <sstream>
 
 #include "kinolab/core/error.hpp"
-#include "kinolab/core/yaml_reader.hpp"
 #include "kinolab/core/hash.hpp"
+#include "kinolab/core/yaml_reader.hpp"
 #include "kinolab/world/world_generator.hpp"
 
 namespace kinolab {

@@ -22,7 +22,7 @@ WorldSpec WorldSpec::fromFile(const std::string& path) {
 }
 
 WorldSpec WorldSpec::fromText(const std::string& text, const std::string& source,
-                             const std::string& spec_directory) {
+                              const std::string& spec_directory) {
   return fromYaml(YamlReader::loadString(text, source), spec_directory);
 }
 

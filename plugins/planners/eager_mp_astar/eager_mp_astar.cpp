@@ -7,7 +7,8 @@ KINOLAB_REGISTER_PLUGINS(registrar) {
   using namespace kinolab;
   registrar.add<Planner>(
       "eager_mp_astar", "motion-primitive A*, every edge fully evaluated at expansion",
-      motionPrimitiveParameters(), [](const ParameterSet& parameters) {
+      motionPrimitiveParameters(),
+      [](const ParameterSet& parameters) {
         return std::make_unique<MotionPrimitivePlanner>(
             MotionPrimitiveConfig::fromParameters(parameters));
       },

@@ -208,13 +208,15 @@ KINOLAB_REGISTER_PLUGINS(registrar) {
   registrar.add<Planner>(
       "rrtstar_ceres",
       "TGK analogue: OMPL RRT* path, Ceres-smoothed uniform cubic B-spline (jerk, ESDF, limits)",
-      rrt::smoothingParameters(), [](const ParameterSet& parameters) {
+      rrt::smoothingParameters(),
+      [](const ParameterSet& parameters) {
         return std::make_unique<rrt::RrtStarPlanner>(parameters, true);
       },
       rrt::smoothingStatistics());
   registrar.add<Planner>(
       "rrtstar", "OMPL RRT* path alone, flown stop-and-go at the limits (ablation of the smoother)",
-      rrt::frontEndParameters(), [](const ParameterSet& parameters) {
+      rrt::frontEndParameters(),
+      [](const ParameterSet& parameters) {
         return std::make_unique<rrt::RrtStarPlanner>(parameters, false);
       },
       rrt::frontEndStatistics());

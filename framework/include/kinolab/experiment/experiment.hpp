@@ -121,5 +121,4 @@ struct Experiment {
 /// (analysis/kinolab_analysis/tables.py holds the papers' figures for these rows).
 const std::map<std::string, std::vector<std::string>>& reproducibleRows();
 
-
 }  // namespace kinolab

@@ -11,13 +11,13 @@ namespace kinolab {
 
 /// How a forked worker ended.
 struct WorkerOutcome {
-  std::size_t tag = 0;      ///< what the caller started it with
-  std::string output;       ///< everything the work function returned (or "" when it died)
-  int wait_status = 0;      ///< as waitpid() reports it
-  rusage usage{};           ///< of the worker process (peak memory: ru_maxrss)
+  std::size_t tag = 0;           ///< what the caller started it with
+  std::string output;            ///< everything the work function returned (or "" when it died)
+  int wait_status = 0;           ///< as waitpid() reports it
+  rusage usage{};                ///< of the worker process (peak memory: ru_maxrss)
   bool killed_for_time = false;  ///< killed past its deadline by the pool
-  double wall_ms = 0.0;     ///< from fork to exit
-  std::string started_at;   ///< UTC, ISO 8601
+  double wall_ms = 0.0;          ///< from fork to exit
+  std::string started_at;        ///< UTC, ISO 8601
 };
 
 /// At most `jobs` forked worker processes at once, each running one function whose return

@@ -68,8 +68,8 @@ struct WorldRecord {
 /// `run_hash`: the identity columns, then one column per result and runner metric),
 /// `statistics` (run_hash, name, value: every statistic a planner reported), `metrics` (the
 /// declaration of every column and statistic: kind, planner type, type, unit, doc, clock),
-/// `worlds` (for figures), and optional `trajectories` and `trees` (CSV text). Every run is written in its own
-/// transaction, so a kill at any moment loses at most the runs in flight.
+/// `worlds` (for figures), and optional `trajectories` and `trees` (CSV text). Every run is written
+/// in its own transaction, so a kill at any moment loses at most the runs in flight.
 class ResultsStore {
  public:
   explicit ResultsStore(const std::string& path);

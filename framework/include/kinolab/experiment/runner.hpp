@@ -18,9 +18,9 @@ struct RunnerOptions {
 };
 
 struct RunnerSummary {
-  long long planned = 0;   ///< runs of this shard
-  long long skipped = 0;   ///< already in the database (resume)
-  long long finished = 0;  ///< run now
+  long long planned = 0;    ///< runs of this shard
+  long long skipped = 0;    ///< already in the database (resume)
+  long long finished = 0;   ///< run now
   long long succeeded = 0;  ///< of those, successes (isSuccess: exact and checker-valid)
   std::map<std::string, long long> by_status;
   bool interrupted = false;

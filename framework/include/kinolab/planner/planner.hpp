@@ -11,9 +11,9 @@
 
 #include "kinolab/core/parameters.hpp"
 #include "kinolab/core/plugin_registry.hpp"
-#include "kinolab/planner/metrics.hpp"
 #include "kinolab/core/stop_condition.hpp"
 #include "kinolab/dynamics/integrator_chain.hpp"
+#include "kinolab/planner/metrics.hpp"
 #include "kinolab/trajectory/trajectory.hpp"
 #include "kinolab/validation/trajectory_checker.hpp"
 #include "kinolab/world/world.hpp"

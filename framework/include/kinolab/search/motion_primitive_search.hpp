@@ -59,9 +59,9 @@ struct SearchCounters {
 /// skipped when popped); candidates live in one array addressed by index.
 ///
 /// With a consistent heuristic and weight 1, lazy (a lower-bound edge policy) with the `lwa`
-/// rule and eager (full evaluation) return the same cost. States are keyed by rounding position and derivatives
-/// to `key_resolution` relative to the start: on the lattice a control grid spans this is
-/// exact; with sampled controls optimality is with respect to that discretisation.
+/// rule and eager (full evaluation) return the same cost. States are keyed by rounding position and
+/// derivatives to `key_resolution` relative to the start: on the lattice a control grid spans this
+/// is exact; with sampled controls optimality is with respect to that discretisation.
 class MotionPrimitiveSearch {
  public:
   enum class Outcome { kGoal, kExhausted, kBudget };
