@@ -182,6 +182,17 @@ ResultsStore::ResultsStore(const std::string& path) : path_(path) {
 
 ResultsStore::~ResultsStore() { sqlite3_close(db_); }
 
+void ResultsStore::transaction(const std::function<void()>& body) {
+  execute("BEGIN IMMEDIATE");
+  try {
+    body();
+    execute("COMMIT");
+  } catch (...) {
+    execute("ROLLBACK");
+    throw;
+  }
+}
+
 void ResultsStore::execute(const std::string& sql) const {
   char* error = nullptr;
   if (sqlite3_exec(db_, sql.c_str(), nullptr, nullptr, &error) != SQLITE_OK) {
@@ -207,8 +218,7 @@ std::map<std::string, std::string> ResultsStore::allMeta() const {
 }
 
 void ResultsStore::setMeta(const std::map<std::string, std::string>& values) {
-  execute("BEGIN IMMEDIATE");
-  try {
+  transaction([&] {
     Statement insert(db_, "INSERT OR REPLACE INTO meta (key, value) VALUES (?, ?)", path_);
     for (const auto& [key, value] : values) {
       insert.add(key);
@@ -216,11 +226,7 @@ void ResultsStore::setMeta(const std::map<std::string, std::string>& values) {
       insert.step(path_);
       insert.reset();
     }
-    execute("COMMIT");
-  } catch (...) {
-    execute("ROLLBACK");
-    throw;
-  }
+  });
 }
 
 std::set<std::string> ResultsStore::runHashes() const {
@@ -245,8 +251,7 @@ void ResultsStore::insert(const RunRecord& r) {
   for (const MetricSpec* spec : columns) names += ", " + spec->name;
   std::string marks = "?";
   for (std::size_t i = 1; i < kIdentityCount + columns.size(); ++i) marks += ",?";
-  execute("BEGIN IMMEDIATE");
-  try {
+  transaction([&] {
     Statement run(db_, "INSERT INTO runs (" + names + ") VALUES (" + marks + ")", path_);
     run.add(r.run_hash);
     run.add(r.variant);
@@ -280,17 +285,12 @@ void ResultsStore::insert(const RunRecord& r) {
       tree.add(r.tree_csv);
       tree.step(path_);
     }
-    execute("COMMIT");
-  } catch (...) {
-    execute("ROLLBACK");
-    throw;
-  }
+  });
 }
 
 void ResultsStore::declareMetrics(const std::string& kind, const std::string& planner_type,
                                   const MetricSpecs& specs) {
-  execute("BEGIN IMMEDIATE");
-  try {
+  transaction([&] {
     Statement insert(db_,
                      "INSERT OR REPLACE INTO metrics (name, kind, planner_type, type, unit, doc, "
                      "clock) VALUES (?, ?, ?, ?, ?, ?, ?)",
@@ -305,11 +305,7 @@ void ResultsStore::declareMetrics(const std::string& kind, const std::string& pl
       insert.step(path_);
       insert.reset();
     }
-    execute("COMMIT");
-  } catch (...) {
-    execute("ROLLBACK");
-    throw;
-  }
+  });
 }
 
 std::optional<int> ResultsStore::schemaVersion() const {

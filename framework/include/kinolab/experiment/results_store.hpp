@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <cstdint>
+#include <functional>
 #include <map>
 #include <optional>
 #include <set>
@@ -105,6 +106,8 @@ class ResultsStore {
 
  private:
   void execute(const std::string& sql) const;
+  /// Runs `body` in one write transaction, rolled back when it throws.
+  void transaction(const std::function<void()>& body);
 
   std::string path_;
   sqlite3* db_ = nullptr;
