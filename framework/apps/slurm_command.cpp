@@ -34,7 +34,9 @@ struct SlurmOptions {
 };
 
 /// A Slurm client call; under a timeout, since clients block while the controller is down.
-CommandOutput client(const std::string& command) { return runCommand(command, 60); }
+CommandOutput client(const std::vector<std::string>& arguments) {
+  return runCommand(arguments, 60);
+}
 
 void runSlurm(const SlurmOptions& o) {
   o.request.validate();
@@ -67,17 +69,18 @@ void runSlurm(const SlurmOptions& o) {
     }
   }
   const auto [array_status, array_id] =
-      client("sbatch --parsable " + shellQuote(layout.arrayScript()));
+      client({"sbatch", "--parsable", layout.arrayScript()});
   if (array_status != 0) throw Error("slurm: sbatch failed: " + array_id);
   SlurmJobs jobs;
   jobs.shards = o.request.shards;
   jobs.array_job = array_id.substr(0, array_id.find(';'));
   const auto [merge_status, merge_id] =
-      client("sbatch --parsable " + shellQuote("--dependency=afterok:" + jobs.array_job) + " " +
-             shellQuote(layout.mergeScript()));
+      client({"sbatch", "--parsable", "--dependency=afterok:" + jobs.array_job, layout.mergeScript()});
   if (merge_status != 0) throw Error("slurm: sbatch of the merge failed: " + merge_id);
   jobs.merge_job = merge_id.substr(0, merge_id.find(';'));
-  writeFileAtomically(layout.jobsFile(), jobs.text());
+  // What sbatch printed must be job ids (parse() refuses anything else).
+  writeFileAtomically(layout.jobsFile(),
+                      SlurmJobs::parse(jobs.text(), "sbatch's answers").text());
   std::printf(
       "submitted: array job %s (%d shards), merge job %s (after all succeed)\n"
       "status: kinolab slurm-status %s\n",
@@ -92,8 +95,8 @@ void runStatus(const std::string& directory) {
   text << file.rdbuf();
   const SlurmJobs jobs = SlurmJobs::parse(text.str(), layout.jobsFile());
   const auto [status, queue] =
-      client("squeue --noheader --array --format='%i %T %R' " +
-             shellQuote("--jobs=" + jobs.array_job + "," + jobs.merge_job));
+      client({"squeue", "--noheader", "--array", "--format=%i %T %R",
+              "--jobs=" + jobs.array_job + "," + jobs.merge_job});
   std::printf("array job %s, merge job %s\n", jobs.array_job.c_str(), jobs.merge_job.c_str());
   if (status != 0) {
     std::printf("  squeue: %s\n", queue.c_str());

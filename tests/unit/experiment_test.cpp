@@ -9,6 +9,8 @@
 #include <filesystem>
 #include <fstream>
 #include <set>
+#include <utility>
+#include <vector>
 
 #include "kinolab/core/error.hpp"
 #include "kinolab/experiment/query_sampler.hpp"
@@ -167,6 +169,30 @@ TEST_F(ExperimentTest, ReproducesNamesAKnownPaperAndThePlannersOfItsRows) {
   fails("reproduces: {paper: lazy_mp_astar_paper, rows: {eager: Eager}}\n", "not a row");
   fails("reproduces: {paper: lazy_mp_astar_paper, rows: {tgk: TGK}}\n", "no planner has the id");
   fails("reproduces: {paper: lazy_mp_astar_paper, rows: {}, colour: red}\n", "colour");
+}
+
+TEST_F(ExperimentTest, NamesAndIdsUseADocumentedCharacterSet) {
+  const std::string good = experiment("names.yaml", "");
+  std::string text;
+  std::getline(std::ifstream(good), text, '\0');
+  for (const auto& [from, to] : std::vector<std::pair<std::string, std::string>>{
+           {"name: names.yaml", "name: \"bad\\ntouch canary\""},
+           {"name: names.yaml", "name: \"a b\""},
+           {"name: names.yaml", "name: \"-rf\""},
+           {"id: small", "id: \"small/../../x\""},
+           {"id: eager", "id: \"e$(x)\""}}) {
+    std::string changed = text;
+    changed.replace(changed.find(from), from.size(), to);
+    try {
+      Experiment::fromFile(write("bad_names.yaml", changed));
+      ADD_FAILURE() << to;
+    } catch (const ConfigError& error) {
+      const std::string message = error.what();
+      EXPECT_NE(message.find("is not a valid name"), std::string::npos) << message;
+      EXPECT_NE(message.find("bad_names.yaml:"), std::string::npos) << message;
+      EXPECT_EQ(message.find('\n'), std::string::npos) << message;
+    }
+  }
 }
 
 TEST_F(ExperimentTest, MergeRefusesMixedRepeatedIncompleteAndOldShards) {

@@ -6,7 +6,10 @@
 #include <unistd.h>
 
 #include <filesystem>
+#include <cstdlib>
 #include <fstream>
+#include <utility>
+#include <vector>
 
 #include "kinolab/core/error.hpp"
 #include "support/test_plugins.hpp"
@@ -44,7 +47,7 @@ TEST_F(SlurmTest, ScriptsRunEveryShardAndMergeTheirDatabases) {
   request.time = "01:30:00";
   request.cpus_per_task = 4;
   request.memory = "8G";
-  const SlurmLayout layout{"/shared/it's here"};
+  const SlurmLayout layout{"/shared/table2"};
   const SlurmScripts scripts =
       slurmScripts(experiment, path_, layout, request, "/opt/kinolab/bin/kinolab", "/cache");
   EXPECT_NE(scripts.array.find("#SBATCH --array=1-3\n"), std::string::npos);
@@ -53,16 +56,58 @@ TEST_F(SlurmTest, ScriptsRunEveryShardAndMergeTheirDatabases) {
   EXPECT_NE(scripts.array.find("#SBATCH --cpus-per-task=4\n"), std::string::npos);
   EXPECT_NE(scripts.array.find("#SBATCH --mem=8G\n"), std::string::npos);
   EXPECT_NE(scripts.array.find("(5 runs) as 3 shards"), std::string::npos);
-  // The shard directory is the layout's, quoted (the apostrophe survives bash).
-  EXPECT_NE(scripts.array.find("--out '/shared/it'\\''s here/shards'/\"$SLURM_ARRAY_TASK_ID\" "
+  // The shard directory is the layout's.
+  EXPECT_NE(scripts.array.find("--out '/shared/table2/shards'/\"$SLURM_ARRAY_TASK_ID\" "
                                "--shard \"$SLURM_ARRAY_TASK_ID/3\" --resume"),
             std::string::npos)
       << scripts.array;
   for (int shard = 1; shard <= 3; ++shard) {
     EXPECT_NE(scripts.merge.find(shellQuote(layout.shardDatabase(shard))), std::string::npos);
   }
-  EXPECT_EQ(layout.shardDatabase(2), "/shared/it's here/shards/2/results.sqlite");
-  EXPECT_NE(scripts.merge.find(" merge '/shared/it'\\''s here/results.sqlite'"), std::string::npos);
+  EXPECT_EQ(layout.shardDatabase(2), "/shared/table2/shards/2/results.sqlite");
+  EXPECT_NE(scripts.merge.find(" merge '/shared/table2/results.sqlite'"), std::string::npos);
+}
+
+TEST_F(SlurmTest, InjectionAttemptsAreRefusedOrQuotedAndTheScriptsCreateNothing) {
+  const Experiment experiment = Experiment::fromFile(path_);
+  const fs::path canary = directory_ / "canary";
+  // Directive values cannot be quoted in #SBATCH lines: they are refused.
+  for (const auto& [option, value] : std::vector<std::pair<std::string, std::string>>{
+           {"--mem", "8G\ntouch " + canary.string()},
+           {"--mem", "8G; touch x"},
+           {"--partition", "batch\ntouch " + canary.string()},
+           {"--partition", "a b"},
+           {"--time", "01:00:00\ntouch x"}}) {
+    SlurmRequest request;
+    if (option == "--mem") request.memory = value;
+    if (option == "--partition") request.partition = value;
+    if (option == "--time") request.time = value;
+    try {
+      slurmScripts(experiment, path_, SlurmLayout{"/out"}, request, "kinolab", "/cache");
+      ADD_FAILURE() << option << " " << value;
+    } catch (const ConfigError& error) {
+      const std::string message = error.what();
+      EXPECT_NE(message.find(option), std::string::npos) << message;
+      EXPECT_EQ(message.find('\n'), std::string::npos) << "a newline reached the message";
+    }
+  }
+  EXPECT_THROW(slurmScripts(experiment, path_, SlurmLayout{"/out\n#SBATCH --x"}, SlurmRequest{},
+                            "kinolab", "/cache"),
+               ConfigError);
+  // Paths in the script bodies are quoted: run by bash with `echo` as kinolab, they are
+  // arguments, never commands.
+  const std::string hostile = "$(touch " + canary.string() + ")'`touch " + canary.string() + "`";
+  SlurmRequest request;
+  request.shards = 2;
+  const SlurmLayout layout{(directory_ / "out").string()};
+  const SlurmScripts scripts = slurmScripts(experiment, hostile, layout, request, "echo", hostile);
+  for (const std::string* script : {&scripts.array, &scripts.merge}) {
+    const fs::path file = directory_ / "script.sh";
+    std::ofstream(file) << *script;
+    const std::string command = "SLURM_ARRAY_TASK_ID=1 bash " + file.string() + " > /dev/null";
+    EXPECT_EQ(std::system(command.c_str()), 0) << *script;
+  }
+  EXPECT_FALSE(fs::exists(canary));
 }
 
 TEST_F(SlurmTest, BadRequestsAreRefusedNamingTheOption) {
@@ -97,6 +142,7 @@ TEST(SlurmJobs, TheJobsFileRoundTripsAndMalformedOnesAreRefused) {
   EXPECT_THROW(SlurmJobs::parse("array 1\nshards 2\n", "f"), FileError);
   EXPECT_THROW(SlurmJobs::parse("array 1\nmerge 2\nshards 0\n", "f"), FileError);
   EXPECT_THROW(SlurmJobs::parse("array 1\nmerge 2\nshards 2\nrm -rf 3\n", "f"), FileError);
+  EXPECT_THROW(SlurmJobs::parse("array 1;touch\nmerge 2\nshards 2\n", "f"), FileError);
 }
 
 }  // namespace

@@ -224,9 +224,27 @@ QuerySpec readQueries(const YamlReader& node) {
   return spec;
 }
 
+/// A name that reaches file names, figure paths, sweep paths and Slurm job names: letters,
+/// digits, '_', '-' and '.', 1 to 64 characters, not starting with '.' or '-'.
+std::string readName(const YamlReader& node) {
+  const std::string name = node.as<std::string>();
+  const bool valid =
+      !name.empty() && name.size() <= 64 && name.front() != '.' && name.front() != '-' &&
+      std::all_of(name.begin(), name.end(), [](char c) {
+        return (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') ||
+               c == '_' || c == '-' || c == '.';
+      });
+  if (!valid) {
+    node.fail("'" + printable(name) +
+              "' is not a valid name: use 1 to 64 letters, digits, '_', '-' or '.', not "
+              "starting with '.' or '-'");
+  }
+  return name;
+}
+
 ExperimentPlanner readPlanner(const YamlReader& node) {
   ExperimentPlanner planner;
-  planner.id = node.get<std::string>("id");
+  planner.id = readName(node["id"]);
   planner.type = node.get<std::string>("type");
   if (const auto params = node.optional("params")) {
     planner.assignments = assignmentsFromYaml(*params);
@@ -269,7 +287,7 @@ ExperimentVariant readVariant(const YamlReader& root, const std::string& directo
   std::set<std::string> ids;
   for (const YamlReader& item : root["worlds"].items()) {
     ExperimentWorld world;
-    world.id = item.get<std::string>("id");
+    world.id = readName(item["id"]);
     if (!ids.insert("world " + world.id).second) item["id"].fail("duplicate world id");
     const auto found = spec_directories.find(world.id);
     world.spec = WorldSpec::fromYaml(item["spec"],
@@ -429,7 +447,7 @@ Experiment Experiment::fromFile(const std::string& path) {
     root["kind"].fail("expected 'planning' (kinolab run), got '" + kind +
                       "'; sampling studies run with kinolab sampling-study");
   }
-  experiment.name = root.get<std::string>("name");
+  experiment.name = readName(root["name"]);
   experiment.seed = static_cast<std::uint64_t>(root.getInteger("seed", 1, 0, 1LL << 62));
   if (const auto plugins = root.optional("plugins")) {
     for (const YamlReader& item : plugins->items()) {

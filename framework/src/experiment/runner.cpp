@@ -231,15 +231,14 @@ class Progress {
 std::map<std::string, std::string> provenance() {
   std::map<std::string, std::string> values;
   values["kinolab_version"] = kVersion;
-  const std::string git = std::string("git -C '") + kSourceDir + "' ";
-  const CommandOutput head = runCommand(git + "rev-parse HEAD");
+  const CommandOutput head = runCommand({"git", "-C", kSourceDir, "rev-parse", "HEAD"}, 30);
   const std::string commit = head.status == 0 ? head.output : "";
   values["git_commit"] = commit.empty() ? "unknown" : commit;
-  values["git_dirty"] =
-      commit.empty()
-          ? "unknown"
-          : (runCommand(git + "status --porcelain --untracked-files=no").output.empty() ? "false"
-                                                                                        : "true");
+  const CommandOutput status = runCommand(
+      {"git", "-C", kSourceDir, "status", "--porcelain", "--untracked-files=no"}, 30);
+  values["git_dirty"] = commit.empty() || status.status != 0 ? "unknown"
+                        : status.output.empty()              ? "false"
+                                                             : "true";
   values["compiler"] = kCompiler;
   values["compiler_flags"] = kCompilerFlags;
   values["build_type"] = kBuildType;

@@ -1,10 +1,12 @@
 #include "kinolab/experiment/slurm.hpp"
 
+#include <algorithm>
 #include <cstdio>
 #include <filesystem>
 #include <sstream>
 
 #include "kinolab/core/error.hpp"
+#include "kinolab/core/text.hpp"
 #include "kinolab/experiment/shard.hpp"
 
 namespace kinolab {
@@ -19,6 +21,14 @@ std::string header(const SlurmRequest& request, const std::string& name, const s
   return text;
 }
 
+/// True when every character of `text` is in `allowed` (or a letter or digit).
+bool onlyOf(const std::string& text, std::string_view allowed) {
+  return std::all_of(text.begin(), text.end(), [&](char c) {
+    return (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') ||
+           allowed.find(c) != std::string_view::npos;
+  });
+}
+
 std::string in(const std::string& directory, const std::string& name) {
   return (fs::path(directory) / name).string();
 }
@@ -30,12 +40,26 @@ void SlurmRequest::validate() const {
   if (cpus_per_task < 1) {
     throw ConfigError("--cpus-per-task " + std::to_string(cpus_per_task) + ": expected >= 1");
   }
+  // These values go into #SBATCH directive lines, which nothing can quote: only the
+  // characters Slurm's own syntax uses are accepted.
+  if (!partition.empty() && !onlyOf(partition, "_-.,")) {
+    throw ConfigError("--partition '" + printable(partition) +
+                      "': expected partition names (letters, digits, '_', '-', '.', commas)");
+  }
+  const std::size_t digits = memory.find_first_not_of("0123456789");
+  const bool memory_valid =
+      digits > 0 && (digits == std::string::npos ||
+                     (digits == memory.size() - 1 &&
+                      std::string_view("KMGTkmgt").find(memory.back()) != std::string_view::npos));
+  if (!memory.empty() && !memory_valid) {
+    throw ConfigError("--mem '" + printable(memory) + "': expected a size such as 8G or 16000M");
+  }
   if (time.empty()) return;
   int h = 0, m = 0, s = 0;
   char rest = 0;
   if (std::sscanf(time.c_str(), "%d:%d:%d%c", &h, &m, &s, &rest) != 3 || h < 0 || m < 0 || m > 59 ||
       s < 0 || s > 59) {
-    throw ConfigError("--time '" + time + "': expected HH:MM:SS, e.g. 02:00:00");
+    throw ConfigError("--time '" + printable(time) + "': expected HH:MM:SS, e.g. 02:00:00");
   }
 }
 
@@ -52,6 +76,12 @@ SlurmScripts slurmScripts(const Experiment& experiment, const std::string& exper
                           const SlurmLayout& layout, const SlurmRequest& request,
                           const std::string& kinolab_path, const std::string& cache_dir) {
   request.validate();
+  // The output directory appears in #SBATCH --output lines too.
+  if (!onlyOf(layout.out, "/_-.,+@%~=:")) {
+    throw ConfigError("--out '" + printable(layout.out) +
+                      "': a Slurm output directory may hold letters, digits and / _ - . , + @ "
+                      "% ~ = : only (its path goes into #SBATCH lines, which cannot be quoted)");
+  }
   const std::string shards = std::to_string(request.shards);
   const std::string job = "kinolab-" + experiment.name;
   SlurmScripts scripts;
@@ -102,8 +132,12 @@ SlurmJobs SlurmJobs::parse(const std::string& text, const std::string& source) {
     else
       throw FileError(source + ": unknown entry '" + key + "'");
   }
-  if (jobs.array_job.empty() || jobs.merge_job.empty() || jobs.shards < 1) {
-    throw FileError(source + ": expected 'array ID', 'merge ID' and 'shards N'");
+  const auto job_id = [](const std::string& id) {
+    return !id.empty() && id.find_first_not_of("0123456789") == std::string::npos;
+  };
+  if (!job_id(jobs.array_job) || !job_id(jobs.merge_job) || jobs.shards < 1) {
+    throw FileError(source + ": expected 'array ID', 'merge ID' (numeric Slurm job ids) and " +
+                    "'shards N'");
   }
   return jobs;
 }

@@ -1,18 +1,21 @@
 #pragma once
 
 #include <string>
+#include <vector>
 
 namespace kinolab {
 
-/// What a shell command printed (stdout and stderr, trailing white space removed) and its
-/// exit status (1 when it did not exit normally).
+/// What a command printed (stdout and stderr, trailing white space removed) and its exit
+/// status (1 when it did not exit normally, 127 when it could not be started).
 struct CommandOutput {
   int status = 0;
   std::string output;
 };
 
-/// Runs `line` with /bin/sh and waits for it; with `timeout_seconds` > 0 it runs under
-/// coreutils' `timeout` (for clients that block while a server is down).
-CommandOutput runCommand(const std::string& line, int timeout_seconds = 0);
+/// Runs a program with an argument vector (`arguments[0]` is looked up on the PATH) and waits
+/// for it; no shell ever sees the arguments, so nothing in them is interpreted. With
+/// `timeout_seconds` > 0 it is killed after that long (for clients that block while a
+/// server is down) and the status is 124, as coreutils' `timeout` reports it.
+CommandOutput runCommand(const std::vector<std::string>& arguments, int timeout_seconds = 0);
 
 }  // namespace kinolab

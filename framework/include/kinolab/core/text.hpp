@@ -20,6 +20,10 @@ std::string formatNumber(double value);
 /// "(x, y, z)" with formatNumber() components.
 std::string formatPoint(const Eigen::Vector3d& point);
 
+/// `text` safe to print in a message: control characters and bytes outside printable ASCII
+/// as \xHH escapes (a newline cannot start a forged line).
+std::string printable(std::string_view text);
+
 /// The words joined by `separator`.
 std::string join(const std::vector<std::string>& words, std::string_view separator);
 
