@@ -1,8 +1,30 @@
 #pragma once
 
 #include <CLI/CLI.hpp>
+#include <charconv>
+#include <cmath>
+#include <string>
+
+#include "kinolab/core/text.hpp"
 
 namespace kinolab::apps {
+
+/// A number in [low, high], finite (CLI::Range lets NaN through): every numeric option of
+/// kinolab is range-checked with this, so no value switches a safety off.
+inline CLI::Validator within(double low, double high) {
+  const std::string range = "[" + formatNumber(low) + ", " + formatNumber(high) + "]";
+  return CLI::Validator(
+      [low, high, range](std::string& text) -> std::string {
+        double value = 0.0;
+        const auto [end, error] = std::from_chars(text.data(), text.data() + text.size(), value);
+        if (error != std::errc() || end != text.data() + text.size() || !std::isfinite(value) ||
+            value < low || value > high) {
+          return "'" + text + "' is not a number in " + range;
+        }
+        return "";
+      },
+      "NUMBER in " + range);
+}
 
 /// Each subcommand adds itself (options, help and the action to run) to the main app.
 void addListCommand(CLI::App& app);

@@ -30,7 +30,8 @@ int main(int argc, char** argv) {
   } catch (const CLI::RuntimeError& error) {
     return error.get_exit_code();
   } catch (const CLI::ParseError& error) {
-    return app.exit(error);
+    // --help and --version exit 0; a malformed or out-of-range option is bad input: 1.
+    return app.exit(error) == 0 ? 0 : 1;
   } catch (const kinolab::Error& error) {
     std::cerr << "kinolab: error: " << error.what() << '\n';
     return 1;

@@ -1,4 +1,5 @@
 // `kinolab plan`: one query, one planner, one world; a JSON summary on the last line.
+#include <charconv>
 #include <cstdio>
 #include <filesystem>
 #include <iostream>
@@ -29,24 +30,24 @@ struct PlanOptions {
   std::string cache_dir = WorldCache::defaultDirectory();
 };
 
+/// Exactly three finite numbers "x,y,z".
 Eigen::Vector3d parsePoint(const std::string& text, const std::string& option) {
-  Eigen::Vector3d point;
+  std::vector<std::string> items;
   std::stringstream stream(text);
-  std::string item;
-  int count = 0;
-  while (std::getline(stream, item, ',')) {
-    if (count == 3) break;
-    try {
-      std::size_t used = 0;
-      point[count] = std::stod(item, &used);
-      if (used != item.size()) throw std::invalid_argument(item);
-    } catch (const std::exception&) {
-      throw ConfigError(option + " '" + text + "': '" + item + "' is not a number; expected x,y,z");
-    }
-    ++count;
+  for (std::string item; std::getline(stream, item, ',');) items.push_back(item);
+  if (!text.empty() && text.back() == ',') items.emplace_back();
+  if (items.size() != 3) {
+    throw ConfigError(option + " '" + printable(text) + "': expected three numbers x,y,z (metres)");
   }
-  if (count != 3 || std::getline(stream, item, ',')) {
-    throw ConfigError(option + " '" + text + "': expected three numbers x,y,z (metres)");
+  Eigen::Vector3d point;
+  for (int axis = 0; axis < 3; ++axis) {
+    const std::string& item = items[static_cast<std::size_t>(axis)];
+    const auto [end, error] =
+        std::from_chars(item.data(), item.data() + item.size(), point[axis]);
+    if (error != std::errc() || end != item.data() + item.size() || !std::isfinite(point[axis])) {
+      throw ConfigError(option + " '" + printable(text) + "': '" + printable(item) +
+                        "' is not a finite number; expected x,y,z (metres)");
+    }
   }
   return point;
 }
@@ -54,7 +55,6 @@ Eigen::Vector3d parsePoint(const std::string& text, const std::string& option) {
 void runPlan(const PlanOptions& options) {
   const Eigen::Vector3d start = parsePoint(options.start, "--start");
   const Eigen::Vector3d goal = parsePoint(options.goal, "--goal");
-  if (!(options.sample_step > 0.0)) throw ConfigError("--sample-step must be positive");
   ConfiguredPlanner configured =
       configurePlanner(options.planner, parseAssignments(options.assignments, "--set"));
   const WorldSpec spec = WorldSpec::fromFile(options.world_path);
@@ -93,6 +93,14 @@ void runPlan(const PlanOptions& options) {
       toJson(statisticValues(result.statistics), declaredStatistics(*configured.info))));
 
   if (!options.out_dir.empty()) {
+    // trajectory.csv is bounded: a tiny step on a long trajectory would fill memory and disk.
+    constexpr double kMaxRows = 1e6;
+    if (const double rows = result.trajectory.duration() / options.sample_step; rows > kMaxRows) {
+      throw ConfigError("--sample-step " + formatNumber(options.sample_step) + " s gives " +
+                        formatNumber(std::ceil(rows)) + " rows of trajectory.csv for a " +
+                        formatNumber(result.trajectory.duration()) +
+                        " s trajectory; at most 1000000: use a larger step");
+    }
     std::filesystem::create_directories(options.out_dir);
     const std::filesystem::path out(options.out_dir);
     writeFileAtomically((out / "trajectory.csv").string(),
@@ -126,8 +134,10 @@ void addPlanCommand(CLI::App& app) {
   command->add_option("--out", options->out_dir,
                       "Write trajectory.csv, tree.csv (the search tree) and result.json here");
   command->add_option("--seed", options->seed, "Seed of the planner's random streams")
+      ->check(within(0.0, 18446744073709551615.0))
       ->capture_default_str();
   command->add_option("--sample-step", options->sample_step, "Time step of trajectory.csv, s")
+      ->check(within(1e-4, 10.0))
       ->capture_default_str();
   command->add_option("--cache-dir", options->cache_dir, "World cache directory")
       ->capture_default_str();

@@ -61,6 +61,7 @@ void addRunCommand(CLI::App& app) {
       ->required();
   command->add_option("--out", options->runner.out_dir, "Output directory for results.sqlite");
   command->add_option("-j,--jobs", options->runner.jobs, "Worker processes at a time")
+      ->check(within(1, 1024))
       ->capture_default_str();
   command->add_flag("--resume", options->runner.resume,
                     "Continue a stopped run: only the runs missing from the database run");
@@ -72,12 +73,13 @@ void addRunCommand(CLI::App& app) {
       ->capture_default_str();
   command
       ->add_option("--grace", options->runner.grace_seconds,
-                   "Seconds past its time budget before a worker is killed (timeout)")
+                   "Seconds past its time budget before a worker is killed (status killed)")
+      ->check(within(0.0, 86400.0))
       ->capture_default_str();
   command->footer(
       "A run's status is its planner's (exact, approximate, no_solution, timeout, "
       "invalid_start, invalid_goal, invalid_trajectory) or the runner's: crash (the worker "
-      "died), timeout (killed past the budget), oom (memory budget), error (an exception).\n"
+      "died), killed (past its time budget), oom (memory budget), error (an exception).\n"
       "Exit status 0 when every run finished (whatever their statuses), 1 for bad input, "
       "130 when interrupted (the database is resumable).");
   command->callback([options] {

@@ -140,6 +140,7 @@ void addSlurmCommand(CLI::App& app) {
   command->add_option("--partition", o->request.partition, "Slurm partition");
   command->add_option("--time", o->request.time, "Time limit of each shard, HH:MM:SS");
   command->add_option("--cpus-per-task", o->request.cpus_per_task, "CPUs per shard (its -j)")
+      ->check(within(1, 1024))
       ->capture_default_str();
   command->add_option("--mem", o->request.memory, "Memory per shard, e.g. 8G");
   command

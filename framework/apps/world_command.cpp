@@ -76,8 +76,10 @@ void addWorldCommand(CLI::App& app) {
   command->add_option("--cache-dir", options->cache_dir, "World cache directory")
       ->capture_default_str();
   command->add_flag("--no-cache", options->no_cache, "Build without reading or writing the cache");
-  command->add_option("--slice-height", options->slice_height,
-                      "Height (m) of the ESDF slice picture (default: 1 m above the floor)");
+  command
+      ->add_option("--slice-height", options->slice_height,
+                   "Height (m) of the ESDF slice picture (default: 1 m above the floor)")
+      ->check(within(-1e6, 1e6));
   std::string footer = "World generators (the `type:` of a `generators:` entry):\n";
   for (const auto& [type, description] : worldGeneratorTypes()) {
     footer += "  " + type + std::string(10 - std::min<std::size_t>(type.size(), 9), ' ') +
