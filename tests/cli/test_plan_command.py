@@ -73,7 +73,7 @@ def test_infeasible_queries_are_statuses_not_crashes(kinolab, world):
 
 @pytest.mark.parametrize("arguments, message", [
     (["--start", "1,2", "--goal", "8,8,1.5"], "--start '1,2': expected three numbers x,y,z"),
-    (["--start", "1,a,2", "--goal", "8,8,1.5"], "'a' is not a number"),
+    (["--start", "1,a,2", "--goal", "8,8,1.5"], "'a' is not a finite number"),
     (["--planner", "lazy_mp_astr"], "unknown planner 'lazy_mp_astr' (did you mean 'lazy_mp_astar'?)"),
     (["--set", "heuristic_weigth=2"], "did you mean 'heuristic_weight'"),
     (["--set", "heuristic_weight=0.5"], "heuristic_weight"),
