@@ -156,6 +156,40 @@ def test_ctrl_c_stops_cleanly_and_resume_finishes(kinolab, tmp_path):
     assert len(rows(out / "results.sqlite")) == 24
 
 
+@pytest.mark.parametrize("second", ["other experiment", "other shard", "resume"])
+def test_one_writer_per_results_directory(kinolab, tmp_path, second):
+    """Two runners into one --out: the second stops before any work, naming the holder;
+    the first finishes alone and its database holds only its own runs."""
+    path = deterministic(tmp_path, name="owner", sleep_ms=200)
+    out = tmp_path / "out"
+    env = dict(os.environ, KINOLAB_CACHE_DIR=str(tmp_path / "cache"))
+    first = subprocess.Popen([BINARY, "run", str(path), "--out", str(out), "--shard", "1/2"],
+                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env)
+    lock = out / ".kinolab.lock"
+    for _ in range(600):
+        if lock.exists() and "pid" in lock.read_text():
+            break
+        time.sleep(0.02)
+    if second == "other experiment":
+        (tmp_path / "other").mkdir()
+        other = deterministic(tmp_path / "other", name="intruder")
+        result = kinolab("run", other, "--out", out)
+    elif second == "other shard":
+        result = kinolab("run", path, "--out", out, "--shard", "2/2")
+    else:
+        result = kinolab("run", path, "--out", out, "--shard", "1/2", "--resume")
+    _, stderr = first.communicate(timeout=120)
+    assert first.returncode == 0, stderr
+    assert result.returncode == 1, result.stdout + result.stderr
+    assert "is in use by another process (kinolab run" in result.stderr
+    assert f"pid {first.pid}" in result.stderr
+    assert meta(out / "results.sqlite")["shard"] == "1/2"
+    assert meta(out / "results.sqlite")["name"] == "owner"
+    assert len(rows(out / "results.sqlite")) == 12  # exactly the first runner's shard
+    # Once the first is done, the directory is free again.
+    assert kinolab("run", path, "--out", out, "--shard", "1/2", "--resume").returncode == 0
+
+
 def test_three_shards_merged_equal_the_unsharded_run(kinolab, tmp_path):
     path = deterministic(tmp_path, name="shards")
     whole = kinolab("run", path, "--out", tmp_path / "whole", "-j", "2")

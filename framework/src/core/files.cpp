@@ -1,5 +1,12 @@
 #include "kinolab/core/files.hpp"
 
+#include <fcntl.h>
+#include <sys/file.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstring>
+#include <ctime>
 #include <filesystem>
 #include <fstream>
 #include <system_error>
@@ -18,6 +25,48 @@ void writeFileAtomically(const std::string& path, const std::string& text) {
   std::error_code error;
   std::filesystem::rename(temporary, path, error);
   if (error) throw FileError(path + ": cannot write (" + error.message() + ")");
+}
+
+DirectoryLock::DirectoryLock(const std::string& directory, const std::string& purpose) {
+  std::error_code error;
+  std::filesystem::create_directories(directory, error);
+  if (error && !std::filesystem::is_directory(directory)) {
+    throw FileError(directory + ": cannot create the directory (" + error.message() + ")");
+  }
+  const std::string path = (std::filesystem::path(directory) / ".kinolab.lock").string();
+  fd_ = open(path.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
+  if (fd_ < 0) {
+    throw FileError(path + ": cannot open the lock file (" + std::strerror(errno) + ")");
+  }
+  if (flock(fd_, LOCK_EX | LOCK_NB) != 0) {
+    const int reason = errno;
+    std::string holder(512, '\0');
+    const ssize_t n = pread(fd_, holder.data(), holder.size(), 0);
+    holder.resize(n > 0 ? static_cast<std::size_t>(n) : 0);
+    while (!holder.empty() && (holder.back() == '\n' || holder.back() == '\0')) holder.pop_back();
+    close(fd_);
+    if (reason == EWOULDBLOCK) {
+      throw FileError(directory + " is in use by another process (" +
+                      (holder.empty() ? std::string("unknown") : holder) +
+                      "); wait for it to finish, or choose another directory");
+    }
+    throw FileError(path + ": cannot lock (" + std::strerror(reason) + ")");
+  }
+  char host[256] = {};
+  gethostname(host, sizeof(host) - 1);
+  const std::time_t now = std::time(nullptr);
+  char started[32];
+  std::strftime(started, sizeof(started), "%Y-%m-%dT%H:%M:%SZ", std::gmtime(&now));
+  const std::string text = purpose + ", pid " + std::to_string(getpid()) + " on " + host +
+                           ", since " + started + "\n";
+  if (ftruncate(fd_, 0) != 0 || pwrite(fd_, text.data(), text.size(), 0) < 0) {
+    close(fd_);
+    throw FileError(path + ": cannot write the lock file (" + std::strerror(errno) + ")");
+  }
+}
+
+DirectoryLock::~DirectoryLock() {
+  if (fd_ >= 0) close(fd_);  // closing releases the lock
 }
 
 }  // namespace kinolab

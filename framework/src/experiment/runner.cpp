@@ -16,6 +16,7 @@
 #include <set>
 
 #include "kinolab/core/error.hpp"
+#include "kinolab/core/files.hpp"
 #include "kinolab/core/hash.hpp"
 #include "kinolab/core/plugin.hpp"
 #include "kinolab/core/process.hpp"
@@ -424,7 +425,8 @@ RunnerSummary runExperiment(const Experiment& experiment, const RunnerOptions& o
   ProcessPool pool(options.jobs);
   const std::vector<RunSpec> runs = options.shard.select(experiment.runs());
   summary.planned = static_cast<long long>(runs.size());
-  std::filesystem::create_directories(options.out_dir);
+  // One writer per results directory: a second runner stops here, before any work.
+  const DirectoryLock lock(options.out_dir, "kinolab run " + experiment.source);
   ResultsStore store((std::filesystem::path(options.out_dir) / "results.sqlite").string());
   prepareStore(store, experiment, options, runs.size());
 
