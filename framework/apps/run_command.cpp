@@ -1,10 +1,13 @@
 // `kinolab run`: an experiment file into a results database; `kinolab merge`: shard
 // databases into one.
+#include <algorithm>
 #include <cstdio>
 #include <iostream>
+#include <sstream>
 
 #include "commands.hpp"
 #include "kinolab/core/error.hpp"
+#include "kinolab/core/text.hpp"
 #include "kinolab/experiment/experiment.hpp"
 #include "kinolab/experiment/results_store.hpp"
 #include "kinolab/experiment/runner.hpp"
@@ -17,11 +20,24 @@ struct RunOptions {
   std::string experiment;
   RunnerOptions runner;
   std::string shard;
+  std::string retry;
   bool dry_run = false;
 };
 
 int runCommand(RunOptions& options) {
   if (!options.shard.empty()) options.runner.shard = Shard::parse(options.shard);
+  if (!options.retry.empty()) {
+    if (!options.runner.resume) throw ConfigError("--retry runs stored runs again: add --resume");
+    const std::vector<std::string> known = runStatuses();
+    std::stringstream items(options.retry);
+    for (std::string status; std::getline(items, status, ',');) {
+      if (std::find(known.begin(), known.end(), status) == known.end()) {
+        throw ConfigError("--retry '" + printable(status) + "': not a run status" +
+                          didYouMean(status, known) + "; statuses: " + join(known, ", "));
+      }
+      options.runner.retry.insert(status);
+    }
+  }
   const Experiment experiment = Experiment::fromFile(options.experiment);
   if (options.dry_run) {
     const auto runs = options.runner.shard.select(experiment.runs());
@@ -65,6 +81,9 @@ void addRunCommand(CLI::App& app) {
       ->capture_default_str();
   command->add_flag("--resume", options->runner.resume,
                     "Continue a stopped run: only the runs missing from the database run");
+  command->add_option("--retry", options->retry,
+                      "With --resume: run again the stored runs with these statuses, e.g. "
+                      "crash,killed (workers stopped from outside)");
   command->add_option("--shard", options->shard,
                       "Run the deterministic i-th of N parts (i/N), for array jobs");
   command->add_flag("--dry-run", options->dry_run,

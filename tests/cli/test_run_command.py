@@ -190,6 +190,32 @@ def test_one_writer_per_results_directory(kinolab, tmp_path, second):
     assert kinolab("run", path, "--out", out, "--shard", "1/2", "--resume").returncode == 0
 
 
+def test_resume_retry_reruns_only_the_chosen_statuses(kinolab, tmp_path):
+    """Runs recorded as crash or killed (a worker stopped from outside) run again with
+    --resume --retry crash,killed; the others are kept as they are."""
+    planners = LAZY + "\n  - id: crash\n    type: test_crash\n"
+    path = experiment(tmp_path, planners)
+    out = tmp_path / "out"
+    assert kinolab("run", path, "--out", out).returncode == 0
+    before = rows(out / "results.sqlite")
+    with sqlite3.connect(out / "results.sqlite") as db:
+        started = dict(db.execute("SELECT run_hash, started_at FROM runs"))
+    time.sleep(1.1)  # a rerun run gets a later start time
+    result = kinolab("run", path, "--out", out, "--resume", "--retry", "crash,killed")
+    assert result.returncode == 0, result.stderr
+    assert "4 stored runs with status crash or killed will run again" in result.stderr
+    assert "4 runs ran" in result.stdout and "4 were already done" in result.stdout
+    assert rows(out / "results.sqlite") == before  # same outcomes, deterministic
+    with sqlite3.connect(out / "results.sqlite") as db:
+        for run_hash, planner, when in db.execute("SELECT run_hash, planner, started_at FROM runs"):
+            assert (when != started[run_hash]) == (planner == "crash"), planner
+
+    for arguments, message in ((["--retry", "crash"], "add --resume"),
+                               (["--resume", "--retry", "crashed"], "did you mean 'crash'")):
+        refused = kinolab("run", path, "--out", out, *arguments)
+        assert refused.returncode == 1 and message in refused.stderr, refused.stderr
+
+
 def test_three_shards_merged_equal_the_unsharded_run(kinolab, tmp_path):
     path = deterministic(tmp_path, name="shards")
     whole = kinolab("run", path, "--out", tmp_path / "whole", "-j", "2")

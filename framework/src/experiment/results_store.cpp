@@ -236,6 +236,27 @@ std::set<std::string> ResultsStore::runHashes() const {
   return hashes;
 }
 
+long long ResultsStore::removeRuns(const std::set<std::string>& statuses) {
+  long long removed = 0;
+  transaction([&] {
+    for (const std::string& status : statuses) {
+      for (const char* table : {"statistics", "trajectories", "trees"}) {
+        Statement remove(db_,
+                         std::string("DELETE FROM ") + table +
+                             " WHERE run_hash IN (SELECT run_hash FROM runs WHERE status = ?)",
+                         path_);
+        remove.add(status);
+        remove.step(path_);
+      }
+      Statement remove(db_, "DELETE FROM runs WHERE status = ?", path_);
+      remove.add(status);
+      remove.step(path_);
+      removed += sqlite3_changes(db_);
+    }
+  });
+  return removed;
+}
+
 long long ResultsStore::runCount() const {
   Statement query(db_, "SELECT COUNT(*) FROM runs", path_);
   query.step(path_);

@@ -265,6 +265,18 @@ std::map<std::string, std::string> provenance() {
   return values;
 }
 
+std::vector<std::string> runStatuses() {
+  std::vector<std::string> statuses;
+  for (const PlanStatus status :
+       {PlanStatus::kExact, PlanStatus::kApproximate, PlanStatus::kNoSolution,
+        PlanStatus::kTimeout, PlanStatus::kInvalidStart, PlanStatus::kInvalidGoal,
+        PlanStatus::kInvalidTrajectory}) {
+    statuses.emplace_back(toString(status));
+  }
+  for (const char* runner : {"crash", "killed", "oom", "error"}) statuses.emplace_back(runner);
+  return statuses;
+}
+
 std::string describeRuns(const Experiment& experiment, const std::vector<RunSpec>& runs) {
   std::string text = "experiment " + experiment.name + " (" + experiment.source + "), config " +
                      experiment.config_hash + ": " + std::to_string(runs.size()) + " runs\n";
@@ -429,6 +441,11 @@ RunnerSummary runExperiment(const Experiment& experiment, const RunnerOptions& o
   const DirectoryLock lock(options.out_dir, "kinolab run " + experiment.source);
   ResultsStore store((std::filesystem::path(options.out_dir) / "results.sqlite").string());
   prepareStore(store, experiment, options, runs.size());
+  if (!options.retry.empty()) {
+    const long long removed = store.removeRuns(options.retry);
+    std::fprintf(stderr, "run: %lld stored runs with status %s will run again\n", removed,
+                 join({options.retry.begin(), options.retry.end()}, " or ").c_str());
+  }
 
   const std::set<std::string> done = store.runHashes();
   std::vector<const RunSpec*> pending;

@@ -84,6 +84,9 @@ class ResultsStore {
   std::map<std::string, std::string> allMeta() const;
   void setMeta(const std::map<std::string, std::string>& values);
 
+  /// Deletes the stored runs whose status is one of `statuses` (with their statistics,
+  /// trajectories and trees), in one transaction; returns how many.
+  long long removeRuns(const std::set<std::string>& statuses);
   /// The hashes of every stored run.
   std::set<std::string> runHashes() const;
   long long runCount() const;

@@ -1,6 +1,8 @@
 #pragma once
 
 #include <map>
+#include <set>
+#include <vector>
 #include <string>
 
 #include "kinolab/experiment/experiment.hpp"
@@ -15,6 +17,9 @@ struct RunnerOptions {
   Shard shard;
   std::string cache_dir;       ///< built worlds (WorldCache)
   double grace_seconds = 5.0;  ///< a worker is killed this long after its time budget
+  /// With `resume`: stored runs with these statuses are deleted and run again (e.g. crash
+  /// and killed, for workers stopped from outside). Every name must be a run status.
+  std::set<std::string> retry;
 };
 
 struct RunnerSummary {
@@ -37,6 +42,10 @@ struct RunnerSummary {
 /// cleanly: workers in flight are killed and not recorded, and the database stays
 /// resumable. Progress goes to stderr: a bar on a terminal, log lines otherwise.
 RunnerSummary runExperiment(const Experiment& experiment, const RunnerOptions& options);
+
+/// Every status a stored run can have: the planner's and the runner's (crash, killed, oom,
+/// error).
+std::vector<std::string> runStatuses();
 
 /// What `kinolab run --dry-run` prints: the run count and a table of variants, worlds,
 /// queries and planners.
