@@ -85,6 +85,48 @@ repetitions: 2
   EXPECT_EQ(e.runs().size(), 2u * 6u + 6u * 6u);
 }
 
+TEST_F(ExperimentTest, LargeSweepsExpandAndOversizedOnesAreRefusedUpFront) {
+  std::string weights;
+  std::string radii;
+  for (int i = 0; i < 100; ++i) {
+    if (i > 0) {
+      weights += ", ";
+      radii += ", ";
+    }
+    weights += std::to_string(1.0 + 0.01 * i);
+    radii += std::to_string(0.5 + 0.001 * i);
+  }
+  const std::string grid = "sweep:\n  grid:\n    planners.eager.params.heuristic_weight: [" +
+                           weights + "]\n    planners.eager.params.goal_radius: [" + radii +
+                           "]\n";
+  const Experiment e = Experiment::fromFile(experiment("large.yaml", grid, 1));
+  ASSERT_EQ(e.variants.size(), 10000u);
+  // Each variant has its own values, and the document is set back after each one.
+  EXPECT_EQ(e.variants[0].planners[0].parameters.real("heuristic_weight"), 1.0);
+  EXPECT_EQ(e.variants[9999].planners[0].parameters.real("goal_radius"), 0.599);
+  EXPECT_EQ(e.variants[9999].planners[1].parameters.real("goal_radius"), 0.5);  // lazy: untouched
+  EXPECT_EQ(e.runs().size(), 10000u + 1u);  // eager's 10,000 runs and lazy's one
+
+  const auto refused = [&](const std::string& extra, int queries, const std::string& message) {
+    try {
+      Experiment::fromFile(experiment("oversized.yaml", extra, queries));
+      ADD_FAILURE() << message;
+    } catch (const ConfigError& error) {
+      EXPECT_NE(std::string(error.what()).find(message), std::string::npos) << error.what();
+    }
+  };
+  std::string many;
+  for (int i = 0; i < 400; ++i) {
+    if (i > 0) many += ", ";
+    many += std::to_string(i + 1);
+  }
+  refused("sweep:\n  grid:\n    budget.time: [" + many + "]\n    budget.memory_mb: [" + many +
+              "]\n",
+          3, "a sweep has at most 100000");
+  // 10^6 queries x 2 planners x 100 repetitions: counted, never expanded.
+  refused("repetitions: 100\n", 1000000, "more than 10000000 runs");
+}
+
 TEST_F(ExperimentTest, ExtendsMergesMappingsAndTheChildWins) {
   write("base.yaml",
         "kind: planning\nname: base\nseed: 7\n"

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <filesystem>
 #include <map>
+#include <optional>
 #include <set>
 
 #include "kinolab/core/error.hpp"
@@ -57,10 +58,20 @@ YAML::Node loadWithBase(const std::string& path, std::vector<std::string>& chain
   return node;
 }
 
+/// What setPath() changed in a document, so that it can be undone: the mapping, the key,
+/// and the node that was there (none when the key was added).
+struct PathChange {
+  YAML::Node mapping;
+  std::string key;
+  std::optional<YAML::Node> original;
+};
+
 /// Sets `value` at a dotted path: mapping keys by name (a missing last key is added), list
-/// items by their `id` or their index.
+/// items by their `id` or their index. Every change is appended to `changes`. The value node
+/// must belong to the same document: nodes of another document would merge its whole memory
+/// into this one on every call.
 void setPath(YAML::Node root, const std::string& path, const YAML::Node& value,
-             const YamlReader& at) {
+             const YamlReader& at, std::vector<PathChange>& changes) {
   std::vector<std::string> parts;
   std::size_t begin = 0;
   for (std::size_t dot = path.find('.'); begin <= path.size(); dot = path.find('.', begin)) {
@@ -87,18 +98,39 @@ void setPath(YAML::Node root, const std::string& path, const YAML::Node& value,
       }
       node.reset(found);
     } else if (node.IsMap()) {
-      if (last) {
-        node[part] = value;
-        return;
+      const bool exists = node[part].IsDefined();
+      if (!last && exists) {
+        node.reset(node[part]);
+        continue;
       }
+      // Replaced by removing and adding the key, so that the original node stays intact for
+      // the undo (assigning to it would change it in place).
+      changes.push_back(
+          {node, part, exists ? std::optional<YAML::Node>(node[part]) : std::nullopt});
+      node.remove(part);
       // A missing mapping is created; validation then rejects a key that does not exist.
-      if (!node[part].IsDefined()) node[part] = YAML::Node(YAML::NodeType::Map);
+      node[part] = last ? value : YAML::Node(YAML::NodeType::Map);
+      if (last) return;
       node.reset(node[part]);
     } else {
       at.fail("sweep path '" + path + "': '" + part + "' is below a value");
     }
   }
 }
+
+/// Undoes setPath()'s changes, the last first.
+void undo(std::vector<PathChange>& changes) {
+  for (auto change = changes.rbegin(); change != changes.rend(); ++change) {
+    change->mapping.remove(change->key);
+    if (change->original) change->mapping[change->key] = *change->original;
+  }
+  changes.clear();
+}
+
+/// At most this many sweep variants and runs in one experiment: refused up front, so that a
+/// small file cannot ask for unbounded work (documented in docs/experiments.md).
+constexpr std::size_t kMaxVariants = 100000;
+constexpr std::size_t kMaxRuns = 10000000;
 
 struct SweepPoint {
   std::vector<std::pair<std::string, YAML::Node>> values;  // path, value
@@ -109,7 +141,14 @@ struct SweepPoint {
 std::vector<SweepPoint> expandSweep(const YamlReader& sweep) {
   std::vector<SweepPoint> points(1);
   const auto product = [&](const std::vector<SweepPoint>& options) {
+    // Refused before anything is expanded: the variant count is the product of the axes.
+    if (points.size() * options.size() > kMaxVariants) {
+      sweep.fail(std::to_string(points.size()) + " x " + std::to_string(options.size()) +
+                 " variants or more; a sweep has at most " + std::to_string(kMaxVariants) +
+                 " (split it into several experiments)");
+    }
     std::vector<SweepPoint> next;
+    next.reserve(points.size() * options.size());
     for (const SweepPoint& point : points) {
       for (const SweepPoint& option : options) {
         SweepPoint combined = point;
@@ -228,12 +267,11 @@ QuerySpec readQueries(const YamlReader& node) {
 /// digits, '_', '-' and '.', 1 to 64 characters, not starting with '.' or '-'.
 std::string readName(const YamlReader& node) {
   const std::string name = node.as<std::string>();
-  const bool valid =
-      !name.empty() && name.size() <= 64 && name.front() != '.' && name.front() != '-' &&
-      std::all_of(name.begin(), name.end(), [](char c) {
-        return (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') ||
-               c == '_' || c == '-' || c == '.';
-      });
+  const bool valid = !name.empty() && name.size() <= 64 && name.front() != '.' &&
+                     name.front() != '-' && std::all_of(name.begin(), name.end(), [](char c) {
+                       return (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') ||
+                              (c >= '0' && c <= '9') || c == '_' || c == '-' || c == '.';
+                     });
   if (!valid) {
     node.fail("'" + printable(name) +
               "' is not a valid name: use 1 to 64 letters, digits, '_', '-' or '.', not "
@@ -500,16 +538,21 @@ Experiment Experiment::fromFile(const std::string& path) {
   }
   root.finish();
 
+  // Every variant is the one document with its sweep values set, read, then set back: the
+  // sweep's value nodes belong to it (no memory merges) and keep their file positions for
+  // messages, and each variant costs the size of the document without its sweep.
+  YAML::Node variant_node = document;
+  variant_node.remove("sweep");
+  // The canonical text: the document without its sweep, then each variant's values (what
+  // the variant is, in the order of the runs); dumping every variant would cost far more.
+  experiment.canonical = YAML::Dump(variant_node) + "\n--- # variants\n";
+  std::vector<PathChange> changes;
+  std::size_t total_runs = 0;
   for (const SweepPoint& point : points) {
-    // A fresh copy of the file per variant: nodes keep their positions for messages.
-    std::string variant_source;
-    std::map<std::string, std::string> variant_directories;
-    YAML::Node variant_node = loadDocument(path, variant_source, variant_directories);
-    variant_node.remove("sweep");
     std::string label;
     for (std::size_t i = 0; i < point.values.size(); ++i) {
       const auto& [key, value] = point.values[i];
-      setPath(variant_node, key, value, point.where[i]);
+      setPath(variant_node, key, value, point.where[i], changes);
       label += (label.empty() ? "" : ", ") + key + "=" + scalarText(value);
     }
     const YamlReader reader = YamlReader::fromNode(variant_node, source);
@@ -519,9 +562,17 @@ Experiment Experiment::fromFile(const std::string& path) {
     ExperimentVariant variant = readVariant(reader, directory, spec_directories);
     reader.finish();
     variant.label = label;
-    experiment.canonical += "--- # " + (label.empty() ? std::string("(no sweep)") : label) + "\n" +
-                            YAML::Dump(variant_node) + "\n";
+    total_runs += variant.worlds.size() * static_cast<std::size_t>(variant.queries.count()) *
+                  variant.planners.size() * static_cast<std::size_t>(variant.repetitions);
+    if (total_runs > kMaxRuns) {
+      throw ConfigError(path + ": more than " + std::to_string(kMaxRuns) +
+                        " runs (worlds x queries x planners x repetitions over " +
+                        std::to_string(points.size()) +
+                        " variants); split the experiment or shrink it");
+    }
+    experiment.canonical += "- " + (label.empty() ? std::string("(no sweep)") : label) + "\n";
     experiment.variants.push_back(std::move(variant));
+    undo(changes);
   }
   experiment.config_hash = toHex(hashString(experiment.canonical));
   // Every row names a planner id of every variant.
