@@ -4,6 +4,8 @@
 // status, and unknown parameters are refused before anything runs.
 #include <gtest/gtest.h>
 
+#include <cmath>
+
 #include "kinolab/core/error.hpp"
 #include "kinolab/planner/planner.hpp"
 #include "support/planning.hpp"
@@ -103,6 +105,11 @@ TEST_P(PlannerConformance, AStartInsideTheGoalRegionIsSolvedByStayingPut) {
   EXPECT_EQ(result.status, PlanStatus::kExact) << result.message;
   EXPECT_TRUE(result.check.valid) << result.check.detail;
   EXPECT_LE(result.distance_to_goal, configured.planner->model().goal_radius);
+  if (result.trajectory.empty()) {
+    EXPECT_EQ(result.cost, 0.0);  // nothing to fly costs nothing, never infinity
+  } else {
+    EXPECT_TRUE(std::isfinite(result.cost));
+  }
 }
 
 TEST_P(PlannerConformance, UnknownParametersAreRefused) {

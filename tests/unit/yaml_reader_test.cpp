@@ -64,5 +64,30 @@ TEST(YamlReaderTest, MalformedYamlAndMissingFiles) {
   EXPECT_THROW(YamlReader::loadFile("/nonexistent/kinolab.yaml"), FileError);
 }
 
+TEST(YamlReaderTest, DuplicateKeysAreRefusedAtTheSecondOneAtEveryDepth) {
+  EXPECT_EQ(errorOf([] { YamlReader::loadString("name: a\nseed: 1\nname: b\n", "d.yaml"); }),
+            "d.yaml:3:1: duplicate key 'name' (first at line 1)");
+  EXPECT_NE(errorOf([] {
+              YamlReader::loadString("planners:\n  - {id: a, params: {x: 1, x: 2}}\n", "d.yaml");
+            }).find("d.yaml:2:28: duplicate key 'x'"),
+            std::string::npos);
+  // The same key in different mappings is fine.
+  EXPECT_NO_THROW(YamlReader::loadString("a: {x: 1}\nb: {x: 2}\n", "ok.yaml"));
+}
+
+TEST(YamlReaderTest, OnlyUtf8TextWithoutControlCharactersIsRead) {
+  EXPECT_NE(errorOf([] { YamlReader::loadString(std::string("name: a\0b\n", 10), "n.yaml"); })
+                .find("n.yaml:1:8: byte 0x00 is not allowed"),
+            std::string::npos);
+  EXPECT_NE(errorOf([] { YamlReader::loadString("a: 1\nname: caf\xe9\n", "l.yaml"); })
+                .find("l.yaml:2:10: byte 0xe9"),
+            std::string::npos);
+  EXPECT_NE(errorOf([] { YamlReader::loadString("a: \x1b[31mred\n", "e.yaml"); })
+                .find("byte 0x1b"),
+            std::string::npos);
+  const YamlReader utf8 = YamlReader::loadString("name: caf\xc3\xa9\t# tab\r\n", "u.yaml");
+  EXPECT_EQ(utf8.get<std::string>("name"), "caf\xc3\xa9");
+}
+
 }  // namespace
 }  // namespace kinolab

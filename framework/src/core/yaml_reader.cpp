@@ -3,6 +3,9 @@
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
+#include <fstream>
+#include <map>
+#include <sstream>
 
 #include "kinolab/core/text.hpp"
 
@@ -24,27 +27,82 @@ YamlReader::YamlReader(YAML::Node node, std::shared_ptr<const std::string> sourc
       path_(std::move(path)),
       used_(std::make_shared<std::set<std::string>>()) {}
 
+namespace {
+
+/// A mapping with the same key twice is an error at the second one: YAML readers disagree on
+/// which value wins (yaml-cpp the first, PyYAML the last).
+void rejectDuplicateKeys(const YAML::Node& node, const std::string& source) {
+  if (node.IsSequence()) {
+    for (const YAML::Node& item : node) rejectDuplicateKeys(item, source);
+  } else if (node.IsMap()) {
+    std::map<std::string, YAML::Mark> seen;
+    for (const auto& entry : node) {
+      const std::string key = entry.first.IsScalar() ? entry.first.Scalar() : "";
+      const auto [found, fresh] = seen.emplace(key, entry.first.Mark());
+      if (!fresh && entry.first.IsScalar()) {
+        const YAML::Mark mark = entry.first.Mark();
+        throw ConfigError(source + ":" + std::to_string(mark.line + 1) + ":" +
+                          std::to_string(mark.column + 1) + ": duplicate key '" + key +
+                          "' (first at line " + std::to_string(found->second.line + 1) + ")");
+      }
+      rejectDuplicateKeys(entry.second, source);
+    }
+  }
+}
+
+}  // namespace
+
 YamlReader YamlReader::loadFile(const std::string& path) {
   if (!std::filesystem::is_regular_file(path)) {
     throw FileError(path + ": no such file");
   }
-  try {
-    return YamlReader(YAML::LoadFile(path), std::make_shared<const std::string>(path), "");
-  } catch (const YAML::ParserException& error) {
-    throw ConfigError(path + ":" + std::to_string(error.mark.line + 1) + ":" +
-                      std::to_string(error.mark.column + 1) + ": malformed YAML: " + error.msg);
-  } catch (const YAML::BadFile&) {
-    throw FileError(path + ": cannot read file");
-  }
+  std::ifstream file(path, std::ios::binary);
+  std::stringstream text;
+  text << file.rdbuf();
+  if (!file && !file.eof()) throw FileError(path + ": cannot read file");
+  return loadString(text.str(), path);
 }
 
 YamlReader YamlReader::loadString(const std::string& text, const std::string& source) {
+  // Text that YAML parsers read differently is refused, not guessed at: bytes that are not
+  // UTF-8, NUL and other control characters (tabs and line ends aside).
+  for (std::size_t i = 0, line = 1, column = 1; i < text.size();) {
+    const auto byte = static_cast<unsigned char>(text[i]);
+    const std::size_t length = byte < 0x80         ? 1
+                               : (byte >> 5) == 6  ? 2
+                               : (byte >> 4) == 14 ? 3
+                               : (byte >> 3) == 30 ? 4
+                                                   : 0;
+    bool valid = length > 0 && i + length <= text.size();
+    for (std::size_t k = 1; valid && k < length; ++k) {
+      valid = (static_cast<unsigned char>(text[i + k]) >> 6) == 2;
+    }
+    if (valid && length == 1 && byte < 0x20 && byte != '\n' && byte != '\r' && byte != '\t') {
+      valid = false;
+    }
+    if (!valid) {
+      throw ConfigError(source + ":" + std::to_string(line) + ":" + std::to_string(column) +
+                        ": byte 0x" + "0123456789abcdef"[byte >> 4] +
+                        "0123456789abcdef"[byte & 15] +
+                        " is not allowed: expected UTF-8 text without control characters");
+    }
+    if (byte == '\n') {
+      ++line;
+      column = 1;
+    } else {
+      ++column;
+    }
+    i += length;
+  }
+  YAML::Node root;
   try {
-    return YamlReader(YAML::Load(text), std::make_shared<const std::string>(source), "");
+    root = YAML::Load(text);
   } catch (const YAML::ParserException& error) {
     throw ConfigError(source + ":" + std::to_string(error.mark.line + 1) + ":" +
                       std::to_string(error.mark.column + 1) + ": malformed YAML: " + error.msg);
   }
+  rejectDuplicateKeys(root, source);
+  return YamlReader(root, std::make_shared<const std::string>(source), "");
 }
 
 YamlReader YamlReader::fromNode(YAML::Node node, const std::string& source) {

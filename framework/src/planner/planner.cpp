@@ -127,6 +127,7 @@ PlanResult Planner::plan(const PlanningQuery& query, const Budget& budget, Searc
     if (result.status == PlanStatus::kExact) {
       // Nothing to fly is a valid answer only when the start is already in the goal region.
       result.check.valid = result.distance_to_goal <= model.goal_radius;
+      if (result.check.valid) result.cost = 0.0;  // nothing to fly costs nothing
       result.check.check = result.check.valid ? "" : "empty";
       result.check.detail = result.check.valid ? "the start is inside the goal region"
                                                : "exact status without a trajectory";
