@@ -265,6 +265,7 @@ def write(paths: list[Path], out: Path, compare: Path | None = None,
     provenance = [("experiment", results.meta.get("name", "?")),
                   ("source", results.meta.get("source", "?")),
                   ("runs stored / planned", f"{len(runs)} / {results.meta.get('runs_planned', '?')}"),
+                  ("merged from", results.meta.get("merged_from", "one database")),
                   ("started", results.meta.get("started_at", "?")),
                   ("finished", results.meta.get("finished_at", "not finished"))]
     provenance += [(k[len("provenance."):], v) for k, v in sorted(results.meta.items())

@@ -99,8 +99,10 @@ void addRunCommand(CLI::App& app) {
       "A run's status is its planner's (exact, approximate, no_solution, timeout, "
       "invalid_start, invalid_goal, invalid_trajectory) or the runner's: crash (the worker "
       "died), killed (past its time budget), oom (memory budget), error (an exception).\n"
-      "Exit status 0 when every run finished (whatever their statuses), 1 for bad input, "
-      "130 when interrupted (the database is resumable).");
+      "Exit status 0 when every run finished (whatever their statuses); 1 for bad input or a "
+      "fault outside kinolab (a full disk, a directory in use, an unwritable --out: the "
+      "message says which, and what was stored is kept); 130 when interrupted (the database "
+      "is resumable); 3 for an unexpected internal error.");
   command->callback([options] {
     const int code = runCommand(*options);
     if (code != 0) throw CLI::RuntimeError(code);

@@ -296,6 +296,10 @@ TEST_F(ExperimentTest, MergeRefusesMixedRepeatedIncompleteAndOldShards) {
   const std::string partial = (directory_ / "partial.sqlite").string();
   ResultsStore::merge(partial, {a}, true);
   EXPECT_EQ(ResultsStore(partial).runCount(), 2);
+  // ... and the result says it is partial (it does not look complete).
+  EXPECT_EQ(ResultsStore(partial).meta("shard"), "partial");
+  EXPECT_EQ(ResultsStore(partial).meta("merged_from"), "1 of 2 shards; missing 2/2");
+  EXPECT_EQ(ResultsStore(out).meta("merged_from"), "2 of 2 shards");
 }
 
 TEST(QuerySampler, PairsAreFreeInTheRegionAtTheirDistancesAndImpossibleOnesAreRefused) {

@@ -7,6 +7,7 @@
 #include <string_view>
 
 #include "kinolab/core/error.hpp"
+#include "kinolab/core/text.hpp"
 #include "kinolab/experiment/shard.hpp"
 
 namespace kinolab {
@@ -188,18 +189,34 @@ void ResultsStore::transaction(const std::function<void()>& body) {
     body();
     execute("COMMIT");
   } catch (...) {
-    execute("ROLLBACK");
+    // SQLite may have rolled back already (a full disk, an I/O error): then a ROLLBACK would
+    // fail and hide the error that matters.
+    if (!sqlite3_get_autocommit(db_)) sqlite3_exec(db_, "ROLLBACK", nullptr, nullptr, nullptr);
     throw;
   }
 }
 
 void ResultsStore::execute(const std::string& sql) const {
   char* error = nullptr;
-  if (sqlite3_exec(db_, sql.c_str(), nullptr, nullptr, &error) != SQLITE_OK) {
-    const std::string message = error ? error : "unknown error";
+  if (const int code = sqlite3_exec(db_, sql.c_str(), nullptr, nullptr, &error);
+      code != SQLITE_OK) {
+    const std::string message = error ? error : sqlite3_errstr(code);
     sqlite3_free(error);
-    throw FileError(path_ + ": SQLite: " + message +
-                    " (is it a kinolab results database, and writable?)");
+    std::string hint;
+    switch (code & 0xff) {
+      case SQLITE_FULL:
+        hint = "the disk is full: what was stored is kept; free space, then resume";
+        break;
+      case SQLITE_READONLY:
+      case SQLITE_CANTOPEN:
+      case SQLITE_IOERR:
+      case SQLITE_PERM:
+        hint = "is its directory writable?";
+        break;
+      default:
+        hint = "is it a kinolab results database?";
+    }
+    throw FileError(path_ + ": SQLite: " + message + " (" + hint + ")");
   }
 }
 
@@ -359,6 +376,7 @@ void ResultsStore::merge(const std::string& output, const std::vector<std::strin
   std::string config_hash;
   int shard_count = 0;
   std::set<int> shards;
+  std::vector<std::string> incomplete;
   for (const std::string& input : inputs) {
     if (!std::filesystem::is_regular_file(input)) throw FileError(input + ": no such database");
     ResultsStore shard(input);
@@ -388,6 +406,7 @@ void ResultsStore::merge(const std::string& output, const std::vector<std::strin
       throw ConfigError("merge: shard " + *which + " is given twice (" + input + ")");
     }
     const long long stored = shard.runCount();
+    if (stored < std::stoll(*planned)) incomplete.push_back(parsed.text());
     if (!partial && stored < std::stoll(*planned)) {
       throw ConfigError("merge: " + input + " (shard " + *which +
                         ") is incomplete: " + std::to_string(stored) + " of " + *planned +
@@ -422,9 +441,19 @@ void ResultsStore::merge(const std::string& output, const std::vector<std::strin
       merged.execute("COMMIT");
       merged.execute("DETACH DATABASE shard");
     }
-    merged.setMeta({{"shard", "1/1"},
+    // A partial merge says so: it is not a complete result, and no run resumes into it.
+    std::vector<std::string> missing;
+    for (int index = 1; index <= shard_count; ++index) {
+      if (!shards.count(index)) missing.push_back(Shard{index, shard_count}.text());
+    }
+    std::string from =
+        std::to_string(inputs.size()) + " of " + std::to_string(shard_count) + " shards";
+    if (!missing.empty()) from += "; missing " + join(missing, ", ");
+    if (!incomplete.empty()) from += "; incomplete " + join(incomplete, ", ");
+    const bool complete = missing.empty() && incomplete.empty();
+    merged.setMeta({{"shard", complete ? "1/1" : "partial"},
                     {"runs_planned", std::to_string(planned_total)},
-                    {"merged_from", std::to_string(inputs.size()) + " shards"}});
+                    {"merged_from", from}});
   } catch (...) {
     for (const char* suffix : {"", "-wal", "-shm"}) std::filesystem::remove(output + suffix);
     throw;

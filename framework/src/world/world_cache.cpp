@@ -97,9 +97,12 @@ void WorldCache::write(const World& world, const std::string& path) {
 
 std::shared_ptr<const World> WorldCache::read(const std::string& path, std::uint64_t expected_hash,
                                               const std::string& name) {
+  if (!std::filesystem::is_regular_file(path)) throw FileError(path + ": not a regular file");
   std::ifstream in(path, std::ios::binary | std::ios::ate);
   if (!in) throw FileError(path + ": cannot open");
-  const auto size = static_cast<std::size_t>(in.tellg());
+  const std::streamoff end = in.tellg();
+  if (end < 0) throw FileError(path + ": cannot read its size");
+  const auto size = static_cast<std::size_t>(end);
   if (size < sizeof(Header) + sizeof(std::uint64_t)) throw FileError(path + ": truncated");
   std::vector<char> buffer(size);
   in.seekg(0);
