@@ -46,6 +46,11 @@ void runWorld(const WorldOptions& options) {
               load.cache_file.empty() ? "" : " (cache: ",
               load.cache_file.empty() ? "" : (load.cache_file + ")").c_str());
   if (!load.note.empty()) std::printf("  note       %s\n", load.note.c_str());
+  for (const auto& generator : spec.generators) {
+    const std::string note =
+        generator->resamplingNote(load.world->bounds(), load.world->grid().resolution());
+    if (!note.empty()) std::printf("  resampled  %s\n", note.c_str());
+  }
 
   if (!options.out_dir.empty()) {
     // Default slice: 1 m above the floor, or mid-height in a lower map.

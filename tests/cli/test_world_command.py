@@ -105,3 +105,15 @@ def test_missing_spec_file(kinolab, tmp_path):
     result = kinolab("world", tmp_path / "absent.yaml")
     assert result.returncode != 0
     assert "absent.yaml: no such file" in result.stderr
+
+
+def test_the_world_command_says_when_a_map_was_resampled(kinolab, tmp_path):
+    bt = SOURCE_DIR / "data" / "maps" / "geb079.bt"
+    coarser = write(tmp_path / "coarse.yaml",
+                    f"resolution: 0.1\ngenerators:\n  - {{type: octomap, file: {bt}}}\n")
+    result = kinolab("world", coarser)
+    assert result.returncode == 0, result.stderr
+    assert "(0.08 m voxels) resampled to 0.1 m" in result.stdout
+    assert "any occupied map voxel overlaps it" in result.stdout
+    own = kinolab("world", SOURCE_DIR / "configs" / "worlds" / "geb079.yaml")
+    assert own.returncode == 0 and "resampled" not in own.stdout

@@ -122,6 +122,50 @@ TEST(WorldSpecTest, OctomapOccupiedLeavesBecomeOccupiedVoxels) {
   EXPECT_NE(unknown_occupied.hash(), free_unknown.hash());
 }
 
+TEST(WorldSpecTest, ResampledMapsKeepEveryObstacle) {
+  // At another resolution, and at the map's own on a grid shifted by 3 cm, every occupied
+  // leaf's cube stays covered: its centre and points just inside each of its corners lie in
+  // occupied voxels (a centre test loses about half the leaves at 0.1 m).
+  octomap::OcTree tree(0.1);
+  ASSERT_TRUE(tree.readBinary(kSourceDir + "/data/maps/geb079.bt"));
+  for (const std::string& grid_text :
+       {std::string("resolution: 0.1\n"), std::string("resolution: 0.05\n"),
+        std::string(
+            "resolution: 0.08\nbounds: {min: [-8.03, -7.55, -0.35], max: [31, 7.5, 2.9]}\n")}) {
+    const WorldSpec spec = specFromText(
+        grid_text + "generators:\n  - {type: octomap, file: data/maps/geb079.bt}\n", kSourceDir);
+    const VoxelGrid grid = World::buildGrid(spec);
+    long long checked = 0;
+    for (auto leaf = tree.begin_leafs(), end = tree.end_leafs(); leaf != end; ++leaf) {
+      if (!tree.isNodeOccupied(*leaf)) continue;
+      const double inside = 0.49 * leaf.getSize();
+      const Eigen::Vector3d centre(leaf.getX(), leaf.getY(), leaf.getZ());
+      for (int corner = 0; corner < 9; ++corner) {
+        Eigen::Vector3d point = centre;
+        if (corner < 8) {
+          for (int axis = 0; axis < 3; ++axis)
+            point[axis] += (corner >> axis & 1 ? 1 : -1) * inside;
+        }
+        const VoxelIndex voxel =
+            ((point - grid.origin()) / grid.resolution()).array().floor().cast<int>();
+        if (!grid.inside(voxel)) continue;
+        ASSERT_TRUE(grid.occupied(voxel))
+            << grid_text << "an occupied leaf at " << centre.transpose() << " lost";
+        ++checked;
+      }
+    }
+    EXPECT_GT(checked, 143729);
+  }
+  // Aligned and at its own resolution, the grid is the map: no dilation.
+  const VoxelGrid own =
+      World::buildGrid(WorldSpec::fromFile(kSourceDir + "/configs/worlds/geb079.yaml"));
+  const VoxelGrid centred = World::buildGrid(specFromText(
+      "resolution: 0.08\nbounds: {min: [-8.0, -7.52, -0.32], max: [30.96, 7.44, 2.8]}\n"
+      "generators:\n  - {type: octomap, file: data/maps/geb079.bt}\n",
+      kSourceDir));
+  EXPECT_EQ(own.occupiedCount(), centred.occupiedCount());
+}
+
 TEST(WorldSpecTest, FullOtMapsLoadLikeBinaryBtMaps) {
   // The same tree written as a full .ot file gives the same grid as the .bt file.
   const auto directory = std::filesystem::temp_directory_path() / "kinolab_ot_test";

@@ -2,12 +2,14 @@
 #include <octomap/AbstractOcTree.h>
 #include <octomap/OcTree.h>
 
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
 
 #include "kinolab/core/error.hpp"
 #include "kinolab/core/hash.hpp"
+#include "kinolab/core/text.hpp"
 #include "kinolab/core/yaml_reader.hpp"
 #include "kinolab/world/world_generator.hpp"
 
@@ -82,21 +84,41 @@ class OctomapGenerator final : public WorldGenerator {
     return Box{{x0, y0, z0}, {x1, y1, z1}};
   }
   void apply(VoxelGrid& grid, Rng&) const override {
-    // 0 = free, 1 = occupied, 2 = unknown (no leaf covers the voxel centre).
+    // 0 = free, 1 = occupied, 2 = unknown (no free leaf covers the voxel centre). Occupied
+    // leaves mark every voxel their cube overlaps, so resampling to another resolution or an
+    // unaligned origin never loses an obstacle; free leaves only the voxels whose centre they
+    // hold.
     std::vector<std::uint8_t> state(grid.size(), 2);
     for (auto leaf = tree_->begin_leafs(), end = tree_->end_leafs(); leaf != end; ++leaf) {
       const double half = 0.5 * leaf.getSize();
       const octomap::point3d c = leaf.getCoordinate();
-      const std::uint8_t value = tree_->isNodeOccupied(*leaf) ? 1 : 0;
-      grid.forEachVoxelIn({c.x() - half, c.y() - half, c.z() - half},
-                          {c.x() + half, c.y() + half, c.z() + half}, [&](std::size_t i) {
-                            // Where leaves touch a centre on their shared face, occupied wins.
-                            if (state[i] != 1) state[i] = value;
-                          });
+      const Eigen::Vector3d low(c.x() - half, c.y() - half, c.z() - half);
+      const Eigen::Vector3d high(c.x() + half, c.y() + half, c.z() + half);
+      if (tree_->isNodeOccupied(*leaf)) {
+        grid.forEachVoxelOverlapping(low, high, [&](std::size_t i) { state[i] = 1; });
+      } else {
+        grid.forEachVoxelIn(low, high, [&](std::size_t i) {
+          if (state[i] != 1) state[i] = 0;
+        });
+      }
     }
     for (std::size_t i = 0; i < state.size(); ++i) {
       if (state[i] == 1 || (state[i] == 2 && unknown_occupied_)) grid.setOccupied(i, true);
     }
+  }
+  std::string resamplingNote(const Box& bounds, double resolution) const override {
+    const double map_resolution = tree_->getResolution();
+    const auto aligned = [&](double value) {
+      const double steps = value / map_resolution;
+      return std::abs(steps - std::round(steps)) < 1e-6;
+    };
+    const bool same = std::abs(resolution - map_resolution) < 1e-9 * map_resolution;
+    if (same && aligned(bounds.min.x()) && aligned(bounds.min.y()) && aligned(bounds.min.z())) {
+      return "";
+    }
+    return path_ + " (" + formatNumber(map_resolution) + " m voxels) resampled to " +
+           formatNumber(resolution) + " m" + (same ? " on a shifted grid" : "") +
+           ": a voxel is occupied when any occupied map voxel overlaps it";
   }
 
  private:

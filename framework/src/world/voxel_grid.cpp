@@ -40,6 +40,23 @@ bool VoxelGrid::voxelRange(const Eigen::Vector3d& min, const Eigen::Vector3d& ma
   return true;
 }
 
+bool VoxelGrid::overlapRange(const Eigen::Vector3d& min, const Eigen::Vector3d& max,
+                             Eigen::Vector3i& low, Eigen::Vector3i& high) const {
+  // Of a voxel: touching faces and rounding (OctoMap keeps coordinates as floats) do not count.
+  constexpr double kSlack = 1e-3;
+  for (int axis = 0; axis < 3; ++axis) {
+    // Voxel i spans [origin + i r, origin + (i + 1) r].
+    const double first = std::floor((min[axis] - origin_[axis]) / resolution_ + kSlack);
+    const double last = std::ceil((max[axis] - origin_[axis]) / resolution_ - kSlack) - 1.0;
+    const double clamped_first = std::max(first, 0.0);
+    const double clamped_last = std::min(last, static_cast<double>(dims_[axis] - 1));
+    if (!(clamped_first <= clamped_last)) return false;
+    low[axis] = static_cast<int>(clamped_first);
+    high[axis] = static_cast<int>(clamped_last);
+  }
+  return true;
+}
+
 void VoxelGrid::fillBox(const Eigen::Vector3d& min, const Eigen::Vector3d& max) {
   forEachVoxelIn(min, max, [this](std::size_t i) { occupancy_[i] = 1; });
 }

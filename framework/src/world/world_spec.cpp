@@ -10,7 +10,7 @@ namespace kinolab {
 namespace {
 
 // Bump when a generator's output for the same parameters changes, so old caches go stale.
-constexpr int kGeneratorVersion = 1;
+constexpr int kGeneratorVersion = 3;  // 2: octomap occupied leaves by overlap
 
 }  // namespace
 

@@ -75,12 +75,31 @@ class VoxelGrid {
       }
     }
   }
+  /// Calls `visit(index)` for every voxel whose cube overlaps the box (min, max) by more than
+  /// a thousandth of a voxel on every axis: the conservative test for obstacles, so that
+  /// resampling never loses one (a box aligned with the grid covers exactly its voxels).
+  template <typename Visit>
+  void forEachVoxelOverlapping(const Eigen::Vector3d& min, const Eigen::Vector3d& max,
+                               Visit&& visit) const {
+    Eigen::Vector3i low;
+    Eigen::Vector3i high;
+    if (!overlapRange(min, max, low, high)) return;
+    for (int ix = low.x(); ix <= high.x(); ++ix) {
+      for (int iy = low.y(); iy <= high.y(); ++iy) {
+        const std::size_t row = index(ix, iy, 0);
+        for (int iz = low.z(); iz <= high.z(); ++iz) visit(row + iz);
+      }
+    }
+  }
   /// Marks every voxel whose centre lies in the closed box [min, max] as occupied.
   void fillBox(const Eigen::Vector3d& min, const Eigen::Vector3d& max);
 
   /// The voxel range whose centres lie in [min, max]; false when it is empty.
   bool voxelRange(const Eigen::Vector3d& min, const Eigen::Vector3d& max, Eigen::Vector3i& low,
                   Eigen::Vector3i& high) const;
+  /// The voxel range whose cubes overlap (min, max) (see forEachVoxelOverlapping).
+  bool overlapRange(const Eigen::Vector3d& min, const Eigen::Vector3d& max, Eigen::Vector3i& low,
+                    Eigen::Vector3i& high) const;
 
  private:
   Eigen::Vector3i dims_ = Eigen::Vector3i::Zero();

@@ -27,6 +27,11 @@ class WorldGenerator {
   /// The metric box this generator's content naturally spans (a map file's extent), used
   /// when the spec gives no bounds.
   virtual std::optional<Box> naturalBounds() const { return std::nullopt; }
+  /// When the generator's content is resampled onto a grid of these bounds and resolution
+  /// (a map file at another resolution or on a shifted grid), one line saying so; else "".
+  virtual std::string resamplingNote(const Box& /*bounds*/, double /*resolution*/) const {
+    return "";
+  }
   /// Marks occupied voxels of `grid`.
   virtual void apply(VoxelGrid& grid, Rng& rng) const = 0;
 };
