@@ -2,6 +2,8 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
+
 #include "kinolab/core/random.hpp"
 #include "kinolab/core/yaml_reader.hpp"
 #include "support/planning.hpp"
@@ -79,6 +81,12 @@ TEST(TrajectoryChecker, FindsTheFirstViolationOfEachKind) {
   far_goal.require_goal = false;  // an approximate answer
   EXPECT_TRUE(checker.check(free_line, far_goal).valid);
   EXPECT_EQ(checker.check(Trajectory{}, far_goal).check, "empty");
+
+  // A NaN passes every comparison; the checker calls it what it is, never valid.
+  const Trajectory not_a_number = line({1, 2, 2.7}, {std::nan(""), 0, 0}, 1.0);
+  result = checker.check(not_a_number, queryFor(not_a_number));
+  EXPECT_FALSE(result.valid);
+  EXPECT_EQ(result.check, "numeric") << result.detail;
 }
 
 TEST(TrajectoryChecker, FclAgreesWithTheEsdfWhereTheModelsOverlap) {

@@ -166,6 +166,34 @@ TEST(WorldSpecTest, ResampledMapsKeepEveryObstacle) {
   EXPECT_EQ(own.occupiedCount(), centred.occupiedCount());
 }
 
+TEST(WorldSpecTest, SizesAndValuesOutsideWhatIsHandledExactlyAreRefusedUpFront) {
+  // A 10 km corridor at 0.1 m: squared voxel distances would overflow the exact ESDF.
+  EXPECT_NE(configErrorOf("resolution: 0.1\nbounds: {min: [0, 0, 0], max: [10000, 2, 2]}\n"
+                          "generators: [{type: box_list, boxes: []}]\n")
+                .find("at most 46340 voxels of diagonal"),
+            std::string::npos);
+  EXPECT_NE(configErrorOf("resolution: 0.001\nbounds: {min: [0, 0, 0], max: [1000, 1000, 10]}\n"
+                          "generators: [{type: box_list, boxes: []}]\n")
+                .find("expected at most 1e9"),
+            std::string::npos);
+  EXPECT_NE(configErrorOf("resolution: 0.1\nbounds: {min: [0, 0, 0], max: [.nan, 2, 2]}\n"
+                          "generators: [{type: box_list, boxes: []}]\n")
+                .find("bounds"),
+            std::string::npos);
+  // An OctoMap whose header claims a nonsensical resolution is refused, not turned into an
+  // empty one-voxel world.
+  const auto directory = std::filesystem::temp_directory_path() / "kinolab_tiny_resolution";
+  std::filesystem::create_directories(directory);
+  octomap::OcTree tiny(1e-9);
+  tiny.updateNode(octomap::point3d(0, 0, 0), true);
+  ASSERT_TRUE(tiny.writeBinary((directory / "tiny.bt").string()));
+  EXPECT_NE(configErrorOf("resolution: 0.1\ngenerators:\n  - {type: octomap, file: " +
+                          (directory / "tiny.bt").string() + "}\n")
+                .find("resolution of 1e-09 m; expected 0.0001 to 100 m"),
+            std::string::npos);
+  std::filesystem::remove_all(directory);
+}
+
 TEST(WorldSpecTest, FullOtMapsLoadLikeBinaryBtMaps) {
   // The same tree written as a full .ot file gives the same grid as the .bt file.
   const auto directory = std::filesystem::temp_directory_path() / "kinolab_ot_test";

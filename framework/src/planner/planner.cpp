@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 
 #include "kinolab/core/error.hpp"
 #include "kinolab/core/text.hpp"
@@ -121,6 +122,14 @@ PlanResult Planner::plan(const PlanningQuery& query, const Budget& budget, Searc
   result.planning_time_ms =
       std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - begin).count();
   if (declared_statistics_) checkStatisticsDeclared(result, *declared_statistics_, key_);
+  if (std::isnan(result.cost)) {
+    // A NaN passes every comparison downstream: it is a failure, never a result.
+    result.status = PlanStatus::kInvalidTrajectory;
+    result.message = "the planner reported a cost that is not a number";
+    result.check.check = "numeric";
+    result.check.detail = result.message;
+    return result;
+  }
 
   if (result.trajectory.empty()) {
     result.distance_to_goal = (start - query.goal).norm();

@@ -154,6 +154,11 @@ CheckResult TrajectoryChecker::check(const Trajectory& trajectory, const CheckQu
     for (const auto& [time, local] : times) {
       for (int k = 1; k <= settings_.max_derivative; ++k) {
         const Eigen::Vector3d value = segment.evaluate(local, k);
+        if (!value.allFinite()) {
+          // A NaN passes every comparison: it is a failure of its own, never valid.
+          return fail("numeric", time, segment.evaluate(local),
+                      std::string(kDerivatives[k]) + " " + formatPoint(value) + " is not finite");
+        }
         for (int axis = 0; axis < 3; ++axis) {
           const double bound = limits.bound[k][axis];
           if (std::abs(value[axis]) > bound * (1.0 + tol) + tol) {
@@ -186,6 +191,10 @@ CheckResult TrajectoryChecker::check(const Trajectory& trajectory, const CheckQu
                     "position " + formatPoint(position) + " leaves the map");
       }
       const double clearance = world.distance(position) - settings_.robot_radius;
+      if (!std::isfinite(clearance)) {
+        return fail("numeric", time, position,
+                    "the ESDF distance at " + formatPoint(position) + " is not finite");
+      }
       result.min_clearance = std::min(result.min_clearance, clearance);
       clearance_sum += clearance;
       if (clearance < -1e-9) {

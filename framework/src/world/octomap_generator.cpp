@@ -42,6 +42,10 @@ std::shared_ptr<const octomap::OcTree> readOcTree(const std::string& path) {
       tree.reset(ocTree);
     }
   }
+  if (tree && !(tree->getResolution() >= 1e-4 && tree->getResolution() <= 100.0)) {
+    throw FileError(path + ": its header says a resolution of " +
+                    formatNumber(tree->getResolution()) + " m; expected 0.0001 to 100 m");
+  }
   if (!tree || tree->size() == 0) {
     std::string detail = chatter.str();
     while (!detail.empty() && (detail.back() == '\n' || detail.back() == ' ')) detail.pop_back();

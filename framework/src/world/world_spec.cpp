@@ -1,9 +1,13 @@
 #include "kinolab/world/world_spec.hpp"
 
+#include <unistd.h>
+
+#include <cmath>
 #include <filesystem>
 #include <sstream>
 
 #include "kinolab/core/hash.hpp"
+#include "kinolab/core/text.hpp"
 #include "kinolab/core/yaml_reader.hpp"
 
 namespace kinolab {
@@ -20,6 +24,52 @@ WorldSpec WorldSpec::fromFile(const std::string& path) {
   if (spec.name.empty()) spec.name = std::filesystem::path(path).stem().string();
   return spec;
 }
+
+namespace {
+
+/// Every grid kinolab builds is handled exactly or refused here, before anything is
+/// allocated: finite bounds at least a voxel wide, at most 1e9 voxels, a diagonal the exact
+/// ESDF's 32-bit squared voxel distances hold, and memory the machine has.
+void checkGridSize(const WorldSpec& spec, const YamlReader& node) {
+  const Eigen::Vector3d extent = spec.bounds.max - spec.bounds.min;
+  if (!spec.bounds.min.allFinite() || !spec.bounds.max.allFinite()) {
+    node.fail("the bounds " + formatPoint(spec.bounds.min) + " .. " + formatPoint(spec.bounds.max) +
+              " are not finite");
+  }
+  if (extent.minCoeff() < spec.resolution) {
+    node.fail("the bounds " + formatPoint(spec.bounds.min) + " .. " + formatPoint(spec.bounds.max) +
+              " are less than one voxel (" + formatNumber(spec.resolution) +
+              " m) wide on some axis");
+  }
+  const Eigen::Vector3d dims = (extent / spec.resolution).array().ceil();
+  const double voxels = dims.prod();
+  if (voxels > 1e9) {
+    node["resolution"].fail("bounds and resolution give " + formatNumber(voxels) +
+                            " voxels; expected at most 1e9");
+  }
+  // Squared distances in voxel units are 32-bit integers in the exact ESDF.
+  const double diagonal = dims.norm();
+  if (diagonal * diagonal >= 2147483647.0) {
+    const auto whole = [](double value) { return std::to_string(std::llround(value)); };
+    node["resolution"].fail("the grid is " + whole(dims.x()) + " x " + whole(dims.y()) + " x " +
+                            whole(dims.z()) + " voxels, a diagonal of " + whole(diagonal) +
+                            "; the exact ESDF handles at most 46340 voxels of diagonal: use a "
+                            "coarser resolution or a smaller world");
+  }
+  // Building holds the occupancy (1 byte), the ESDF (4) and two squared-distance fields (8)
+  // per voxel at once, and the cache file's buffer another 5: 24 bytes a voxel leaves room
+  // for the rest, and at most 60 % of the machine's memory for one world.
+  const double bytes = voxels * 24.0;
+  const double memory = static_cast<double>(sysconf(_SC_PHYS_PAGES)) * sysconf(_SC_PAGESIZE);
+  if (memory > 0.0 && bytes > 0.6 * memory) {
+    node["resolution"].fail(
+        formatNumber(voxels) + " voxels need about " + formatNumber(std::ceil(bytes / (1 << 30))) +
+        " GiB to build; this machine has " + formatNumber(std::floor(memory / (1 << 30))) +
+        " GiB: use a coarser resolution or a smaller world");
+  }
+}
+
+}  // namespace
 
 WorldSpec WorldSpec::fromText(const std::string& text, const std::string& source,
                               const std::string& spec_directory) {
@@ -41,8 +91,8 @@ WorldSpec WorldSpec::fromYaml(const YamlReader& node, const std::string& spec_di
     const auto max = bounds->getVector3("max");
     bounds->finish();
     spec.bounds = {{min[0], min[1], min[2]}, {max[0], max[1], max[2]}};
-    if ((spec.bounds.max - spec.bounds.min).minCoeff() < spec.resolution) {
-      bounds->fail("expected max - min >= resolution on every axis");
+    if (!((spec.bounds.max - spec.bounds.min).minCoeff() >= spec.resolution)) {
+      bounds->fail("expected finite bounds with max - min >= resolution on every axis");
     }
   } else {
     bool found = false;
@@ -60,11 +110,7 @@ WorldSpec WorldSpec::fromYaml(const YamlReader& node, const std::string& spec_di
           "map-file world can take its bounds from the map");
     }
   }
-  const double voxels = ((spec.bounds.max - spec.bounds.min) / spec.resolution).prod();
-  if (voxels > 1e9) {
-    node["resolution"].fail("bounds and resolution give " + std::to_string(voxels) +
-                            " voxels; expected at most 1e9");
-  }
+  checkGridSize(spec, node);
   node.finish();
   return spec;
 }
