@@ -2,6 +2,7 @@
 
 #include "kinolab/core/random.hpp"
 #include "kinolab/primitives/control_sampler.hpp"
+#include "kinolab/search/motion_primitive_planner.hpp"
 #include "kinolab/search/motion_primitive_search.hpp"
 #include "kinolab/search/search_policies.hpp"
 #include "support/planning.hpp"
@@ -99,6 +100,22 @@ TEST(MotionPrimitiveSearch, BudgetStopReturnsThePathToTheNearestState) {
   const double start_distance = (query.start.col(0) - query.goal).norm();
   EXPECT_LT(result.distance_to_goal, start_distance - 0.5);
   EXPECT_NEAR((result.trajectory.endPosition() - query.goal).norm(), result.distance_to_goal, 0.05);
+}
+
+TEST(MotionPrimitiveSearch, NoSearchOutgrowsItsMemoryBudgetEvenWithoutATimeLimit) {
+  test::loadTestPlugins();
+  ConfiguredPlanner configured = configurePlanner(
+      "eager_mp_astar",
+      test::assignments({"sampler.samples_per_axis=5", "time_limit=0", "memory_limit_mb=2"}));
+  const auto world = test::smallWorld("forest");
+  configured.planner->setup({world, configured.sampler, 1});
+  const auto query = test::randomQueries(*world, 1, 21, 8.0, 11.0, 0.5).front();
+  const PlanResult result = configured.planner->plan(query, Budget{});
+  ASSERT_EQ(result.status, PlanStatus::kApproximate) << result.message;
+  EXPECT_NE(result.message.find("memory budget spent"), std::string::npos) << result.message;
+  const auto& planner = dynamic_cast<const MotionPrimitivePlanner&>(*configured.planner);
+  // Stopped once past it: a container that just doubled may hold up to twice the limit.
+  EXPECT_LE(planner.search().memoryBytes(), 2.0 * 2.0 * 1024 * 1024);
 }
 
 TEST(MotionPrimitiveSearch, AnEnclosedGoalExhaustsTheSearch) {

@@ -31,7 +31,9 @@ ParameterSpecs motionPrimitiveParameters() {
       .real("key_velocity_resolution", 0.01, 1e-6, 10.0, "state key: velocity rounding, m/s")
       .real("key_acceleration_resolution", 0.01, 1e-6, 100.0,
             "state key: acceleration (and jerk) rounding")
-      .integer("max_expansions", 0, 0, 1000000000, "expansion budget (0: none)");
+      .integer("max_expansions", 0, 0, 1000000000, "expansion budget (0: none)")
+      .real("memory_limit_mb", 2048.0, 1.0, 1e6,
+            "memory budget of the search, MB: past it the search stops as on any budget");
 }
 
 MetricSpecs motionPrimitiveStatistics() {
@@ -75,6 +77,7 @@ MotionPrimitiveConfig MotionPrimitiveConfig::fromParameters(const ParameterSet& 
                              parameters.real("key_velocity_resolution"),
                              parameters.real("key_acceleration_resolution")};
   settings.goal_radius = model.goal_radius;
+  settings.memory_limit_mb = parameters.real("memory_limit_mb");
 
   config.policies.edges = std::make_shared<FullEvaluationPolicy>();
   if (parameters.text("heuristic") == "euclidean") {
@@ -149,8 +152,10 @@ PlanResult MotionPrimitivePlanner::doPlan(const PlanningQuery& query, StopCondit
       break;
     case MotionPrimitiveSearch::Outcome::kBudget:
       result.status = result.trajectory.empty() ? PlanStatus::kTimeout : PlanStatus::kApproximate;
-      result.message =
-          "budget spent after " + std::to_string(search.counters().expansions) + " expansions";
+      result.message = std::string(search.counters().memory_limited ? "memory budget"
+                                                                    : "budget") +
+                       " spent after " + std::to_string(search.counters().expansions) +
+                       " expansions";
       break;
   }
   result.statistics = search.statistics();

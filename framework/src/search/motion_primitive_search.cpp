@@ -111,6 +111,12 @@ void MotionPrimitiveSearch::push(int candidate) {
       std::max<long long>(counters_.open_peak, static_cast<long long>(heap_.size()));
 }
 
+double MotionPrimitiveSearch::memoryBytes() const {
+  return static_cast<double>(candidates_.capacity() * sizeof(Candidate) +
+                             slots_.capacity() * sizeof(Slot) + table_.capacity() * sizeof(int) +
+                             heap_.capacity() * sizeof(HeapEntry));
+}
+
 void MotionPrimitiveSearch::clear() {
   candidates_ = {};
   slots_ = {};
@@ -230,8 +236,14 @@ MotionPrimitiveSearch::Outcome MotionPrimitiveSearch::search(const ChainState& s
 
   double nearest = INFINITY;
   Outcome outcome = Outcome::kExhausted;
+  const double memory_limit = settings_.memory_limit_mb * 1024.0 * 1024.0;
   while (!heap_.empty()) {
     if (stop.expired(counters_.expansions)) {
+      outcome = Outcome::kBudget;
+      break;
+    }
+    if (memoryBytes() > memory_limit) {
+      counters_.memory_limited = true;
       outcome = Outcome::kBudget;
       break;
     }

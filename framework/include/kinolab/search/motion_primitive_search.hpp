@@ -27,6 +27,10 @@ struct SearchSettings {
   /// State keys: position, velocity, acceleration (also used for jerk) rounded to these.
   std::array<double, 3> key_resolution = {0.01, 0.01, 0.01};
   double goal_radius = 0.5;
+  /// The search's memory (candidates, states, open list): once past this it stops as on any
+  /// budget, so that no search, not even one without a time limit, exhausts the machine (a
+  /// container that has just doubled may hold up to twice the limit).
+  double memory_limit_mb = 2048.0;
 };
 
 /// The policies a plugin gives the search (kinolab/search/search_policies.hpp).
@@ -48,6 +52,7 @@ struct SearchCounters {
   long long open_peak = 0;
   long long candidates = 0;
   double evaluation_seconds = 0.0;
+  bool memory_limited = false;  ///< stopped by memory_limit_mb
 };
 
 /// The motion-primitive A* core shared by the lazy and eager planners and by any new
@@ -89,6 +94,8 @@ class MotionPrimitiveSearch {
 
   /// Frees the memory of the last search (search() reuses it otherwise).
   void clear();
+  /// Bytes the search's containers hold now.
+  double memoryBytes() const;
 
  private:
   using Key = std::array<std::int32_t, 12>;
