@@ -1,4 +1,5 @@
 // The `kinolab` command: one binary, one subcommand per job.
+#include <filesystem>
 #include <iostream>
 
 #include "commands.hpp"
@@ -33,6 +34,10 @@ int main(int argc, char** argv) {
     // --help and --version exit 0; a malformed or out-of-range option is bad input: 1.
     return app.exit(error) == 0 ? 0 : 1;
   } catch (const kinolab::Error& error) {
+    std::cerr << "kinolab: error: " << error.what() << '\n';
+    return 1;
+  } catch (const std::filesystem::filesystem_error& error) {
+    // A path the system refuses (too long, through a file, not permitted): the user's input.
     std::cerr << "kinolab: error: " << error.what() << '\n';
     return 1;
   } catch (const std::exception& error) {

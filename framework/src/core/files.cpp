@@ -15,6 +15,11 @@
 
 namespace kinolab {
 
+bool isRegularFile(const std::string& path) {
+  std::error_code error;
+  return std::filesystem::is_regular_file(path, error) && !error;
+}
+
 void writeFileAtomically(const std::string& path, const std::string& text) {
   const std::string temporary = path + ".tmp";
   {

@@ -7,6 +7,7 @@
 #include <map>
 #include <sstream>
 
+#include "kinolab/core/files.hpp"
 #include "kinolab/core/text.hpp"
 
 namespace kinolab {
@@ -29,23 +30,27 @@ YamlReader::YamlReader(YAML::Node node, std::shared_ptr<const std::string> sourc
 
 namespace {
 
-/// A mapping with the same key twice is an error at the second one: YAML readers disagree on
-/// which value wins (yaml-cpp the first, PyYAML the last).
-void rejectDuplicateKeys(const YAML::Node& node, const std::string& source) {
+/// Every mapping key is a plain value, and no mapping has the same key twice (an error at
+/// the second one: YAML readers disagree on which value wins, yaml-cpp the first, PyYAML
+/// the last).
+void checkKeys(const YAML::Node& node, const std::string& source) {
   if (node.IsSequence()) {
-    for (const YAML::Node& item : node) rejectDuplicateKeys(item, source);
+    for (const YAML::Node& item : node) checkKeys(item, source);
   } else if (node.IsMap()) {
     std::map<std::string, YAML::Mark> seen;
     for (const auto& entry : node) {
-      const std::string key = entry.first.IsScalar() ? entry.first.Scalar() : "";
-      const auto [found, fresh] = seen.emplace(key, entry.first.Mark());
-      if (!fresh && entry.first.IsScalar()) {
-        const YAML::Mark mark = entry.first.Mark();
-        throw ConfigError(source + ":" + std::to_string(mark.line + 1) + ":" +
-                          std::to_string(mark.column + 1) + ": duplicate key '" + key +
-                          "' (first at line " + std::to_string(found->second.line + 1) + ")");
+      const YAML::Mark mark = entry.first.Mark();
+      const std::string at =
+          source + ":" + std::to_string(mark.line + 1) + ":" + std::to_string(mark.column + 1);
+      if (!entry.first.IsScalar()) {
+        throw ConfigError(at + ": a mapping key must be a plain value, not a list or mapping");
       }
-      rejectDuplicateKeys(entry.second, source);
+      const auto [found, fresh] = seen.emplace(entry.first.Scalar(), mark);
+      if (!fresh) {
+        throw ConfigError(at + ": duplicate key '" + entry.first.Scalar() + "' (first at line " +
+                          std::to_string(found->second.line + 1) + ")");
+      }
+      checkKeys(entry.second, source);
     }
   }
 }
@@ -53,7 +58,7 @@ void rejectDuplicateKeys(const YAML::Node& node, const std::string& source) {
 }  // namespace
 
 YamlReader YamlReader::loadFile(const std::string& path) {
-  if (!std::filesystem::is_regular_file(path)) {
+  if (!isRegularFile(path)) {
     throw FileError(path + ": no such file");
   }
   std::ifstream file(path, std::ios::binary);
@@ -101,7 +106,7 @@ YamlReader YamlReader::loadString(const std::string& text, const std::string& so
     throw ConfigError(source + ":" + std::to_string(error.mark.line + 1) + ":" +
                       std::to_string(error.mark.column + 1) + ": malformed YAML: " + error.msg);
   }
-  rejectDuplicateKeys(root, source);
+  checkKeys(root, source);
   return YamlReader(root, std::make_shared<const std::string>(source), "");
 }
 

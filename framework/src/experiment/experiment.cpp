@@ -7,6 +7,7 @@
 #include <set>
 
 #include "kinolab/core/error.hpp"
+#include "kinolab/core/files.hpp"
 #include "kinolab/core/hash.hpp"
 #include "kinolab/core/plugin.hpp"
 #include "kinolab/core/random.hpp"
@@ -40,7 +41,9 @@ YAML::Node merge(YAML::Node base, const YAML::Node& child) {
 
 /// The file with its `extends:` chain merged in (the key itself removed).
 YAML::Node loadWithBase(const std::string& path, std::vector<std::string>& chain) {
-  const std::string canonical = fs::weakly_canonical(path).string();
+  std::error_code error;
+  const std::string canonical = fs::weakly_canonical(path, error).string();
+  if (error) throw FileError(path + ": " + error.message());
   if (std::find(chain.begin(), chain.end(), canonical) != chain.end()) {
     throw ConfigError(path + ": extends itself through " + join(chain, " -> "));
   }
@@ -51,7 +54,7 @@ YAML::Node loadWithBase(const std::string& path, std::vector<std::string>& chain
   if (const auto base = file.optional("extends")) {
     const std::string base_path =
         (fs::path(path).parent_path() / base->as<std::string>()).lexically_normal().string();
-    if (!fs::is_regular_file(base_path)) base->fail("no such file: " + base_path);
+    if (!isRegularFile(base_path)) base->fail("no such file: " + base_path);
     node.remove("extends");
     return merge(loadWithBase(base_path, chain), node);
   }
@@ -440,7 +443,7 @@ YAML::Node loadDocument(const std::string& path, std::string& source,
         // `map: FILE` (an OctoMap .bt/.ot) with `resolution`: a spec of one octomap generator.
         const std::string file =
             (fs::path(directory) / map->as<std::string>()).lexically_normal().string();
-        if (!fs::is_regular_file(file)) map->fail("no such map file: " + file);
+        if (!isRegularFile(file)) map->fail("no such map file: " + file);
         YAML::Node generator(YAML::NodeType::Map);
         generator["type"] = "octomap";
         generator["file"] = fs::absolute(file).string();
@@ -460,7 +463,7 @@ YAML::Node loadDocument(const std::string& path, std::string& source,
       if (!spec || spec->isMap()) continue;
       const std::string file =
           (fs::path(directory) / spec->as<std::string>()).lexically_normal().string();
-      if (!fs::is_regular_file(file)) spec->fail("no such world spec file: " + file);
+      if (!isRegularFile(file)) spec->fail("no such world spec file: " + file);
       YAML::Node node = item.node();
       node["spec"] = YamlReader::loadFile(file).node();
       spec_directories[item.get<std::string>("id")] = fs::path(file).parent_path().string();
@@ -491,7 +494,7 @@ Experiment Experiment::fromFile(const std::string& path) {
     for (const YamlReader& item : plugins->items()) {
       std::string file = item.as<std::string>();
       if (fs::path(file).is_relative()) file = (fs::path(directory) / file).string();
-      if (!fs::is_regular_file(file)) item.fail("no such plugin library: " + file);
+      if (!isRegularFile(file)) item.fail("no such plugin library: " + file);
       loadPluginLibrary(file);
       experiment.plugins.push_back(file);
     }

@@ -7,6 +7,7 @@
 #include <string_view>
 
 #include "kinolab/core/error.hpp"
+#include "kinolab/core/files.hpp"
 #include "kinolab/core/text.hpp"
 #include "kinolab/experiment/shard.hpp"
 
@@ -378,7 +379,7 @@ void ResultsStore::merge(const std::string& output, const std::vector<std::strin
   std::set<int> shards;
   std::vector<std::string> incomplete;
   for (const std::string& input : inputs) {
-    if (!std::filesystem::is_regular_file(input)) throw FileError(input + ": no such database");
+    if (!isRegularFile(input)) throw FileError(input + ": no such database");
     ResultsStore shard(input);
     const auto hash = shard.meta("config_hash");
     const auto which = shard.meta("shard");

@@ -8,6 +8,7 @@
 #include <sstream>
 
 #include "kinolab/core/error.hpp"
+#include "kinolab/core/files.hpp"
 #include "kinolab/core/hash.hpp"
 #include "kinolab/core/text.hpp"
 #include "kinolab/core/yaml_reader.hpp"
@@ -19,7 +20,7 @@ namespace {
 /// Reads a .bt (binary, occupancy bits) or .ot (full, log-odds) OcTree; throws FileError
 /// naming the file when it is missing, of another tree type, or corrupt.
 std::shared_ptr<const octomap::OcTree> readOcTree(const std::string& path) {
-  if (!std::filesystem::is_regular_file(path)) throw FileError(path + ": no such map file");
+  if (!isRegularFile(path)) throw FileError(path + ": no such map file");
   const std::string extension = std::filesystem::path(path).extension().string();
   if (extension != ".bt" && extension != ".ot") {
     throw FileError(path + ": unknown map file type '" + extension + "'; expected .bt or .ot");

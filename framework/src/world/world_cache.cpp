@@ -9,6 +9,7 @@
 #include <fstream>
 
 #include "kinolab/core/error.hpp"
+#include "kinolab/core/files.hpp"
 #include "kinolab/core/hash.hpp"
 
 namespace kinolab {
@@ -97,7 +98,7 @@ void WorldCache::write(const World& world, const std::string& path) {
 
 std::shared_ptr<const World> WorldCache::read(const std::string& path, std::uint64_t expected_hash,
                                               const std::string& name) {
-  if (!std::filesystem::is_regular_file(path)) throw FileError(path + ": not a regular file");
+  if (!isRegularFile(path)) throw FileError(path + ": not a regular file");
   std::ifstream in(path, std::ios::binary | std::ios::ate);
   if (!in) throw FileError(path + ": cannot open");
   const std::streamoff end = in.tellg();

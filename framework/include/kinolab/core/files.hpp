@@ -4,6 +4,10 @@
 
 namespace kinolab {
 
+/// True when `path` names a regular file; never throws (a name too long, a loop of links or
+/// a path through a file are all "no").
+bool isRegularFile(const std::string& path);
+
 /// Writes `text` to a temporary file beside `path` and renames it over `path`, so a reader
 /// never sees half a file. Throws FileError naming the path when it cannot.
 void writeFileAtomically(const std::string& path, const std::string& text);
