@@ -178,6 +178,7 @@ FrontEndResult RrtFrontEnd::plan(const Eigen::Vector3d& start, const Eigen::Vect
     if (first_iteration >= 0 && iterations - first_iteration >= settings.refine_iterations) {
       return true;
     }
+    if (static_cast<long long>(planner->treeSize()) >= settings.max_vertices) return true;
     return stop.expired(iterations);
   });
   const ob::PlannerStatus status = planner->solve(condition);

@@ -23,6 +23,9 @@ struct FrontEndSettings {
   double motion_resolution = 0.05;     ///< spacing of checked states along a motion, m
   bool simplify = true;                ///< OMPL's vertex reduction and shortcutting afterwards
   long long refine_iterations = 1000;  ///< iterations after the first exact solution
+  /// Tree vertices at most: the search stops there as on a budget, so that no run, not even
+  /// one without a time limit towards an unreachable goal, exhausts the machine.
+  long long max_vertices = 500000;
   double goal_radius = 0.5;
 };
 

@@ -30,7 +30,9 @@ ParameterSpecs frontEndParameters() {
       .boolean("simplify", true, "OMPL's vertex reduction and shortcutting of the path")
       .integer("refine_iterations", 1000, 0, 1000000000,
                "RRT* iterations after the first solution (0: stop at the first)")
-      .integer("max_iterations", 0, 0, 1000000000, "RRT* iteration budget (0: none)");
+      .integer("max_iterations", 0, 0, 1000000000, "RRT* iteration budget (0: none)")
+      .integer("max_vertices", 500000, 100, 100000000,
+               "RRT* tree size budget: the search stops there (bounds its memory)");
 }
 
 ParameterSpecs smoothingParameters() {
@@ -126,6 +128,7 @@ class RrtStarPlanner final : public Planner {
         parameters_.real("motion_resolution") * context.world->esdf().resolution();
     settings.simplify = parameters_.boolean("simplify");
     settings.refine_iterations = parameters_.integer("refine_iterations");
+    settings.max_vertices = parameters_.integer("max_vertices");
     settings.goal_radius = model_.goal_radius;
     front_end_ = std::make_unique<RrtFrontEnd>(context.world, settings);
     clearance_ = settings.clearance;

@@ -174,6 +174,17 @@ TEST(RrtStar, AnIterationBudgetGivesAnApproximateAnswerShortOfTheGoal) {
   }
 }
 
+TEST(RrtStar, WithoutATimeOrIterationLimitTheTreeSizeStillBoundsTheSearch) {
+  const PlanningQuery query = wallsQuery();
+  ConfiguredPlanner configured = configurePlanner(
+      "rrtstar",
+      test::assignments({"time_limit=0", "max_iterations=0", "max_vertices=150", "goal_bias=0"}));
+  configured.planner->setup({test::smallWorld("walls"), nullptr, 3});
+  const PlanResult result = configured.planner->plan(query, Budget{});
+  EXPECT_LE(statistic(result, "tree_size"), 150.0);
+  EXPECT_GE(statistic(result, "tree_size"), 100.0);  // it ran until the cap (or solved)
+}
+
 TEST(RrtStar, StartsTooCloseForTheMarginAreRefusedByName) {
   PlanningQuery query = wallsQuery();
   ConfiguredPlanner configured = makePlanner("rrtstar", "walls", 5, {"clearance_margin=5"});
