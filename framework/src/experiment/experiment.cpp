@@ -579,7 +579,8 @@ Experiment Experiment::fromFile(const std::string& path) {
   }
   experiment.config_hash = toHex(hashString(experiment.canonical));
   // Every row names a planner id of every variant.
-  for (const auto& [id, row] : experiment.reproduces_rows) {
+  for (const auto& entry : experiment.reproduces_rows) {
+    const std::string& id = entry.first;  // (a structured binding: not capturable by clang 14)
     for (const ExperimentVariant& variant : experiment.variants) {
       const bool found = std::any_of(variant.planners.begin(), variant.planners.end(),
                                      [&](const ExperimentPlanner& p) { return p.id == id; });
