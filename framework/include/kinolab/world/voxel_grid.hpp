@@ -67,13 +67,7 @@ class VoxelGrid {
   void forEachVoxelIn(const Eigen::Vector3d& min, const Eigen::Vector3d& max, Visit&& visit) const {
     Eigen::Vector3i low;
     Eigen::Vector3i high;
-    if (!voxelRange(min, max, low, high)) return;
-    for (int ix = low.x(); ix <= high.x(); ++ix) {
-      for (int iy = low.y(); iy <= high.y(); ++iy) {
-        const std::size_t row = index(ix, iy, 0);
-        for (int iz = low.z(); iz <= high.z(); ++iz) visit(row + iz);
-      }
-    }
+    if (voxelRange(min, max, low, high)) forEachVoxelOf(low, high, visit);
   }
   /// Calls `visit(index)` for every voxel whose cube overlaps the box (min, max) by more than
   /// a thousandth of a voxel on every axis: the conservative test for obstacles, so that
@@ -83,13 +77,7 @@ class VoxelGrid {
                                Visit&& visit) const {
     Eigen::Vector3i low;
     Eigen::Vector3i high;
-    if (!overlapRange(min, max, low, high)) return;
-    for (int ix = low.x(); ix <= high.x(); ++ix) {
-      for (int iy = low.y(); iy <= high.y(); ++iy) {
-        const std::size_t row = index(ix, iy, 0);
-        for (int iz = low.z(); iz <= high.z(); ++iz) visit(row + iz);
-      }
-    }
+    if (overlapRange(min, max, low, high)) forEachVoxelOf(low, high, visit);
   }
   /// Marks every voxel whose centre lies in the closed box [min, max] as occupied.
   void fillBox(const Eigen::Vector3d& min, const Eigen::Vector3d& max);
@@ -102,6 +90,17 @@ class VoxelGrid {
                     Eigen::Vector3i& high) const;
 
  private:
+  /// Calls `visit(index)` for every voxel of the inclusive index range [low, high].
+  template <typename Visit>
+  void forEachVoxelOf(const Eigen::Vector3i& low, const Eigen::Vector3i& high, Visit& visit) const {
+    for (int ix = low.x(); ix <= high.x(); ++ix) {
+      for (int iy = low.y(); iy <= high.y(); ++iy) {
+        const std::size_t row = index(ix, iy, 0);
+        for (int iz = low.z(); iz <= high.z(); ++iz) visit(row + iz);
+      }
+    }
+  }
+
   Eigen::Vector3i dims_ = Eigen::Vector3i::Zero();
   double resolution_ = 0.0;
   Eigen::Vector3d origin_ = Eigen::Vector3d::Zero();
