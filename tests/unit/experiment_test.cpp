@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "kinolab/core/error.hpp"
+#include "kinolab/core/files.hpp"
 #include "kinolab/experiment/query_sampler.hpp"
 #include "kinolab/experiment/results_store.hpp"
 #include "kinolab/experiment/shard.hpp"
@@ -97,8 +98,7 @@ TEST_F(ExperimentTest, LargeSweepsExpandAndOversizedOnesAreRefusedUpFront) {
     radii += std::to_string(0.5 + 0.001 * i);
   }
   const std::string grid = "sweep:\n  grid:\n    planners.eager.params.heuristic_weight: [" +
-                           weights + "]\n    planners.eager.params.goal_radius: [" + radii +
-                           "]\n";
+                           weights + "]\n    planners.eager.params.goal_radius: [" + radii + "]\n";
   const Experiment e = Experiment::fromFile(experiment("large.yaml", grid, 1));
   ASSERT_EQ(e.variants.size(), 10000u);
   // Each variant has its own values, and the document is set back after each one.
@@ -120,9 +120,9 @@ TEST_F(ExperimentTest, LargeSweepsExpandAndOversizedOnesAreRefusedUpFront) {
     if (i > 0) many += ", ";
     many += std::to_string(i + 1);
   }
-  refused("sweep:\n  grid:\n    budget.time: [" + many + "]\n    budget.memory_mb: [" + many +
-              "]\n",
-          3, "a sweep has at most 100000");
+  refused(
+      "sweep:\n  grid:\n    budget.time: [" + many + "]\n    budget.memory_mb: [" + many + "]\n", 3,
+      "a sweep has at most 100000");
   // 10^6 queries x 2 planners x 100 repetitions: counted, never expanded.
   refused("repetitions: 100\n", 1000000, "more than 10000000 runs");
 }
@@ -289,6 +289,12 @@ TEST_F(ExperimentTest, MergeRefusesMixedRepeatedIncompleteAndOldShards) {
   refuses({a}, "1 of 2 shards given");
   refuses({a, shard("short", "2/2", "h", 3, 1)}, "is incomplete: 1 of 3");
   refuses({a, shard("old", "2/2", "h", 1, 1, "1")}, "schema version 1");
+  {  // A directory another process (here: another lock) writes to is refused.
+    const DirectoryLock held((directory_ / "busy").string(), "a test");
+    EXPECT_THROW(ResultsStore::merge((directory_ / "busy" / "m.sqlite").string(), {a, b}, false),
+                 FileError);
+    EXPECT_FALSE(fs::exists(directory_ / "busy" / "m.sqlite"));
+  }
   // Merge never overwrites: `out` is there already, and keeps its runs.
   EXPECT_THROW(ResultsStore::merge(out, {a, b}, false), FileError);
   EXPECT_EQ(ResultsStore(out).runCount(), 3);

@@ -371,7 +371,12 @@ void ResultsStore::insertWorld(const WorldRecord& w) {
 void ResultsStore::merge(const std::string& output, const std::vector<std::string>& inputs,
                          bool partial) {
   if (inputs.empty()) throw ConfigError("merge: no shard databases given");
-  if (std::filesystem::exists(output)) {
+  // One writer per results directory: two merges (or a merge and a run) into one directory
+  // would mix their databases.
+  const std::filesystem::path parent = std::filesystem::absolute(output).parent_path();
+  const DirectoryLock lock(parent.string(), "kinolab merge into " + output);
+  std::error_code error;
+  if (std::filesystem::exists(output, error) || error) {
     throw FileError(output + ": exists already; merge writes a new database");
   }
   std::string config_hash;
