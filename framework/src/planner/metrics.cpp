@@ -44,10 +44,6 @@ bool isSuccess(PlanStatus status, bool checker_valid) {
   return status == PlanStatus::kExact && checker_valid;
 }
 
-bool isSuccess(std::string_view status, bool checker_valid) {
-  return status == toString(PlanStatus::kExact) && checker_valid;
-}
-
 MetricValues resultValues(const PlanResult& result) {
   const auto number = [](double value) -> MetricValue {
     if (std::isfinite(value)) return value;

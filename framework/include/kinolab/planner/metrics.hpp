@@ -20,8 +20,6 @@ const MetricSpecs& commonStatistics();
 /// The one definition of a successful run: an exact solution the independent checker
 /// accepts. Approximate answers, budget stops and rejected trajectories are not successes.
 bool isSuccess(PlanStatus status, bool checker_valid);
-/// The same for a stored status name ("exact", ...).
-bool isSuccess(std::string_view status, bool checker_valid);
 
 /// The values of resultMetrics() for a result, in declaration order.
 MetricValues resultValues(const PlanResult& result);

@@ -75,7 +75,6 @@ class MotionPrimitiveSearch {
                         SearchSettings settings, SearchPolicies policies);
 
   const SearchSettings& settings() const { return settings_; }
-  const SearchPolicies& policies() const { return policies_; }
   const EdgeEvaluator& evaluator() const { return evaluator_; }
   const std::vector<Eigen::Vector3d>& controls() const { return controls_; }
 
