@@ -30,6 +30,16 @@ inline const std::vector<PlanningQuery>& queries() {
   return list;
 }
 
+/// The paper's scale: 50 queries 10 to 30 m apart at 1-2 m height, 0.6 m clear, at rest.
+inline const std::vector<PlanningQuery>& paperScaleQueries() {
+  static const auto list = [] {
+    Rng rng(2025);
+    const FreeQueryRegion region{Box{{1.0, 1.0, 1.0}, {39.0, 39.0, 2.0}}, 0.6, 10.0, 30.0};
+    return sampleFreeQueries(*forest(), region, 50, rng, "forest");
+  }();
+  return list;
+}
+
 inline double median(std::vector<double> values) {
   std::sort(values.begin(), values.end());
   const std::size_t n = values.size();

@@ -24,32 +24,118 @@ ChainState randomState(Rng& rng, const World& world, int order) {
   return state;
 }
 
-TEST(SearchHeuristic, EveryBuiltInHeuristicIsConsistentWithTheWeakestLowerBound) {
+/// A heuristic that overestimates: time_optimal times 1.5 (deliberately inconsistent).
+class InflatedHeuristic final : public SearchHeuristic {
+ public:
+  InflatedHeuristic(const EdgeEvaluatorSettings& edges, double goal_radius)
+      : inner_(edges, goal_radius) {}
+  double estimate(const ChainState& state, const Eigen::Vector3d& goal) const override {
+    return 1.5 * inner_.estimate(state, goal);
+  }
+
+ private:
+  TimeOptimalHeuristic inner_;
+};
+
+struct ConsistencyCount {
+  int edges = 0;       ///< valid primitives checked
+  int violations = 0;  ///< h(s) > c_lower(s, s') + h(s')
+};
+
+/// Checks h(s) <= c_lower(s, s') + h(s') on random primitives (the sampler's grid of 5 per
+/// axis, at the limit included) from random moving states, against random goals, with the
+/// weakest lower bound the search queues (no map term).
+ConsistencyCount checkConsistency(const std::string& heuristic_name, int order,
+                                  double goal_radius, int primitives) {
   const auto world = test::smallWorld("forest");
-  Rng rng(4);
+  Rng rng(4 + order);
   EdgeEvaluatorSettings settings;
+  settings.order = order;
+  settings.duration = order == 2 ? 0.4 : 0.3;
+  settings.limits = DynamicLimits::uniform(2.0, 3.0, 8.0, 40.0);
   settings.weights.length = 0.5;
+  settings.weights.control_effort = order == 2 ? 0.7 : 0.1;
   const EdgeEvaluator evaluator(world, settings);
-  const double goal_radius = 0.5;
-  const EuclideanHeuristic euclidean(settings, goal_radius);
-  const MinTimeHeuristic min_time(settings, goal_radius);
-  const auto controls = controlGrid({-1.0, -0.3, 0.0, 0.6, 1.0}, Eigen::Vector3d::Constant(3.0));
-  const Eigen::Vector3d goal(10.0, 9.0, 1.5);
-  for (const SearchHeuristic* heuristic : {static_cast<const SearchHeuristic*>(&euclidean),
-                                           static_cast<const SearchHeuristic*>(&min_time)}) {
-    int checked = 0;
-    for (int trial = 0; trial < 300; ++trial) {
-      const ChainState state = randomState(rng, *world, 2);
-      for (const auto& control : controls) {
-        const EdgeEvaluation bound = evaluator.controlOnly(state, control);
-        if (!bound.valid()) continue;
-        ++checked;
-        // h(parent) <= c(edge) + h(child) for the weakest edge cost the search queues.
-        EXPECT_LE(heuristic->estimate(state, goal),
-                  bound.cost + heuristic->estimate(bound.end, goal) + 1e-12);
+  std::shared_ptr<const SearchHeuristic> heuristic =
+      heuristic_name == "inflated" ? std::make_shared<InflatedHeuristic>(settings, goal_radius)
+                                   : heuristicFor(heuristic_name, settings, goal_radius);
+  const auto controls = controlGrid({-1.0, -0.4, 0.0, 0.6, 1.0}, settings.limits.bound[order]);
+  ConsistencyCount count;
+  while (count.edges < primitives) {
+    ChainState state = ChainState::Zero();
+    state.col(0) =
+        Eigen::Vector3d(rng.uniform(0.5, 11.5), rng.uniform(0.5, 11.5), rng.uniform(0.5, 2.5));
+    for (int k = 1; k < order; ++k) {
+      for (int axis = 0; axis < 3; ++axis) {
+        state(axis, k) = rng.uniform(-1.0, 1.0) * settings.limits.bound[k][axis];
       }
     }
-    EXPECT_GT(checked, 5000);
+    // Goals near and far, so that states inside, at and beyond the goal region all occur.
+    const Eigen::Vector3d goal =
+        state.col(0) + Eigen::Vector3d(rng.uniform(-6, 6), rng.uniform(-6, 6), rng.uniform(-2, 2)) *
+                           (rng.uniform01() < 0.3 ? 0.1 : 1.0);
+    const double h = heuristic->estimate(state, goal);
+    for (const auto& control : controls) {
+      const EdgeEvaluation bound = evaluator.controlOnly(state, control);
+      if (!bound.valid()) continue;
+      ++count.edges;
+      const double after = heuristic->estimate(bound.end, goal);
+      EXPECT_TRUE(std::isfinite(h) && std::isfinite(after) && h >= 0.0 && after >= 0.0);
+      count.violations += h > bound.cost + after + 1e-9 * (1.0 + h);
+    }
+  }
+  return count;
+}
+
+TEST(SearchHeuristic, EveryBuiltInHeuristicIsConsistentWithTheWeakestLowerBound) {
+  for (const int order : {2, 3}) {
+    for (const std::string name : {"euclidean", "min_time", "time_optimal", "obvp", "max"}) {
+      if (name == "obvp" && order != 2) continue;
+      for (const double goal_radius : {0.5, 0.01}) {
+        const ConsistencyCount count = checkConsistency(name, order, goal_radius, 10000);
+        EXPECT_GE(count.edges, 10000);
+        EXPECT_EQ(count.violations, 0)
+            << name << " at order " << order << ", goal radius " << goal_radius << ": "
+            << count.violations << " of " << count.edges << " edges";
+      }
+    }
+  }
+}
+
+TEST(SearchHeuristic, TheConsistencyCheckCatchesAnInflatedHeuristic) {
+  for (const int order : {2, 3}) {
+    const ConsistencyCount count = checkConsistency("inflated", order, 0.5, 10000);
+    EXPECT_GT(count.violations, 0) << "order " << order;
+  }
+}
+
+TEST(SearchHeuristic, TightHeuristicsDominateTheVelocityBlindOnes) {
+  // From rest the time-optimal bound adds the acceleration ramp; moving away it adds the
+  // turn; obvp adds the effort; max is the largest. All are equal to 0 inside the goal.
+  EdgeEvaluatorSettings settings;
+  settings.limits = DynamicLimits::uniform(2.0, 1.0);
+  settings.weights = {10.0, 0.0, 1.0, 0.0};
+  const Eigen::Vector3d goal(20.0, 0.0, 0.0);
+  ChainState state = ChainState::Zero();
+  const auto h = [&](const std::string& name) {
+    return heuristicFor(name, settings, 0.01)->estimate(state, goal);
+  };
+  // 19.99 m from rest: 2 s ramp (2 m), then 17.99 m at 2 m/s: 10.995 s.
+  EXPECT_NEAR(h("time_optimal"), 10.0 * (2.0 + 17.99 / 2.0), 1e-9);
+  EXPECT_NEAR(h("min_time"), 10.0 * 19.99 / 2.0, 1e-9);
+  state(0, 1) = -2.0;  // flying away at full speed: 2 s to stop, 2 s back to speed
+  EXPECT_NEAR(h("time_optimal"), 10.0 * (4.0 + 19.99 / 2.0), 1e-9);
+  EXPECT_GT(h("obvp"), 0.0);
+  EXPECT_EQ(h("max"), std::max(h("time_optimal"), h("obvp")));
+  // Unconstrained double integrator from rest over d: f(T) = w_T T + 3 w_U d^2 / T^3, least
+  // at T = (9 w_U d^2 / w_T)^(1/4).
+  state(0, 1) = 0.0;
+  const double d = 19.99;
+  const double t = std::pow(9.0 * d * d / 10.0, 0.25);
+  EXPECT_NEAR(h("obvp"), 10.0 * t + 3.0 * d * d / (t * t * t), 1e-9);
+  state.col(0) = goal;
+  for (const std::string name : {"euclidean", "min_time", "time_optimal", "obvp", "max"}) {
+    EXPECT_EQ(h(name), 0.0) << name;
   }
 }
 

@@ -246,6 +246,11 @@ QuerySpec readQueries(const YamlReader& node) {
     const auto h = height(*random);
     r.height[0] = h[0];
     r.height[1] = h[1];
+    if (const auto lattice = random->optional("lattice")) {
+      r.lattice_step = lattice->getNumber("step", std::nullopt, 1e-3, 1e4);
+      r.lattice_offset = lattice->getNumber("offset", 0.0, -1e4, 1e4);
+      lattice->finish();
+    }
     random->finish();
   }
   if (const auto across = node.optional("across")) {
@@ -377,8 +382,8 @@ std::vector<PlanningQuery> QuerySpec::make(const World& world, const std::string
     return inside;
   };
   if (random.count > 0) {
-    const FreeQueryRegion spec{region(random.height), random.clearance, random.min_distance,
-                               random.max_distance};
+    const FreeQueryRegion spec{region(random.height), random.clearance,  random.min_distance,
+                               random.max_distance,     random.lattice_step, random.lattice_offset};
     const auto drawn = sampleFreeQueries(world, spec, random.count, rng, world_id);
     queries.insert(queries.end(), drawn.begin(), drawn.end());
   }
@@ -408,7 +413,11 @@ std::string QuerySpec::canonicalText() const {
   }
   text += "random " + std::to_string(random.count) + " " + formatNumber(random.min_distance) + " " +
           formatNumber(random.max_distance) + " " + formatNumber(random.clearance) + " " +
-          formatNumber(random.height[0]) + " " + formatNumber(random.height[1]) + ";";
+          formatNumber(random.height[0]) + " " + formatNumber(random.height[1]) +
+          (random.lattice_step > 0.0 ? " lattice " + formatNumber(random.lattice_step) + " " +
+                                           formatNumber(random.lattice_offset)
+                                     : std::string()) +
+          ";";
   text += "across " + std::to_string(across.count) + " " + std::to_string(across.axis) + " " +
           formatNumber(across.margin) + " " + formatNumber(across.clearance) + " " +
           formatNumber(across.height[0]) + " " + formatNumber(across.height[1]);

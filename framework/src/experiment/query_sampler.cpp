@@ -1,5 +1,8 @@
 #include "kinolab/experiment/query_sampler.hpp"
 
+#include <algorithm>
+#include <cmath>
+
 #include "kinolab/core/error.hpp"
 
 namespace kinolab {
@@ -24,6 +27,36 @@ Eigen::Vector3d sampleFreePosition(const World& world, const Box& region, double
   cannotPlace(what, world_id, max_draws);
 }
 
+namespace {
+
+/// A free position whose x and y lie on the region's lattice.
+Eigen::Vector3d sampleLatticePosition(const World& world, const FreeQueryRegion& spec, Rng& rng,
+                                      const std::string& what, const std::string& world_id,
+                                      int max_draws) {
+  const double step = spec.lattice_step;
+  const auto first = [&](int axis) {
+    return std::ceil((spec.region.min[axis] - spec.lattice_offset) / step);
+  };
+  const auto last = [&](int axis) {
+    return std::floor((spec.region.max[axis] - spec.lattice_offset) / step);
+  };
+  if (first(0) > last(0) || first(1) > last(1)) {
+    throw ConfigError("queries: the lattice has no point in the query region of world '" + world_id + "'");
+  }
+  for (int draw = 0; draw < max_draws; ++draw) {
+    Eigen::Vector3d p;
+    for (int axis = 0; axis < 2; ++axis) {
+      const double k = std::floor(rng.uniform(first(axis), last(axis) + 1.0));
+      p[axis] = spec.lattice_offset + step * std::min(k, last(axis));
+    }
+    p.z() = rng.uniform(spec.region.min.z(), spec.region.max.z());
+    if (world.isFree(p, spec.clearance)) return p;
+  }
+  cannotPlace(what, world_id, max_draws);
+}
+
+}  // namespace
+
 std::vector<PlanningQuery> sampleFreeQueries(const World& world, const FreeQueryRegion& spec,
                                              int count, Rng& rng, const std::string& world_id,
                                              int max_draws) {
@@ -33,10 +66,16 @@ std::vector<PlanningQuery> sampleFreeQueries(const World& world, const FreeQuery
     for (int attempt = 0;; ++attempt) {
       if (attempt == max_draws) cannotPlace("a random pair", world_id, max_draws);
       PlanningQuery query;
-      query.start.col(0) = sampleFreePosition(world, spec.region, spec.clearance, rng,
-                                              "a random start", world_id, max_draws);
-      query.goal = sampleFreePosition(world, spec.region, spec.clearance, rng, "a random goal",
-                                      world_id, max_draws);
+      if (spec.lattice_step > 0.0) {
+        query.start.col(0) =
+            sampleLatticePosition(world, spec, rng, "a random start", world_id, max_draws);
+        query.goal = sampleLatticePosition(world, spec, rng, "a random goal", world_id, max_draws);
+      } else {
+        query.start.col(0) = sampleFreePosition(world, spec.region, spec.clearance, rng,
+                                                "a random start", world_id, max_draws);
+        query.goal = sampleFreePosition(world, spec.region, spec.clearance, rng, "a random goal",
+                                        world_id, max_draws);
+      }
       const double distance = (query.goal - query.start.col(0)).norm();
       if (distance >= spec.min_distance && distance <= spec.max_distance) {
         queries.push_back(query);

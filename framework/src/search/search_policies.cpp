@@ -1,9 +1,103 @@
 #include "kinolab/search/search_policies.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 
+#include "kinolab/core/error.hpp"
+
 namespace kinolab {
+namespace {
+
+/// The distance from `position` to the goal ball of radius R.
+double ballDistance(const Eigen::Vector3d& position, const Eigen::Vector3d& goal, double radius) {
+  return std::max((position - goal).norm() - radius, 0.0);
+}
+
+/// The least time to move `distance` >= 0 along an axis from speed `v` (positive towards the
+/// target) with |v| <= v_max and |a| <= a_max: full acceleration, then cruise.
+double axisMinimumTime(double distance, double v, double v_max, double a_max) {
+  if (distance <= 0.0) return 0.0;
+  v = std::clamp(v, -v_max, v_max);
+  if (!std::isfinite(a_max)) return std::isfinite(v_max) ? distance / v_max : 0.0;
+  // Distance covered while accelerating to v_max; INFINITY without a speed limit.
+  const double ramp = std::isfinite(v_max) ? (v_max * v_max - v * v) / (2.0 * a_max) : INFINITY;
+  if (distance <= ramp) {
+    // v t + a t^2 / 2 = distance, in the form that does not cancel when v > 0.
+    return 2.0 * distance / (v + std::sqrt(v * v + 2.0 * a_max * distance));
+  }
+  return (v_max - v) / a_max + (distance - ramp) / v_max;
+}
+
+/// The largest real root of m^3 + a m^2 + b m + c = 0 (Cardano, or the trigonometric form
+/// when there are three real roots), polished by Newton's method.
+double largestCubicRoot(double a, double b, double c) {
+  const double shift = a / 3.0;
+  const double p = b - a * shift;
+  const double q = 2.0 * shift * shift * shift - b * shift + c;
+  const double discriminant = 0.25 * q * q + p * p * p / 27.0;
+  double y = 0.0;
+  if (discriminant > 0.0) {
+    const double root = std::sqrt(discriminant);
+    y = std::cbrt(-0.5 * q + root) + std::cbrt(-0.5 * q - root);
+  } else if (p < 0.0) {
+    const double radius = std::sqrt(-p / 3.0);
+    const double cosine = std::clamp(-0.5 * q / (radius * radius * radius), -1.0, 1.0);
+    y = 2.0 * radius * std::cos(std::acos(cosine) / 3.0);
+  }
+  double m = y - shift;
+  for (int i = 0; i < 2; ++i) {
+    const double value = ((m + a) * m + b) * m + c;
+    const double slope = (3.0 * m + 2.0 * a) * m + b;
+    if (slope == 0.0) break;
+    m -= value / slope;
+  }
+  return m;
+}
+
+/// The positive real roots of T^4 + p T^2 + q T + r (Ferrari's method), polished by Newton's
+/// method; returns how many it wrote to `roots`.
+int positiveQuarticRoots(double p, double q, double r, std::array<double, 4>& roots) {
+  std::array<double, 4> found{};
+  int count = 0;
+  const auto quadratic = [&](double b, double c) {  // T^2 + b T + c = 0
+    const double discriminant = b * b - 4.0 * c;
+    if (discriminant < 0.0) return;
+    const double root = std::sqrt(discriminant);
+    found[count++] = 0.5 * (-b + root);
+    found[count++] = 0.5 * (-b - root);
+  };
+  const double scale = std::max({std::abs(p), std::sqrt(std::abs(r)), 1e-300});
+  const double m = largestCubicRoot(p, 0.25 * p * p - r, -0.125 * q * q);
+  if (m > 1e-12 * scale) {
+    const double s = std::sqrt(2.0 * m);
+    quadratic(-s, 0.5 * p + m + 0.5 * q / s);
+    quadratic(s, 0.5 * p + m - 0.5 * q / s);
+  } else {
+    // q is (numerically) zero: a quadratic in T^2.
+    const double discriminant = p * p - 4.0 * r;
+    if (discriminant >= 0.0) {
+      for (const double z : {0.5 * (-p + std::sqrt(discriminant)),
+                             0.5 * (-p - std::sqrt(discriminant))}) {
+        if (z >= 0.0) found[count++] = std::sqrt(z);
+      }
+    }
+  }
+  int positive = 0;
+  for (int i = 0; i < count; ++i) {
+    double t = found[i];
+    for (int step = 0; step < 2; ++step) {
+      const double value = ((t * t + p) * t + q) * t + r;
+      const double slope = (4.0 * t * t + 2.0 * p) * t + q;
+      if (slope == 0.0) break;
+      t -= value / slope;
+    }
+    if (t > 0.0 && std::isfinite(t)) roots[positive++] = t;
+  }
+  return positive;
+}
+
+}  // namespace
 
 EuclideanHeuristic::EuclideanHeuristic(const EdgeEvaluatorSettings& edges, double goal_radius)
     : weight_duration_(edges.weights.duration),
@@ -31,6 +125,125 @@ double MinTimeHeuristic::estimate(const ChainState& state, const Eigen::Vector3d
   const double time =
       ((offset.array() - goal_radius_).max(0.0) * inverse_v_max_.array()).maxCoeff();
   return weight_duration_ * time + weight_length_ * distance;
+}
+
+
+TimeOptimalHeuristic::TimeOptimalHeuristic(const EdgeEvaluatorSettings& edges, double goal_radius)
+    : weight_duration_(edges.weights.duration),
+      weight_length_(edges.weights.length),
+      goal_radius_(goal_radius),
+      v_max_(edges.limits.bound[1]),
+      a_max_(edges.limits.bound[2]) {}
+
+double TimeOptimalHeuristic::minimumTime(const ChainState& state,
+                                         const Eigen::Vector3d& goal) const {
+  double time = 0.0;
+  for (int axis = 0; axis < 3; ++axis) {
+    const double offset = goal[axis] - state(axis, 0);
+    const double towards = offset >= 0.0 ? state(axis, 1) : -state(axis, 1);
+    time = std::max(time, axisMinimumTime(std::abs(offset) - goal_radius_, towards, v_max_[axis],
+                                          a_max_[axis]));
+  }
+  return time;
+}
+
+double TimeOptimalHeuristic::estimate(const ChainState& state, const Eigen::Vector3d& goal) const {
+  return weight_duration_ * minimumTime(state, goal) +
+         weight_length_ * ballDistance(state.col(0), goal, goal_radius_);
+}
+
+ObvpHeuristic::ObvpHeuristic(const EdgeEvaluatorSettings& edges, double goal_radius)
+    : weight_duration_(edges.weights.duration),
+      weight_control_(edges.weights.control_effort),
+      weight_length_(edges.weights.length),
+      goal_radius_(goal_radius) {
+  if (edges.order != 2) {
+    throw InvalidArgument("the obvp heuristic needs order 2 (acceleration control), got order " +
+                          std::to_string(edges.order));
+  }
+}
+
+double ObvpHeuristic::estimate(const ChainState& state, const Eigen::Vector3d& goal) const {
+  const double length = weight_length_ * ballDistance(state.col(0), goal, goal_radius_);
+  const Eigen::Vector3d offset = goal - state.col(0);
+  const Eigen::Vector3d velocity = state.col(1);
+  const double radius = goal_radius_;
+  // e_i(T) = max(|offset_i - v_i T| - R, 0): zero between the times the axis enters and
+  // leaves the cube's extent. Those times split T > 0 into stretches with one active set.
+  std::array<double, 8> breaks{};
+  int count = 0;
+  breaks[count++] = 0.0;
+  for (int axis = 0; axis < 3; ++axis) {
+    if (velocity[axis] == 0.0) continue;
+    for (const double edge : {offset[axis] - radius, offset[axis] + radius}) {
+      const double t = edge / velocity[axis];
+      if (t > 0.0 && std::isfinite(t)) breaks[count++] = t;
+    }
+  }
+  for (int i = 1; i < count; ++i) {  // insertion sort of at most seven times
+    for (int j = i; j > 0 && breaks[j - 1] > breaks[j]; --j) std::swap(breaks[j - 1], breaks[j]);
+  }
+  const auto cost = [&](double t) {
+    double effort = 0.0;
+    for (int axis = 0; axis < 3; ++axis) {
+      const double e = std::max(std::abs(offset[axis] - velocity[axis] * t) - radius, 0.0);
+      effort += e * e;
+    }
+    return weight_duration_ * t + weight_control_ * 3.0 * effort / (t * t * t);
+  };
+  if (weight_control_ == 0.0 || weight_duration_ == 0.0) {
+    // Only one term: with no effort weight the duration is free to shrink to 0 (and with no
+    // duration weight the effort vanishes as T grows), so the infimum is 0 once outside the
+    // goal.
+    return length;
+  }
+  double best = INFINITY;
+  const double ratio = weight_control_ / weight_duration_;
+  for (int i = 0; i < count; ++i) {
+    const double begin = breaks[i];
+    const double end = i + 1 < count ? breaks[i + 1] : INFINITY;
+    if (begin > 0.0) best = std::min(best, cost(begin));
+    // On this stretch e_i = alpha_i - beta_i T for the active axes; f'(T) T^4 / w_T is
+    // T^4 - 3 k C T^2 + 12 k B T - 9 k A with k = w_U / w_T.
+    const double probe = std::isfinite(end) ? 0.5 * (begin + end) : begin + 1.0;
+    double a_sum = 0.0;
+    double b_sum = 0.0;
+    double c_sum = 0.0;
+    for (int axis = 0; axis < 3; ++axis) {
+      const double residual = offset[axis] - velocity[axis] * probe;
+      if (std::abs(residual) <= radius) continue;
+      const double sign = residual > 0.0 ? 1.0 : -1.0;
+      const double alpha = sign * offset[axis] - radius;
+      const double beta = sign * velocity[axis];
+      a_sum += alpha * alpha;
+      b_sum += alpha * beta;
+      c_sum += beta * beta;
+    }
+    if (a_sum == 0.0 && c_sum == 0.0) {
+      // Inside the cube's extent on every axis throughout: w_T T, least at the start.
+      best = std::min(best, weight_duration_ * begin);
+      continue;
+    }
+    std::array<double, 4> roots{};
+    const int found =
+        positiveQuarticRoots(-3.0 * ratio * c_sum, 12.0 * ratio * b_sum, -9.0 * ratio * a_sum,
+                             roots);
+    for (int k = 0; k < found; ++k) {
+      if (roots[k] >= begin && roots[k] <= end) best = std::min(best, cost(roots[k]));
+    }
+  }
+  return (std::isfinite(best) ? best : 0.0) + length;
+}
+
+MaxHeuristic::MaxHeuristic(std::vector<std::shared_ptr<const SearchHeuristic>> parts)
+    : parts_(std::move(parts)) {
+  if (parts_.empty()) throw InvalidArgument("max heuristic: no heuristics to combine");
+}
+
+double MaxHeuristic::estimate(const ChainState& state, const Eigen::Vector3d& goal) const {
+  double best = 0.0;
+  for (const auto& part : parts_) best = std::max(best, part->estimate(state, goal));
+  return best;
 }
 
 }  // namespace kinolab

@@ -21,6 +21,9 @@ struct QuerySpec {
     double max_distance = INFINITY;
     double clearance = 0.6;
     double height[2] = {1.0, 2.0};
+    /// > 0: x and y on the lattice offset + step k (a benchmark problem's rule), m.
+    double lattice_step = 0.0;
+    double lattice_offset = 0.0;
   };
   struct Across {
     int count = 0;

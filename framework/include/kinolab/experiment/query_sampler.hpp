@@ -19,6 +19,10 @@ struct FreeQueryRegion {
   double clearance = 0.6;
   double min_distance = 0.0;
   double max_distance = INFINITY;
+  /// > 0: x and y are snapped to lattice_offset + lattice_step k (k an integer) after the
+  /// draw, inside the region.
+  double lattice_step = 0.0;
+  double lattice_offset = 0.0;
 };
 
 /// A free position in `region` (`clearance` from obstacles, inside the map). Throws
@@ -27,7 +31,8 @@ Eigen::Vector3d sampleFreePosition(const World& world, const Box& region, double
                                    Rng& rng, const std::string& what, const std::string& world_id,
                                    int max_draws = 100000);
 
-/// `count` start/goal pairs at rest (start, then goal, until their distance fits). Throws
+/// `count` start/goal pairs at rest (start, then goal, until their distance fits), on the
+/// region's lattice if it has one. Throws
 /// ConfigError naming `world_id` when a position or a pair cannot be placed in `max_draws`
 /// draws.
 std::vector<PlanningQuery> sampleFreeQueries(const World& world, const FreeQueryRegion& spec,

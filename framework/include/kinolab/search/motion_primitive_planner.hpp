@@ -1,6 +1,7 @@
 #pragma once
 
 #include <memory>
+#include <string>
 
 #include "kinolab/core/parameters.hpp"
 #include "kinolab/planner/planner.hpp"
@@ -15,6 +16,13 @@ ParameterSpecs motionPrimitiveParameters();
 /// The statistics every MotionPrimitivePlanner reports (the search's counters and times);
 /// a plugin that reports more includes these in its own declaration.
 MetricSpecs motionPrimitiveStatistics();
+
+/// The built-in heuristic called `name` (the `heuristic` parameter's choices) for these edges:
+/// euclidean, min_time, time_optimal, obvp (order 2 only; ConfigError otherwise) or max (the
+/// largest of time_optimal and, at order 2, obvp).
+std::shared_ptr<const SearchHeuristic> heuristicFor(const std::string& name,
+                                                    const EdgeEvaluatorSettings& edges,
+                                                    double goal_radius);
 
 /// Everything a MotionPrimitivePlanner is built from. fromParameters() reads the parameters
 /// of motionPrimitiveParameters() (and no others) and sets eager defaults: full evaluation,

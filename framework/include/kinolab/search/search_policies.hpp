@@ -2,6 +2,8 @@
 
 #include <Eigen/Core>
 #include <cstdint>
+#include <memory>
+#include <vector>
 
 #include "kinolab/primitives/edge_evaluator.hpp"
 
@@ -106,7 +108,7 @@ class EuclideanHeuristic final : public SearchHeuristic {
 };
 
 /// w_T max_i(|d_i| / v_max_i) + w_L |d|, d_i the distance to the goal cube of half-width R
-/// on axis i (MPL's minimum-time bound, Liu et al., RA-L 2018).
+/// on axis i (MPL's minimum-time bound, Liu et al., RA-L 2018). Ignores the state's velocity.
 class MinTimeHeuristic final : public SearchHeuristic {
  public:
   MinTimeHeuristic(const EdgeEvaluatorSettings& edges, double goal_radius);
@@ -117,6 +119,58 @@ class MinTimeHeuristic final : public SearchHeuristic {
   double weight_length_;
   double goal_radius_;
   Eigen::Vector3d inverse_v_max_;
+};
+
+/// w_T max_i T_i + w_L |d|: T_i is the minimum time for axis i to reach the goal cube's
+/// extent [g_i - R, g_i + R] from the state's position and velocity under the velocity and
+/// acceleration limits (accelerate at a_max towards it, then cruise at v_max: the time-optimal
+/// profile with a free end velocity). It is the exact optimum of a relaxation in which every
+/// edge is feasible, so T(s) <= tau + T(s'): consistent. For order 3 and 4 the jerk (and
+/// snap) limit is relaxed: the same bound, from position and velocity.
+class TimeOptimalHeuristic final : public SearchHeuristic {
+ public:
+  TimeOptimalHeuristic(const EdgeEvaluatorSettings& edges, double goal_radius);
+  double estimate(const ChainState& state, const Eigen::Vector3d& goal) const override;
+  /// max_i T_i alone, seconds.
+  double minimumTime(const ChainState& state, const Eigen::Vector3d& goal) const;
+
+ private:
+  double weight_duration_;
+  double weight_length_;
+  double goal_radius_;
+  Eigen::Vector3d v_max_;
+  Eigen::Vector3d a_max_;
+};
+
+/// Fast-Planner's optimal boundary value problem bound (Zhou et al., RA-L 2019) for order 2
+/// (acceleration control): min over the duration T > 0 of w_T T + w_U J(T) + w_L |d|, J(T) the
+/// least control effort (integral of |u|^2) of the unconstrained double integrator from the
+/// state's position and velocity to the goal cube of half-width R at time T, in closed form
+/// sum_i 3 e_i(T)^2 / T^3 (e_i the distance of p_i + v_i T to the cube's extent). The
+/// minimum over T is exact: on each stretch of T where the set of axes outside the cube is
+/// fixed, the stationary points are the real roots of a quartic, solved in closed form
+/// (Ferrari). The exact optimum of a relaxation in which every edge is feasible: consistent.
+/// Orders above 2 are refused (the control is not the acceleration there).
+class ObvpHeuristic final : public SearchHeuristic {
+ public:
+  ObvpHeuristic(const EdgeEvaluatorSettings& edges, double goal_radius);
+  double estimate(const ChainState& state, const Eigen::Vector3d& goal) const override;
+
+ private:
+  double weight_duration_;
+  double weight_control_;
+  double weight_length_;
+  double goal_radius_;
+};
+
+/// The largest of several consistent heuristics (itself consistent).
+class MaxHeuristic final : public SearchHeuristic {
+ public:
+  explicit MaxHeuristic(std::vector<std::shared_ptr<const SearchHeuristic>> parts);
+  double estimate(const ChainState& state, const Eigen::Vector3d& goal) const override;
+
+ private:
+  std::vector<std::shared_ptr<const SearchHeuristic>> parts_;
 };
 
 }  // namespace kinolab
