@@ -25,7 +25,7 @@ class MisbehavingPlanner final : public Planner {
 
  protected:
   void doSetup(const PlannerContext&) override {}
-  PlanResult doPlan(const PlanningQuery&, StopCondition&, SearchTree*) override {
+  PlanResult doPlan(const PlanningQuery&, StopCondition&) override {
     if (sleep_ms_ > 0.0) {
       std::this_thread::sleep_for(std::chrono::duration<double, std::milli>(sleep_ms_));
     }
@@ -65,7 +65,7 @@ class MetricPlanner final : public Planner {
 
  protected:
   void doSetup(const PlannerContext&) override {}
-  PlanResult doPlan(const PlanningQuery&, StopCondition&, SearchTree*) override {
+  PlanResult doPlan(const PlanningQuery&, StopCondition&) override {
     PlanResult result;
     result.message = "test_metric plans nothing";
     result.statistics.emplace_back("probe_answer", 42.0);

@@ -118,9 +118,10 @@ PlanResult Planner::plan(const PlanningQuery& query, const Budget& budget, Searc
   StopCondition stop(Budget{std::min(budget.time_limit, own.time_limit),
                             std::min(budget.max_iterations, own.max_iterations)});
   const auto begin = std::chrono::steady_clock::now();
-  result = doPlan(query, stop, tree);
+  result = doPlan(query, stop);
   result.planning_time_ms =
       std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - begin).count();
+  if (tree) *tree = doTree(kMaxTreeEdges);
   if (declared_statistics_) checkStatisticsDeclared(result, *declared_statistics_, key_);
   if (std::isnan(result.cost)) {
     // A NaN passes every comparison downstream: it is a failure, never a result.

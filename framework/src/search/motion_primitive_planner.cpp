@@ -23,7 +23,7 @@ ParameterSpecs motionPrimitiveParameters() {
       .real("edge_spacing", 0.0, 0.0, 10.0,
             "> 0: sample edges this far apart (at most half a voxel) instead of K samples, m")
       .real("safety_distance", 0.5, 0.001, 100.0, "obstacle penalty band beyond the radius, m")
-      .choice("heuristic", "max", {"euclidean", "min_time", "time_optimal", "obvp", "max"},
+      .choice("heuristic", "time_optimal", {"euclidean", "min_time", "time_optimal", "obvp", "max"},
               "euclidean: |d| / |v_max|; min_time: max_i |d_i| / v_max_i (MPL); time_optimal: "
               "per-axis minimum time from the current velocity under v_max and a_max; obvp: "
               "least duration + control effort of the unconstrained chain (order 2); max: the "
@@ -152,8 +152,7 @@ PlanningModel MotionPrimitivePlanner::planningModel() const {
   return model;
 }
 
-PlanResult MotionPrimitivePlanner::doPlan(const PlanningQuery& query, StopCondition& stop,
-                                          SearchTree* tree) {
+PlanResult MotionPrimitivePlanner::doPlan(const PlanningQuery& query, StopCondition& stop) {
   MotionPrimitiveSearch& search = *search_;
   const auto outcome = search.search(query.start, query.goal, stop);
   PlanResult result;
@@ -178,8 +177,11 @@ PlanResult MotionPrimitivePlanner::doPlan(const PlanningQuery& query, StopCondit
   result.statistics = search.statistics();
   result.statistics.emplace_back("controls", static_cast<double>(search.controls().size()));
   result.statistics.emplace_back("heuristic_weight", config_.settings.heuristic_weight);
-  if (tree) *tree = search.tree();
   return result;
+}
+
+SearchTree MotionPrimitivePlanner::doTree(std::size_t max_edges) const {
+  return search_ ? search_->tree(max_edges) : SearchTree{};
 }
 
 }  // namespace kinolab

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <limits>
 
 #include "kinolab/core/error.hpp"
 
@@ -54,6 +55,10 @@ MotionPrimitiveSearch::MotionPrimitiveSearch(std::shared_ptr<const World> world,
       throw InvalidArgument("motion-primitive search: key resolutions must be positive");
     }
   }
+  if (controls_.size() > static_cast<std::size_t>(std::numeric_limits<std::int16_t>::max())) {
+    throw InvalidArgument("motion-primitive search: at most 32767 controls, got " +
+                          std::to_string(controls_.size()));
+  }
   evaluations_.resize(controls_.size());
   estimates_.resize(controls_.size());
 }
@@ -99,16 +104,31 @@ int MotionPrimitiveSearch::slotOf(const ChainState& state) {
   }
 }
 
-double MotionPrimitiveSearch::priority(const Candidate& candidate) const {
-  return settings_.cost_weight * candidate.g + settings_.heuristic_weight * candidate.h;
+double MotionPrimitiveSearch::priority(double g, double h) const {
+  return settings_.cost_weight * g + settings_.heuristic_weight * h;
 }
 
-void MotionPrimitiveSearch::push(int candidate) {
-  const Candidate& c = candidates_[candidate];
-  heap_.push_back({priority(c), c.g, candidate});
+void MotionPrimitiveSearch::push(const HeapEntry& entry) {
+  heap_.push_back(entry);
   std::push_heap(heap_.begin(), heap_.end(), HeapEntry::Later{});
   counters_.open_peak =
       std::max<long long>(counters_.open_peak, static_cast<long long>(heap_.size()));
+}
+
+bool MotionPrimitiveSearch::queueCandidate(const Candidate& candidate, double h) {
+  const double f = priority(candidate.g, h);
+  Slot& slot = slots_[candidate.slot];
+  if (settings_.duplicate_rule == DuplicateRule::kLwa) {
+    // A candidate queued behind an evaluated one of the same state would be dropped when
+    // popped, as that one closes the state first: it is not queued at all. Equal priorities
+    // are kept: the tie-break decides.
+    if (f > slot.best_f) return false;
+    slot.best_f = f;
+  }
+  candidates_.push_back(candidate);
+  push({f, candidate.g, static_cast<std::int32_t>(candidates_.size() - 1), -1,
+        EntryKind::kCandidate});
+  return true;
 }
 
 double MotionPrimitiveSearch::memoryBytes() const {
@@ -135,37 +155,47 @@ void MotionPrimitiveSearch::prepare() {
   counters_ = {};
 }
 
-bool MotionPrimitiveSearch::evaluateFully(Candidate& candidate) {
-  const Candidate& parent = candidates_[candidate.parent];
-  const auto begin = Clock::now();
-  const EdgeEvaluation full = evaluator_.full(parent.state, controls_[candidate.control]);
-  counters_.evaluation_seconds += secondsSince(begin);
-  ++counters_.full_evaluations;
-  counters_.esdf_queries += full.esdf_queries;
-  if (!full.valid()) {
-    candidate.evaluation = Evaluation::kRejected;
-    ++counters_.rejected_edges;
-    return false;
+void MotionPrimitiveSearch::evaluatePopped(const HeapEntry& entry) {
+  const ChainState& parent_state = candidates_[entry.node].state;
+  const double parent_g = candidates_[entry.node].g;
+  const Eigen::Vector3d& control = controls_[entry.control];
+  Candidate candidate;
+  candidate.state = evaluator_.endState(parent_state, control);
+  candidate.slot = slotOf(candidate.state);
+  if (slots_[candidate.slot].closed >= 0) return;  // stale: closed by a cheaper candidate
+  candidate.parent = entry.node;
+  candidate.control = entry.control;
+  if (entry.kind == EntryKind::kCertified) {
+    candidate.g = entry.g;
+    candidate.evaluation = Evaluation::kCertified;
+  } else {
+    const auto begin = Clock::now();
+    const EdgeEvaluation full = evaluator_.full(parent_state, control);
+    counters_.evaluation_seconds += secondsSince(begin);
+    ++counters_.full_evaluations;
+    counters_.esdf_queries += full.esdf_queries;
+    if (!full.valid()) {
+      // Kept (never queued) so that figures show where lazy search found a collision.
+      candidate.evaluation = Evaluation::kRejected;
+      candidates_.push_back(candidate);
+      ++counters_.rejected_edges;
+      return;
+    }
+    candidate.g = parent_g + full.cost;
+    candidate.evaluation = Evaluation::kFull;
   }
-  candidate.g = parent.g + full.cost;
-  candidate.evaluation = Evaluation::kFull;
-  Slot& slot = slots_[candidate.slot];
-  if (settings_.duplicate_rule == DuplicateRule::kLwa) {
-    const double f = priority(candidate);
-    if (f > slot.best_f) return false;
-    slot.best_f = f;
-  }
-  return true;
+  queueCandidate(candidate, policies_.heuristic->estimate(candidate.state, goal_));
 }
 
 void MotionPrimitiveSearch::expand(int node) {
   ++counters_.expansions;
+  // Copies: candidates_ may grow (and move) while the node is expanded.
   const ChainState parent_state = candidates_[node].state;
   const double parent_g = candidates_[node].g;
-  const double parent_distance = candidates_[node].distance;
+  const double parent_distance = world_->distance(parent_state.col(0));
   const EdgeEvaluationPolicy& policy = *policies_.edges;
   const SearchHeuristic& heuristic = *policies_.heuristic;
-
+  const bool seed_rule = settings_.duplicate_rule == DuplicateRule::kSeed;
   // Evaluate every primitive first (timed as evaluation), then queue them.
   const auto begin = Clock::now();
   for (std::size_t i = 0; i < controls_.size(); ++i) {
@@ -173,6 +203,7 @@ void MotionPrimitiveSearch::expand(int node) {
     const EdgeEstimate estimate =
         policy.evaluate(evaluator_, parent_state, parent_distance, controls_[i], evaluation);
     estimates_[i] = estimate;
+    counters_.esdf_queries += evaluation.esdf_queries;
     if (estimate == EdgeEstimate::kFull) {
       ++counters_.full_evaluations;
       if (evaluation.within_limits && !evaluation.collision_free) ++counters_.rejected_edges;
@@ -180,41 +211,41 @@ void MotionPrimitiveSearch::expand(int node) {
       ++counters_.partial_evaluations;
       counters_.certified_edges += estimate == EdgeEstimate::kCertified;
     }
-    counters_.esdf_queries += evaluation.esdf_queries;
   }
   counters_.evaluation_seconds += secondsSince(begin);
 
   for (std::size_t i = 0; i < controls_.size(); ++i) {
     const EdgeEvaluation& evaluation = evaluations_[i];
-    if (!evaluation.valid()) continue;
-    const int slot_index = slotOf(evaluation.end);
-    Slot& slot = slots_[slot_index];
-    if (slot.closed >= 0) continue;
     const EdgeEstimate estimate = estimates_[i];
-    Candidate candidate;
-    candidate.state = evaluation.end;
-    candidate.g = parent_g + evaluation.cost;
-    candidate.h = heuristic.estimate(candidate.state, goal_);
-    if (settings_.duplicate_rule == DuplicateRule::kSeed) {
-      if (slot.seen) continue;
-      slot.seen = true;
-    } else {
-      // A candidate queued behind an evaluated one of the same state would be dropped when
-      // popped, as that one closes the state first (a lower-bound f is a lower bound of the
-      // full f), so it is not queued at all. Equal priorities are kept: the tie-break decides.
-      const double f = priority(candidate);
-      if (f > slot.best_f) continue;
-      if (estimate != EdgeEstimate::kLowerBound) slot.best_f = f;
+    if (!evaluation.valid()) continue;
+    const double g = parent_g + evaluation.cost;
+    if (estimate == EdgeEstimate::kFull || seed_rule) {
+      // The state's slot now: eager search drops what a closed or better state makes useless;
+      // the seed rule queues only the first edge into a state.
+      const int slot_index = slotOf(evaluation.end);
+      Slot& slot = slots_[slot_index];
+      if (slot.closed >= 0) continue;
+      if (seed_rule) {
+        if (slot.seen) continue;
+        slot.seen = true;
+      }
+      if (estimate == EdgeEstimate::kFull) {
+        Candidate candidate;
+        candidate.state = evaluation.end;
+        candidate.g = g;
+        candidate.parent = node;
+        candidate.control = static_cast<int>(i);
+        candidate.slot = slot_index;
+        counters_.candidates += queueCandidate(candidate, heuristic.estimate(evaluation.end, goal_));
+        continue;
+      }
     }
-    candidate.distance = evaluation.end_distance;
-    candidate.parent = node;
-    candidate.control = static_cast<int>(i);
-    candidate.slot = slot_index;
-    candidate.evaluation = estimate == EdgeEstimate::kFull        ? Evaluation::kFull
-                           : estimate == EdgeEstimate::kCertified ? Evaluation::kCertified
-                                                                  : Evaluation::kPartial;
-    candidates_.push_back(candidate);
-    push(static_cast<int>(candidates_.size()) - 1);
+    // A lower bound (or a certified cost): queue the parent and control; the end state's key
+    // and table probe wait until the edge is popped.
+    ++counters_.candidates;
+    push({priority(g, heuristic.estimate(evaluation.end, goal_)), g, node,
+          static_cast<std::int16_t>(i),
+          estimate == EdgeEstimate::kCertified ? EntryKind::kCertified : EntryKind::kLowerBound});
   }
 }
 
@@ -226,13 +257,12 @@ MotionPrimitiveSearch::Outcome MotionPrimitiveSearch::search(const ChainState& s
   goal_ = goal;
   Candidate root;
   root.state = start;
-  root.h = policies_.heuristic->estimate(start, goal_);
-  root.distance = world_->distance(start.col(0));
   root.slot = slotOf(start);
   candidates_.push_back(root);
-  slots_[root.slot].best_f = priority(root);
+  const double root_f = priority(0.0, policies_.heuristic->estimate(start, goal_));
+  slots_[root.slot].best_f = root_f;
   slots_[root.slot].seen = true;
-  push(0);
+  push({root_f, 0.0, 0, -1, EntryKind::kCandidate});
 
   double nearest = INFINITY;
   Outcome outcome = Outcome::kExhausted;
@@ -248,16 +278,17 @@ MotionPrimitiveSearch::Outcome MotionPrimitiveSearch::search(const ChainState& s
       break;
     }
     std::pop_heap(heap_.begin(), heap_.end(), HeapEntry::Later{});
-    const int index = heap_.back().candidate;
+    const HeapEntry entry = heap_.back();
     heap_.pop_back();
     ++counters_.pops;
+    if (entry.kind != EntryKind::kCandidate) {
+      evaluatePopped(entry);
+      continue;
+    }
+    const int index = entry.node;
     Candidate& candidate = candidates_[index];
     // Stale: the state was closed by a cheaper candidate.
     if (slots_[candidate.slot].closed >= 0) continue;
-    if (candidate.evaluation == Evaluation::kPartial) {
-      if (evaluateFully(candidate)) push(index);
-      continue;
-    }
     slots_[candidate.slot].closed = index;
     const double distance = (candidate.state.col(0) - goal_).norm();
     if (distance < nearest) {
@@ -271,7 +302,6 @@ MotionPrimitiveSearch::Outcome MotionPrimitiveSearch::search(const ChainState& s
     }
     expand(index);
   }
-  counters_.candidates = static_cast<long long>(candidates_.size());
   return outcome;
 }
 
@@ -311,35 +341,45 @@ Statistics MotionPrimitiveSearch::statistics() const {
           {"time_evaluation_ms", 1e3 * counters_.evaluation_seconds}};
 }
 
-SearchTree MotionPrimitiveSearch::tree(int points_per_edge) const {
-  SearchTree tree;
-  tree.reserve(candidates_.size());
+SearchTree MotionPrimitiveSearch::tree(std::size_t max_edges, int points_per_edge) const {
   const IntegratorChain& chain = evaluator_.chain();
   const double tau = settings_.edges.duration;
-  for (std::size_t i = 1; i < candidates_.size(); ++i) {
-    const Candidate& candidate = candidates_[i];
+  const auto edgeOf = [&](int parent, int control, SearchTreeEdge::State state, bool closed) {
     SearchTreeEdge edge;
-    const ChainState& from = candidates_[candidate.parent].state;
+    edge.points.reserve(static_cast<std::size_t>(points_per_edge));
     for (int p = 0; p < points_per_edge; ++p) {
       const double t = tau * p / (points_per_edge - 1);
-      edge.points.push_back(chain.stateAt(from, controls_[candidate.control], t).col(0));
+      edge.points.push_back(chain.stateAt(candidates_[parent].state, controls_[control], t).col(0));
     }
-    switch (candidate.evaluation) {
-      case Evaluation::kPartial:
-        edge.state = SearchTreeEdge::State::kPartial;
-        break;
-      case Evaluation::kFull:
-        edge.state = SearchTreeEdge::State::kFull;
-        break;
-      case Evaluation::kCertified:
-        edge.state = SearchTreeEdge::State::kCertified;
-        break;
-      case Evaluation::kRejected:
-        edge.state = SearchTreeEdge::State::kRejected;
-        break;
+    edge.state = state;
+    edge.closed = closed;
+    return edge;
+  };
+  std::vector<std::size_t> queued;  // heap entries that are edges not yet materialised
+  for (std::size_t i = 0; i < heap_.size(); ++i) {
+    if (heap_[i].kind != EntryKind::kCandidate) queued.push_back(i);
+  }
+  const std::size_t evaluated = candidates_.empty() ? 0 : candidates_.size() - 1;
+  const std::size_t total = evaluated + queued.size();
+  const std::size_t stride = max_edges == 0 ? total + 1 : (total + max_edges - 1) / max_edges;
+  SearchTree tree;
+  tree.reserve(std::min(total, max_edges));
+  for (std::size_t k = 0; k < total; k += std::max<std::size_t>(stride, 1)) {
+    if (k < evaluated) {
+      const Candidate& candidate = candidates_[k + 1];
+      const SearchTreeEdge::State state =
+          candidate.evaluation == Evaluation::kFull        ? SearchTreeEdge::State::kFull
+          : candidate.evaluation == Evaluation::kCertified ? SearchTreeEdge::State::kCertified
+                                                           : SearchTreeEdge::State::kRejected;
+      tree.push_back(edgeOf(candidate.parent, candidate.control, state,
+                            slots_[candidate.slot].closed == static_cast<int>(k + 1)));
+    } else {
+      const HeapEntry& entry = heap_[queued[k - evaluated]];
+      tree.push_back(edgeOf(entry.node, entry.control,
+                            entry.kind == EntryKind::kCertified ? SearchTreeEdge::State::kCertified
+                                                                : SearchTreeEdge::State::kPartial,
+                            false));
     }
-    edge.closed = slots_[candidate.slot].closed == static_cast<int>(i);
-    tree.push_back(std::move(edge));
   }
   return tree;
 }

@@ -93,6 +93,7 @@ struct RrtFrontEnd::Ompl {
   ob::SpaceInformationPtr si;
   std::uint32_t seed = 0;  // of the sampler the next solve allocates
   long long validity_checks = 0;
+  ob::PlannerPtr last_planner;  // kept for tree() after the clock stopped
 };
 
 RrtFrontEnd::RrtFrontEnd(std::shared_ptr<const World> world, const FrontEndSettings& settings)
@@ -125,8 +126,33 @@ RrtFrontEnd::RrtFrontEnd(std::shared_ptr<const World> world, const FrontEndSetti
 
 RrtFrontEnd::~RrtFrontEnd() = default;
 
+SearchTree RrtFrontEnd::tree(std::size_t max_edges) const {
+  const Ompl& o = *ompl_;
+  if (!o.last_planner) return {};
+  ob::PlannerData data(o.si);
+  o.last_planner->getPlannerData(data);
+  std::vector<std::pair<unsigned int, unsigned int>> edges;
+  std::vector<unsigned int> children;
+  for (unsigned int parent = 0; parent < data.numVertices(); ++parent) {
+    data.getEdges(parent, children);
+    for (const unsigned int child : children) edges.emplace_back(parent, child);
+  }
+  const std::size_t stride =
+      max_edges == 0 ? edges.size() + 1 : std::max<std::size_t>(1, (edges.size() + max_edges - 1) / max_edges);
+  SearchTree tree;
+  for (std::size_t i = 0; i < edges.size(); i += stride) {
+    SearchTreeEdge edge;
+    edge.points = {toVector(data.getVertex(edges[i].first).getState()),
+                   toVector(data.getVertex(edges[i].second).getState())};
+    edge.state = SearchTreeEdge::State::kFull;
+    edge.closed = true;
+    tree.push_back(std::move(edge));
+  }
+  return tree;
+}
+
 FrontEndResult RrtFrontEnd::plan(const Eigen::Vector3d& start, const Eigen::Vector3d& goal,
-                                 std::uint32_t seed, StopCondition& stop, SearchTree* tree) {
+                                 std::uint32_t seed, StopCondition& stop) {
   Ompl& o = *ompl_;
   const FrontEndSettings& settings = o.settings;
   o.seed = seed;
@@ -153,6 +179,7 @@ FrontEndResult RrtFrontEnd::plan(const Eigen::Vector3d& start, const Eigen::Vect
   planner->setDelayCC(settings.delay_collision_checking);
   planner->setProblemDefinition(problem);
   planner->setup();
+  o.last_planner = planner;
 
   // The termination condition runs once per iteration: it applies the budget, stops after
   // the refinement iterations, and records the anytime progress on the fixed grid.
@@ -208,24 +235,6 @@ FrontEndResult RrtFrontEnd::plan(const Eigen::Vector3d& start, const Eigen::Vect
     result.statistics.emplace_back("path_length_raw", raw_length);
     result.statistics.emplace_back("path_vertices", static_cast<double>(path.getStateCount()));
     result.statistics.emplace_back("path_length", result.path_length);
-  }
-
-  if (tree) {
-    ob::PlannerData data(o.si);
-    planner->getPlannerData(data);
-    tree->clear();
-    std::vector<unsigned int> children;
-    for (unsigned int parent = 0; parent < data.numVertices(); ++parent) {
-      data.getEdges(parent, children);
-      for (const unsigned int child : children) {
-        SearchTreeEdge edge;
-        edge.points = {toVector(data.getVertex(parent).getState()),
-                       toVector(data.getVertex(child).getState())};
-        edge.state = SearchTreeEdge::State::kFull;
-        edge.closed = true;
-        tree->push_back(std::move(edge));
-      }
-    }
   }
 
   const ob::MotionValidatorPtr& motions = o.si->getMotionValidator();

@@ -50,9 +50,11 @@ class RrtFrontEnd {
   RrtFrontEnd& operator=(const RrtFrontEnd&) = delete;
 
   /// One RRT* run from `start` towards the goal ball, seeded by `seed` (the same seed and
-  /// iteration budget give the same path). With `tree`, the final tree's edges go there.
+  /// iteration budget give the same path).
   FrontEndResult plan(const Eigen::Vector3d& start, const Eigen::Vector3d& goal, std::uint32_t seed,
-                      StopCondition& stop, SearchTree* tree);
+                      StopCondition& stop);
+  /// The last plan's final tree: at most `max_edges` edges, decimated evenly beyond that.
+  SearchTree tree(std::size_t max_edges) const;
 
  private:
   struct Ompl;

@@ -136,7 +136,7 @@ class RrtStarPlanner final : public Planner {
     if (smoother_settings_) smoother_.emplace(context.world, *smoother_settings_);
   }
 
-  PlanResult doPlan(const PlanningQuery& query, StopCondition& stop, SearchTree* tree) override {
+  PlanResult doPlan(const PlanningQuery& query, StopCondition& stop) override {
     PlanResult result;
     const Eigen::Vector3d start = query.start.col(0);
     const bool at_rest = query.start.col(1).isZero() && query.start.col(2).isZero();
@@ -158,7 +158,7 @@ class RrtStarPlanner final : public Planner {
     std::uint64_t seed = hashBytes(query.goal.data(), 3 * sizeof(double), seed_);
     seed = hashBytes(query.start.data(), sizeof(ChainState), seed);
     FrontEndResult path =
-        front_end_->plan(start, query.goal, static_cast<std::uint32_t>(seed), stop, tree);
+        front_end_->plan(start, query.goal, static_cast<std::uint32_t>(seed), stop);
     result.statistics = std::move(path.statistics);
     if (path.outcome == FrontEndResult::Outcome::kNone) {
       result.status = PlanStatus::kTimeout;
@@ -184,6 +184,10 @@ class RrtStarPlanner final : public Planner {
     }
     result.cost = result.trajectory.empty() ? INFINITY : result.trajectory.length();
     return result;
+  }
+
+  SearchTree doTree(std::size_t max_edges) const override {
+    return front_end_ ? front_end_->tree(max_edges) : SearchTree{};
   }
 
   PlanningModel planningModel() const override { return model_; }

@@ -62,6 +62,9 @@ struct SearchTreeEdge {
   bool closed = false;  ///< the child was expanded (or reached the goal)
 };
 using SearchTree = std::vector<SearchTreeEdge>;
+/// The most edges a tree for figures holds (`kinolab plan --out`, the runner's store.trees):
+/// a large search is decimated evenly to this, so its tree is megabytes, not gigabytes.
+inline constexpr std::size_t kMaxTreeEdges = 20000;
 std::string_view toString(SearchTreeEdge::State state);
 
 /// A named statistic a planner reports (counters and times); the runner stores them all.
@@ -95,7 +98,9 @@ class Planner {
   virtual ~Planner() = default;
 
   void setup(const PlannerContext& context);
-  /// Plans one query within `budget`. With `tree`, the planner's search tree is written there.
+  /// Plans one query within `budget`. With `tree`, the planner's search tree is written there,
+  /// built after the clock stopped (planning_time_ms is the same with or without it) and at
+  /// most kMaxTreeEdges edges.
   PlanResult plan(const PlanningQuery& query, const Budget& budget, SearchTree* tree = nullptr);
   /// Forgets everything from earlier queries (setup stays).
   void reset() { doReset(); }
@@ -108,7 +113,10 @@ class Planner {
   virtual void doSetup(const PlannerContext& context) = 0;
   /// Plans from a valid start to a valid goal. The status, trajectory, cost and statistics
   /// are the planner's; plan() adds the time, D and the checker's verdict.
-  virtual PlanResult doPlan(const PlanningQuery& query, StopCondition& stop, SearchTree* tree) = 0;
+  virtual PlanResult doPlan(const PlanningQuery& query, StopCondition& stop) = 0;
+  /// The search tree (or graph) of the last doPlan(), for figures: at most `max_edges`
+  /// edges, decimated evenly beyond that. Called after the clock stopped; none by default.
+  virtual SearchTree doTree(std::size_t /*max_edges*/) const { return {}; }
   virtual void doReset() {}
   virtual PlanningModel planningModel() const = 0;
   /// The planner's own budget (from its parameters); plan() uses the tighter of this and

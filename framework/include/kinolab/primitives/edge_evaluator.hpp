@@ -99,14 +99,16 @@ class EdgeEvaluator {
   bool certify(const ChainState& start, double start_distance, const Eigen::Vector3d& control,
                EdgeEvaluation& evaluation) const;
 
+  /// The end state after tau (closed form, from the precomputed powers of tau); bit for bit
+  /// the `end` of every evaluation of this primitive.
+  ChainState endState(const ChainState& start, const Eigen::Vector3d& control) const;
+
   /// The number of samples K full evaluation uses for this primitive.
   int sampleCount(const ChainState& start, const Eigen::Vector3d& control) const {
     return sampleCountFor(pathBound(start, control));
   }
 
  private:
-  /// The end state after tau (closed form, from the precomputed powers of tau).
-  ChainState endState(const ChainState& start, const Eigen::Vector3d& control) const;
   /// An upper bound on the path length over the primitive (speed bound times tau).
   double pathBound(const ChainState& start, const Eigen::Vector3d& control) const;
   int sampleCountFor(double path_bound) const;

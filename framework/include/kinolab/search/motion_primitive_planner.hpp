@@ -50,7 +50,8 @@ class MotionPrimitivePlanner : public Planner {
 
  protected:
   void doSetup(const PlannerContext& context) override;
-  PlanResult doPlan(const PlanningQuery& query, StopCondition& stop, SearchTree* tree) override;
+  PlanResult doPlan(const PlanningQuery& query, StopCondition& stop) override;
+  SearchTree doTree(std::size_t max_edges) const override;
   void doReset() override;
   PlanningModel planningModel() const override;
   Budget ownBudget() const override { return config_.budget; }

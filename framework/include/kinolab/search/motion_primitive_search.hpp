@@ -56,12 +56,14 @@ struct SearchCounters {
 };
 
 /// The motion-primitive A* core shared by the lazy and eager planners and by any new
-/// search-based plugin. Open-list entries are candidates (state, parent, control, cost,
-/// evaluation state); a state is closed only when an evaluated candidate for it is popped;
-/// a popped unevaluated candidate is fully evaluated and re-queued with its true cost (or
-/// dropped when the edge is invalid); the goal test happens on an evaluated pop inside the
-/// goal region. The open list is a binary heap with lazy deletion (stale entries are
-/// skipped when popped); candidates live in one array addressed by index.
+/// search-based plugin. The open list holds edges: an evaluated edge is a candidate (state,
+/// parent, control, cost) in one array addressed by index; an edge queued with a lower bound
+/// (lazy) is only its heap entry (parent, control, lower-bound cost: 24 bytes), and its end
+/// state, key and table probe are computed when it is popped. A state is closed only when an
+/// evaluated candidate for it is popped; a popped lower-bound edge is dropped if its state is
+/// closed, else fully evaluated and re-queued with its true cost (or dropped when invalid);
+/// the goal test happens on an evaluated pop inside the goal region. The open list is a
+/// binary heap with lazy deletion (stale entries are skipped when popped).
 ///
 /// With a consistent heuristic and weight 1, lazy (a lower-bound edge policy) with the `lwa`
 /// rule and eager (full evaluation) return the same cost. States are keyed by rounding position and
@@ -88,8 +90,11 @@ class MotionPrimitiveSearch {
   const SearchCounters& counters() const { return counters_; }
   /// The counters by name, for results: expansions, pops, partial_evaluations, ...
   Statistics statistics() const;
-  /// Every candidate edge with its evaluation state (for figures).
-  SearchTree tree(int points_per_edge = 6) const;
+  /// The edges of the last search for figures: every evaluated, certified or rejected edge,
+  /// then the lower-bound edges still queued (lower-bound edges popped after their state was
+  /// closed are not kept). At most `max_edges` edges: beyond that every k-th, evenly, so a
+  /// large search gives a figure of bounded size.
+  SearchTree tree(std::size_t max_edges, int points_per_edge = 6) const;
 
   /// Frees the memory of the last search (search() reuses it otherwise).
   void clear();
@@ -105,43 +110,53 @@ class MotionPrimitiveSearch {
     Key key;
     double best_f = INFINITY;  ///< lowest priority of an evaluated candidate queued (lwa, eager)
     int closed = -1;           ///< the candidate that closed the state
-    bool seen = false;         ///< a candidate was queued (seed rule)
+    bool seen = false;         ///< an edge was queued (seed rule)
   };
-  enum class Evaluation : std::uint8_t { kPartial, kFull, kCertified, kRejected };
+  enum class Evaluation : std::uint8_t { kFull, kCertified, kRejected };
   struct Candidate {
     ChainState state;
     double g = 0.0;
-    double h = 0.0;         ///< heuristic at the state, computed once
-    double distance = 0.0;  ///< ESDF at the state's position (INFINITY when not looked up)
     int parent = -1;
     int control = -1;
     int slot = -1;
     Evaluation evaluation = Evaluation::kFull;
   };
+  /// What a heap entry holds: an evaluated candidate, or a parent and control whose edge was
+  /// queued with a lower bound (or certified exact) and not yet materialised.
+  enum class EntryKind : std::uint8_t { kCandidate, kLowerBound, kCertified };
   struct HeapEntry {
     double f;
     double g;
-    int candidate;
-    /// Heap order: smallest f first; among equal f the deeper (larger g), then the older.
+    std::int32_t node;      ///< the candidate (kCandidate) or the edge's parent
+    std::int16_t control;   ///< the edge's control (lower-bound and certified entries)
+    EntryKind kind;
+    /// Heap order: smallest f first; among equal f the deeper (larger g), then evaluated
+    /// candidates before queued edges, then by node and control.
     struct Later {
       bool operator()(const HeapEntry& a, const HeapEntry& b) const {
         if (a.f != b.f) return a.f > b.f;
         if (a.g != b.g) return a.g < b.g;
-        return a.candidate > b.candidate;
+        if (a.kind != b.kind) return a.kind > b.kind;
+        if (a.node != b.node) return a.node > b.node;
+        return a.control > b.control;
       }
     };
   };
 
   Key keyOf(const ChainState& state) const;
   /// f = cost_weight g + heuristic_weight h.
-  double priority(const Candidate& candidate) const;
+  double priority(double g, double h) const;
   int slotOf(const ChainState& state);
   /// Empties the containers of the last search, keeping their memory.
   void prepare();
-  void push(int candidate);
+  void push(const HeapEntry& entry);
+  /// Appends an evaluated candidate and queues it unless the lwa rule drops it (a queued
+  /// candidate of its state is at least as good). Returns false when dropped.
+  bool queueCandidate(const Candidate& candidate, double h);
   void expand(int node);
-  /// Turns a popped lower-bound candidate into an evaluated one; false when it is dropped.
-  bool evaluateFully(Candidate& candidate);
+  /// A popped lower-bound or certified edge: materialises it unless its state is closed
+  /// (full evaluation for a lower bound) and queues the candidate.
+  void evaluatePopped(const HeapEntry& entry);
 
   std::shared_ptr<const World> world_;
   std::vector<Eigen::Vector3d> controls_;
