@@ -1,5 +1,10 @@
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <chrono>
+#include <limits>
+#include <thread>
+
 #include "kinolab/core/random.hpp"
 #include "kinolab/primitives/control_sampler.hpp"
 #include "kinolab/search/motion_primitive_planner.hpp"
@@ -186,6 +191,62 @@ TEST(MotionPrimitiveSearch, BudgetStopReturnsThePathToTheNearestState) {
   const double start_distance = (query.start.col(0) - query.goal).norm();
   EXPECT_LT(result.distance_to_goal, start_distance - 0.5);
   EXPECT_NEAR((result.trajectory.endPosition() - query.goal).norm(), result.distance_to_goal, 0.05);
+}
+
+TEST(MotionPrimitiveSearch, TreesForFiguresAreCappedAndKeepEveryKindOfEdge) {
+  test::loadTestPlugins();
+  ConfiguredPlanner configured = configurePlanner(
+      "lazy_mp_astar", test::assignments({"sampler.samples_per_axis=5", "time_limit=0",
+                                          "max_expansions=800", "lower_bound=lipschitz"}));
+  const auto world = test::smallWorld("forest");
+  configured.planner->setup({world, configured.sampler, 1});
+  const auto query = test::randomQueries(*world, 1, 21, 8.0, 11.0, 0.5).front();
+  SearchTree full_tree;
+  configured.planner->plan(query, Budget{}, &full_tree);
+  const auto& search = dynamic_cast<const MotionPrimitivePlanner&>(*configured.planner).search();
+  // Uncapped: every queued edge (800 expansions of 125 controls, the invalid ones dropped).
+  const SearchTree all = search.tree(std::numeric_limits<std::size_t>::max());
+  ASSERT_GT(all.size(), 20000u);
+  EXPECT_LE(full_tree.size(), kMaxTreeEdges);
+  EXPECT_GE(full_tree.size(), kMaxTreeEdges / 2);
+  const SearchTree small = search.tree(1000);
+  EXPECT_LE(small.size(), 1000u);
+  EXPECT_GE(small.size(), 500u);
+  // Every kind survives the decimation: lazy's queued edges, full ones and the certified.
+  for (const auto state : {SearchTreeEdge::State::kPartial, SearchTreeEdge::State::kFull,
+                           SearchTreeEdge::State::kCertified}) {
+    EXPECT_TRUE(std::any_of(small.begin(), small.end(),
+                            [state](const SearchTreeEdge& edge) { return edge.state == state; }))
+        << toString(state);
+  }
+}
+
+/// Plans at once; building its tree takes 300 ms.
+class SlowTreePlanner final : public Planner {
+ protected:
+  void doSetup(const PlannerContext&) override {}
+  PlanResult doPlan(const PlanningQuery&, StopCondition&) override {
+    PlanResult result;
+    result.status = PlanStatus::kNoSolution;
+    return result;
+  }
+  SearchTree doTree(std::size_t) const override {
+    std::this_thread::sleep_for(std::chrono::milliseconds(300));
+    return SearchTree(3);
+  }
+  PlanningModel planningModel() const override { return {}; }
+};
+
+TEST(Planner, BuildingTheTreeForFiguresIsNotPlanningTime) {
+  SlowTreePlanner planner;
+  planner.setup({test::smallWorld("forest"), nullptr, 1});
+  PlanningQuery query;
+  query.start.col(0) = Eigen::Vector3d(0.6, 0.6, 1.0);
+  query.goal = Eigen::Vector3d(0.7, 0.6, 1.0);
+  SearchTree tree;
+  const PlanResult result = planner.plan(query, Budget{}, &tree);
+  EXPECT_EQ(tree.size(), 3u);
+  EXPECT_LT(result.planning_time_ms, 150.0);  // the 300 ms of doTree are not in it
 }
 
 TEST(MotionPrimitiveSearch, NoSearchOutgrowsItsMemoryBudgetEvenWithoutATimeLimit) {

@@ -11,7 +11,7 @@ ParameterSpecs motionPrimitiveParameters() {
       .sampler("sampler", "uniform",
                "control sampler (kinolab list samplers); set its parameters as sampler.NAME")
       .integer("order", 2, 2, 4, "integrator chain order: 2 acceleration, 3 jerk, 4 snap control")
-      .real("tau", 0.4, 0.01, 5.0, "primitive duration, s")
+      .real("tau", 0.6, 0.01, 5.0, "primitive duration, s")
       .include(motionParameters(10.0))
       .real("max_jerk", 10.0, 0.01, 10000.0, "per-axis jerk limit (order >= 3), m/s^3")
       .real("max_snap", 50.0, 0.01, 100000.0, "per-axis snap limit (order 4), m/s^4")

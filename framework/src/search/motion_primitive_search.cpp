@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
-#include <limits>
 
 #include "kinolab/core/error.hpp"
 
@@ -55,8 +54,8 @@ MotionPrimitiveSearch::MotionPrimitiveSearch(std::shared_ptr<const World> world,
       throw InvalidArgument("motion-primitive search: key resolutions must be positive");
     }
   }
-  if (controls_.size() > static_cast<std::size_t>(std::numeric_limits<std::int16_t>::max())) {
-    throw InvalidArgument("motion-primitive search: at most 32767 controls, got " +
+  if (controls_.size() >= (std::size_t{1} << 30)) {
+    throw InvalidArgument("motion-primitive search: at most 2^30 controls, got " +
                           std::to_string(controls_.size()));
   }
   evaluations_.resize(controls_.size());
@@ -126,8 +125,7 @@ bool MotionPrimitiveSearch::queueCandidate(const Candidate& candidate, double h)
     slot.best_f = f;
   }
   candidates_.push_back(candidate);
-  push({f, candidate.g, static_cast<std::int32_t>(candidates_.size() - 1), -1,
-        EntryKind::kCandidate});
+  push({f, candidate.g, static_cast<std::int32_t>(candidates_.size() - 1), 0, kCandidate});
   return true;
 }
 
@@ -165,7 +163,7 @@ void MotionPrimitiveSearch::evaluatePopped(const HeapEntry& entry) {
   if (slots_[candidate.slot].closed >= 0) return;  // stale: closed by a cheaper candidate
   candidate.parent = entry.node;
   candidate.control = entry.control;
-  if (entry.kind == EntryKind::kCertified) {
+  if (entry.kind == kCertified) {
     candidate.g = entry.g;
     candidate.evaluation = Evaluation::kCertified;
   } else {
@@ -244,8 +242,8 @@ void MotionPrimitiveSearch::expand(int node) {
     // and table probe wait until the edge is popped.
     ++counters_.candidates;
     push({priority(g, heuristic.estimate(evaluation.end, goal_)), g, node,
-          static_cast<std::int16_t>(i),
-          estimate == EdgeEstimate::kCertified ? EntryKind::kCertified : EntryKind::kLowerBound});
+          static_cast<std::uint32_t>(i),
+          estimate == EdgeEstimate::kCertified ? kCertified : kLowerBound});
   }
 }
 
@@ -262,7 +260,7 @@ MotionPrimitiveSearch::Outcome MotionPrimitiveSearch::search(const ChainState& s
   const double root_f = priority(0.0, policies_.heuristic->estimate(start, goal_));
   slots_[root.slot].best_f = root_f;
   slots_[root.slot].seen = true;
-  push({root_f, 0.0, 0, -1, EntryKind::kCandidate});
+  push({root_f, 0.0, 0, 0, kCandidate});
 
   double nearest = INFINITY;
   Outcome outcome = Outcome::kExhausted;
@@ -281,7 +279,7 @@ MotionPrimitiveSearch::Outcome MotionPrimitiveSearch::search(const ChainState& s
     const HeapEntry entry = heap_.back();
     heap_.pop_back();
     ++counters_.pops;
-    if (entry.kind != EntryKind::kCandidate) {
+    if (entry.kind != kCandidate) {
       evaluatePopped(entry);
       continue;
     }
@@ -357,7 +355,7 @@ SearchTree MotionPrimitiveSearch::tree(std::size_t max_edges, int points_per_edg
   };
   std::vector<std::size_t> queued;  // heap entries that are edges not yet materialised
   for (std::size_t i = 0; i < heap_.size(); ++i) {
-    if (heap_[i].kind != EntryKind::kCandidate) queued.push_back(i);
+    if (heap_[i].kind != kCandidate) queued.push_back(i);
   }
   const std::size_t evaluated = candidates_.empty() ? 0 : candidates_.size() - 1;
   const std::size_t total = evaluated + queued.size();
@@ -376,7 +374,7 @@ SearchTree MotionPrimitiveSearch::tree(std::size_t max_edges, int points_per_edg
     } else {
       const HeapEntry& entry = heap_[queued[k - evaluated]];
       tree.push_back(edgeOf(entry.node, entry.control,
-                            entry.kind == EntryKind::kCertified ? SearchTreeEdge::State::kCertified
+                            entry.kind == kCertified ? SearchTreeEdge::State::kCertified
                                                                 : SearchTreeEdge::State::kPartial,
                             false));
     }

@@ -32,7 +32,7 @@ KINOLAB_REGISTER_PLUGINS(registrar) {
   using namespace kinolab;
   registrar.add<ControlSampler>(
       "uniform", "evenly spaced grid of n values per axis over [-u_max, u_max] (n^3 controls)",
-      ParameterSpecs().integer("samples_per_axis", 5, 1, 64,
+      ParameterSpecs().integer("samples_per_axis", 3, 1, 64,
                                "values per axis n, ends included (1 gives the zero control)"),
       [](const ParameterSet& parameters) { return std::make_unique<UniformSampler>(parameters); });
 }

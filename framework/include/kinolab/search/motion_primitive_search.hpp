@@ -123,13 +123,13 @@ class MotionPrimitiveSearch {
   };
   /// What a heap entry holds: an evaluated candidate, or a parent and control whose edge was
   /// queued with a lower bound (or certified exact) and not yet materialised.
-  enum class EntryKind : std::uint8_t { kCandidate, kLowerBound, kCertified };
+  enum EntryKind : std::uint32_t { kCandidate, kLowerBound, kCertified };
   struct HeapEntry {
     double f;
     double g;
-    std::int32_t node;      ///< the candidate (kCandidate) or the edge's parent
-    std::int16_t control;   ///< the edge's control (lower-bound and certified entries)
-    EntryKind kind;
+    std::int32_t node;         ///< the candidate (kCandidate) or the edge's parent
+    std::uint32_t control : 30;  ///< the edge's control (lower-bound and certified entries)
+    std::uint32_t kind : 2;      ///< an EntryKind
     /// Heap order: smallest f first; among equal f the deeper (larger g), then evaluated
     /// candidates before queued edges, then by node and control.
     struct Later {
