@@ -52,10 +52,22 @@ def test_exports_grid_esdf_metadata_and_pictures(kinolab, tmp_path):
     assert occupancy.shape == esdf.shape == (50, 40, 15) == tuple(meta["shape"])
     assert int(occupancy.sum()) == meta["occupied_voxels"] > 0
 
-    # An independent exact transform (SciPy) gives the same signed field.
-    outside = ndimage.distance_transform_edt(occupancy == 0) * meta["resolution"]
-    inside = ndimage.distance_transform_edt(occupancy == 1) * meta["resolution"]
-    expected = np.where(occupancy == 1, -inside, outside)
+    # An independent exact transform (SciPy) gives the same signed field. The field measures
+    # from voxel centres to the cubes of the other kind: on the grid of half voxels a cube
+    # is the 3 x 3 x 3 block around its centre, so the distance from a centre to the nearest
+    # cube is the Euclidean transform of the blocks' union, read at the centres.
+    def to_cubes(target):
+        doubled = np.zeros(tuple(2 * n + 1 for n in target.shape), dtype=bool)
+        for dx in range(3):
+            for dy in range(3):
+                for dz in range(3):
+                    doubled[dx : dx + 2 * target.shape[0] : 2,
+                            dy : dy + 2 * target.shape[1] : 2,
+                            dz : dz + 2 * target.shape[2] : 2] |= target
+        distance = ndimage.distance_transform_edt(~doubled)
+        return distance[1::2, 1::2, 1::2] * meta["resolution"] / 2
+
+    expected = np.where(occupancy == 1, -to_cubes(occupancy == 0), to_cubes(occupancy == 1))
     assert np.abs(esdf - expected).max() < 1e-4 * meta["resolution"]
 
     for picture in ("top_view.png", "esdf_slice.png"):

@@ -83,7 +83,7 @@ file(WRITE "${WORK_DIR}/bound.yaml" "kind: planning\nname: bound\nseed: 4\nplugi
   "queries:\n  random: {count: 3, min_distance: 3, max_distance: 7}\n"
   "planners:\n  - id: scaled\n    type: lazy_scaled_bound\n"
   "    sampler: {type: uniform, params: {samples_per_axis: 3}}\n"
-  "    params: {bound_scale: 0.25}\n")
+  "    params: {bound_scale: 0.25, tau: 0.4}\n")
 run_step(OK ${env} "${kinolab}" run "${WORK_DIR}/bound.yaml" --out "${WORK_DIR}/bound")
 expect_output("3 runs ran, 3 succeeded")
 message(STATUS "out-of-tree program and plugins: as expected")

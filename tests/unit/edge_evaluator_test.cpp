@@ -5,6 +5,7 @@
 #include "kinolab/core/error.hpp"
 #include "kinolab/core/random.hpp"
 #include "kinolab/core/yaml_reader.hpp"
+#include "kinolab/validation/trajectory_checker.hpp"
 #include "kinolab/world/world_spec.hpp"
 
 namespace kinolab {
@@ -70,6 +71,7 @@ TEST(EdgeEvaluator, PolylineLengthConvergesToTheArcLength) {
     EdgeEvaluatorSettings settings;
     settings.duration = 1.0;
     settings.limits = DynamicLimits::uniform(5.0, 5.0);
+    settings.weights.length = 1.0;  // the polyline is measured for the length term
     settings.sampling.samples = samples;
     const EdgeEvaluation full = EdgeEvaluator(world, settings).full(start, control);
     ASSERT_TRUE(full.valid());
@@ -95,33 +97,52 @@ TEST(EdgeEvaluator, ObstaclePenaltyIsAQuadratureOverTheSamples) {
   const EdgeEvaluator evaluator(world, settings);
   const ChainState start = stateAt({4.55, 2, 1.55}, {0, 1, 0});  // a voxel centre
   const double distance = world->esdf().distance(start.col(0));
-  EXPECT_NEAR(distance, 0.5, 1e-6);  // from the centre at 4.55 to the wall's first centre 5.05
+  EXPECT_NEAR(distance, 0.45, 1e-6);  // from the centre at 4.55 to the wall's face at 5
   const double phi = std::pow(1.0 - (distance - 0.2) / 0.5, 2);
   const EdgeEvaluation full = evaluator.full(start, Eigen::Vector3d::Zero());
   const EdgeEvaluation partial = evaluator.partial(start, Eigen::Vector3d::Zero());
   ASSERT_TRUE(full.valid() && partial.valid());
   EXPECT_NEAR(full.obstacle_cost, 4.0 * phi * 0.5, 1e-6);
   EXPECT_NEAR(partial.obstacle_cost, 4.0 * phi * 0.5 / 5, 1e-6);
-  EXPECT_EQ(full.esdf_queries, 5);
+  // The five quadrature samples (all inside the band) and the sphere tracing's points.
+  EXPECT_GT(full.esdf_queries, 5);
   EXPECT_EQ(partial.esdf_queries, 1);
 }
 
+TEST(EdgeEvaluator, FarFromObstaclesAnEdgeCostsTwoQueries) {
+  const auto world = worldFrom(
+      "resolution: 0.1\nbounds: {min: [0, 0, 0], max: [10, 10, 3]}\ngenerators: [{type: empty}]\n");
+  EdgeEvaluatorSettings settings;
+  settings.sampling.samples = 50;
+  const EdgeEvaluator evaluator(world, settings);
+  const EdgeEvaluation full = evaluator.full(stateAt({3, 5, 1.5}, {1, 1, 0}), {2, -1, 0.5});
+  ASSERT_TRUE(full.valid());
+  EXPECT_EQ(full.esdf_queries, 2);  // the start covers the edge, then the end; no quadrature
+  EXPECT_EQ(full.obstacle_cost, 0.0);
+}
+
 /// Partial <= full on every primitive; partial rejection implies full rejection; and full
-/// evaluation finds every collision a dense check (2000 points per primitive) finds.
+/// evaluation finds every collision a dense check finds: 400 points per primitive, each
+/// tested exactly against the occupied cubes (the checker's FCL test) with the radius less
+/// the tolerance.
 void checkAgainstDenseChecking(const EdgeEvaluatorSettings& settings, int* dense_collisions,
                                int* missed) {
   const auto world = smallForest();
   const EdgeEvaluator evaluator(world, settings);
   const IntegratorChain& chain = evaluator.chain();
+  CheckerSettings body;
+  body.robot_radius = settings.robot_radius;
+  body.collision_tolerance = settings.collision_tolerance;
+  const TrajectoryChecker exact(world, body);
   Rng rng(17);
   *dense_collisions = 0;
   *missed = 0;
-  for (int trial = 0; trial < 4000; ++trial) {
+  for (int trial = 0; trial < 2000; ++trial) {
     ChainState start = ChainState::Zero();
     do {
       start.col(0) =
           Eigen::Vector3d(rng.uniform(0.5, 9.5), rng.uniform(0.5, 9.5), rng.uniform(0.5, 2.5));
-    } while (world->distance(start.col(0)) < settings.robot_radius);
+    } while (!world->isFree(start.col(0), settings.robot_radius));
     for (int k = 1; k < settings.order; ++k) {
       for (int axis = 0; axis < 3; ++axis) start(axis, k) = rng.uniform(-1.5, 1.5);
     }
@@ -138,9 +159,9 @@ void checkAgainstDenseChecking(const EdgeEvaluatorSettings& settings, int* dense
     }
     if (!full.within_limits) continue;
     bool dense_collision = false;
-    for (int i = 1; i <= 2000 && !dense_collision; ++i) {
-      const Eigen::Vector3d p = chain.stateAt(start, control, settings.duration * i / 2000).col(0);
-      dense_collision = !world->isFree(p, settings.robot_radius);
+    for (int i = 0; i <= 400 && !dense_collision; ++i) {
+      const Eigen::Vector3d p = chain.stateAt(start, control, settings.duration * i / 400).col(0);
+      dense_collision = !world->bounds().contains(p) || exact.collides(p);
     }
     if (dense_collision) {
       ++*dense_collisions;
@@ -159,36 +180,76 @@ TEST(EdgeEvaluator, FullEvaluationFindsEveryDenseCollision) {
       int dense = 0;
       int missed = 0;
       checkAgainstDenseChecking(settings, &dense, &missed);
-      EXPECT_GT(dense, 200) << "the forest should make many primitives collide";
+      EXPECT_GT(dense, 100) << "the forest should make many primitives collide";
       EXPECT_EQ(missed, 0) << "order " << order;
     }
   }
-  // Small robots take the larger Lipschitz constant and stay safe too.
-  EdgeEvaluatorSettings small;
-  small.robot_radius = 0.05;
-  int dense = 0;
-  int missed = 0;
-  checkAgainstDenseChecking(small, &dense, &missed);
-  EXPECT_GT(dense, 100);
-  EXPECT_EQ(missed, 0);
+  // A small robot and a point robot are exact too.
+  for (const double radius : {0.05, 0.0}) {
+    EdgeEvaluatorSettings small;
+    small.robot_radius = radius;
+    int dense = 0;
+    int missed = 0;
+    checkAgainstDenseChecking(small, &dense, &missed);
+    EXPECT_GT(dense, 50) << radius;
+    EXPECT_EQ(missed, 0) << radius;
+  }
 }
 
-TEST(EdgeEvaluator, WithoutTheMarginSparseSamplesMissCollisions) {
-  // The test above has teeth: two samples per edge and no margin miss thin trunks.
+TEST(EdgeEvaluator, TheVerdictDoesNotDependOnSampling) {
+  // Two quadrature samples or a hundred, or a spacing: the same edges collide.
+  const auto world = smallForest();
+  EdgeEvaluatorSettings sparse;
+  sparse.sampling.samples = 2;
+  EdgeEvaluatorSettings dense;
+  dense.sampling.samples = 100;
+  EdgeEvaluatorSettings spaced;
+  spaced.sampling.mode = EdgeSampling::Mode::kSpacing;
+  spaced.sampling.spacing = 0.3;
+  const EdgeEvaluator a(world, sparse);
+  const EdgeEvaluator b(world, dense);
+  const EdgeEvaluator c(world, spaced);
+  Rng rng(5);
+  int collisions = 0;
+  for (int trial = 0; trial < 3000; ++trial) {
+    const ChainState start = stateAt(
+        {rng.uniform(0.5, 9.5), rng.uniform(0.5, 9.5), rng.uniform(0.5, 2.5)},
+        {rng.uniform(-1.5, 1.5), rng.uniform(-1.5, 1.5), rng.uniform(-1, 1)});
+    if (!world->isFree(start.col(0), sparse.robot_radius)) continue;
+    const Eigen::Vector3d control(rng.uniform(-3, 3), rng.uniform(-3, 3), rng.uniform(-3, 3));
+    const EdgeEvaluation ea = a.full(start, control);
+    if (!ea.within_limits) continue;
+    collisions += !ea.collision_free;
+    EXPECT_EQ(ea.collision_free, b.full(start, control).collision_free) << trial;
+    EXPECT_EQ(ea.collision_free, c.full(start, control).collision_free) << trial;
+  }
+  EXPECT_GT(collisions, 100);
+}
+
+TEST(EdgeEvaluator, ARadiusOfZeroIsAPointRobot) {
+  // A wall at x >= 5: a point flying 5 cm from its face (along voxel centres, where the
+  // clearance bound is exact) is free, one entering it is not.
+  const auto world = worldFrom(
+      "resolution: 0.1\nbounds: {min: [0, 0, 0], max: [10, 10, 3]}\n"
+      "generators: [{type: box_list, boxes: [{min: [5, 0, 0], max: [10, 10, 3]}]}]\n");
   EdgeEvaluatorSettings settings;
-  settings.certify = false;
-  settings.sampling.samples = 2;
-  int dense = 0;
-  int missed = 0;
-  checkAgainstDenseChecking(settings, &dense, &missed);
-  EXPECT_GT(missed, 0);
+  settings.robot_radius = 0.0;
+  settings.collision_tolerance = 0.005;
+  const EdgeEvaluator evaluator(world, settings);
+  EXPECT_TRUE(evaluator.full(stateAt({4.95, 2.05, 1.55}, {0, 0, 0.5}), Eigen::Vector3d::Zero())
+                  .collision_free);
+  EXPECT_FALSE(evaluator.full(stateAt({4.9, 2, 1.5}, {0.5, 1, 0}), Eigen::Vector3d::Zero())
+                   .collision_free);
 }
 
 TEST(EdgeEvaluator, RejectsBadSettings) {
   const auto world = smallForest();
   EdgeEvaluatorSettings settings;
   settings.sampling.mode = EdgeSampling::Mode::kSpacing;
-  settings.sampling.spacing = 0.06;  // coarser than half of the 0.1 m voxel
+  settings.sampling.spacing = 0.0;
+  EXPECT_THROW(EdgeEvaluator(world, settings), InvalidArgument);
+  settings = {};
+  settings.collision_tolerance = 0.0;  // tracing would never finish
   EXPECT_THROW(EdgeEvaluator(world, settings), InvalidArgument);
   settings = {};
   settings.sampling.samples = 0;

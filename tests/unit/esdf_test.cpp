@@ -18,7 +18,8 @@ VoxelGrid randomGrid(const Eigen::Vector3i& dims, double occupancy, std::uint64_
   return grid;
 }
 
-/// The signed distance by definition: nearest voxel centre of the other kind, in voxels.
+/// The signed distance by definition: from the voxel's centre to the nearest cube of a voxel
+/// of the other kind, in voxels.
 double bruteForce(const VoxelGrid& grid, const VoxelIndex& voxel) {
   const bool inside = grid.occupied(voxel);
   double best = std::numeric_limits<double>::infinity();
@@ -27,7 +28,11 @@ double bruteForce(const VoxelGrid& grid, const VoxelIndex& voxel) {
     for (int y = 0; y < dims.y(); ++y) {
       for (int z = 0; z < dims.z(); ++z) {
         if (grid.occupied(grid.index(x, y, z)) == inside) continue;
-        best = std::min(best, (Eigen::Vector3i(x, y, z) - voxel).cast<double>().squaredNorm());
+        const Eigen::Vector3d offset =
+            ((Eigen::Vector3i(x, y, z) - voxel).cast<double>().cwiseAbs().array() - 0.5)
+                .max(0.0)
+                .matrix();
+        best = std::min(best, offset.squaredNorm());
       }
     }
   }
@@ -70,16 +75,17 @@ INSTANTIATE_TEST_SUITE_P(RandomGrids, EsdfBruteForceTest,
                                            EsdfCase{{24, 24, 24}, 0.9},
                                            EsdfCase{{40, 3, 19}, 0.002}));
 
-TEST(EsdfTest, SingleObstacleGivesEuclideanDistanceInMetres) {
+TEST(EsdfTest, SingleObstacleGivesTheEuclideanDistanceToItsCubeInMetres) {
   const double resolution = 0.25;
   VoxelGrid grid(Box{Eigen::Vector3d::Zero(), Eigen::Vector3d(5.0, 4.0, 3.0)}, resolution);
   const VoxelIndex obstacle(3, 7, 2);
   grid.setOccupied(obstacle, true);
   const Esdf esdf(grid);
-  EXPECT_FLOAT_EQ(esdf.voxelDistance(grid.index(obstacle)), -resolution);
+  // Inside: half a voxel to the nearest free cube; outside: to the obstacle's cube.
+  EXPECT_FLOAT_EQ(esdf.voxelDistance(grid.index(obstacle)), -0.5 * resolution);
   const VoxelIndex far(15, 0, 10);
-  EXPECT_NEAR(esdf.voxelDistance(grid.index(far)),
-              (far - obstacle).cast<double>().norm() * resolution, 1e-5);
+  const Eigen::Vector3d offset = (far - obstacle).cast<double>().cwiseAbs().array() - 0.5;
+  EXPECT_NEAR(esdf.voxelDistance(grid.index(far)), offset.norm() * resolution, 1e-5);
 }
 
 TEST(EsdfTest, GridWithoutObstaclesHoldsTheDiagonal) {

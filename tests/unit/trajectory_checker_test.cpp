@@ -47,9 +47,9 @@ TEST(TrajectoryChecker, AcceptsAFreeLineAndReportsClearance) {
   const CheckResult result = checker.check(over, queryFor(over));
   EXPECT_TRUE(result.valid) << result.check << ": " << result.detail;
   EXPECT_GT(result.samples, 200);
-  // Nearest obstacle: the box top (centres at z = 1.95), 0.75 below; radius 0.25.
-  EXPECT_NEAR(result.min_clearance, 0.5, 0.06);
-  EXPECT_GT(result.fcl_radius, 0.0);
+  // Nearest obstacle: the box top (its face at z = 2), 0.7 below; radius 0.25.
+  EXPECT_NEAR(result.min_clearance, 0.45, 0.02);
+  EXPECT_DOUBLE_EQ(result.body_radius, 0.24);  // radius less the collision tolerance
 }
 
 TEST(TrajectoryChecker, FindsTheFirstViolationOfEachKind) {
@@ -57,10 +57,11 @@ TEST(TrajectoryChecker, FindsTheFirstViolationOfEachKind) {
   const Trajectory through = line({1, 2, 1}, {1.5, 0, 0}, 4.0);
   CheckResult result = checker.check(through, queryFor(through));
   EXPECT_FALSE(result.valid);
-  EXPECT_EQ(result.check, "esdf");
-  // The body (0.25) reaches the first voxel centres (x = 5.05) at x = 4.8, t = 2.53 s.
-  EXPECT_NEAR(result.time, 2.533, 0.02);
-  EXPECT_NEAR(result.position.x(), 4.8, 0.03);
+  EXPECT_EQ(result.check, "collision");
+  // The body (0.25 less the 0.01 tolerance) reaches the box's face (x = 5) at x = 4.76,
+  // t = 2.507 s.
+  EXPECT_NEAR(result.time, 2.507, 0.02);
+  EXPECT_NEAR(result.position.x(), 4.76, 0.03);
 
   const Trajectory fast = line({1, 2, 2.7}, {2.5, 0, 0}, 1.0);
   result = checker.check(fast, queryFor(fast));
@@ -89,32 +90,54 @@ TEST(TrajectoryChecker, FindsTheFirstViolationOfEachKind) {
   EXPECT_EQ(result.check, "numeric") << result.detail;
 }
 
-TEST(TrajectoryChecker, FclAgreesWithTheEsdfWhereTheModelsOverlap) {
+/// The exact distance from `p` to the nearest occupied voxel cube (0 inside one), by brute
+/// force over the voxels within `reach`.
+double cubeDistance(const World& world, const Eigen::Vector3d& p, double reach) {
+  const VoxelGrid& grid = world.grid();
+  const double r = grid.resolution();
+  double best = INFINITY;
+  grid.forEachVoxelIn(p.array() - reach - r, p.array() + reach + r, [&](std::size_t index) {
+    if (!grid.occupied(index)) return;
+    const std::size_t nz = grid.dims().z();
+    const std::size_t ny = grid.dims().y();
+    const VoxelIndex voxel(static_cast<int>(index / (ny * nz)), static_cast<int>(index / nz % ny),
+                           static_cast<int>(index % nz));
+    const Eigen::Vector3d offset =
+        ((p - grid.center(voxel)).cwiseAbs().array() - 0.5 * r).max(0.0).matrix();
+    best = std::min(best, offset.norm());
+  });
+  return best;
+}
+
+TEST(TrajectoryChecker, CollisionIsExactAgainstTheCubesAtAnyRadius) {
   const auto world = test::smallWorld("forest");
-  const TrajectoryChecker checker(world, {});
-  const double radius = checker.settings().robot_radius;
-  Rng rng(9);
-  int fcl_hits = 0;
-  int esdf_free = 0;
-  for (int i = 0; i < 4000; ++i) {
-    const Eigen::Vector3d p(rng.uniform(0.5, 11.5), rng.uniform(0.5, 11.5), rng.uniform(0.3, 2.5));
-    const bool hit = checker.fclCollides(p);
-    fcl_hits += hit;
-    if (world->distance(p) >= radius) {
-      ++esdf_free;
-      // ESDF clearance >= r guarantees no cube within r - sqrt(3) voxel.
-      EXPECT_FALSE(hit) << "FCL hit at an ESDF-free point " << p.transpose();
+  for (const double radius : {0.25, 0.05, 0.0}) {
+    CheckerSettings settings;
+    settings.robot_radius = radius;
+    const TrajectoryChecker checker(world, settings);
+    const double body = std::max(radius - settings.collision_tolerance, 0.0);
+    Rng rng(9);
+    int hits = 0;
+    int ties = 0;
+    for (int i = 0; i < 3000; ++i) {
+      const Eigen::Vector3d p(rng.uniform(0.5, 11.5), rng.uniform(0.5, 11.5),
+                              rng.uniform(0.3, 2.5));
+      const double exact = cubeDistance(*world, p, body);
+      const bool hit = checker.collides(p);
+      hits += hit;
+      // The clearance bound never exceeds the exact distance.
+      if (std::isfinite(exact)) {
+        EXPECT_LE(world->clearance(p), exact + 1e-6) << p.transpose();
+      }
+      if (body > 0.0 && std::abs(exact - body) < 1e-6) {
+        ++ties;  // on the sphere's surface: either answer is exact to rounding
+        continue;
+      }
+      EXPECT_EQ(hit, body > 0.0 ? exact < body : exact == 0.0)
+          << "radius " << radius << " at " << p.transpose() << ": exact distance " << exact;
     }
-  }
-  EXPECT_GT(fcl_hits, 100);  // FCL does see the trunks
-  EXPECT_GT(esdf_free, 1000);
-  // Inside a trunk: both say collision.
-  const VoxelGrid& grid = world->grid();
-  for (int ix = 0; ix < grid.dims().x(); ++ix) {
-    const VoxelIndex voxel(ix, 60, 10);
-    if (grid.occupied(voxel)) {
-      EXPECT_TRUE(checker.fclCollides(grid.center(voxel)));
-    }
+    EXPECT_GT(hits, 100) << radius;  // it does see the trunks
+    EXPECT_LT(ties, 10);
   }
 }
 

@@ -170,7 +170,7 @@ TEST(WorldSpecTest, SizesAndValuesOutsideWhatIsHandledExactlyAreRefusedUpFront) 
   // A 10 km corridor at 0.1 m: squared voxel distances would overflow the exact ESDF.
   EXPECT_NE(configErrorOf("resolution: 0.1\nbounds: {min: [0, 0, 0], max: [10000, 2, 2]}\n"
                           "generators: [{type: box_list, boxes: []}]\n")
-                .find("at most 46340 voxels of diagonal"),
+                .find("at most 23170 voxels of diagonal"),
             std::string::npos);
   EXPECT_NE(configErrorOf("resolution: 0.001\nbounds: {min: [0, 0, 0], max: [1000, 1000, 10]}\n"
                           "generators: [{type: box_list, boxes: []}]\n")
@@ -267,11 +267,11 @@ TEST(WorldTest, RobotRadiusIsAQueryTimeParameter) {
       "resolution: 0.1\nbounds: {min: [0, 0, 0], max: [4, 4, 2]}\ngenerators:\n"
       "  - type: box_list\n    boxes: [{min: [2, 0, 0], max: [2.4, 4, 2]}]\n");
   const auto world = World::build(spec);
-  // The nearest occupied voxel centre is at x = 2.05, 0.5 m away.
+  // The nearest occupied voxel cube starts at x = 2, 0.45 m away.
   const Eigen::Vector3d point(1.55, 2.0, 1.0);
-  EXPECT_NEAR(world->distance(point), 0.5, 1e-6);
+  EXPECT_NEAR(world->distance(point), 0.45, 1e-6);
   EXPECT_TRUE(world->isFree(point, 0.3));
-  EXPECT_FALSE(world->isFree(point, 0.6));
+  EXPECT_FALSE(world->isFree(point, 0.5));
   EXPECT_FALSE(world->isFree({-1.0, 2.0, 1.0}, 0.0));
 }
 

@@ -19,10 +19,11 @@ std::string positionProblem(const World& world, const Eigen::Vector3d& position,
     return formatPoint(position) + " is outside the map " + formatPoint(b.min) + " .. " +
            formatPoint(b.max);
   }
-  const double distance = world.distance(position);
-  if (distance < radius) {
-    return formatPoint(position) + " is in collision: clearance " + formatNumber(distance) +
-           " m is below the robot radius " + formatNumber(radius) + " m";
+  const double clearance = world.clearance(position);
+  if (clearance < radius) {
+    return formatPoint(position) + " is in collision: clearance " + formatNumber(clearance) +
+           " m (a lower bound of the distance to the occupied voxel cubes) is below the robot "
+           "radius " + formatNumber(radius) + " m";
   }
   return "";
 }
@@ -82,6 +83,7 @@ void Planner::setup(const PlannerContext& context) {
   settings.robot_radius = model.robot_radius;
   settings.limits = model.limits;
   settings.max_derivative = model.limited_derivatives;
+  settings.collision_tolerance = model.collision_tolerance;
   checker_ = std::make_unique<TrajectoryChecker>(context.world, settings);
   world_ = context.world;
 }
@@ -168,7 +170,12 @@ PlanResult Planner::plan(const PlanningQuery& query, const Budget& budget, Searc
 
 ParameterSpecs motionParameters(double default_time_limit) {
   return ParameterSpecs()
-      .real("robot_radius", 0.25, 0.0, 10.0, "body radius: clearance below this collides, m")
+      .real("robot_radius", 0.25, 0.0, 10.0,
+            "body radius (0: a point): a position closer than this to an occupied voxel cube "
+            "collides, m")
+      .real("collision_tolerance", 0.01, 1e-4, 1.0,
+            "the collision verdict is exact to this: an edge called free keeps robot_radius "
+            "less this from every occupied cube, m")
       .real("max_velocity", 2.0, 0.01, 100.0, "per-axis velocity limit, m/s")
       .real("max_acceleration", 3.0, 0.01, 1000.0, "per-axis acceleration limit, m/s^2")
       .real("goal_radius", 0.5, 0.001, 100.0, "goal region: positions this close to the goal, m")
@@ -182,6 +189,7 @@ PlanningModel planningModelFrom(const ParameterSet& parameters) {
       DynamicLimits::uniform(parameters.real("max_velocity"), parameters.real("max_acceleration"));
   model.limited_derivatives = 2;
   model.goal_radius = parameters.real("goal_radius");
+  model.collision_tolerance = parameters.real("collision_tolerance");
   return model;
 }
 

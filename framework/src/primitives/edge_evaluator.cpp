@@ -4,7 +4,6 @@
 #include <cmath>
 
 #include "kinolab/core/error.hpp"
-#include "kinolab/core/text.hpp"
 
 namespace kinolab {
 namespace {
@@ -50,10 +49,10 @@ EdgeEvaluator::EdgeEvaluator(std::shared_ptr<const World> world, EdgeEvaluatorSe
           "duration (tau) must be positive");
   require(settings_.robot_radius >= 0.0, "robot_radius must be >= 0");
   require(settings_.safety_distance > 0.0, "safety_distance must be positive");
+  require(settings_.collision_tolerance > 0.0, "collision_tolerance must be positive");
   const CostWeights& w = settings_.weights;
   require(w.duration >= 0 && w.length >= 0 && w.control_effort >= 0 && w.obstacle >= 0,
           "cost weights must be non-negative");
-  const double voxel = world_->esdf().resolution();
   end_powers_ = powersOver(settings_.duration, settings_.order);
   if (settings_.sampling.mode == EdgeSampling::Mode::kCount) {
     require(settings_.sampling.samples >= 1, "samples (K) must be >= 1");
@@ -63,19 +62,18 @@ EdgeEvaluator::EdgeEvaluator(std::shared_ptr<const World> world, EdgeEvaluatorSe
     }
     sample_powers_.push_back(end_powers_);
   } else {
-    require(settings_.sampling.spacing > 0.0 && settings_.sampling.spacing <= 0.5 * voxel,
-            "spacing must be in (0, half a voxel = " + formatNumber(0.5 * voxel) + " m], got " +
-                formatNumber(settings_.sampling.spacing));
+    require(settings_.sampling.spacing > 0.0, "spacing must be positive");
   }
-  // Per axis, neighbouring voxel values differ by at most one voxel (both free) or two (at a
-  // surface); the interpolant's gradient is bounded by sqrt(3) times that. Cells touching an
-  // obstacle never exceed sqrt(3) voxels in value, so a radius at least that large keeps the
-  // test inside all-free cells, where the smaller constant holds.
-  lipschitz_ = std::sqrt(3.0) * (settings_.robot_radius >= std::sqrt(3.0) * voxel ? 1.0 : 2.0);
-  // The trilinear value mixes the eight voxels around a point, all within a voxel diagonal of
-  // the nearest one, and neighbouring values differ by at most two voxels per voxel step.
-  far_slack_ = 2.0 * std::sqrt(3.0) * voxel;
   inverse_safety_distance_ = 1.0 / settings_.safety_distance;
+  const auto choose = [](int n, int k) {
+    double value = 1.0;
+    for (int i = 1; i <= k; ++i) value = value * (n - k + i) / i;
+    return value;
+  };
+  const int n = settings_.order;
+  for (int k = 0; k <= n; ++k) {
+    for (int m = 0; m <= k; ++m) bernstein_[k][m] = choose(k, m) / choose(n, m);
+  }
 }
 
 ChainState EdgeEvaluator::endState(const ChainState& start, const Eigen::Vector3d& control) const {
@@ -102,29 +100,61 @@ double EdgeEvaluator::mapFreeCost(const Eigen::Vector3d& control) const {
   return (w.duration + w.control_effort * control.squaredNorm()) * settings_.duration;
 }
 
+bool EdgeEvaluator::insideMap(const ChainState& start, const Eigen::Vector3d& control) const {
+  // Per axis the position is sum_m b_m s^m over s = t / tau in [0, 1], b_m = a_m tau^m; it
+  // stays in the convex hull of its Bernstein coefficients sum_{m<=k} C(k,m)/C(n,m) b_m.
+  const int n = settings_.order;
+  std::array<Eigen::Vector3d, 5> b;
+  for (int m = 0; m < n; ++m) b[m] = start.col(m) * end_powers_[m];
+  b[n] = control * end_powers_[n];
+  const Box& box = world_->bounds();
+  for (int k = 0; k <= n; ++k) {
+    Eigen::Vector3d point = Eigen::Vector3d::Zero();
+    for (int m = 0; m <= k; ++m) point += bernstein_[k][m] * b[m];
+    if (!box.contains(point)) return false;
+  }
+  return true;
+}
+
+EdgeEvaluation EdgeEvaluator::controlOnly(const ChainState& start,
+                                          const Eigen::Vector3d& control) const {
+  EdgeEvaluation result;
+  result.end = endState(start, control);
+  result.within_limits = chain_.withinLimits(start, control, settings_.duration, settings_.limits);
+  if (!result.within_limits) return result;
+  result.samples = sampleCount(start, control);
+  if (!insideMap(start, control)) {
+    result.collision_time = settings_.duration;
+    return result;
+  }
+  result.length = (result.end.col(0) - start.col(0)).norm();
+  result.collision_free = true;
+  result.cost = mapFreeCost(control) + settings_.weights.length * result.length;
+  return result;
+}
+
 EdgeEvaluation EdgeEvaluator::partial(const ChainState& start,
                                       const Eigen::Vector3d& control) const {
   EdgeEvaluation result = controlOnly(start, control);
   if (!result.collision_free) return result;  // breaks a limit or leaves the map
   // The end state's position is the last sample of full evaluation, bit for bit.
-  const double distance = world_->esdf().distance(result.end.col(0));
+  const Eigen::Vector3d end = result.end.col(0);
+  const Esdf& esdf = world_->esdf();
   result.esdf_queries = 1;
-  result.end_distance = distance;
-  if (distance < settings_.robot_radius) {
+  result.end_clearance = esdf.clearance(end);
+  if (result.end_clearance < settings_.robot_radius) {
     result.collision_free = false;
     result.collision_time = settings_.duration;
     result.cost = INFINITY;
     return result;
   }
-  result.obstacle_cost =
-      settings_.weights.obstacle * penalty(distance) * settings_.duration / result.samples;
-  result.cost += result.obstacle_cost;
+  if (settings_.weights.obstacle > 0.0) {
+    result.end_distance = esdf.distance(end);
+    result.obstacle_cost = settings_.weights.obstacle * penalty(result.end_distance) *
+                           settings_.duration / result.samples;
+    result.cost += result.obstacle_cost;
+  }
   return result;
-}
-
-double EdgeEvaluator::sampleMargin(double path_bound, int samples) const {
-  // Samples are at most path_bound / K apart along the path: a Lipschitz margin over half that.
-  return settings_.certify ? 0.5 * lipschitz_ * path_bound / samples : 0.0;
 }
 
 Eigen::Vector3d EdgeEvaluator::samplePosition(const ChainState& start,
@@ -148,85 +178,110 @@ EdgeEvaluation EdgeEvaluator::full(const ChainState& start, const Eigen::Vector3
   const double path_bound = pathBound(start, control);
   const int samples = sampleCountFor(path_bound);
   result.samples = samples;
-  const double margin = sampleMargin(path_bound, samples);
-  const World& world = *world_;
-  const Esdf& esdf = world.esdf();
-  const Box& bounds = world.bounds();
-  const double step = settings_.duration / samples;
-  // Far from every obstacle the penalty is zero and no collision is possible, and the cheap
-  // nearest-voxel value tells so: it is within far_slack_ of the trilinear value.
-  const double far = std::max(settings_.robot_radius + 2.0 * margin,
-                              settings_.robot_radius + settings_.safety_distance) +
-                     far_slack_;
+  if (!insideMap(start, control)) {
+    result.collision_time = settings_.duration;
+    return result;
+  }
+  const Esdf& esdf = world_->esdf();
+  const double tau = settings_.duration;
+  const double radius = settings_.robot_radius;
+  const int order = settings_.order;
   const Eigen::Vector3d end = result.end.col(0);
-  Eigen::Vector3d previous = start.col(0);
-  double penalty_sum = 0.0;
-  // The first sample alone covers the stretch from the start (whose clearance is only known
-  // to be above the radius): twice the margin.
-  double threshold = settings_.robot_radius + 2.0 * margin;
-  for (int k = 1; k <= samples; ++k) {
-    const Eigen::Vector3d position = samplePosition(start, control, end, k, samples);
+
+  // Sphere tracing: the traced times and the trilinear ESDF there (for the quadrature).
+  std::array<double, 64> traced_time;
+  std::array<double, 64> traced_distance;
+  int traced = 0;
+  const auto trace = [&](double t, const Eigen::Vector3d& position) {
     ++result.esdf_queries;
-    result.length += (position - previous).norm();
-    previous = position;
-    if (!bounds.contains(position)) {
-      result.collision_time = step * k;
+    const double clearance = esdf.clearance(position);
+    if (traced < static_cast<int>(traced_time.size())) {
+      traced_time[traced] = t;
+      // clearance <= trilinear value: a lower bound of it for the quadrature's skipping.
+      traced_distance[traced++] = clearance;
+    }
+    return clearance;
+  };
+  // Seconds of primitive per metre of path (the path bound is a speed bound times tau).
+  const double seconds_per_metre = path_bound > 0.0 ? tau / path_bound : INFINITY;
+  double t = 0.0;
+  double clearance = trace(0.0, start.col(0));
+  for (;;) {
+    if (clearance < radius) {
+      result.collision_time = t;
       return result;
     }
-    if (esdf.nearestDistance(position) >= far) {
-      threshold = settings_.robot_radius + margin;
-      continue;
-    }
-    const double distance = esdf.distance(position);
-    if (distance < threshold) {
-      result.collision_time = step * k;
-      return result;
-    }
-    threshold = settings_.robot_radius + margin;
-    penalty_sum += penalty(distance);
+    t += tracingReach(clearance) * seconds_per_metre;
+    if (!(t < tau)) break;
+    clearance = trace(t, positionFromPowers(start, control, order, powersOver(t, order)));
+  }
+  if (trace(tau, end) < radius) {
+    result.collision_time = tau;
+    return result;
   }
   result.collision_free = true;
-  result.obstacle_cost = settings_.weights.obstacle * penalty_sum * step;
+
+  // Quadrature of the obstacle term (and the length polyline). A sample is outside the
+  // penalty band when a traced point's lower bound, less sqrt(3) times the path between
+  // them (the trilinear ESDF is sqrt(3)-Lipschitz), is beyond it.
+  const bool obstacle_term = settings_.weights.obstacle > 0.0;
+  const bool length_term = settings_.weights.length > 0.0;
+  double penalty_sum = 0.0;
+  if (obstacle_term || length_term) {
+    const double band = radius + settings_.safety_distance;
+    const double lipschitz_per_second = std::sqrt(3.0) / seconds_per_metre;
+    Eigen::Vector3d previous = start.col(0);
+    int next_traced = 0;
+    for (int k = 1; k <= samples; ++k) {
+      const Eigen::Vector3d position = samplePosition(start, control, end, k, samples);
+      result.length += (position - previous).norm();
+      previous = position;
+      if (!obstacle_term) continue;
+      const double time = tau * k / samples;
+      while (next_traced < traced && traced_time[next_traced] <= time) ++next_traced;
+      bool outside_band = false;
+      for (const int i : {next_traced - 1, next_traced}) {
+        if (i < 0 || i >= traced) continue;
+        const double bound =
+            traced_distance[i] - lipschitz_per_second * std::abs(time - traced_time[i]);
+        outside_band = outside_band || bound >= band;
+      }
+      if (outside_band) continue;
+      ++result.esdf_queries;
+      penalty_sum += penalty(esdf.distance(position));
+    }
+  }
+  if (!length_term) result.length = (end - start.col(0)).norm();
+  result.obstacle_cost = settings_.weights.obstacle * penalty_sum * tau / samples;
   result.cost =
       mapFreeCost(control) + settings_.weights.length * result.length + result.obstacle_cost;
   return result;
 }
 
-EdgeEvaluation EdgeEvaluator::controlOnly(const ChainState& start,
-                                          const Eigen::Vector3d& control) const {
-  EdgeEvaluation result;
-  result.end = endState(start, control);
-  result.within_limits = chain_.withinLimits(start, control, settings_.duration, settings_.limits);
-  if (!result.within_limits) return result;
-  result.samples = sampleCount(start, control);
-  const Eigen::Vector3d end = result.end.col(0);
-  result.length = (end - start.col(0)).norm();
-  if (!world_->bounds().contains(end)) {
-    result.collision_time = settings_.duration;
-    return result;
-  }
-  result.collision_free = true;
-  result.cost = mapFreeCost(control) + settings_.weights.length * result.length;
-  return result;
-}
-
-bool EdgeEvaluator::certify(const ChainState& start, double start_distance,
+bool EdgeEvaluator::certify(const ChainState& start, double start_clearance,
                             const Eigen::Vector3d& control, EdgeEvaluation& evaluation) const {
-  if (!evaluation.valid() || !std::isfinite(evaluation.end_distance)) return false;
+  if (!evaluation.valid()) return false;
   const double path_bound = pathBound(start, control);
+  const double tau = settings_.duration;
+  // Full evaluation traces the start and then the end only when one step covers the path
+  // (the same arithmetic as full()); the end's clearance was tested by the partial one.
+  const double seconds_per_metre = path_bound > 0.0 ? tau / path_bound : INFINITY;
+  if (!(start_clearance >= settings_.robot_radius) ||
+      tracingReach(start_clearance) * seconds_per_metre < tau) {
+    return false;
+  }
+  if (settings_.weights.obstacle > 0.0) {
+    // Every point is within half the path bound of an endpoint: the trilinear value is at
+    // least (d_start + d_end - sqrt(3) l) / 2 (the clearance bounds d_start from below).
+    if (!std::isfinite(evaluation.end_distance)) return false;
+    const double lower =
+        0.5 * (start_clearance + evaluation.end_distance - std::sqrt(3.0) * path_bound);
+    if (lower < settings_.robot_radius + settings_.safety_distance) return false;
+  }
   const int samples = sampleCountFor(path_bound);
-  const double needed = std::max(settings_.robot_radius + 2.0 * sampleMargin(path_bound, samples),
-                                 settings_.robot_radius + settings_.safety_distance);
-  const double lower = 0.5 * (start_distance + evaluation.end_distance - lipschitz_ * path_bound);
-  if (lower < needed) return false;
-  // Every sample within half the path bound of an endpoint: both endpoints that far inside.
-  const Box& bounds = world_->bounds();
-  const Eigen::Vector3d inset = Eigen::Vector3d::Constant(0.5 * path_bound);
-  const Box inner{bounds.min + inset, bounds.max - inset};
-  const Eigen::Vector3d end = evaluation.end.col(0);
-  if (!inner.contains(start.col(0)) || !inner.contains(end)) return false;
   evaluation.samples = samples;
   evaluation.obstacle_cost = 0.0;
+  const Eigen::Vector3d end = evaluation.end.col(0);
   evaluation.length = 0.0;
   if (settings_.weights.length > 0.0) {
     // The polyline full evaluation measures, through the same sample positions.
@@ -236,6 +291,8 @@ bool EdgeEvaluator::certify(const ChainState& start, double start_distance,
       evaluation.length += (position - previous).norm();
       previous = position;
     }
+  } else {
+    evaluation.length = (end - start.col(0)).norm();
   }
   evaluation.cost = mapFreeCost(control) + settings_.weights.length * evaluation.length;
   return true;

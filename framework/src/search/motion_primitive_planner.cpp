@@ -19,9 +19,11 @@ ParameterSpecs motionPrimitiveParameters() {
       .real("weight_length", 0.0, 0.0, 1e6, "cost per metre travelled")
       .real("weight_control", 0.1, 0.0, 1e6, "cost per |u|^2 s of control effort")
       .real("weight_obstacle", 1.0, 0.0, 1e6, "cost per second inside the safety band (squared)")
-      .integer("edge_samples", 10, 1, 10000, "K: ESDF samples per edge in full evaluation")
+      .integer("edge_samples", 10, 1, 10000,
+               "K: quadrature samples of the obstacle cost per edge (not of the collision "
+               "verdict, which sphere tracing makes exact to collision_tolerance)")
       .real("edge_spacing", 0.0, 0.0, 10.0,
-            "> 0: sample edges this far apart (at most half a voxel) instead of K samples, m")
+            "> 0: quadrature samples this far apart along the edge instead of K, m")
       .real("safety_distance", 0.5, 0.001, 100.0, "obstacle penalty band beyond the radius, m")
       .choice("heuristic", "time_optimal", {"euclidean", "min_time", "time_optimal", "obvp", "max"},
               "euclidean: |d| / |v_max|; min_time: max_i |d_i| / v_max_i (MPL); time_optimal: "
@@ -89,6 +91,7 @@ MotionPrimitiveConfig MotionPrimitiveConfig::fromParameters(const ParameterSet& 
   edges.weights.obstacle = parameters.real("weight_obstacle");
   edges.robot_radius = model.robot_radius;
   edges.safety_distance = parameters.real("safety_distance");
+  edges.collision_tolerance = model.collision_tolerance;
   const double spacing = parameters.real("edge_spacing");
   edges.sampling.mode = spacing > 0.0 ? EdgeSampling::Mode::kSpacing : EdgeSampling::Mode::kCount;
   edges.sampling.samples = static_cast<int>(parameters.integer("edge_samples"));
@@ -127,14 +130,6 @@ void MotionPrimitivePlanner::doSetup(const PlannerContext& context) {
   }
   const EdgeEvaluatorSettings& edges = config_.settings.edges;
   auto controls = context.sampler->sample(edges.limits.bound[edges.order], context.seed);
-  if (edges.sampling.mode == EdgeSampling::Mode::kSpacing) {
-    const double half_voxel = 0.5 * context.world->esdf().resolution();
-    if (edges.sampling.spacing > half_voxel) {
-      throw ConfigError("edge_spacing " + formatNumber(edges.sampling.spacing) +
-                        " m is coarser than half a voxel of world '" + context.world->name() +
-                        "' (" + formatNumber(half_voxel) + " m)");
-    }
-  }
   search_ = std::make_unique<MotionPrimitiveSearch>(context.world, std::move(controls),
                                                     config_.settings, config_.policies);
 }
@@ -149,6 +144,7 @@ PlanningModel MotionPrimitivePlanner::planningModel() const {
   model.limits = config_.settings.edges.limits;
   model.limited_derivatives = config_.settings.edges.order;
   model.goal_radius = config_.settings.goal_radius;
+  model.collision_tolerance = config_.settings.edges.collision_tolerance;
   return model;
 }
 

@@ -190,7 +190,7 @@ void MotionPrimitiveSearch::expand(int node) {
   // Copies: candidates_ may grow (and move) while the node is expanded.
   const ChainState parent_state = candidates_[node].state;
   const double parent_g = candidates_[node].g;
-  const double parent_distance = world_->distance(parent_state.col(0));
+  const double parent_clearance = world_->clearance(parent_state.col(0));
   const EdgeEvaluationPolicy& policy = *policies_.edges;
   const SearchHeuristic& heuristic = *policies_.heuristic;
   const bool seed_rule = settings_.duplicate_rule == DuplicateRule::kSeed;
@@ -199,7 +199,7 @@ void MotionPrimitiveSearch::expand(int node) {
   for (std::size_t i = 0; i < controls_.size(); ++i) {
     EdgeEvaluation& evaluation = evaluations_[i];
     const EdgeEstimate estimate =
-        policy.evaluate(evaluator_, parent_state, parent_distance, controls_[i], evaluation);
+        policy.evaluate(evaluator_, parent_state, parent_clearance, controls_[i], evaluation);
     estimates_[i] = estimate;
     counters_.esdf_queries += evaluation.esdf_queries;
     if (estimate == EdgeEstimate::kFull) {

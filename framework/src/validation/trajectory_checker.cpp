@@ -97,26 +97,46 @@ TrajectoryChecker::TrajectoryChecker(std::shared_ptr<const World> world, Checker
   if (settings_.max_derivative < 1 || settings_.max_derivative > 4) {
     throw InvalidArgument("trajectory checker: max_derivative must be in [1, 4]");
   }
+  if (!(settings_.collision_tolerance >= 0.0)) {
+    throw InvalidArgument("trajectory checker: collision_tolerance must be >= 0");
+  }
   const double voxel = world_->esdf().resolution();
   spacing_ = settings_.spacing > 0.0 ? settings_.spacing : std::min(0.25 * voxel, 0.025);
-  const double fcl_radius = settings_.robot_radius - std::sqrt(3.0) * voxel;
-  // Below that the ESDF test cannot exclude a point inside an occupied cube: no FCL check.
-  if (settings_.use_fcl && fcl_radius > 0.0) {
-    fcl_ = std::make_unique<Fcl>(*world_, fcl_radius);
-  }
+  body_radius_ = std::max(settings_.robot_radius - settings_.collision_tolerance, 0.0);
+  if (body_radius_ > 0.0) fcl_ = std::make_unique<Fcl>(*world_, body_radius_);
 }
 
 TrajectoryChecker::~TrajectoryChecker() = default;
 TrajectoryChecker::TrajectoryChecker(TrajectoryChecker&&) noexcept = default;
 TrajectoryChecker& TrajectoryChecker::operator=(TrajectoryChecker&&) noexcept = default;
 
-bool TrajectoryChecker::fclCollides(const Eigen::Vector3d& position) const {
-  return fcl_ && fcl_->collides(position);
+bool TrajectoryChecker::collides(const Eigen::Vector3d& position) const {
+  if (fcl_) return fcl_->collides(position);
+  // A point: is it in a closed occupied cube? On a face, edge or corner every voxel sharing
+  // it counts.
+  const VoxelGrid& grid = world_->grid();
+  const Eigen::Vector3d scaled = (position - grid.origin()) / grid.resolution();
+  int low[3];
+  int high[3];
+  for (int axis = 0; axis < 3; ++axis) {
+    const double cell = std::floor(scaled[axis]);
+    const int last = grid.dims()[axis] - 1;
+    high[axis] = std::clamp(static_cast<int>(cell), 0, last);
+    low[axis] = cell == scaled[axis] ? std::max(high[axis] - 1, 0) : high[axis];
+  }
+  for (int x = low[0]; x <= high[0]; ++x) {
+    for (int y = low[1]; y <= high[1]; ++y) {
+      for (int z = low[2]; z <= high[2]; ++z) {
+        if (grid.occupied(grid.index(x, y, z))) return true;
+      }
+    }
+  }
+  return false;
 }
 
 CheckResult TrajectoryChecker::check(const Trajectory& trajectory, const CheckQuery& query) const {
   CheckResult result;
-  result.fcl_radius = fcl_ ? fcl_->sphere->radius : 0.0;
+  result.body_radius = body_radius_;
   const auto fail = [&result](std::string check, double time, const Eigen::Vector3d& position,
                               std::string detail) {
     result.valid = false;
@@ -173,7 +193,7 @@ CheckResult TrajectoryChecker::check(const Trajectory& trajectory, const CheckQu
     segment_start += segment.duration;
   }
 
-  // Collision: every position sample against the map bounds and the ESDF, then FCL.
+  // Collision: every position sample against the map bounds and the occupied cubes.
   const World& world = *world_;
   double clearance_sum = 0.0;
   result.min_clearance = INFINITY;
@@ -197,15 +217,13 @@ CheckResult TrajectoryChecker::check(const Trajectory& trajectory, const CheckQu
       }
       result.min_clearance = std::min(result.min_clearance, clearance);
       clearance_sum += clearance;
-      if (clearance < -1e-9) {
-        return fail("esdf", time, position,
-                    "ESDF distance " + formatNumber(clearance + settings_.robot_radius) +
-                        " m is below the robot radius " + formatNumber(settings_.robot_radius));
-      }
-      if (fcl_ && fcl_->collides(position)) {
-        return fail("fcl", time, position,
-                    "FCL: a sphere of radius " + formatNumber(fcl_->sphere->radius) +
-                        " m touches an occupied voxel");
+      if (collides(position)) {
+        return fail("collision", time, position,
+                    body_radius_ > 0.0
+                        ? "a sphere of radius " + formatNumber(body_radius_) +
+                              " m (robot_radius less the collision tolerance) touches an "
+                              "occupied voxel cube (FCL)"
+                        : "the point is inside an occupied voxel cube");
       }
     }
     segment_start += segment.duration;

@@ -30,17 +30,11 @@ struct EnvelopeScratch {
   std::vector<std::int64_t> boundary_denominator;
 };
 
-/// Exact 1-D squared distance transform of `f` (kNoSite = no site) into `d`, by the lower
-/// envelope of the parabolas (q - i)^2 + f[i] (Felzenszwalb and Huttenlocher's algorithm in
-/// integer arithmetic: no division, no rounding). Entries without a site are skipped, so an
-/// all-empty line stays kNoSite and huge sentinels never enter the arithmetic.
-void transformLine(const std::int32_t* f, std::int32_t* d, int n, EnvelopeScratch& scratch) {
-  // A line of zeros (every voxel a site at distance 0) is its own transform; in real worlds
-  // most lines of the inside transform are such lines.
-  if (std::all_of(f, f + n, [](std::int32_t x) { return x == 0; })) {
-    std::copy(f, f + n, d);
-    return;
-  }
+/// The lower envelope of the parabolas (x - (2 i + shift))^2 + f[i] over the sites i (entries
+/// other than kNoSite), evaluated at x = 2 q, folded into `d` by minimum (Felzenszwalb and
+/// Huttenlocher's algorithm in integer arithmetic: no division, no rounding).
+void envelopeInto(const std::int32_t* f, std::int32_t* d, int n, int shift,
+                  EnvelopeScratch& scratch) {
   std::int32_t* v = scratch.sites.data();
   std::int64_t* g = scratch.heights.data();
   std::int64_t* zn = scratch.boundary_numerator.data();
@@ -48,13 +42,14 @@ void transformLine(const std::int32_t* f, std::int32_t* d, int n, EnvelopeScratc
   int k = -1;
   for (int q = 0; q < n; ++q) {
     if (f[q] == kNoSite) continue;
-    const std::int64_t gq = static_cast<std::int64_t>(f[q]) + static_cast<std::int64_t>(q) * q;
+    const std::int64_t centre = 2 * static_cast<std::int64_t>(q) + shift;
+    const std::int64_t gq = static_cast<std::int64_t>(f[q]) + centre * centre;
     std::int64_t numerator = 0;
     std::int64_t denominator = 1;
     while (k >= 0) {
-      // Parabolas v[k] and q intersect at (gq - g[k]) / (2 (q - v[k])).
+      // Parabolas v[k] and q intersect at (gq - g[k]) / (2 (centre_q - centre_k)).
       numerator = gq - g[k];
-      denominator = 2 * static_cast<std::int64_t>(q - v[k]);
+      denominator = 4 * static_cast<std::int64_t>(q - v[k]);
       // Keep parabola k when the intersection lies right of where k starts winning.
       if (k == 0 || numerator * zd[k] > zn[k] * denominator) break;
       --k;
@@ -65,18 +60,30 @@ void transformLine(const std::int32_t* f, std::int32_t* d, int n, EnvelopeScratc
     zn[k] = numerator;
     zd[k] = denominator;
   }
-  if (k < 0) {
-    std::fill(d, d + n, kNoSite);
-    return;
-  }
+  if (k < 0) return;
   const int last = k;
   int j = 0;
   for (int q = 0; q < n; ++q) {
-    // Advance while the next parabola starts at or before q: zn / zd <= q.
-    while (j < last && zn[j + 1] <= static_cast<std::int64_t>(q) * zd[j + 1]) ++j;
-    const std::int64_t offset = q - v[j];
-    d[q] = static_cast<std::int32_t>(offset * offset + f[v[j]]);
+    const std::int64_t x = 2 * static_cast<std::int64_t>(q);
+    // Advance while the next parabola starts at or before x: zn / zd <= x.
+    while (j < last && zn[j + 1] <= x * zd[j + 1]) ++j;
+    const std::int64_t offset = x - (2 * static_cast<std::int64_t>(v[j]) + shift);
+    const std::int64_t value = offset * offset + f[v[j]];
+    if (value < d[q]) d[q] = static_cast<std::int32_t>(value);
   }
+}
+
+/// One pass of the cube distance transform along a line: in quarter voxels squared, the
+/// distance from a centre to a cube whose centre is i - q voxels away along the line is
+/// (2 |i - q| - 1)^2 (0 for i = q), the smaller of the parabolas centred half a voxel either
+/// side of i (and f[q] itself for i = q). So d = min(f, envelope(+1), envelope(-1)).
+void transformLine(const std::int32_t* f, std::int32_t* d, int n, EnvelopeScratch& scratch) {
+  std::copy(f, f + n, d);
+  // A line of zeros (every voxel at distance 0) is its own transform; in real worlds most
+  // lines of the inside transform are such lines.
+  if (std::all_of(f, f + n, [](std::int32_t x) { return x == 0; })) return;
+  envelopeInto(f, d, n, 1, scratch);
+  envelopeInto(f, d, n, -1, scratch);
 }
 
 /// Runs the 1-D transform over every line along one strided axis. Lines start at
@@ -104,8 +111,9 @@ void transformStrided(std::int32_t* data, std::size_t first, std::size_t inner_c
   }
 }
 
-/// Squared Euclidean distance (voxel units) from every voxel to the nearest voxel whose
-/// occupancy equals `target`.
+/// Squared Euclidean distance, in quarter voxels squared ((2 d / voxel)^2), from every voxel's
+/// centre to the nearest cube of a voxel whose occupancy equals `target` (0 in such a voxel).
+/// Exact: per axis the offset to a cube k voxels away is max(|k| - 1/2, 0), a separable sum.
 std::vector<std::int32_t> squaredDistanceTo(const VoxelGrid& grid, std::uint8_t target) {
   const int nx = grid.dims().x();
   const int ny = grid.dims().y();
@@ -113,7 +121,8 @@ std::vector<std::int32_t> squaredDistanceTo(const VoxelGrid& grid, std::uint8_t 
   const std::uint8_t* occupancy = grid.occupancy().data();
   std::vector<std::int32_t> squared(grid.size());
 
-  // Pass 1, along z (contiguous): nearest target in the column by two sweeps.
+  // Pass 1, along z (contiguous): nearest target in the column by two sweeps, k voxels away
+  // giving (2 k - 1)^2.
   for (std::size_t column = 0; column < static_cast<std::size_t>(nx) * ny; ++column) {
     const std::uint8_t* cells = occupancy + column * nz;
     std::int32_t* out = squared.data() + column * nz;
@@ -126,7 +135,7 @@ std::vector<std::int32_t> squaredDistanceTo(const VoxelGrid& grid, std::uint8_t 
     for (int iz = nz - 1; iz >= 0; --iz) {
       distance = cells[iz] == target ? 0 : (distance == kNoSite ? kNoSite : distance + 1);
       const std::int32_t best = std::min(out[iz], distance);
-      out[iz] = best == kNoSite ? kNoSite : best * best;
+      out[iz] = best == kNoSite ? kNoSite : (best == 0 ? 0 : (2 * best - 1) * (2 * best - 1));
     }
   }
 
@@ -171,7 +180,7 @@ Esdf::Esdf(const VoxelGrid& grid) {
   const std::vector<std::int32_t> to_free = squaredDistanceTo(grid, 0);
   values_.resize(grid.size());
   const auto cap = static_cast<float>(max_distance_);
-  const auto resolution = static_cast<float>(resolution_);
+  const auto resolution = static_cast<float>(0.5 * resolution_);  // the fields are in half voxels
   const std::uint8_t* occupancy = grid.occupancy().data();
   // Branch-free so that the compiler vectorises it; kNoSite's root exceeds any real
   // distance and is capped to the diagonal.

@@ -16,7 +16,7 @@ namespace kinolab {
 namespace {
 
 constexpr char kMagic[8] = {'K', 'I', 'N', 'O', 'W', 'R', 'L', 'D'};
-constexpr std::uint32_t kFormatVersion = 1;
+constexpr std::uint32_t kFormatVersion = 2;  // 2: the ESDF measures to voxel cubes
 
 struct Header {
   char magic[8];

@@ -47,13 +47,13 @@ void checkGridSize(const WorldSpec& spec, const YamlReader& node) {
     node["resolution"].fail("bounds and resolution give " + formatNumber(voxels) +
                             " voxels; expected at most 1e9");
   }
-  // Squared distances in voxel units are 32-bit integers in the exact ESDF.
+  // Squared distances in half voxels are 32-bit integers in the exact ESDF.
   const double diagonal = dims.norm();
-  if (diagonal * diagonal >= 2147483647.0) {
+  if (4.0 * diagonal * diagonal >= 2147483647.0) {
     const auto whole = [](double value) { return std::to_string(std::llround(value)); };
     node["resolution"].fail("the grid is " + whole(dims.x()) + " x " + whole(dims.y()) + " x " +
                             whole(dims.z()) + " voxels, a diagonal of " + whole(diagonal) +
-                            "; the exact ESDF handles at most 46340 voxels of diagonal: use a "
+                            "; the exact ESDF handles at most 23170 voxels of diagonal: use a "
                             "coarser resolution or a smaller world");
   }
   // Building holds the occupancy (1 byte), the ESDF (4) and two squared-distance fields (8)

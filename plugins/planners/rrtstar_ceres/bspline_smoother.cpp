@@ -177,7 +177,6 @@ CheckerSettings clearanceCheck(const SmootherSettings& settings) {
   check.robot_radius = settings.robot_radius;
   check.limits = settings.limits;
   check.max_derivative = 2;
-  check.use_fcl = false;  // the planner's own check; the independent one runs FCL afterwards
   return check;
 }
 
@@ -312,7 +311,7 @@ SmootherResult BsplineSmoother::smooth(const ChainState& start,
     }
     result.problem = "round " + std::to_string(rounds) + ": " + check.check +
                      " check at t = " + formatNumber(check.time) + " s: " + check.detail;
-    if (check.check != "esdf" && check.check != "bounds") break;  // more rounds cannot help
+    if (check.check != "collision" && check.check != "bounds") break;  // more rounds cannot help
     spacing *= 0.5;
     weight_obstacle *= 4.0;
   }

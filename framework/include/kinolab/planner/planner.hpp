@@ -52,6 +52,9 @@ struct PlanningModel {
   DynamicLimits limits;
   int limited_derivatives = 2;  ///< limits apply to derivatives 1..this
   double goal_radius = 0.5;
+  /// The planner keeps robot_radius less this from every occupied cube; the checker holds
+  /// it to that.
+  double collision_tolerance = 0.01;
 };
 
 /// One edge of a planner's search tree or graph, for figures (the paper's Fig. 6).

@@ -10,9 +10,10 @@
 
 namespace kinolab {
 
-/// Where along a primitive the evaluator looks: K samples at t = k tau / K (k = 1..K, the
-/// last is the end), or as many as it takes for consecutive samples to be at most `spacing`
-/// metres apart (never coarser than half a voxel).
+/// Where the obstacle cost's quadrature (and the length's polyline) samples a primitive: K
+/// samples at t = k tau / K (k = 1..K, the last is the end), or as many as it takes for
+/// consecutive samples to be at most `spacing` metres apart. The collision verdict does not
+/// depend on it.
 struct EdgeSampling {
   enum class Mode { kCount, kSpacing };
   Mode mode = Mode::kCount;
@@ -33,28 +34,29 @@ struct EdgeEvaluatorSettings {
   double duration = 0.5;  ///< tau, seconds per primitive
   DynamicLimits limits = DynamicLimits::uniform(2.0, 3.0);
   CostWeights weights;
-  double robot_radius = 0.25;    ///< a sample collides when its clearance is below this
+  double robot_radius = 0.25;    ///< the body: a sphere of this radius (0: a point)
   double safety_distance = 0.5;  ///< obstacle penalty band beyond the radius, metres
   EdgeSampling sampling;
-  /// Inflate the collision test of full evaluation by a Lipschitz margin of the ESDF over
-  /// half the gap between samples, so that no collision between samples is missed.
-  bool certify = true;
+  /// The collision verdict is exact to this (m): an edge called free keeps robot_radius less
+  /// this from every occupied voxel cube; each sphere-tracing step gains at least this.
+  double collision_tolerance = 0.01;
 };
 
 /// The result of evaluating one primitive, fully or partially.
 struct EdgeEvaluation {
   ChainState end;
   bool within_limits = false;
-  bool collision_free = false;  ///< at every sample evaluated
+  bool collision_free = false;  ///< by the evaluation's test (partial: the end only)
   /// Sum of the weighted cost terms; for a partial evaluation a lower bound of the full cost.
   /// Infinite when the edge breaks a limit or collides.
   double cost = INFINITY;
   double obstacle_cost = 0.0;      ///< the obstacle term (weighted) within `cost`
   double length = 0.0;             ///< chord (partial) or polyline through the samples (full)
-  int samples = 0;                 ///< samples the full evaluation uses (partial: the same K)
-  int esdf_queries = 0;            ///< samples actually looked up
-  double collision_time = -1.0;    ///< time of the first colliding sample, or -1
-  double end_distance = INFINITY;  ///< ESDF at the end (partial evaluation), if looked up
+  int samples = 0;                 ///< quadrature samples of full evaluation (partial: the same)
+  int esdf_queries = 0;            ///< ESDF look-ups made
+  double collision_time = -1.0;    ///< when the verdict found the collision (or left the map)
+  double end_distance = INFINITY;  ///< trilinear ESDF at the end (partial), if looked up
+  double end_clearance = INFINITY;  ///< Esdf::clearance at the end (partial), if looked up
 
   bool valid() const { return within_limits && collision_free; }
 };
@@ -62,19 +64,23 @@ struct EdgeEvaluation {
 /// Evaluates motion primitives (a constant control from a state for tau) in a world: end
 /// state, dynamic feasibility over the whole interval, collision and cost.
 ///
-/// Cost of an edge = w_T tau + w_L length + w_U |u|^2 tau + w_O sum_k phi(c_k) tau / K, where
-/// c_k is the clearance (ESDF minus robot radius) at sample k and phi(c) = (1 - c / d_safe)^2
-/// inside the safety band (0 beyond). A *partial* evaluation looks at the end sample only: its
-/// collision test and its share of the obstacle sum, and the chord as length; a *full*
-/// evaluation looks at every sample and measures length along them. So partial cost <= full
-/// cost for every primitive, which the lazy search relies on.
+/// Collision (the same verdict in every evaluation that gives one, whatever the sampling):
+///  - the map: the primitive's positions stay in the map's box, tested on the convex hull of
+///    the position polynomial's Bernstein coefficients per axis (exact-conservative);
+///  - obstacles: sphere tracing on the clearance C (Esdf::clearance, a proven lower bound of
+///    the distance to every occupied voxel cube). From the start, each traced point with
+///    C >= R (robot_radius) covers the next (C - R + tol) metres of path (the distance to the
+///    cubes is 1-Lipschitz), converted to time with the primitive's speed bound; the end is
+///    always traced too. The edge collides when a traced point has C < R. So an edge called
+///    free keeps R - tol from every occupied cube, and an edge whose C stays >= R is free.
+///    Far from obstacles that is two ESDF queries (start and end).
 ///
-/// With `certify`, full evaluation treats a sample as colliding when its clearance is below
-/// L g / 2, g bounding the distance between consecutive samples and L the Lipschitz constant
-/// of the trilinear ESDF (sqrt(3) where the robot radius is at least a voxel diagonal, else
-/// 2 sqrt(3)); the first sample, which alone covers the stretch from the start, uses L g.
-/// Then every point of the primitive closer than the radius to an obstacle, as dense
-/// checking would find it, is caught.
+/// Cost of an edge = w_T tau + w_L length + w_U |u|^2 tau + w_O sum_k phi(I_k) tau / K, where
+/// I_k is the trilinear ESDF at quadrature sample k and phi(d) = (1 - (d - R) / d_safe)^2 inside
+/// the safety band (0 beyond). Samples the tracing proves outside the band (the trilinear ESDF
+/// is sqrt(3)-Lipschitz) are not looked up. A *partial* evaluation looks at the end only: its
+/// clearance test and its share of the obstacle sum, and the chord as length; so partial cost
+/// <= full cost for every primitive, and partial calls an edge invalid only when full does.
 class EdgeEvaluator {
  public:
   EdgeEvaluator(std::shared_ptr<const World> world, EdgeEvaluatorSettings settings);
@@ -83,27 +89,27 @@ class EdgeEvaluator {
   const IntegratorChain& chain() const { return chain_; }
   const World& world() const { return *world_; }
 
-  /// End state, limits, and collision and obstacle share of the end sample only.
+  /// End state, limits, the map test, and the clearance and obstacle share of the end.
   EdgeEvaluation partial(const ChainState& start, const Eigen::Vector3d& control) const;
-  /// Every sample: the edge's true cost, or infinity when it breaks a limit or collides.
+  /// The full verdict and the edge's true cost (infinite when it breaks a limit, leaves the
+  /// map or collides).
   EdgeEvaluation full(const ChainState& start, const Eigen::Vector3d& control) const;
-  /// No map query: end state, limits, the map bounds at the end, and the cost terms that need
-  /// no map (a lower bound of the full cost, weaker than partial).
+  /// No ESDF query: end state, limits, the map test, and the cost terms that need no map (a
+  /// lower bound of the full cost, weaker than partial).
   EdgeEvaluation controlOnly(const ChainState& start, const Eigen::Vector3d& control) const;
-  /// Upgrades a valid partial evaluation to the full one without sampling the ESDF when the
-  /// Lipschitz bound proves it: every point of the primitive is within half the path bound l
-  /// of an endpoint, so its distance is at least (d_start + d_end - L l) / 2. When that is
-  /// beyond both the collision threshold of full evaluation and the penalty band, full
-  /// evaluation would find no collision and a zero obstacle term, so the cost is exact.
-  /// Returns false (and leaves `evaluation` as it was) when the bound cannot tell.
-  bool certify(const ChainState& start, double start_distance, const Eigen::Vector3d& control,
+  /// Upgrades a valid partial evaluation to the full one without tracing when full evaluation
+  /// provably gives the same: the start's clearance `start_clearance` (Esdf::clearance at the
+  /// start) covers the whole path in one tracing step, and the trilinear ESDF's Lipschitz
+  /// bound between the endpoints keeps every quadrature sample out of the penalty band. Then
+  /// the cost is exact. Returns false (and leaves `evaluation` as it was) otherwise.
+  bool certify(const ChainState& start, double start_clearance, const Eigen::Vector3d& control,
                EdgeEvaluation& evaluation) const;
 
   /// The end state after tau (closed form, from the precomputed powers of tau); bit for bit
   /// the `end` of every evaluation of this primitive.
   ChainState endState(const ChainState& start, const Eigen::Vector3d& control) const;
 
-  /// The number of samples K full evaluation uses for this primitive.
+  /// The number of quadrature samples K full evaluation uses for this primitive.
   int sampleCount(const ChainState& start, const Eigen::Vector3d& control) const {
     return sampleCountFor(pathBound(start, control));
   }
@@ -114,8 +120,12 @@ class EdgeEvaluator {
   int sampleCountFor(double path_bound) const;
   /// The weighted terms that need no map: duration and control effort.
   double mapFreeCost(const Eigen::Vector3d& control) const;
-  /// The collision threshold of full evaluation for samples after the first and the first.
-  double sampleMargin(double path_bound, int samples) const;
+  /// True when every position of the primitive lies in the map's box (Bernstein hull).
+  bool insideMap(const ChainState& start, const Eigen::Vector3d& control) const;
+  /// The path length one tracing step from a point of clearance `clearance` covers.
+  double tracingReach(double clearance) const {
+    return clearance - settings_.robot_radius + settings_.collision_tolerance;
+  }
   /// Position of sample k (1..samples) of a primitive whose end position is `end`.
   Eigen::Vector3d samplePosition(const ChainState& start, const Eigen::Vector3d& control,
                                  const Eigen::Vector3d& end, int k, int samples) const;
@@ -128,13 +138,13 @@ class EdgeEvaluator {
   std::shared_ptr<const World> world_;
   EdgeEvaluatorSettings settings_;
   IntegratorChain chain_;
-  double lipschitz_;
-  double far_slack_;  ///< bound on |trilinear - nearest-voxel| ESDF value
   double inverse_safety_distance_;
   /// tau^m / m!, m = 0..order.
   std::array<double, 5> end_powers_;
   /// For the fixed-count mode: t_k^m / m! per sample k (rows), the last row is end_powers_.
   std::vector<std::array<double, 5>> sample_powers_;
+  /// Bernstein conversion: bernstein_[k][m] = C(k, m) / C(order, m).
+  std::array<std::array<double, 5>, 5> bernstein_{};
 };
 
 }  // namespace kinolab

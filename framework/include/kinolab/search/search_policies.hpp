@@ -32,9 +32,9 @@ class EdgeEvaluationPolicy {
 
   /// Evaluates the primitive `control` from `parent` into `evaluation` (its end state,
   /// validity, cost and ESDF queries) and says what that evaluation is.
-  /// `parent_distance` is the ESDF at the parent's position (INFINITY when not looked up).
+  /// `parent_clearance` is Esdf::clearance at the parent's position.
   virtual EdgeEstimate evaluate(const EdgeEvaluator& evaluator, const ChainState& parent,
-                                double parent_distance, const Eigen::Vector3d& control,
+                                double parent_clearance, const Eigen::Vector3d& control,
                                 EdgeEvaluation& evaluation) const = 0;
 };
 
@@ -69,16 +69,16 @@ class ControlOnlyBoundPolicy final : public EdgeEvaluationPolicy {
   }
 };
 
-/// Lazy with the endpoint bound, and exact when the ESDF's Lipschitz bound between the two
-/// endpoints proves the edge clear of obstacles and of the penalty band
-/// (EdgeEvaluator::certify).
+/// Lazy with the endpoint bound, and exact when the parent's clearance covers the edge in one
+/// sphere-tracing step and the ESDF's Lipschitz bound between the two endpoints keeps it out
+/// of the penalty band (EdgeEvaluator::certify).
 class LipschitzBoundPolicy final : public EdgeEvaluationPolicy {
  public:
   EdgeEstimate evaluate(const EdgeEvaluator& evaluator, const ChainState& parent,
-                        double parent_distance, const Eigen::Vector3d& control,
+                        double parent_clearance, const Eigen::Vector3d& control,
                         EdgeEvaluation& evaluation) const override {
     evaluation = evaluator.partial(parent, control);
-    return evaluator.certify(parent, parent_distance, control, evaluation)
+    return evaluator.certify(parent, parent_clearance, control, evaluation)
                ? EdgeEstimate::kCertified
                : EdgeEstimate::kLowerBound;
   }

@@ -20,8 +20,9 @@ struct CheckerSettings {
   double spacing = 0.0;
   /// Relative slack on limits and absolute slack (m, m/s) on the start state, for rounding.
   double tolerance = 1e-6;
-  /// Also collide the body with an OctoMap of the world's occupancy through FCL.
-  bool use_fcl = true;
+  /// The body may come this much closer than robot_radius to an occupied cube (m): the
+  /// planners' collision verdict is exact to this tolerance (their `collision_tolerance`).
+  double collision_tolerance = 0.01;
 };
 
 /// The query a trajectory should answer.
@@ -34,30 +35,26 @@ struct CheckQuery {
 };
 
 /// The checker's verdict: valid, or the first violation found (checks in the order start,
-/// limits, bounds, esdf, fcl, goal; within a check, the earliest time).
+/// limits, bounds, collision, goal; within a check, the earliest time).
 struct CheckResult {
   bool valid = false;
-  std::string check;   ///< "", "empty", "start", "limits", "bounds", "esdf", "fcl", "goal"
+  std::string check;   ///< "", "empty", "start", "limits", "bounds", "collision", "goal", "numeric"
   std::string detail;  ///< what was violated, in words
   double time = 0.0;   ///< when, seconds from the trajectory's start
   Eigen::Vector3d position = Eigen::Vector3d::Zero();
-  double min_clearance = 0.0;   ///< smallest ESDF distance minus the robot radius
+  double min_clearance = 0.0;   ///< smallest ESDF distance (trilinear) minus the robot radius
   double mean_clearance = 0.0;  ///< over the position samples
   int samples = 0;              ///< position samples checked
-  double fcl_radius = 0.0;      ///< the sphere FCL collided with the OctoMap
+  double body_radius = 0.0;     ///< the sphere tested against the cubes (radius - tolerance)
 };
 
 /// The independent check every planner's output goes through. It shares nothing with the
-/// planners but the world: it samples the trajectory itself at a fine spacing, reads the
-/// ESDF (trilinear, radius test), and separately collides a sphere with an OctoMap OcTree of
-/// the world's occupied voxels through FCL.
-///
-/// The two collision models differ by construction: the ESDF measures from voxel centres,
-/// FCL from voxel cubes. A trilinear ESDF value >= r guarantees that the distance to every
-/// occupied cube is >= r - sqrt(3) voxel (interpolation may overstate the distance to
-/// centres by half a voxel diagonal, and a cube reaches half a diagonal beyond its centre),
-/// so FCL collides a sphere of that radius: a hit there is a real contradiction, not a
-/// modelling difference.
+/// planners but the world's occupancy: it samples the trajectory itself at a fine spacing and
+/// tests the body, a sphere of robot_radius - collision_tolerance, against the occupied
+/// voxels' cubes exactly at every sample, at any resolution: through FCL (the sphere against
+/// an OctoMap OcTree of the occupied voxels, whose leaves are exactly the grid's cubes) when
+/// that radius is positive, and for a point robot by whether an occupied cube contains the
+/// point. The ESDF only gives the clearance figures.
 class TrajectoryChecker {
  public:
   TrajectoryChecker(std::shared_ptr<const World> world, CheckerSettings settings);
@@ -70,14 +67,15 @@ class TrajectoryChecker {
 
   CheckResult check(const Trajectory& trajectory, const CheckQuery& query) const;
 
-  /// True when FCL finds the sphere of fcl radius at `position` touching an occupied voxel.
-  bool fclCollides(const Eigen::Vector3d& position) const;
+  /// True when the body at `position` touches an occupied voxel cube.
+  bool collides(const Eigen::Vector3d& position) const;
 
  private:
   struct Fcl;
   std::shared_ptr<const World> world_;
   CheckerSettings settings_;
   double spacing_;
+  double body_radius_;
   std::unique_ptr<Fcl> fcl_;
 };
 

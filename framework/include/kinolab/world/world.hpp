@@ -31,9 +31,12 @@ class World {
 
   /// Trilinear signed distance in metres (see Esdf for the rule outside the map).
   double distance(const Eigen::Vector3d& point) const { return esdf_.distance(point); }
-  /// True when `point` is inside the map and at least `radius` from every obstacle.
+  /// A proven lower bound of the distance to every occupied voxel cube (Esdf::clearance).
+  double clearance(const Eigen::Vector3d& point) const { return esdf_.clearance(point); }
+  /// True when `point` is inside the map and provably at least `radius` from every occupied
+  /// cube (clearance() >= radius).
   bool isFree(const Eigen::Vector3d& point, double radius) const {
-    return bounds_.contains(point) && esdf_.distance(point) >= radius;
+    return bounds_.contains(point) && esdf_.clearance(point) >= radius;
   }
 
  private:
