@@ -171,6 +171,13 @@ Eigen::Vector3d EdgeEvaluator::samplePosition(const ChainState& start,
 }
 
 EdgeEvaluation EdgeEvaluator::full(const ChainState& start, const Eigen::Vector3d& control) const {
+  EdgeEvaluation result = full(start, control, world_->esdf().clearance(start.col(0)));
+  ++result.esdf_queries;
+  return result;
+}
+
+EdgeEvaluation EdgeEvaluator::full(const ChainState& start, const Eigen::Vector3d& control,
+                                   double start_clearance) const {
   EdgeEvaluation result;
   result.end = endState(start, control);
   result.within_limits = chain_.withinLimits(start, control, settings_.duration, settings_.limits);
@@ -205,7 +212,10 @@ EdgeEvaluation EdgeEvaluator::full(const ChainState& start, const Eigen::Vector3
   // Seconds of primitive per metre of path (the path bound is a speed bound times tau).
   const double seconds_per_metre = path_bound > 0.0 ? tau / path_bound : INFINITY;
   double t = 0.0;
-  double clearance = trace(0.0, start.col(0));
+  double clearance = start_clearance;
+  traced_time[0] = 0.0;
+  traced_distance[0] = clearance;
+  traced = 1;
   for (;;) {
     if (clearance < radius) {
       result.collision_time = t;

@@ -156,6 +156,7 @@ void MotionPrimitiveSearch::prepare() {
 void MotionPrimitiveSearch::evaluatePopped(const HeapEntry& entry) {
   const ChainState& parent_state = candidates_[entry.node].state;
   const double parent_g = candidates_[entry.node].g;
+  const double parent_clearance = candidates_[entry.node].clearance;
   const Eigen::Vector3d& control = controls_[entry.control];
   Candidate candidate;
   candidate.state = evaluator_.endState(parent_state, control);
@@ -168,7 +169,7 @@ void MotionPrimitiveSearch::evaluatePopped(const HeapEntry& entry) {
     candidate.evaluation = Evaluation::kCertified;
   } else {
     const auto begin = Clock::now();
-    const EdgeEvaluation full = evaluator_.full(parent_state, control);
+    const EdgeEvaluation full = evaluator_.full(parent_state, control, parent_clearance);
     counters_.evaluation_seconds += secondsSince(begin);
     ++counters_.full_evaluations;
     counters_.esdf_queries += full.esdf_queries;
@@ -191,6 +192,8 @@ void MotionPrimitiveSearch::expand(int node) {
   const ChainState parent_state = candidates_[node].state;
   const double parent_g = candidates_[node].g;
   const double parent_clearance = world_->clearance(parent_state.col(0));
+  candidates_[node].clearance = parent_clearance;  // for its lazy edges, when popped
+  ++counters_.esdf_queries;
   const EdgeEvaluationPolicy& policy = *policies_.edges;
   const SearchHeuristic& heuristic = *policies_.heuristic;
   const bool seed_rule = settings_.duplicate_rule == DuplicateRule::kSeed;

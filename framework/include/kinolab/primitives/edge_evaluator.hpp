@@ -94,6 +94,10 @@ class EdgeEvaluator {
   /// The full verdict and the edge's true cost (infinite when it breaks a limit, leaves the
   /// map or collides).
   EdgeEvaluation full(const ChainState& start, const Eigen::Vector3d& control) const;
+  /// The same, given Esdf::clearance at the start (computed once for all the primitives of
+  /// a state; it is not counted in esdf_queries).
+  EdgeEvaluation full(const ChainState& start, const Eigen::Vector3d& control,
+                      double start_clearance) const;
   /// No ESDF query: end state, limits, the map test, and the cost terms that need no map (a
   /// lower bound of the full cost, weaker than partial).
   EdgeEvaluation controlOnly(const ChainState& start, const Eigen::Vector3d& control) const;

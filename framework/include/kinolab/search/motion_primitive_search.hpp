@@ -116,6 +116,7 @@ class MotionPrimitiveSearch {
   struct Candidate {
     ChainState state;
     double g = 0.0;
+    double clearance = INFINITY;  ///< Esdf::clearance at the state, set when expanded
     int parent = -1;
     int control = -1;
     int slot = -1;

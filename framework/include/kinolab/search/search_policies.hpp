@@ -41,9 +41,10 @@ class EdgeEvaluationPolicy {
 /// Eager: every edge fully evaluated (EdgeEvaluator::full).
 class FullEvaluationPolicy final : public EdgeEvaluationPolicy {
  public:
-  EdgeEstimate evaluate(const EdgeEvaluator& evaluator, const ChainState& parent, double,
-                        const Eigen::Vector3d& control, EdgeEvaluation& evaluation) const override {
-    evaluation = evaluator.full(parent, control);
+  EdgeEstimate evaluate(const EdgeEvaluator& evaluator, const ChainState& parent,
+                        double parent_clearance, const Eigen::Vector3d& control,
+                        EdgeEvaluation& evaluation) const override {
+    evaluation = evaluator.full(parent, control, parent_clearance);
     return EdgeEstimate::kFull;
   }
 };
