@@ -30,7 +30,7 @@ run_step(OK ${CMAKE_COMMAND} -S "${CONSUMER_SOURCE_DIR}" -B "${build}"
 run_step(OK ${CMAKE_COMMAND} --build "${build}")
 
 run_step(OK "${build}/consumer")
-expect_output("kinolab [0-9]+\\.[0-9]+\\.[0-9]+ distance 0\\.5")
+expect_output("kinolab [0-9]+\\.[0-9]+\\.[0-9]+ distance 0\\.45")
 
 # The installed command loads the plugin and lists it beside the built-in samplers.
 set(kinolab "${prefix}/bin/kinolab")
