@@ -55,6 +55,52 @@ double largestCubicRoot(double a, double b, double c) {
   return m;
 }
 
+/// The least time to move `distance` >= 0 along an axis from speed `v` and acceleration `a`
+/// (positive towards the target) under |v| <= v_max, |a| <= a_max and |jerk| <= j_max: no
+/// trajectory's speed exceeds w(t) = v + integral of min(a_max, a + j_max s), nor v_max, so
+/// none covers more than X(t) = integral of min(v_max, w); the time is the first t with
+/// X(t) = distance. (The exact optimum of a relaxation the jerk-limited edges satisfy, so it
+/// is consistent.)
+double axisMinimumTimeJerk(double distance, double v, double a, double v_max, double a_max,
+                           double j_max) {
+  if (distance <= 0.0) return 0.0;
+  if (!std::isfinite(j_max)) return axisMinimumTime(distance, v, v_max, a_max);
+  v = std::clamp(v, -v_max, v_max);
+  a = std::clamp(a, -a_max, a_max);
+  // Phase 1: the acceleration bound ramps from a to a_max until t1; phase 2: it stays.
+  const double t1 = std::isfinite(a_max) ? (a_max - a) / j_max : INFINITY;
+  const auto speed1 = [&](double t) { return v + a * t + 0.5 * j_max * t * t; };
+  const auto covered1 = [&](double t) { return (v + (0.5 * a + j_max * t / 6.0) * t) * t; };
+  // When the speed bound reaches v_max.
+  double tv = 0.0;
+  if (v < v_max) {
+    // v + a t + j t^2 / 2 = v_max: the positive root, if within phase 1.
+    const double root = (-a + std::sqrt(a * a + 2.0 * j_max * (v_max - v))) / j_max;
+    tv = root <= t1 ? root : t1 + (v_max - speed1(t1)) / a_max;
+  }
+  // Within phase 1 before the cap: the cubic covered1(t) = distance, whose largest root is
+  // the crossing (the covered distance only grows once the speed bound is positive).
+  const double end1 = std::min(t1, tv);
+  if (covered1(end1) >= distance) {
+    double t = largestCubicRoot(3.0 * a / j_max, 6.0 * v / j_max, -6.0 * distance / j_max);
+    return std::clamp(t, 0.0, end1);
+  }
+  double time = end1;
+  double left = distance - covered1(end1);
+  if (tv > t1) {
+    // Phase 2 before the cap: w = w1 + a_max s.
+    const double w1 = speed1(t1);
+    const double span = tv - t1;
+    const double phase = (w1 + 0.5 * a_max * span) * span;
+    if (phase >= left) {
+      return t1 + 2.0 * left / (w1 + std::sqrt(std::max(w1 * w1 + 2.0 * a_max * left, 0.0)));
+    }
+    time = tv;
+    left -= phase;
+  }
+  return time + left / v_max;
+}
+
 /// The positive real roots of T^4 + p T^2 + q T + r (Ferrari's method), polished by Newton's
 /// method; returns how many it wrote to `roots`.
 int positiveQuarticRoots(double p, double q, double r, std::array<double, 4>& roots) {
@@ -133,16 +179,18 @@ TimeOptimalHeuristic::TimeOptimalHeuristic(const EdgeEvaluatorSettings& edges, d
       weight_length_(edges.weights.length),
       goal_radius_(goal_radius),
       v_max_(edges.limits.bound[1]),
-      a_max_(edges.limits.bound[2]) {}
+      a_max_(edges.limits.bound[2]),
+      j_max_(edges.order >= 3 ? edges.limits.bound[3] : Eigen::Vector3d::Constant(INFINITY)) {}
 
 double TimeOptimalHeuristic::minimumTime(const ChainState& state,
                                          const Eigen::Vector3d& goal) const {
   double time = 0.0;
   for (int axis = 0; axis < 3; ++axis) {
     const double offset = goal[axis] - state(axis, 0);
-    const double towards = offset >= 0.0 ? state(axis, 1) : -state(axis, 1);
-    time = std::max(time, axisMinimumTime(std::abs(offset) - goal_radius_, towards, v_max_[axis],
-                                          a_max_[axis]));
+    const double sign = offset >= 0.0 ? 1.0 : -1.0;
+    time = std::max(time, axisMinimumTimeJerk(std::abs(offset) - goal_radius_,
+                                              sign * state(axis, 1), sign * state(axis, 2),
+                                              v_max_[axis], a_max_[axis], j_max_[axis]));
   }
   return time;
 }

@@ -125,9 +125,10 @@ class MinTimeHeuristic final : public SearchHeuristic {
 /// w_T max_i T_i + w_L |d|: T_i is the minimum time for axis i to reach the goal cube's
 /// extent [g_i - R, g_i + R] from the state's position and velocity under the velocity and
 /// acceleration limits (accelerate at a_max towards it, then cruise at v_max: the time-optimal
-/// profile with a free end velocity). It is the exact optimum of a relaxation in which every
-/// edge is feasible, so T(s) <= tau + T(s'): consistent. For order 3 and 4 the jerk (and
-/// snap) limit is relaxed: the same bound, from position and velocity.
+/// profile with a free end velocity). For order 3 and 4 the state's acceleration counts too:
+/// the acceleration bound ramps from it at the jerk limit (the snap limit relaxed). Each is
+/// the exact optimum of a relaxation in which every edge is feasible, so T(s) <= tau + T(s'):
+/// consistent.
 class TimeOptimalHeuristic final : public SearchHeuristic {
  public:
   TimeOptimalHeuristic(const EdgeEvaluatorSettings& edges, double goal_radius);
@@ -141,6 +142,7 @@ class TimeOptimalHeuristic final : public SearchHeuristic {
   double goal_radius_;
   Eigen::Vector3d v_max_;
   Eigen::Vector3d a_max_;
+  Eigen::Vector3d j_max_;  ///< infinite below order 3
 };
 
 /// Fast-Planner's optimal boundary value problem bound (Zhou et al., RA-L 2019) for order 2
