@@ -191,7 +191,7 @@ Esdf::Esdf(const VoxelGrid& grid) {
   }
 }
 
-Esdf::Esdf(const VoxelGrid& grid, EsdfValues values) : values_(std::move(values)) {
+Esdf::Esdf(const VoxelGrid& grid, std::vector<float> values) : values_(std::move(values)) {
   if (values_.size() != grid.size()) {
     throw InvalidArgument("Esdf: " + std::to_string(values_.size()) + " values for " +
                           std::to_string(grid.size()) + " voxels");

@@ -142,7 +142,7 @@ std::shared_ptr<const World> WorldCache::read(const std::string& path, std::uint
   }
   const char* payload = buffer.data() + sizeof(Header);
   std::memcpy(grid.occupancy().data(), payload, voxels);
-  EsdfValues values(voxels);
+  std::vector<float> values(voxels);
   std::memcpy(values.data(), payload + voxels, voxels * sizeof(float));
   Esdf esdf(grid, std::move(values));
   return std::make_shared<const World>(name, expected_hash, std::move(grid), std::move(esdf));

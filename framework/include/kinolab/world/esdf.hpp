@@ -6,7 +6,6 @@
 #include <cstdint>
 #include <vector>
 
-#include "kinolab/core/huge_page_allocator.hpp"
 #include "kinolab/world/voxel_grid.hpp"
 
 namespace kinolab {
@@ -30,22 +29,19 @@ namespace kinolab {
 /// centres, so a point outside gets the value at its nearest in-map point, and the gradient
 /// component along a clamped axis is zero. The map says nothing about space beyond it:
 /// planners and the checker reject positions outside `bounds()`.
-/// The ESDF's storage: one float per voxel in grid order, on huge pages where available.
-using EsdfValues = std::vector<float, HugePageAllocator<float>>;
-
 class Esdf {
  public:
   Esdf() = default;
   /// Builds the field of `grid`.
   explicit Esdf(const VoxelGrid& grid);
   /// Adopts precomputed values (e.g. from the world cache), one per voxel in grid order.
-  Esdf(const VoxelGrid& grid, EsdfValues values);
+  Esdf(const VoxelGrid& grid, std::vector<float> values);
 
   const Eigen::Vector3i& dims() const { return dims_; }
   double resolution() const { return resolution_; }
   const Eigen::Vector3d& origin() const { return origin_; }
   double maxDistance() const { return max_distance_; }
-  const EsdfValues& values() const { return values_; }
+  const std::vector<float>& values() const { return values_; }
 
   /// The stored value of one voxel.
   float voxelDistance(std::size_t index) const { return values_[index]; }
@@ -155,7 +151,7 @@ class Esdf {
   double gradient_scale_[3] = {0.0, 0.0, 0.0};
   std::size_t strides_[3] = {0, 0, 0};
   std::size_t neighbour_step_[3] = {0, 0, 0};
-  EsdfValues values_;
+  std::vector<float> values_;
 };
 
 }  // namespace kinolab
