@@ -18,47 +18,62 @@ constexpr int kBlock = 16;
 /// Scratch space for the one-dimensional lower-envelope transform of a line of length n.
 struct EnvelopeScratch {
   explicit EnvelopeScratch(int n)
-      : sites(static_cast<std::size_t>(n)),
-        heights(static_cast<std::size_t>(n)),
-        boundary_numerator(static_cast<std::size_t>(n) + 1),
-        boundary_denominator(static_cast<std::size_t>(n) + 1) {}
+      : sites(static_cast<std::size_t>(n) + 1),
+        heights(static_cast<std::size_t>(n) + 1),
+        face_heights(static_cast<std::size_t>(n) + 1),
+        boundary_numerator(static_cast<std::size_t>(n) + 2),
+        boundary_denominator(static_cast<std::size_t>(n) + 2) {}
   std::vector<std::int32_t> sites;
-  std::vector<std::int64_t> heights;  // f[site] + site^2
+  std::vector<std::int64_t> heights;       // f + centre^2
+  std::vector<std::int32_t> face_heights;  // f
   // The envelope's parabola k wins from numerator / denominator onwards (denominator > 0),
   // kept as a fraction so that every comparison is exact integer arithmetic.
   std::vector<std::int64_t> boundary_numerator;
   std::vector<std::int64_t> boundary_denominator;
 };
 
-/// The lower envelope of the parabolas (x - (2 i + shift))^2 + f[i] over the sites i (entries
-/// other than kNoSite), evaluated at x = 2 q, folded into `d` by minimum (Felzenszwalb and
-/// Huttenlocher's algorithm in integer arithmetic: no division, no rounding).
-void envelopeInto(const std::int32_t* f, std::int32_t* d, int n, int shift,
-                  EnvelopeScratch& scratch) {
-  std::int32_t* v = scratch.sites.data();
+/// One pass of the cube distance transform along a line of `n` voxels, in quarter voxels
+/// squared: the distance from centre q to a cube i != q voxels away along the line is
+/// (2 |q - i| - 1)^2, a parabola in 2 q centred on the cube's near face, 2 i + 1 or 2 i - 1.
+/// Neighbouring voxels share a face, so the faces 2 k + 1 (k = -1 .. n - 1) carry
+/// min(f[k], f[k + 1]); d = min(f, the lower envelope of those n + 1 parabolas at 2 q)
+/// (Felzenszwalb and Huttenlocher's algorithm in integer arithmetic: no division, no
+/// rounding). Entries without a site (kNoSite) are skipped, so huge sentinels never enter
+/// the arithmetic.
+void transformLine(const std::int32_t* f, std::int32_t* d, int n, EnvelopeScratch& scratch) {
+  std::copy(f, f + n, d);
+  // A line of zeros (every voxel at distance 0) is its own transform; in real worlds most
+  // lines of the inside transform are such lines.
+  if (std::all_of(f, f + n, [](std::int32_t x) { return x == 0; })) return;
+  std::int32_t* v = scratch.sites.data();  // the face index k + 1 (0 .. n)
   std::int64_t* g = scratch.heights.data();
   std::int64_t* zn = scratch.boundary_numerator.data();
   std::int64_t* zd = scratch.boundary_denominator.data();
+  std::int32_t* height = scratch.face_heights.data();
   int k = -1;
-  for (int q = 0; q < n; ++q) {
-    if (f[q] == kNoSite) continue;
-    const std::int64_t centre = 2 * static_cast<std::int64_t>(q) + shift;
-    const std::int64_t gq = static_cast<std::int64_t>(f[q]) + centre * centre;
+  for (int face = 0; face <= n; ++face) {
+    const std::int32_t below = face > 0 ? f[face - 1] : kNoSite;
+    const std::int32_t above = face < n ? f[face] : kNoSite;
+    const std::int32_t fq = std::min(below, above);
+    if (fq == kNoSite) continue;
+    const std::int64_t centre = 2 * static_cast<std::int64_t>(face) - 1;
+    const std::int64_t gq = static_cast<std::int64_t>(fq) + centre * centre;
     std::int64_t numerator = 0;
     std::int64_t denominator = 1;
     while (k >= 0) {
-      // Parabolas v[k] and q intersect at (gq - g[k]) / (2 (centre_q - centre_k)).
+      // Parabolas v[k] and this face intersect at (gq - g[k]) / (2 (centre - centre_k)).
       numerator = gq - g[k];
-      denominator = 4 * static_cast<std::int64_t>(q - v[k]);
+      denominator = 4 * static_cast<std::int64_t>(face - v[k]);
       // Keep parabola k when the intersection lies right of where k starts winning.
       if (k == 0 || numerator * zd[k] > zn[k] * denominator) break;
       --k;
     }
     ++k;
-    v[k] = q;
+    v[k] = face;
     g[k] = gq;
     zn[k] = numerator;
     zd[k] = denominator;
+    height[k] = fq;
   }
   if (k < 0) return;
   const int last = k;
@@ -67,23 +82,10 @@ void envelopeInto(const std::int32_t* f, std::int32_t* d, int n, int shift,
     const std::int64_t x = 2 * static_cast<std::int64_t>(q);
     // Advance while the next parabola starts at or before x: zn / zd <= x.
     while (j < last && zn[j + 1] <= x * zd[j + 1]) ++j;
-    const std::int64_t offset = x - (2 * static_cast<std::int64_t>(v[j]) + shift);
-    const std::int64_t value = offset * offset + f[v[j]];
+    const std::int64_t offset = x - (2 * static_cast<std::int64_t>(v[j]) - 1);
+    const std::int64_t value = offset * offset + height[j];
     if (value < d[q]) d[q] = static_cast<std::int32_t>(value);
   }
-}
-
-/// One pass of the cube distance transform along a line: in quarter voxels squared, the
-/// distance from a centre to a cube whose centre is i - q voxels away along the line is
-/// (2 |i - q| - 1)^2 (0 for i = q), the smaller of the parabolas centred half a voxel either
-/// side of i (and f[q] itself for i = q). So d = min(f, envelope(+1), envelope(-1)).
-void transformLine(const std::int32_t* f, std::int32_t* d, int n, EnvelopeScratch& scratch) {
-  std::copy(f, f + n, d);
-  // A line of zeros (every voxel at distance 0) is its own transform; in real worlds most
-  // lines of the inside transform are such lines.
-  if (std::all_of(f, f + n, [](std::int32_t x) { return x == 0; })) return;
-  envelopeInto(f, d, n, 1, scratch);
-  envelopeInto(f, d, n, -1, scratch);
 }
 
 /// Runs the 1-D transform over every line along one strided axis. Lines start at
