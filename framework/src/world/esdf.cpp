@@ -42,9 +42,36 @@ struct EnvelopeScratch {
 /// the arithmetic.
 void transformLine(const std::int32_t* f, std::int32_t* d, int n, EnvelopeScratch& scratch) {
   std::copy(f, f + n, d);
-  // A line of zeros (every voxel at distance 0) is its own transform; in real worlds most
-  // lines of the inside transform are such lines.
-  if (std::all_of(f, f + n, [](std::int32_t x) { return x == 0; })) return;
+  // A line mostly of zeros (voxels at distance 0: in the inside transform, the free space
+  // around thin obstacles) is done per non-zero entry: scanning outward while the line
+  // distance alone stays below the best found, which the nearest zero bounds; with runs of
+  // non-zeros at most kShortRun long that is at most kShortRun / 2 steps an entry.
+  constexpr int kShortRun = 64;
+  int zeros = 0;
+  int run = 0;
+  int longest = 0;
+  for (int q = 0; q < n; ++q) {
+    run = f[q] == 0 ? 0 : run + 1;
+    zeros += f[q] == 0;
+    longest = std::max(longest, run);
+  }
+  if (zeros == n) return;
+  if (zeros > 0 && longest <= kShortRun && 4 * zeros >= 3 * n) {
+    for (int q = 0; q < n; ++q) {
+      if (f[q] == 0) continue;
+      std::int64_t best = f[q];
+      for (int step = 1;; ++step) {
+        const std::int64_t reach = 2 * static_cast<std::int64_t>(step) - 1;
+        if (reach * reach >= best || (q - step < 0 && q + step >= n)) break;
+        for (const int i : {q - step, q + step}) {
+          if (i < 0 || i >= n || f[i] == kNoSite) continue;
+          best = std::min(best, f[i] + reach * reach);
+        }
+      }
+      d[q] = static_cast<std::int32_t>(best);
+    }
+    return;
+  }
   std::int32_t* v = scratch.sites.data();  // the face index k + 1 (0 .. n)
   std::int64_t* g = scratch.heights.data();
   std::int64_t* zn = scratch.boundary_numerator.data();
