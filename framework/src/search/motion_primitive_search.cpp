@@ -17,10 +17,11 @@ double secondsSince(Clock::time_point begin) {
 
 }  // namespace
 
-std::size_t MotionPrimitiveSearch::KeyHash::operator()(const Key& key) const {
-  // SplitMix64-style mixing of the packed components.
+std::uint64_t MotionPrimitiveSearch::hashOf(const Key& key) const {
+  // SplitMix64-style mixing of the packed components the order uses (3 per derivative).
   std::uint64_t hash = 0x9E3779B97F4A7C15ull;
-  for (std::size_t i = 0; i < key.size(); i += 2) {
+  const std::size_t used = 3 * static_cast<std::size_t>(settings_.edges.order);
+  for (std::size_t i = 0; i < used; i += 2) {
     std::uint64_t word = (static_cast<std::uint64_t>(static_cast<std::uint32_t>(key[i])) << 32) |
                          static_cast<std::uint32_t>(key[i + 1]);
     word ^= hash;
@@ -28,7 +29,7 @@ std::size_t MotionPrimitiveSearch::KeyHash::operator()(const Key& key) const {
     word = (word ^ (word >> 27)) * 0x94D049BB133111EBull;
     hash = word ^ (word >> 31);
   }
-  return static_cast<std::size_t>(hash);
+  return hash;
 }
 
 MotionPrimitiveSearch::MotionPrimitiveSearch(std::shared_ptr<const World> world,
@@ -85,21 +86,23 @@ int MotionPrimitiveSearch::slotOf(const ChainState& state) {
     table_.assign(std::max<std::size_t>(1024, 2 * table_.size()), -1);
     const std::size_t mask = table_.size() - 1;
     for (std::size_t i = 0; i < slots_.size(); ++i) {
-      std::size_t position = KeyHash{}(slots_[i].key) & mask;
+      std::size_t position = slots_[i].hash & mask;
       while (table_[position] >= 0) position = (position + 1) & mask;
       table_[position] = static_cast<int>(i);
     }
   }
   const Key key = keyOf(state);
+  const std::uint64_t hash = hashOf(key);
   const std::size_t mask = table_.size() - 1;
-  for (std::size_t position = KeyHash{}(key)&mask;; position = (position + 1) & mask) {
+  for (std::size_t position = hash & mask;; position = (position + 1) & mask) {
     const int index = table_[position];
     if (index < 0) {
       table_[position] = static_cast<int>(slots_.size());
-      slots_.push_back(Slot{key});
+      slots_.push_back(Slot{key, hash});
       return table_[position];
     }
-    if (slots_[index].key == key) return index;
+    // The hash first: keys are compared only when it matches.
+    if (slots_[index].hash == hash && slots_[index].key == key) return index;
   }
 }
 

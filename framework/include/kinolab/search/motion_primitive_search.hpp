@@ -103,11 +103,9 @@ class MotionPrimitiveSearch {
 
  private:
   using Key = std::array<std::int32_t, 12>;
-  struct KeyHash {
-    std::size_t operator()(const Key& key) const;
-  };
   struct Slot {
     Key key;
+    std::uint64_t hash = 0;  ///< hashOf(key)
     double best_f = INFINITY;  ///< lowest priority of an evaluated candidate queued (lwa, eager)
     int closed = -1;           ///< the candidate that closed the state
     bool seen = false;         ///< an edge was queued (seed rule)
@@ -145,6 +143,7 @@ class MotionPrimitiveSearch {
   };
 
   Key keyOf(const ChainState& state) const;
+  std::uint64_t hashOf(const Key& key) const;
   /// f = cost_weight g + heuristic_weight h.
   double priority(double g, double h) const;
   int slotOf(const ChainState& state);
