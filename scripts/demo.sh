@@ -18,7 +18,7 @@ for world in forest complex walls geb079; do
 done
 for planner in eager_mp_astar lazy_mp_astar; do
   ./build/framework/kinolab plan --world configs/worlds/forest.yaml --planner "$planner" \
-    --set heuristic_weight=2 --start 2,2,1.5 --goal 14,12,1.5 --out "out/plan/$planner"
+    --start 2,2,1.5 --goal 14,12,1.5 --out "out/plan/$planner"
 done
 ./build/framework/kinolab plan --world configs/worlds/forest.yaml --planner rrtstar_ceres \
   --start 2,2,1.5 --goal 14,12,1.5 --out out/plan/rrtstar_ceres
