@@ -1,6 +1,7 @@
 #pragma once
 // The forest world and the 50 seeded queries the search and planner benchmarks share.
 #include <algorithm>
+#include <cmath>
 #include <string>
 #include <vector>
 
@@ -40,7 +41,9 @@ inline const std::vector<PlanningQuery>& paperScaleQueries() {
   return list;
 }
 
+/// The median; NaN for no values.
 inline double median(std::vector<double> values) {
+  if (values.empty()) return NAN;
   std::sort(values.begin(), values.end());
   const std::size_t n = values.size();
   return n % 2 ? values[n / 2] : 0.5 * (values[n / 2 - 1] + values[n / 2]);

@@ -212,9 +212,9 @@ TEST(EdgeEvaluator, TheVerdictDoesNotDependOnSampling) {
   Rng rng(5);
   int collisions = 0;
   for (int trial = 0; trial < 3000; ++trial) {
-    const ChainState start = stateAt(
-        {rng.uniform(0.5, 9.5), rng.uniform(0.5, 9.5), rng.uniform(0.5, 2.5)},
-        {rng.uniform(-1.5, 1.5), rng.uniform(-1.5, 1.5), rng.uniform(-1, 1)});
+    const ChainState start =
+        stateAt({rng.uniform(0.5, 9.5), rng.uniform(0.5, 9.5), rng.uniform(0.5, 2.5)},
+                {rng.uniform(-1.5, 1.5), rng.uniform(-1.5, 1.5), rng.uniform(-1, 1)});
     if (!world->isFree(start.col(0), sparse.robot_radius)) continue;
     const Eigen::Vector3d control(rng.uniform(-3, 3), rng.uniform(-3, 3), rng.uniform(-3, 3));
     const EdgeEvaluation ea = a.full(start, control);
@@ -238,8 +238,8 @@ TEST(EdgeEvaluator, ARadiusOfZeroIsAPointRobot) {
   const EdgeEvaluator evaluator(world, settings);
   EXPECT_TRUE(evaluator.full(stateAt({4.95, 2.05, 1.55}, {0, 0, 0.5}), Eigen::Vector3d::Zero())
                   .collision_free);
-  EXPECT_FALSE(evaluator.full(stateAt({4.9, 2, 1.5}, {0.5, 1, 0}), Eigen::Vector3d::Zero())
-                   .collision_free);
+  EXPECT_FALSE(
+      evaluator.full(stateAt({4.9, 2, 1.5}, {0.5, 1, 0}), Eigen::Vector3d::Zero()).collision_free);
 }
 
 TEST(EdgeEvaluator, RejectsBadSettings) {

@@ -50,8 +50,8 @@ struct ConsistencyCount {
 /// Checks h(s) <= c_lower(s, s') + h(s') on random primitives (the sampler's grid of 5 per
 /// axis, at the limit included) from random moving states, against random goals, with the
 /// weakest lower bound the search queues (no map term).
-ConsistencyCount checkConsistency(const std::string& heuristic_name, int order,
-                                  double goal_radius, int primitives) {
+ConsistencyCount checkConsistency(const std::string& heuristic_name, int order, double goal_radius,
+                                  int primitives) {
   const auto world = test::smallWorld("forest");
   Rng rng(4 + order);
   EdgeEvaluatorSettings settings;
@@ -231,9 +231,9 @@ TEST(MotionPrimitiveSearch, TreesForFiguresAreCappedAndKeepEveryKindOfEdge) {
   // Every kind survives the decimation: lazy's queued edges, full ones and the certified.
   for (const auto state : {SearchTreeEdge::State::kPartial, SearchTreeEdge::State::kFull,
                            SearchTreeEdge::State::kCertified}) {
-    EXPECT_TRUE(std::any_of(small.begin(), small.end(),
-                            [state](const SearchTreeEdge& edge) { return edge.state == state; }))
-        << toString(state);
+    EXPECT_TRUE(std::any_of(small.begin(), small.end(), [state](const SearchTreeEdge& edge) {
+      return edge.state == state;
+    })) << toString(state);
   }
 }
 

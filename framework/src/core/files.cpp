@@ -62,8 +62,8 @@ DirectoryLock::DirectoryLock(const std::string& directory, const std::string& pu
   const std::time_t now = std::time(nullptr);
   char started[32];
   std::strftime(started, sizeof(started), "%Y-%m-%dT%H:%M:%SZ", std::gmtime(&now));
-  const std::string text = purpose + ", pid " + std::to_string(getpid()) + " on " + host +
-                           ", since " + started + "\n";
+  const std::string text =
+      purpose + ", pid " + std::to_string(getpid()) + " on " + host + ", since " + started + "\n";
   if (ftruncate(fd_, 0) != 0 || pwrite(fd_, text.data(), text.size(), 0) < 0) {
     close(fd_);
     throw FileError(path + ": cannot write the lock file (" + std::strerror(errno) + ")");

@@ -382,8 +382,8 @@ std::vector<PlanningQuery> QuerySpec::make(const World& world, const std::string
     return inside;
   };
   if (random.count > 0) {
-    const FreeQueryRegion spec{region(random.height), random.clearance,  random.min_distance,
-                               random.max_distance,     random.lattice_step, random.lattice_offset};
+    const FreeQueryRegion spec{region(random.height), random.clearance,    random.min_distance,
+                               random.max_distance,   random.lattice_step, random.lattice_offset};
     const auto drawn = sampleFreeQueries(world, spec, random.count, rng, world_id);
     queries.insert(queries.end(), drawn.begin(), drawn.end());
   }

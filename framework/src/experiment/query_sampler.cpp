@@ -41,7 +41,8 @@ Eigen::Vector3d sampleLatticePosition(const World& world, const FreeQueryRegion&
     return std::floor((spec.region.max[axis] - spec.lattice_offset) / step);
   };
   if (first(0) > last(0) || first(1) > last(1)) {
-    throw ConfigError("queries: the lattice has no point in the query region of world '" + world_id + "'");
+    throw ConfigError("queries: the lattice has no point in the query region of world '" +
+                      world_id + "'");
   }
   for (int draw = 0; draw < max_draws; ++draw) {
     Eigen::Vector3d p;

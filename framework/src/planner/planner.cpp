@@ -23,7 +23,8 @@ std::string positionProblem(const World& world, const Eigen::Vector3d& position,
   if (clearance < radius) {
     return formatPoint(position) + " is in collision: clearance " + formatNumber(clearance) +
            " m (a lower bound of the distance to the occupied voxel cubes) is below the robot "
-           "radius " + formatNumber(radius) + " m";
+           "radius " +
+           formatNumber(radius) + " m";
   }
   return "";
 }

@@ -13,8 +13,12 @@ ParameterSpecs motionPrimitiveParameters() {
       .integer("order", 2, 2, 4, "integrator chain order: 2 acceleration, 3 jerk, 4 snap control")
       .real("tau", 0.6, 0.01, 5.0, "primitive duration, s")
       .include(motionParameters(10.0))
-      .real("max_jerk", 10.0, 0.01, 10000.0, "per-axis jerk limit (order >= 3), m/s^3")
-      .real("max_snap", 50.0, 0.01, 100000.0, "per-axis snap limit (order 4), m/s^4")
+      .real("max_jerk", 5.0, 0.01, 10000.0,
+            "per-axis jerk limit (order >= 3), m/s^3 (the default keeps max_jerk tau within "
+            "max_acceleration at the default tau, so the full-jerk primitives are feasible)")
+      .real("max_snap", 4.0, 0.01, 100000.0,
+            "per-axis snap limit (order 4), m/s^4 (the default keeps max_snap tau within "
+            "half of max_jerk: a finer lattice of jerks)")
       .real("weight_duration", 1.0, 0.0, 1e6, "cost per second of flight")
       .real("weight_length", 0.0, 0.0, 1e6, "cost per metre travelled")
       .real("weight_control", 0.1, 0.0, 1e6, "cost per |u|^2 s of control effort")
@@ -66,8 +70,10 @@ std::shared_ptr<const SearchHeuristic> heuristicFor(const std::string& name,
   auto time_optimal = std::make_shared<TimeOptimalHeuristic>(edges, goal_radius);
   if (name == "time_optimal") return time_optimal;
   if (name == "obvp" && edges.order != 2) {
-    throw ConfigError("parameter 'heuristic': obvp needs order 2 (acceleration control), got "
-                      "order " + std::to_string(edges.order) + "; use time_optimal or max");
+    throw ConfigError(
+        "parameter 'heuristic': obvp needs order 2 (acceleration control), got "
+        "order " +
+        std::to_string(edges.order) + "; use time_optimal or max");
   }
   if (name == "obvp") return std::make_shared<ObvpHeuristic>(edges, goal_radius);
   if (name != "max") throw ConfigError("parameter 'heuristic': unknown heuristic '" + name + "'");
@@ -104,7 +110,8 @@ MotionPrimitiveConfig MotionPrimitiveConfig::fromParameters(const ParameterSet& 
   settings.memory_limit_mb = parameters.real("memory_limit_mb");
 
   config.policies.edges = std::make_shared<FullEvaluationPolicy>();
-  config.policies.heuristic = heuristicFor(parameters.text("heuristic"), edges, settings.goal_radius);
+  config.policies.heuristic =
+      heuristicFor(parameters.text("heuristic"), edges, settings.goal_radius);
   config.budget = timeBudgetFrom(parameters);
   if (const long long limit = parameters.integer("max_expansions"); limit > 0) {
     config.budget.max_iterations = limit;
@@ -164,8 +171,7 @@ PlanResult MotionPrimitivePlanner::doPlan(const PlanningQuery& query, StopCondit
       break;
     case MotionPrimitiveSearch::Outcome::kBudget:
       result.status = result.trajectory.empty() ? PlanStatus::kTimeout : PlanStatus::kApproximate;
-      result.message = std::string(search.counters().memory_limited ? "memory budget"
-                                                                    : "budget") +
+      result.message = std::string(search.counters().memory_limited ? "memory budget" : "budget") +
                        " spent after " + std::to_string(search.counters().expansions) +
                        " expansions";
       break;

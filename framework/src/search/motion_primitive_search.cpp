@@ -240,7 +240,8 @@ void MotionPrimitiveSearch::expand(int node) {
         candidate.parent = node;
         candidate.control = static_cast<int>(i);
         candidate.slot = slot_index;
-        counters_.candidates += queueCandidate(candidate, heuristic.estimate(evaluation.end, goal_));
+        counters_.candidates +=
+            queueCandidate(candidate, heuristic.estimate(evaluation.end, goal_));
         continue;
       }
     }
@@ -381,7 +382,7 @@ SearchTree MotionPrimitiveSearch::tree(std::size_t max_edges, int points_per_edg
       const HeapEntry& entry = heap_[queued[k - evaluated]];
       tree.push_back(edgeOf(entry.node, entry.control,
                             entry.kind == kCertified ? SearchTreeEdge::State::kCertified
-                                                                : SearchTreeEdge::State::kPartial,
+                                                     : SearchTreeEdge::State::kPartial,
                             false));
     }
   }

@@ -123,8 +123,8 @@ int positiveQuarticRoots(double p, double q, double r, std::array<double, 4>& ro
     // q is (numerically) zero: a quadratic in T^2.
     const double discriminant = p * p - 4.0 * r;
     if (discriminant >= 0.0) {
-      for (const double z : {0.5 * (-p + std::sqrt(discriminant)),
-                             0.5 * (-p - std::sqrt(discriminant))}) {
+      for (const double z :
+           {0.5 * (-p + std::sqrt(discriminant)), 0.5 * (-p - std::sqrt(discriminant))}) {
         if (z >= 0.0) found[count++] = std::sqrt(z);
       }
     }
@@ -173,7 +173,6 @@ double MinTimeHeuristic::estimate(const ChainState& state, const Eigen::Vector3d
   return weight_duration_ * time + weight_length_ * distance;
 }
 
-
 TimeOptimalHeuristic::TimeOptimalHeuristic(const EdgeEvaluatorSettings& edges, double goal_radius)
     : weight_duration_(edges.weights.duration),
       weight_length_(edges.weights.length),
@@ -188,9 +187,9 @@ double TimeOptimalHeuristic::minimumTime(const ChainState& state,
   for (int axis = 0; axis < 3; ++axis) {
     const double offset = goal[axis] - state(axis, 0);
     const double sign = offset >= 0.0 ? 1.0 : -1.0;
-    time = std::max(time, axisMinimumTimeJerk(std::abs(offset) - goal_radius_,
-                                              sign * state(axis, 1), sign * state(axis, 2),
-                                              v_max_[axis], a_max_[axis], j_max_[axis]));
+    time = std::max(
+        time, axisMinimumTimeJerk(std::abs(offset) - goal_radius_, sign * state(axis, 1),
+                                  sign * state(axis, 2), v_max_[axis], a_max_[axis], j_max_[axis]));
   }
   return time;
 }
@@ -273,9 +272,8 @@ double ObvpHeuristic::estimate(const ChainState& state, const Eigen::Vector3d& g
       continue;
     }
     std::array<double, 4> roots{};
-    const int found =
-        positiveQuarticRoots(-3.0 * ratio * c_sum, 12.0 * ratio * b_sum, -9.0 * ratio * a_sum,
-                             roots);
+    const int found = positiveQuarticRoots(-3.0 * ratio * c_sum, 12.0 * ratio * b_sum,
+                                           -9.0 * ratio * a_sum, roots);
     for (int k = 0; k < found; ++k) {
       if (roots[k] >= begin && roots[k] <= end) best = std::min(best, cost(roots[k]));
     }

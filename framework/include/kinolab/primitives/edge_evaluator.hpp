@@ -50,12 +50,12 @@ struct EdgeEvaluation {
   /// Sum of the weighted cost terms; for a partial evaluation a lower bound of the full cost.
   /// Infinite when the edge breaks a limit or collides.
   double cost = INFINITY;
-  double obstacle_cost = 0.0;      ///< the obstacle term (weighted) within `cost`
-  double length = 0.0;             ///< chord (partial) or polyline through the samples (full)
-  int samples = 0;                 ///< quadrature samples of full evaluation (partial: the same)
-  int esdf_queries = 0;            ///< ESDF look-ups made
-  double collision_time = -1.0;    ///< when the verdict found the collision (or left the map)
-  double end_distance = INFINITY;  ///< trilinear ESDF at the end (partial), if looked up
+  double obstacle_cost = 0.0;       ///< the obstacle term (weighted) within `cost`
+  double length = 0.0;              ///< chord (partial) or polyline through the samples (full)
+  int samples = 0;                  ///< quadrature samples of full evaluation (partial: the same)
+  int esdf_queries = 0;             ///< ESDF look-ups made
+  double collision_time = -1.0;     ///< when the verdict found the collision (or left the map)
+  double end_distance = INFINITY;   ///< trilinear ESDF at the end (partial), if looked up
   double end_clearance = INFINITY;  ///< Esdf::clearance at the end (partial), if looked up
 
   bool valid() const { return within_limits && collision_free; }

@@ -105,7 +105,7 @@ class MotionPrimitiveSearch {
   using Key = std::array<std::int32_t, 12>;
   struct Slot {
     Key key;
-    std::uint64_t hash = 0;  ///< hashOf(key)
+    std::uint64_t hash = 0;    ///< hashOf(key)
     double best_f = INFINITY;  ///< lowest priority of an evaluated candidate queued (lwa, eager)
     int closed = -1;           ///< the candidate that closed the state
     bool seen = false;         ///< an edge was queued (seed rule)
@@ -126,7 +126,7 @@ class MotionPrimitiveSearch {
   struct HeapEntry {
     double f;
     double g;
-    std::int32_t node;         ///< the candidate (kCandidate) or the edge's parent
+    std::int32_t node;           ///< the candidate (kCandidate) or the edge's parent
     std::uint32_t control : 30;  ///< the edge's control (lower-bound and certified entries)
     std::uint32_t kind : 2;      ///< an EntryKind
     /// Heap order: smallest f first; among equal f the deeper (larger g), then evaluated
