@@ -21,23 +21,25 @@ inline const std::shared_ptr<const World>& forest() {
   return world;
 }
 
-/// 50 queries 8 to 20 m apart at 1-2 m height, 0.6 m clear at both ends, at rest.
+/// 50 seeded queries between `min_distance` and `max_distance` apart at 1-2 m height, 0.6 m
+/// clear at both ends, at rest.
+inline std::vector<PlanningQuery> forestQueries(std::uint64_t seed, double min_distance,
+                                                double max_distance) {
+  Rng rng(seed);
+  const FreeQueryRegion region{Box{{1.0, 1.0, 1.0}, {39.0, 39.0, 2.0}}, 0.6, min_distance,
+                               max_distance};
+  return sampleFreeQueries(*forest(), region, 50, rng, "forest");
+}
+
+/// 50 queries 8 to 20 m apart (the planner comparison).
 inline const std::vector<PlanningQuery>& queries() {
-  static const auto list = [] {
-    Rng rng(2024);
-    const FreeQueryRegion region{Box{{1.0, 1.0, 1.0}, {39.0, 39.0, 2.0}}, 0.6, 8.0, 20.0};
-    return sampleFreeQueries(*forest(), region, 50, rng, "forest");
-  }();
+  static const auto list = forestQueries(2024, 8.0, 20.0);
   return list;
 }
 
-/// The paper's scale: 50 queries 10 to 30 m apart at 1-2 m height, 0.6 m clear, at rest.
+/// The paper's scale: 50 queries 10 to 30 m apart.
 inline const std::vector<PlanningQuery>& paperScaleQueries() {
-  static const auto list = [] {
-    Rng rng(2025);
-    const FreeQueryRegion region{Box{{1.0, 1.0, 1.0}, {39.0, 39.0, 2.0}}, 0.6, 10.0, 30.0};
-    return sampleFreeQueries(*forest(), region, 50, rng, "forest");
-  }();
+  static const auto list = forestQueries(2025, 10.0, 30.0);
   return list;
 }
 
