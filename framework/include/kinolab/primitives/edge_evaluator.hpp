@@ -115,7 +115,9 @@ class EdgeEvaluator {
 
   /// The number of quadrature samples K full evaluation uses for this primitive.
   int sampleCount(const ChainState& start, const Eigen::Vector3d& control) const {
-    return sampleCountFor(pathBound(start, control));
+    return settings_.sampling.mode == EdgeSampling::Mode::kCount
+               ? settings_.sampling.samples
+               : sampleCountFor(pathBound(start, control));
   }
 
  private:
