@@ -114,6 +114,24 @@ TEST(SearchHeuristic, TheConsistencyCheckCatchesAnInflatedHeuristic) {
   }
 }
 
+TEST(SearchHeuristic, ObvpAtAnotherOrderIsAConfigErrorNamingWhereItWasSet) {
+  test::loadTestPlugins();
+  try {
+    configurePlanner("lazy_mp_astar", test::assignments({"order=3", "heuristic=obvp"}));
+    FAIL() << "no error";
+  } catch (const ConfigError& error) {
+    const std::string message = error.what();
+    EXPECT_EQ(message.rfind("test: planner 'lazy_mp_astar': parameter 'heuristic': obvp needs "
+                            "order 2",
+                            0),
+              0u)
+        << message;
+  }
+  // max at order 3 is time_optimal alone, not an error.
+  EXPECT_NO_THROW(
+      configurePlanner("lazy_mp_astar", test::assignments({"order=3", "heuristic=max"})));
+}
+
 TEST(SearchHeuristic, TightHeuristicsDominateTheVelocityBlindOnes) {
   // From rest the time-optimal bound adds the acceleration ramp; moving away it adds the
   // turn; obvp adds the effort; max is the largest. All are equal to 0 inside the goal.

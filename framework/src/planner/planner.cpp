@@ -233,7 +233,16 @@ ConfiguredPlanner configurePlanner(std::string_view key,
                       "' uses no control sampler, so '" + prefix + for_sampler.front().name +
                       "' cannot be set");
   }
-  configured.planner = planners.createResolved(key, configured.parameters);
+  try {
+    configured.planner = planners.createResolved(key, configured.parameters);
+  } catch (const ParameterConflict& conflict) {
+    // Where the blamed parameter was set (the last assignment wins), or its default.
+    std::string where = "the default of '" + conflict.parameter() + "'";
+    for (const auto& assignment : own) {
+      if (assignment.name == conflict.parameter()) where = assignment.where;
+    }
+    throw ConfigError(where + ": planner '" + std::string(key) + "': " + conflict.what());
+  }
   configured.info = &planners.info(key);
   configured.planner->key_ = configured.info->key;
   configured.planner->declared_statistics_ = declaredStatistics(*configured.info);

@@ -70,13 +70,12 @@ std::shared_ptr<const SearchHeuristic> heuristicFor(const std::string& name,
   auto time_optimal = std::make_shared<TimeOptimalHeuristic>(edges, goal_radius);
   if (name == "time_optimal") return time_optimal;
   if (name == "obvp" && edges.order != 2) {
-    throw ConfigError(
-        "parameter 'heuristic': obvp needs order 2 (acceleration control), got "
-        "order " +
-        std::to_string(edges.order) + "; use time_optimal or max");
+    throw ParameterConflict("heuristic", "obvp needs order 2 (acceleration control), got order " +
+                                             std::to_string(edges.order) +
+                                             "; use time_optimal or max");
   }
   if (name == "obvp") return std::make_shared<ObvpHeuristic>(edges, goal_radius);
-  if (name != "max") throw ConfigError("parameter 'heuristic': unknown heuristic '" + name + "'");
+  if (name != "max") throw ParameterConflict("heuristic", "unknown heuristic '" + name + "'");
   if (edges.order != 2) return time_optimal;
   return std::make_shared<MaxHeuristic>(std::vector<std::shared_ptr<const SearchHeuristic>>{
       time_optimal, std::make_shared<ObvpHeuristic>(edges, goal_radius)});

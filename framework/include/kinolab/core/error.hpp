@@ -2,6 +2,7 @@
 
 #include <stdexcept>
 #include <string>
+#include <utility>
 
 namespace kinolab {
 
@@ -17,6 +18,19 @@ class Error : public std::runtime_error {
 class ConfigError : public Error {
  public:
   using Error::Error;
+};
+
+/// A plugin's factory refuses a combination of parameter values (each valid alone), naming the
+/// parameter it blames; configurePlanner() adds where that parameter was set.
+class ParameterConflict : public ConfigError {
+ public:
+  ParameterConflict(std::string parameter, const std::string& message)
+      : ConfigError("parameter '" + parameter + "': " + message),
+        parameter_(std::move(parameter)) {}
+  const std::string& parameter() const { return parameter_; }
+
+ private:
+  std::string parameter_;
 };
 
 /// A file is missing, unreadable, corrupt or cannot be written.
