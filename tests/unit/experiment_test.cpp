@@ -338,5 +338,29 @@ TEST(QuerySampler, PairsAreFreeInTheRegionAtTheirDistancesAndImpossibleOnesAreRe
                ConfigError);
 }
 
+TEST(QuerySampler, ALatticePutsXAndYOnItsPointsAndARegionWithoutOneIsRefused) {
+  const auto world = World::build(WorldSpec::fromFile(
+      (fs::path(KINOLAB_SOURCE_DIR) / "tests/support/small_forest.yaml").string()));
+  const Box region{{1.0, 1.0, 1.55}, {9.0, 9.0, 1.55}};
+  Rng rng(5);
+  const auto queries =
+      sampleFreeQueries(*world, {region, 0.5, 3.0, 8.0, 0.5, 0.05}, 30, rng, "small");
+  for (const PlanningQuery& query : queries) {
+    for (const Eigen::Vector3d& p : {Eigen::Vector3d(query.start.col(0)), query.goal}) {
+      EXPECT_TRUE(region.contains(p)) << p.transpose();
+      EXPECT_TRUE(world->isFree(p, 0.5));
+      for (int axis = 0; axis < 2; ++axis) {
+        const double k = (p[axis] - 0.05) / 0.5;
+        EXPECT_NEAR(k, std::round(k), 1e-9) << p.transpose();
+      }
+      EXPECT_DOUBLE_EQ(p.z(), 1.55);
+    }
+  }
+  // No lattice point between x = 1.1 and 1.5 (they are at 1.05 and 1.55).
+  const Box slit{{1.1, 1.0, 1.55}, {1.5, 9.0, 1.55}};
+  EXPECT_THROW(sampleFreeQueries(*world, {slit, 0.5, 0.0, 8.0, 0.5, 0.05}, 1, rng, "small"),
+               ConfigError);
+}
+
 }  // namespace
 }  // namespace kinolab
