@@ -147,7 +147,7 @@ class RrtStarPlanner final : public Planner {
           "rrtstar_ceres for a moving start)";
       return result;
     }
-    if (const double clearance = world().distance(start); clearance < clearance_) {
+    if (const double clearance = world().clearance(start); clearance < clearance_) {
       result.status = PlanStatus::kInvalidStart;
       result.message = "start clearance " + formatNumber(clearance) +
                        " m is below robot_radius + clearance_margin = " + formatNumber(clearance_) +
