@@ -195,16 +195,18 @@ EdgeEvaluation EdgeEvaluator::full(const ChainState& start, const Eigen::Vector3
   const int order = settings_.order;
   const Eigen::Vector3d end = result.end.col(0);
 
-  // Sphere tracing: the traced times and the trilinear ESDF there (for the quadrature).
+  // Sphere tracing. The first 64 traced times and clearances are kept for the quadrature
+  // (a clearance is at most the trilinear value there, so it bounds that from below).
   std::array<double, 64> traced_time;
   std::array<double, 64> traced_distance;
-  int traced = 0;
+  traced_time[0] = 0.0;
+  traced_distance[0] = start_clearance;
+  int traced = 1;
   const auto trace = [&](double t, const Eigen::Vector3d& position) {
     ++result.esdf_queries;
     const double clearance = esdf.clearance(position);
     if (traced < static_cast<int>(traced_time.size())) {
       traced_time[traced] = t;
-      // clearance <= trilinear value: a lower bound of it for the quadrature's skipping.
       traced_distance[traced++] = clearance;
     }
     return clearance;
@@ -213,9 +215,6 @@ EdgeEvaluation EdgeEvaluator::full(const ChainState& start, const Eigen::Vector3
   const double seconds_per_metre = path_bound > 0.0 ? tau / path_bound : INFINITY;
   double t = 0.0;
   double clearance = start_clearance;
-  traced_time[0] = 0.0;
-  traced_distance[0] = clearance;
-  traced = 1;
   for (;;) {
     if (clearance < radius) {
       result.collision_time = t;
