@@ -15,13 +15,18 @@ std::shared_ptr<const World> worldFrom(const std::string& text) {
   return World::build(WorldSpec::fromYaml(YamlReader::loadString(text, "spec.yaml"), "."));
 }
 
-/// 10 m x 10 m x 3 m at 0.1 m: a small dense forest with a ground plane.
-std::shared_ptr<const World> smallForest() {
-  static const auto world = worldFrom(
-      "seed: 3\nresolution: 0.1\nbounds: {min: [0, 0, 0], max: [10, 10, 3]}\n"
-      "generators: [{type: forest, density: 0.25, trunk_radius: [0.1, 0.3], "
-      "trunk_height: [2.5, 3], min_spacing: 0.5, ground_plane: true}]\n");
-  return world;
+/// 10 m x 10 m x 3 m: a small dense forest with a ground plane, at 0.1 m (or, coarse, at
+/// 0.5 m: the trunks become blocks of whole voxels).
+std::shared_ptr<const World> smallForest(bool coarse = false) {
+  const auto make = [](const char* resolution) {
+    return worldFrom(std::string("seed: 3\nresolution: ") + resolution +
+                     "\nbounds: {min: [0, 0, 0], max: [10, 10, 3]}\n"
+                     "generators: [{type: forest, density: 0.25, trunk_radius: [0.1, 0.3], "
+                     "trunk_height: [2.5, 3], min_spacing: 0.5, ground_plane: true}]\n");
+  };
+  static const auto fine = make("0.1");
+  static const auto rough = make("0.5");
+  return coarse ? rough : fine;
 }
 
 ChainState stateAt(const Eigen::Vector3d& position, const Eigen::Vector3d& velocity) {
@@ -126,8 +131,8 @@ TEST(EdgeEvaluator, FarFromObstaclesAnEdgeCostsTwoQueries) {
 /// tested exactly against the occupied cubes (the checker's FCL test) with the radius less
 /// the tolerance.
 void checkAgainstDenseChecking(const EdgeEvaluatorSettings& settings, int* dense_collisions,
-                               int* missed) {
-  const auto world = smallForest();
+                               int* missed, bool coarse = false) {
+  const auto world = smallForest(coarse);
   const EdgeEvaluator evaluator(world, settings);
   const IntegratorChain& chain = evaluator.chain();
   CheckerSettings body;
@@ -184,15 +189,19 @@ TEST(EdgeEvaluator, FullEvaluationFindsEveryDenseCollision) {
       EXPECT_EQ(missed, 0) << "order " << order;
     }
   }
-  // A small robot and a point robot are exact too.
-  for (const double radius : {0.05, 0.0}) {
-    EdgeEvaluatorSettings small;
-    small.robot_radius = radius;
-    int dense = 0;
-    int missed = 0;
-    checkAgainstDenseChecking(small, &dense, &missed);
-    EXPECT_GT(dense, 50) << radius;
-    EXPECT_EQ(missed, 0) << radius;
+  // A small robot and a point robot are exact too, and so is every radius on a 0.5 m grid
+  // (where the cubes are much larger than the robot).
+  for (const bool coarse : {false, true}) {
+    for (const double radius : {0.25, 0.05, 0.0}) {
+      if (!coarse && radius == 0.25) continue;  // the default, above
+      EdgeEvaluatorSettings small;
+      small.robot_radius = radius;
+      int dense = 0;
+      int missed = 0;
+      checkAgainstDenseChecking(small, &dense, &missed, coarse);
+      EXPECT_GT(dense, 50) << radius << (coarse ? " coarse" : "");
+      EXPECT_EQ(missed, 0) << radius << (coarse ? " coarse" : "");
+    }
   }
 }
 
