@@ -172,7 +172,8 @@ PlanResult Planner::plan(const PlanningQuery& query, const Budget& budget, Searc
 ParameterSpecs motionParameters(double default_time_limit) {
   return ParameterSpecs()
       .real("robot_radius", 0.25, 0.0, 10.0,
-            "body radius (0: a point): a position closer than this to an occupied voxel cube "
+            "body radius (0: a point); the obstacles are the occupied voxel cubes, and a "
+            "position whose proven clearance to them (the ESDF's lower bound) is below this "
             "collides, m")
       .real("collision_tolerance", 0.01, 1e-4, 1.0,
             "the collision verdict is exact to this: an edge called free keeps robot_radius "
