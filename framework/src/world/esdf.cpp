@@ -196,7 +196,8 @@ void Esdf::setGeometry(const VoxelGrid& grid) {
   strides_[2] = 1;
   for (int axis = 0; axis < 3; ++axis) {
     upper_[axis] = dims_[axis] - 1;
-    lower_limit_[axis] = static_cast<std::size_t>(std::max(0, dims_[axis] - 2));
+    lower_corner_[axis] = std::max(0, dims_[axis] - 2);
+    shift_[axis] = origin_[axis] * inverse_resolution_ + 0.5;
     neighbour_step_[axis] = dims_[axis] > 1 ? strides_[axis] : 0;
     gradient_scale_[axis] = dims_[axis] > 1 ? inverse_resolution_ : 0.0;
   }

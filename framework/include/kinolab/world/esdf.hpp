@@ -94,15 +94,15 @@ class Esdf {
     double scale[3];
     std::size_t base = 0;
     for (int axis = 0; axis < 3; ++axis) {
-      const double raw = (point[axis] - origin_[axis]) * inverse_resolution_ - 0.5;
+      const double raw = point[axis] * inverse_resolution_ - shift_[axis];
       const double scaled = std::clamp(raw, 0.0, upper_[axis]);
       // Along a clamped axis the field is constant, so that gradient component is zero.
       if constexpr (kWithGradient) scale[axis] = raw == scaled ? gradient_scale_[axis] : 0.0;
       // The lower corner stays one below the last centre so that corner + 1 exists; on a
       // one-voxel axis the step is zero and both corners are the same voxel.
       // scaled >= 0, so truncation is floor (and needs no libm call).
-      const auto corner =
-          std::min(static_cast<std::size_t>(static_cast<std::int64_t>(scaled)), lower_limit_[axis]);
+      const auto corner = static_cast<std::size_t>(
+          static_cast<std::int64_t>(std::min(scaled, lower_corner_[axis])));
       fraction[axis] = scaled - static_cast<double>(corner);
       base += corner * strides_[axis];
     }
@@ -146,8 +146,9 @@ class Esdf {
   double inverse_resolution_ = 0.0;
   Eigen::Vector3d origin_ = Eigen::Vector3d::Zero();
   double max_distance_ = 0.0;
-  double upper_[3] = {0.0, 0.0, 0.0};       // last centre index per axis
-  std::size_t lower_limit_[3] = {0, 0, 0};  // highest lower-corner index per axis
+  double upper_[3] = {0.0, 0.0, 0.0};         // last centre index per axis
+  double lower_corner_[3] = {0.0, 0.0, 0.0};  // highest lower-corner index per axis
+  double shift_[3] = {0.0, 0.0, 0.0};         // origin / resolution + 1/2
   double gradient_scale_[3] = {0.0, 0.0, 0.0};
   std::size_t strides_[3] = {0, 0, 0};
   std::size_t neighbour_step_[3] = {0, 0, 0};
