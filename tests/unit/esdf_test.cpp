@@ -136,6 +136,17 @@ TEST(EsdfTest, AnalyticGradientMatchesFiniteDifferences) {
   EXPECT_GT(compared, 5000);
 }
 
+TEST(EsdfTest, ANotANumberCoordinateReadsAValueNeverOutOfRange) {
+  const VoxelGrid grid = randomGrid({10, 8, 6}, 0.1, 42, 0.2);
+  const Esdf esdf(grid);
+  const Eigen::Vector3d bad(std::nan(""), 1.0, -std::numeric_limits<double>::infinity());
+  EXPECT_TRUE(std::isfinite(esdf.distance(bad)));
+  EXPECT_TRUE(std::isfinite(esdf.nearestDistance(bad)));
+  EXPECT_TRUE(std::isfinite(esdf.clearance(bad)));
+  Eigen::Vector3d gradient;
+  EXPECT_TRUE(std::isfinite(esdf.distanceWithGradient(bad, &gradient)));
+}
+
 TEST(EsdfTest, PointsOutsideTheMapTakeTheValueOfTheNearestPointInside) {
   const VoxelGrid grid = randomGrid({8, 8, 8}, 0.1, 3, 0.5);
   const Esdf esdf(grid);

@@ -27,7 +27,8 @@ namespace kinolab {
 ///
 /// Points outside the map: every query clamps the point to the box spanned by the voxel
 /// centres, so a point outside gets the value at its nearest in-map point, and the gradient
-/// component along a clamped axis is zero. The map says nothing about space beyond it:
+/// component along a clamped axis is zero (a NaN coordinate reads as the map's low side: a
+/// value, never an out-of-range read). The map says nothing about space beyond it:
 /// planners and the checker reject positions outside `bounds()`.
 class Esdf {
  public:
@@ -51,8 +52,9 @@ class Esdf {
     std::size_t index = 0;
     for (int axis = 0; axis < 3; ++axis) {
       const double scaled = (point[axis] - origin_[axis]) * inverse_resolution_ - 0.5;
-      // Clamped to >= 0 first, so truncation rounds to nearest (and needs no libm call).
-      const double clamped = std::clamp(scaled, 0.0, upper_[axis]);
+      // Clamped to >= 0 first, so truncation rounds to nearest (and needs no libm call);
+      // max(0, x) first maps a NaN coordinate to 0, never to an index.
+      const double clamped = std::min(std::max(0.0, scaled), upper_[axis]);
       index += static_cast<std::size_t>(static_cast<std::int64_t>(clamped + 0.5)) * strides_[axis];
     }
     return values_[index];
@@ -95,7 +97,8 @@ class Esdf {
     std::size_t base = 0;
     for (int axis = 0; axis < 3; ++axis) {
       const double raw = point[axis] * inverse_resolution_ - shift_[axis];
-      const double scaled = std::clamp(raw, 0.0, upper_[axis]);
+      // max(0, x) first maps a NaN coordinate to 0, never to an index.
+      const double scaled = std::min(std::max(0.0, raw), upper_[axis]);
       // Along a clamped axis the field is constant, so that gradient component is zero.
       if constexpr (kWithGradient) scale[axis] = raw == scaled ? gradient_scale_[axis] : 0.0;
       // The lower corner stays one below the last centre so that corner + 1 exists; on a
