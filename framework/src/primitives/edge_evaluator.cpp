@@ -141,7 +141,7 @@ EdgeEvaluation EdgeEvaluator::partial(const ChainState& start,
   const Eigen::Vector3d end = result.end.col(0);
   const Esdf& esdf = world_->esdf();
   result.esdf_queries = 1;
-  result.end_clearance = esdf.clearance(end);
+  result.end_clearance = esdf.clearance(end, &result.end_distance);
   if (result.end_clearance < settings_.robot_radius) {
     result.collision_free = false;
     result.collision_time = settings_.duration;
@@ -149,7 +149,6 @@ EdgeEvaluation EdgeEvaluator::partial(const ChainState& start,
     return result;
   }
   if (settings_.weights.obstacle > 0.0) {
-    result.end_distance = esdf.distance(end);
     result.obstacle_cost = settings_.weights.obstacle * penalty(result.end_distance) *
                            settings_.duration / result.samples;
     result.cost += result.obstacle_cost;
@@ -195,8 +194,8 @@ EdgeEvaluation EdgeEvaluator::full(const ChainState& start, const Eigen::Vector3
   const int order = settings_.order;
   const Eigen::Vector3d end = result.end.col(0);
 
-  // Sphere tracing. The first 64 traced times and clearances are kept for the quadrature
-  // (a clearance is at most the trilinear value there, so it bounds that from below).
+  // Sphere tracing. The first 64 traced times and trilinear values are kept for the
+  // quadrature (at the start only its clearance is known, which bounds the value from below).
   std::array<double, 64> traced_time;
   std::array<double, 64> traced_distance;
   traced_time[0] = 0.0;
@@ -204,15 +203,15 @@ EdgeEvaluation EdgeEvaluator::full(const ChainState& start, const Eigen::Vector3
   int traced = 1;
   const auto trace = [&](double t, const Eigen::Vector3d& position) {
     ++result.esdf_queries;
-    const double clearance = esdf.clearance(position);
+    double distance = 0.0;
+    const double clearance = esdf.clearance(position, &distance);
     if (traced < static_cast<int>(traced_time.size())) {
       traced_time[traced] = t;
-      traced_distance[traced++] = clearance;
+      traced_distance[traced++] = distance;
     }
     return clearance;
   };
-  // Seconds of primitive per metre of path (the path bound is a speed bound times tau).
-  const double seconds_per_metre = path_bound > 0.0 ? tau / path_bound : INFINITY;
+  const double seconds_per_metre = secondsPerMetre(path_bound);
   double t = 0.0;
   double clearance = start_clearance;
   for (;;) {
@@ -274,9 +273,8 @@ bool EdgeEvaluator::certify(const ChainState& start, double start_clearance,
   const double tau = settings_.duration;
   // Full evaluation traces the start and then the end only when one step covers the path
   // (the same arithmetic as full()); the end's clearance was tested by the partial one.
-  const double seconds_per_metre = path_bound > 0.0 ? tau / path_bound : INFINITY;
   if (!(start_clearance >= settings_.robot_radius) ||
-      tracingReach(start_clearance) * seconds_per_metre < tau) {
+      tracingReach(start_clearance) * secondsPerMetre(path_bound) < tau) {
     return false;
   }
   if (settings_.weights.obstacle > 0.0) {
@@ -287,21 +285,19 @@ bool EdgeEvaluator::certify(const ChainState& start, double start_clearance,
         0.5 * (start_clearance + evaluation.end_distance - std::sqrt(3.0) * path_bound);
     if (lower < settings_.robot_radius + settings_.safety_distance) return false;
   }
-  const int samples = sampleCountFor(path_bound);
-  evaluation.samples = samples;
   evaluation.obstacle_cost = 0.0;
-  const Eigen::Vector3d end = evaluation.end.col(0);
-  evaluation.length = 0.0;
   if (settings_.weights.length > 0.0) {
-    // The polyline full evaluation measures, through the same sample positions.
+    // The polyline full evaluation measures, through the same sample positions (the partial
+    // evaluation has the chord, which is what full evaluation reports without a length term).
+    const Eigen::Vector3d end = evaluation.end.col(0);
+    const int samples = evaluation.samples;
     Eigen::Vector3d previous = start.col(0);
+    evaluation.length = 0.0;
     for (int k = 1; k <= samples; ++k) {
       const Eigen::Vector3d position = samplePosition(start, control, end, k, samples);
       evaluation.length += (position - previous).norm();
       previous = position;
     }
-  } else {
-    evaluation.length = (end - start.col(0)).norm();
   }
   evaluation.cost = mapFreeCost(control) + settings_.weights.length * evaluation.length;
   return true;

@@ -128,6 +128,11 @@ class EdgeEvaluator {
   double mapFreeCost(const Eigen::Vector3d& control) const;
   /// True when every position of the primitive lies in the map's box (Bernstein hull).
   bool insideMap(const ChainState& start, const Eigen::Vector3d& control) const;
+  /// Seconds of primitive per metre of path (the path bound is a speed bound times tau); the
+  /// one conversion full() and certify() both use, so that they agree bit for bit.
+  double secondsPerMetre(double path_bound) const {
+    return path_bound > 0.0 ? settings_.duration / path_bound : INFINITY;
+  }
   /// The path length one tracing step from a point of clearance `clearance` covers.
   double tracingReach(double clearance) const {
     return clearance - settings_.robot_radius + settings_.collision_tolerance;

@@ -74,14 +74,17 @@ class Esdf {
   /// one), from the same 8-corner fetch: with I the trilinear value and s^2 = voxel^2 sum_i
   /// t_i (1 - t_i) (t_i the fractions within the cell), sqrt(I^2 - s^2) when I >= s, else
   /// I - s. Proof: the signed distance D to the cubes is 1-Lipschitz and exact at the centres,
-  /// so D(p) >= I(p) - sum_j w_j |p - c_j| >= I(p) - s (Jensen); and outside the obstacles,
-  /// with Q the cube nearest p, I(p) <= sum_j w_j d_Q(c_j) <= sqrt(sum_j w_j d_Q(c_j)^2)
-  /// <= sqrt(D(p)^2 + s^2), since per axis the trilinear weights make the offsets to Q
-  /// independent with variance at most voxel^2 t_i (1 - t_i). Exact at voxel centres; at most
-  /// s^2 / (2 I) below I elsewhere (about 1.5 cm at 0.25 m from an obstacle on a 0.1 m grid).
-  double clearance(const Eigen::Vector3d& point) const {
+  /// so D(p) >= I(p) - sum_j w_j |p - c_j| >= I(p) - s (Jensen), which also shows that I >= s
+  /// only outside the obstacles. There, with Q the cube nearest p, I(p) <= sum_j w_j
+  /// d_Q(c_j) <= sqrt(sum_j w_j d_Q(c_j)^2) <= sqrt(D(p)^2 + s^2): per axis the weighted mean
+  /// of the squared offset to Q over the cell's two corners exceeds its square at p by at most
+  /// voxel^2 t_i (1 - t_i). Exact at voxel centres; below I by at most s^2 / I when I >= s
+  /// (about s^2 / (2 I) far from obstacles: 1.5 cm at 0.25 m on a 0.1 m grid), by up to
+  /// sqrt(3) / 2 voxel next to one. With `distance`, I itself is stored there too.
+  double clearance(const Eigen::Vector3d& point, double* distance = nullptr) const {
     double spread = 0.0;
     const double value = interpolate<false>(point, nullptr, &spread);
+    if (distance) *distance = value;
     return value >= 0.0 && value * value >= spread ? std::sqrt(value * value - spread)
                                                    : value - std::sqrt(spread);
   }
