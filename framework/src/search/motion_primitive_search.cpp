@@ -366,10 +366,10 @@ SearchTree MotionPrimitiveSearch::tree(std::size_t max_edges, int points_per_edg
   }
   const std::size_t evaluated = candidates_.empty() ? 0 : candidates_.size() - 1;
   const std::size_t total = evaluated + queued.size();
-  const std::size_t stride = max_edges == 0 ? total + 1 : (total + max_edges - 1) / max_edges;
+  const std::size_t stride = treeStride(total, max_edges);
   SearchTree tree;
   tree.reserve(std::min(total, max_edges));
-  for (std::size_t k = 0; k < total; k += std::max<std::size_t>(stride, 1)) {
+  for (std::size_t k = 0; k < total; k += stride) {
     if (k < evaluated) {
       const Candidate& candidate = candidates_[k + 1];
       const SearchTreeEdge::State state =

@@ -137,9 +137,7 @@ SearchTree RrtFrontEnd::tree(std::size_t max_edges) const {
     data.getEdges(parent, children);
     for (const unsigned int child : children) edges.emplace_back(parent, child);
   }
-  const std::size_t stride =
-      max_edges == 0 ? edges.size() + 1
-                     : std::max<std::size_t>(1, (edges.size() + max_edges - 1) / max_edges);
+  const std::size_t stride = treeStride(edges.size(), max_edges);
   SearchTree tree;
   for (std::size_t i = 0; i < edges.size(); i += stride) {
     SearchTreeEdge edge;

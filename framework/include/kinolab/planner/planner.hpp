@@ -1,6 +1,7 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <algorithm>
 #include <cstdint>
 #include <memory>
 #include <optional>
@@ -68,6 +69,12 @@ using SearchTree = std::vector<SearchTreeEdge>;
 /// The most edges a tree for figures holds (`kinolab plan --out`, the runner's store.trees):
 /// a large search is decimated evenly to this, so its tree is megabytes, not gigabytes.
 inline constexpr std::size_t kMaxTreeEdges = 20000;
+/// The step that keeps every k-th of `total` edges so that at most `max_edges` remain (at
+/// least one is kept).
+inline std::size_t treeStride(std::size_t total, std::size_t max_edges) {
+  const std::size_t limit = std::max<std::size_t>(max_edges, 1);
+  return std::max<std::size_t>(1, (total + limit - 1) / limit);
+}
 std::string_view toString(SearchTreeEdge::State state);
 
 /// A named statistic a planner reports (counters and times); the runner stores them all.
