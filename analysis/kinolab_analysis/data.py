@@ -13,8 +13,9 @@ import pandas as pd
 from . import stats
 
 # The results database layout this package reads (meta `schema_version`); version 1
-# databases (written before the schema was declared) are upgraded in memory by `load`.
-SCHEMA_VERSION = 2
+# databases (written before the schema was declared) are upgraded in memory by `load`;
+# version 2 lacks the timing protocol's and the query's columns (version 3), read as missing.
+SCHEMA_VERSION = 3
 
 
 @dataclass
@@ -135,6 +136,9 @@ def load(paths: str | Path | list[str | Path]) -> Results:
                 np.frombuffer(row["top"], dtype="<u2").reshape(nx, ny),
                 np.frombuffer(row["side"], dtype=np.uint8).reshape(nx, nz))
     runs = pd.concat(frames, ignore_index=True) if frames else pd.DataFrame()
+    for column in ("planning_time_min_ms", "planning_time_cold_ms", "line_blocked"):
+        if column not in runs.columns:
+            runs[column] = np.nan
     runs = runs.drop_duplicates("run_hash")
     runs["success"] = runs["success"].fillna(0).astype(bool)
     results = Results(files, runs, meta, worlds,

@@ -36,7 +36,7 @@ def test_a_declared_statistic_reaches_plan_json_sqlite_and_the_report(kinolab, t
     assert declared == [("statistic", "test_metric", "integer", "count",
                          "the answer this test planner always reports")]
     assert {"status", "success", "planning_time_ms", "checker_valid", "wall_time_ms"} <= columns
-    assert version == ("2",)
+    assert version == ("3",)
 
     report = kinolab("report", tmp_path / "out")
     assert report.returncode == 0, report.stderr
@@ -60,7 +60,9 @@ def test_list_metrics_prints_the_schema(kinolab):
     result = {m["name"]: m for m in schema["result"]}
     assert result["planning_time_ms"]["clock"] is True and result["planning_time_ms"]["unit"] == "ms"
     assert result["success"]["type"] == "boolean"
-    assert {m["name"] for m in schema["runner"]} == {"peak_memory_mb", "wall_time_ms", "started_at"}
+    assert {m["name"] for m in schema["runner"]} == {
+        "peak_memory_mb", "planning_time_min_ms", "planning_time_cold_ms", "line_blocked",
+        "wall_time_ms", "started_at"}
     lazy = {m["name"]: m for m in schema["statistics"]["lazy_mp_astar"]}
     assert lazy["expansions"]["type"] == "integer"
     assert "time_check_ms" in {m["name"] for m in schema["statistics"]["common"]}

@@ -353,3 +353,32 @@ def test_a_reference_planner_the_sweep_does_not_touch_runs_once(kinolab):
                      "--dry-run")
     # 30 queries: eager once, lazy with lwa and with seed.
     assert ": 90 runs" in result.stdout, result.stdout
+
+
+def select(directory, sql):
+    with sqlite3.connect(directory / "results.sqlite") as db:
+        return db.execute(sql).fetchall()
+
+
+def test_the_timing_protocol_keeps_median_minimum_and_cold_time(kinolab, tmp_path):
+    """`timing: {warmup, repeats}`: planning_time_ms is the median of the timed plans, never
+    below their minimum; the cold time is the first plan's; the straight line's verdict is
+    stored per run; a protocol out of range is refused naming the key."""
+    path = experiment(tmp_path, LAZY, extra="\ntiming: {warmup: 1, repeats: 3}\n", plugins=False)
+    assert kinolab("run", path, "--out", tmp_path / "out").returncode == 0
+    runs = select(tmp_path / "out", "SELECT planning_time_ms, planning_time_min_ms, "
+                  "planning_time_cold_ms, line_blocked, success FROM runs")
+    assert len(runs) == 4
+    for median, minimum, cold, blocked, success in runs:
+        assert success == 1 and blocked in (0, 1)
+        assert 0 < minimum <= median and cold > 0
+    single = experiment(tmp_path, LAZY, extra="\ntiming: {warmup: 0, repeats: 1}\n",
+                        plugins=False, name="single")
+    assert kinolab("run", single, "--out", tmp_path / "single").returncode == 0
+    for median, minimum, cold in select(tmp_path / "single", "SELECT planning_time_ms, "
+                                        "planning_time_min_ms, planning_time_cold_ms FROM runs"):
+        assert median == minimum == cold
+    bad = experiment(tmp_path, LAZY, extra="\ntiming: {warmup: 1, repeats: 0}\n", plugins=False,
+                     name="bad")
+    refused = kinolab("run", bad, "--dry-run")
+    assert refused.returncode == 1 and "timing.repeats" in refused.stderr

@@ -7,6 +7,7 @@
 #include <fstream>
 
 #include "kinolab/core/error.hpp"
+#include "kinolab/core/random.hpp"
 #include "kinolab/core/yaml_reader.hpp"
 #include "kinolab/world/world_spec.hpp"
 
@@ -273,6 +274,43 @@ TEST(WorldTest, RobotRadiusIsAQueryTimeParameter) {
   EXPECT_TRUE(world->isFree(point, 0.3));
   EXPECT_FALSE(world->isFree(point, 0.5));
   EXPECT_FALSE(world->isFree({-1.0, 2.0, 1.0}, 0.0));
+}
+
+TEST(WorldTest, SegmentFreeSaysWhetherAStraightLineIsOpenToTheBody) {
+  // A wall across x = 2 .. 2.4 for y < 3; the strip y > 3 is open.
+  const WorldSpec spec = specFromText(
+      "resolution: 0.1\nbounds: {min: [0, 0, 0], max: [4, 4, 2]}\ngenerators:\n"
+      "  - type: box_list\n    boxes: [{min: [2, 0, 0], max: [2.4, 3, 2]}]\n");
+  const auto world = World::build(spec);
+  EXPECT_FALSE(world->segmentFree({0.5, 1.0, 1.0}, {3.5, 1.0, 1.0}, 0.0));
+  EXPECT_TRUE(world->segmentFree({0.5, 3.5, 1.0}, {3.5, 3.5, 1.0}, 0.25));
+  // 0.5 m from the wall's end: free for a 0.25 m body, not for a 0.6 m one.
+  EXPECT_FALSE(world->segmentFree({0.5, 3.5, 1.0}, {3.5, 3.5, 1.0}, 0.6));
+  // Grazing the wall's corner diagonally: blocked once the body reaches it.
+  EXPECT_FALSE(world->segmentFree({1.0, 2.0, 1.0}, {3.5, 3.4, 1.0}, 0.25));
+  // Outside the map, and a NaN end, are not free; a zero-length segment is its point.
+  EXPECT_FALSE(world->segmentFree({0.5, 3.5, 1.0}, {4.5, 3.5, 1.0}, 0.0));
+  EXPECT_FALSE(world->segmentFree({0.5, 3.5, 1.0}, {NAN, 3.5, 1.0}, 0.0));
+  EXPECT_TRUE(world->segmentFree({0.5, 3.5, 1.0}, {0.5, 3.5, 1.0}, 0.25));
+  // Against the exact distance to the wall's box along a dense walk.
+  const auto exact = [](const Eigen::Vector3d& p) {
+    const Eigen::Vector3d low(2.0, 0.0, 0.0), high(2.4, 3.0, 2.0);
+    return (low - p).cwiseMax(p - high).cwiseMax(0.0).norm();
+  };
+  Rng rng(5);
+  int free = 0;
+  for (int i = 0; i < 300; ++i) {
+    const Eigen::Vector3d a(rng.uniform(0.3, 3.7), rng.uniform(0.3, 3.7), 1.0);
+    const Eigen::Vector3d b(rng.uniform(0.3, 3.7), rng.uniform(0.3, 3.7), 1.0);
+    bool dense_free = true;
+    for (int k = 0; k <= 2000; ++k) dense_free &= exact(a + (b - a) * (k / 2000.0)) >= 0.2 - 1e-9;
+    // Tracing never calls a segment free that comes closer than radius - tolerance.
+    if (world->segmentFree(a, b, 0.21, 0.01)) {
+      EXPECT_TRUE(dense_free) << i;
+      ++free;
+    }
+  }
+  EXPECT_GT(free, 50);  // the check saw free segments, not only blocked ones
 }
 
 }  // namespace

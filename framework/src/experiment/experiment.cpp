@@ -356,6 +356,11 @@ ExperimentVariant readVariant(const YamlReader& root, const std::string& directo
     variant.budget.iterations = budget->getInteger("iterations", 0, 0, 1LL << 50);
     budget->finish();
   }
+  if (const auto timing = root.optional("timing")) {
+    variant.timing.warmup = static_cast<int>(timing->getInteger("warmup", 1, 0, 100));
+    variant.timing.repeats = static_cast<int>(timing->getInteger("repeats", 3, 1, 100));
+    timing->finish();
+  }
   return variant;
 }
 
@@ -545,7 +550,7 @@ Experiment Experiment::fromFile(const std::string& path) {
   std::vector<SweepPoint> points(1);
   if (const auto sweep = root.optional("sweep")) points = expandSweep(*sweep);
   // The keys every variant reads; marked read here so that finish() sees only unknown ones.
-  for (const char* key : {"worlds", "queries", "planners", "repetitions", "budget"}) {
+  for (const char* key : {"worlds", "queries", "planners", "repetitions", "budget", "timing"}) {
     (void)root.optional(key);
   }
   root.finish();
@@ -611,9 +616,10 @@ std::vector<RunSpec> Experiment::runs() const {
   std::vector<RunSpec> runs;
   for (std::size_t v = 0; v < variants.size(); ++v) {
     const ExperimentVariant& variant = variants[v];
-    const std::string budget = formatNumber(variant.budget.time) + "/" +
-                               std::to_string(variant.budget.memory_mb) + "/" +
-                               std::to_string(variant.budget.iterations);
+    const std::string budget =
+        formatNumber(variant.budget.time) + "/" + std::to_string(variant.budget.memory_mb) + "/" +
+        std::to_string(variant.budget.iterations) + "/timing " +
+        std::to_string(variant.timing.warmup) + "+" + std::to_string(variant.timing.repeats);
     const std::string queries = variant.queries.canonicalText();
     for (std::size_t w = 0; w < variant.worlds.size(); ++w) {
       const ExperimentWorld& world = variant.worlds[w];

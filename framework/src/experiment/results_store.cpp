@@ -18,6 +18,14 @@ const MetricSpecs& runnerMetrics() {
       MetricSpecs()
           .machine("peak_memory_mb", MetricType::kReal, "MB",
                    "the worker process's maximum resident set")
+          .clock("planning_time_min_ms",
+                 "the fastest of the timed plans (planning_time_ms is their median; the "
+                 "experiment's timing: warm-up and repeats)")
+          .clock("planning_time_cold_ms",
+                 "the first plan in the fresh worker process (cold caches and heap)")
+          .boolean("line_blocked",
+                   "the straight line from start to goal collides for the planner's body: the "
+                   "query needs a detour")
           .clock("wall_time_ms", "the worker process, from fork to exit")
           .machine("started_at", MetricType::kText, "", "when the run started, UTC, ISO 8601");
   return specs;

@@ -1,5 +1,8 @@
 #include "kinolab/world/world.hpp"
 
+#include <algorithm>
+#include <cmath>
+
 #include "kinolab/world/world_spec.hpp"
 
 namespace kinolab {
@@ -24,6 +27,20 @@ std::shared_ptr<const World> World::build(const WorldSpec& spec) {
   VoxelGrid grid = buildGrid(spec);
   Esdf esdf(grid);
   return std::make_shared<const World>(spec.name, spec.hash(), std::move(grid), std::move(esdf));
+}
+
+bool World::segmentFree(const Eigen::Vector3d& a, const Eigen::Vector3d& b, double radius,
+                        double tolerance) const {
+  const double length = (b - a).norm();
+  if (!(length < INFINITY) || !bounds_.contains(a) || !bounds_.contains(b)) return false;
+  // The box is convex: both ends inside keep the segment inside. A traced point with
+  // clearance C >= radius proves the next C - radius + tolerance metres free.
+  for (double s = 0.0;;) {
+    const double c = esdf_.clearance(a + (b - a) * (length > 0.0 ? s / length : 0.0));
+    if (c < radius) return false;
+    if (s >= length) return true;
+    s = std::min(length, s + c - radius + tolerance);
+  }
 }
 
 }  // namespace kinolab

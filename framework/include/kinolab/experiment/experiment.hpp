@@ -71,6 +71,15 @@ struct ExperimentBudget {
   long long iterations = 0;
 };
 
+/// How a run's planning time is measured (`timing:`): `warmup` plans of the run's query in
+/// its worker, discarded, then `repeats` timed plans; the run keeps the last plan's result,
+/// the median of the timed plans as planning_time_ms, their minimum, and the first plan's
+/// time (the cold one: a fresh process, caches and heap untouched).
+struct TimingProtocol {
+  int warmup = 1;
+  int repeats = 3;
+};
+
 /// One point of the sweep: a complete, validated configuration.
 struct ExperimentVariant {
   std::string label;  ///< "planners.lazy.params.heuristic_weight=2, ..." ("" without a sweep)
@@ -79,6 +88,7 @@ struct ExperimentVariant {
   std::vector<ExperimentPlanner> planners;
   int repetitions = 1;
   ExperimentBudget budget;
+  TimingProtocol timing;
 };
 
 /// One run: a planner on a query of a world, one repetition, in one variant.

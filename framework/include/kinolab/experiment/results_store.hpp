@@ -21,7 +21,7 @@ const MetricSpecs& runnerMetrics();
 
 /// The version of the results database layout this kinolab writes (meta `schema_version`).
 /// Version 2 derives the runs table and the `metrics` table from the declared metrics.
-inline constexpr int kResultsSchemaVersion = 2;
+inline constexpr int kResultsSchemaVersion = 3;
 
 /// One finished run as stored: what defines it, then the values of resultMetrics() and
 /// runnerMetrics() (by name; a missing or none value is NULL) and the planner's statistics.

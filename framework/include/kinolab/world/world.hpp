@@ -38,6 +38,11 @@ class World {
   bool isFree(const Eigen::Vector3d& point, double radius) const {
     return bounds_.contains(point) && esdf_.clearance(point) >= radius;
   }
+  /// True when every point of the segment from `a` to `b` is inside the map and provably at
+  /// least `radius - tolerance` from every occupied cube (sphere tracing on clearance(), which
+  /// is 1-Lipschitz): whether a query's straight line is open to a body of that radius.
+  bool segmentFree(const Eigen::Vector3d& a, const Eigen::Vector3d& b, double radius,
+                   double tolerance = 0.01) const;
 
  private:
   std::string name_;
