@@ -10,6 +10,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import jinja2
+import yaml
 import matplotlib.pyplot as plt
 import pandas as pd
 
@@ -38,6 +39,17 @@ written by kinolab {{ meta.get('provenance.kinolab_version', '?') }}</p>
 <h2>Experiment and provenance</h2>
 <dl>{% for key, value in provenance %}<dt>{{ key }}</dt><dd>{{ value }}</dd>{% endfor %}</dl>
 
+{% if 'worlds' in tables %}
+<h2>Worlds and queries</h2>
+<p class="note">Per world: the queries, the share whose straight line from start to goal is
+blocked for the planners' body (Wilson 95 %), and the median straight-line length.</p>
+{{ tables['worlds'] }}
+{% endif %}
+
+<h2>Timing protocol</h2>
+<p class="note">{{ timing_protocol }}</p>
+{% if 'timing' in tables %}{{ tables['timing'] }}{% endif %}
+
 <h2>Runs by status</h2>
 <p class="note">Every run is counted: failures, crashes and timeouts included. Success =
 exact status and accepted by the independent checker.</p>
@@ -53,9 +65,12 @@ the paper's figure.</p>
 
 {% if 'paper_table2' in tables %}
 <h2>The paper's Table II beside kinolab</h2>
-<p class="note">Medians with bootstrap 95 % intervals (T and N over successful runs, D over
-all runs); p: two-sided one-sample Wilcoxon test of kinolab's values against the paper's
-figure. Rows as the experiment's <code>reproduces:</code> maps them: {{ paper_rows }}.</p>
+<p class="note">Medians with bootstrap 95 % intervals: T and N over the runs that returned a
+trajectory the checker accepts (answered: exact, or approximate at a budget stop), D (the
+distance from the trajectory's closest point, the best node of a budget stop, to the goal)
+over all runs; T is the warm planning time (see the timing protocol); p: two-sided
+one-sample Wilcoxon test of kinolab's values against the paper's figure; one block per
+sweep variant. Rows as the experiment's <code>reproduces:</code> maps them: {{ paper_rows }}.</p>
 {{ tables['paper_table2'] }}
 {% endif %}
 
@@ -183,6 +198,10 @@ def write(paths: list[Path], out: Path, compare: Path | None = None,
     out.mkdir(parents=True, exist_ok=True)
 
     report.tables["status_counts"] = tables.status_counts(runs).reset_index()
+    if runs["line_blocked"].notna().any():
+        report.tables["worlds"] = tables.worlds(runs)
+    if runs["planning_time_cold_ms"].notna().any():
+        report.tables["timing"] = tables.timing(runs)
     # The paper's tables only for an experiment that says what it reproduces.
     reproduced = results.reproduces()
     if reproduced:
@@ -275,10 +294,30 @@ def write(paths: list[Path], out: Path, compare: Path | None = None,
         databases=", ".join(str(p) for p in results.paths), provenance=provenance,
         tables={k: jinja2.utils.markupsafe.Markup(_html(v)) for k, v in report.tables.items()},
         figures=report.figures, compare_name=compare_name,
+        timing_protocol=timing_protocol(results.meta),
         paper_rows=", ".join(f"{row} = {planner}" for planner, row in reproduced[1].items())
         if reproduced else "")
     (out / "index.html").write_text(html)
     return report
+
+
+def timing_protocol(meta: dict[str, str]) -> str:
+    """The experiment's timing protocol in words, from its stored configuration."""
+    config = yaml.safe_load(meta.get("config", "").split("\n--- # variants")[0]) or {}
+    if int(meta.get("schema_version", "1")) < 3:
+        return ("Cold: each run's planning time is its one plan in a fresh worker process "
+                "(written before the timing protocol was recorded).")
+    protocol = config.get("timing") or {}
+    warmup, repeats = int(protocol.get("warmup", 1)), int(protocol.get("repeats", 3))
+    return (f"Warm: in each run's worker, {warmup} discarded plan(s) of the run's query, then "
+            f"{repeats} timed plan(s); planning_time_ms (T) is the median of the timed plans, "
+            "the fastest is kept as planning_time_min_ms and the first plan of the fresh "
+            "process (cold caches, page faults on first touch) as planning_time_cold_ms. Warm "
+            "is the figure to set beside a planner running in a long-lived process, as on a "
+            "vehicle; the cold time is the worst case of a planner started per query. Only "
+            "the planner's own call is timed (no checking, no figures); the run's other "
+            "metrics are those of the last plan, which repeats the first (planners are "
+            "deterministic in their seed).")
 
 
 def terminal_summary(report: Report) -> str:
@@ -290,8 +329,9 @@ def terminal_summary(report: Report) -> str:
     if "paper_table2" in report.tables:
         lines.append("the paper's Table II beside kinolab (medians, 95 % intervals):")
         table2 = report.tables["paper_table2"]
-        columns = ["planner", "runs", "success", "paper T (ms)", "kinolab T (ms)", "paper N",
-                   "kinolab N", "paper D (m)", "kinolab D (m)"]
+        columns = [c for c in table2.columns if c in (
+            "variant", "planner", "runs", "answered", "paper T (ms)", "kinolab T (ms)",
+            "paper N", "kinolab N", "paper D (m)", "kinolab D (m)")]
         lines += ["  " + line for line in tables.to_markdown(table2[columns]).splitlines()]
     else:
         lines.append("per planner (medians, 95 % intervals):")

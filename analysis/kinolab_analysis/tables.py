@@ -155,24 +155,73 @@ def compare(a: pd.DataFrame, b: pd.DataFrame,
     return _with_holm(rows)
 
 
+def answered(runs: pd.DataFrame) -> pd.Series:
+    """Runs that returned a trajectory the checker accepts: exact, or approximate at a budget
+    stop (a receding-horizon plan towards a goal beyond reach)."""
+    return runs["checker_valid"].fillna(0).astype(bool) & runs["status"].isin(
+        ["exact", "approximate"])
+
+
 def paper_table2(runs: pd.DataFrame) -> pd.DataFrame:
     """The paper's T, N, D beside the medians kinolab measured for the same planner
-    families (successful runs; D over all runs), with intervals and the one-sample
-    Wilcoxon p of each difference."""
+    families, per sweep variant when there are several: T and N over the runs that returned
+    a checked trajectory (answered: exact, or approximate at the budget), D over all runs,
+    with intervals and the one-sample Wilcoxon p of each difference."""
     rows = []
-    for family, (t, n, d) in PAPER_TABLE2.items():
-        group = runs[runs["paper"] == family]
-        ok = group[group["success"]]
-        row = {"planner": family, "runs": len(group),
-               "success": stats.wilson(int(group["success"].sum()), len(group))}
-        for label, column, paper_value, subset in (("T (ms)", "planning_time_ms", t, ok),
-                                                   ("N", "expansions", n, ok),
-                                                   ("D (m)", "distance_to_goal", d, group)):
-            values = subset[column].to_numpy(dtype=float) if column in subset else np.array([])
-            row[f"paper {label}"] = paper_value
-            row[f"kinolab {label}"] = stats.bootstrap(values, np.median)
-            row[f"p {label}"] = (stats.one_sample_wilcoxon(values, paper_value)
-                                 if math.isfinite(paper_value) else math.nan)
+    variants = list(dict.fromkeys(runs["sweep"].fillna("")))
+    for variant in variants:
+        for family, (t, n, d) in PAPER_TABLE2.items():
+            group = runs[(runs["paper"] == family) & (runs["sweep"].fillna("") == variant)]
+            ok = group[answered(group)]
+            row = {"variant": variant} if len(variants) > 1 else {}
+            row.update({"planner": family, "runs": len(group),
+                        "success": stats.wilson(int(group["success"].sum()), len(group)),
+                        "answered": stats.wilson(len(ok), len(group))})
+            for label, column, paper_value, subset in (("T (ms)", "planning_time_ms", t, ok),
+                                                       ("N", "expansions", n, ok),
+                                                       ("D (m)", "distance_to_goal", d, group)):
+                values = (subset[column].dropna().to_numpy(dtype=float) if column in subset
+                          else np.array([]))
+                row[f"paper {label}"] = paper_value
+                row[f"kinolab {label}"] = stats.bootstrap(values, np.median)
+                row[f"p {label}"] = (stats.one_sample_wilcoxon(values, paper_value)
+                                     if math.isfinite(paper_value) and len(values) else math.nan)
+            rows.append(row)
+    return pd.DataFrame(rows)
+
+
+def worlds(runs: pd.DataFrame) -> pd.DataFrame:
+    """Per world: its queries and the share whose straight line from start to goal is
+    blocked for the planners' body (a query needs a detour), with a Wilson interval."""
+    rows = []
+    for world, group in runs.groupby("world", sort=False):
+        cases = group.dropna(subset=["line_blocked"]).groupby(["sweep", "query"])["line_blocked"]
+        blocked = cases.max()
+        row = {"world": world, "queries": int(group["query"].nunique())}
+        row["straight line blocked"] = (stats.wilson(int(blocked.sum()), len(blocked))
+                                        if len(blocked) else math.nan)
+        cases = group.drop_duplicates(["sweep", "query"])
+        lengths = np.linalg.norm(cases[["goal_x", "goal_y", "goal_z"]].to_numpy(dtype=float)
+                                 - cases[["start_x", "start_y", "start_z"]].to_numpy(dtype=float),
+                                 axis=1)
+        row["query length (m)"] = stats.bootstrap(lengths, np.median)
+        rows.append(row)
+    return pd.DataFrame(rows)
+
+
+def timing(runs: pd.DataFrame) -> pd.DataFrame:
+    """Per planner, the warm planning time (the run's median of timed plans), the fastest
+    timed plan and the cold first plan in a fresh worker, medians over answered runs with
+    bootstrap intervals, and the median cold / warm ratio."""
+    rows = []
+    for planner, group in runs[answered(runs)].groupby("planner", sort=False):
+        row = {"planner": planner, "runs": len(group)}
+        for label, column in (("warm T (ms)", "planning_time_ms"),
+                              ("fastest T (ms)", "planning_time_min_ms"),
+                              ("cold T (ms)", "planning_time_cold_ms")):
+            row[label] = stats.bootstrap(group[column].dropna().to_numpy(dtype=float), np.median)
+        ratio = (group["planning_time_cold_ms"] / group["planning_time_ms"]).dropna()
+        row["cold / warm"] = stats.bootstrap(ratio.to_numpy(dtype=float), np.median)
         rows.append(row)
     return pd.DataFrame(rows)
 

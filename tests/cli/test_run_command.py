@@ -382,3 +382,21 @@ def test_the_timing_protocol_keeps_median_minimum_and_cold_time(kinolab, tmp_pat
                      name="bad")
     refused = kinolab("run", bad, "--dry-run")
     assert refused.returncode == 1 and "timing.repeats" in refused.stderr
+
+
+def test_a_labelled_sweep_point_is_named_by_its_label(kinolab, tmp_path):
+    sweep = """
+sweep:
+  list:
+    - {label: coarse, planners.lazy.params.heuristic_weight: 3}
+    - {planners.lazy.params.heuristic_weight: 1}
+"""
+    path = experiment(tmp_path, LAZY, extra=sweep, plugins=False)
+    result = kinolab("run", path, "--dry-run")
+    assert result.returncode == 0, result.stderr
+    assert "coarse" in result.stdout and "planners.lazy.params.heuristic_weight=1" in result.stdout
+    assert "heuristic_weight=3" not in result.stdout
+    bad = experiment(tmp_path, LAZY, extra=sweep.replace("coarse", "bad name"), plugins=False,
+                     name="bad")
+    refused = kinolab("run", bad, "--dry-run")
+    assert refused.returncode == 1 and "sweep.list[0].label" in refused.stderr

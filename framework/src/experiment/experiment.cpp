@@ -135,9 +135,15 @@ void undo(std::vector<PathChange>& changes) {
 constexpr std::size_t kMaxVariants = 100000;
 constexpr std::size_t kMaxRuns = 10000000;
 
+std::string scalarText(const YAML::Node& node);
+std::string readName(const YamlReader& node);
+
 struct SweepPoint {
   std::vector<std::pair<std::string, YAML::Node>> values;  // path, value
   std::vector<YamlReader> where;                           // for messages
+  /// How each value reads in the variant's label: "path=value", or a list item's `label`
+  /// on its first value and nothing on the others.
+  std::vector<std::string> shown;
 };
 
 /// grid (cartesian product) x zip (parallel lists) x list (explicit points).
@@ -157,6 +163,7 @@ std::vector<SweepPoint> expandSweep(const YamlReader& sweep) {
         SweepPoint combined = point;
         combined.values.insert(combined.values.end(), option.values.begin(), option.values.end());
         combined.where.insert(combined.where.end(), option.where.begin(), option.where.end());
+        combined.shown.insert(combined.shown.end(), option.shown.begin(), option.shown.end());
         next.push_back(std::move(combined));
       }
     }
@@ -166,7 +173,8 @@ std::vector<SweepPoint> expandSweep(const YamlReader& sweep) {
     for (const auto& [path, values] : grid->entries()) {
       std::vector<SweepPoint> options;
       for (const YamlReader& value : values.items()) {
-        options.push_back({{{path, value.node()}}, {value}});
+        options.push_back(
+            {{{path, value.node()}}, {value}, {path + "=" + scalarText(value.node())}});
       }
       if (options.empty()) values.fail("a grid axis needs at least one value");
       product(options);
@@ -188,6 +196,7 @@ std::vector<SweepPoint> expandSweep(const YamlReader& sweep) {
       for (std::size_t i = 0; i < items.size(); ++i) {
         rows[i].values.emplace_back(path, items[i].node());
         rows[i].where.push_back(items[i]);
+        rows[i].shown.push_back(path + "=" + scalarText(items[i].node()));
       }
     }
     if (!rows.empty()) product(rows);
@@ -196,11 +205,22 @@ std::vector<SweepPoint> expandSweep(const YamlReader& sweep) {
     std::vector<SweepPoint> options;
     for (const YamlReader& item : list->items()) {
       SweepPoint option;
+      std::string label;
       for (const auto& [path, value] : item.entries()) {
+        if (path == "label") {
+          label = readName(value);
+          continue;
+        }
         option.values.emplace_back(path, value.node());
         option.where.push_back(value);
+        option.shown.push_back(path + "=" + scalarText(value.node()));
       }
       if (option.values.empty()) item.fail("a sweep list item needs at least one path: value");
+      if (!label.empty()) {
+        // The item reads as its label: on its first value, nothing on the others.
+        option.shown.assign(option.values.size(), "");
+        option.shown.front() = label;
+      }
       options.push_back(std::move(option));
     }
     if (options.empty()) list->fail("a sweep list needs at least one item");
@@ -570,7 +590,7 @@ Experiment Experiment::fromFile(const std::string& path) {
     for (std::size_t i = 0; i < point.values.size(); ++i) {
       const auto& [key, value] = point.values[i];
       setPath(variant_node, key, value, point.where[i], changes);
-      label += (label.empty() ? "" : ", ") + key + "=" + scalarText(value);
+      if (!point.shown[i].empty()) label += (label.empty() ? "" : ", ") + point.shown[i];
     }
     const YamlReader reader = YamlReader::fromNode(variant_node, source);
     for (const char* key : {"kind", "name", "seed", "plugins", "store", "reproduces"}) {
