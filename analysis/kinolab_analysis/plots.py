@@ -248,3 +248,54 @@ def sampling_study(table: pd.DataFrame) -> plt.Figure:
     axes[0].legend(fontsize=8)
     figure.tight_layout()
     return figure
+
+
+def sampling_readings(readings: pd.DataFrame, paper: dict[str, tuple[float, float]],
+                      samplers: tuple[str, ...] = ("random", "uniform", "normal")) -> plt.Figure:
+    """Table I under every reading: per reading (distance x propagation x pooling) alpha
+    against the threshold (top rows; one line per sampler and M) and L against M (bottom
+    rows); the paper's figures as stars (alpha at 0.1 m) and dashed lines (L)."""
+    readings = readings[readings["sampler"].isin(samplers)]
+    panels = list(readings.groupby(["distance", "propagation", "pooling"], sort=True).groups)
+    columns = 4
+    rows = math.ceil(len(panels) / columns)
+    figure, axes = plt.subplots(2 * rows, columns, figsize=(3.2 * columns, 2.6 * 2 * rows),
+                                squeeze=False)
+    styles = {m: s for m, s in zip(sorted(readings["controls"].unique()), ["-", "--", ":", "-."])}
+    for index, key in enumerate(panels):
+        alpha_axis = axes[2 * (index // columns)][index % columns]
+        l_axis = axes[2 * (index // columns) + 1][index % columns]
+        panel = readings[(readings["distance"] == key[0]) & (readings["propagation"] == key[1])
+                         & (readings["pooling"] == key[2])]
+        for number, sampler in enumerate(samplers):
+            mine = panel[panel["sampler"] == sampler]
+            for controls, group in mine.groupby("controls"):
+                alpha_axis.plot(group["threshold"], group["alpha"], styles.get(controls, "-"),
+                                color=_colour(number), marker=".",
+                                label=f"{sampler} M={controls}" if index == 0 else None)
+            lengths = mine.drop_duplicates("controls").sort_values("controls")
+            l_axis.plot(lengths["controls"], lengths["mean_nearest"], "-o", color=_colour(number),
+                        label=sampler if index == 0 else None)
+            if sampler in paper:
+                alpha_axis.plot([0.1], [paper[sampler][0]], "*", markersize=11,
+                                color=_colour(number), markeredgecolor="black")
+                l_axis.axhline(paper[sampler][1], color=_colour(number), linestyle="--",
+                               linewidth=0.8)
+        title = f"{key[0].replace('_', '+')}, {key[1]}, {key[2].replace('_', ' ')}"
+        alpha_axis.set_title(title, fontsize=8)
+        alpha_axis.set_xscale("log")
+        alpha_axis.set_ylim(-0.02, 1.02)
+        alpha_axis.set_xlabel("threshold", fontsize=8)
+        alpha_axis.set_ylabel("alpha", fontsize=8)
+        l_axis.set_xscale("log")
+        l_axis.set_xlabel("M (controls)", fontsize=8)
+        l_axis.set_ylabel("L", fontsize=8)
+        for axis in (alpha_axis, l_axis):
+            axis.grid(alpha=0.3)
+            axis.tick_params(labelsize=7)
+    for index in range(len(panels), rows * columns):
+        axes[2 * (index // columns)][index % columns].set_visible(False)
+        axes[2 * (index // columns) + 1][index % columns].set_visible(False)
+    figure.legend(loc="lower center", ncol=6, fontsize=7)
+    figure.tight_layout(rect=(0, 0.05, 1, 1))
+    return figure

@@ -62,6 +62,13 @@ primitive endpoints; p: one-sample Wilcoxon test over the study's initial states
 the paper's figure.</p>
 {{ tables['paper_table1'] }}
 {% endif %}
+{% if 'sampling_readings' in tables %}
+<h2>Table I under every reading</h2>
+<p>{{ readings_verdict }}</p>
+<p class="note">The figure "Table I under every reading" below shows each; the table has one
+row per reading (M, distance, propagation, pooling, threshold).</p>
+<details><summary>every reading</summary>{{ tables['sampling_readings'] }}</details>
+{% endif %}
 
 {% if 'paper_table2' in tables %}
 <h2>The paper's Table II beside kinolab</h2>
@@ -230,8 +237,14 @@ def write(paths: list[Path], out: Path, compare: Path | None = None,
     if reproduced:
         sampling_csv = sampling_csv or find_sampling_study(paths[0] if paths[0].is_dir()
                                                            else paths[0].parent)
+    readings = None
+    readings_verdict = ""
     if sampling_csv is not None:
         report.tables["paper_table1"] = tables.paper_table1(sampling_csv)
+        if (sampling_csv.parent / "readings.csv").is_file():
+            readings = pd.read_csv(sampling_csv.parent / "readings.csv")
+            report.tables["sampling_readings"], readings_verdict = tables.sampling_readings(
+                readings)
     compare_name = ""
     if compare is not None:
         other = load(compare)
@@ -253,6 +266,13 @@ def write(paths: list[Path], out: Path, compare: Path | None = None,
     if sampling_csv is not None:
         _save(plots.sampling_study(report.tables["paper_table1"]), report, "sampling_study",
               "Sampling study (Table I)", "alpha and L per sampler, kinolab beside the paper.")
+    if readings is not None:
+        _save(plots.sampling_readings(readings, tables.PAPER_TABLE1), report, "sampling_readings",
+              "Table I under every reading",
+              "Per reading (distance, propagation, pooling): alpha against the threshold for "
+              "each sampler and M, and L against M; stars and dashed lines: the paper's "
+              "figures. With one Euler step the end position p + v tau does not depend on the "
+              "control, so position-only Euler readings have alpha = L = 0. " + readings_verdict)
     for world in results.worlds.values():
         # The query most planners solved, the first on ties.
         cases = runs[runs["world_hash"] == world.world_hash].groupby("query")["success"].sum()
@@ -294,7 +314,7 @@ def write(paths: list[Path], out: Path, compare: Path | None = None,
         databases=", ".join(str(p) for p in results.paths), provenance=provenance,
         tables={k: jinja2.utils.markupsafe.Markup(_html(v)) for k, v in report.tables.items()},
         figures=report.figures, compare_name=compare_name,
-        timing_protocol=timing_protocol(results.meta),
+        timing_protocol=timing_protocol(results.meta), readings_verdict=readings_verdict,
         paper_rows=", ".join(f"{row} = {planner}" for planner, row in reproduced[1].items())
         if reproduced else "")
     (out / "index.html").write_text(html)

@@ -78,6 +78,22 @@ void runSamplingStudyCommand(const SamplingStudyOptions& options) {
   writeFileAtomically((out / "sampling_study.csv").string(), per_state);
   writeFileAtomically((out / "summary.csv").string(), summary);
   std::printf("wrote %s/{sampling_study.csv, summary.csv}\n", out.string().c_str());
+  const std::vector<SamplingReadingRow> readings = runSamplingReadings(config);
+  if (!readings.empty()) {
+    std::string csv =
+        "sampler,controls,distance,propagation,pooling,threshold,alpha,mean_nearest\n";
+    for (const auto& r : readings) {
+      csv += r.sampler + "," + std::to_string(r.controls) + "," +
+             (r.with_velocity ? "position_velocity" : "position") + "," +
+             (r.propagation == Propagation::kEuler ? "euler" : "exact") + "," +
+             (r.pooled ? "pooled" : "per_state") + "," + formatNumber(r.threshold) + "," +
+             formatNumber(r.alpha) + "," +
+             (std::isnan(r.mean_nearest) ? "" : formatNumber(r.mean_nearest)) + "\n";
+    }
+    writeFileAtomically((out / "readings.csv").string(), csv);
+    std::printf("wrote %s/readings.csv: %zu readings x samplers\n", out.string().c_str(),
+                readings.size());
+  }
 }
 
 }  // namespace
@@ -94,7 +110,8 @@ void addSamplingStudyCommand(CLI::App& app) {
                    "experiments/paper_table1_samplers.yaml")
       ->required();
   command->add_option("--out", options->out_dir,
-                      "Directory for sampling_study.csv (per sampler and state) and summary.csv "
+                      "Directory for sampling_study.csv (per sampler and state), summary.csv and, "
+                      "with readings:, readings.csv (every sampler under every reading) "
                       "(default: out/sampling_study/NAME)");
   command->footer("Samplers are plugins: see `kinolab list samplers`.");
   command->callback([options] { runSamplingStudyCommand(*options); });

@@ -5,10 +5,24 @@
 
 #include "kinolab/core/error.hpp"
 #include "kinolab/core/random.hpp"
+#include "kinolab/core/text.hpp"
 #include "kinolab/core/yaml_reader.hpp"
 #include "kinolab/primitives/control_sampler.hpp"
 
 namespace kinolab {
+namespace {
+
+/// A list item's number, in [low, high].
+double numberIn(const YamlReader& item, double low, double high) {
+  const double value = item.as<double>();
+  if (!(value >= low && value <= high)) {
+    item.fail("expected a number in [" + formatNumber(low) + ", " + formatNumber(high) + "], got " +
+              formatNumber(value));
+  }
+  return value;
+}
+
+}  // namespace
 
 SamplingStudyConfig SamplingStudyConfig::fromFile(const std::string& path) {
   const YamlReader root = YamlReader::loadFile(path);
@@ -71,8 +85,8 @@ SamplingStudyConfig SamplingStudyConfig::fromFile(const std::string& path) {
     }
     try {
       const auto params = item.optional("params");
-      sampler.parameters = registry.resolve(
-          sampler.type, params ? assignmentsFromYaml(*params) : std::vector<ParameterAssignment>{});
+      if (params) sampler.assignments = assignmentsFromYaml(*params);
+      sampler.parameters = registry.resolve(sampler.type, sampler.assignments);
     } catch (const PluginError& error) {
       item["type"].fail(error.what());
     }
@@ -85,6 +99,50 @@ SamplingStudyConfig SamplingStudyConfig::fromFile(const std::string& path) {
     config.samplers.push_back(std::move(sampler));
   }
   if (config.samplers.empty()) root["samplers"].fail("expected at least one sampler");
+  if (const auto readings = root.optional("readings")) {
+    Readings& r = config.readings;
+    for (const YamlReader& item : (*readings)["thresholds"].items()) {
+      r.thresholds.push_back(numberIn(item, 1e-9, 100.0));
+    }
+    for (const YamlReader& item : (*readings)["distance"].items()) {
+      const std::string name = item.as<std::string>();
+      if (name != "position" && name != "position_velocity") {
+        item.fail("expected position or position_velocity, got '" + name + "'");
+      }
+      r.with_velocity.push_back(name == "position_velocity");
+    }
+    for (const YamlReader& item : (*readings)["propagation"].items()) {
+      const std::string name = item.as<std::string>();
+      if (name != "exact" && name != "euler") {
+        item.fail("expected exact or euler, got '" + name + "'");
+      }
+      r.propagations.push_back(name == "euler" ? Propagation::kEuler : Propagation::kExact);
+    }
+    for (const YamlReader& item : (*readings)["pooling"].items()) {
+      const std::string name = item.as<std::string>();
+      if (name != "per_state" && name != "pooled") {
+        item.fail("expected per_state or pooled, got '" + name + "'");
+      }
+      r.pooled.push_back(name == "pooled");
+    }
+    for (const YamlReader& item : (*readings)["samples_per_axis"].items()) {
+      const double per_axis = numberIn(item, 1, 9);
+      if (per_axis != std::floor(per_axis)) item.fail("expected an integer from 1 to 9");
+      r.samples_per_axis.push_back(static_cast<int>(per_axis));
+    }
+    for (const char* key :
+         {"thresholds", "distance", "propagation", "pooling", "samples_per_axis"}) {
+      if ((*readings)[key].items().empty()) (*readings)[key].fail("expected at least one value");
+    }
+    readings->finish();
+    // Every sampler must take the M of the readings.
+    for (const Sampler& sampler : config.samplers) {
+      if (!registry.info(sampler.type).parameters.find("samples_per_axis")) {
+        (*readings)["samples_per_axis"].fail("sampler '" + sampler.id +
+                                             "' has no samples_per_axis parameter");
+      }
+    }
+  }
   root.finish();
   return config;
 }
@@ -109,6 +167,93 @@ std::vector<ChainState> samplingStudyStates(const SamplingStudyConfig& config) {
     states.push_back(state);
   }
   return states;
+}
+
+std::vector<double> nearestDistances(const std::vector<Eigen::Matrix<double, 6, 1>>& points,
+                                     int dims) {
+  std::vector<double> nearest(points.size(), INFINITY);
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    for (std::size_t j = i + 1; j < points.size(); ++j) {
+      const double d = (points[i] - points[j]).head(dims).norm();
+      nearest[i] = std::min(nearest[i], d);
+      nearest[j] = std::min(nearest[j], d);
+    }
+  }
+  return nearest;
+}
+
+std::vector<SamplingReadingRow> runSamplingReadings(const SamplingStudyConfig& config) {
+  const SamplingStudyConfig::Readings& readings = config.readings;
+  std::vector<SamplingReadingRow> rows;
+  if (readings.thresholds.empty()) return rows;
+  const std::vector<ChainState> states = samplingStudyStates(config);
+  const Eigen::Vector3d u_max = config.limits.bound[config.order];
+  const auto& registry = pluginRegistry<ControlSampler>();
+  for (const auto& entry : config.samplers) {
+    const std::uint64_t seed = Rng::derive(config.seed, "sampler:" + entry.id).nextU64();
+    for (const int per_axis : readings.samples_per_axis) {
+      std::vector<ParameterAssignment> assignments = entry.assignments;
+      assignments.push_back({"samples_per_axis", std::to_string(per_axis), "readings"});
+      const auto sampler =
+          registry.createResolved(entry.type, registry.resolve(entry.type, assignments));
+      const std::vector<Eigen::Vector3d> controls = sampler->sample(u_max, seed);
+      for (const Propagation propagation : readings.propagations) {
+        const IntegratorChain chain(config.order, propagation, config.euler_steps);
+        // Displacements (position, velocity) of every primitive from every state.
+        std::vector<std::vector<Eigen::Matrix<double, 6, 1>>> per_state;
+        for (const ChainState& state : states) {
+          auto& ends = per_state.emplace_back();
+          for (const auto& control : controls) {
+            const ChainState end = chain.propagate(state, control, config.duration);
+            Eigen::Matrix<double, 6, 1> point;
+            point << end.col(0) - state.col(0), end.col(1) - state.col(1);
+            ends.push_back(point);
+          }
+        }
+        for (const bool with_velocity : readings.with_velocity) {
+          const int dims = with_velocity ? 6 : 3;
+          for (const bool pooled : readings.pooled) {
+            // Sets of points: one per state, or all of them at once.
+            std::vector<std::vector<double>> nearest;
+            if (pooled) {
+              std::vector<Eigen::Matrix<double, 6, 1>> all;
+              for (const auto& ends : per_state) all.insert(all.end(), ends.begin(), ends.end());
+              nearest.push_back(nearestDistances(all, dims));
+            } else {
+              for (const auto& ends : per_state) nearest.push_back(nearestDistances(ends, dims));
+            }
+            for (const double threshold : readings.thresholds) {
+              SamplingReadingRow row;
+              row.sampler = entry.id;
+              row.controls = static_cast<int>(controls.size());
+              row.with_velocity = with_velocity;
+              row.propagation = propagation;
+              row.pooled = pooled;
+              row.threshold = threshold;
+              int finite_sets = 0;
+              for (const auto& set : nearest) {
+                int useful = 0;
+                double sum = 0.0;
+                for (const double d : set) {
+                  useful += d > threshold ? 1 : 0;
+                  sum += d;
+                }
+                row.alpha += static_cast<double>(useful) / static_cast<double>(set.size());
+                if (set.size() > 1) {
+                  row.mean_nearest += sum / static_cast<double>(set.size());
+                  ++finite_sets;
+                }
+              }
+              row.alpha /= static_cast<double>(nearest.size());
+              row.mean_nearest = finite_sets ? row.mean_nearest / finite_sets : NAN;
+              rows.push_back(row);
+            }
+          }
+        }
+      }
+    }
+  }
+  return rows;
 }
 
 void endpointSpread(const std::vector<Eigen::Vector3d>& endpoints, double threshold, int* useful,

@@ -20,6 +20,7 @@ struct SamplingStudyConfig {
     std::string id;    ///< name in tables and CSV
     std::string type;  ///< registry key
     ParameterSet parameters;
+    std::vector<ParameterAssignment> assignments;  ///< as written (readings re-resolve them)
     std::optional<double> paper_alpha;  ///< the paper's figure, for the side-by-side table
     std::optional<double> paper_l;
   };
@@ -38,6 +39,17 @@ struct SamplingStudyConfig {
   double min_speed = 0.5;
   double max_speed = 2.0;
   std::vector<Sampler> samplers;
+
+  /// Table I under every reading (`readings:`, optional): each combination of the lists
+  /// below, for every sampler. Empty lists: no readings.
+  struct Readings {
+    std::vector<double> thresholds;         ///< m (position) or the mixed norm (with velocity)
+    std::vector<bool> with_velocity;        ///< distance over (p) or over (p, v)
+    std::vector<Propagation> propagations;  ///< exact, or the paper's Euler step
+    std::vector<bool> pooled;               ///< per state, or every state's displacements at once
+    std::vector<int> samples_per_axis;      ///< M = this^3 (the samplers' own parameter)
+  };
+  Readings readings;
 
   /// Reads and validates a `kind: sampling_study` file (unknown keys, types, ranges, sampler
   /// types and parameters are ConfigErrors with file, line and key path).
@@ -80,6 +92,29 @@ std::vector<SamplingStudyRow> runSamplingStudy(const SamplingStudyConfig& config
 
 std::vector<SamplingStudySummary> summarizeSamplingStudy(const SamplingStudyConfig& config,
                                                          const std::vector<SamplingStudyRow>& rows);
+
+/// One sampler under one reading of Table I: alpha at every threshold and L.
+struct SamplingReadingRow {
+  std::string sampler;
+  int controls = 0;
+  bool with_velocity = false;
+  Propagation propagation = Propagation::kExact;
+  bool pooled = false;
+  double threshold = 0.0;
+  double alpha = 0.0;
+  double mean_nearest = 0.0;
+};
+
+/// Every sampler under every reading of `config.readings` (none when it is empty). Per
+/// state: alpha and L of each state's endpoints, averaged over the states; pooled: one set
+/// of the displacements (endpoint less start: position, and velocity with_velocity) from
+/// every state. Distances are Euclidean over position (m) or over (position m, velocity m/s).
+std::vector<SamplingReadingRow> runSamplingReadings(const SamplingStudyConfig& config);
+
+/// The distance from each point to its nearest other point over its first `dims`
+/// coordinates (INFINITY for a point alone).
+std::vector<double> nearestDistances(const std::vector<Eigen::Matrix<double, 6, 1>>& points,
+                                     int dims);
 
 /// alpha's numerator and L for a set of endpoints: useful = no other endpoint within
 /// `threshold` (distance <= threshold counts as within).
