@@ -16,6 +16,7 @@ import pandas as pd  # noqa: E402
 
 from . import stats  # noqa: E402
 from .data import Results, World  # noqa: E402
+from .tables import SPEEDUP_COLUMNS  # noqa: E402
 
 COLOURS = plt.rcParams["axes.prop_cycle"].by_key()["color"]
 
@@ -298,4 +299,66 @@ def sampling_readings(readings: pd.DataFrame, paper: dict[str, tuple[float, floa
         axes[2 * (index // columns) + 1][index % columns].set_visible(False)
     figure.legend(loc="lower center", ncol=6, fontsize=7)
     figure.tight_layout(rect=(0, 0.05, 1, 1))
+    return figure
+
+
+PAPER_SPEEDUP = 6.82 / 3.87  # the paper's Table II: MP-A* T over Lazy T
+
+
+def _axes_of(table: pd.DataFrame) -> list[str]:
+    return [c for c in table.columns if c not in SPEEDUP_COLUMNS]
+
+
+def lazy_speedup(table: pd.DataFrame, title: str) -> plt.Figure | None:
+    """Eager's time over lazy's (tables.lazy_speedup) against the swept value, median with
+    its bootstrap interval and the range over cases; with two swept axes a heat map. The
+    paper's 1.76x dotted, parity dashed. None without a sweep axis."""
+    axes = _axes_of(table)
+    if not axes or table.empty:
+        return None
+    if len(axes) >= 2:
+        x_name, y_name = axes[0], axes[1]
+        xs = sorted(table[x_name].unique(), key=float)
+        ys = sorted(table[y_name].unique(), key=float)
+        grid = np.full((len(ys), len(xs)), np.nan)
+        for _, row in table.iterrows():
+            grid[ys.index(row[y_name]), xs.index(row[x_name])] = row["speedup"].estimate
+        figure, axis = plt.subplots(figsize=(1.3 * len(xs) + 2.5, 0.8 * len(ys) + 2))
+        image = axis.imshow(grid, origin="lower", cmap="RdYlGn", vmin=0.5,
+                            vmax=max(2.0 * PAPER_SPEEDUP, float(np.nanmax(grid))), aspect="auto")
+        for j in range(len(ys)):
+            for i in range(len(xs)):
+                if np.isfinite(grid[j, i]):
+                    axis.text(i, j, f"{grid[j, i]:.2f}x", ha="center", va="center", fontsize=9)
+        axis.set_xticks(range(len(xs)), xs)
+        axis.set_yticks(range(len(ys)), ys)
+        axis.set_xlabel(x_name)
+        axis.set_ylabel(y_name)
+        figure.colorbar(image, ax=axis, label="median eager T / lazy T")
+        axis.set_title(title)
+        figure.tight_layout()
+        return figure
+    name = axes[0]
+    ordered = table.assign(_x=table[name].astype(float)).sort_values("_x")
+    x = ordered["_x"].to_numpy()
+    medians = np.array([i.estimate for i in ordered["speedup"]])
+    low = np.array([i.low for i in ordered["speedup"]])
+    high = np.array([i.high for i in ordered["speedup"]])
+    figure, axis = plt.subplots(figsize=(6, 4))
+    axis.fill_between(x, ordered["min speedup"], ordered["max speedup"], color=_colour(0),
+                      alpha=0.12, label="range over queries")
+    axis.errorbar(x, medians, yerr=[medians - low, high - medians], marker="o", capsize=3,
+                  color=_colour(0), label="median (bootstrap 95 %)")
+    axis.axhline(1.0, color="black", linestyle="--", linewidth=0.8, label="parity")
+    axis.axhline(PAPER_SPEEDUP, color=_colour(3), linestyle=":", label="the paper's 1.76x")
+    if x.min() > 0 and x.max() / x.min() >= 10:
+        axis.set_xscale("log")
+    axis.set_xticks(x, [f"{v:g}" for v in x])
+    axis.set_xlabel(name)
+    axis.set_ylabel("eager T / lazy T (same cost)")
+    axis.set_ylim(bottom=0)
+    axis.grid(alpha=0.3)
+    axis.legend(fontsize=8)
+    axis.set_title(title)
+    figure.tight_layout()
     return figure

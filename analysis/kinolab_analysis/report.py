@@ -62,6 +62,16 @@ primitive endpoints; p: one-sample Wilcoxon test over the study's initial states
 the paper's figure.</p>
 {{ tables['paper_table1'] }}
 {% endif %}
+{% if 'lazy_regime' in tables %}
+<h2>Where lazy pays off</h2>
+<p class="note">Eager MP-A*'s planning time over lazy MP-A*'s on the same cases, per swept
+value (the lazy-regime experiments beside this one{{ regime_sources }}): median over the
+cases both solved with a bootstrap 95 % interval, the range, and the share of cases with
+the same cost (lazy with the lwa rule is exact). The figures "Lazy speedup: ..." below plot
+each sweep, the heat map two at once; the paper's figure is 6.82 / 3.87 = 1.76x.</p>
+{{ tables['lazy_regime'] }}
+{% endif %}
+
 {% if 'sampling_readings' in tables %}
 <h2>Table I under every reading</h2>
 <p>{{ readings_verdict }}</p>
@@ -191,6 +201,36 @@ def _tree_run(results: Results) -> pd.Series | None:
     return candidates.iloc[0]
 
 
+def find_lazy_regime(directory: Path) -> list[Path]:
+    """The lazy-regime result sets beside a results directory (DIR/lazy_regime/*/)."""
+    return sorted(p.parent for p in directory.glob("lazy_regime/*/results.sqlite"))
+
+
+def _lazy_regime(report: Report, results: Results, directory: Path) -> str:
+    """The speedup table and figures: of this experiment when it sweeps eager and lazy,
+    and of every lazy-regime experiment beside it. Returns where they came from."""
+    sets = [(results.meta.get("name", "this experiment"), results.runs)]
+    for path in find_lazy_regime(directory):
+        other = load(path)
+        sets.append((other.meta.get("name", path.name), other.runs))
+    parts = []
+    for name, runs in sets:
+        table = tables.lazy_speedup(runs)
+        if table.empty or runs["sweep"].fillna("").nunique() < 2:
+            continue
+        if (figure := plots.lazy_speedup(table, name)) is not None:
+            _save(figure, report, f"lazy_speedup_{name}", f"Lazy speedup: {name}",
+                  "Median eager T / lazy T over the cases both solved (same cost), bootstrap "
+                  "95 % interval and range; dotted: the paper's 1.76x; dashed: parity.")
+        axes = [c for c in table.columns if c not in tables.SPEEDUP_COLUMNS]
+        values = [", ".join(f"{a}={row[a]}" for a in axes) for _, row in table.iterrows()]
+        parts.append(table.assign(experiment=name, value=values)[
+            ["experiment", "value", *tables.SPEEDUP_COLUMNS[1:]]])
+    if parts:
+        report.tables["lazy_regime"] = pd.concat(parts, ignore_index=True)
+    return ", ".join(name for name, _ in sets[1:])
+
+
 def find_sampling_study(directory: Path) -> Path | None:
     found = sorted(directory.glob("sampling_study/*/summary.csv"))
     return found[0] if found else None
@@ -290,6 +330,8 @@ def write(paths: list[Path], out: Path, compare: Path | None = None,
                   + (" (the paper's Fig. 6)" if reproduced else ""),
                   "Edges only partially evaluated (queued on their lower bound) and fully "
                   "evaluated ones, in two colours; the trajectory in black.")
+    regime_sources = _lazy_regime(report, results,
+                                  paths[0] if paths[0].is_dir() else paths[0].parent)
     if (figure := plots.anytime(runs)) is not None:
         _save(figure, report, "rrtstar_anytime", "RRT* anytime cost",
               "Median best path length on the fixed time grid, over runs with a solution.")
@@ -315,6 +357,7 @@ def write(paths: list[Path], out: Path, compare: Path | None = None,
         tables={k: jinja2.utils.markupsafe.Markup(_html(v)) for k, v in report.tables.items()},
         figures=report.figures, compare_name=compare_name,
         timing_protocol=timing_protocol(results.meta), readings_verdict=readings_verdict,
+        regime_sources=f": {regime_sources}" if regime_sources else "",
         paper_rows=", ".join(f"{row} = {planner}" for planner, row in reproduced[1].items())
         if reproduced else "")
     (out / "index.html").write_text(html)

@@ -332,3 +332,57 @@ def sampling_readings(readings: pd.DataFrame,
         f"{closest['threshold']:g}) is still {closest['largest gap to the paper']:.2f} away in "
         f"its worst figure.")
     return table, verdict
+
+
+# The columns of lazy_speedup besides the swept axes.
+SPEEDUP_COLUMNS = ["sweep", "cases", "solved", "eager T (ms)", "lazy T (ms)", "speedup",
+                   "min speedup", "max speedup", "equal cost"]
+
+
+def sweep_axes(label: str) -> dict[str, str]:
+    """A sweep label ("planners.eager.params.edge_samples=5, planners.lazy.params.
+    edge_samples=5, worlds.forest.spec.generators.0.density=0.1") as its axes by the last
+    path component ({"edge_samples": "5", "density": "0.1"}): a value several planners share
+    is one axis; a component with different values keeps its whole path."""
+    pairs = [part.split("=", 1) for part in label.split(", ") if "=" in part]
+    short: dict[str, set[str]] = {}
+    for path, value in pairs:
+        short.setdefault(path.rsplit(".", 1)[-1], set()).add(value)
+    axes: dict[str, str] = {}
+    for path, value in pairs:
+        name = path.rsplit(".", 1)[-1]
+        axes[name if len(short[name]) == 1 else path] = value
+    return axes
+
+
+def lazy_speedup(runs: pd.DataFrame) -> pd.DataFrame:
+    """Eager MP-A*'s planning time over lazy MP-A*'s, per sweep variant: per case (world,
+    query, repetition) both solved, the ratio of their times; the median ratio with a
+    bootstrap 95 % interval, its range, and the share of cases where both returned the same
+    cost (relative 1e-6; lazy with the lwa rule should always). Empty without one planner
+    of each type."""
+    eager = runs[runs["planner_type"] == "eager_mp_astar"]
+    lazy = runs[runs["planner_type"] == "lazy_mp_astar"]
+    if eager["planner"].nunique() != 1 or lazy["planner"].nunique() != 1:
+        return pd.DataFrame()
+    rows = []
+    for label in dict.fromkeys(runs["sweep"].fillna("")):
+        left, right = _aligned(eager[eager["sweep"].fillna("") == label],
+                               lazy[lazy["sweep"].fillna("") == label])
+        both = left["success"].to_numpy() & right["success"].to_numpy()
+        if not both.any():
+            continue
+        t_eager = left["planning_time_ms"].to_numpy(dtype=float)[both]
+        t_lazy = right["planning_time_ms"].to_numpy(dtype=float)[both]
+        ratio = t_eager / t_lazy
+        c_eager = left["cost"].to_numpy(dtype=float)[both]
+        c_lazy = right["cost"].to_numpy(dtype=float)[both]
+        equal = np.abs(c_eager - c_lazy) <= 1e-6 * np.maximum(1.0, np.abs(c_eager))
+        rows.append({"sweep": label, **sweep_axes(label), "cases": int(both.sum()),
+                     "solved": stats.wilson(int(both.sum()), len(left)),
+                     "eager T (ms)": stats.bootstrap(t_eager, np.median),
+                     "lazy T (ms)": stats.bootstrap(t_lazy, np.median),
+                     "speedup": stats.bootstrap(ratio, np.median),
+                     "min speedup": float(ratio.min()), "max speedup": float(ratio.max()),
+                     "equal cost": float(equal.mean())})
+    return pd.DataFrame(rows)

@@ -68,15 +68,17 @@ std::string planOneRun(const Experiment& experiment, const RunSpec& run,
         experiment.store_tree_queries < 0 || run.query < experiment.store_tree_queries;
     // The timing protocol (TimingProtocol): warm-up plans, then timed ones; every plan of a
     // case repeats the same work (planners are deterministic in their seed and the query).
+    // A plan that spends the whole time budget would spend it again: it is the only one timed.
     const int plans = variant.timing.warmup + variant.timing.repeats;
     std::vector<double> timed;
     double cold_ms = NAN;
     PlanResult result;
     for (int i = 0; i < plans; ++i) {
-      const bool last = i + 1 == plans;
-      result = configured.planner->plan(query, budget, last && store_tree ? &tree : nullptr);
+      result = configured.planner->plan(query, budget, store_tree ? &tree : nullptr);
       if (i == 0) cold_ms = result.planning_time_ms;
-      if (i >= variant.timing.warmup) timed.push_back(result.planning_time_ms);
+      const bool spent = result.planning_time_ms >= 1000.0 * variant.budget.time;
+      if (i >= variant.timing.warmup || spent) timed.push_back(result.planning_time_ms);
+      if (spent) break;
     }
     std::sort(timed.begin(), timed.end());
     const std::size_t middle = timed.size() / 2;
@@ -140,7 +142,9 @@ RunRecord recordOf(const Experiment& experiment, const RunSpec& run, const Worke
   if (worker.killed_for_time) {
     finish("killed", "killed after " + formatNumber(wall_time_ms / 1000.0) +
                          " s: the planner ignored its time budget of " +
-                         formatNumber(variant.budget.time) + " s");
+                         formatNumber(variant.budget.time) + " s per plan (" +
+                         std::to_string(variant.timing.warmup + variant.timing.repeats) +
+                         " plans)");
     return record;
   }
   if (WIFSIGNALED(wait_status)) {
@@ -486,7 +490,10 @@ RunnerSummary runExperiment(const Experiment& experiment, const RunnerOptions& o
     while (!g_stop_signal && next < pending.size() && !pool.full()) {
       const RunSpec& run = *pending[next];
       const ExperimentBudget& budget = experiment.variants[run.variant].budget;
-      pool.start(next++, budget.time + options.grace_seconds, budget.memory_mb, [&] {
+      // Every plan of the timing protocol has the time budget.
+      const TimingProtocol& timing = experiment.variants[run.variant].timing;
+      const double plans = timing.warmup + timing.repeats;
+      pool.start(next++, plans * budget.time + options.grace_seconds, budget.memory_mb, [&] {
         return planOneRun(experiment, run, inputs.world(experiment, run), inputs.query(run));
       });
     }

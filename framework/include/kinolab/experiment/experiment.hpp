@@ -74,7 +74,9 @@ struct ExperimentBudget {
 /// How a run's planning time is measured (`timing:`): `warmup` plans of the run's query in
 /// its worker, discarded, then `repeats` timed plans; the run keeps the last plan's result,
 /// the median of the timed plans as planning_time_ms, their minimum, and the first plan's
-/// time (the cold one: a fresh process, caches and heap untouched).
+/// time (the cold one: a fresh process, caches and heap untouched). A plan that spends the
+/// whole time budget ends the protocol and is the one timed plan. The worker's deadline is
+/// (warmup + repeats) x the time budget + the grace.
 struct TimingProtocol {
   int warmup = 1;
   int repeats = 3;
