@@ -98,7 +98,7 @@ bootstrap 95 % intervals.</p>
 
 <h2>Paired comparisons</h2>
 <p class="note">Planners on the cases both ran (same world, query, repetition and sweep
-value): McNemar (exact) on success, Wilcoxon signed-rank on planning time and cost over
+value): McNemar (exact) on success, Wilcoxon signed-rank on planning time, expansions (N) and cost over
 cases both solved, with the matched-pairs rank-biserial correlation as effect size (> 0: a
 larger); p-values Holm-corrected over the whole table.</p>
 {{ tables['paired'] }}

@@ -103,6 +103,8 @@ def paired_tests(left: pd.DataFrame, right: pd.DataFrame, names: tuple[str, str]
         if metric in left.columns and metric in right.columns:
             test = stats.wilcoxon(left[metric].to_numpy(dtype=float)[both],
                                   right[metric].to_numpy(dtype=float)[both])
+            if test.n == 0:
+                continue  # a metric one of them does not report (N of RRT*)
             rows.append({"test": "Wilcoxon", "metric": metric, "n": test.n,
                          "effect": f"median {a} - {b} {test.median_difference:.3g}",
                          "effect size": test.rank_biserial, "p": test.p})
@@ -123,7 +125,8 @@ def _with_holm(rows: list[dict]) -> pd.DataFrame:
     return table
 
 
-def paired(runs: pd.DataFrame, metrics: tuple[str, ...] = ("planning_time_ms", "cost"),
+def paired(runs: pd.DataFrame,
+           metrics: tuple[str, ...] = ("planning_time_ms", "expansions", "cost"),
            by: str = "planner") -> pd.DataFrame:
     """Every pair of planners on the cases both ran (paired_tests), p-values
     Holm-corrected over the whole table."""

@@ -173,3 +173,39 @@ def test_a_version_1_database_loads_with_one_success_definition(results, tmp_pat
     assert not loaded.loc[killed, "success"].any()
     # Everywhere else the derived success equals the one the runner stored.
     assert loaded.loc[~killed, "success"].equals(stored.loc[loaded.index[~killed], "success"])
+
+
+def test_the_lazy_regime_and_table_one_readings_beside_a_reproduction(results, tmp_path):
+    """A reproduction's directory with lazy-regime experiments and a sampling study with
+    readings beside it: the report has the speedup table and one figure per sweep, the
+    readings' figure and the verdict, the worlds table and the timing protocol."""
+    directory = tmp_path / "quick"
+    directory.mkdir()
+    shutil.copy(results[2] / "results.sqlite", directory / "results.sqlite")
+    sweep = EXPERIMENT.replace("HW", "1").split("reproduces:")[0].replace(
+        "name: report_test", "name: regime_test").replace("count: 6", "count: 3")
+    sweep += ("sweep:\n  zip:\n    planners.eager.params.edge_samples: [2, 20]\n"
+              "    planners.lazy.params.edge_samples: [2, 20]\n")
+    (tmp_path / "regime.yaml").write_text(sweep)
+    run = kinolab("run", tmp_path / "regime.yaml", "--out", directory / "lazy_regime" / "k",
+                  "-j", "2", cache=tmp_path / "cache")
+    assert run.returncode == 0, run.stderr
+    study = (SOURCE_DIR / "experiments" / "paper_table1_samplers.yaml").read_text()
+    study = re.sub(r"moving: \d+", "moving: 3", study)
+    study = re.sub(r"samples_per_axis: \[3, 5, 7\]", "samples_per_axis: [3]", study)
+    (tmp_path / "study.yaml").write_text(study)
+    studied = kinolab("sampling-study", tmp_path / "study.yaml", "--out",
+                      directory / "sampling_study" / "t1", cache=tmp_path / "cache")
+    assert studied.returncode == 0, studied.stderr
+    report = kinolab("report", directory, cache=tmp_path / "cache")
+    assert report.returncode == 0, report.stderr
+    out = directory / "report"
+    figures = {p.stem for p in (out / "figures").glob("*.png")}
+    assert {"lazy_speedup_regime_test", "sampling_readings"} <= figures, figures
+    regime = (out / "tables" / "lazy_regime.md").read_text()
+    assert "edge_samples=2" in regime and "edge_samples=20" in regime
+    html = (out / "index.html").read_text()
+    assert "Where lazy pays off" in html and "Table I under every reading" in html
+    assert "the paper&#39;s ranking random &lt; uniform &lt; normal holds for alpha in" in html
+    assert "Warm: in each run&#39;s worker, 1 discarded plan(s)" in html
+    assert (out / "tables" / "worlds.md").read_text().count("| small |") == 1

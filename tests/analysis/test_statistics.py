@@ -183,3 +183,94 @@ def test_compare_two_result_sets_case_by_case():
     assert time_row["T A (ms)"].estimate == pytest.approx(time_row["T B (ms)"].estimate / 2)
     assert time_row["p"] == pytest.approx(sps.wilcoxon(np.ones(30)).pvalue)
     assert (table["p (Holm)"] >= table["p"] - 1e-15).all()
+
+
+def test_sweep_labels_become_axes():
+    assert tables.sweep_axes("planners.eager.params.edge_samples=5, "
+                             "planners.lazy.params.edge_samples=5") == {"edge_samples": "5"}
+    assert tables.sweep_axes("worlds.f.spec.generators.0.density=0.1, planners.eager.params."
+                             "edge_samples=2, planners.lazy.params.edge_samples=2") == {
+        "density": "0.1", "edge_samples": "2"}
+    # The same component with different values keeps its whole path.
+    assert tables.sweep_axes("planners.a.params.tau=0.4, planners.b.params.tau=0.6") == {
+        "planners.a.params.tau": "0.4", "planners.b.params.tau": "0.6"}
+    assert tables.sweep_axes("full") == {}
+
+
+def test_lazy_speedup_per_sweep_value_with_equal_cost():
+    """Eager takes k times lazy's time at sweep value k; one case of value 3 has a different
+    cost, and one of value 2 is unsolved by lazy (not counted)."""
+    rows = []
+    for k in (2, 3):
+        label = f"planners.eager.params.edge_samples={k}, planners.lazy.params.edge_samples={k}"
+        for query in range(10):
+            for planner, kind, time in (("eager", "eager_mp_astar", k * (query + 1.0)),
+                                        ("lazy", "lazy_mp_astar", query + 1.0)):
+                solved = not (k == 2 and planner == "lazy" and query == 0)
+                cost = 10.0 + query + (0.5 if (k, query, planner) == (3, 4, "lazy") else 0.0)
+                rows.append({"run_hash": f"{planner}{k}{query}", "planner": planner,
+                             "planner_type": kind, "sweep": label, "world": "w",
+                             "query": query, "repetition": 0,
+                             "success": solved, "planning_time_ms": time, "cost": cost})
+    table = tables.lazy_speedup(pd.DataFrame(rows)).set_index("edge_samples")
+    assert table.loc["2", "cases"] == 9 and table.loc["3", "cases"] == 10
+    assert table.loc["2", "speedup"].estimate == pytest.approx(2.0)
+    assert table.loc["3", "speedup"].estimate == pytest.approx(3.0)
+    assert table.loc["2", "equal cost"] == 1.0 and table.loc["3", "equal cost"] == 0.9
+    # Without one eager and one lazy planner there is nothing to compare.
+    assert tables.lazy_speedup(pd.DataFrame(rows).query("planner == 'eager'")).empty
+
+
+def test_table_one_readings_verdict_counts_the_readings_that_rank_as_the_paper():
+    rows = []
+    for threshold in (0.05, 0.1):
+        for sampler, alpha, length in (("random", 0.6, 0.049), ("uniform", 0.84, 0.069),
+                                       ("normal", 0.94, 0.079)):
+            # At 0.1 the paper's figures exactly; at 0.05 the ranking of alpha reversed.
+            a = alpha if threshold == 0.1 else 1.0 - alpha
+            rows.append({"sampler": sampler, "controls": 125, "distance": "position",
+                         "propagation": "exact", "pooling": "per_state",
+                         "threshold": threshold, "alpha": a, "mean_nearest": length})
+    table, verdict = tables.sampling_readings(pd.DataFrame(rows))
+    assert len(table) == 2
+    assert table["alpha ranked as the paper"].tolist() == [False, True]
+    assert table["L ranked as the paper"].all()
+    assert table["largest gap to the paper"].min() == pytest.approx(0.0)
+    assert "holds for alpha in 1, for L in 2 and for both in 1" in verdict
+    assert "threshold 0.1" in verdict
+
+
+def test_worlds_timing_and_table_two_per_variant_over_answered_runs():
+    rows = []
+    for variant in ("full", "horizon"):
+        for query in range(4):
+            for planner, kind in (("eager", "eager_mp_astar"), ("lazy", "lazy_mp_astar")):
+                horizon = variant == "horizon"
+                rows.append({
+                    "run_hash": f"{variant}{planner}{query}", "planner": planner,
+                    "planner_type": kind, "sweep": variant, "world": "w", "query": query,
+                    "repetition": 0, "status": "approximate" if horizon else "exact",
+                    "checker_valid": 1, "line_blocked": 1.0 if query < 3 else 0.0,
+                    "start_x": 0.0, "start_y": 0.0, "start_z": 1.0, "goal_x": 10.0,
+                    "goal_y": 0.0, "goal_z": 1.0,
+                    "planning_time_ms": 2.0 if planner == "lazy" else 4.0,
+                    "planning_time_min_ms": 1.5, "planning_time_cold_ms": 6.0,
+                    "expansions": 1000.0, "distance_to_goal": 2.0 if horizon else 0.1,
+                    "cost": 5.0})
+    runs = pd.DataFrame(rows)
+    runs["success"] = stats.is_success(runs)
+    runs["paper"] = runs["planner_type"].map({"eager_mp_astar": "MP-A*", "lazy_mp_astar": "Lazy"})
+    worlds = tables.worlds(runs).set_index("world")
+    assert worlds.loc["w", "queries"] == 4
+    assert worlds.loc["w", "straight line blocked"].estimate == pytest.approx(0.75)
+    assert worlds.loc["w", "query length (m)"].estimate == pytest.approx(10.0)
+    timing = tables.timing(runs).set_index("planner")
+    assert timing.loc["lazy", "cold / warm"].estimate == pytest.approx(3.0)
+    assert timing.loc["eager", "fastest T (ms)"].estimate == pytest.approx(1.5)
+    table2 = tables.paper_table2(runs).set_index(["variant", "planner"])
+    # Budget stops are not successes but answered runs: T, N and D come from them.
+    assert table2.loc[("horizon", "Lazy"), "success"].estimate == 0.0
+    assert table2.loc[("horizon", "Lazy"), "answered"].estimate == 1.0
+    assert table2.loc[("horizon", "Lazy"), "kinolab T (ms)"].estimate == pytest.approx(2.0)
+    assert table2.loc[("horizon", "MP-A*"), "kinolab D (m)"].estimate == pytest.approx(2.0)
+    assert table2.loc[("full", "MP-A*"), "kinolab D (m)"].estimate == pytest.approx(0.1)
