@@ -1,28 +1,34 @@
 #!/usr/bin/env bash
 # The main job: install what is missing, build, run the quick paper reproduction
-# (experiments/quick.yaml: every planner on 20 forest queries) into out/quick/results.sqlite,
-# run the paper's Table I sampling study beside it, write the report
-# (out/quick/report/index.html), build the demo worlds with their pictures into
-# out/worlds/, and plan one forest query with eager and lazy MP-A* and the TGK analogue into
-# out/plan/. Run again, it resumes (nothing runs twice).
+# (experiments/quick.yaml: every planner on 40 queries of the dense forest, where most
+# straight lines are blocked) into out/quick/results.sqlite, the paper's Table I sampling
+# study under every reading and the lazy-regime sweeps (experiments/lazy_regime/) beside it,
+# write the report (out/quick/report/index.html), build the demo worlds with their pictures
+# into out/worlds/, and plan one dense-forest query with eager and lazy MP-A* and the TGK
+# analogue into out/plan/. Run again, it resumes (nothing runs twice). About 3 minutes on 2
+# cores after the build.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/setup_debian.sh
 bash scripts/build.sh
-./build/framework/kinolab run experiments/quick.yaml --out out/quick -j 2 --resume
-./build/framework/kinolab sampling-study experiments/paper_table1_samplers.yaml \
+kinolab=./build/framework/kinolab
+$kinolab run experiments/quick.yaml --out out/quick -j 2 --resume
+$kinolab sampling-study experiments/paper_table1_samplers.yaml \
   --out out/quick/sampling_study/paper_table1_samplers
-./build/framework/kinolab report out/quick --out out/quick/report
-for world in forest complex walls geb079; do
-  ./build/framework/kinolab world "configs/worlds/$world.yaml" --out "out/worlds/$world"
+for sweep in edge_cost density controls epsilon order esdf_resolution edge_cost_density; do
+  $kinolab run "experiments/lazy_regime/$sweep.yaml" --out "out/quick/lazy_regime/$sweep" \
+    -j 2 --resume
 done
-for planner in eager_mp_astar lazy_mp_astar; do
-  ./build/framework/kinolab plan --world configs/worlds/forest.yaml --planner "$planner" \
+$kinolab report out/quick --out out/quick/report
+for world in dense_forest forest complex walls geb079; do
+  $kinolab world "configs/worlds/$world.yaml" --out "out/worlds/$world"
+done
+for planner in eager_mp_astar lazy_mp_astar rrtstar_ceres; do
+  $kinolab plan --world configs/worlds/dense_forest.yaml --planner "$planner" \
     --start 2,2,1.5 --goal 14,12,1.5 --out "out/plan/$planner"
 done
-./build/framework/kinolab plan --world configs/worlds/forest.yaml --planner rrtstar_ceres \
-  --start 2,2,1.5 --goal 14,12,1.5 --out out/plan/rrtstar_ceres
-echo "demo: the quick reproduction: out/quick/report/index.html (results in out/quick/results.sqlite);"
+echo "demo: the quick reproduction: out/quick/report/index.html (results in out/quick/results.sqlite;"
+echo "      lazy-regime sweeps in out/quick/lazy_regime/*; Table I and its readings in"
+echo "      out/quick/sampling_study/paper_table1_samplers/{summary,readings}.csv);"
 echo "      pictures in out/worlds/*/top_view.png and out/worlds/*/esdf_slice.png;"
-echo "      Table I in out/quick/sampling_study/paper_table1_samplers/summary.csv;"
-echo "      lazy and eager MP-A* and rrtstar_ceres on the forest in out/plan/*/{trajectory,tree}.csv"
+echo "      lazy and eager MP-A* and rrtstar_ceres on the dense forest in out/plan/*/{trajectory,tree}.csv"

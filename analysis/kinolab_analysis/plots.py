@@ -158,6 +158,12 @@ def trajectories(results: Results, world: World, query: int) -> plt.Figure | Non
         axis.plot(run[f"goal_{a}"], run[f"goal_{b}"], "*", color="red", ms=11)
         axis.set_xlabel(f"{a} (m)")
         axis.set_ylabel(f"{b} (m)")
+    # Zoomed to the trajectories, 3 m around them, within the map.
+    xs = np.concatenate([t["x"].to_numpy(dtype=float) for _, _, t, _ in paths])
+    ys = np.concatenate([t["y"].to_numpy(dtype=float) for _, _, t, _ in paths])
+    top.set_xlim(max(extent_top[0], xs.min() - 3), min(extent_top[1], xs.max() + 3))
+    top.set_ylim(max(extent_top[2], ys.min() - 3), min(extent_top[3], ys.max() + 3))
+    side.set_xlim(*top.get_xlim())
     top.set_title(f"{world.id}, query {query}: top view (darker = taller)")
     side.set_title("side view (obstacles projected along y)")
     top.legend(fontsize=8, loc="upper left")

@@ -327,7 +327,8 @@ SHIPPED = sorted(p for p in (SOURCE_DIR / "experiments").rglob("*.yaml")
                  if "kind: sampling_study" not in p.read_text())
 
 
-@pytest.mark.parametrize("path", SHIPPED, ids=[p.stem for p in SHIPPED])
+@pytest.mark.parametrize("path", SHIPPED,
+                         ids=[str(p.relative_to(SOURCE_DIR / "experiments")) for p in SHIPPED])
 def test_every_shipped_experiment_validates(kinolab, path):
     result = kinolab("run", path, "--dry-run")
     assert result.returncode == 0, result.stderr
