@@ -167,16 +167,20 @@ def answered(runs: pd.DataFrame) -> pd.Series:
 
 def paper_table2(runs: pd.DataFrame) -> pd.DataFrame:
     """The paper's T, N, D beside the medians kinolab measured for the same planner
-    families, per sweep variant when there are several: T and N over the runs that returned
+    families, per sweep variant and world when there are several: T and N over the runs that returned
     a checked trajectory (answered: exact, or approximate at the budget), D over all runs,
     with intervals and the one-sample Wilcoxon p of each difference."""
     rows = []
     variants = list(dict.fromkeys(runs["sweep"].fillna("")))
-    for variant in variants:
+    worlds = list(dict.fromkeys(runs["world"]))
+    for variant, world in itertools.product(variants, worlds):
         for family, (t, n, d) in PAPER_TABLE2.items():
-            group = runs[(runs["paper"] == family) & (runs["sweep"].fillna("") == variant)]
+            group = runs[(runs["paper"] == family) & (runs["sweep"].fillna("") == variant)
+                         & (runs["world"] == world)]
             ok = group[answered(group)]
             row = {"variant": variant} if len(variants) > 1 else {}
+            if len(worlds) > 1:
+                row["world"] = world
             row.update({"planner": family, "runs": len(group),
                         "success": stats.wilson(int(group["success"].sum()), len(group)),
                         "answered": stats.wilson(len(ok), len(group))})
@@ -359,11 +363,12 @@ def sweep_axes(label: str) -> dict[str, str]:
 
 
 def lazy_speedup(runs: pd.DataFrame) -> pd.DataFrame:
-    """Eager MP-A*'s planning time over lazy MP-A*'s, per sweep variant: per case (world,
-    query, repetition) both solved, the ratio of their times; the median ratio with a
-    bootstrap 95 % interval, its range, and the share of cases where both returned the same
-    cost (relative 1e-6; lazy with the lwa rule should always). Empty without one planner
-    of each type."""
+    """Eager MP-A*'s planning time over lazy MP-A*'s, per sweep variant, at equal cost: over
+    the cases (world, query, repetition) both answered (exact, or approximate at a budget
+    stop, with a trajectory the checker accepts), the share where both returned the same
+    cost (relative 1e-6; lazy with the lwa rule should always), and over those the median
+    ratio of their times with a bootstrap 95 % interval and its range. Empty without one
+    planner of each type."""
     eager = runs[runs["planner_type"] == "eager_mp_astar"]
     lazy = runs[runs["planner_type"] == "lazy_mp_astar"]
     if eager["planner"].nunique() != 1 or lazy["planner"].nunique() != 1:
@@ -372,16 +377,16 @@ def lazy_speedup(runs: pd.DataFrame) -> pd.DataFrame:
     for label in dict.fromkeys(runs["sweep"].fillna("")):
         left, right = _aligned(eager[eager["sweep"].fillna("") == label],
                                lazy[lazy["sweep"].fillna("") == label])
-        both = left["success"].to_numpy() & right["success"].to_numpy()
-        if not both.any():
-            continue
-        t_eager = left["planning_time_ms"].to_numpy(dtype=float)[both]
-        t_lazy = right["planning_time_ms"].to_numpy(dtype=float)[both]
-        ratio = t_eager / t_lazy
+        both = answered(left).to_numpy() & answered(right).to_numpy()
         c_eager = left["cost"].to_numpy(dtype=float)[both]
         c_lazy = right["cost"].to_numpy(dtype=float)[both]
         equal = np.abs(c_eager - c_lazy) <= 1e-6 * np.maximum(1.0, np.abs(c_eager))
-        rows.append({"sweep": label, **sweep_axes(label), "cases": int(both.sum()),
+        if not equal.any():
+            continue
+        t_eager = left["planning_time_ms"].to_numpy(dtype=float)[both][equal]
+        t_lazy = right["planning_time_ms"].to_numpy(dtype=float)[both][equal]
+        ratio = t_eager / t_lazy
+        rows.append({"sweep": label, **sweep_axes(label), "cases": int(equal.sum()),
                      "solved": stats.wilson(int(both.sum()), len(left)),
                      "eager T (ms)": stats.bootstrap(t_eager, np.median),
                      "lazy T (ms)": stats.bootstrap(t_lazy, np.median),
