@@ -76,8 +76,8 @@ def per_world(runs: pd.DataFrame, by: str = "planner") -> plt.Figure:
             group = runs[(runs["world"] == world) & (runs[by] == name)]
             rate = stats.wilson(int(group["success"].sum()), len(group))
             rates.append(rate.estimate)
-            errors[0].append(rate.estimate - rate.low)
-            errors[1].append(rate.high - rate.estimate)
+            errors[0].append(max(0.0, rate.estimate - rate.low))
+            errors[1].append(max(0.0, rate.high - rate.estimate))
             solved = group.loc[group["success"], "planning_time_ms"]
             times.append(float(solved.median()) if len(solved) else math.nan)
         x = np.arange(len(worlds)) + (index - (len(names) - 1) / 2) * width
@@ -110,8 +110,8 @@ def sweep(runs: pd.DataFrame, metric: str = "planning_time_ms",
             interval = stats.bootstrap(values.to_numpy(dtype=float))
             xs.append(position)
             medians.append(interval.estimate)
-            low.append(interval.estimate - interval.low)
-            high.append(interval.high - interval.estimate)
+            low.append(max(0.0, interval.estimate - interval.low))
+            high.append(max(0.0, interval.high - interval.estimate))
         if xs:
             axis.errorbar(xs, medians, yerr=[low, high], marker="o", capsize=3, label=name,
                           color=_colour(index))
@@ -353,7 +353,8 @@ def lazy_speedup(table: pd.DataFrame, title: str) -> plt.Figure | None:
     figure, axis = plt.subplots(figsize=(6, 4))
     axis.fill_between(x, ordered["min speedup"], ordered["max speedup"], color=_colour(0),
                       alpha=0.12, label="range over queries")
-    axis.errorbar(x, medians, yerr=[medians - low, high - medians], marker="o", capsize=3,
+    axis.errorbar(x, medians, yerr=[np.maximum(0, medians - low), np.maximum(0, high - medians)],
+                  marker="o", capsize=3,
                   color=_colour(0), label="median (bootstrap 95 %)")
     axis.axhline(1.0, color="black", linestyle="--", linewidth=0.8, label="parity")
     axis.axhline(PAPER_SPEEDUP, color=_colour(3), linestyle=":", label="the paper's 1.76x")

@@ -280,3 +280,12 @@ def test_worlds_timing_and_table_two_per_variant_over_answered_runs():
     assert table2.loc[("horizon", "Lazy"), "kinolab T (ms)"].estimate == pytest.approx(2.0)
     assert table2.loc[("horizon", "MP-A*"), "kinolab D (m)"].estimate == pytest.approx(2.0)
     assert table2.loc[("full", "MP-A*"), "kinolab D (m)"].estimate == pytest.approx(0.1)
+
+
+def test_wilson_interval_always_holds_its_estimate():
+    # At 0 or n successes rounding once put a bound a hair past the estimate, and a plot's
+    # error bar went negative.
+    for n in range(1, 300):
+        for k in (0, 1, n - 1, n):
+            interval = stats.wilson(k, n)
+            assert interval.low <= interval.estimate <= interval.high, (k, n)
