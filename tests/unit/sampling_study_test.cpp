@@ -99,5 +99,48 @@ TEST(SamplingStudy, BadFilesNameTheKey) {
   EXPECT_NE(errorOf(no_limit).find("missing required key 'acceleration'"), std::string::npos);
 }
 
+TEST(SamplingStudy, ReadingsAgreeWithTheStudyAndWithClosedForms) {
+  registerBuiltinPlugins();
+  const std::string readings =
+      "readings: {thresholds: [0.05, 0.1], distance: [position, position_velocity], "
+      "propagation: [exact, euler], pooling: [per_state, pooled], samples_per_axis: [5, 7]}\n";
+  const auto config = SamplingStudyConfig::fromFile(writeStudy("readings", kStudy + readings));
+  const auto rows = runSamplingReadings(config);
+  // 2 samplers x 2 M x 2 propagations x 2 distances x 2 poolings x 2 thresholds.
+  ASSERT_EQ(rows.size(), 64u);
+  for (const auto& row : rows) {
+    // The readings' M overrides the sampler's own.
+    const int per_axis = row.controls == 125 ? 5 : 7;
+    ASSERT_EQ(row.controls, per_axis * per_axis * per_axis);
+    const double spacing = (per_axis == 5 ? 1.5 : 1.0) * 0.08;  // du tau^2 / 2
+    if (!row.with_velocity && row.propagation == Propagation::kExact && !row.pooled) {
+      // The study's own reading: the uniform grid's closed form (see above).
+      EXPECT_NEAR(row.mean_nearest, spacing, 1e-9);
+      EXPECT_EQ(row.alpha, spacing > row.threshold ? 1.0 : 0.0);
+    }
+    if (!row.with_velocity && row.propagation == Propagation::kEuler) {
+      // One Euler step moves the position by v tau whatever the control: all coincide.
+      EXPECT_EQ(row.mean_nearest, 0.0);
+      EXPECT_EQ(row.alpha, 0.0);
+    }
+    if (row.with_velocity && row.propagation == Propagation::kExact && !row.pooled) {
+      // (p, v) of a grid: spacing du (tau^2 / 2, tau) per axis, 0.08 and 0.4 per 1 m/s^2.
+      const double du = per_axis == 5 ? 1.5 : 1.0;
+      EXPECT_NEAR(row.mean_nearest, du * std::hypot(0.08, 0.4), 1e-9);
+    }
+  }
+  const std::string bad =
+      kStudy + std::string(readings).replace(readings.find("position_velocity"), 17, "velocity");
+  EXPECT_NE(errorOf(bad).find("readings.distance[1]: expected position or position_velocity, "
+                              "got 'velocity'"),
+            std::string::npos)
+      << errorOf(bad);
+  const std::string empty =
+      kStudy + std::string(readings).replace(readings.find("[0.05, 0.1]"), 11, "[]");
+  EXPECT_NE(errorOf(empty).find("readings.thresholds: expected at least one value"),
+            std::string::npos)
+      << errorOf(empty);
+}
+
 }  // namespace
 }  // namespace kinolab
