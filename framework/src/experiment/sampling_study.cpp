@@ -22,6 +22,20 @@ double numberIn(const YamlReader& item, double low, double high) {
   return value;
 }
 
+/// A list of `first` or `second` names, as whether each is `second`.
+std::vector<bool> twoChoices(const YamlReader& list, const std::string& first,
+                             const std::string& second) {
+  std::vector<bool> chosen;
+  for (const YamlReader& item : list.items()) {
+    const std::string name = item.as<std::string>();
+    if (name != first && name != second) {
+      item.fail("expected " + first + " or " + second + ", got '" + name + "'");
+    }
+    chosen.push_back(name == second);
+  }
+  return chosen;
+}
+
 }  // namespace
 
 SamplingStudyConfig SamplingStudyConfig::fromFile(const std::string& path) {
@@ -104,27 +118,11 @@ SamplingStudyConfig SamplingStudyConfig::fromFile(const std::string& path) {
     for (const YamlReader& item : (*readings)["thresholds"].items()) {
       r.thresholds.push_back(numberIn(item, 1e-9, 100.0));
     }
-    for (const YamlReader& item : (*readings)["distance"].items()) {
-      const std::string name = item.as<std::string>();
-      if (name != "position" && name != "position_velocity") {
-        item.fail("expected position or position_velocity, got '" + name + "'");
-      }
-      r.with_velocity.push_back(name == "position_velocity");
+    r.with_velocity = twoChoices((*readings)["distance"], "position", "position_velocity");
+    for (const bool euler : twoChoices((*readings)["propagation"], "exact", "euler")) {
+      r.propagations.push_back(euler ? Propagation::kEuler : Propagation::kExact);
     }
-    for (const YamlReader& item : (*readings)["propagation"].items()) {
-      const std::string name = item.as<std::string>();
-      if (name != "exact" && name != "euler") {
-        item.fail("expected exact or euler, got '" + name + "'");
-      }
-      r.propagations.push_back(name == "euler" ? Propagation::kEuler : Propagation::kExact);
-    }
-    for (const YamlReader& item : (*readings)["pooling"].items()) {
-      const std::string name = item.as<std::string>();
-      if (name != "per_state" && name != "pooled") {
-        item.fail("expected per_state or pooled, got '" + name + "'");
-      }
-      r.pooled.push_back(name == "pooled");
-    }
+    r.pooled = twoChoices((*readings)["pooling"], "per_state", "pooled");
     for (const YamlReader& item : (*readings)["samples_per_axis"].items()) {
       const double per_axis = numberIn(item, 1, 9);
       if (per_axis != std::floor(per_axis)) item.fail("expected an integer from 1 to 9");
