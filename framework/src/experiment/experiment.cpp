@@ -203,12 +203,15 @@ std::vector<SweepPoint> expandSweep(const YamlReader& sweep) {
   }
   if (const auto list = sweep.optional("list")) {
     std::vector<SweepPoint> options;
+    std::set<std::string> labels;  // a label names one point: results group by it
     for (const YamlReader& item : list->items()) {
       SweepPoint option;
       std::string label;
       for (const auto& [path, value] : item.entries()) {
         if (path == "label") {
           label = readName(value);
+          if (!labels.insert(label).second)
+            value.fail("another list item has the label '" + label + "'");
           continue;
         }
         option.values.emplace_back(path, value.node());
