@@ -401,8 +401,8 @@ sweep:
                      name="bad")
     refused = kinolab("run", bad, "--dry-run")
     assert refused.returncode == 1 and "sweep.list[0].label" in refused.stderr
-    twice = experiment(tmp_path, LAZY, extra=sweep.replace("- {planners", "- {label: coarse, planners"),
-                       plugins=False, name="twice")
+    twice = experiment(tmp_path, LAZY, plugins=False, name="twice",
+                       extra=sweep.replace("- {planners", "- {label: coarse, planners"))
     refused = kinolab("run", twice, "--dry-run")
     assert refused.returncode == 1
     assert "sweep.list[1].label: another list item has the label 'coarse'" in refused.stderr
