@@ -1,6 +1,7 @@
 #pragma once
 
 #include <CLI/CLI.hpp>
+#include <Eigen/Core>
 #include <charconv>
 #include <cmath>
 #include <string>
@@ -26,7 +27,11 @@ inline CLI::Validator within(double low, double high) {
       "NUMBER in " + range);
 }
 
+/// Exactly three finite numbers "x,y,z" (metres) from `option`, or a ConfigError naming it.
+Eigen::Vector3d parsePoint(const std::string& text, const std::string& option);
+
 /// Each subcommand adds itself (options, help and the action to run) to the main app.
+void addFlyCommand(CLI::App& app);
 void addListCommand(CLI::App& app);
 void addPlanCommand(CLI::App& app);
 void addReportCommand(CLI::App& app);

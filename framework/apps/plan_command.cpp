@@ -30,28 +30,6 @@ struct PlanOptions {
   std::string cache_dir = WorldCache::defaultDirectory();
 };
 
-/// Exactly three finite numbers "x,y,z".
-Eigen::Vector3d parsePoint(const std::string& text, const std::string& option) {
-  std::vector<std::string> items;
-  std::stringstream stream(text);
-  for (std::string item; std::getline(stream, item, ',');) items.push_back(item);
-  if (!text.empty() && text.back() == ',') items.emplace_back();
-  if (items.size() != 3) {
-    throw ConfigError(option + " '" + printable(text) + "': expected three numbers x,y,z (metres)");
-  }
-  Eigen::Vector3d point;
-  for (int axis = 0; axis < 3; ++axis) {
-    const std::string& item = items[static_cast<std::size_t>(axis)];
-    const auto [end, error] =
-        std::from_chars(item.data(), item.data() + item.size(), point[axis]);
-    if (error != std::errc() || end != item.data() + item.size() || !std::isfinite(point[axis])) {
-      throw ConfigError(option + " '" + printable(text) + "': '" + printable(item) +
-                        "' is not a finite number; expected x,y,z (metres)");
-    }
-  }
-  return point;
-}
-
 void runPlan(const PlanOptions& options) {
   const Eigen::Vector3d start = parsePoint(options.start, "--start");
   const Eigen::Vector3d goal = parsePoint(options.goal, "--goal");
@@ -114,6 +92,26 @@ void runPlan(const PlanOptions& options) {
 }
 
 }  // namespace
+
+Eigen::Vector3d parsePoint(const std::string& text, const std::string& option) {
+  std::vector<std::string> items;
+  std::stringstream stream(text);
+  for (std::string item; std::getline(stream, item, ',');) items.push_back(item);
+  if (!text.empty() && text.back() == ',') items.emplace_back();
+  if (items.size() != 3) {
+    throw ConfigError(option + " '" + printable(text) + "': expected three numbers x,y,z (metres)");
+  }
+  Eigen::Vector3d point;
+  for (int axis = 0; axis < 3; ++axis) {
+    const std::string& item = items[static_cast<std::size_t>(axis)];
+    const auto [end, error] = std::from_chars(item.data(), item.data() + item.size(), point[axis]);
+    if (error != std::errc() || end != item.data() + item.size() || !std::isfinite(point[axis])) {
+      throw ConfigError(option + " '" + printable(text) + "': '" + printable(item) +
+                        "' is not a finite number; expected x,y,z (metres)");
+    }
+  }
+  return point;
+}
 
 void addPlanCommand(CLI::App& app) {
   auto options = std::make_shared<PlanOptions>();

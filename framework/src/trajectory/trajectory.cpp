@@ -121,8 +121,14 @@ double Trajectory::jerkIntegral() const {
 }
 
 double Trajectory::closestDistance(const Eigen::Vector3d& point, double step) const {
-  double best = INFINITY;
-  for (const auto& sample : sample(step)) best = std::min(best, (sample.position - point).norm());
+  if (empty()) return INFINITY;
+  // Evaluated in place, at most a million times (a longer trajectory gets a larger step):
+  // a planner's runaway duration must not become a runaway allocation.
+  const double steps = std::clamp(std::ceil(duration_ / step), 1.0, 1e6);
+  double best = (endPosition() - point).norm();
+  for (double k = 0; k < steps; ++k) {
+    best = std::min(best, (evaluate(duration_ * k / steps) - point).norm());
+  }
   return best;
 }
 

@@ -218,6 +218,11 @@ SmootherResult BsplineSmoother::smooth(const ChainState& start,
     const int pieces =
         std::max(3, static_cast<int>(std::ceil(profile.duration * profile.speed / spacing)));
     double interval = profile.duration / pieces;
+    if (!(interval > 1e-9 && std::isfinite(interval))) {
+      result.problem = "the path (" + std::to_string(polylineLength(path)) +
+                       " m) leaves no positive time to fit a spline in";
+      break;
+    }
     const int count = pieces + 5;
     Eigen::Matrix3Xd control(3, count);
     control.leftCols<3>() = UniformBspline::startControlPoints(start, interval);
@@ -288,12 +293,27 @@ SmootherResult BsplineSmoother::smooth(const ChainState& start,
     // acceleration control point is at its limit (stretching when a limit is broken,
     // compressing when all are slack). At rest the leading points do not depend on the
     // interval, so one scaling suffices; otherwise they move with it and the loop repeats.
+    bool timed = true;
+    const double first_interval = interval;
     for (int attempt = 0; attempt < 20; ++attempt) {
       const double factor = limitFactor(UniformBspline(control, interval), settings_.limits);
       if (!(factor > 0.0) || (factor <= 1.0 && factor > 1.0 - 1e-6)) break;
       interval *= factor * (1.0 + 1e-9);
       ++reallocations;
+      // From a moving start on a path too short to stop on, the scaling collapses or
+      // inflates the interval without end: no spline within the limits fits, a failure,
+      // not an error.
+      if (!(interval > 1e-9 && interval < 100.0 * first_interval)) {
+        timed = false;
+        break;
+      }
       if (!at_rest) control.leftCols<3>() = UniformBspline::startControlPoints(start, interval);
+    }
+    if (!timed) {
+      result.problem = "no time allocation fits the start state on this path (" +
+                       std::to_string(polylineLength(path)) + " m)";
+      result.trajectory = Trajectory();
+      break;
     }
     const UniformBspline spline(control, interval);
     result.trajectory = spline.toTrajectory();

@@ -1,0 +1,433 @@
+#include "kinolab/flight/flight.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+
+#include "kinolab/core/text.hpp"
+#include "kinolab/validation/trajectory_checker.hpp"
+
+namespace kinolab {
+namespace {
+
+double millisecondsSince(std::chrono::steady_clock::time_point begin) {
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - begin)
+      .count();
+}
+
+/// The trajectory's state at time t (clamped to its span), derivatives 0..2.
+ChainState stateAt(const Trajectory& trajectory, double t) {
+  ChainState state = ChainState::Zero();
+  const double clamped = std::clamp(t, 0.0, trajectory.duration());
+  for (int k = 0; k < 3; ++k) state.col(k) = trajectory.evaluate(clamped, k);
+  return state;
+}
+
+/// At rest at `position` for `duration` seconds.
+TrajectorySegment hold(const Eigen::Vector3d& position, double duration) {
+  TrajectorySegment segment;
+  segment.duration = duration;
+  segment.coefficients = Eigen::Matrix<double, 3, Eigen::Dynamic>::Zero(3, 1);
+  segment.coefficients.col(0) = position;
+  return segment;
+}
+
+/// The part of `trajectory` before time `end` (whole segments, the last one shortened);
+/// past its end the vehicle rests where it ended (every committed trajectory ends at rest).
+Trajectory slice(const Trajectory& trajectory, double end) {
+  Trajectory out;
+  double t = 0.0;
+  for (const TrajectorySegment& segment : trajectory.segments()) {
+    if (t >= end) break;
+    TrajectorySegment piece = segment;
+    piece.duration = std::min(segment.duration, end - t);
+    if (piece.duration > 0.0) out.append(piece);
+    t += segment.duration;
+  }
+  if (end > t + 1e-12 && !trajectory.empty()) out.append(hold(trajectory.endPosition(), end - t));
+  return out;
+}
+
+/// A stop from `state` at constant deceleration along the velocity, each axis within
+/// `acceleration`; empty when already at rest.
+TrajectorySegment brake(const ChainState& state, double acceleration) {
+  const Eigen::Vector3d v = state.col(1);
+  const double largest = v.cwiseAbs().maxCoeff();
+  TrajectorySegment segment;
+  segment.coefficients = Eigen::Matrix<double, 3, Eigen::Dynamic>::Zero(3, 3);
+  segment.coefficients.col(0) = state.col(0);
+  if (largest < 1e-9) return segment;
+  // The axis with the largest speed brakes at the full rate; the others in proportion.
+  segment.duration = largest / acceleration;
+  segment.coefficients.col(1) = v;
+  segment.coefficients.col(2) = -0.5 * v / segment.duration;
+  return segment;
+}
+
+/// The committed trajectory up to `t`, then `plan` (which starts at the state at `t`), then
+/// a stop.
+Trajectory splice(const Trajectory& committed, double t, const Trajectory& plan,
+                  double acceleration) {
+  Trajectory out = slice(committed, t);
+  for (const TrajectorySegment& segment : plan.segments()) out.append(segment);
+  const TrajectorySegment stop = brake(stateAt(out, out.duration()), acceleration);
+  if (stop.duration > 0.0) out.append(stop);
+  return out;
+}
+
+/// True when the body keeps its radius (less the tolerance) from the window's known
+/// obstacles along the trajectory from t on (samples every 2 cm of path at most).
+bool freeFrom(const Trajectory& trajectory, double t, const World& window,
+              const PlanningModel& model) {
+  const double radius = model.robot_radius - model.collision_tolerance;
+  // 2 cm of path at the speed limit, at most 100,000 samples.
+  const double step = std::max(0.02 / std::max(0.1, model.limits.bound[1].norm()),
+                               (trajectory.duration() - t) / 1e5);
+  for (double s = std::max(0.0, t); s <= trajectory.duration(); s += step) {
+    const Eigen::Vector3d p = trajectory.evaluate(s);
+    if (window.bounds().contains(p) && window.clearance(p) < radius) return false;
+  }
+  return true;
+}
+
+/// The goal, or on the way to it `horizon` metres from `from`, inside the window (0.5 m from
+/// its sides) and clear of its known obstacles; false when no such point is found.
+bool localGoal(const Eigen::Vector3d& from, const Eigen::Vector3d& goal, double horizon,
+               const World& window, double radius, Eigen::Vector3d* out) {
+  const Box box = window.bounds();
+  const Eigen::Vector3d margin = Eigen::Vector3d::Constant(0.5);
+  const Eigen::Vector3d inner_min = (box.min + margin).cwiseMin(box.max);
+  const Eigen::Vector3d inner_max = (box.max - margin).cwiseMax(box.min);
+  Eigen::Vector3d target = goal;
+  if ((goal - from).norm() > horizon || !box.contains(goal)) {
+    target = from + (goal - from).normalized() * std::min(horizon, (goal - from).norm());
+  }
+  target = target.cwiseMax(inner_min).cwiseMin(inner_max);
+  // Back along the way, then around, in 0.25 m steps, until a free point.
+  const Eigen::Vector3d back = (from - target).normalized();
+  for (int k = 0; k <= 12; ++k) {
+    for (int around = 0; around < (k == 0 ? 1 : 8); ++around) {
+      const double angle = 2.0 * M_PI * around / 8.0;
+      const Eigen::Vector3d side(std::cos(angle), std::sin(angle), 0.0);
+      const Eigen::Vector3d candidate =
+          (target + 0.25 * k * (around == 0 ? back : side)).cwiseMax(inner_min).cwiseMin(inner_max);
+      if (window.isFree(candidate, radius)) {
+        *out = candidate;
+        return true;
+      }
+    }
+  }
+  return false;
+}
+
+double headingOf(const ChainState& state, const Eigen::Vector3d& goal) {
+  const Eigen::Vector2d v = state.col(1).head<2>();
+  const Eigen::Vector2d towards = (goal - state.col(0)).head<2>();
+  if (v.norm() > 0.1) return std::atan2(v.y(), v.x());
+  return towards.norm() > 1e-9 ? std::atan2(towards.y(), towards.x()) : 0.0;
+}
+
+}  // namespace
+
+const ParameterSpecs& flightParameters() {
+  static const ParameterSpecs specs =
+      ParameterSpecs()
+          .choice("sensor", "depth_camera", {"depth_camera", "lidar"},
+                  "depth_camera: a pinhole looking along the heading; lidar: 360 degrees")
+          .real("range", 5.0, 0.1, 100.0, "sensor range, m")
+          .real("rate", 10.0, 0.5, 100.0, "frames per second (the loop's step)")
+          .real("fov_horizontal", 90.0, 1.0, 170.0, "camera horizontal field of view, degrees")
+          .real("fov_vertical", 60.0, 1.0, 170.0,
+                "camera (and lidar) vertical field of view, degrees")
+          .integer("width", 48, 1, 4096, "camera pixels across")
+          .integer("height", 36, 1, 4096, "camera pixels down")
+          .integer("beams", 360, 1, 100000, "lidar beams per revolution")
+          .integer("channels", 16, 1, 1024, "lidar channels")
+          .real("map_resolution", 0.1, 0.01, 10.0,
+                "the vehicle's map voxel, m (the ground truth's lattice when equal)")
+          .real("window", 8.0, 1.0, 1000.0, "planning window side in x and y, m")
+          .real("window_height", 3.0, 0.2, 1000.0,
+                "planning window height, m (centred on the vehicle, within the map)")
+          .choice("unknown", "free", {"free", "occupied", "free_beyond"},
+                  "unseen space in the planning window: free, occupied, or occupied closer "
+                  "than free_beyond and free farther")
+          .real("free_beyond", 2.0, 0.0, 1000.0, "see unknown, m")
+          .real("replan_period", 0.5, 0.01, 100.0, "s between replans (and on collision)")
+          .real("replan_budget", 0.1, 0.001, 100.0, "each replan's planning time budget, s")
+          .real("latency", -1.0, -1.0, 100.0,
+                "the plan starts from the committed state this long after its frame, s; "
+                "-1: the replan budget (a flight repeats bit for bit)")
+          .boolean("enforce_latency", false,
+                   "reject a plan whose measured planning time exceeds the latency (it would "
+                   "arrive after its start; real time, so not repeatable)")
+          .real("horizon", 3.5, 0.5, 1000.0,
+                "local goal distance when the goal is farther, m (kept 0.5 m inside the "
+                "window)")
+          .real("max_time", 120.0, 0.1, 1e5, "flight time limit, s (status timeout)")
+          .real("stuck_time", 15.0, 0.1, 1e5,
+                "s without 0.5 m of progress towards the goal (status stuck)")
+          .real("goal_tolerance", 0.5, 0.01, 100.0, "reached: at rest this close to the goal, m")
+          .real("brake_acceleration", 3.0, 0.01, 1000.0,
+                "deceleration of the stops that end every committed trajectory, m/s^2 (at most "
+                "the planner's max_acceleration is used)");
+  return specs;
+}
+
+void flightModels(const ParameterSet& p, SensorModel* sensor, MapModel* map,
+                  FlightSettings* settings) {
+  constexpr double kDegree = M_PI / 180.0;
+  sensor->kind =
+      p.text("sensor") == "lidar" ? SensorModel::Kind::kLidar : SensorModel::Kind::kDepthCamera;
+  sensor->range = p.real("range");
+  sensor->rate = p.real("rate");
+  sensor->fov_horizontal = p.real("fov_horizontal") * kDegree;
+  sensor->fov_vertical = p.real("fov_vertical") * kDegree;
+  sensor->width = static_cast<int>(p.integer("width"));
+  sensor->height = static_cast<int>(p.integer("height"));
+  sensor->beams = static_cast<int>(p.integer("beams"));
+  sensor->channels = static_cast<int>(p.integer("channels"));
+  map->resolution = p.real("map_resolution");
+  map->window = p.real("window");
+  map->window_height = p.real("window_height");
+  const std::string unknown = p.text("unknown");
+  map->unknown = unknown == "occupied"      ? UnknownSpace::kOccupied
+                 : unknown == "free_beyond" ? UnknownSpace::kFreeBeyond
+                                            : UnknownSpace::kFree;
+  map->free_beyond = p.real("free_beyond");
+  settings->replan_period = p.real("replan_period");
+  settings->replan_budget = p.real("replan_budget");
+  settings->latency = p.real("latency") < 0.0 ? settings->replan_budget : p.real("latency");
+  settings->enforce_latency = p.boolean("enforce_latency");
+  settings->horizon = p.real("horizon");
+  settings->max_time = p.real("max_time");
+  settings->stuck_time = p.real("stuck_time");
+  settings->goal_tolerance = p.real("goal_tolerance");
+  settings->brake_acceleration = p.real("brake_acceleration");
+}
+
+FlightResult fly(const std::shared_ptr<const World>& truth, const PlannerFactory& make_planner,
+                 const PlanningQuery& query, const SensorModel& sensor, const MapModel& map_model,
+                 const FlightSettings& settings) {
+  FlightResult result;
+  auto map = std::make_shared<KnownMap>(truth->bounds(), map_model);
+  result.map = map;
+  // The body and limits every replan plans for (the planner's model on any world).
+  const PlanningModel model = make_planner(truth)->model();
+  CheckerSettings checker_settings;
+  checker_settings.robot_radius = model.robot_radius;
+  checker_settings.limits = model.limits;
+  checker_settings.max_derivative = model.limited_derivatives;
+  checker_settings.collision_tolerance = model.collision_tolerance;
+  const TrajectoryChecker checker(truth, checker_settings);
+  const Eigen::Vector3d start = query.start.col(0);
+  if (!truth->isFree(start, model.robot_radius)) {
+    result.status = "invalid_start";
+    result.message = "the start is outside the map or in collision";
+    return result;
+  }
+  if (!truth->isFree(query.goal, model.robot_radius)) {
+    result.status = "invalid_goal";
+    result.message = "the goal is outside the map or in collision";
+    return result;
+  }
+  const double brake_rate = std::min(settings.brake_acceleration, model.limits.bound[2].minCoeff());
+  const double dt = 1.0 / sensor.rate;
+
+  // The committed trajectory from t = 0; at rest at its end (a hover at the start at first).
+  Trajectory committed;
+  committed.append(hold(start, dt));
+  double next_replan = 0.0;
+  double best_distance = (start - query.goal).norm();
+  double best_time = 0.0;
+  std::string reason = "start";
+  double t = 0.0;
+  bool collided = false;
+  for (int frame = 0;; ++frame) {
+    // The ground truth: the stretch flown since the last frame, every centimetre of time.
+    const double from = t;
+    t = frame * dt;
+    for (double s = from; frame > 0 && s <= t; s += 0.01) {
+      if (checker.collides(committed.evaluate(std::min(s, committed.duration())))) {
+        t = s;
+        collided = true;
+        break;
+      }
+    }
+    if (collided) break;
+    const ChainState now = stateAt(committed, t);
+    const double distance = (now.col(0) - query.goal).norm();
+    if (distance <= settings.goal_tolerance && now.col(1).norm() < 0.05) {
+      result.status = "reached";
+      result.time_to_goal = t;
+      break;
+    }
+    if (t >= settings.max_time) {
+      result.status = "timeout";
+      result.message =
+          "the goal was not reached within " + formatNumber(settings.max_time) + " s of flight";
+      break;
+    }
+    if (distance < best_distance - 0.5) {
+      best_distance = distance;
+      best_time = t;
+    }
+    if (t - best_time > settings.stuck_time) {
+      result.status = "stuck";
+      result.message =
+          "no progress towards the goal for " + formatNumber(settings.stuck_time) + " s";
+      break;
+    }
+    ++result.frames;
+    auto begin = std::chrono::steady_clock::now();
+    const SensorFrame sensed =
+        senseFrame(truth->grid(), sensor, now.col(0), headingOf(now, query.goal));
+    result.time_sense_ms += millisecondsSince(begin);
+    begin = std::chrono::steady_clock::now();
+    map->insert(sensed, sensor.range);
+    result.time_map_ms += millisecondsSince(begin);
+    begin = std::chrono::steady_clock::now();
+    const std::shared_ptr<const World> window = map->window(now.col(0));
+    result.time_window_ms += millisecondsSince(begin);
+
+    if (!freeFrom(committed, t, *window, model)) {
+      reason = "collision";
+      next_replan = t;
+    }
+    if (t + 1e-9 < next_replan) continue;
+
+    FlightReplan replan;
+    replan.time = t;
+    replan.reason = reason;
+    const double t_start = t + settings.latency;
+    PlanningQuery local;
+    local.start = stateAt(committed, t_start);
+    replan.start = local.start.col(0);
+    bool accepted = false;
+    if (localGoal(local.start.col(0), query.goal, settings.horizon, *window, model.robot_radius,
+                  &local.goal)) {
+      replan.local_goal = local.goal;
+      std::unique_ptr<Planner> planner = make_planner(window);
+      const PlanResult plan = planner->plan(
+          local, Budget{settings.replan_budget, std::numeric_limits<long long>::max()});
+      replan.status = std::string(toString(plan.status));
+      replan.planning_time_ms = plan.planning_time_ms;
+      replan.distance_to_goal = plan.distance_to_goal;
+      // In real time a plan that took longer than the latency arrives after its start.
+      const bool late =
+          settings.enforce_latency && plan.planning_time_ms > 1000.0 * settings.latency;
+      accepted = !late && !plan.trajectory.empty() && plan.check.valid &&
+                 (plan.status == PlanStatus::kExact || plan.status == PlanStatus::kApproximate);
+      if (late) replan.status = "late";
+      if (accepted) {
+        replan.trajectory = plan.trajectory;
+        committed = splice(committed, t_start, plan.trajectory, brake_rate);
+      }
+    } else {
+      replan.status = "no_local_goal";
+    }
+    replan.accepted = accepted;
+    result.replans.push_back(std::move(replan));
+    if (!accepted && !freeFrom(committed, t, *window, model)) {
+      // Nothing safe to fly on: stop now.
+      Trajectory stop = slice(committed, t);
+      const TrajectorySegment braking = brake(stateAt(committed, t), brake_rate);
+      if (braking.duration > 0.0) stop.append(braking);
+      committed = std::move(stop);
+    }
+    reason = accepted ? "period" : "retry";
+    next_replan = t + (accepted ? settings.replan_period : dt);
+  }
+  result.flown = slice(committed, std::max(t, dt));
+  if (collided) result.status = "collision";
+  CheckQuery check_query;
+  check_query.start = query.start;
+  check_query.goal = query.goal;
+  check_query.require_goal = false;
+  const CheckResult check = checker.check(result.flown, check_query);
+  result.min_clearance = check.min_clearance;
+  if (!check.valid && check.check == "collision") {
+    result.status = "collision";
+    result.message =
+        "the flown trajectory hits the ground truth at t = " + std::to_string(check.time) +
+        " s: " + check.detail;
+    result.flown = slice(result.flown, check.time);
+    result.time_to_goal = NAN;
+  } else if (!check.valid) {
+    result.message = "the checker: " + check.check + ": " + check.detail;
+  }
+  if (result.status != "reached") result.time_to_goal = NAN;
+  return result;
+}
+
+const MetricSpecs& flightMetrics() {
+  static const MetricSpecs specs =
+      MetricSpecs()
+          .text("status",
+                "reached, collision (with the ground truth), stuck, timeout, "
+                "invalid_start, invalid_goal")
+          .text("message", "why, for statuses other than reached")
+          .boolean("success", "reached the goal without a collision")
+          .real("time_to_goal", "s", "simulated flight time to the goal (reached only)")
+          .real("flown_length", "m", "length of the flown trajectory")
+          .real("mean_speed", "m/s", "flown length over flight time")
+          .counter("replans", "replans made (planned, on collision, retries)")
+          .counter("failed_replans", "replans whose plan was not taken")
+          .clock("replan_time_median_ms", "median planning time of the replans")
+          .clock("replan_time_p95_ms", "95th percentile planning time of the replans")
+          .clock("replan_time_max_ms", "largest planning time of a replan")
+          .real("min_clearance", "m",
+                "smallest ESDF clearance to the ground truth along the flight, less the radius")
+          .real("plan_distance_median", "m", "median D of the replans' plans to their goals")
+          .real("plan_distance_max", "m", "largest D of a replan's plan")
+          .real("jerk_integral", "m^2/s^5", "integral of the squared jerk of the flight")
+          .counter("frames", "sensor frames")
+          .clock("frame_time_ms", "mean per frame: sensing, map insertion, window and ESDF");
+  return specs;
+}
+
+MetricValues flightValues(const FlightResult& result) {
+  std::vector<double> times;
+  std::vector<double> distances;
+  int failed = 0;
+  for (const FlightReplan& replan : result.replans) {
+    if (replan.status != "no_local_goal") times.push_back(replan.planning_time_ms);
+    if (std::isfinite(replan.distance_to_goal)) distances.push_back(replan.distance_to_goal);
+    failed += replan.accepted ? 0 : 1;
+  }
+  const auto quantile = [](std::vector<double> values, double q) -> MetricValue {
+    if (values.empty()) return std::monostate{};
+    std::sort(values.begin(), values.end());
+    const double position = q * static_cast<double>(values.size() - 1);
+    const auto low = static_cast<std::size_t>(std::floor(position));
+    const std::size_t high = std::min(values.size() - 1, low + 1);
+    return values[low] + (position - static_cast<double>(low)) * (values[high] - values[low]);
+  };
+  const auto number = [](double value) -> MetricValue {
+    return std::isfinite(value) ? MetricValue(value) : MetricValue();
+  };
+  const double duration = result.flown.duration();
+  const double length = result.flown.length();
+  const double per_frame =
+      result.frames > 0
+          ? (result.time_sense_ms + result.time_map_ms + result.time_window_ms) / result.frames
+          : NAN;
+  return {{"status", result.status},
+          {"message", result.message},
+          {"success", result.status == "reached" ? 1.0 : 0.0},
+          {"time_to_goal", number(result.time_to_goal)},
+          {"flown_length", number(length)},
+          {"mean_speed", number(duration > 0.0 ? length / duration : NAN)},
+          {"replans", static_cast<double>(result.replans.size())},
+          {"failed_replans", static_cast<double>(failed)},
+          {"replan_time_median_ms", quantile(times, 0.5)},
+          {"replan_time_p95_ms", quantile(times, 0.95)},
+          {"replan_time_max_ms", quantile(times, 1.0)},
+          {"min_clearance", number(result.min_clearance)},
+          {"plan_distance_median", quantile(distances, 0.5)},
+          {"plan_distance_max", quantile(distances, 1.0)},
+          {"jerk_integral", number(result.flown.jerkIntegral())},
+          {"frames", static_cast<double>(result.frames)},
+          {"frame_time_ms", number(per_frame)}};
+}
+
+}  // namespace kinolab
