@@ -139,14 +139,14 @@ const ParameterSpecs& flightParameters() {
           .real("fov_horizontal", 90.0, 1.0, 170.0, "camera horizontal field of view, degrees")
           .real("fov_vertical", 60.0, 1.0, 170.0,
                 "camera (and lidar) vertical field of view, degrees")
-          .integer("width", 48, 1, 4096, "camera pixels across")
-          .integer("height", 36, 1, 4096, "camera pixels down")
+          .integer("width", 32, 1, 4096, "camera pixels across")
+          .integer("height", 24, 1, 4096, "camera pixels down")
           .integer("beams", 360, 1, 100000, "lidar beams per revolution")
           .integer("channels", 16, 1, 1024, "lidar channels")
           .real("map_resolution", 0.1, 0.01, 10.0,
                 "the vehicle's map voxel, m (the ground truth's lattice when equal)")
           .real("window", 8.0, 1.0, 1000.0, "planning window side in x and y, m")
-          .real("window_height", 3.0, 0.2, 1000.0,
+          .real("window_height", 2.5, 0.2, 1000.0,
                 "planning window height, m (centred on the vehicle, within the map)")
           .choice("unknown", "free", {"free", "occupied", "free_beyond"},
                   "unseen space in the planning window: free, occupied, or occupied closer "

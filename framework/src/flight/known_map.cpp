@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include "kinolab/core/error.hpp"
+#include "kinolab/core/text.hpp"
 #include "kinolab/flight/flight.hpp"
 #include "kinolab/world/esdf.hpp"
 
@@ -11,9 +12,13 @@ namespace kinolab {
 
 // The tree holds positions relative to the map's origin (the ground truth's minimum corner),
 // so that its voxels [k r, (k + 1) r) are exactly the ground truth's voxels.
+// Beside it a dense mirror of every voxel's state (0 unknown, 1 free, 2 occupied) over the
+// map's box, kept current with every node the tree updates, from which a window is a copy.
 struct KnownMap::Tree {
   explicit Tree(double resolution) : tree(resolution) {}
   octomap::OcTree tree;
+  VoxelGrid lattice;  // the mirror's geometry (its occupancy unused)
+  std::vector<std::uint8_t> state;
 };
 
 namespace {
@@ -29,6 +34,16 @@ KnownMap::KnownMap(const Box& bounds, const MapModel& model)
     : tree_(std::make_unique<Tree>(model.resolution)), bounds_(bounds), model_(model) {
   tree_->tree.setProbHit(model.probability_hit);
   tree_->tree.setProbMiss(model.probability_miss);
+  const Eigen::Vector3d cells = (bounds.max - bounds.min) / model.resolution;
+  // OctoMap addresses 2^15 voxels either side of its origin; the mirror is a byte a voxel.
+  if (!(cells.maxCoeff() < 32000.0 && cells.prod() < 4e8)) {
+    throw ConfigError("flight: a map of " + formatPoint(bounds.max - bounds.min) + " m at " +
+                      formatNumber(model.resolution) +
+                      " m is too many voxels (at most 32,000 per axis and 4e8 in all): use a "
+                      "coarser map_resolution");
+  }
+  tree_->lattice = VoxelGrid(bounds, model.resolution);
+  tree_->state.assign(tree_->lattice.size(), 0);
 }
 
 KnownMap::~KnownMap() = default;
@@ -40,10 +55,29 @@ void KnownMap::insert(const SensorFrame& frame, double max_range) {
   cloud.reserve(frame.hits.size() + frame.misses.size());
   for (const auto& p : frame.hits) cloud.push_back(toTree(p, bounds_.min));
   for (const auto& p : frame.misses) cloud.push_back(toTree(p, bounds_.min));
-  // Rays are cut at max_range: the misses (placed beyond it) insert free space only. Inner
-  // nodes are not updated (lazy): the window reads leaves only; write() updates them.
-  tree_->tree.insertPointCloud(cloud, toTree(frame.origin, bounds_.min), max_range,
-                               /*lazy_eval=*/true, /*discretize=*/true);
+  // Rays are cut at max_range: the misses (placed beyond it) insert free space only.
+  // OctoMap's insertPointCloud, spelt out (the same two library calls) so that each updated
+  // node comes back and the mirror follows it without a search.
+  octomap::OcTree& tree = tree_->tree;
+  octomap::KeySet free_cells;
+  octomap::KeySet occupied_cells;
+  tree.computeDiscreteUpdate(cloud, toTree(frame.origin, bounds_.min), free_cells,
+                             occupied_cells, max_range);
+  const VoxelGrid& lattice = tree_->lattice;
+  const auto update = [&](const octomap::OcTreeKey& key, bool hit) {
+    // Inner nodes are not updated (lazy): the mirror follows the leaves; write() updates them.
+    const octomap::OcTreeNode* node = tree.updateNode(key, hit, /*lazy_eval=*/true);
+    // Keys count from the tree's centre, 2^15 voxels from its origin (the map's corner).
+    const VoxelIndex voxel(static_cast<int>(key[0]) - 32768, static_cast<int>(key[1]) - 32768,
+                           static_cast<int>(key[2]) - 32768);
+    if (node && lattice.inside(voxel)) {
+      tree_->state[lattice.index(voxel)] = tree.isNodeOccupied(node) ? 2 : 1;
+    }
+  };
+  for (const octomap::OcTreeKey& key : free_cells) {
+    if (occupied_cells.find(key) == occupied_cells.end()) update(key, false);
+  }
+  for (const octomap::OcTreeKey& key : occupied_cells) update(key, true);
 }
 
 std::shared_ptr<const World> KnownMap::window(const Eigen::Vector3d& center) const {
@@ -60,41 +94,24 @@ std::shared_ptr<const World> KnownMap::window(const Eigen::Vector3d& center) con
   }
   VoxelGrid grid(box, r);
   const Eigen::Vector3i& n = grid.dims();
-  // 0 unknown, 1 known free, 2 known occupied.
-  std::vector<std::uint8_t> state(grid.size(), 0);
-  const Eigen::Vector3d offset = grid.origin() - bounds_.min;  // window origin in tree frame
-  const octomap::point3d low(static_cast<float>(offset.x() + 0.5 * r),
-                             static_cast<float>(offset.y() + 0.5 * r),
-                             static_cast<float>(offset.z() + 0.5 * r));
-  const octomap::point3d high(static_cast<float>(offset.x() + (n.x() - 0.5) * r),
-                              static_cast<float>(offset.y() + (n.y() - 0.5) * r),
-                              static_cast<float>(offset.z() + (n.z() - 0.5) * r));
-  const octomap::OcTree& tree = tree_->tree;
-  for (auto it = tree.begin_leafs_bbx(low, high), end = tree.end_leafs_bbx(); it != end; ++it) {
-    const std::uint8_t value = tree.isNodeOccupied(*it) ? 2 : 1;
-    // A leaf may be a pruned block of 2^k voxels: mark every window voxel it covers.
-    const double size = it.getSize();
-    const octomap::point3d c = it.getCoordinate();
-    Eigen::Vector3i first;
-    Eigen::Vector3i last;
-    for (int axis = 0; axis < 3; ++axis) {
-      const double lo = (c(axis) - 0.5 * size - offset[axis]) / r;
-      first[axis] = std::max(0, static_cast<int>(std::lround(lo)));
-      last[axis] = std::min(n[axis] - 1, static_cast<int>(std::lround(lo + size / r)) - 1);
-    }
-    for (int x = first.x(); x <= last.x(); ++x) {
-      for (int y = first.y(); y <= last.y(); ++y) {
-        for (int z = first.z(); z <= last.z(); ++z) state[grid.index(x, y, z)] = value;
-      }
-    }
-  }
+  const VoxelGrid& lattice = tree_->lattice;
+  // The window's first voxel in the mirror (both on the map's lattice).
+  const Eigen::Vector3i first =
+      ((grid.origin() - lattice.origin()) / r).array().round().cast<int>();
   const double near2 = model_.free_beyond * model_.free_beyond;
+  std::vector<std::uint8_t>& occupancy = grid.occupancy();
   for (int x = 0; x < n.x(); ++x) {
     for (int y = 0; y < n.y(); ++y) {
+      // One z column of the window is a run of the mirror's column (both z fastest).
+      const VoxelIndex column(first.x() + x, first.y() + y, first.z());
+      const bool inside = lattice.inside(column);
+      const std::uint8_t* states = inside ? &tree_->state[lattice.index(column)] : nullptr;
+      const int known = inside ? std::min(n.z(), lattice.dims().z() - first.z()) : 0;
+      std::uint8_t* out = &occupancy[grid.index(x, y, 0)];
       for (int z = 0; z < n.z(); ++z) {
-        const std::size_t i = grid.index(x, y, z);
-        bool occupied = state[i] == 2;
-        if (state[i] == 0) {
+        const std::uint8_t state = z < known ? states[z] : 0;
+        bool occupied = state == 2;
+        if (state == 0) {
           switch (model_.unknown) {
             case UnknownSpace::kFree:
               break;
@@ -106,7 +123,7 @@ std::shared_ptr<const World> KnownMap::window(const Eigen::Vector3d& center) con
               break;
           }
         }
-        if (occupied) grid.setOccupied(i, true);
+        out[z] = occupied ? 1 : 0;
       }
     }
   }
@@ -115,33 +132,22 @@ std::shared_ptr<const World> KnownMap::window(const Eigen::Vector3d& center) con
 }
 
 std::size_t KnownMap::knownFree() const {
-  std::size_t count = 0;
-  const octomap::OcTree& tree = tree_->tree;
-  const double r3 = std::pow(model_.resolution, 3);
-  for (auto it = tree.begin_leafs(), end = tree.end_leafs(); it != end; ++it) {
-    if (!tree.isNodeOccupied(*it))
-      count += static_cast<std::size_t>(std::lround(std::pow(it.getSize(), 3) / r3));
-  }
-  return count;
+  return static_cast<std::size_t>(std::count(tree_->state.begin(), tree_->state.end(), 1));
 }
 
-std::size_t KnownMap::knownOccupied() const { return occupiedCenters().size(); }
+std::size_t KnownMap::knownOccupied() const {
+  return static_cast<std::size_t>(std::count(tree_->state.begin(), tree_->state.end(), 2));
+}
 
 std::vector<Eigen::Vector3d> KnownMap::occupiedCenters() const {
   std::vector<Eigen::Vector3d> centers;
-  const octomap::OcTree& tree = tree_->tree;
-  const double r = model_.resolution;
-  for (auto it = tree.begin_leafs(), end = tree.end_leafs(); it != end; ++it) {
-    if (!tree.isNodeOccupied(*it)) continue;
-    const double size = it.getSize();
-    const octomap::point3d c = it.getCoordinate();
-    const int k = std::max(1, static_cast<int>(std::lround(size / r)));
-    for (int x = 0; x < k; ++x) {
-      for (int y = 0; y < k; ++y) {
-        for (int z = 0; z < k; ++z) {
-          centers.push_back(bounds_.min + Eigen::Vector3d(c.x() - 0.5 * size + (x + 0.5) * r,
-                                                          c.y() - 0.5 * size + (y + 0.5) * r,
-                                                          c.z() - 0.5 * size + (z + 0.5) * r));
+  const VoxelGrid& lattice = tree_->lattice;
+  const Eigen::Vector3i& n = lattice.dims();
+  for (int x = 0; x < n.x(); ++x) {
+    for (int y = 0; y < n.y(); ++y) {
+      for (int z = 0; z < n.z(); ++z) {
+        if (tree_->state[lattice.index(x, y, z)] == 2) {
+          centers.push_back(lattice.center(VoxelIndex(x, y, z)));
         }
       }
     }

@@ -25,8 +25,8 @@ struct SensorModel {
   double rate = 10.0;              ///< frames per second
   double fov_horizontal = 1.5708;  ///< rad (camera)
   double fov_vertical = 1.0472;    ///< rad (camera and lidar)
-  int width = 48;                  ///< pixels (camera)
-  int height = 36;
+  int width = 32;                  ///< pixels (camera)
+  int height = 24;
   int beams = 360;  ///< per revolution (lidar)
   int channels = 16;
 
