@@ -1,0 +1,261 @@
+// Closed-loop flights: the sensor against analytic scenes, the vehicle's map window against
+// the ground truth and brute force, and whole flights (empty world, a wall beyond the
+// sensor's range, a collision the ground truth reports, repeatability).
+#include "kinolab/flight/flight.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "kinolab/builtin_plugins.hpp"
+#include "kinolab/core/random.hpp"
+#include "kinolab/core/yaml_reader.hpp"
+#include "kinolab/world/world_spec.hpp"
+
+namespace kinolab {
+namespace {
+
+std::shared_ptr<const World> worldOf(
+    const std::string& generators,
+    const std::string& bounds = "{min: [0, 0, 0], max: [20, 10, 3]}") {
+  return World::build(WorldSpec::fromYaml(
+      YamlReader::loadString("resolution: 0.1\nbounds: " + bounds + "\ngenerators:\n" + generators,
+                             "flight_test.yaml"),
+      "."));
+}
+
+/// A wall across the corridor at x = 10 .. 10.4, open for y > 5 (a way round at the side,
+/// within the planning window of a vehicle on the line y = 3).
+const char* kWall = "  - type: box_list\n    boxes: [{min: [10, 0, 0], max: [10.4, 5, 3]}]\n";
+
+PlannerFactory lazyPlanner() {
+  registerBuiltinPlugins();
+  return [](std::shared_ptr<const World> world) {
+    ConfiguredPlanner configured = configurePlanner("lazy_mp_astar", {});
+    configured.planner->setup({std::move(world), configured.sampler, 1});
+    return std::move(configured.planner);
+  };
+}
+
+struct Flight {
+  SensorModel sensor;
+  MapModel map;
+  FlightSettings settings;
+  explicit Flight(const std::vector<ParameterAssignment>& assignments = {}) {
+    flightModels(flightParameters().resolve(assignments, "flight"), &sensor, &map, &settings);
+  }
+  FlightResult fly(const std::shared_ptr<const World>& world, const Eigen::Vector3d& start,
+                   const Eigen::Vector3d& goal) const {
+    PlanningQuery query;
+    query.start.col(0) = start;
+    query.goal = goal;
+    return kinolab::fly(world, lazyPlanner(), query, sensor, map, settings);
+  }
+};
+
+TEST(Sensor, RaysHitAWallAtItsDistance) {
+  const auto world = worldOf(kWall);
+  const Eigen::Vector3d origin(2.05, 3.0, 1.5);
+  for (const double angle : {0.0, 0.3, -0.5, 0.9}) {
+    const Eigen::Vector3d direction(std::cos(angle), std::sin(angle), 0.0);
+    // The wall's face is the plane x = 10: 7.95 / cos(angle) away, if that is within y < 5.
+    const double expected = 7.95 / std::cos(angle);
+    const double y = origin.y() + expected * std::sin(angle);
+    const double hit = castRay(world->grid(), origin, direction, 100.0);
+    if (y > 0.0 && y < 5.0) {
+      EXPECT_NEAR(hit, expected, 1e-9) << angle;
+    }
+    // Beyond the range, nothing.
+    EXPECT_EQ(castRay(world->grid(), origin, direction, 0.5 * expected), INFINITY);
+  }
+  // Away from the wall the ray leaves the map.
+  EXPECT_EQ(castRay(world->grid(), origin, Eigen::Vector3d(-1, 0, 0), 100.0), INFINITY);
+  // Inside an obstacle: 0.
+  EXPECT_EQ(castRay(world->grid(), {10.2, 3.0, 1.5}, Eigen::Vector3d(1, 0, 0), 1.0), 0.0);
+
+  // A frame: every camera hit lies on the wall's face (nudged a hundredth of a voxel in,
+  // along its ray).
+  SensorModel camera;
+  camera.range = 10.0;
+  const SensorFrame frame = senseFrame(world->grid(), camera, origin, 0.0);
+  ASSERT_FALSE(frame.hits.empty());
+  for (const Eigen::Vector3d& p : frame.hits) {
+    EXPECT_GE(p.x(), 10.0);
+    EXPECT_LE(p.x(), 10.001 + 1e-9);
+  }
+  EXPECT_EQ(frame.hits.size() + frame.misses.size(),
+            static_cast<std::size_t>(camera.width * camera.height));
+}
+
+TEST(Sensor, RaysHitASphereAndMatchADenseMarch) {
+  // A voxelised sphere (cubes whose centres lie within 1 m of (10, 5, 1.5)).
+  VoxelGrid grid(Box{Eigen::Vector3d::Zero(), Eigen::Vector3d(20, 10, 3)}, 0.1);
+  const Eigen::Vector3d centre(10.0, 5.0, 1.5);
+  grid.forEachVoxelIn(centre.array() - 1.0, centre.array() + 1.0, [&](std::size_t i) {
+    const Eigen::Vector3i n = grid.dims();
+    const VoxelIndex v(static_cast<int>(i / (n.y() * n.z())), static_cast<int>(i / n.z() % n.y()),
+                       static_cast<int>(i % n.z()));
+    if ((grid.center(v) - centre).norm() <= 1.0) grid.setOccupied(i, true);
+  });
+  SensorModel lidar;
+  lidar.kind = SensorModel::Kind::kLidar;
+  lidar.range = 20.0;
+  const Eigen::Vector3d origin(5.05, 5.05, 1.55);
+  const SensorFrame frame = senseFrame(grid, lidar, origin, 0.0);
+  int on_sphere = 0;
+  for (const Eigen::Vector3d& p : frame.hits) {
+    // On the union of cubes: within half a voxel diagonal of the sphere's surface.
+    const double r = (p - centre).norm();
+    EXPECT_LE(r, 1.0 + 0.0866 + 1e-6);
+    EXPECT_GE(r, 1.0 - 0.0866 - 1e-6);
+    ++on_sphere;
+  }
+  EXPECT_GT(on_sphere, 10);
+  // Against a 1 mm march on random rays: the first occupied point is the traversal's hit.
+  Rng rng(3);
+  for (int i = 0; i < 200; ++i) {
+    const Eigen::Vector3d direction =
+        Eigen::Vector3d(rng.uniform(0.5, 1.0), rng.uniform(-0.3, 0.3), rng.uniform(-0.2, 0.2))
+            .normalized();
+    const double hit = castRay(grid, origin, direction, 20.0);
+    double marched = INFINITY;
+    for (double s = 0.0; s < 20.0; s += 0.001) {
+      const Eigen::Vector3d p = origin + s * direction;
+      const VoxelIndex v = ((p - grid.origin()) / 0.1).array().floor().cast<int>();
+      if (!grid.inside(v)) break;
+      if (grid.occupied(v)) {
+        marched = s;
+        break;
+      }
+    }
+    if (std::isfinite(marched)) {
+      EXPECT_NEAR(hit, marched, 0.0011) << i;
+    } else {
+      EXPECT_EQ(hit, INFINITY) << i;
+    }
+  }
+}
+
+TEST(KnownMapTest, TheWindowHoldsWhatWasSeenAndItsExactEsdf) {
+  const auto world = worldOf(kWall);
+  MapModel model;
+  model.window = 6.0;
+  model.window_height = 2.0;
+  KnownMap map(world->bounds(), model);
+  SensorModel lidar;
+  lidar.kind = SensorModel::Kind::kLidar;
+  lidar.range = 5.0;
+  const Eigen::Vector3d origin(7.55, 3.05, 1.55);
+  map.insert(senseFrame(world->grid(), lidar, origin, 0.0), lidar.range);
+  const auto window = map.window(origin);
+  const VoxelGrid& grid = window->grid();
+  // Known occupied voxels are the ground truth's; some of the wall was seen.
+  int seen = 0;
+  const Eigen::Vector3i& n = grid.dims();
+  for (int x = 0; x < n.x(); ++x) {
+    for (int y = 0; y < n.y(); ++y) {
+      for (int z = 0; z < n.z(); ++z) {
+        const Eigen::Vector3d c = grid.center(VoxelIndex(x, y, z));
+        if (grid.occupied(grid.index(x, y, z))) {
+          EXPECT_TRUE(world->grid().occupied(
+              VoxelIndex(((c - world->grid().origin()) / 0.1).array().floor().cast<int>())));
+          ++seen;
+        }
+      }
+    }
+  }
+  EXPECT_GT(seen, 50);
+  EXPECT_GE(map.knownOccupied(), static_cast<std::size_t>(seen));  // more beyond the window
+  EXPECT_GT(map.knownFree(), 1000u);
+  // The window's ESDF against the distance to its occupied cubes by brute force.
+  Rng rng(7);
+  for (int k = 0; k < 200; ++k) {
+    const VoxelIndex v(static_cast<int>(rng.uniform(0, n.x() - 1e-9)),
+                       static_cast<int>(rng.uniform(0, n.y() - 1e-9)),
+                       static_cast<int>(rng.uniform(0, n.z() - 1e-9)));
+    if (grid.occupied(v)) continue;
+    double best = INFINITY;
+    for (int x = 0; x < n.x(); ++x) {
+      for (int y = 0; y < n.y(); ++y) {
+        for (int z = 0; z < n.z(); ++z) {
+          if (!grid.occupied(grid.index(x, y, z))) continue;
+          const Eigen::Vector3d offset =
+              ((Eigen::Vector3i(x, y, z) - v).cast<double>().cwiseAbs().array() - 0.5).max(0.0);
+          best = std::min(best, offset.norm() * 0.1);
+        }
+      }
+    }
+    EXPECT_NEAR(window->esdf().nearestDistance(grid.center(v)), best, 1e-4) << k;
+  }
+  // Unknown space as occupied: the unseen side of the window is blocked.
+  model.unknown = UnknownSpace::kOccupied;
+  KnownMap cautious(world->bounds(), model);
+  cautious.insert(senseFrame(world->grid(), lidar, origin, 0.0), lidar.range);
+  EXPECT_GT(cautious.window(origin)->grid().occupiedCount(), grid.occupiedCount());
+}
+
+TEST(FlightTest, AnEmptyWorldIsFlownToTheGoal) {
+  const auto world = worldOf("  - type: empty\n");
+  const FlightResult result = Flight().fly(world, {2, 5, 1.5}, {18, 5, 1.5});
+  EXPECT_EQ(result.status, "reached") << result.message;
+  EXPECT_NEAR((result.flown.endPosition() - Eigen::Vector3d(18, 5, 1.5)).norm(), 0.0, 0.5);
+  EXPECT_GE(result.replans.size(), 4u);  // 16 m at a 3.5 m horizon
+  EXPECT_GT(result.time_to_goal, 16.0 / 2.0);
+}
+
+TEST(FlightTest, AWallBeyondTheSensorsRangeIsSeenAndFlownAround) {
+  const auto world = worldOf(kWall);
+  const FlightResult result = Flight().fly(world, {2, 3, 1.5}, {18, 3, 1.5});
+  EXPECT_EQ(result.status, "reached") << result.message;
+  // The first plans went straight (the wall 8 m away, the sensor's range 5 m); once seen,
+  // the committed trajectory collided in the map and was replanned, round the wall.
+  bool replanned_on_collision = false;
+  for (const FlightReplan& replan : result.replans) {
+    replanned_on_collision |= replan.reason == "collision";
+  }
+  EXPECT_TRUE(replanned_on_collision);
+  double highest_y = 0.0;
+  for (double t = 0.0; t < result.flown.duration(); t += 0.1) {
+    highest_y = std::max(highest_y, result.flown.evaluate(t).y());
+  }
+  EXPECT_GT(highest_y, 5.0);
+  EXPECT_GT(result.min_clearance, -0.01);
+}
+
+TEST(FlightTest, ACollisionWithTheGroundTruthEndsTheFlight) {
+  // A sensor that sees 0.2 m: the wall is found too late to stop from flying speed.
+  const auto world = worldOf(kWall);
+  const FlightResult result =
+      Flight({{"range", "0.2", "test"}}).fly(world, {2, 3, 1.5}, {18, 3, 1.5});
+  EXPECT_EQ(result.status, "collision") << result.message;
+  EXPECT_NE(result.message.find("hits the ground truth"), std::string::npos);
+  // The flight ends at the wall.
+  EXPECT_NEAR(result.flown.endPosition().x(), 10.0 - 0.25, 0.1);
+  EXPECT_TRUE(std::isnan(result.time_to_goal));
+}
+
+TEST(FlightTest, AFlightRepeatsBitForBit) {
+  const auto world = worldOf(kWall);
+  const FlightResult a = Flight().fly(world, {2, 3, 1.5}, {18, 3, 1.5});
+  const FlightResult b = Flight().fly(world, {2, 3, 1.5}, {18, 3, 1.5});
+  ASSERT_EQ(a.flown.segments().size(), b.flown.segments().size());
+  for (std::size_t i = 0; i < a.flown.segments().size(); ++i) {
+    EXPECT_EQ(a.flown.segments()[i].duration, b.flown.segments()[i].duration);
+    EXPECT_TRUE(a.flown.segments()[i].coefficients == b.flown.segments()[i].coefficients);
+  }
+  EXPECT_EQ(a.replans.size(), b.replans.size());
+}
+
+TEST(FlightTest, BadFlightParametersNameTheParameter) {
+  try {
+    Flight({{"unknown", "maybe", "--flight"}});
+    FAIL() << "accepted";
+  } catch (const ConfigError& error) {
+    EXPECT_NE(std::string(error.what()).find("unknown"), std::string::npos) << error.what();
+  }
+  EXPECT_THROW(Flight({{"range", "-1", "--flight"}}), ConfigError);
+  EXPECT_THROW(Flight({{"rnage", "5", "--flight"}}), ConfigError);
+}
+
+}  // namespace
+}  // namespace kinolab
