@@ -8,6 +8,7 @@
 
 #include "commands.hpp"
 #include "kinolab/experiment/results_store.hpp"
+#include "kinolab/flight/flight.hpp"
 #include "kinolab/planner/planner.hpp"
 #include "kinolab/primitives/control_sampler.hpp"
 
@@ -61,7 +62,8 @@ void listMetrics(bool json) {
     }
     std::cout << nlohmann::json{{"result", toJson(resultMetrics())},
                                 {"runner", toJson(runnerMetrics())},
-                                {"statistics", statistics}}
+                                {"statistics", statistics},
+                                {"flight", toJson(flightMetrics())}}
                      .dump(2)
               << '\n';
     return;
@@ -74,6 +76,16 @@ void listMetrics(bool json) {
     const std::string title = "statistics of planner '" + planner->key + "':";
     printMetrics(title.c_str(), planner->statistics);
   }
+  printMetrics("every flight (kinolab fly):", flightMetrics());
+}
+
+/// The flight's parameters, listed like a plugin's (`kinolab fly --flight NAME=VALUE`).
+const PluginInfo& flightInfo() {
+  static const PluginInfo info{"flight",
+                               "closed-loop flight: sensor, map and replanning loop "
+                               "(kinolab fly --flight NAME=VALUE)",
+                               flightParameters(), "built-in", MetricSpecs()};
+  return info;
 }
 
 nlohmann::json toJson(const PluginInfo& plugin) {
@@ -128,6 +140,7 @@ struct ListOptions {
 void runList(const ListOptions& options) {
   if (options.kind == "metrics") return listMetrics(options.json);
   std::vector<Kind> kinds = allKinds();
+  kinds.push_back({"flight", {&flightInfo()}});
   if (!options.kind.empty()) {
     std::erase_if(kinds, [&](const Kind& kind) { return kind.name != options.kind; });
   }
@@ -152,11 +165,12 @@ void addListCommand(CLI::App& app) {
       "List the registered plugins (built-in and loaded with --plugin) and their parameters");
   std::vector<std::string> kind_names;
   for (const auto& kind : allKinds()) kind_names.push_back(kind.name);
+  kind_names.push_back("flight");
   kind_names.push_back("metrics");
   command
       ->add_option("kind", options->kind,
-                   "Only this kind of plugin, or `metrics`: every metric and statistic a run "
-                   "can carry (the result schema)")
+                   "Only this kind of plugin, `flight` (the parameters of kinolab fly) or "
+                   "`metrics`: every metric and statistic a run or flight can carry")
       ->check(CLI::IsMember(kind_names));
   command->add_flag("--json", options->json, "Print JSON instead of a table");
   command->footer("Set a parameter with --set name=value or under `params:` in a config.");
