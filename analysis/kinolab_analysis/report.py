@@ -372,6 +372,12 @@ def timing_protocol(meta: dict[str, str]) -> str:
     if int(meta.get("schema_version", "1")) < 3:
         return ("Cold: each run's planning time is its one plan in a fresh worker process "
                 "(written before the timing protocol was recorded).")
+    if config.get("kind") == "flight":
+        return ("Flights: each replan is timed once inside its flight, around the planner's own "
+                "call; planning_time_ms (T) is a flight's median replan time, and the flight "
+                "metrics give its 95th percentile and maximum. Simulated time does not depend "
+                "on the measured times (a replan starts its budget after its frame), so a "
+                "flight repeats bit for bit.")
     protocol = config.get("timing") or {}
     warmup, repeats = int(protocol.get("warmup", 1)), int(protocol.get("repeats", 3))
     return (f"Warm: in each run's worker, {warmup} discarded plan(s) of the run's query, then "

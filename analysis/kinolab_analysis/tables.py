@@ -26,6 +26,14 @@ METRICS = [
     ("length", "length", "m"),
     ("jerk_integral", "jerk", "m^2/s^5"),
     ("min_clearance", "min clearance", "m"),
+    # Flights (kind: flight): their statistics.
+    ("time_to_goal", "time to goal", "s"),
+    ("mean_speed", "mean speed", "m/s"),
+    ("replans", "replans", ""),
+    ("failed_replans", "failed replans", ""),
+    ("replan_time_p95_ms", "replan p95", "ms"),
+    ("replan_time_max_ms", "replan max", "ms"),
+    ("frame_time_ms", "frame time", "ms"),
 ]
 
 # The paper's Table II (T ms, N, D m) and Table I (alpha, L m).

@@ -406,3 +406,41 @@ sweep:
     refused = kinolab("run", twice, "--dry-run")
     assert refused.returncode == 1
     assert "sweep.list[1].label: another list item has the label 'coarse'" in refused.stderr
+
+
+FLIGHT = """
+  - id: lazy
+    type: lazy_mp_astar
+"""
+
+
+def test_a_flight_experiment_flies_every_query_and_stores_the_flight_metrics(kinolab, tmp_path):
+    path = experiment(tmp_path, FLIGHT, plugins=False, name="flights",
+                      queries="random: {count: 2, min_distance: 6, max_distance: 9}",
+                      extra="\nflight: {range: 4, max_time: 40}\nstore: {trajectories: true}\n")
+    path.write_text(path.read_text().replace("kind: planning", "kind: flight"))
+    result = kinolab("run", path, "--out", tmp_path / "out")
+    assert result.returncode == 0, result.stderr
+    runs = select(tmp_path / "out", "SELECT status, success, length, checker_valid FROM runs")
+    assert [r[0] for r in runs] == ["reached", "reached"], runs
+    assert all(r[1] == 1 and r[2] > 6 and r[3] == 1 for r in runs)
+    stats = dict(select(tmp_path / "out", "SELECT name, COUNT(*) FROM statistics GROUP BY name"))
+    for name in ("time_to_goal", "replans", "replan_time_p95_ms", "frames", "frame_time_ms"):
+        assert stats.get(name) == 2, (name, stats)
+    assert len(select(tmp_path / "out", "SELECT run_hash FROM trajectories")) == 2
+    again = kinolab("run", path, "--out", tmp_path / "out", "--resume")
+    assert again.returncode == 0 and "2 already done" in again.stderr
+
+
+@pytest.mark.parametrize("kind, extra, message", [
+    ("flight", "\nflight: {rnage: 4}\n", "flight.rnage"),
+    ("flight", "\nflight: {unknown: maybe}\n", "unknown"),
+    ("flight", "\ntiming: {repeats: 1}\n", "timing: a flight is flown once"),
+    ("planning", "\nflight: {range: 4}\n", "flight: flight parameters belong to 'kind: flight'"),
+])
+def test_malformed_flight_experiments_name_the_key(kinolab, tmp_path, kind, extra, message):
+    path = experiment(tmp_path, FLIGHT, plugins=False, name="bad_flight", extra=extra)
+    path.write_text(path.read_text().replace("kind: planning", f"kind: {kind}"))
+    result = kinolab("run", path, "--dry-run")
+    assert result.returncode == 1, result.stdout
+    assert message in result.stderr, result.stderr

@@ -14,6 +14,7 @@
 #include "kinolab/core/text.hpp"
 #include "kinolab/core/yaml_reader.hpp"
 #include "kinolab/experiment/query_sampler.hpp"
+#include "kinolab/flight/flight.hpp"
 #include "kinolab/world/world.hpp"
 
 namespace kinolab {
@@ -379,6 +380,11 @@ ExperimentVariant readVariant(const YamlReader& root, const std::string& directo
     variant.budget.iterations = budget->getInteger("iterations", 0, 0, 1LL << 50);
     budget->finish();
   }
+  if (const auto flight = root.optional("flight")) {
+    variant.flight = flightParameters().resolve(assignmentsFromYaml(*flight), "flight");
+  } else {
+    variant.flight = flightParameters().resolve({}, "flight");
+  }
   if (const auto timing = root.optional("timing")) {
     variant.timing.warmup = static_cast<int>(timing->getInteger("warmup", 1, 0, 100));
     variant.timing.repeats = static_cast<int>(timing->getInteger("repeats", 3, 1, 100));
@@ -521,9 +527,16 @@ Experiment Experiment::fromFile(const std::string& path) {
 
   const YamlReader root = YamlReader::fromNode(document, source);
   const std::string kind = root.get<std::string>("kind", "planning");
-  if (kind != "planning") {
-    root["kind"].fail("expected 'planning' (kinolab run), got '" + kind +
+  if (kind != "planning" && kind != "flight") {
+    root["kind"].fail("expected 'planning' or 'flight' (kinolab run), got '" + kind +
                       "'; sampling studies run with kinolab sampling-study");
+  }
+  experiment.flights = kind == "flight";
+  if (!experiment.flights && root.optional("flight")) {
+    root["flight"].fail("flight parameters belong to 'kind: flight' experiments");
+  }
+  if (experiment.flights && root.optional("timing")) {
+    root["timing"].fail("a flight is flown once: the timing protocol is for 'kind: planning'");
   }
   experiment.name = readName(root["name"]);
   experiment.seed = static_cast<std::uint64_t>(root.getInteger("seed", 1, 0, 1LL << 62));
@@ -573,7 +586,8 @@ Experiment Experiment::fromFile(const std::string& path) {
   std::vector<SweepPoint> points(1);
   if (const auto sweep = root.optional("sweep")) points = expandSweep(*sweep);
   // The keys every variant reads; marked read here so that finish() sees only unknown ones.
-  for (const char* key : {"worlds", "queries", "planners", "repetitions", "budget", "timing"}) {
+  for (const char* key :
+       {"worlds", "queries", "planners", "repetitions", "budget", "timing", "flight"}) {
     (void)root.optional(key);
   }
   root.finish();
@@ -642,7 +656,8 @@ std::vector<RunSpec> Experiment::runs() const {
     const std::string budget =
         formatNumber(variant.budget.time) + "/" + std::to_string(variant.budget.memory_mb) + "/" +
         std::to_string(variant.budget.iterations) + "/timing " +
-        std::to_string(variant.timing.warmup) + "+" + std::to_string(variant.timing.repeats);
+        std::to_string(variant.timing.warmup) + "+" + std::to_string(variant.timing.repeats) +
+        (flights ? "/flight " + variant.flight.canonical() : std::string());
     const std::string queries = variant.queries.canonicalText();
     for (std::size_t w = 0; w < variant.worlds.size(); ++w) {
       const ExperimentWorld& world = variant.worlds[w];

@@ -24,6 +24,7 @@
 #include "kinolab/core/version.hpp"
 #include "kinolab/experiment/process_pool.hpp"
 #include "kinolab/experiment/results_store.hpp"
+#include "kinolab/flight/flight.hpp"
 #include "kinolab/planner/result_csv.hpp"
 #include "kinolab/validation/trajectory_checker.hpp"
 #include "kinolab/world/world_cache.hpp"
@@ -106,6 +107,74 @@ std::string planOneRun(const Experiment& experiment, const RunSpec& run,
   return out.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
 }
 
+/// One flight run, inside its worker process: fly and return the result as JSON text, in the
+/// result schema (status, success, planning_time_ms = the replans' median, distance_to_goal
+/// at the end, duration, length, jerk, clearance, the checker's verdict against the ground
+/// truth) with every flight metric as a statistic.
+std::string flyOneRun(const Experiment& experiment, const RunSpec& run,
+                      const std::shared_ptr<const World>& world, const PlanningQuery& query) {
+  const ExperimentVariant& variant = experiment.variants[run.variant];
+  nlohmann::json out;
+  try {
+    const ExperimentPlanner& spec = variant.planners[run.planner];
+    SensorModel sensor;
+    MapModel map;
+    FlightSettings settings;
+    flightModels(variant.flight, &sensor, &map, &settings);
+    const PlannerFactory factory = [&](std::shared_ptr<const World> window) {
+      ConfiguredPlanner configured = configurePlanner(spec.type, spec.assignments);
+      configured.planner->setup({std::move(window), configured.sampler, run.seed});
+      return std::move(configured.planner);
+    };
+    const FlightResult flight = fly(world, factory, query, sensor, map, settings);
+    const MetricValues values = flightValues(flight);
+    const auto value = [&](std::string_view name) -> MetricValue {
+      for (const auto& [key, item] : values) {
+        if (key == name) return item;
+      }
+      return std::monostate{};
+    };
+    const bool flown = !flight.flown.empty();
+    const bool collided = flight.status == "collision";
+    MetricValues metrics = {
+        {"status", flight.status},
+        {"message", flight.message},
+        {"success", value("success")},
+        {"planning_time_ms", value("replan_time_median_ms")},
+        {"distance_to_goal",
+         flown ? MetricValue((flight.flown.endPosition() - query.goal).norm()) : MetricValue{}},
+        {"duration", flown ? MetricValue(flight.flown.duration()) : MetricValue{}},
+        {"length", value("flown_length")},
+        {"jerk_integral", value("jerk_integral")},
+        {"min_clearance", value("min_clearance")},
+        {"checker_valid", collided ? 0.0 : 1.0},
+        {"checker_check", collided ? std::string("collision") : std::string()},
+        {"checker_detail", collided ? flight.message : std::string()},
+    };
+    out["metrics"] = nlohmann::json::parse(toJson(metrics, resultMetrics()));
+    out["metrics"]["line_blocked"] =
+        !world->segmentFree(query.start.col(0), query.goal, factory(world)->model().robot_radius);
+    MetricValues statistics;
+    for (const auto& [name, item] : values) {
+      if (std::holds_alternative<double>(item) && name != "success") {
+        statistics.emplace_back(name, item);
+      }
+    }
+    out["statistics"] = nlohmann::json::parse(toJson(statistics, flightMetrics()));
+    if (flown && experiment.store_trajectories) {
+      out["trajectory"] = trajectoryCsv(flight.flown, 0.05);
+    }
+  } catch (const std::bad_alloc&) {
+    out = {{"metrics",
+            {{"status", "oom"},
+             {"message", "out of memory: the run exceeded its budget of " +
+                             std::to_string(variant.budget.memory_mb) + " MB"}}}};
+  } catch (const std::exception& error) {
+    out = {{"metrics", {{"status", "error"}, {"message", error.what()}}}};
+  }
+  return out.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
+}
+
 /// The record of a finished worker, from its output and how it ended.
 RunRecord recordOf(const Experiment& experiment, const RunSpec& run, const WorkerOutcome& worker,
                    const PlanningQuery& query) {
@@ -140,11 +209,14 @@ RunRecord recordOf(const Experiment& experiment, const RunSpec& run, const Worke
                     {"started_at", worker.started_at}};
 
   if (worker.killed_for_time) {
-    finish("killed", "killed after " + formatNumber(wall_time_ms / 1000.0) +
-                         " s: the planner ignored its time budget of " +
-                         formatNumber(variant.budget.time) + " s per plan (" +
-                         std::to_string(variant.timing.warmup + variant.timing.repeats) +
-                         " plans)");
+    finish(
+        "killed",
+        "killed after " + formatNumber(wall_time_ms / 1000.0) + " s: " +
+            (experiment.flights
+                 ? "the flight ran past its budget of " + formatNumber(variant.budget.time) + " s"
+                 : "the planner ignored its time budget of " + formatNumber(variant.budget.time) +
+                       " s per plan (" +
+                       std::to_string(variant.timing.warmup + variant.timing.repeats) + " plans)"));
     return record;
   }
   if (WIFSIGNALED(wait_status)) {
@@ -382,8 +454,11 @@ void prepareStore(ResultsStore& store, const Experiment& experiment, const Runne
     for (const ExperimentPlanner& planner : variant.planners) planner_types.insert(planner.type);
   }
   for (const std::string& type : planner_types) {
+    // A flight's statistics are the flight's, whatever its planner.
     store.declareMetrics("statistic", type,
-                         declaredStatistics(pluginRegistry<Planner>().info(type)));
+                         experiment.flights
+                             ? flightMetrics()
+                             : declaredStatistics(pluginRegistry<Planner>().info(type)));
   }
 }
 
@@ -492,9 +567,10 @@ RunnerSummary runExperiment(const Experiment& experiment, const RunnerOptions& o
       const ExperimentBudget& budget = experiment.variants[run.variant].budget;
       // Every plan of the timing protocol has the time budget.
       const TimingProtocol& timing = experiment.variants[run.variant].timing;
-      const double plans = timing.warmup + timing.repeats;
+      const double plans = experiment.flights ? 1.0 : timing.warmup + timing.repeats;
       pool.start(next++, plans * budget.time + options.grace_seconds, budget.memory_mb, [&] {
-        return planOneRun(experiment, run, inputs.world(experiment, run), inputs.query(run));
+        return (experiment.flights ? flyOneRun : planOneRun)(
+            experiment, run, inputs.world(experiment, run), inputs.query(run));
       });
     }
     if (g_stop_signal) {

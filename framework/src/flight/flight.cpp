@@ -90,19 +90,51 @@ bool freeFrom(const Trajectory& trajectory, double t, const World& window,
   return true;
 }
 
-/// The goal, or on the way to it `horizon` metres from `from`, inside the window (0.5 m from
-/// its sides) and clear of its known obstacles; false when no such point is found.
-bool localGoal(const Eigen::Vector3d& from, const Eigen::Vector3d& goal, double horizon,
-               const World& window, double radius, Eigen::Vector3d* out) {
+/// The local goal: the goal when it is within `horizon` and the window, else the point
+/// `horizon` metres along the guide (the known map's shortest way; the straight line when it
+/// is empty), stopping where the guide would leave the window (0.5 m inside its sides); then
+/// moved off the window's known obstacles. False when no free point is found.
+bool localGoal(const Eigen::Vector3d& from, const Eigen::Vector3d& goal,
+               const std::vector<Eigen::Vector3d>& guide, double horizon, const World& window,
+               double radius, Eigen::Vector3d* out) {
   const Box box = window.bounds();
   const Eigen::Vector3d margin = Eigen::Vector3d::Constant(0.5);
   const Eigen::Vector3d inner_min = (box.min + margin).cwiseMin(box.max);
   const Eigen::Vector3d inner_max = (box.max - margin).cwiseMax(box.min);
-  Eigen::Vector3d target = goal;
-  if ((goal - from).norm() > horizon || !box.contains(goal)) {
-    target = from + (goal - from).normalized() * std::min(horizon, (goal - from).norm());
+  const auto inside = [&](const Eigen::Vector3d& p) {
+    return (p.array() >= inner_min.array()).all() && (p.array() <= inner_max.array()).all();
+  };
+  std::vector<Eigen::Vector3d> way = guide;
+  if (way.size() < 2) way = {from, goal};
+  Eigen::Vector3d target = way.front();
+  double travelled = 0.0;
+  for (std::size_t i = 1; i < way.size(); ++i) {
+    const double step = (way[i] - way[i - 1]).norm();
+    const Eigen::Vector3d next =
+        travelled + step > horizon
+            ? Eigen::Vector3d(way[i - 1] + (way[i] - way[i - 1]) * ((horizon - travelled) / step))
+            : way[i];
+    if (!inside(next) && !(next - goal).isZero()) break;
+    target = next;
+    travelled += step;
+    if (travelled >= horizon) break;
   }
-  target = target.cwiseMax(inner_min).cwiseMin(inner_max);
+  if ((target - from).norm() < 0.5) {
+    // The way leaves the window at once (the vehicle at its side): the horizon point along
+    // it, clamped into the window.
+    Eigen::Vector3d ahead = way.back();
+    double along = 0.0;
+    for (std::size_t i = 1; i < way.size(); ++i) {
+      const double step = (way[i] - way[i - 1]).norm();
+      if (along + step >= horizon) {
+        ahead = way[i - 1] + (way[i] - way[i - 1]) * ((horizon - along) / step);
+        break;
+      }
+      along += step;
+    }
+    target = ahead.cwiseMax(inner_min).cwiseMin(inner_max);
+  }
+  if ((goal - from).norm() <= horizon && box.contains(goal)) target = goal;
   // Back along the way, then around, in 0.25 m steps, until a free point.
   const Eigen::Vector3d back = (from - target).normalized();
   for (int k = 0; k <= 12; ++k) {
@@ -120,10 +152,14 @@ bool localGoal(const Eigen::Vector3d& from, const Eigen::Vector3d& goal, double 
   return false;
 }
 
-double headingOf(const ChainState& state, const Eigen::Vector3d& goal) {
-  const Eigen::Vector2d v = state.col(1).head<2>();
-  const Eigen::Vector2d towards = (goal - state.col(0)).head<2>();
-  if (v.norm() > 0.1) return std::atan2(v.y(), v.x());
+/// Where the camera looks at time t: towards where the committed trajectory will be a
+/// second later (so that a turn is seen before it is flown), else towards the goal.
+double headingOf(const Trajectory& committed, double t, const Eigen::Vector3d& goal) {
+  const Eigen::Vector3d here = committed.evaluate(std::min(t, committed.duration()));
+  const Eigen::Vector2d ahead =
+      (committed.evaluate(std::min(t + 1.0, committed.duration())) - here).head<2>();
+  const Eigen::Vector2d towards = (goal - here).head<2>();
+  if (ahead.norm() > 0.3) return std::atan2(ahead.y(), ahead.x());
   return towards.norm() > 1e-9 ? std::atan2(towards.y(), towards.x()) : 0.0;
 }
 
@@ -166,7 +202,7 @@ const ParameterSpecs& flightParameters() {
           .real("max_time", 120.0, 0.1, 1e5, "flight time limit, s (status timeout)")
           .real("stuck_time", 15.0, 0.1, 1e5,
                 "s without 0.5 m of progress towards the goal (status stuck)")
-          .real("goal_tolerance", 0.5, 0.01, 100.0, "reached: at rest this close to the goal, m")
+          .real("goal_tolerance", 0.5, 0.01, 100.0, "reached: this close to the goal, m")
           .real("brake_acceleration", 3.0, 0.01, 1000.0,
                 "deceleration of the stops that end every committed trajectory, m/s^2 (at most "
                 "the planner's max_acceleration is used)");
@@ -256,7 +292,7 @@ FlightResult fly(const std::shared_ptr<const World>& truth, const PlannerFactory
     if (collided) break;
     const ChainState now = stateAt(committed, t);
     const double distance = (now.col(0) - query.goal).norm();
-    if (distance <= settings.goal_tolerance && now.col(1).norm() < 0.05) {
+    if (distance <= settings.goal_tolerance) {
       result.status = "reached";
       result.time_to_goal = t;
       break;
@@ -280,7 +316,7 @@ FlightResult fly(const std::shared_ptr<const World>& truth, const PlannerFactory
     ++result.frames;
     auto begin = std::chrono::steady_clock::now();
     const SensorFrame sensed =
-        senseFrame(truth->grid(), sensor, now.col(0), headingOf(now, query.goal));
+        senseFrame(truth->grid(), sensor, now.col(0), headingOf(committed, t, query.goal));
     result.time_sense_ms += millisecondsSince(begin);
     begin = std::chrono::steady_clock::now();
     map->insert(sensed, sensor.range);
@@ -303,8 +339,14 @@ FlightResult fly(const std::shared_ptr<const World>& truth, const PlannerFactory
     local.start = stateAt(committed, t_start);
     replan.start = local.start.col(0);
     bool accepted = false;
-    if (localGoal(local.start.col(0), query.goal, settings.horizon, *window, model.robot_radius,
-                  &local.goal)) {
+    begin = std::chrono::steady_clock::now();
+    const double z_low = std::min(local.start(2, 0), query.goal.z()) - 0.5;
+    const double z_high = std::max(local.start(2, 0), query.goal.z()) + 0.5;
+    const std::vector<Eigen::Vector3d> guide =
+        map->guide(local.start.col(0), query.goal, model.robot_radius, z_low, z_high);
+    result.time_guide_ms += millisecondsSince(begin);
+    if (localGoal(local.start.col(0), query.goal, guide, settings.horizon, *window,
+                  model.robot_radius, &local.goal)) {
       replan.local_goal = local.goal;
       std::unique_ptr<Planner> planner = make_planner(window);
       const PlanResult plan = planner->plan(

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <queue>
 
 #include "kinolab/core/error.hpp"
 #include "kinolab/core/text.hpp"
@@ -61,8 +62,8 @@ void KnownMap::insert(const SensorFrame& frame, double max_range) {
   octomap::OcTree& tree = tree_->tree;
   octomap::KeySet free_cells;
   octomap::KeySet occupied_cells;
-  tree.computeDiscreteUpdate(cloud, toTree(frame.origin, bounds_.min), free_cells,
-                             occupied_cells, max_range);
+  tree.computeDiscreteUpdate(cloud, toTree(frame.origin, bounds_.min), free_cells, occupied_cells,
+                             max_range);
   const VoxelGrid& lattice = tree_->lattice;
   const auto update = [&](const octomap::OcTreeKey& key, bool hit) {
     // Inner nodes are not updated (lazy): the mirror follows the leaves; write() updates them.
@@ -129,6 +130,106 @@ std::shared_ptr<const World> KnownMap::window(const Eigen::Vector3d& center) con
   }
   Esdf esdf(grid);
   return std::make_shared<const World>("known_window", 0, std::move(grid), std::move(esdf));
+}
+
+std::vector<Eigen::Vector3d> KnownMap::guide(const Eigen::Vector3d& from, const Eigen::Vector3d& to,
+                                             double radius, double z_low, double z_high) const {
+  const VoxelGrid& lattice = tree_->lattice;
+  const Eigen::Vector3i& n = lattice.dims();
+  const double r = model_.resolution;
+  const auto cellOf = [&](const Eigen::Vector3d& p) {
+    const Eigen::Vector3d local = (p - lattice.origin()) / r;
+    return Eigen::Vector2i(std::clamp(static_cast<int>(std::floor(local.x())), 0, n.x() - 1),
+                           std::clamp(static_cast<int>(std::floor(local.y())), 0, n.y() - 1));
+  };
+  // Columns with a known obstacle in the band, dilated by the body.
+  const int z0 =
+      std::clamp(static_cast<int>(std::floor((z_low - lattice.origin().z()) / r)), 0, n.z() - 1);
+  const int z1 =
+      std::clamp(static_cast<int>(std::floor((z_high - lattice.origin().z()) / r)), 0, n.z() - 1);
+  std::vector<std::uint8_t> blocked(static_cast<std::size_t>(n.x()) * n.y(), 0);
+  const int reach = static_cast<int>(std::ceil(radius / r));
+  for (int x = 0; x < n.x(); ++x) {
+    for (int y = 0; y < n.y(); ++y) {
+      const std::uint8_t* column = &tree_->state[lattice.index(x, y, 0)];
+      if (std::none_of(column + z0, column + z1 + 1, [](std::uint8_t v) { return v == 2; })) {
+        continue;
+      }
+      for (int dx = -reach; dx <= reach; ++dx) {
+        for (int dy = -reach; dy <= reach; ++dy) {
+          const int cx = x + dx;
+          const int cy = y + dy;
+          // Cells whose centre is within the radius of the obstacle column's cube.
+          const double gx = std::max(0.0, std::abs(dx) - 0.5);
+          const double gy = std::max(0.0, std::abs(dy) - 0.5);
+          if (cx < 0 || cy < 0 || cx >= n.x() || cy >= n.y() ||
+              (gx * gx + gy * gy) * r * r >= radius * radius) {
+            continue;
+          }
+          blocked[static_cast<std::size_t>(cx) * n.y() + cy] = 1;
+        }
+      }
+    }
+  }
+  const Eigen::Vector2i start = cellOf(from);
+  const Eigen::Vector2i goal = cellOf(to);
+  const auto id = [&](const Eigen::Vector2i& c) {
+    return static_cast<std::size_t>(c.x()) * n.y() + c.y();
+  };
+  blocked[id(start)] = 0;  // the vehicle is where it is
+  if (blocked[id(goal)]) return {};
+  // A* with the octile distance.
+  const auto octile = [&](const Eigen::Vector2i& c) {
+    const Eigen::Vector2i d = (c - goal).cwiseAbs();
+    return static_cast<double>(std::max(d.x(), d.y())) + (M_SQRT2 - 1.0) * std::min(d.x(), d.y());
+  };
+  std::vector<double> cost(blocked.size(), INFINITY);
+  std::vector<std::int64_t> parent(blocked.size(), -1);
+  using Entry = std::pair<double, std::size_t>;
+  std::priority_queue<Entry, std::vector<Entry>, std::greater<>> open;
+  cost[id(start)] = 0.0;
+  open.emplace(octile(start), id(start));
+  bool found = false;
+  while (!open.empty()) {
+    const auto [f, at] = open.top();
+    open.pop();
+    const Eigen::Vector2i c(static_cast<int>(at / n.y()), static_cast<int>(at % n.y()));
+    if (f > cost[at] + octile(c) + 1e-9) continue;  // stale
+    if (c == goal) {
+      found = true;
+      break;
+    }
+    for (int dx = -1; dx <= 1; ++dx) {
+      for (int dy = -1; dy <= 1; ++dy) {
+        const Eigen::Vector2i next = c + Eigen::Vector2i(dx, dy);
+        if ((dx == 0 && dy == 0) || next.x() < 0 || next.y() < 0 || next.x() >= n.x() ||
+            next.y() >= n.y() || blocked[id(next)]) {
+          continue;
+        }
+        const double step = dx != 0 && dy != 0 ? M_SQRT2 : 1.0;
+        if (cost[at] + step < cost[id(next)]) {
+          cost[id(next)] = cost[at] + step;
+          parent[id(next)] = static_cast<std::int64_t>(at);
+          open.emplace(cost[id(next)] + octile(next), id(next));
+        }
+      }
+    }
+  }
+  if (!found) return {};
+  std::vector<Eigen::Vector3d> path;
+  for (std::int64_t at = static_cast<std::int64_t>(id(goal)); at >= 0; at = parent[at]) {
+    const Eigen::Vector3d centre =
+        lattice.center(VoxelIndex(static_cast<int>(at / n.y()), static_cast<int>(at % n.y()), 0));
+    path.emplace_back(centre.x(), centre.y(), 0.0);
+  }
+  std::reverse(path.begin(), path.end());
+  path.front().head<2>() = from.head<2>();
+  path.back().head<2>() = to.head<2>();
+  for (std::size_t i = 0; i < path.size(); ++i) {
+    path[i].z() = from.z() + (to.z() - from.z()) * static_cast<double>(i) /
+                                 static_cast<double>(std::max<std::size_t>(1, path.size() - 1));
+  }
+  return path;
 }
 
 std::size_t KnownMap::knownFree() const {

@@ -91,6 +91,8 @@ struct ExperimentVariant {
   int repetitions = 1;
   ExperimentBudget budget;
   TimingProtocol timing;
+  /// `flight:` (kind: flight): the flight's parameters (kinolab list flight), resolved.
+  ParameterSet flight;
 };
 
 /// One run: a planner on a query of a world, one repetition, in one variant.
@@ -110,6 +112,10 @@ struct RunSpec {
 /// mismatches, unknown plugins or parameters, out-of-range values and missing files are
 /// ConfigErrors naming the file, line and key path.
 struct Experiment {
+  /// `kind: planning` (a run is one plan) or `kind: flight` (a run is one closed-loop flight:
+  /// the planner replans through a world seen by its sensor, `flight:` sets the sensor, map
+  /// and loop; budget.time is the flight's wall-clock limit and `timing:` does not apply).
+  bool flights = false;
   std::string name;
   std::string source;  ///< the file
   std::uint64_t seed = 1;

@@ -83,6 +83,12 @@ class KnownMap {
   /// known occupied voxels and unknown ones as `unknown` says (kFreeBeyond: measured from
   /// `center`), with its exact ESDF.
   std::shared_ptr<const World> window(const Eigen::Vector3d& center) const;
+  /// A shortest 8-connected path over the map's x-y cells from `from` to `to`, through cells
+  /// with no known occupied voxel within `radius` in the heights [z_low, z_high] (unknown is
+  /// free): the global guide a local goal is taken from. Cell centres at heights
+  /// interpolated from `from` to `to`; empty when the known map leaves no way.
+  std::vector<Eigen::Vector3d> guide(const Eigen::Vector3d& from, const Eigen::Vector3d& to,
+                                     double radius, double z_low, double z_high) const;
   /// Voxels known free and known occupied.
   std::size_t knownFree() const;
   std::size_t knownOccupied() const;
@@ -114,7 +120,7 @@ struct FlightSettings {
   double horizon = 3.5;             ///< m: the local goal's distance when the goal is farther
   double max_time = 120.0;          ///< s of flight
   double stuck_time = 15.0;         ///< s without 0.5 m of progress towards the goal
-  double goal_tolerance = 0.5;      ///< m: reached when at rest this close to the goal
+  double goal_tolerance = 0.5;      ///< m: reached when this close to the goal
   double brake_acceleration = 3.0;  ///< m/s^2 per axis for braking to a stop
 };
 
@@ -139,7 +145,7 @@ struct FlightReplan {
 };
 
 struct FlightResult {
-  /// reached, collision, stuck, timeout, invalid_start, invalid_goal
+  /// reached (within goal_tolerance), collision, stuck, timeout, invalid_start, invalid_goal
   std::string status;
   std::string message;
   Trajectory flown;  ///< from t = 0 to the end of the flight (or the collision)
@@ -150,6 +156,7 @@ struct FlightResult {
   double time_sense_ms = 0.0;  ///< summed wall time: sensor, map insertion, window + ESDF
   double time_map_ms = 0.0;
   double time_window_ms = 0.0;
+  double time_guide_ms = 0.0;  ///< summed over the replans: the global guide on the known map
   std::shared_ptr<const KnownMap> map;  ///< the final known map
 };
 
