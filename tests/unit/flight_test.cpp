@@ -194,6 +194,40 @@ TEST(KnownMapTest, TheWindowHoldsWhatWasSeenAndItsExactEsdf) {
   EXPECT_GT(cautious.window(origin)->grid().occupiedCount(), grid.occupiedCount());
 }
 
+TEST(KnownMapTest, TheGuideGoesRoundKnownObstaclesAndThroughUnknownSpace) {
+  const auto world = worldOf(kWall);
+  KnownMap map(world->bounds(), MapModel());
+  SensorModel lidar;
+  lidar.kind = SensorModel::Kind::kLidar;
+  lidar.range = 6.0;
+  const Eigen::Vector3d from(7.05, 3.05, 1.5);
+  map.insert(senseFrame(world->grid(), lidar, from, 0.0), lidar.range);
+  const Eigen::Vector3d to(15.0, 3.0, 1.5);
+  const std::vector<Eigen::Vector3d> way = map.guide(from, to, 0.25, 1.0, 2.0);
+  ASSERT_GE(way.size(), 2u);
+  EXPECT_EQ(way.front(), from);
+  EXPECT_EQ(way.back(), to);
+  double length = 0.0;
+  for (std::size_t i = 1; i < way.size(); ++i) {
+    length += (way[i] - way[i - 1]).norm();
+    // Never through the seen part of the wall (x 10 .. 10.4, y < 5), with the body's margin.
+    const Eigen::Vector3d& p = way[i];
+    EXPECT_FALSE(p.x() > 9.75 && p.x() < 10.65 && p.y() < 4.75) << i;
+  }
+  // Round the end of the wall at y = 5: longer than the straight 7.95 m.
+  EXPECT_GT(length, 9.0);
+  // A wall across the whole map: no way once it is known.
+  const auto closed =
+      worldOf("  - type: box_list\n    boxes: [{min: [9, 0, 0], max: [9.4, 10, 3]}]\n");
+  KnownMap walled(closed->bounds(), MapModel());
+  walled.insert(senseFrame(closed->grid(), lidar, from, 0.0), lidar.range);
+  // Seen to 6 m, the wall's far end (y > 8.7) is unknown, so free: the guide goes there.
+  EXPECT_FALSE(walled.guide(from, to, 0.25, 1.0, 2.0).empty());
+  lidar.range = 12.0;  // seen whole
+  walled.insert(senseFrame(closed->grid(), lidar, from, 0.0), lidar.range);
+  EXPECT_TRUE(walled.guide(from, to, 0.25, 1.0, 2.0).empty());
+}
+
 TEST(FlightTest, AnEmptyWorldIsFlownToTheGoal) {
   const auto world = worldOf("  - type: empty\n");
   const FlightResult result = Flight().fly(world, {2, 5, 1.5}, {18, 5, 1.5});
