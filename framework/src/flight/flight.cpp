@@ -182,8 +182,10 @@ const ParameterSpecs& flightParameters() {
           .real("map_resolution", 0.1, 0.01, 10.0,
                 "the vehicle's map voxel, m (the ground truth's lattice when equal)")
           .real("window", 8.0, 1.0, 1000.0, "planning window side in x and y, m")
-          .real("window_height", 2.5, 0.2, 1000.0,
-                "planning window height, m (centred on the vehicle, within the map)")
+          .real("window_height", 2.0, 0.2, 1000.0,
+                "planning window height, m (centred on the vehicle, within the map; a camera "
+                "looking ahead does not see far above or below, so a tall window lets a planner "
+                "climb into unseen space)")
           .choice("unknown", "free", {"free", "occupied", "free_beyond"},
                   "unseen space in the planning window: free, occupied, or occupied closer "
                   "than free_beyond and free farther")
