@@ -369,3 +369,30 @@ def lazy_speedup(table: pd.DataFrame, title: str) -> plt.Figure | None:
     axis.set_title(title)
     figure.tight_layout()
     return figure
+
+
+def speeds(results: Results, world: World, query: int) -> plt.Figure | None:
+    """Speed over time of every stored trajectory of one query (flights: the flown one),
+    one line per planner; None without trajectories."""
+    runs = results.runs
+    chosen = runs[(runs["world_hash"] == world.world_hash) & (runs["query"] == query)]
+    figure, axis = plt.subplots(figsize=(7, 3.2))
+    drawn = 0
+    for index, (_, run) in enumerate(chosen.iterrows()):
+        trajectory = results.trajectory(run["run_hash"])
+        if trajectory is None or not len(trajectory):
+            continue
+        speed = np.linalg.norm(trajectory[["vx", "vy", "vz"]].to_numpy(dtype=float), axis=1)
+        axis.plot(trajectory["t"], speed, color=_colour(index), label=run["planner"],
+                  linestyle="-" if run["success"] else "--")
+        drawn += 1
+    if not drawn:
+        plt.close(figure)
+        return None
+    axis.set_xlabel("time (s)")
+    axis.set_ylabel("speed (m/s)")
+    axis.grid(alpha=0.3)
+    axis.legend(fontsize=8)
+    axis.set_title(f"{world.id}, query {query}: speed over time")
+    figure.tight_layout()
+    return figure

@@ -325,6 +325,10 @@ def write(paths: list[Path], out: Path, compare: Path | None = None,
             _save(figure, report, f"trajectories_{world.id}", f"Trajectories in {world.id}",
                   f"Query {query}: every planner's trajectory (dashed: not a success) from "
                   "above and from the side; start green, goal red.")
+        if "time_to_goal" in runs.columns and (
+                figure := plots.speeds(results, world, query)) is not None:
+            _save(figure, report, f"speeds_{world.id}", f"Speed over time in {world.id}",
+                  f"Query {query}: each planner's flight, speed against time.")
     if (run := _tree_run(results)) is not None:
         world = results.worlds.get(run["world_hash"])
         if (figure := plots.search_tree(results, run, world)) is not None:

@@ -55,7 +55,8 @@ def summary(runs: pd.DataFrame, by: list[str] | None = None,
     """Per group: runs, successes, the success rate (Wilson interval) and, over the
     successful runs, median and mean of each metric with bootstrap intervals."""
     by = by or ["planner"]
-    metrics = metrics or [m for m in METRICS if m[0] in runs.columns]
+    # Only the metrics these runs have (a flight has no expansions, a plan no time to goal).
+    metrics = [m for m in (metrics or METRICS) if m[0] in runs.columns]
     rows = []
     for key, group in runs.groupby(by if len(by) > 1 else by[0], sort=False, dropna=False):
         key = key if isinstance(key, tuple) else (key,)
@@ -84,7 +85,7 @@ def statistics(runs: pd.DataFrame, metrics: pd.DataFrame) -> pd.DataFrame:
         mine = declared[declared["planner_type"].isin(set(group["planner_type"]))]
         for _, spec in mine.drop_duplicates("name").iterrows():
             name = spec["name"]
-            if name not in group.columns:
+            if name not in group.columns or spec["type"] in ("text", "boolean"):
                 continue
             values = group[name].dropna().to_numpy(dtype=float)
             if len(values) == 0:
@@ -134,7 +135,8 @@ def _with_holm(rows: list[dict]) -> pd.DataFrame:
 
 
 def paired(runs: pd.DataFrame,
-           metrics: tuple[str, ...] = ("planning_time_ms", "expansions", "cost"),
+           metrics: tuple[str, ...] = ("planning_time_ms", "expansions", "cost", "time_to_goal",
+                                       "replan_time_p95_ms"),
            by: str = "planner") -> pd.DataFrame:
     """Every pair of planners on the cases both ran (paired_tests), p-values
     Holm-corrected over the whole table."""

@@ -280,6 +280,24 @@ TEST(FlightTest, AFlightRepeatsBitForBit) {
   EXPECT_EQ(a.replans.size(), b.replans.size());
 }
 
+TEST(FlightTest, TheDeclaredDefaultsAreTheModelsDefaults) {
+  const Flight declared;
+  const SensorModel sensor;
+  const MapModel map;
+  const FlightSettings settings;
+  EXPECT_EQ(declared.sensor.width, sensor.width);
+  EXPECT_EQ(declared.sensor.height, sensor.height);
+  EXPECT_NEAR(declared.sensor.fov_horizontal, sensor.fov_horizontal, 1e-4);
+  EXPECT_NEAR(declared.sensor.fov_vertical, sensor.fov_vertical, 1e-4);
+  EXPECT_EQ(declared.sensor.range, sensor.range);
+  EXPECT_EQ(declared.map.window, map.window);
+  EXPECT_EQ(declared.map.window_height, map.window_height);
+  EXPECT_EQ(declared.map.resolution, map.resolution);
+  EXPECT_EQ(declared.settings.replan_period, settings.replan_period);
+  EXPECT_EQ(declared.settings.latency, settings.latency);
+  EXPECT_EQ(declared.settings.horizon, settings.horizon);
+}
+
 TEST(FlightTest, BadFlightParametersNameTheParameter) {
   try {
     Flight({{"unknown", "maybe", "--flight"}});

@@ -156,11 +156,9 @@ std::string flyOneRun(const Experiment& experiment, const RunSpec& run,
         !world->segmentFree(query.start.col(0), query.goal, factory(world)->model().robot_radius);
     MetricValues statistics;
     for (const auto& [name, item] : values) {
-      if (std::holds_alternative<double>(item) && name != "success") {
-        statistics.emplace_back(name, item);
-      }
+      if (flightStatistics().find(name)) statistics.emplace_back(name, item);
     }
-    out["statistics"] = nlohmann::json::parse(toJson(statistics, flightMetrics()));
+    out["statistics"] = nlohmann::json::parse(toJson(statistics, flightStatistics()));
     if (flown && experiment.store_trajectories) {
       out["trajectory"] = trajectoryCsv(flight.flown, 0.05);
     }
@@ -457,7 +455,7 @@ void prepareStore(ResultsStore& store, const Experiment& experiment, const Runne
     // A flight's statistics are the flight's, whatever its planner.
     store.declareMetrics("statistic", type,
                          experiment.flights
-                             ? flightMetrics()
+                             ? flightStatistics()
                              : declaredStatistics(pluginRegistry<Planner>().info(type)));
   }
 }

@@ -60,7 +60,7 @@ enum class UnknownSpace { kFree, kOccupied, kFreeBeyond };
 struct MapModel {
   double resolution = 0.1;     ///< m; the map's voxels align with the ground truth's lattice
   double window = 8.0;         ///< m: the planning window's side in x and y
-  double window_height = 3.0;  ///< m: its height (centred on the vehicle, within the map)
+  double window_height = 2.0;  ///< m: its height (centred on the vehicle, within the map)
   UnknownSpace unknown = UnknownSpace::kFree;
   double free_beyond = 2.0;      ///< m (kFreeBeyond): unknown is occupied closer than this
   double probability_hit = 0.7;  ///< OctoMap sensor model
@@ -180,6 +180,9 @@ FlightResult fly(const std::shared_ptr<const World>& truth, const PlannerFactory
 /// the plans' D (median, max), jerk integral, frames and the per-frame sensing, map and
 /// window times.
 const MetricSpecs& flightMetrics();
+/// The numeric ones (every flight metric but status, message and success): a flight run's
+/// statistics in the runner's database.
+const MetricSpecs& flightStatistics();
 MetricValues flightValues(const FlightResult& result);
 
 }  // namespace kinolab
