@@ -1,5 +1,6 @@
 """Shared fixtures for the command-line tests: the kinolab binary and a throw-away cache."""
 
+import json
 import os
 import subprocess
 import sys
@@ -25,3 +26,16 @@ def kinolab(tmp_path):
                               env=env, cwd=cwd, timeout=300)
 
     return run
+
+
+@pytest.fixture
+def world(tmp_path):
+    """The small forest as a spec file (kinolab plan and fly)."""
+    path = tmp_path / "world.yaml"
+    path.write_text(SMALL_FOREST)
+    return path
+
+
+def last_json(result):
+    """The JSON summary a command prints as its last line."""
+    return json.loads(result.stdout.strip().splitlines()[-1])

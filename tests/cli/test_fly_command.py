@@ -5,18 +5,7 @@ import json
 
 import pytest
 
-from conftest import SMALL_FOREST as WORLD
-
-
-@pytest.fixture
-def world(tmp_path):
-    path = tmp_path / "world.yaml"
-    path.write_text(WORLD)
-    return path
-
-
-def last_json(result):
-    return json.loads(result.stdout.strip().splitlines()[-1])
+from conftest import last_json
 
 
 def test_fly_prints_a_json_summary_and_writes_the_flight(kinolab, world, tmp_path):

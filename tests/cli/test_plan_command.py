@@ -5,20 +5,9 @@ import json
 
 import pytest
 
-from conftest import SMALL_FOREST as WORLD
+from conftest import last_json
 
 FAST = ["--set", "sampler.samples_per_axis=3", "--set", "heuristic_weight=2"]
-
-
-@pytest.fixture
-def world(tmp_path):
-    path = tmp_path / "world.yaml"
-    path.write_text(WORLD)
-    return path
-
-
-def last_json(result):
-    return json.loads(result.stdout.strip().splitlines()[-1])
 
 
 @pytest.mark.parametrize("planner", ["lazy_mp_astar", "eager_mp_astar", "greedy_mp"])

@@ -51,14 +51,31 @@ std::string duration(double s) {
   return text;
 }
 
-/// One run, inside its worker process: plan and return the result as JSON text
-/// ({"metrics": {...}, "statistics": {...}, "trajectory", "tree"}). Every failure the run
-/// can report itself (out of memory, an exception) becomes its status.
+/// Runs `work`, which fills a run's JSON ({"metrics": {...}, "statistics": {...},
+/// "trajectory", "tree"}), inside its worker process: every failure the run can report itself
+/// (out of memory, an exception) becomes its status.
+template <typename Work>
+std::string workerOutput(const ExperimentVariant& variant, Work&& work) {
+  nlohmann::json out;
+  try {
+    work(out);
+  } catch (const std::bad_alloc&) {
+    out = {{"metrics",
+            {{"status", "oom"},
+             {"message", "out of memory: the run exceeded its budget of " +
+                             std::to_string(variant.budget.memory_mb) + " MB"}}}};
+  } catch (const std::exception& error) {
+    out = {{"metrics", {{"status", "error"}, {"message", error.what()}}}};
+  }
+  return out.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
+}
+
+/// One run, inside its worker process: plan (under the timing protocol) and return the
+/// result as JSON text.
 std::string planOneRun(const Experiment& experiment, const RunSpec& run,
                        const std::shared_ptr<const World>& world, const PlanningQuery& query) {
   const ExperimentVariant& variant = experiment.variants[run.variant];
-  nlohmann::json out;
-  try {
+  return workerOutput(variant, [&](nlohmann::json& out) {
     const ExperimentPlanner& spec = variant.planners[run.planner];
     ConfiguredPlanner configured = configurePlanner(spec.type, spec.assignments);
     configured.planner->setup({world, configured.sampler, run.seed});
@@ -96,15 +113,7 @@ std::string planOneRun(const Experiment& experiment, const RunSpec& run,
       out["trajectory"] = trajectoryCsv(result.trajectory, 0.05);
     }
     if (store_tree) out["tree"] = treeCsv(tree);
-  } catch (const std::bad_alloc&) {
-    out = {{"metrics",
-            {{"status", "oom"},
-             {"message", "out of memory: the run exceeded its budget of " +
-                             std::to_string(variant.budget.memory_mb) + " MB"}}}};
-  } catch (const std::exception& error) {
-    out = {{"metrics", {{"status", "error"}, {"message", error.what()}}}};
-  }
-  return out.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
+  });
 }
 
 /// One flight run, inside its worker process: fly and return the result as JSON text, in the
@@ -114,8 +123,7 @@ std::string planOneRun(const Experiment& experiment, const RunSpec& run,
 std::string flyOneRun(const Experiment& experiment, const RunSpec& run,
                       const std::shared_ptr<const World>& world, const PlanningQuery& query) {
   const ExperimentVariant& variant = experiment.variants[run.variant];
-  nlohmann::json out;
-  try {
+  return workerOutput(variant, [&](nlohmann::json& out) {
     const ExperimentPlanner& spec = variant.planners[run.planner];
     SensorModel sensor;
     MapModel map;
@@ -162,15 +170,7 @@ std::string flyOneRun(const Experiment& experiment, const RunSpec& run,
     if (flown && experiment.store_trajectories) {
       out["trajectory"] = trajectoryCsv(flight.flown, 0.05);
     }
-  } catch (const std::bad_alloc&) {
-    out = {{"metrics",
-            {{"status", "oom"},
-             {"message", "out of memory: the run exceeded its budget of " +
-                             std::to_string(variant.budget.memory_mb) + " MB"}}}};
-  } catch (const std::exception& error) {
-    out = {{"metrics", {{"status", "error"}, {"message", error.what()}}}};
-  }
-  return out.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
+  });
 }
 
 /// The record of a finished worker, from its output and how it ended.
