@@ -420,7 +420,8 @@ const MetricSpecs& flightStatistics() {
           .real("plan_distance_max", "m", "largest D of a replan's plan")
           .real("jerk_integral", "m^2/s^5", "integral of the squared jerk of the flight")
           .counter("frames", "sensor frames")
-          .clock("frame_time_ms", "mean per frame: sensing, map insertion, window and ESDF");
+          .clock("frame_time_ms", "mean per frame: sensing, map insertion, window and ESDF")
+          .clock("guide_time_ms", "mean per replan: the global guide on the known map");
   return specs;
 }
 
@@ -478,7 +479,9 @@ MetricValues flightValues(const FlightResult& result) {
           {"plan_distance_max", quantile(distances, 1.0)},
           {"jerk_integral", number(result.flown.jerkIntegral())},
           {"frames", static_cast<double>(result.frames)},
-          {"frame_time_ms", number(per_frame)}};
+          {"frame_time_ms", number(per_frame)},
+          {"guide_time_ms",
+           number(result.replans.empty() ? NAN : result.time_guide_ms / result.replans.size())}};
 }
 
 }  // namespace kinolab
