@@ -14,8 +14,9 @@ from . import stats
 
 # The results database layout this package reads (meta `schema_version`); version 1
 # databases (written before the schema was declared) are upgraded in memory by `load`;
-# version 2 lacks the timing protocol's and the query's columns (version 3), read as missing.
-SCHEMA_VERSION = 3
+# version 2 lacks the timing protocol's and the query's columns (version 3), read as missing;
+# version 4 added the flights table.
+SCHEMA_VERSION = 4
 
 
 @dataclass
@@ -61,6 +62,39 @@ class Results:
 
     def tree(self, run_hash: str) -> pd.DataFrame | None:
         return self._csv("trees", run_hash)
+
+    def replans(self) -> pd.DataFrame:
+        """Every replan of every flight (kind: flight), with its run's planner and query."""
+        frames = []
+        for database in self.runs["database"].unique():
+            with sqlite3.connect(database) as db:
+                tables = {row[0] for row in
+                          db.execute("SELECT name FROM sqlite_master WHERE type = 'table'")}
+                if "flights" not in tables:
+                    continue
+                for run_hash, text in db.execute("SELECT run_hash, replans FROM flights"):
+                    frame = pd.read_csv(io.StringIO(text))
+                    frame["run_hash"] = run_hash
+                    frames.append(frame)
+        if not frames:
+            return pd.DataFrame()
+        replans = pd.concat(frames, ignore_index=True)
+        return replans.merge(self.runs[["run_hash", "planner", "world", "query"]], on="run_hash")
+
+    def known_map(self, run_hash: str) -> tuple[np.ndarray, np.ndarray, float] | None:
+        """A flight's final known map from above: the (nx, ny) array of 0 unknown, 1 free,
+        2 obstacle, the origin (x, y) and the resolution; None when it was not stored."""
+        with self.connection(run_hash) as db:
+            tables = {row[0] for row in
+                      db.execute("SELECT name FROM sqlite_master WHERE type = 'table'")}
+            row = (db.execute("SELECT known_map FROM flights WHERE run_hash = ?",
+                              (run_hash,)).fetchone() if "flights" in tables else None)
+        if not row or not row[0]:
+            return None
+        head, *lines = row[0].splitlines()
+        nx, ny, ox, oy, resolution = head.split(",")
+        grid = np.array([[int(c) for c in line] for line in lines], dtype=np.uint8)
+        return grid.reshape(int(nx), int(ny)), np.array([float(ox), float(oy)]), float(resolution)
 
     def _csv(self, table: str, run_hash: str) -> pd.DataFrame | None:
         with self.connection(run_hash) as db:

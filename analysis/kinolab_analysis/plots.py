@@ -396,3 +396,53 @@ def speeds(results: Results, world: World, query: int) -> plt.Figure | None:
     axis.set_title(f"{world.id}, query {query}: speed over time")
     figure.tight_layout()
     return figure
+
+
+def known_maps(results: Results, world: World, query: int) -> plt.Figure | None:
+    """The final known map of each planner's flight of one query from above (obstacles
+    black, known free white, unknown grey) with the flown path; None without stored maps."""
+    runs = results.runs
+    chosen = runs[(runs["world_hash"] == world.world_hash) & (runs["query"] == query)]
+    maps = [(run, results.known_map(run["run_hash"])) for _, run in chosen.iterrows()]
+    maps = [(run, known) for run, known in maps if known is not None]
+    if not maps:
+        return None
+    figure, axes = plt.subplots(1, len(maps), figsize=(4.2 * len(maps), 4.4), squeeze=False)
+    colours = matplotlib.colors.ListedColormap(["#bbbbbb", "#ffffff", "#000000"])
+    for axis, (run, (grid, origin, resolution)) in zip(axes[0], maps):
+        extent = [origin[0], origin[0] + grid.shape[0] * resolution,
+                  origin[1], origin[1] + grid.shape[1] * resolution]
+        axis.imshow(grid.T, origin="lower", extent=extent, cmap=colours, vmin=0, vmax=2,
+                    interpolation="nearest")
+        trajectory = results.trajectory(run["run_hash"])
+        if trajectory is not None and len(trajectory):
+            axis.plot(trajectory["x"], trajectory["y"], color=_colour(0), lw=1.5)
+        axis.plot(run["start_x"], run["start_y"], "o", color="green", ms=6)
+        axis.plot(run["goal_x"], run["goal_y"], "*", color="red", ms=10)
+        axis.set_title(f"{run['planner']}: {run['status']}", fontsize=9)
+        axis.set_xlabel("x (m)")
+        axis.set_ylabel("y (m)")
+    figure.tight_layout()
+    return figure
+
+
+def replan_times(replans: pd.DataFrame) -> plt.Figure | None:
+    """Histogram of every replan's planning time per planner (log scale); None without
+    replans."""
+    times = replans[replans["planning_time_ms"] > 0] if len(replans) else replans
+    if not len(times):
+        return None
+    figure, axis = plt.subplots(figsize=(6.5, 3.6))
+    low = max(1e-3, float(times["planning_time_ms"].min()))
+    high = float(times["planning_time_ms"].max())
+    bins = np.logspace(np.log10(low), np.log10(max(high, low * 10)), 40)
+    for index, (name, group) in enumerate(times.groupby("planner", sort=False)):
+        axis.hist(group["planning_time_ms"], bins=bins, histtype="step", lw=1.5,
+                  color=_colour(index), label=f"{name} ({len(group)} replans)")
+    axis.set_xscale("log")
+    axis.set_xlabel("replan planning time (ms)")
+    axis.set_ylabel("replans")
+    axis.grid(alpha=0.3)
+    axis.legend(fontsize=8)
+    figure.tight_layout()
+    return figure

@@ -329,6 +329,14 @@ def write(paths: list[Path], out: Path, compare: Path | None = None,
                 figure := plots.speeds(results, world, query)) is not None:
             _save(figure, report, f"speeds_{world.id}", f"Speed over time in {world.id}",
                   f"Query {query}: each planner's flight, speed against time.")
+        if (figure := plots.known_maps(results, world, query)) is not None:
+            _save(figure, report, f"known_maps_{world.id}", f"Known maps in {world.id}",
+                  f"Query {query}: what each flight had seen at its end, from above in the "
+                  "band of its heights (black: obstacle, white: known free, grey: unknown), "
+                  "and its flown path.")
+    if (figure := plots.replan_times(results.replans())) is not None:
+        _save(figure, report, "replan_times", "Replan times",
+              "Every replan of every flight: its planning time, per planner.")
     if (run := _tree_run(results)) is not None:
         world = results.worlds.get(run["world_hash"])
         if (figure := plots.search_tree(results, run, world)) is not None:

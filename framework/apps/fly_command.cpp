@@ -37,22 +37,13 @@ void writeOutputs(const FlyOptions& options, const FlightResult& result,
   const std::filesystem::path out(options.out_dir);
   std::filesystem::create_directories(out);
   writeFileAtomically((out / "flown.csv").string(), trajectoryCsv(result.flown, 0.01));
-  std::string replans =
-      "replan,time,reason,start_x,start_y,start_z,goal_x,goal_y,goal_z,status,planning_time_ms,"
-      "distance_to_goal,accepted\n";
   std::string plans = "replan,t,x,y,z\n";
   for (std::size_t i = 0; i < result.replans.size(); ++i) {
-    const FlightReplan& r = result.replans[i];
-    replans += std::to_string(i) + "," + formatNumber(r.time) + "," + r.reason + "," +
-               point(r.start) + "," + point(r.local_goal) + "," + r.status + "," +
-               formatNumber(r.planning_time_ms) + "," + formatNumber(r.distance_to_goal) + "," +
-               (r.accepted ? "1" : "0") + "\n";
-    if (r.trajectory.empty()) continue;
-    for (const TrajectorySample& s : r.trajectory.sample(0.05)) {
+    for (const TrajectorySample& s : result.replans[i].trajectory.sample(0.05)) {
       plans += std::to_string(i) + "," + formatNumber(s.time) + "," + point(s.position) + "\n";
     }
   }
-  writeFileAtomically((out / "replans.csv").string(), replans);
+  writeFileAtomically((out / "replans.csv").string(), replansCsv(result));
   writeFileAtomically((out / "plans.csv").string(), plans);
   result.map->write((out / "known_map.bt").string());
   writeFileAtomically((out / "summary.json").string(), summary.dump(2) + "\n");

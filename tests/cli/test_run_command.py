@@ -417,7 +417,8 @@ FLIGHT = """
 def test_a_flight_experiment_flies_every_query_and_stores_the_flight_metrics(kinolab, tmp_path):
     path = experiment(tmp_path, FLIGHT, plugins=False, name="flights",
                       queries="random: {count: 2, min_distance: 6, max_distance: 9}",
-                      extra="\nflight: {range: 4, max_time: 40}\nstore: {trajectories: true}\n")
+                      extra="\nflight: {range: 4, max_time: 40}\n"
+                            "store: {trajectories: true, trees: 1}\n")
     path.write_text(path.read_text().replace("kind: planning", "kind: flight"))
     result = kinolab("run", path, "--out", tmp_path / "out")
     assert result.returncode == 0, result.stderr
@@ -428,8 +429,19 @@ def test_a_flight_experiment_flies_every_query_and_stores_the_flight_metrics(kin
     for name in ("time_to_goal", "replans", "replan_time_p95_ms", "frames", "frame_time_ms"):
         assert stats.get(name) == 2, (name, stats)
     assert len(select(tmp_path / "out", "SELECT run_hash FROM trajectories")) == 2
+    # Every flight's replans; the known map of the first query only (store.trees: 1).
+    flights = select(tmp_path / "out", "SELECT f.replans, f.known_map, r.query FROM flights f "
+                     "JOIN runs r USING (run_hash) ORDER BY r.query")
+    assert len(flights) == 2 and all(f[0].startswith("replan,time,reason") for f in flights)
+    assert flights[0][1].count("\n") > 10 and flights[1][1] == ""
     again = kinolab("run", path, "--out", tmp_path / "out", "--resume")
     assert again.returncode == 0 and "2 already done" in again.stderr
+    report = kinolab("report", tmp_path / "out")
+    assert report.returncode == 0, report.stderr
+    figures = {p.stem for p in (tmp_path / "out" / "report" / "figures").glob("*.png")}
+    assert {"replan_times", "known_maps_small", "speeds_small", "trajectories_small"} <= figures
+    assert "Flights: each replan is timed once" in (
+        tmp_path / "out" / "report" / "index.html").read_text()
 
 
 @pytest.mark.parametrize("kind, extra, message", [

@@ -66,6 +66,8 @@ CREATE TABLE IF NOT EXISTS worlds (
   origin_z REAL, nx INTEGER, ny INTEGER, nz INTEGER, top BLOB, side BLOB);
 CREATE TABLE IF NOT EXISTS trajectories (run_hash TEXT PRIMARY KEY, csv TEXT NOT NULL);
 CREATE TABLE IF NOT EXISTS trees (run_hash TEXT PRIMARY KEY, csv TEXT NOT NULL);
+CREATE TABLE IF NOT EXISTS flights (run_hash TEXT PRIMARY KEY, replans TEXT NOT NULL,
+  known_map TEXT NOT NULL);
 )sql";
 
 /// Every metric column of `runs`, in order: the result metrics, then the runner's.
@@ -266,7 +268,7 @@ long long ResultsStore::removeRuns(const std::set<std::string>& statuses) {
   long long removed = 0;
   transaction([&] {
     for (const std::string& status : statuses) {
-      for (const char* table : {"statistics", "trajectories", "trees"}) {
+      for (const char* table : {"statistics", "trajectories", "trees", "flights"}) {
         Statement remove(db_,
                          std::string("DELETE FROM ") + table +
                              " WHERE run_hash IN (SELECT run_hash FROM runs WHERE status = ?)",
@@ -331,6 +333,14 @@ void ResultsStore::insert(const RunRecord& r) {
       tree.add(r.run_hash);
       tree.add(r.tree_csv);
       tree.step(path_);
+    }
+    if (!r.replans_csv.empty()) {
+      Statement flight(db_, "INSERT INTO flights (run_hash, replans, known_map) VALUES (?, ?, ?)",
+                       path_);
+      flight.add(r.run_hash);
+      flight.add(r.replans_csv);
+      flight.add(r.known_map);
+      flight.step(path_);
     }
   });
 }
@@ -447,7 +457,7 @@ void ResultsStore::merge(const std::string& output, const std::vector<std::strin
       merged.execute("ATTACH DATABASE '" + quoted + "' AS shard");
       merged.execute("BEGIN IMMEDIATE");
       for (const char* table :
-           {"runs", "statistics", "metrics", "worlds", "trajectories", "trees"}) {
+           {"runs", "statistics", "metrics", "worlds", "trajectories", "trees", "flights"}) {
         merged.execute(std::string("INSERT OR IGNORE INTO ") + table + " SELECT * FROM shard." +
                        table);
       }

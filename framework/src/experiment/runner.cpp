@@ -170,6 +170,14 @@ std::string flyOneRun(const Experiment& experiment, const RunSpec& run,
     if (flown && experiment.store_trajectories) {
       out["trajectory"] = trajectoryCsv(flight.flown, 0.05);
     }
+    out["replans"] = replansCsv(flight);
+    // The known map for the queries whose trees a planning experiment would store.
+    if (flight.map &&
+        (experiment.store_tree_queries < 0 || run.query < experiment.store_tree_queries)) {
+      const double low = std::min(query.start(2, 0), query.goal.z());
+      const double high = std::max(query.start(2, 0), query.goal.z());
+      out["known_map"] = flight.map->topView(low - 0.5, high + 0.5);
+    }
   });
 }
 
@@ -237,6 +245,8 @@ RunRecord recordOf(const Experiment& experiment, const RunSpec& run, const Worke
     record.statistics = metricValuesFromJson(out["statistics"].dump());
   record.trajectory_csv = out.value("trajectory", "");
   record.tree_csv = out.value("tree", "");
+  record.replans_csv = out.value("replans", "");
+  record.known_map = out.value("known_map", "");
   return record;
 }
 

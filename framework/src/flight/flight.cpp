@@ -437,6 +437,22 @@ const MetricSpecs& flightMetrics() {
   return specs;
 }
 
+std::string replansCsv(const FlightResult& result) {
+  const auto point = [](const Eigen::Vector3d& p) {
+    return formatNumber(p.x()) + "," + formatNumber(p.y()) + "," + formatNumber(p.z());
+  };
+  std::string csv =
+      "replan,time,reason,start_x,start_y,start_z,goal_x,goal_y,goal_z,status,planning_time_ms,"
+      "distance_to_goal,accepted\n";
+  for (std::size_t i = 0; i < result.replans.size(); ++i) {
+    const FlightReplan& r = result.replans[i];
+    csv += std::to_string(i) + "," + formatNumber(r.time) + "," + r.reason + "," + point(r.start) +
+           "," + point(r.local_goal) + "," + r.status + "," + formatNumber(r.planning_time_ms) +
+           "," + formatNumber(r.distance_to_goal) + "," + (r.accepted ? "1" : "0") + "\n";
+  }
+  return csv;
+}
+
 MetricValues flightValues(const FlightResult& result) {
   std::vector<double> times;
   std::vector<double> distances;

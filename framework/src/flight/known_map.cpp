@@ -232,6 +232,29 @@ std::vector<Eigen::Vector3d> KnownMap::guide(const Eigen::Vector3d& from, const 
   return path;
 }
 
+std::string KnownMap::topView(double z_low, double z_high) const {
+  const VoxelGrid& lattice = tree_->lattice;
+  const Eigen::Vector3i& n = lattice.dims();
+  const double r = model_.resolution;
+  const int z0 =
+      std::clamp(static_cast<int>(std::floor((z_low - lattice.origin().z()) / r)), 0, n.z() - 1);
+  const int z1 =
+      std::clamp(static_cast<int>(std::floor((z_high - lattice.origin().z()) / r)), 0, n.z() - 1);
+  std::string text = std::to_string(n.x()) + "," + std::to_string(n.y()) + "," +
+                     formatNumber(lattice.origin().x()) + "," + formatNumber(lattice.origin().y()) +
+                     "," + formatNumber(r) + "\n";
+  text.reserve(text.size() + static_cast<std::size_t>(n.x()) * (n.y() + 1));
+  for (int x = 0; x < n.x(); ++x) {
+    for (int y = 0; y < n.y(); ++y) {
+      const std::uint8_t* column = &tree_->state[lattice.index(x, y, 0)];
+      const std::uint8_t top = *std::max_element(column + z0, column + z1 + 1);
+      text += static_cast<char>('0' + top);
+    }
+    text += '\n';
+  }
+  return text;
+}
+
 std::size_t KnownMap::knownFree() const {
   return static_cast<std::size_t>(std::count(tree_->state.begin(), tree_->state.end(), 1));
 }

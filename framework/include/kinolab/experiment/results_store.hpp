@@ -21,7 +21,7 @@ const MetricSpecs& runnerMetrics();
 
 /// The version of the results database layout this kinolab writes (meta `schema_version`).
 /// Version 2 derives the runs table and the `metrics` table from the declared metrics.
-inline constexpr int kResultsSchemaVersion = 3;
+inline constexpr int kResultsSchemaVersion = 4;
 
 /// One finished run as stored: what defines it, then the values of resultMetrics() and
 /// runnerMetrics() (by name; a missing or none value is NULL) and the planner's statistics.
@@ -44,6 +44,8 @@ struct RunRecord {
   MetricValues statistics;
   std::string trajectory_csv;  ///< when the experiment stores trajectories
   std::string tree_csv;        ///< when it stores search trees
+  std::string replans_csv;     ///< a flight's replans (kind: flight)
+  std::string known_map;       ///< a flight's final known map, top view (store.trees' queries)
 
   /// The text of a metric ("" when it is none or absent).
   std::string text(std::string_view name) const;
@@ -69,7 +71,8 @@ struct WorldRecord {
 /// `run_hash`: the identity columns, then one column per result and runner metric),
 /// `statistics` (run_hash, name, value: every statistic a planner reported), `metrics` (the
 /// declaration of every column and statistic: kind, planner type, type, unit, doc, clock),
-/// `worlds` (for figures), and optional `trajectories` and `trees` (CSV text). Every run is written
+/// `worlds` (for figures), and optional `trajectories` and `trees` (CSV text) and `flights`
+/// (a flight's replans as CSV and its final known map's top view). Every run is written
 /// in its own transaction, so a kill at any moment loses at most the runs in flight.
 class ResultsStore {
  public:

@@ -89,6 +89,10 @@ class KnownMap {
   /// interpolated from `from` to `to`; empty when the known map leaves no way.
   std::vector<Eigen::Vector3d> guide(const Eigen::Vector3d& from, const Eigen::Vector3d& to,
                                      double radius, double z_low, double z_high) const;
+  /// The known map from above over heights [z_low, z_high], as text: a line
+  /// "nx,ny,origin_x,origin_y,resolution", then per x one line of ny digits, per column 2 (a
+  /// known obstacle in the band), 1 (known free there) or 0 (unknown).
+  std::string topView(double z_low, double z_high) const;
   /// Voxels known free and known occupied.
   std::size_t knownFree() const;
   std::size_t knownOccupied() const;
@@ -180,6 +184,9 @@ FlightResult fly(const std::shared_ptr<const World>& truth, const PlannerFactory
 /// the plans' D (median, max), jerk integral, frames and the per-frame sensing, map and
 /// window times.
 const MetricSpecs& flightMetrics();
+/// Every replan of a flight as CSV: replan, time, reason, start and local goal (x, y, z),
+/// status, planning_time_ms, distance_to_goal, accepted.
+std::string replansCsv(const FlightResult& result);
 /// The numeric ones (every flight metric but status, message and success): a flight run's
 /// statistics in the runner's database.
 const MetricSpecs& flightStatistics();
