@@ -17,7 +17,7 @@ PACKAGES=(
   libsqlite3-dev
   # Python (Debian's interpreter and packages; the Python package index is not needed)
   python3 python3-numpy python3-scipy python3-yaml python3-pytest python3-pandas
-  python3-matplotlib python3-jinja2
+  python3-matplotlib python3-pil python3-jinja2
   # the report test renders HTML in a headless browser
   chromium
 )

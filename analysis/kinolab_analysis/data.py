@@ -81,20 +81,25 @@ class Results:
         replans = pd.concat(frames, ignore_index=True)
         return replans.merge(self.runs[["run_hash", "planner", "world", "query"]], on="run_hash")
 
-    def known_map(self, run_hash: str) -> tuple[np.ndarray, np.ndarray, float] | None:
-        """A flight's final known map from above: the (nx, ny) array of 0 unknown, 1 free,
-        2 obstacle, the origin (x, y) and the resolution; None when it was not stored."""
+    def known_maps(self, run_hash: str) -> list[tuple[float, np.ndarray, np.ndarray, float]]:
+        """A flight's known map from above as it grew: (time, the (nx, ny) array of 0 unknown,
+        1 free, 2 obstacle, the origin (x, y), the resolution) per snapshot, the last at the
+        flight's end; empty when none was stored."""
         with self.connection(run_hash) as db:
             tables = {row[0] for row in
                       db.execute("SELECT name FROM sqlite_master WHERE type = 'table'")}
             row = (db.execute("SELECT known_map FROM flights WHERE run_hash = ?",
                               (run_hash,)).fetchone() if "flights" in tables else None)
         if not row or not row[0]:
-            return None
-        head, *lines = row[0].splitlines()
-        nx, ny, ox, oy, resolution = head.split(",")
-        grid = np.array([[int(c) for c in line] for line in lines], dtype=np.uint8)
-        return grid.reshape(int(nx), int(ny)), np.array([float(ox), float(oy)]), float(resolution)
+            return []
+        snapshots = []
+        for block in row[0].split("t=")[1:]:
+            time, head, *lines = block.splitlines()
+            nx, ny, ox, oy, resolution = head.split(",")
+            grid = np.frombuffer("".join(lines).encode(), dtype=np.uint8) - ord("0")
+            snapshots.append((float(time), grid.reshape(int(nx), int(ny)),
+                              np.array([float(ox), float(oy)]), float(resolution)))
+        return snapshots
 
     def _csv(self, table: str, run_hash: str) -> pd.DataFrame | None:
         with self.connection(run_hash) as db:

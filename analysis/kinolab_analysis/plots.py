@@ -403,8 +403,8 @@ def known_maps(results: Results, world: World, query: int) -> plt.Figure | None:
     black, known free white, unknown grey) with the flown path; None without stored maps."""
     runs = results.runs
     chosen = runs[(runs["world_hash"] == world.world_hash) & (runs["query"] == query)]
-    maps = [(run, results.known_map(run["run_hash"])) for _, run in chosen.iterrows()]
-    maps = [(run, known) for run, known in maps if known is not None]
+    maps = [(run, results.known_maps(run["run_hash"])) for _, run in chosen.iterrows()]
+    maps = [(run, known[-1][1:]) for run, known in maps if known]
     if not maps:
         return None
     figure, axes = plt.subplots(1, len(maps), figsize=(4.2 * len(maps), 4.4), squeeze=False)
@@ -446,3 +446,42 @@ def replan_times(replans: pd.DataFrame) -> plt.Figure | None:
     axis.legend(fontsize=8)
     figure.tight_layout()
     return figure
+
+
+def flight_animation(results: Results, run: pd.Series) -> bytes | None:
+    """A GIF of one flight: its known map growing from above, snapshot by snapshot, with the
+    path flown so far; None when no snapshots were stored."""
+    from matplotlib import animation
+    import tempfile
+
+    snapshots = results.known_maps(run["run_hash"])
+    trajectory = results.trajectory(run["run_hash"])
+    if not snapshots or trajectory is None:
+        return None
+    _, first, origin, resolution = snapshots[0]
+    extent = [origin[0], origin[0] + first.shape[0] * resolution,
+              origin[1], origin[1] + first.shape[1] * resolution]
+    colours = matplotlib.colors.ListedColormap(["#bbbbbb", "#ffffff", "#000000"])
+    figure, axis = plt.subplots(figsize=(4.6, 4.6))
+    image = axis.imshow(first.T, origin="lower", extent=extent, cmap=colours, vmin=0, vmax=2,
+                        interpolation="nearest")
+    (path,) = axis.plot([], [], color=_colour(0), lw=1.5)
+    axis.plot(run["goal_x"], run["goal_y"], "*", color="red", ms=10)
+    axis.set_xlabel("x (m)")
+    axis.set_ylabel("y (m)")
+
+    def draw(index):
+        time, grid, _, _ = snapshots[index]
+        image.set_data(grid.T)
+        flown = trajectory[trajectory["t"] <= time + 1e-9]
+        path.set_data(flown["x"], flown["y"])
+        axis.set_title(f"{run['planner']}, query {run['query']}: t = {time:.0f} s", fontsize=9)
+        return image, path
+
+    movie = animation.FuncAnimation(figure, draw, frames=len(snapshots), blit=False)
+    with tempfile.TemporaryDirectory() as directory:
+        file = f"{directory}/flight.gif"
+        movie.save(file, writer=animation.PillowWriter(fps=4), dpi=70)
+        plt.close(figure)
+        with open(file, "rb") as data:
+            return data.read()

@@ -115,7 +115,7 @@ signed-rank on planning time and cost over cases both solved (Holm-corrected).</
 {% for figure in figures %}
 <h2>{{ figure.title }}</h2>
 <p class="note">{{ figure.caption }}</p>
-<img src="data:image/png;base64,{{ figure.png }}" alt="{{ figure.title }}" data-figure="{{ figure.name }}">
+<img src="data:{{ figure.mime }};base64,{{ figure.png }}" alt="{{ figure.title }}" data-figure="{{ figure.name }}">
 {% endfor %}
 
 <h2>Means per planner</h2>
@@ -149,7 +149,8 @@ class Figure:
     name: str
     title: str
     caption: str
-    png: str = ""
+    png: str = ""  # base64 of the image
+    mime: str = "image/png"
 
 
 @dataclass
@@ -334,6 +335,20 @@ def write(paths: list[Path], out: Path, compare: Path | None = None,
                   f"Query {query}: what each flight had seen at its end, from above in the "
                   "band of its heights (black: obstacle, white: known free, grey: unknown), "
                   "and its flown path.")
+    # One animated flight per planner: the first stored map of each.
+    animated = set()
+    for _, run in runs.sort_values(["planner", "query"]).iterrows():
+        if run["planner"] in animated or (gif := plots.flight_animation(results, run)) is None:
+            continue
+        animated.add(run["planner"])
+        name = f"flight_{run['planner']}"
+        (out / "figures").mkdir(parents=True, exist_ok=True)
+        (out / "figures" / f"{name}.gif").write_bytes(gif)
+        report.figures.append(Figure(name, f"Flight of {run['planner']} (animation)",
+                                     f"Query {run['query']} in {run['world']}: the known map "
+                                     "growing from above (black: obstacle, white: known free, "
+                                     "grey: unknown) and the path flown so far.",
+                                     base64.b64encode(gif).decode("ascii"), "image/gif"))
     if (figure := plots.replan_times(results.replans())) is not None:
         _save(figure, report, "replan_times", "Replan times",
               "Every replan of every flight: its planning time, per planner.")

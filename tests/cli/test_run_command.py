@@ -440,6 +440,8 @@ def test_a_flight_experiment_flies_every_query_and_stores_the_flight_metrics(kin
     assert report.returncode == 0, report.stderr
     figures = {p.stem for p in (tmp_path / "out" / "report" / "figures").glob("*.png")}
     assert {"replan_times", "known_maps_small", "speeds_small", "trajectories_small"} <= figures
+    gif = tmp_path / "out" / "report" / "figures" / "flight_lazy.gif"
+    assert gif.read_bytes().startswith(b"GIF8")
     assert "Flights: each replan is timed once" in (
         tmp_path / "out" / "report" / "index.html").read_text()
 

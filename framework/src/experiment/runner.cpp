@@ -129,6 +129,10 @@ std::string flyOneRun(const Experiment& experiment, const RunSpec& run,
     MapModel map;
     FlightSettings settings;
     flightModels(variant.flight, &sensor, &map, &settings);
+    // The known map's growth for the queries whose trees a planning experiment would store.
+    const bool keep_map =
+        experiment.store_tree_queries < 0 || run.query < experiment.store_tree_queries;
+    if (keep_map) settings.snapshot_period = 2.0;
     const PlannerFactory factory = [&](std::shared_ptr<const World> window) {
       ConfiguredPlanner configured = configurePlanner(spec.type, spec.assignments);
       configured.planner->setup({std::move(window), configured.sampler, run.seed});
@@ -171,12 +175,13 @@ std::string flyOneRun(const Experiment& experiment, const RunSpec& run,
       out["trajectory"] = trajectoryCsv(flight.flown, 0.05);
     }
     out["replans"] = replansCsv(flight);
-    // The known map for the queries whose trees a planning experiment would store.
-    if (flight.map &&
-        (experiment.store_tree_queries < 0 || run.query < experiment.store_tree_queries)) {
-      const double low = std::min(query.start(2, 0), query.goal.z());
-      const double high = std::max(query.start(2, 0), query.goal.z());
-      out["known_map"] = flight.map->topView(low - 0.5, high + 0.5);
+    if (keep_map) {
+      // Snapshots one after the other, each after a line "t=SECONDS"; the last is the end.
+      std::string maps;
+      for (const auto& [time, view] : flight.snapshots) {
+        maps += "t=" + formatNumber(time) + "\n" + view;
+      }
+      out["known_map"] = maps;
     }
   });
 }

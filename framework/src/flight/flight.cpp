@@ -280,6 +280,9 @@ FlightResult fly(const std::shared_ptr<const World>& truth, const PlannerFactory
   std::string reason = "start";
   double t = 0.0;
   bool collided = false;
+  // The heights of the query, for the map's snapshots from above.
+  const double z_band_low = std::min(start.z(), query.goal.z()) - 0.5;
+  const double z_band_high = std::max(start.z(), query.goal.z()) + 0.5;
   for (int frame = 0;; ++frame) {
     // The ground truth: the stretch flown since the last frame, every centimetre of time.
     const double from = t;
@@ -316,6 +319,11 @@ FlightResult fly(const std::shared_ptr<const World>& truth, const PlannerFactory
       break;
     }
     ++result.frames;
+    if (settings.snapshot_period > 0.0 &&
+        (result.snapshots.empty() ||
+         t >= result.snapshots.back().first + settings.snapshot_period - 1e-9)) {
+      result.snapshots.emplace_back(t, map->topView(z_band_low, z_band_high));
+    }
     auto begin = std::chrono::steady_clock::now();
     const SensorFrame sensed =
         senseFrame(truth->grid(), sensor, now.col(0), headingOf(committed, t, query.goal));
@@ -382,6 +390,9 @@ FlightResult fly(const std::shared_ptr<const World>& truth, const PlannerFactory
     next_replan = t + (accepted ? settings.replan_period : dt);
   }
   result.flown = slice(committed, std::max(t, dt));
+  if (settings.snapshot_period > 0.0) {
+    result.snapshots.emplace_back(t, map->topView(z_band_low, z_band_high));
+  }
   if (collided) result.status = "collision";
   CheckQuery check_query;
   check_query.start = query.start;

@@ -126,6 +126,9 @@ struct FlightSettings {
   double stuck_time = 15.0;         ///< s without 0.5 m of progress towards the goal
   double goal_tolerance = 0.5;      ///< m: reached when this close to the goal
   double brake_acceleration = 3.0;  ///< m/s^2 per axis for braking to a stop
+  /// > 0: keep the known map from above (KnownMap::topView over the query's heights) every
+  /// this many seconds of flight, for animations; 0: none.
+  double snapshot_period = 0.0;
 };
 
 /// Every parameter of a flight (sensor, map, loop), declared, typed and ranged like a
@@ -162,6 +165,8 @@ struct FlightResult {
   double time_window_ms = 0.0;
   double time_guide_ms = 0.0;  ///< summed over the replans: the global guide on the known map
   std::shared_ptr<const KnownMap> map;  ///< the final known map
+  /// (time, KnownMap::topView) every snapshot_period and at the end, when asked for.
+  std::vector<std::pair<double, std::string>> snapshots;
 };
 
 /// Makes a planner set up on a world (one per replan window).
