@@ -256,6 +256,24 @@ TEST(FlightTest, AWallBeyondTheSensorsRangeIsSeenAndFlownAround) {
   EXPECT_GT(result.min_clearance, -0.01);
 }
 
+TEST(FlightTest, AWallBehindACornerIsSeenAfterTheTurnAndFlownAround) {
+  // A wall along y = 4 up to x = 12 (the corner); behind it, out of sight until the vehicle
+  // has turned north past the corner, a wall across y = 8 from x = 12.4 to 17.
+  const auto world = worldOf(
+      "  - type: box_list\n    boxes: [{min: [0, 4, 0], max: [12, 4.4, 3]},\n"
+      "            {min: [12.4, 8, 0], max: [17, 8.4, 3]}]\n",
+      "{min: [0, 0, 0], max: [20, 20, 3]}");
+  const FlightResult result = Flight().fly(world, {2, 2, 1.5}, {15, 12, 1.5});
+  EXPECT_EQ(result.status, "reached") << result.message;
+  // Replanned on a collision in the map after the turn (north of the first wall).
+  bool after_the_turn = false;
+  for (const FlightReplan& replan : result.replans) {
+    after_the_turn |= replan.reason == "collision" && replan.start.y() > 4.4;
+  }
+  EXPECT_TRUE(after_the_turn);
+  EXPECT_GT(result.min_clearance, -0.011);
+}
+
 TEST(FlightTest, ACollisionWithTheGroundTruthEndsTheFlight) {
   // A sensor that sees 0.2 m: the wall is found too late to stop from flying speed.
   const auto world = worldOf(kWall);
