@@ -81,6 +81,15 @@ class Results:
         replans = pd.concat(frames, ignore_index=True)
         return replans.merge(self.runs[["run_hash", "planner", "world", "query"]], on="run_hash")
 
+    def clearance(self, run_hash: str) -> pd.DataFrame | None:
+        """A flight's clearance to the ground truth over time (t, clearance), or None."""
+        with self.connection(run_hash) as db:
+            tables = {row[0] for row in
+                      db.execute("SELECT name FROM sqlite_master WHERE type = 'table'")}
+            row = (db.execute("SELECT clearance FROM flights WHERE run_hash = ?",
+                              (run_hash,)).fetchone() if "flights" in tables else None)
+        return pd.read_csv(io.StringIO(row[0])) if row and row[0] else None
+
     def known_maps(self, run_hash: str) -> list[tuple[float, np.ndarray, np.ndarray, float]]:
         """A flight's known map from above as it grew: (time, the (nx, ny) array of 0 unknown,
         1 free, 2 obstacle, the origin (x, y), the resolution) per snapshot, the last at the

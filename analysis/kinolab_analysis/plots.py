@@ -372,28 +372,35 @@ def lazy_speedup(table: pd.DataFrame, title: str) -> plt.Figure | None:
 
 
 def speeds(results: Results, world: World, query: int) -> plt.Figure | None:
-    """Speed over time of every stored trajectory of one query (flights: the flown one),
-    one line per planner; None without trajectories."""
+    """Speed and (flights) clearance to the ground truth over time of every stored
+    trajectory of one query, one line per planner; None without trajectories."""
     runs = results.runs
     chosen = runs[(runs["world_hash"] == world.world_hash) & (runs["query"] == query)]
-    figure, axis = plt.subplots(figsize=(7, 3.2))
+    figure, (speed_axis, clearance_axis) = plt.subplots(2, 1, figsize=(7, 5.2), sharex=True)
     drawn = 0
     for index, (_, run) in enumerate(chosen.iterrows()):
         trajectory = results.trajectory(run["run_hash"])
         if trajectory is None or not len(trajectory):
             continue
+        style = "-" if run["success"] else "--"
         speed = np.linalg.norm(trajectory[["vx", "vy", "vz"]].to_numpy(dtype=float), axis=1)
-        axis.plot(trajectory["t"], speed, color=_colour(index), label=run["planner"],
-                  linestyle="-" if run["success"] else "--")
+        speed_axis.plot(trajectory["t"], speed, style, color=_colour(index), label=run["planner"])
+        clearance = results.clearance(run["run_hash"])
+        if clearance is not None:
+            clearance_axis.plot(clearance["t"], clearance["clearance"], style,
+                                color=_colour(index))
         drawn += 1
     if not drawn:
         plt.close(figure)
         return None
-    axis.set_xlabel("time (s)")
-    axis.set_ylabel("speed (m/s)")
-    axis.grid(alpha=0.3)
-    axis.legend(fontsize=8)
-    axis.set_title(f"{world.id}, query {query}: speed over time")
+    speed_axis.set_ylabel("speed (m/s)")
+    clearance_axis.set_ylabel("clearance (m)")
+    clearance_axis.axhline(0.0, color="black", lw=0.8)
+    clearance_axis.set_xlabel("time (s)")
+    for axis in (speed_axis, clearance_axis):
+        axis.grid(alpha=0.3)
+    speed_axis.legend(fontsize=8)
+    speed_axis.set_title(f"{world.id}, query {query}: speed and clearance over time")
     figure.tight_layout()
     return figure
 

@@ -328,8 +328,9 @@ def write(paths: list[Path], out: Path, compare: Path | None = None,
                   "above and from the side; start green, goal red.")
         if "time_to_goal" in runs.columns and (
                 figure := plots.speeds(results, world, query)) is not None:
-            _save(figure, report, f"speeds_{world.id}", f"Speed over time in {world.id}",
-                  f"Query {query}: each planner's flight, speed against time.")
+            _save(figure, report, f"speeds_{world.id}", f"Speed and clearance in {world.id}",
+                  f"Query {query}: each planner's flight, its speed and its clearance to the "
+                  "ground truth (the ESDF less the body's radius) against time.")
         if (figure := plots.known_maps(results, world, query)) is not None:
             _save(figure, report, f"known_maps_{world.id}", f"Known maps in {world.id}",
                   f"Query {query}: what each flight had seen at its end, from above in the "

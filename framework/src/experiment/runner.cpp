@@ -164,8 +164,8 @@ std::string flyOneRun(const Experiment& experiment, const RunSpec& run,
         {"checker_detail", collided ? flight.message : std::string()},
     };
     out["metrics"] = nlohmann::json::parse(toJson(metrics, resultMetrics()));
-    out["metrics"]["line_blocked"] =
-        !world->segmentFree(query.start.col(0), query.goal, factory(world)->model().robot_radius);
+    const double radius = factory(world)->model().robot_radius;
+    out["metrics"]["line_blocked"] = !world->segmentFree(query.start.col(0), query.goal, radius);
     MetricValues statistics;
     for (const auto& [name, item] : values) {
       if (flightStatistics().find(name)) statistics.emplace_back(name, item);
@@ -175,6 +175,13 @@ std::string flyOneRun(const Experiment& experiment, const RunSpec& run,
       out["trajectory"] = trajectoryCsv(flight.flown, 0.05);
     }
     out["replans"] = replansCsv(flight);
+    // Clearance to the ground truth (its ESDF less the body) over the flight, every 0.05 s.
+    std::string clearance = "t,clearance\n";
+    for (const TrajectorySample& sample : flight.flown.sample(0.05)) {
+      clearance += formatNumber(sample.time) + "," +
+                   formatNumber(world->distance(sample.position) - radius) + "\n";
+    }
+    out["clearance"] = clearance;
     if (keep_map) {
       // Snapshots one after the other, each after a line "t=SECONDS"; the last is the end.
       std::string maps;
@@ -252,6 +259,7 @@ RunRecord recordOf(const Experiment& experiment, const RunSpec& run, const Worke
   record.tree_csv = out.value("tree", "");
   record.replans_csv = out.value("replans", "");
   record.known_map = out.value("known_map", "");
+  record.clearance_csv = out.value("clearance", "");
   return record;
 }
 

@@ -45,7 +45,8 @@ struct RunRecord {
   std::string trajectory_csv;  ///< when the experiment stores trajectories
   std::string tree_csv;        ///< when it stores search trees
   std::string replans_csv;     ///< a flight's replans (kind: flight)
-  std::string known_map;       ///< a flight's final known map, top view (store.trees' queries)
+  std::string known_map;       ///< a flight's known map from above (store.trees' queries)
+  std::string clearance_csv;   ///< a flight's clearance to the ground truth over time
 
   /// The text of a metric ("" when it is none or absent).
   std::string text(std::string_view name) const;
