@@ -330,6 +330,9 @@ FlightResult fly(const std::shared_ptr<const World>& truth, const PlannerFactory
     result.time_sense_ms += millisecondsSince(begin);
     begin = std::chrono::steady_clock::now();
     map->insert(sensed, sensor.range);
+    // Where the vehicle is, nothing is: its body is known free, with two voxels to spare for
+    // the ESDF's conservative clearance (so that a cautious map still lets it start).
+    map->markFree(now.col(0), model.robot_radius + 2.0 * map_model.resolution);
     result.time_map_ms += millisecondsSince(begin);
     begin = std::chrono::steady_clock::now();
     const std::shared_ptr<const World> window = map->window(now.col(0));
@@ -381,9 +384,11 @@ FlightResult fly(const std::shared_ptr<const World>& truth, const PlannerFactory
     result.replans.push_back(std::move(replan));
     if (!accepted && !freeFrom(committed, t, *window, model)) {
       // Nothing safe to fly on: stop now.
+      const ChainState here = stateAt(committed, t);
       Trajectory stop = slice(committed, t);
-      const TrajectorySegment braking = brake(stateAt(committed, t), brake_rate);
+      const TrajectorySegment braking = brake(here, brake_rate);
       if (braking.duration > 0.0) stop.append(braking);
+      if (stop.empty()) stop.append(hold(here.col(0), dt));  // at rest at the very start
       committed = std::move(stop);
     }
     reason = accepted ? "period" : "retry";

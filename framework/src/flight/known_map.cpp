@@ -81,6 +81,20 @@ void KnownMap::insert(const SensorFrame& frame, double max_range) {
   for (const octomap::OcTreeKey& key : occupied_cells) update(key, true);
 }
 
+void KnownMap::markFree(const Eigen::Vector3d& center, double radius) {
+  const VoxelGrid& lattice = tree_->lattice;
+  octomap::OcTree& tree = tree_->tree;
+  lattice.forEachVoxelIn(center.array() - radius, center.array() + radius, [&](std::size_t i) {
+    const Eigen::Vector3i& n = lattice.dims();
+    const VoxelIndex voxel(static_cast<int>(i / (static_cast<std::size_t>(n.y()) * n.z())),
+                           static_cast<int>(i / n.z() % n.y()), static_cast<int>(i % n.z()));
+    const Eigen::Vector3d c = lattice.center(voxel);
+    if ((c - center).norm() > radius || tree_->state[i] == 1) return;
+    const octomap::OcTreeNode* node = tree.updateNode(toTree(c, bounds_.min), false, true);
+    if (node) tree_->state[i] = tree.isNodeOccupied(node) ? 2 : 1;
+  });
+}
+
 std::shared_ptr<const World> KnownMap::window(const Eigen::Vector3d& center) const {
   const double r = model_.resolution;
   // The window's box on the map's lattice, within the map.

@@ -79,6 +79,9 @@ class KnownMap {
 
   /// Inserts a frame: free space along every ray, an occupied voxel at every hit.
   void insert(const SensorFrame& frame, double max_range);
+  /// Marks the voxels within `radius` of `center` known free (where the vehicle is, nothing
+  /// can be), in the tree and the mirror.
+  void markFree(const Eigen::Vector3d& center, double radius);
   /// The planning world: the window of side `window` around `center` (clamped to the map),
   /// known occupied voxels and unknown ones as `unknown` says (kFreeBeyond: measured from
   /// `center`), with its exact ESDF.
