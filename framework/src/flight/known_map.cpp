@@ -89,7 +89,8 @@ void KnownMap::markFree(const Eigen::Vector3d& center, double radius) {
     const VoxelIndex voxel(static_cast<int>(i / (static_cast<std::size_t>(n.y()) * n.z())),
                            static_cast<int>(i / n.z() % n.y()), static_cast<int>(i % n.z()));
     const Eigen::Vector3d c = lattice.center(voxel);
-    if ((c - center).norm() > radius || tree_->state[i] == 1) return;
+    // Only unseen voxels: what the sensor saw (an obstacle beside the body) stays as seen.
+    if ((c - center).norm() > radius || tree_->state[i] != 0) return;
     const octomap::OcTreeNode* node = tree.updateNode(toTree(c, bounds_.min), false, true);
     if (node) tree_->state[i] = tree.isNodeOccupied(node) ? 2 : 1;
   });

@@ -79,8 +79,8 @@ class KnownMap {
 
   /// Inserts a frame: free space along every ray, an occupied voxel at every hit.
   void insert(const SensorFrame& frame, double max_range);
-  /// Marks the voxels within `radius` of `center` known free (where the vehicle is, nothing
-  /// can be), in the tree and the mirror.
+  /// Marks the unseen voxels within `radius` of `center` free (where the vehicle is, nothing
+  /// can be), in the tree and the mirror; voxels the sensor has seen keep their state.
   void markFree(const Eigen::Vector3d& center, double radius);
   /// The planning world: the window of side `window` around `center` (clamped to the map),
   /// known occupied voxels and unknown ones as `unknown` says (kFreeBeyond: measured from
