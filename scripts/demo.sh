@@ -5,8 +5,8 @@
 # study under every reading and the lazy-regime sweeps (experiments/lazy_regime/) beside it,
 # write the report (out/quick/report/index.html), build the demo worlds with their pictures
 # into out/worlds/, and plan one dense-forest query with eager and lazy MP-A* and the TGK
-# analogue into out/plan/. Run again, it resumes (nothing runs twice). About 3 minutes on 2
-# cores after the build.
+# analogue into out/plan/, and fly one closed-loop flight into out/fly/. Run again, it resumes
+# (nothing runs twice). About 3 minutes on 2 cores after the build.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/setup_debian.sh
@@ -27,8 +27,12 @@ for planner in eager_mp_astar lazy_mp_astar rrtstar_ceres; do
   $kinolab plan --world configs/worlds/dense_forest.yaml --planner "$planner" \
     --start 2,2,1.5 --goal 14,12,1.5 --out "out/plan/$planner"
 done
+# One closed-loop flight through the dense forest, seen only through a depth camera.
+$kinolab fly --world configs/worlds/dense_forest.yaml --planner lazy_mp_astar \
+  --set sampler.samples_per_axis=5 --start 2,2,1.5 --goal 30,30,1.5 --out out/fly/lazy_mp_astar
 echo "demo: the quick reproduction: out/quick/report/index.html (results in out/quick/results.sqlite;"
 echo "      lazy-regime sweeps in out/quick/lazy_regime/*; Table I and its readings in"
 echo "      out/quick/sampling_study/paper_table1_samplers/{summary,readings}.csv);"
 echo "      pictures in out/worlds/*/top_view.png and out/worlds/*/esdf_slice.png;"
-echo "      lazy and eager MP-A* and rrtstar_ceres on the dense forest in out/plan/*/{trajectory,tree}.csv"
+echo "      lazy and eager MP-A* and rrtstar_ceres on the dense forest in out/plan/*/{trajectory,tree}.csv;"
+echo "      a closed-loop flight of lazy MP-A* in out/fly/lazy_mp_astar/ (flown.csv, replans.csv, known_map.bt)"
