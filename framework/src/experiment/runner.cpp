@@ -164,7 +164,7 @@ std::string flyOneRun(const Experiment& experiment, const RunSpec& run,
         {"checker_detail", collided ? flight.message : std::string()},
     };
     out["metrics"] = nlohmann::json::parse(toJson(metrics, resultMetrics()));
-    const double radius = factory(world)->model().robot_radius;
+    const double radius = flight.model.robot_radius;
     out["metrics"]["line_blocked"] = !world->segmentFree(query.start.col(0), query.goal, radius);
     MetricValues statistics;
     for (const auto& [name, item] : values) {

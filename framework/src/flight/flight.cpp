@@ -90,6 +90,17 @@ bool freeFrom(const Trajectory& trajectory, double t, const World& window,
   return true;
 }
 
+/// The point `s` metres along the polyline `way` (its end when it is shorter).
+Eigen::Vector3d pointAlong(const std::vector<Eigen::Vector3d>& way, double s) {
+  double along = 0.0;
+  for (std::size_t i = 1; i < way.size(); ++i) {
+    const double step = (way[i] - way[i - 1]).norm();
+    if (along + step > s) return way[i - 1] + (way[i] - way[i - 1]) * ((s - along) / step);
+    along += step;
+  }
+  return way.back();
+}
+
 /// The local goal: the goal when it is within `horizon` and the window, else the point
 /// `horizon` metres along the guide (the known map's shortest way; the straight line when it
 /// is empty), stopping where the guide would leave the window (0.5 m inside its sides); then
@@ -106,33 +117,19 @@ bool localGoal(const Eigen::Vector3d& from, const Eigen::Vector3d& goal,
   };
   std::vector<Eigen::Vector3d> way = guide;
   if (way.size() < 2) way = {from, goal};
+  // Along the way to the horizon, stopping before the first point outside the window.
   Eigen::Vector3d target = way.front();
   double travelled = 0.0;
-  for (std::size_t i = 1; i < way.size(); ++i) {
-    const double step = (way[i] - way[i - 1]).norm();
-    const Eigen::Vector3d next =
-        travelled + step > horizon
-            ? Eigen::Vector3d(way[i - 1] + (way[i] - way[i - 1]) * ((horizon - travelled) / step))
-            : way[i];
+  for (std::size_t i = 1; i < way.size() && travelled < horizon; ++i) {
+    travelled += (way[i] - way[i - 1]).norm();
+    const Eigen::Vector3d next = travelled > horizon ? pointAlong(way, horizon) : way[i];
     if (!inside(next) && !(next - goal).isZero()) break;
     target = next;
-    travelled += step;
-    if (travelled >= horizon) break;
   }
   if ((target - from).norm() < 0.5) {
     // The way leaves the window at once (the vehicle at its side): the horizon point along
     // it, clamped into the window.
-    Eigen::Vector3d ahead = way.back();
-    double along = 0.0;
-    for (std::size_t i = 1; i < way.size(); ++i) {
-      const double step = (way[i] - way[i - 1]).norm();
-      if (along + step >= horizon) {
-        ahead = way[i - 1] + (way[i] - way[i - 1]) * ((horizon - along) / step);
-        break;
-      }
-      along += step;
-    }
-    target = ahead.cwiseMax(inner_min).cwiseMin(inner_max);
+    target = pointAlong(way, horizon).cwiseMax(inner_min).cwiseMin(inner_max);
   }
   if ((goal - from).norm() <= horizon && box.contains(goal)) target = goal;
   // Back along the way, then around, in 0.25 m steps, until a free point.
@@ -163,49 +160,59 @@ double headingOf(const Trajectory& committed, double t, const Eigen::Vector3d& g
   return towards.norm() > 1e-9 ? std::atan2(towards.y(), towards.x()) : 0.0;
 }
 
+constexpr double kDegree = M_PI / 180.0;
+
 }  // namespace
 
 const ParameterSpecs& flightParameters() {
+  // The defaults are the models' own (one place for each).
+  const SensorModel sensor;
+  const MapModel map;
+  const FlightSettings loop;
   static const ParameterSpecs specs =
       ParameterSpecs()
           .choice("sensor", "depth_camera", {"depth_camera", "lidar"},
                   "depth_camera: a pinhole looking along the heading; lidar: 360 degrees")
-          .real("range", 5.0, 0.1, 100.0, "sensor range, m")
-          .real("rate", 10.0, 0.5, 100.0, "frames per second (the loop's step)")
-          .real("fov_horizontal", 90.0, 1.0, 170.0, "camera horizontal field of view, degrees")
-          .real("fov_vertical", 60.0, 1.0, 170.0,
+          .real("range", sensor.range, 0.1, 100.0, "sensor range, m")
+          .real("rate", sensor.rate, 0.5, 100.0, "frames per second (the loop's step)")
+          .real("fov_horizontal", sensor.fov_horizontal / kDegree, 1.0, 170.0,
+                "camera horizontal field of view, degrees")
+          .real("fov_vertical", sensor.fov_vertical / kDegree, 1.0, 170.0,
                 "camera (and lidar) vertical field of view, degrees")
-          .integer("width", 32, 1, 4096, "camera pixels across")
-          .integer("height", 24, 1, 4096, "camera pixels down")
-          .integer("beams", 360, 1, 100000, "lidar beams per revolution")
-          .integer("channels", 16, 1, 1024, "lidar channels")
-          .real("map_resolution", 0.1, 0.01, 10.0,
+          .integer("width", sensor.width, 1, 4096, "camera pixels across")
+          .integer("height", sensor.height, 1, 4096, "camera pixels down")
+          .integer("beams", sensor.beams, 1, 100000, "lidar beams per revolution")
+          .integer("channels", sensor.channels, 1, 1024, "lidar channels")
+          .real("map_resolution", map.resolution, 0.01, 10.0,
                 "the vehicle's map voxel, m (the ground truth's lattice when equal)")
-          .real("window", 8.0, 1.0, 1000.0, "planning window side in x and y, m")
-          .real("window_height", 2.0, 0.2, 1000.0,
+          .real("window", map.window, 1.0, 1000.0, "planning window side in x and y, m")
+          .real("window_height", map.window_height, 0.2, 1000.0,
                 "planning window height, m (centred on the vehicle, within the map; a camera "
                 "looking ahead does not see far above or below, so a tall window lets a planner "
                 "climb into unseen space)")
           .choice("unknown", "free", {"free", "occupied", "free_beyond"},
                   "unseen space in the planning window: free, occupied, or occupied closer "
                   "than free_beyond and free farther")
-          .real("free_beyond", 2.0, 0.0, 1000.0, "see unknown, m")
-          .real("replan_period", 0.5, 0.01, 100.0, "s between replans (and on collision)")
-          .real("replan_budget", 0.1, 0.001, 100.0, "each replan's planning time budget, s")
+          .real("free_beyond", map.free_beyond, 0.0, 1000.0, "see unknown, m")
+          .real("replan_period", loop.replan_period, 0.01, 100.0,
+                "s between replans (and on collision)")
+          .real("replan_budget", loop.replan_budget, 0.001, 100.0,
+                "each replan's planning time budget, s")
           .real("latency", -1.0, -1.0, 100.0,
                 "the plan starts from the committed state this long after its frame, s; "
                 "-1: the replan budget (a flight repeats bit for bit)")
-          .boolean("enforce_latency", false,
+          .boolean("enforce_latency", loop.enforce_latency,
                    "reject a plan whose measured planning time exceeds the latency (it would "
                    "arrive after its start; real time, so not repeatable)")
-          .real("horizon", 3.5, 0.5, 1000.0,
+          .real("horizon", loop.horizon, 0.5, 1000.0,
                 "local goal distance when the goal is farther, m (kept 0.5 m inside the "
                 "window)")
-          .real("max_time", 120.0, 0.1, 1e5, "flight time limit, s (status timeout)")
-          .real("stuck_time", 15.0, 0.1, 1e5,
+          .real("max_time", loop.max_time, 0.1, 1e5, "flight time limit, s (status timeout)")
+          .real("stuck_time", loop.stuck_time, 0.1, 1e5,
                 "s without 0.5 m of progress towards the goal (status stuck)")
-          .real("goal_tolerance", 0.5, 0.01, 100.0, "reached: this close to the goal, m")
-          .real("brake_acceleration", 3.0, 0.01, 1000.0,
+          .real("goal_tolerance", loop.goal_tolerance, 0.01, 100.0,
+                "reached: this close to the goal, m")
+          .real("brake_acceleration", loop.brake_acceleration, 0.01, 1000.0,
                 "deceleration of the stops that end every committed trajectory, m/s^2 (at most "
                 "the planner's max_acceleration is used)");
   return specs;
@@ -213,7 +220,6 @@ const ParameterSpecs& flightParameters() {
 
 void flightModels(const ParameterSet& p, SensorModel* sensor, MapModel* map,
                   FlightSettings* settings) {
-  constexpr double kDegree = M_PI / 180.0;
   sensor->kind =
       p.text("sensor") == "lidar" ? SensorModel::Kind::kLidar : SensorModel::Kind::kDepthCamera;
   sensor->range = p.real("range");
@@ -250,13 +256,9 @@ FlightResult fly(const std::shared_ptr<const World>& truth, const PlannerFactory
   auto map = std::make_shared<KnownMap>(truth->bounds(), map_model);
   result.map = map;
   // The body and limits every replan plans for (the planner's model on any world).
-  const PlanningModel model = make_planner(truth)->model();
-  CheckerSettings checker_settings;
-  checker_settings.robot_radius = model.robot_radius;
-  checker_settings.limits = model.limits;
-  checker_settings.max_derivative = model.limited_derivatives;
-  checker_settings.collision_tolerance = model.collision_tolerance;
-  const TrajectoryChecker checker(truth, checker_settings);
+  result.model = make_planner(truth)->model();
+  const PlanningModel& model = result.model;
+  const TrajectoryChecker checker(truth, checkerSettings(model));
   const Eigen::Vector3d start = query.start.col(0);
   if (!truth->isFree(start, model.robot_radius)) {
     result.status = "invalid_start";
@@ -486,34 +488,32 @@ MetricValues flightValues(const FlightResult& result) {
     const std::size_t high = std::min(values.size() - 1, low + 1);
     return values[low] + (position - static_cast<double>(low)) * (values[high] - values[low]);
   };
-  const auto number = [](double value) -> MetricValue {
-    return std::isfinite(value) ? MetricValue(value) : MetricValue();
-  };
   const double duration = result.flown.duration();
   const double length = result.flown.length();
   const double per_frame =
       result.frames > 0
           ? (result.time_sense_ms + result.time_map_ms + result.time_window_ms) / result.frames
           : NAN;
-  return {{"status", result.status},
-          {"message", result.message},
-          {"success", result.status == "reached" ? 1.0 : 0.0},
-          {"time_to_goal", number(result.time_to_goal)},
-          {"flown_length", number(length)},
-          {"mean_speed", number(duration > 0.0 ? length / duration : NAN)},
-          {"replans", static_cast<double>(result.replans.size())},
-          {"failed_replans", static_cast<double>(failed)},
-          {"replan_time_median_ms", quantile(times, 0.5)},
-          {"replan_time_p95_ms", quantile(times, 0.95)},
-          {"replan_time_max_ms", quantile(times, 1.0)},
-          {"min_clearance", number(result.min_clearance)},
-          {"plan_distance_median", quantile(distances, 0.5)},
-          {"plan_distance_max", quantile(distances, 1.0)},
-          {"jerk_integral", number(result.flown.jerkIntegral())},
-          {"frames", static_cast<double>(result.frames)},
-          {"frame_time_ms", number(per_frame)},
-          {"guide_time_ms",
-           number(result.replans.empty() ? NAN : result.time_guide_ms / result.replans.size())}};
+  return {
+      {"status", result.status},
+      {"message", result.message},
+      {"success", result.status == "reached" ? 1.0 : 0.0},
+      {"time_to_goal", numberOrNone(result.time_to_goal)},
+      {"flown_length", numberOrNone(length)},
+      {"mean_speed", numberOrNone(duration > 0.0 ? length / duration : NAN)},
+      {"replans", static_cast<double>(result.replans.size())},
+      {"failed_replans", static_cast<double>(failed)},
+      {"replan_time_median_ms", quantile(times, 0.5)},
+      {"replan_time_p95_ms", quantile(times, 0.95)},
+      {"replan_time_max_ms", quantile(times, 1.0)},
+      {"min_clearance", numberOrNone(result.min_clearance)},
+      {"plan_distance_median", quantile(distances, 0.5)},
+      {"plan_distance_max", quantile(distances, 1.0)},
+      {"jerk_integral", numberOrNone(result.flown.jerkIntegral())},
+      {"frames", static_cast<double>(result.frames)},
+      {"frame_time_ms", numberOrNone(per_frame)},
+      {"guide_time_ms",
+       numberOrNone(result.replans.empty() ? NAN : result.time_guide_ms / result.replans.size())}};
 }
 
 }  // namespace kinolab

@@ -295,24 +295,18 @@ std::vector<Eigen::Vector3d> KnownMap::occupiedCenters() const {
 }
 
 void KnownMap::write(const std::string& path) const {
-  tree_->tree.updateInnerOccupancy();  // insertions were lazy
-  // OctoMap writes its own frame; the shift to the world frame goes into a copy's leaves.
+  // OctoMap writes its own frame: the known voxels (the mirror's) go into a tree in the
+  // world's frame, and so does their state.
   octomap::OcTree shifted(model_.resolution);
-  const octomap::OcTree& tree = tree_->tree;
-  for (auto it = tree.begin_leafs(), end = tree.end_leafs(); it != end; ++it) {
-    const double size = it.getSize();
-    const octomap::point3d c = it.getCoordinate();
-    const int k = std::max(1, static_cast<int>(std::lround(size / model_.resolution)));
-    const bool occupied = tree.isNodeOccupied(*it);
-    for (int x = 0; x < k; ++x) {
-      for (int y = 0; y < k; ++y) {
-        for (int z = 0; z < k; ++z) {
-          const Eigen::Vector3d p =
-              bounds_.min + Eigen::Vector3d(c.x() - 0.5 * size + (x + 0.5) * model_.resolution,
-                                            c.y() - 0.5 * size + (y + 0.5) * model_.resolution,
-                                            c.z() - 0.5 * size + (z + 0.5) * model_.resolution);
-          shifted.updateNode(toTree(p, Eigen::Vector3d::Zero()), occupied);
-        }
+  const VoxelGrid& lattice = tree_->lattice;
+  const Eigen::Vector3i& n = lattice.dims();
+  for (int x = 0; x < n.x(); ++x) {
+    for (int y = 0; y < n.y(); ++y) {
+      for (int z = 0; z < n.z(); ++z) {
+        const std::uint8_t state = tree_->state[lattice.index(x, y, z)];
+        if (state == 0) continue;
+        shifted.updateNode(toTree(lattice.center(VoxelIndex(x, y, z)), Eigen::Vector3d::Zero()),
+                           state == 2, /*lazy_eval=*/true);
       }
     }
   }

@@ -45,22 +45,18 @@ bool isSuccess(PlanStatus status, bool checker_valid) {
 }
 
 MetricValues resultValues(const PlanResult& result) {
-  const auto number = [](double value) -> MetricValue {
-    if (std::isfinite(value)) return value;
-    return std::monostate{};
-  };
   const bool has_trajectory = !result.trajectory.empty();
   const auto ofTrajectory = [&](auto compute) -> MetricValue {
-    return has_trajectory ? number(compute()) : MetricValue{};
+    return has_trajectory ? numberOrNone(compute()) : MetricValue{};
   };
   const CheckResult& check = result.check;
   return {
       {"status", std::string(toString(result.status))},
       {"message", result.message},
       {"success", isSuccess(result.status, check.valid) ? 1.0 : 0.0},
-      {"planning_time_ms", number(result.planning_time_ms)},
-      {"cost", number(result.cost)},
-      {"distance_to_goal", number(result.distance_to_goal)},
+      {"planning_time_ms", numberOrNone(result.planning_time_ms)},
+      {"cost", numberOrNone(result.cost)},
+      {"distance_to_goal", numberOrNone(result.distance_to_goal)},
       {"duration", ofTrajectory([&] { return result.trajectory.duration(); })},
       {"length", ofTrajectory([&] { return result.trajectory.length(); })},
       {"jerk_integral", ofTrajectory([&] { return result.trajectory.jerkIntegral(); })},
@@ -69,7 +65,7 @@ MetricValues resultValues(const PlanResult& result) {
       {"checker_valid", check.valid ? 1.0 : 0.0},
       {"checker_check", check.check},
       {"checker_detail", check.detail},
-      {"checker_time", check.check.empty() ? MetricValue{} : number(check.time)},
+      {"checker_time", check.check.empty() ? MetricValue{} : numberOrNone(check.time)},
   };
 }
 
@@ -77,7 +73,7 @@ MetricValues statisticValues(const std::vector<std::pair<std::string, double>>& 
   MetricValues values;
   values.reserve(statistics.size());
   for (const auto& [name, value] : statistics) {
-    values.emplace_back(name, std::isfinite(value) ? MetricValue(value) : MetricValue());
+    values.emplace_back(name, numberOrNone(value));
   }
   return values;
 }

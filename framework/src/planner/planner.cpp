@@ -79,13 +79,7 @@ const World& Planner::world() const {
 void Planner::setup(const PlannerContext& context) {
   if (!context.world) throw InvalidArgument("planner: setup without a world");
   doSetup(context);
-  const PlanningModel model = planningModel();
-  CheckerSettings settings;
-  settings.robot_radius = model.robot_radius;
-  settings.limits = model.limits;
-  settings.max_derivative = model.limited_derivatives;
-  settings.collision_tolerance = model.collision_tolerance;
-  checker_ = std::make_unique<TrajectoryChecker>(context.world, settings);
+  checker_ = std::make_unique<TrajectoryChecker>(context.world, checkerSettings(planningModel()));
   world_ = context.world;
 }
 
@@ -193,6 +187,15 @@ PlanningModel planningModelFrom(const ParameterSet& parameters) {
   model.goal_radius = parameters.real("goal_radius");
   model.collision_tolerance = parameters.real("collision_tolerance");
   return model;
+}
+
+CheckerSettings checkerSettings(const PlanningModel& model) {
+  CheckerSettings settings;
+  settings.robot_radius = model.robot_radius;
+  settings.limits = model.limits;
+  settings.max_derivative = model.limited_derivatives;
+  settings.collision_tolerance = model.collision_tolerance;
+  return settings;
 }
 
 Budget timeBudgetFrom(const ParameterSet& parameters) {

@@ -1,5 +1,6 @@
 #pragma once
 
+#include <cmath>
 #include <string>
 #include <string_view>
 #include <utility>
@@ -59,5 +60,11 @@ class MetricSpecs {
 /// integers too), or text.
 using MetricValue = std::variant<std::monostate, double, std::string>;
 using MetricValues = std::vector<std::pair<std::string, MetricValue>>;
+
+/// A number as a metric's value: none when it is not finite (NaN and infinity are never
+/// stored as figures).
+inline MetricValue numberOrNone(double value) {
+  return std::isfinite(value) ? MetricValue(value) : MetricValue();
+}
 
 }  // namespace kinolab

@@ -1,6 +1,7 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <cmath>
 #include <functional>
 #include <memory>
 #include <string>
@@ -21,11 +22,11 @@ namespace kinolab {
 struct SensorModel {
   enum class Kind { kDepthCamera, kLidar };
   Kind kind = Kind::kDepthCamera;
-  double range = 5.0;              ///< m
-  double rate = 10.0;              ///< frames per second
-  double fov_horizontal = 1.5708;  ///< rad (camera)
-  double fov_vertical = 1.0472;    ///< rad (camera and lidar)
-  int width = 32;                  ///< pixels (camera)
+  double range = 5.0;                ///< m
+  double rate = 10.0;                ///< frames per second
+  double fov_horizontal = M_PI / 2;  ///< rad (camera)
+  double fov_vertical = M_PI / 3;    ///< rad (camera and lidar)
+  int width = 32;                    ///< pixels (camera)
   int height = 24;
   int beams = 360;  ///< per revolution (lidar)
   int channels = 16;
@@ -135,7 +136,8 @@ struct FlightSettings {
 };
 
 /// Every parameter of a flight (sensor, map, loop), declared, typed and ranged like a
-/// planner's (`kinolab fly --flight NAME=VALUE`, an experiment's `flight:`).
+/// planner's, their defaults those of SensorModel, MapModel and FlightSettings (`kinolab fly
+/// --flight NAME=VALUE`, an experiment's `flight:`).
 const ParameterSpecs& flightParameters();
 /// The models and settings of resolved flight parameters.
 void flightModels(const ParameterSet& parameters, SensorModel* sensor, MapModel* map,
@@ -158,7 +160,8 @@ struct FlightResult {
   /// reached (within goal_tolerance), collision, stuck, timeout, invalid_start, invalid_goal
   std::string status;
   std::string message;
-  Trajectory flown;  ///< from t = 0 to the end of the flight (or the collision)
+  PlanningModel model;  ///< the planner's body and limits the flight was judged with
+  Trajectory flown;     ///< from t = 0 to the end of the flight (or the collision)
   std::vector<FlightReplan> replans;
   double time_to_goal = 0.0;   ///< s (NaN unless reached)
   double min_clearance = 0.0;  ///< m: to the ground truth's cubes, less the body radius

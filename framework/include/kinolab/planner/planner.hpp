@@ -154,6 +154,9 @@ PluginRegistry<Planner>& pluginRegistry<Planner>();
 ParameterSpecs motionParameters(double default_time_limit);
 /// The body, velocity and acceleration limits and goal region of motionParameters().
 PlanningModel planningModelFrom(const ParameterSet& parameters);
+/// What the independent checker holds a planner of this model to: its body, limits and
+/// collision tolerance.
+CheckerSettings checkerSettings(const PlanningModel& model);
 /// The `time_limit` of motionParameters() as a budget (0: none).
 Budget timeBudgetFrom(const ParameterSet& parameters);
 
