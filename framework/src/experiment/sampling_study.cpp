@@ -36,6 +36,19 @@ std::vector<bool> twoChoices(const YamlReader& list, const std::string& first,
   return chosen;
 }
 
+/// alpha's numerator (distances above the threshold) and L (their mean; NaN for a set of
+/// one) from the nearest-neighbour distances of a set.
+void spreadOf(const std::vector<double>& nearest, double threshold, int* useful,
+              double* mean_nearest) {
+  *useful = 0;
+  double sum = 0.0;
+  for (const double d : nearest) {
+    *useful += d > threshold ? 1 : 0;
+    sum += d;
+  }
+  *mean_nearest = nearest.size() > 1 ? sum / static_cast<double>(nearest.size()) : NAN;
+}
+
 }  // namespace
 
 SamplingStudyConfig SamplingStudyConfig::fromFile(const std::string& path) {
@@ -231,14 +244,11 @@ std::vector<SamplingReadingRow> runSamplingReadings(const SamplingStudyConfig& c
               int finite_sets = 0;
               for (const auto& set : nearest) {
                 int useful = 0;
-                double sum = 0.0;
-                for (const double d : set) {
-                  useful += d > threshold ? 1 : 0;
-                  sum += d;
-                }
+                double mean = NAN;
+                spreadOf(set, threshold, &useful, &mean);
                 row.alpha += static_cast<double>(useful) / static_cast<double>(set.size());
-                if (set.size() > 1) {
-                  row.mean_nearest += sum / static_cast<double>(set.size());
+                if (!std::isnan(mean)) {
+                  row.mean_nearest += mean;
                   ++finite_sets;
                 }
               }
@@ -256,18 +266,13 @@ std::vector<SamplingReadingRow> runSamplingReadings(const SamplingStudyConfig& c
 
 void endpointSpread(const std::vector<Eigen::Vector3d>& endpoints, double threshold, int* useful,
                     double* mean_nearest) {
-  const std::size_t count = endpoints.size();
-  *useful = 0;
-  double sum = 0.0;
-  for (std::size_t i = 0; i < count; ++i) {
-    double nearest = INFINITY;
-    for (std::size_t j = 0; j < count; ++j) {
-      if (j != i) nearest = std::min(nearest, (endpoints[i] - endpoints[j]).norm());
-    }
-    if (nearest > threshold) ++*useful;
-    sum += nearest;
+  std::vector<Eigen::Matrix<double, 6, 1>> points;
+  points.reserve(endpoints.size());
+  for (const Eigen::Vector3d& p : endpoints) {
+    points.emplace_back();
+    points.back() << p, Eigen::Vector3d::Zero();
   }
-  *mean_nearest = count > 1 ? sum / static_cast<double>(count) : NAN;
+  spreadOf(nearestDistances(points, 3), threshold, useful, mean_nearest);
 }
 
 std::vector<SamplingStudyRow> runSamplingStudy(const SamplingStudyConfig& config) {
