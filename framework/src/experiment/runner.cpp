@@ -311,6 +311,7 @@ class Progress {
   void finish() {
     if (tty_) std::fputc('\n', stderr);
   }
+  RunnerProgress state() const { return {done_, total_, failed_, seconds() - begin_}; }
 
  private:
   void print(double now) const {
@@ -607,6 +608,7 @@ RunnerSummary runExperiment(const Experiment& experiment, const RunnerOptions& o
       summary.succeeded += success ? 1 : 0;
       ++summary.by_status[record.text("status")];
       progress.update(success);
+      if (options.on_progress) options.on_progress(progress.state());
     }
   }
   progress.finish();

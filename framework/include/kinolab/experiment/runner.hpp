@@ -1,14 +1,23 @@
 #pragma once
 
+#include <functional>
 #include <map>
 #include <set>
-#include <vector>
 #include <string>
+#include <vector>
 
 #include "kinolab/experiment/experiment.hpp"
 #include "kinolab/experiment/shard.hpp"
 
 namespace kinolab {
+
+/// Where a running experiment stands (RunnerOptions::on_progress).
+struct RunnerProgress {
+  long long done = 0;      ///< runs of this shard in the database
+  long long total = 0;     ///< runs of this shard
+  long long unsolved = 0;  ///< of the runs finished now, those that did not succeed
+  double seconds = 0.0;    ///< since the runner started
+};
 
 struct RunnerOptions {
   std::string out_dir;
@@ -20,6 +29,10 @@ struct RunnerOptions {
   /// With `resume`: stored runs with these statuses are deleted and run again (e.g. crash
   /// and killed, for workers stopped from outside). Every name must be a run status.
   std::set<std::string> retry;
+  /// Called in the runner's process after every finished run (done counts stored runs of
+  /// this shard, the resumed ones too), besides the progress on stderr: e.g. the Python
+  /// bindings' progress bar in a notebook.
+  std::function<void(const RunnerProgress&)> on_progress;
 };
 
 struct RunnerSummary {

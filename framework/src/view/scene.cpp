@@ -1,0 +1,290 @@
+#include "kinolab/view/scene.hpp"
+
+#include <dlfcn.h>
+
+#include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <map>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+#include "kinolab/core/error.hpp"
+#include "kinolab/core/files.hpp"
+#include "kinolab/core/hash.hpp"
+#include "kinolab/core/version.hpp"
+
+namespace kinolab::view {
+namespace {
+
+/// A coordinate rounded to the millimetre: the scene is for eyes, and half the size.
+double mm(double value) { return std::round(value * 1000.0) / 1000.0; }
+
+nlohmann::ordered_json point(const Eigen::Vector3d& p) { return {mm(p.x()), mm(p.y()), mm(p.z())}; }
+
+void appendPoint(nlohmann::ordered_json& flat, const Eigen::Vector3d& p) {
+  for (int axis = 0; axis < 3; ++axis) flat.push_back(mm(p[axis]));
+}
+
+/// Whether any fine voxel of the coarse voxel (cx, cy, cz) is occupied.
+bool coarseOccupied(const VoxelGrid& grid, int stride, int cx, int cy, int cz) {
+  const Eigen::Vector3i& n = grid.dims();
+  for (int x = cx * stride; x < std::min(n.x(), (cx + 1) * stride); ++x) {
+    for (int y = cy * stride; y < std::min(n.y(), (cy + 1) * stride); ++y) {
+      for (int z = cz * stride; z < std::min(n.z(), (cz + 1) * stride); ++z) {
+        if (grid.occupied(grid.index(x, y, z))) return true;
+      }
+    }
+  }
+  return false;
+}
+
+}  // namespace
+
+std::vector<VoxelBox> obstacleBoxes(const VoxelGrid& grid, int stride) {
+  if (stride < 1) throw InvalidArgument("obstacleBoxes: stride must be at least 1");
+  const Eigen::Vector3i& n = grid.dims();
+  const Eigen::Vector3i c = (n.array() + stride - 1) / stride;
+  // Rectangles in the y-z plane per x: (y0, y1, z0, z1) -> open box; merged along x when the
+  // same rectangle continues in the next x.
+  using Rect = std::array<int, 4>;
+  std::vector<VoxelBox> boxes;
+  std::map<Rect, int> open_x;  // rectangle -> first x
+  for (int x = 0; x <= c.x(); ++x) {
+    std::map<Rect, int> rects;  // of this x, each with its first x
+    if (x < c.x()) {
+      // Runs along z per y, merged along y.
+      std::map<std::pair<int, int>, int> open_y;  // (z0, z1) -> first y
+      for (int y = 0; y <= c.y(); ++y) {
+        std::map<std::pair<int, int>, int> runs;
+        if (y < c.y()) {
+          for (int z = 0; z < c.z();) {
+            if (!coarseOccupied(grid, stride, x, y, z)) {
+              ++z;
+              continue;
+            }
+            const int z0 = z;
+            while (z < c.z() && coarseOccupied(grid, stride, x, y, z)) ++z;
+            const auto key = std::make_pair(z0, z);
+            const auto found = open_y.find(key);
+            runs[key] = found != open_y.end() ? found->second : y;
+          }
+        }
+        for (const auto& [key, y0] : open_y) {
+          if (!runs.count(key)) rects[{y0, y, key.first, key.second}] = x;
+        }
+        open_y = std::move(runs);
+      }
+      for (auto& [rect, first] : rects) {
+        if (const auto found = open_x.find(rect); found != open_x.end()) first = found->second;
+      }
+    }
+    for (const auto& [rect, x0] : open_x) {
+      if (rects.count(rect)) continue;
+      VoxelBox box;
+      box.lo = {x0 * stride, rect[0] * stride, rect[2] * stride};
+      box.hi = {std::min(n.x(), x * stride), std::min(n.y(), rect[1] * stride),
+                std::min(n.z(), rect[3] * stride)};
+      boxes.push_back(box);
+    }
+    open_x = std::move(rects);
+  }
+  return boxes;
+}
+
+std::pair<std::vector<VoxelBox>, int> viewerBoxes(const VoxelGrid& grid, std::size_t max_boxes) {
+  for (int stride = 1;; stride *= 2) {
+    std::vector<VoxelBox> boxes = obstacleBoxes(grid, stride);
+    if (boxes.size() <= max_boxes || stride >= grid.dims().maxCoeff()) {
+      return {std::move(boxes), stride};
+    }
+  }
+}
+
+struct Scene::Impl {
+  nlohmann::ordered_json document;
+  nlohmann::ordered_json& query(int index) {
+    auto& queries = document["queries"];
+    if (index < 0 || index >= static_cast<int>(queries.size())) {
+      throw InvalidArgument("Scene: no query " + std::to_string(index));
+    }
+    return queries[static_cast<std::size_t>(index)];
+  }
+};
+
+Scene::Scene(const std::string& title) : impl_(std::make_unique<Impl>()) {
+  impl_->document = {{"format", "kinolab-scene"},
+                     {"version", 1},
+                     {"title", title},
+                     {"world", nullptr},
+                     {"queries", nlohmann::ordered_json::array()}};
+}
+Scene::~Scene() = default;
+Scene::Scene(Scene&&) noexcept = default;
+Scene& Scene::operator=(Scene&&) noexcept = default;
+
+void Scene::setWorld(const World& world) {
+  const VoxelGrid& grid = world.grid();
+  const auto [boxes, stride] = viewerBoxes(grid);
+  nlohmann::ordered_json flat = nlohmann::ordered_json::array();
+  for (const VoxelBox& box : boxes) {
+    for (int axis = 0; axis < 3; ++axis) flat.push_back(box.lo[static_cast<std::size_t>(axis)]);
+    for (int axis = 0; axis < 3; ++axis) flat.push_back(box.hi[static_cast<std::size_t>(axis)]);
+  }
+  impl_->document["world"] = {
+      {"name", world.name()},
+      {"spec_hash", toHex(world.specHash())},
+      {"resolution", grid.resolution()},
+      {"origin", point(grid.origin())},
+      {"dims", {grid.dims().x(), grid.dims().y(), grid.dims().z()}},
+      {"stride", stride},
+      {"boxes", std::move(flat)}};
+}
+
+int Scene::addQuery(const std::string& name, const Eigen::Vector3d& start,
+                    const Eigen::Vector3d& goal) {
+  auto& queries = impl_->document["queries"];
+  queries.push_back({{"name", name},
+                     {"start", point(start)},
+                     {"goal", point(goal)},
+                     {"trajectories", nlohmann::ordered_json::array()},
+                     {"trees", nlohmann::ordered_json::array()},
+                     {"flights", nlohmann::ordered_json::array()}});
+  return static_cast<int>(queries.size()) - 1;
+}
+
+void Scene::addTrajectory(int query, const std::string& planner, const Trajectory& trajectory,
+                          double step) {
+  nlohmann::ordered_json flat = nlohmann::ordered_json::array();
+  if (!trajectory.empty()) {
+    for (const TrajectorySample& sample : trajectory.sample(step)) appendPoint(flat, sample.position);
+  }
+  impl_->query(query)["trajectories"].push_back({{"planner", planner}, {"points", std::move(flat)}});
+}
+
+void Scene::addTree(int query, const std::string& planner, const SearchTree& tree) {
+  // Per evaluation state, line segments as flat point pairs (what WebGL's LineSegments draws).
+  nlohmann::ordered_json edges = nlohmann::ordered_json::object();
+  for (const auto state : {SearchTreeEdge::State::kPartial, SearchTreeEdge::State::kFull,
+                           SearchTreeEdge::State::kCertified, SearchTreeEdge::State::kRejected}) {
+    edges[std::string(toString(state))] = nlohmann::ordered_json::array();
+  }
+  for (const SearchTreeEdge& edge : tree) {
+    auto& flat = edges[std::string(toString(edge.state))];
+    for (std::size_t k = 1; k < edge.points.size(); ++k) {
+      appendPoint(flat, edge.points[k - 1]);
+      appendPoint(flat, edge.points[k]);
+    }
+  }
+  impl_->query(query)["trees"].push_back({{"planner", planner}, {"edges", std::move(edges)}});
+}
+
+void Scene::addFlight(int query, const std::string& planner, const Trajectory& flown,
+                      const std::vector<std::pair<double, std::string>>& snapshots,
+                      double band_low, double band_high, double step) {
+  nlohmann::ordered_json times = nlohmann::ordered_json::array();
+  nlohmann::ordered_json flat = nlohmann::ordered_json::array();
+  if (!flown.empty()) {
+    for (const TrajectorySample& sample : flown.sample(step)) {
+      times.push_back(mm(sample.time));
+      appendPoint(flat, sample.position);
+    }
+  }
+  // Each known obstacle cell once, with the time of the first snapshot that shows it.
+  nlohmann::ordered_json known = nullptr;
+  std::map<std::pair<int, int>, double> seen;
+  for (const auto& [time, text] : snapshots) {
+    std::istringstream lines(text);
+    std::string head;
+    std::getline(lines, head);
+    int nx = 0;
+    int ny = 0;
+    double ox = 0.0;
+    double oy = 0.0;
+    double resolution = 0.0;
+    if (std::sscanf(head.c_str(), "%d,%d,%lf,%lf,%lf", &nx, &ny, &ox, &oy, &resolution) != 5) {
+      throw InvalidArgument("Scene::addFlight: a snapshot's first line is not nx,ny,x,y,resolution");
+    }
+    if (known.is_null()) {
+      known = {{"resolution", resolution}, {"origin", {mm(ox), mm(oy)}}, {"band", {mm(band_low), mm(band_high)}}};
+    }
+    std::string row;
+    for (int x = 0; x < nx && std::getline(lines, row); ++x) {
+      for (int y = 0; y < std::min<int>(ny, static_cast<int>(row.size())); ++y) {
+        if (row[static_cast<std::size_t>(y)] == '2') seen.emplace(std::make_pair(x, y), time);
+      }
+    }
+  }
+  if (!known.is_null()) {
+    nlohmann::ordered_json cells = nlohmann::ordered_json::array();
+    for (const auto& [cell, time] : seen) {
+      cells.push_back(cell.first);
+      cells.push_back(cell.second);
+      cells.push_back(mm(time));
+    }
+    known["cells"] = std::move(cells);
+  }
+  impl_->query(query)["flights"].push_back(
+      {{"planner", planner}, {"t", std::move(times)}, {"points", std::move(flat)}, {"known", known}});
+}
+
+std::string Scene::json() const { return impl_->document.dump(); }
+
+std::string viewerTemplatePath() {
+  namespace fs = std::filesystem;
+  if (const char* set = std::getenv("KINOLAB_VIEWER"); set && *set) {
+    if (!fs::is_regular_file(set)) {
+      throw FileError(std::string("KINOLAB_VIEWER=") + set + ": no such viewer file");
+    }
+    return set;
+  }
+  std::vector<fs::path> candidates;
+  Dl_info info{};
+  if (dladdr(reinterpret_cast<void*>(&viewerTemplatePath), &info) != 0 && info.dli_fname) {
+    // <prefix>/lib[/<multiarch>]/libkinolab_framework.so -> <prefix>/share/kinolab/
+    for (fs::path up = fs::absolute(info.dli_fname).parent_path(); up.has_relative_path();
+         up = up.parent_path()) {
+      if (up.filename() == "lib") {
+        candidates.push_back(up.parent_path() / "share/kinolab/viewer.html");
+        break;
+      }
+    }
+  }
+  candidates.push_back(fs::path(kBinaryDir) / "share/kinolab/viewer.html");
+  for (const fs::path& candidate : candidates) {
+    if (fs::is_regular_file(candidate)) return candidate.string();
+  }
+  throw FileError("the 3D viewer (viewer.html) is in none of " +
+                  (candidates.size() > 1 ? candidates[0].string() + ", " : std::string()) +
+                  candidates.back().string() + "; build kinolab or set KINOLAB_VIEWER");
+}
+
+std::string viewHtml(const std::string& scene_json) {
+  const std::string template_path = viewerTemplatePath();
+  std::ifstream file(template_path, std::ios::binary);
+  std::string page((std::istreambuf_iterator<char>(file)), std::istreambuf_iterator<char>());
+  if (!file) throw FileError(template_path + ": cannot read the viewer");
+  static constexpr std::string_view kPlaceholder = "__KINOLAB_SCENE__";
+  const std::size_t at = page.find(kPlaceholder);
+  if (at == std::string::npos) {
+    throw FileError(template_path + ": not a kinolab viewer (no scene placeholder)");
+  }
+  // Inside <script type="application/json">: "</" would end the element; "<\/" is the same
+  // JSON string.
+  std::string scene;
+  scene.reserve(scene_json.size());
+  for (std::size_t i = 0; i < scene_json.size(); ++i) {
+    scene += scene_json[i];
+    if (scene_json[i] == '<' && i + 1 < scene_json.size() && scene_json[i + 1] == '/') scene += '\\';
+  }
+  page.replace(at, kPlaceholder.size(), scene);
+  return page;
+}
+
+void writeViewHtml(const std::string& path, const std::string& scene_json) {
+  writeFileAtomically(path, viewHtml(scene_json));
+}
+
+}  // namespace kinolab::view

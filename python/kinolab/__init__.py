@@ -1,0 +1,242 @@
+"""kinolab from Python: worlds, planners, experiments and the 3D viewer.
+
+    import kinolab
+    world = kinolab.World.from_file("configs/worlds/dense_forest.yaml")
+    lazy = kinolab.Planner("lazy_mp_astar", world, heuristic_weight=1.0)
+    result = lazy.plan(start=(2, 2, 1.5), goal=(14, 12, 1.5), time_limit=1.0, tree=True)
+    result.status, result.cost, result.metrics["expansions"]
+
+The objects are kinolab's own (the C++ core, kinolab._core): planning and experiment runs
+release the GIL, and kinolab's errors are raised as kinolab.Error and its subclasses with the
+messages the command line prints. docs/python.md walks through a session.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import sys
+from pathlib import Path
+from typing import Any, Callable, Iterable, Mapping
+
+from . import _core
+from ._core import (ConfigError, Error, FileError, InvalidArgument, ParameterConflict,
+                    PluginError, Result)
+
+__version__ = _core.__version__
+__all__ = ["World", "Planner", "Result", "Scene", "planners", "samplers", "metrics",
+           "load_plugin", "run_experiment", "load_results", "Error", "ConfigError",
+           "ParameterConflict", "FileError", "PluginError", "InvalidArgument"]
+
+
+class World:
+    """A built world: the occupancy grid and its exact signed distance field (ESDF).
+
+    `occupancy` (uint8, 1 = occupied) and `esdf` (float32, metres) are read-only NumPy views
+    of kinolab's own arrays, shape (nx, ny, nz), index [ix, iy, iz]; the centre of voxel
+    (ix, iy, iz) is origin + (index + 0.5) * resolution.
+    """
+
+    def __init__(self, core: _core.World):
+        self._core = core
+
+    @classmethod
+    def from_file(cls, path: str | os.PathLike, cache: bool = True,
+                  cache_dir: str | os.PathLike | None = None) -> "World":
+        """Builds a world from a spec file (configs/worlds/*.yaml), or loads it from the world
+        cache (the one `kinolab` uses, keyed by the spec's hash) when it was built before."""
+        return cls(_core.world_from_file(os.fspath(path), cache, os.fspath(cache_dir or "")))
+
+    @classmethod
+    def from_spec(cls, spec: Mapping[str, Any], cache: bool = True,
+                  cache_dir: str | os.PathLike | None = None,
+                  directory: str | os.PathLike = ".") -> "World":
+        """Builds a world from a spec given as a dict (the YAML file's keys); relative map
+        paths are resolved against `directory`."""
+        if not isinstance(spec, Mapping):
+            raise InvalidArgument(f"from_spec: expected a dict of the spec's keys, got "
+                                  f"{type(spec).__name__}")
+        text = json.dumps(spec, default=_plain)  # JSON is YAML
+        return cls(_core.world_from_text(text, "<dict>", os.fspath(directory), cache,
+                                         os.fspath(cache_dir or "")))
+
+    name = property(lambda self: self._core.name)
+    spec_hash = property(lambda self: self._core.spec_hash)
+    resolution = property(lambda self: self._core.resolution)
+    origin = property(lambda self: self._core.origin)
+    shape = property(lambda self: self._core.shape)
+    bounds = property(lambda self: self._core.bounds)
+    occupancy = property(lambda self: self._core.occupancy)
+    esdf = property(lambda self: self._core.esdf)
+    source = property(lambda self: self._core.source, doc="'built' or 'cache'")
+    seconds = property(lambda self: self._core.seconds, doc="time to build or load, s")
+
+    def distance(self, points):
+        """Trilinear signed distance (m) at a point (3,) or at points (n, 3)."""
+        return self._core.distance(points)
+
+    def distance_with_gradient(self, points):
+        """The distance and its analytic gradient: (d, g) with d (n,) and g (n, 3)."""
+        return self._core.distance_with_gradient(points)
+
+    def segment_free(self, a, b, radius: float) -> bool:
+        """Whether a body of `radius` can follow the straight line from a to b."""
+        return self._core.segment_free(a, b, radius)
+
+    def __repr__(self) -> str:
+        return (f"World({self.name!r}, shape={self.shape}, resolution={self.resolution}, "
+                f"{self.source})")
+
+
+def _plain(value):
+    """NumPy scalars and arrays in a spec dict as plain numbers and lists."""
+    if hasattr(value, "tolist"):
+        return value.tolist()
+    raise TypeError(f"{type(value).__name__} is not a spec value")
+
+
+def _text(value) -> str:
+    """A keyword parameter's value as the text `--set NAME=VALUE` would carry."""
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, float):
+        return repr(value)
+    if hasattr(value, "item"):  # a NumPy scalar
+        return _text(value.item())
+    return str(value)
+
+
+class Planner:
+    """A planner plugin by its key (`kinolab.planners()`), configured by keyword parameters
+    as `--set` would set them: `Planner("lazy_mp_astar", world, sampler="normal",
+    **{"sampler.sigma": 0.4})`. Unknown keys, parameters and out-of-range values raise
+    ConfigError (or PluginError) with the command line's message."""
+
+    def __init__(self, key: str, world: World | None = None, seed: int = 1, **parameters):
+        assignments = [_core.Assignment(name, _text(value), f"keyword argument '{name}'")
+                       for name, value in parameters.items()]
+        self._core = _core.Planner(key, assignments)
+        self.key = key
+        if world is not None:
+            self.setup(world, seed)
+
+    def setup(self, world: World, seed: int = 1) -> "Planner":
+        """Sets the planner up on a world (and seeds its random streams)."""
+        if not isinstance(world, World):
+            raise InvalidArgument(f"setup: expected a kinolab.World, got {type(world).__name__}")
+        self._core.setup(world._core, seed)
+        self.world = world
+        return self
+
+    @property
+    def parameters(self) -> dict:
+        """Every parameter's value (defaults included), sampler parameters as sampler.NAME."""
+        return self._core.parameters
+
+    def plan(self, start, goal, start_velocity=None, start_acceleration=None,
+             time_limit: float = math.inf, max_iterations: int | None = None,
+             tree: bool = False) -> Result:
+        """Plans from `start` (at rest unless start_velocity/acceleration are given) to
+        `goal` within the budget (and the planner's own `time_limit`); with `tree`, the
+        search tree is kept (built after the clock stopped). The GIL is released while it
+        plans, so threads with their own planners plan in parallel."""
+        return self._core.plan(start, goal, start_velocity, start_acceleration, time_limit,
+                               max_iterations if max_iterations is not None else 2**62, tree)
+
+    def reset(self) -> None:
+        self._core.reset()
+
+    def __repr__(self) -> str:
+        return f"Planner({self.key!r})"
+
+
+def planners() -> list[dict]:
+    """Every registered planner: key, description, origin, parameters (name, type, default,
+    range, doc) and the statistics it reports."""
+    return _core.planners()
+
+
+def samplers() -> list[dict]:
+    """Every registered control sampler, as planners()."""
+    return _core.samplers()
+
+
+def metrics() -> dict:
+    """The result schema: every result metric and the statistics every planner reports."""
+    return _core.metrics()
+
+
+def load_plugin(path: str | os.PathLike) -> None:
+    """Loads an out-of-tree plugin library (what `kinolab --plugin PATH` does)."""
+    _core.load_plugin(os.fspath(path))
+
+
+class _Progress:
+    """A progress bar on one line of stdout (a notebook cell or a terminal)."""
+
+    def __init__(self, stream=None):
+        self.stream = stream or sys.stdout
+
+    def __call__(self, done: int, total: int, unsolved: int, seconds: float) -> None:
+        width = 30
+        filled = width * done // total if total else width
+        rate = done / seconds if seconds > 0 else 0.0
+        self.stream.write(f"\r[{'#' * filled}{'.' * (width - filled)}] {done}/{total} done, "
+                          f"{unsolved} unsolved, {rate:.1f} runs/s")
+        if done == total:
+            self.stream.write("\n")
+        self.stream.flush()
+
+
+def run_experiment(path: str | os.PathLike, out: str | os.PathLike, jobs: int = 1,
+                   resume: bool = False, shard: str | None = None,
+                   cache_dir: str | os.PathLike | None = None,
+                   progress: bool | Callable[[int, int, int, float], None] = True) -> dict:
+    """Runs an experiment file with kinolab's runner (isolated worker processes, the results
+    database OUT/results.sqlite, resume) and returns its summary. `progress` is True (a bar
+    on stdout), False, or a callable(done, total, unsolved, seconds). Ctrl-C stops it as it
+    stops `kinolab run` (resumable) and raises KeyboardInterrupt."""
+    callback = _Progress() if progress is True else (progress or None)
+    summary = _core.run_experiment(os.fspath(path), os.fspath(out), jobs, resume, shard or "",
+                                   os.fspath(cache_dir or ""), callback)
+    if summary["interrupted"]:
+        raise KeyboardInterrupt(f"the experiment was interrupted; run_experiment(..., "
+                                f"resume=True) goes on from {summary['database']}")
+    return summary
+
+
+def load_results(*paths: str | os.PathLike):
+    """Loads results directories (or databases) with the analysis package:
+    a kinolab_analysis.data.Results (`.runs` is a pandas DataFrame, one row per run)."""
+    from kinolab_analysis import data
+    return data.load([os.fspath(p) for p in paths])
+
+
+class Scene:
+    """A 3D scene for kinolab's viewer (docs/viewer.md): a world and, per query, the
+    trajectories and search trees of any planners; `write(path)` makes a self-contained
+    view.html, `html()` its text (for IPython.display.HTML)."""
+
+    def __init__(self, title: str = "kinolab", world: World | None = None):
+        self._core = _core.Scene(title)
+        if world is not None:
+            self._core.set_world(world._core)
+
+    def add_query(self, name: str, start, goal) -> int:
+        return self._core.add_query(name, start, goal)
+
+    def add_result(self, query: int, planner: str, result: Result) -> "Scene":
+        """The result's trajectory and, when it kept one, its search tree."""
+        self._core.add_result(query, planner, result)
+        return self
+
+    def json(self) -> str:
+        return self._core.json()
+
+    def html(self) -> str:
+        return self._core.html()
+
+    def write(self, path: str | os.PathLike) -> Path:
+        self._core.write(os.fspath(path))
+        return Path(path)

@@ -1,0 +1,529 @@
+// kinolab._core: the Python bindings (pybind11). The Pythonic layer is kinolab/__init__.py;
+// this file binds the framework's own objects: worlds (NumPy views of the grid and ESDF),
+// the plugin registries, planners and their results, the experiment runner. Planning and
+// running release the GIL; kinolab's errors become Python exceptions with the same message.
+#include <pybind11/functional.h>
+#include <pybind11/numpy.h>
+#include <pybind11/pybind11.h>
+#include <pybind11/stl.h>
+
+#include <chrono>
+#include <cmath>
+#include <limits>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "kinolab/builtin_plugins.hpp"
+#include "kinolab/core/error.hpp"
+#include "kinolab/core/hash.hpp"
+#include "kinolab/core/plugin.hpp"
+#include "kinolab/core/text.hpp"
+#include "kinolab/core/version.hpp"
+#include "kinolab/experiment/experiment.hpp"
+#include "kinolab/experiment/runner.hpp"
+#include "kinolab/planner/planner.hpp"
+#include "kinolab/primitives/control_sampler.hpp"
+#include "kinolab/view/scene.hpp"
+#include "kinolab/world/world_cache.hpp"
+#include "kinolab/world/world_spec.hpp"
+
+namespace py = pybind11;
+
+namespace kinolab::python {
+namespace {
+
+/// A built world and how it was obtained (built, or loaded from the cache).
+struct PyWorld {
+  std::shared_ptr<const World> world;
+  std::string source = "built";
+  double seconds = 0.0;
+  std::string cache_file;
+};
+
+PyWorld loadWorld(const WorldSpec& spec, bool cache, const std::string& cache_dir) {
+  PyWorld result;
+  if (!cache) {
+    const auto begin = std::chrono::steady_clock::now();
+    result.world = World::build(spec);
+    result.seconds =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - begin).count();
+    return result;
+  }
+  const WorldLoad load =
+      WorldCache(cache_dir.empty() ? WorldCache::defaultDirectory() : cache_dir).loadOrBuild(spec);
+  result.world = load.world;
+  result.source = load.source == WorldSource::kCache ? "cache" : "built";
+  result.seconds = load.seconds;
+  result.cache_file = load.cache_file;
+  return result;
+}
+
+/// A read-only NumPy view of `data` (C order, shape dims) that keeps `owner` alive.
+template <typename T>
+py::array arrayView(const T* data, const Eigen::Vector3i& dims, py::handle owner) {
+  const std::vector<py::ssize_t> shape = {dims.x(), dims.y(), dims.z()};
+  const auto item = static_cast<py::ssize_t>(sizeof(T));
+  const std::vector<py::ssize_t> strides = {item * dims.y() * dims.z(), item * dims.z(), item};
+  py::array array(py::dtype::of<T>(), shape, strides, data, owner);
+  py::detail::array_proxy(array.ptr())->flags &= ~py::detail::npy_api::NPY_ARRAY_WRITEABLE_;
+  return array;
+}
+
+/// Points as an (n, 3) array of doubles: one point (3,) or many (n, 3).
+py::array_t<double, py::array::c_style | py::array::forcecast> points3(const py::object& points) {
+  auto array = py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(points);
+  if (!array || !((array.ndim() == 2 && array.shape(1) == 3) ||
+                  (array.ndim() == 1 && array.shape(0) == 3))) {
+    throw InvalidArgument("points: expected an array of shape (n, 3) or (3,) (metres)");
+  }
+  return array;
+}
+
+py::object distances(const PyWorld& self, const py::object& points, bool with_gradient) {
+  const auto input = points3(points);
+  const py::ssize_t n = input.ndim() == 1 ? 1 : input.shape(0);
+  py::array_t<double> distance(n);
+  py::array_t<double> gradient(std::vector<py::ssize_t>{n, 3});
+  const double* in = input.data();
+  double* d = distance.mutable_data();
+  double* g = gradient.mutable_data();
+  {
+    py::gil_scoped_release release;
+    const Esdf& esdf = self.world->esdf();
+    for (py::ssize_t i = 0; i < n; ++i) {
+      const Eigen::Vector3d point(in[3 * i], in[3 * i + 1], in[3 * i + 2]);
+      if (with_gradient) {
+        Eigen::Vector3d grad;
+        d[i] = esdf.distanceWithGradient(point, &grad);
+        for (int axis = 0; axis < 3; ++axis) g[3 * i + axis] = grad[axis];
+      } else {
+        d[i] = esdf.distance(point);
+      }
+    }
+  }
+  if (input.ndim() == 1) {
+    if (!with_gradient) return py::float_(d[0]);
+    return py::make_tuple(d[0], gradient.attr("reshape")(3));
+  }
+  if (!with_gradient) return distance;
+  return py::make_tuple(distance, gradient);
+}
+
+py::object parameterValue(const ParameterValue& value) {
+  return std::visit([](const auto& v) -> py::object { return py::cast(v); }, value);
+}
+
+py::list parameterList(const ParameterSpecs& specs) {
+  py::list list;
+  for (const ParameterSpec& spec : specs.all()) {
+    py::dict item;
+    item["name"] = spec.name;
+    item["type"] = spec.typeName();
+    item["default"] = parameterValue(spec.default_value);
+    item["range"] = spec.rangeText();
+    item["doc"] = spec.doc;
+    list.append(item);
+  }
+  return list;
+}
+
+py::list metricList(const MetricSpecs& specs) {
+  py::list list;
+  for (const MetricSpec& spec : specs.all()) {
+    py::dict item;
+    item["name"] = spec.name;
+    item["type"] = spec.typeName();
+    item["unit"] = spec.unit;
+    item["clock"] = spec.clock;
+    item["doc"] = spec.doc;
+    list.append(item);
+  }
+  return list;
+}
+
+template <typename Interface>
+py::list pluginList() {
+  py::list list;
+  for (const PluginInfo* info : pluginRegistry<Interface>().list()) {
+    py::dict item;
+    item["key"] = info->key;
+    item["description"] = info->description;
+    item["origin"] = info->origin;
+    item["parameters"] = parameterList(info->parameters);
+    item["statistics"] = metricList(info->statistics);
+    list.append(item);
+  }
+  return list;
+}
+
+/// A configured planner, set up on one world.
+struct PyPlanner {
+  ConfiguredPlanner configured;
+  std::shared_ptr<const World> world;
+  std::uint64_t seed = 1;
+};
+
+/// A planning result: the framework's PlanResult, the planner's declared statistics and the
+/// search tree when one was asked for.
+struct PyResult {
+  PlanResult result;
+  MetricSpecs statistics;
+  SearchTree tree;
+  bool has_tree = false;
+  PlanningQuery query;
+};
+
+ChainState chainState(const py::object& position, const py::object& velocity,
+                      const py::object& acceleration) {
+  ChainState state = ChainState::Zero();
+  const std::pair<const py::object*, const char*> columns[] = {
+      {&position, "start"}, {&velocity, "start_velocity"}, {&acceleration, "start_acceleration"}};
+  for (int column = 0; column < 3; ++column) {
+    const auto& [value, name] = columns[column];
+    if (value->is_none()) continue;
+    const auto array = py::array_t<double, py::array::forcecast>::ensure(*value);
+    if (!array || array.size() != 3) {
+      throw InvalidArgument(std::string(name) + ": expected three numbers x, y, z");
+    }
+    for (int axis = 0; axis < 3; ++axis) {
+      const double item = array.data()[axis];
+      if (!std::isfinite(item)) throw InvalidArgument(std::string(name) + ": not finite");
+      state(axis, column) = item;
+    }
+  }
+  return state;
+}
+
+PyResult plan(PyPlanner& self, const py::object& start, const py::object& goal,
+              const py::object& start_velocity, const py::object& start_acceleration,
+              double time_limit, long long max_iterations, bool tree) {
+  if (!self.world) throw InvalidArgument("plan: the planner has no world (planner.setup(world))");
+  PyResult out;
+  out.query.start = chainState(start, start_velocity, start_acceleration);
+  out.query.goal = chainState(goal, py::none(), py::none()).col(0);
+  if (!(time_limit > 0.0)) throw InvalidArgument("time_limit: expected a positive number of seconds");
+  if (max_iterations <= 0) throw InvalidArgument("max_iterations: expected a positive count");
+  out.statistics = declaredStatistics(*self.configured.info);
+  {
+    py::gil_scoped_release release;
+    out.result = self.configured.planner->plan(out.query, Budget{time_limit, max_iterations},
+                                               tree ? &out.tree : nullptr);
+  }
+  out.has_tree = tree;
+  return out;
+}
+
+py::dict trajectorySamples(const Trajectory& trajectory, double step) {
+  if (!(step > 0.0)) throw InvalidArgument("step: expected a positive number of seconds");
+  if (trajectory.duration() / step > 1e7) {
+    throw InvalidArgument("step: more than 10,000,000 samples; use a larger step");
+  }
+  const std::vector<TrajectorySample> samples =
+      trajectory.empty() ? std::vector<TrajectorySample>{} : trajectory.sample(step);
+  const auto n = static_cast<py::ssize_t>(samples.size());
+  py::array_t<double> time(n);
+  py::array_t<double> columns[4] = {py::array_t<double>({n, py::ssize_t{3}}),
+                                    py::array_t<double>({n, py::ssize_t{3}}),
+                                    py::array_t<double>({n, py::ssize_t{3}}),
+                                    py::array_t<double>({n, py::ssize_t{3}})};
+  double* t = time.mutable_data();
+  double* c[4] = {columns[0].mutable_data(), columns[1].mutable_data(),
+                  columns[2].mutable_data(), columns[3].mutable_data()};
+  for (py::ssize_t i = 0; i < n; ++i) {
+    const TrajectorySample& sample = samples[static_cast<std::size_t>(i)];
+    t[i] = sample.time;
+    const Eigen::Vector3d* values[4] = {&sample.position, &sample.velocity, &sample.acceleration,
+                                        &sample.jerk};
+    for (int k = 0; k < 4; ++k) {
+      for (int axis = 0; axis < 3; ++axis) c[k][3 * i + axis] = (*values[k])[axis];
+    }
+  }
+  py::dict dict;
+  dict["t"] = time;
+  dict["position"] = columns[0];
+  dict["velocity"] = columns[1];
+  dict["acceleration"] = columns[2];
+  dict["jerk"] = columns[3];
+  return dict;
+}
+
+py::object treeArrays(const PyResult& self) {
+  if (!self.has_tree) return py::none();
+  const SearchTree& tree = self.tree;
+  py::list points;
+  py::list states;
+  py::array_t<bool> closed(static_cast<py::ssize_t>(tree.size()));
+  bool* c = closed.mutable_data();
+  for (std::size_t i = 0; i < tree.size(); ++i) {
+    const SearchTreeEdge& edge = tree[i];
+    py::array_t<double> polyline({static_cast<py::ssize_t>(edge.points.size()), py::ssize_t{3}});
+    double* p = polyline.mutable_data();
+    for (std::size_t k = 0; k < edge.points.size(); ++k) {
+      for (int axis = 0; axis < 3; ++axis) p[3 * k + axis] = edge.points[k][axis];
+    }
+    points.append(polyline);
+    states.append(std::string(toString(edge.state)));
+    c[i] = edge.closed;
+  }
+  py::dict dict;
+  dict["points"] = points;
+  dict["state"] = py::module_::import("numpy").attr("array")(states);
+  dict["closed"] = closed;
+  return dict;
+}
+
+py::dict checkDict(const CheckResult& check) {
+  py::dict dict;
+  dict["valid"] = check.valid;
+  dict["check"] = check.check;
+  dict["detail"] = check.detail;
+  dict["time"] = check.time;
+  dict["position"] = py::make_tuple(check.position.x(), check.position.y(), check.position.z());
+  dict["min_clearance"] = check.min_clearance;
+  dict["mean_clearance"] = check.mean_clearance;
+  dict["samples"] = check.samples;
+  return dict;
+}
+
+/// Every metric of the result schema and every statistic, typed as `kinolab plan` prints
+/// them (the same JSON, parsed).
+py::dict metricsDict(const PyResult& self) {
+  const py::object loads = py::module_::import("json").attr("loads");
+  py::dict dict = loads(toJson(resultValues(self.result), resultMetrics()));
+  const py::dict statistics = loads(toJson(statisticValues(self.result.statistics), self.statistics));
+  for (const auto& [key, value] : statistics) dict[key] = value;
+  return dict;
+}
+
+py::dict runExperimentFile(const std::string& path, const std::string& out, int jobs, bool resume,
+                           const std::string& shard, const std::string& cache_dir,
+                           const py::object& progress) {
+  const Experiment experiment = Experiment::fromFile(path);
+  RunnerOptions options;
+  options.out_dir = out;
+  options.jobs = jobs;
+  options.resume = resume;
+  if (!shard.empty()) options.shard = Shard::parse(shard);
+  options.cache_dir = cache_dir.empty() ? WorldCache::defaultDirectory() : cache_dir;
+  if (!progress.is_none()) {
+    options.on_progress = [&progress](const RunnerProgress& state) {
+      py::gil_scoped_acquire acquire;
+      progress(state.done, state.total, state.unsolved, state.seconds);
+    };
+  }
+  RunnerSummary summary;
+  {
+    py::gil_scoped_release release;
+    summary = runExperiment(experiment, options);
+  }
+  py::dict dict;
+  dict["planned"] = summary.planned;
+  dict["skipped"] = summary.skipped;
+  dict["finished"] = summary.finished;
+  dict["succeeded"] = summary.succeeded;
+  dict["by_status"] = summary.by_status;
+  dict["interrupted"] = summary.interrupted;
+  dict["seconds"] = summary.seconds;
+  dict["database"] = out + "/results.sqlite";
+  return dict;
+}
+
+}  // namespace
+}  // namespace kinolab::python
+
+PYBIND11_MODULE(_core, m) {
+  using namespace kinolab;
+  using namespace kinolab::python;
+  m.doc() = "kinolab's C++ core (see the kinolab package for the documented API)";
+  m.attr("__version__") = kVersion;
+  registerBuiltinPlugins();
+
+  // kinolab::Error and its subclasses, with the same messages.
+  static py::exception<Error> error(m, "Error", PyExc_RuntimeError);
+  static py::exception<ConfigError> config_error(m, "ConfigError", error.ptr());
+  static py::exception<ParameterConflict> conflict(m, "ParameterConflict", config_error.ptr());
+  static py::exception<FileError> file_error(m, "FileError", error.ptr());
+  static py::exception<PluginError> plugin_error(m, "PluginError", error.ptr());
+  static py::exception<InvalidArgument> invalid(m, "InvalidArgument", error.ptr());
+  py::register_exception_translator([](std::exception_ptr pointer) {
+    try {
+      if (pointer) std::rethrow_exception(pointer);
+    } catch (const ParameterConflict& e) {
+      conflict(e.what());
+    } catch (const ConfigError& e) {
+      config_error(e.what());
+    } catch (const FileError& e) {
+      file_error(e.what());
+    } catch (const PluginError& e) {
+      plugin_error(e.what());
+    } catch (const InvalidArgument& e) {
+      invalid(e.what());
+    } catch (const Error& e) {
+      error(e.what());
+    }
+  });
+
+  py::class_<PyWorld>(m, "World")
+      .def_property_readonly("name", [](const PyWorld& w) { return w.world->name(); })
+      .def_property_readonly("spec_hash",
+                             [](const PyWorld& w) { return toHex(w.world->specHash()); })
+      .def_property_readonly("resolution",
+                             [](const PyWorld& w) { return w.world->grid().resolution(); })
+      .def_property_readonly("origin",
+                             [](const PyWorld& w) {
+                               const Eigen::Vector3d& o = w.world->grid().origin();
+                               return py::make_tuple(o.x(), o.y(), o.z());
+                             })
+      .def_property_readonly("shape",
+                             [](const PyWorld& w) {
+                               const Eigen::Vector3i& n = w.world->grid().dims();
+                               return py::make_tuple(n.x(), n.y(), n.z());
+                             })
+      .def_property_readonly("bounds",
+                             [](const PyWorld& w) {
+                               const Box b = w.world->bounds();
+                               return py::make_tuple(py::make_tuple(b.min.x(), b.min.y(), b.min.z()),
+                                                     py::make_tuple(b.max.x(), b.max.y(), b.max.z()));
+                             })
+      .def_readonly("source", &PyWorld::source)
+      .def_readonly("seconds", &PyWorld::seconds)
+      .def_readonly("cache_file", &PyWorld::cache_file)
+      .def_property_readonly("occupancy",
+                             [](py::object self) {
+                               const PyWorld& w = self.cast<const PyWorld&>();
+                               const VoxelGrid& grid = w.world->grid();
+                               return arrayView(grid.occupancy().data(), grid.dims(), self);
+                             })
+      .def_property_readonly("esdf",
+                             [](py::object self) {
+                               const PyWorld& w = self.cast<const PyWorld&>();
+                               const Esdf& esdf = w.world->esdf();
+                               return arrayView(esdf.values().data(), esdf.dims(), self);
+                             })
+      .def("distance",
+           [](const PyWorld& w, const py::object& points) { return distances(w, points, false); })
+      .def("distance_with_gradient",
+           [](const PyWorld& w, const py::object& points) { return distances(w, points, true); })
+      .def("segment_free",
+           [](const PyWorld& w, const py::object& a, const py::object& b, double radius) {
+             const auto pa = points3(a);
+             const auto pb = points3(b);
+             return w.world->segmentFree(Eigen::Vector3d(pa.data()), Eigen::Vector3d(pb.data()),
+                                         radius);
+           });
+
+  m.def("world_from_file",
+        [](const std::string& path, bool cache, const std::string& cache_dir) {
+          return loadWorld(WorldSpec::fromFile(path), cache, cache_dir);
+        });
+  m.def("world_from_text", [](const std::string& text, const std::string& source,
+                              const std::string& directory, bool cache,
+                              const std::string& cache_dir) {
+    return loadWorld(WorldSpec::fromText(text, source, directory), cache, cache_dir);
+  });
+  m.def("default_cache_dir", &WorldCache::defaultDirectory);
+
+  m.def("planners", &pluginList<Planner>);
+  m.def("samplers", &pluginList<ControlSampler>);
+  m.def("load_plugin", &loadPluginLibrary);
+  m.def("metrics", [] {
+    py::dict dict;
+    dict["result"] = metricList(resultMetrics());
+    dict["statistics"] = metricList(commonStatistics());
+    return dict;
+  });
+
+  py::class_<PyPlanner>(m, "Planner")
+      .def(py::init([](const std::string& key, const std::vector<ParameterAssignment>& assignments) {
+        return PyPlanner{configurePlanner(key, assignments), nullptr, 1};
+      }))
+      .def_property_readonly("key", [](const PyPlanner& p) { return p.configured.info->key; })
+      .def_property_readonly("parameters",
+                             [](const PyPlanner& p) {
+                               py::dict dict;
+                               for (const auto& [name, value] : p.configured.parameters.values())
+                                 dict[py::str(name)] = parameterValue(value);
+                               for (const auto& [name, value] :
+                                    p.configured.sampler_parameters.values())
+                                 dict[py::str(p.configured.sampler_key + "." + name)] =
+                                     parameterValue(value);
+                               return dict;
+                             })
+      .def_property_readonly("world",
+                             [](const PyPlanner& p) -> py::object {
+                               if (!p.world) return py::none();
+                               PyWorld world;
+                               world.world = p.world;
+                               return py::cast(world);
+                             })
+      .def_readonly("seed", &PyPlanner::seed)
+      .def("setup",
+           [](PyPlanner& p, const PyWorld& world, std::uint64_t seed) {
+             p.configured.planner->setup({world.world, p.configured.sampler, seed});
+             p.world = world.world;
+             p.seed = seed;
+           })
+      .def("reset", [](PyPlanner& p) { p.configured.planner->reset(); })
+      .def("plan", &plan);
+
+  py::class_<ParameterAssignment>(m, "Assignment")
+      .def(py::init([](std::string name, std::string value, std::string where) {
+        return ParameterAssignment{std::move(name), std::move(value), std::move(where)};
+      }));
+
+  py::class_<PyResult>(m, "Result")
+      .def_property_readonly("status",
+                             [](const PyResult& r) { return std::string(toString(r.result.status)); })
+      .def_property_readonly("message", [](const PyResult& r) { return r.result.message; })
+      .def_property_readonly(
+          "success", [](const PyResult& r) { return isSuccess(r.result.status, r.result.check.valid); })
+      .def_property_readonly("cost", [](const PyResult& r) { return r.result.cost; })
+      .def_property_readonly("distance_to_goal",
+                             [](const PyResult& r) { return r.result.distance_to_goal; })
+      .def_property_readonly("planning_time_ms",
+                             [](const PyResult& r) { return r.result.planning_time_ms; })
+      .def_property_readonly("duration",
+                             [](const PyResult& r) { return r.result.trajectory.duration(); })
+      .def_property_readonly("check", [](const PyResult& r) { return checkDict(r.result.check); })
+      .def_property_readonly("metrics", &metricsDict)
+      .def_property_readonly("tree", &treeArrays)
+      .def(
+          "trajectory",
+          [](const PyResult& r, double step) { return trajectorySamples(r.result.trajectory, step); },
+          py::arg("step") = 0.01,
+          "The trajectory sampled every `step` seconds and at its end: t (n,), position, "
+          "velocity, acceleration and jerk (n, 3) NumPy arrays")
+      .def("position", [](const PyResult& r, double t) {
+        if (r.result.trajectory.empty()) throw InvalidArgument("position: no trajectory");
+        const Eigen::Vector3d p = r.result.trajectory.evaluate(t);
+        return py::make_tuple(p.x(), p.y(), p.z());
+      })
+      .def("__repr__", [](const PyResult& r) {
+        return "Result(status='" + std::string(toString(r.result.status)) +
+               "', cost=" + formatNumber(r.result.cost) +
+               ", planning_time_ms=" + formatNumber(r.result.planning_time_ms) + ")";
+      });
+
+  py::class_<view::Scene>(m, "Scene")
+      .def(py::init<const std::string&>())
+      .def("set_world", [](view::Scene& s, const PyWorld& w) { s.setWorld(*w.world); })
+      .def("add_query",
+           [](view::Scene& s, const std::string& name, const py::object& start,
+              const py::object& goal) {
+             return s.addQuery(name, chainState(start, py::none(), py::none()).col(0),
+                               chainState(goal, py::none(), py::none()).col(0));
+           })
+      .def("add_result",
+           [](view::Scene& s, int query, const std::string& planner, const PyResult& r) {
+             s.addTrajectory(query, planner, r.result.trajectory);
+             if (r.has_tree) s.addTree(query, planner, r.tree);
+           })
+      .def("json", &view::Scene::json)
+      .def("html", [](const view::Scene& s) { return view::viewHtml(s.json()); })
+      .def("write", [](const view::Scene& s, const std::string& path) {
+        view::writeViewHtml(path, s.json());
+      });
+
+  m.def("run_experiment", &runExperimentFile);
+}

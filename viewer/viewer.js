@@ -1,0 +1,321 @@
+// kinolab's 3D viewer: draws a kinolab scene (docs/viewer.md) with three.js: the world's
+// obstacles, per query the planners' trajectories, search trees (edges coloured by their
+// evaluation state) and flights replayed with the known map growing. Orbit, pan, zoom, and a
+// toggle per layer. `window.kinolabViewer` is the page's handle for scripts and tests.
+(function () {
+  "use strict";
+  const BACKGROUND = 0xf4f6f8;
+  const PLANNER_COLOURS = ["#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b",
+                           "#e377c2", "#7f7f7f", "#bcbd22", "#17becf"];
+  // As the report's search-tree figure (the paper's Fig. 6).
+  const EDGE_COLOURS = {partial: "#f4a261", full: "#2a9d8f", certified: "#264653",
+                        rejected: "#e63946"};
+
+  const scene = JSON.parse(document.getElementById("kinolab-scene").textContent);
+  document.getElementById("title").textContent = scene.title || "kinolab";
+  document.title = (scene.title || "kinolab") + " (3D)";
+
+  const container = document.getElementById("view");
+  const renderer = new THREE.WebGLRenderer({antialias: true, preserveDrawingBuffer: true});
+  renderer.setPixelRatio(window.devicePixelRatio || 1);
+  renderer.setClearColor(BACKGROUND);
+  container.appendChild(renderer.domElement);
+  const world3d = new THREE.Scene();
+  const camera = new THREE.PerspectiveCamera(45, 1, 0.05, 5000);
+  camera.up.set(0, 0, 1);
+  const controls = new THREE.OrbitControls(camera, renderer.domElement);
+  controls.screenSpacePanning = true;
+  world3d.add(new THREE.AmbientLight(0xffffff, 0.55));
+  const sun = new THREE.DirectionalLight(0xffffff, 0.6);
+  sun.position.set(0.4, -0.6, 1.0);
+  world3d.add(sun);
+
+  const plannerColour = {};
+  function colourOf(planner) {
+    if (!(planner in plannerColour)) {
+      plannerColour[planner] = PLANNER_COLOURS[Object.keys(plannerColour).length % PLANNER_COLOURS.length];
+    }
+    return plannerColour[planner];
+  }
+
+  function vectors(flat) {
+    const points = [];
+    for (let i = 0; i + 2 < flat.length; i += 3) points.push(new THREE.Vector3(flat[i], flat[i + 1], flat[i + 2]));
+    return points;
+  }
+
+  // Unit boxes scaled and moved per instance: one draw call for every obstacle.
+  function boxes(count, colour, opacity) {
+    const material = new THREE.MeshLambertMaterial({color: colour, transparent: opacity < 1, opacity: opacity});
+    const mesh = new THREE.InstancedMesh(new THREE.BoxBufferGeometry(1, 1, 1), material, Math.max(count, 1));
+    mesh.count = count;
+    mesh.frustumCulled = false;  // its bounds are the unit box's, not the instances'
+    return mesh;
+  }
+  const matrix = new THREE.Matrix4();
+  function placeBox(mesh, index, min, max) {
+    matrix.makeScale(max[0] - min[0], max[1] - min[1], max[2] - min[2]);
+    matrix.setPosition((min[0] + max[0]) / 2, (min[1] + max[1]) / 2, (min[2] + max[2]) / 2);
+    mesh.setMatrixAt(index, matrix);
+  }
+
+  // ---- layers: a group each, with a checkbox -------------------------------------------
+  const layers = {};  // id -> {group, input}
+  const layersDiv = document.getElementById("layers");
+  function heading(text) {
+    const h = document.createElement("h2");
+    h.textContent = text;
+    layersDiv.appendChild(h);
+  }
+  function addLayer(id, label, colour, group, visible) {
+    group.visible = visible;
+    world3d.add(group);
+    const row = document.createElement("label");
+    const input = document.createElement("input");
+    input.type = "checkbox";
+    input.id = "layer-" + id;
+    input.checked = visible;
+    input.addEventListener("change", () => { group.visible = input.checked; render(); });
+    const swatch = document.createElement("span");
+    swatch.className = "swatch";
+    swatch.style.background = colour;
+    row.append(input, swatch, document.createTextNode(label));
+    layersDiv.appendChild(row);
+    layers[id] = {group: group, input: input};
+  }
+
+  // ---- the world ------------------------------------------------------------------------
+  let worldCentre = new THREE.Vector3();
+  let worldSize = 10;
+  if (scene.world) {
+    const w = scene.world;
+    const r = w.resolution;
+    const o = w.origin;
+    const count = w.boxes.length / 6;
+    const mesh = boxes(count, "#8d99ae", 1);
+    for (let i = 0; i < count; ++i) {
+      const b = w.boxes.slice(6 * i, 6 * i + 6);
+      placeBox(mesh, i, [o[0] + b[0] * r, o[1] + b[1] * r, o[2] + b[2] * r],
+                        [o[0] + b[3] * r, o[1] + b[4] * r, o[2] + b[5] * r]);
+    }
+    mesh.instanceMatrix.needsUpdate = true;
+    const group = new THREE.Group();
+    group.add(mesh);
+    const size = [w.dims[0] * r, w.dims[1] * r, w.dims[2] * r];
+    const floor = new THREE.Mesh(new THREE.PlaneBufferGeometry(size[0], size[1]),
+                                 new THREE.MeshBasicMaterial({color: 0xe6e9ed, side: THREE.DoubleSide}));
+    floor.position.set(o[0] + size[0] / 2, o[1] + size[1] / 2, o[2] - 0.001);
+    const outline = new THREE.LineSegments(
+        new THREE.EdgesGeometry(new THREE.BoxBufferGeometry(size[0], size[1], size[2])),
+        new THREE.LineBasicMaterial({color: 0x9aa5b1}));
+    outline.position.set(o[0] + size[0] / 2, o[1] + size[1] / 2, o[2] + size[2] / 2);
+    world3d.add(floor, outline);
+    heading("World: " + w.name);
+    addLayer("obstacles", "obstacles" + (w.stride > 1 ? " (every " + w.stride + " voxels)" : ""),
+             "#8d99ae", group, true);
+    worldCentre = new THREE.Vector3(o[0] + size[0] / 2, o[1] + size[1] / 2, o[2] + size[2] / 2);
+    worldSize = Math.max(size[0], size[1], size[2]);
+  }
+
+  // ---- queries: every layer of each, shown for the selected query -----------------------
+  const querySelect = document.getElementById("query");
+  const queryGroups = [];
+  const flights = [];  // {query, line, vehicle, known, t, points, cells}
+  let maxFlightTime = 0;
+  (scene.queries || []).forEach((query, index) => {
+    const option = document.createElement("option");
+    option.value = index;
+    option.textContent = query.name;
+    querySelect.appendChild(option);
+    const layerGroups = [];
+    const markers = new THREE.Group();
+    const startMarker = new THREE.Mesh(new THREE.SphereBufferGeometry(0.25, 16, 12),
+                                       new THREE.MeshLambertMaterial({color: "#2b9348"}));
+    startMarker.position.fromArray(query.start);
+    const goalMarker = new THREE.Mesh(new THREE.SphereBufferGeometry(0.25, 16, 12),
+                                      new THREE.MeshLambertMaterial({color: "#d00000"}));
+    goalMarker.position.fromArray(query.goal);
+    markers.add(startMarker, goalMarker);
+    layerGroups.push(["q" + index + "-markers", "start and goal", "#2b9348", markers]);
+    for (const trajectory of query.trajectories) {
+      const group = new THREE.Group();
+      const points = vectors(trajectory.points);
+      if (points.length >= 2) {
+        const curve = new THREE.CatmullRomCurve3(points, false, "catmullrom", 0);
+        group.add(new THREE.Mesh(new THREE.TubeBufferGeometry(curve, Math.min(4 * points.length, 2000), 0.06, 8, false),
+                                 new THREE.MeshLambertMaterial({color: colourOf(trajectory.planner)})));
+      }
+      layerGroups.push(["q" + index + "-trajectory-" + trajectory.planner, trajectory.planner + ": trajectory",
+                        colourOf(trajectory.planner), group]);
+    }
+    for (const tree of query.trees) {
+      for (const state of ["partial", "full", "certified", "rejected"]) {
+        const flat = tree.edges[state] || [];
+        if (!flat.length) continue;
+        const geometry = new THREE.BufferGeometry();
+        geometry.setAttribute("position", new THREE.Float32BufferAttribute(flat, 3));
+        const group = new THREE.Group();
+        group.add(new THREE.LineSegments(geometry, new THREE.LineBasicMaterial(
+            {color: EDGE_COLOURS[state], transparent: state === "partial", opacity: state === "partial" ? 0.55 : 1})));
+        layerGroups.push(["q" + index + "-tree-" + tree.planner + "-" + state,
+                          tree.planner + ": " + state + " edges (" + flat.length / 6 + " segments)",
+                          EDGE_COLOURS[state], group]);
+      }
+    }
+    for (const flight of query.flights) {
+      const colour = colourOf(flight.planner);
+      const group = new THREE.Group();
+      const geometry = new THREE.BufferGeometry();
+      geometry.setAttribute("position", new THREE.Float32BufferAttribute(flight.points, 3));
+      const line = new THREE.Line(geometry, new THREE.LineBasicMaterial({color: colour}));
+      const vehicle = new THREE.Mesh(new THREE.SphereBufferGeometry(0.25, 16, 12),
+                                     new THREE.MeshLambertMaterial({color: colour}));
+      group.add(line, vehicle);
+      layerGroups.push(["q" + index + "-flight-" + flight.planner, flight.planner + ": flight", colour, group]);
+      let known = null;
+      let cells = [];
+      if (flight.known) {
+        const k = flight.known;
+        for (let i = 0; i + 2 < k.cells.length; i += 3) cells.push([k.cells[i], k.cells[i + 1], k.cells[i + 2]]);
+        cells.sort((a, b) => a[2] - b[2]);
+        known = boxes(cells.length, colour, 0.45);
+        cells.forEach((c, i) => placeBox(known, i,
+            [k.origin[0] + c[0] * k.resolution, k.origin[1] + c[1] * k.resolution, k.band[0]],
+            [k.origin[0] + (c[0] + 1) * k.resolution, k.origin[1] + (c[1] + 1) * k.resolution, k.band[1]]));
+        known.instanceMatrix.needsUpdate = true;
+        const knownGroup = new THREE.Group();
+        knownGroup.add(known);
+        layerGroups.push(["q" + index + "-known-" + flight.planner, flight.planner + ": known obstacles",
+                          colour, knownGroup]);
+      }
+      const times = flight.t;
+      maxFlightTime = Math.max(maxFlightTime, times.length ? times[times.length - 1] : 0);
+      flights.push({query: index, line: line, vehicle: vehicle, known: known, times: times,
+                    points: flight.points, cells: cells});
+    }
+    queryGroups.push(layerGroups);
+  });
+  document.getElementById("query-row").hidden = queryGroups.length <= 1;
+
+  let currentQuery = -1;
+  function showQuery(index) {
+    for (const id of Object.keys(layers)) {
+      if (id.startsWith("q")) {
+        world3d.remove(layers[id].group);
+        layers[id].input.parentElement.remove();
+        delete layers[id];
+      }
+    }
+    for (const h of layersDiv.querySelectorAll("h2.query")) h.remove();
+    currentQuery = index;
+    const groups = queryGroups[index] || [];
+    if (groups.length) {
+      heading(scene.queries[index].name);
+      layersDiv.lastChild.className = "query";
+    }
+    for (const [id, label, colour, group] of groups) addLayer(id, label, colour, group, true);
+    frame(scene.queries[index]);
+    setTime(maxFlightTime);
+  }
+
+  function frame(query) {
+    let centre = worldCentre.clone();
+    let extent = worldSize;
+    if (query) {
+      const a = new THREE.Vector3().fromArray(query.start);
+      const b = new THREE.Vector3().fromArray(query.goal);
+      centre = a.clone().add(b).multiplyScalar(0.5);
+      extent = Math.max(a.distanceTo(b), 4);
+    }
+    controls.target.copy(centre);
+    camera.position.set(centre.x - 0.55 * extent, centre.y - 0.95 * extent, centre.z + 0.9 * extent);
+    controls.update();
+  }
+
+  // ---- flight replay ------------------------------------------------------------------
+  const timeInput = document.getElementById("time");
+  const timeLabel = document.getElementById("time-label");
+  function upperBound(sorted, value, key) {
+    let low = 0;
+    let high = sorted.length;
+    while (low < high) {
+      const middle = (low + high) >> 1;
+      if (key(sorted[middle]) <= value) low = middle + 1; else high = middle;
+    }
+    return low;
+  }
+  function setTime(t) {
+    timeInput.value = t;
+    timeLabel.textContent = Number(t).toFixed(1) + " s";
+    for (const f of flights) {
+      if (f.query !== currentQuery || !f.times.length) continue;
+      const k = Math.max(1, upperBound(f.times, t, (x) => x));
+      f.line.geometry.setDrawRange(0, k);
+      f.vehicle.position.set(f.points[3 * (k - 1)], f.points[3 * (k - 1) + 1], f.points[3 * (k - 1) + 2]);
+      if (f.known) f.known.count = upperBound(f.cells, t, (c) => c[2]);
+    }
+    render();
+  }
+  if (flights.length) {
+    document.getElementById("flight-controls").hidden = false;
+    timeInput.max = maxFlightTime;
+    timeInput.addEventListener("input", () => setTime(Number(timeInput.value)));
+    const play = document.getElementById("play");
+    let playing = null;
+    play.addEventListener("click", () => {
+      if (playing) { cancelAnimationFrame(playing); playing = null; play.textContent = "play"; return; }
+      play.textContent = "pause";
+      let last = performance.now();
+      let t = Number(timeInput.value) >= maxFlightTime ? 0 : Number(timeInput.value);
+      const step = (now) => {
+        t = Math.min(maxFlightTime, t + 2 * (now - last) / 1000);  // twice real time
+        last = now;
+        setTime(t);
+        if (t < maxFlightTime) playing = requestAnimationFrame(step); else { playing = null; play.textContent = "play"; }
+      };
+      playing = requestAnimationFrame(step);
+    });
+  }
+
+  // ---- rendering ------------------------------------------------------------------------
+  function resize() {
+    const width = container.clientWidth || 800;
+    const height = container.clientHeight || 600;
+    renderer.setSize(width, height);
+    camera.aspect = width / height;
+    camera.updateProjectionMatrix();
+    render();
+  }
+  function render() { renderer.render(world3d, camera); }
+  controls.addEventListener("change", render);
+  window.addEventListener("resize", resize);
+  querySelect.addEventListener("change", () => showQuery(Number(querySelect.value)));
+
+  // Pixels that are not the background: what a test reads to know the canvas is not blank.
+  function paintedPixels() {
+    render();
+    const source = renderer.domElement;
+    const canvas = document.createElement("canvas");
+    canvas.width = source.width;
+    canvas.height = source.height;
+    const context = canvas.getContext("2d");
+    context.drawImage(source, 0, 0);
+    const data = context.getImageData(0, 0, canvas.width, canvas.height).data;
+    const bg = [(BACKGROUND >> 16) & 255, (BACKGROUND >> 8) & 255, BACKGROUND & 255];
+    let painted = 0;
+    for (let i = 0; i < data.length; i += 4) {
+      if (Math.abs(data[i] - bg[0]) + Math.abs(data[i + 1] - bg[1]) + Math.abs(data[i + 2] - bg[2]) > 24) ++painted;
+    }
+    return {painted: painted, total: canvas.width * canvas.height};
+  }
+
+  resize();
+  showQuery(0);
+  window.kinolabViewer = {
+    scene: scene,
+    layers: () => Object.keys(layers),
+    paintedPixels: paintedPixels,
+    setTime: setTime,
+    ready: true,
+  };
+})();
