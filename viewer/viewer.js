@@ -148,6 +148,8 @@
       layerGroups.push(["q" + index + "-trajectory-" + trajectory.planner, trajectory.planner + ": trajectory",
                         colourOf(trajectory.planner), group]);
     }
+    // One tree shown at first (the first lazy one: with partial edges); the others a click away.
+    const shown = query.trees.find((t) => (t.edges.partial || []).length) || query.trees[0];
     for (const tree of query.trees) {
       for (const state of ["partial", "full", "certified", "rejected"]) {
         const flat = tree.edges[state] || [];
@@ -156,10 +158,10 @@
         geometry.setAttribute("position", new THREE.Float32BufferAttribute(flat, 3));
         const group = new THREE.Group();
         group.add(new THREE.LineSegments(geometry, new THREE.LineBasicMaterial(
-            {color: EDGE_COLOURS[state], transparent: state === "partial", opacity: state === "partial" ? 0.55 : 1})));
+            {color: EDGE_COLOURS[state], transparent: state === "partial", opacity: state === "partial" ? 0.4 : 1})));
         layerGroups.push(["q" + index + "-tree-" + tree.planner + "-" + state,
                           tree.planner + ": " + state + " edges (" + flat.length / 6 + " segments)",
-                          EDGE_COLOURS[state], group]);
+                          EDGE_COLOURS[state], group, tree === shown]);
       }
     }
     for (const flight of query.flights) {
@@ -213,7 +215,9 @@
       heading(scene.queries[index].name);
       layersDiv.lastChild.className = "query";
     }
-    for (const [id, label, colour, group] of groups) addLayer(id, label, colour, group, true);
+    for (const [id, label, colour, group, visible] of groups) {
+      addLayer(id, label, colour, group, visible !== false);
+    }
     frame(scene.queries[index]);
     setTime(maxFlightTime);
   }
@@ -228,7 +232,7 @@
       extent = Math.max(a.distanceTo(b), 4);
     }
     controls.target.copy(centre);
-    camera.position.set(centre.x - 0.55 * extent, centre.y - 0.95 * extent, centre.z + 0.9 * extent);
+    camera.position.set(centre.x - 0.7 * extent, centre.y - 1.2 * extent, centre.z + 1.1 * extent);
     controls.update();
   }
 

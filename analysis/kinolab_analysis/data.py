@@ -15,8 +15,8 @@ from . import stats
 # The results database layout this package reads (meta `schema_version`); version 1
 # databases (written before the schema was declared) are upgraded in memory by `load`;
 # version 2 lacks the timing protocol's and the query's columns (version 3), read as missing;
-# version 4 added the flights table.
-SCHEMA_VERSION = 4
+# version 4 added the flights table, version 5 the worlds' obstacle boxes (for the 3D view).
+SCHEMA_VERSION = 5
 
 
 @dataclass
@@ -30,6 +30,10 @@ class World:
     dims: tuple[int, int, int]
     top: np.ndarray   # (nx, ny): height of the highest occupied voxel, in voxels
     side: np.ndarray  # (nx, nz): 1 where any voxel along y is occupied
+    # (n, 6): the occupied voxels as boxes x0, y0, z0, x1, y1, z1 in voxel indices ([lo, hi)),
+    # at a stride of box_stride voxels; None in databases before schema version 5.
+    boxes: np.ndarray | None = None
+    box_stride: int = 1
 
 
 @dataclass
@@ -182,7 +186,10 @@ def load(paths: str | Path | list[str | Path]) -> Results:
                 row["world_hash"], row["id"], float(row["resolution"]),
                 np.array([row["origin_x"], row["origin_y"], row["origin_z"]]), (nx, ny, nz),
                 np.frombuffer(row["top"], dtype="<u2").reshape(nx, ny),
-                np.frombuffer(row["side"], dtype=np.uint8).reshape(nx, nz))
+                np.frombuffer(row["side"], dtype=np.uint8).reshape(nx, nz),
+                (np.frombuffer(row["boxes"], dtype="<i4").reshape(-1, 6)
+                 if row.get("boxes") is not None else None),
+                int(row["box_stride"]) if pd.notna(row.get("box_stride")) else 1)
     runs = pd.concat(frames, ignore_index=True) if frames else pd.DataFrame()
     for column in ("planning_time_min_ms", "planning_time_cold_ms", "line_blocked"):
         if column not in runs.columns:

@@ -14,7 +14,7 @@ import yaml
 import matplotlib.pyplot as plt
 import pandas as pd
 
-from . import plots, tables
+from . import plots, tables, view
 from .data import Results, load
 
 TEMPLATE = """<!DOCTYPE html>
@@ -23,6 +23,7 @@ TEMPLATE = """<!DOCTYPE html>
 <style>
 body { font-family: sans-serif; max-width: 1100px; margin: 2em auto; color: #222; }
 table { border-collapse: collapse; margin: 1em 0; font-size: 0.85em; }
+iframe.view3d { width: 100%; height: 620px; border: 1px solid #ccc; }
 th, td { border-bottom: 1px solid #ccc; padding: 0.25em 0.6em; text-align: right; }
 th:first-child, td:first-child { text-align: left; }
 th { border-bottom: 2px solid #444; }
@@ -112,6 +113,12 @@ signed-rank on planning time and cost over cases both solved (Holm-corrected).</
 {{ tables['compare'] }}
 {% endif %}
 
+{% for view in views %}
+<h2>{{ view.title }}</h2>
+<p class="note">{{ view.caption }} <a href="{{ view.file }}">Open it on its own page</a>.</p>
+{{ view.frame }}
+{% endfor %}
+
 {% for figure in figures %}
 <h2>{{ figure.title }}</h2>
 <p class="note">{{ figure.caption }}</p>
@@ -154,10 +161,20 @@ class Figure:
 
 
 @dataclass
+class View:
+    """A 3D view (kinolab's viewer) inline in the report and as its own file."""
+    title: str
+    caption: str
+    file: str
+    frame: str  # the iframe, its page inline
+
+
+@dataclass
 class Report:
     out: Path
     tables: dict[str, pd.DataFrame] = field(default_factory=dict)
     figures: list[Figure] = field(default_factory=list)
+    views: list[View] = field(default_factory=list)
 
 
 def _html(table: pd.DataFrame) -> str:
@@ -232,6 +249,22 @@ def _lazy_regime(report: Report, results: Results, directory: Path) -> str:
     if parts:
         report.tables["lazy_regime"] = pd.concat(parts, ignore_index=True)
     return ", ".join(name for name, _ in sets[1:])
+
+
+def _view(report: Report, results, world, queries: list[int]) -> None:
+    """The world in 3D with the queries' stored trajectories, trees and flights, when the
+    database has its obstacle boxes (schema 5) and `kinolab report` gave the viewer."""
+    template = view.template_path()
+    if world.boxes is None or template is None:
+        return
+    page = view.page(view.scene(results, world, queries), template)
+    name = f"view_{world.id}.html"
+    (report.out / name).write_text(page)
+    report.views.append(View(
+        f"{world.id} in 3D", f"Queries {', '.join(map(str, queries))}: the obstacles, every "
+        "planner's stored trajectory, search tree (partial, full, certified and rejected edges) "
+        "and flight (replayed with its known map growing); drag to orbit, right-drag to pan, "
+        "wheel to zoom, a checkbox per layer.", name, view.iframe(page, world.id)))
 
 
 def find_sampling_study(directory: Path) -> Path | None:
@@ -316,12 +349,16 @@ def write(paths: list[Path], out: Path, compare: Path | None = None,
               "each sampler and M, and L against M; stars and dashed lines: the paper's "
               "figures. With one Euler step the end position p + v tau does not depend on the "
               "control, so position-only Euler readings have alpha = L = 0. " + readings_verdict)
+    tree_run = _tree_run(results)
     for world in results.worlds.values():
         # The query most planners solved, the first on ties.
         cases = runs[runs["world_hash"] == world.world_hash].groupby("query")["success"].sum()
         if cases.empty:
             continue
         query = int(cases.idxmax())
+        _view(report, results, world, [query] + (
+            [int(tree_run["query"])] if tree_run is not None
+            and tree_run["world_hash"] == world.world_hash and tree_run["query"] != query else []))
         if (figure := plots.trajectories(results, world, query)) is not None:
             _save(figure, report, f"trajectories_{world.id}", f"Trajectories in {world.id}",
                   f"Query {query}: every planner's trajectory (dashed: not a success) from "
@@ -353,7 +390,7 @@ def write(paths: list[Path], out: Path, compare: Path | None = None,
     if (figure := plots.replan_times(results.replans())) is not None:
         _save(figure, report, "replan_times", "Replan times",
               "Every replan of every flight: its planning time, per planner.")
-    if (run := _tree_run(results)) is not None:
+    if (run := tree_run) is not None:
         world = results.worlds.get(run["world_hash"])
         if (figure := plots.search_tree(results, run, world)) is not None:
             _save(figure, report, "search_tree", f"Search tree of {run['planner']}"
@@ -385,7 +422,9 @@ def write(paths: list[Path], out: Path, compare: Path | None = None,
         name=results.meta.get("name", "results"), meta=results.meta,
         databases=", ".join(str(p) for p in results.paths), provenance=provenance,
         tables={k: jinja2.utils.markupsafe.Markup(_html(v)) for k, v in report.tables.items()},
-        figures=report.figures, compare_name=compare_name,
+        figures=report.figures, views=[
+            View(v.title, v.caption, v.file, jinja2.utils.markupsafe.Markup(v.frame))
+            for v in report.views], compare_name=compare_name,
         timing_protocol=timing_protocol(results.meta), readings_verdict=readings_verdict,
         regime_sources=f": {regime_sources}" if regime_sources else "",
         paper_rows=", ".join(f"{row} = {planner}" for planner, row in reproduced[1].items())

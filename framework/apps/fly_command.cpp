@@ -6,6 +6,7 @@
 #include <nlohmann/json.hpp>
 
 #include "commands.hpp"
+#include "kinolab/view/scene.hpp"
 #include "kinolab/core/error.hpp"
 #include "kinolab/core/files.hpp"
 #include "kinolab/flight/flight.hpp"
@@ -32,8 +33,8 @@ std::string point(const Eigen::Vector3d& p) {
   return formatNumber(p.x()) + "," + formatNumber(p.y()) + "," + formatNumber(p.z());
 }
 
-void writeOutputs(const FlyOptions& options, const FlightResult& result,
-                  const nlohmann::ordered_json& summary) {
+void writeOutputs(const FlyOptions& options, const World& world, const PlanningQuery& query,
+                  const FlightResult& result, const nlohmann::ordered_json& summary) {
   const std::filesystem::path out(options.out_dir);
   std::filesystem::create_directories(out);
   writeFileAtomically((out / "flown.csv").string(), trajectoryCsv(result.flown, 0.01));
@@ -47,8 +48,17 @@ void writeOutputs(const FlyOptions& options, const FlightResult& result,
   writeFileAtomically((out / "plans.csv").string(), plans);
   result.map->write((out / "known_map.bt").string());
   writeFileAtomically((out / "summary.json").string(), summary.dump(2) + "\n");
-  std::printf("  wrote      %s/{flown.csv, replans.csv, plans.csv, known_map.bt, summary.json}\n",
-              options.out_dir.c_str());
+  view::Scene scene("flight of " + options.planner + " through " + world.name());
+  scene.setWorld(world);
+  const int index = scene.addQuery(point(query.start.col(0)) + " to " + point(query.goal),
+                                   query.start.col(0), query.goal);
+  scene.addFlight(index, options.planner, result.flown, result.snapshots,
+                  std::min(query.start(2, 0), query.goal.z()) - kSnapshotBand,
+                  std::max(query.start(2, 0), query.goal.z()) + kSnapshotBand);
+  view::writeViewHtml((out / "view.html").string(), scene.json());
+  std::printf(
+      "  wrote      %s/{flown.csv, replans.csv, plans.csv, known_map.bt, summary.json, view.html}\n",
+      options.out_dir.c_str());
 }
 
 void runFly(const FlyOptions& options) {
@@ -71,6 +81,8 @@ void runFly(const FlyOptions& options) {
     configured.planner->setup({std::move(world), configured.sampler, options.seed});
     return std::move(configured.planner);
   };
+  // The 3D view replays the known map growing: a snapshot every half second.
+  if (!options.out_dir.empty() && settings.snapshot_period <= 0.0) settings.snapshot_period = 0.5;
   const FlightResult result = fly(load.world, factory, query, sensor, map, settings);
 
   std::printf("flight of %s through world %s, seed %llu\n", options.planner.c_str(),
@@ -87,7 +99,7 @@ void runFly(const FlyOptions& options) {
   nlohmann::ordered_json summary = {
       {"planner", options.planner}, {"world", load.world->name()}, {"seed", options.seed}};
   summary.update(nlohmann::ordered_json::parse(toJson(flightValues(result), flightMetrics())));
-  if (!options.out_dir.empty()) writeOutputs(options, result, summary);
+  if (!options.out_dir.empty()) writeOutputs(options, *load.world, query, result, summary);
   std::cout << summary.dump() << std::endl;
 }
 
@@ -116,7 +128,8 @@ void addFlyCommand(CLI::App& app) {
       ->required();
   command->add_option("--goal", options->goal, "Goal position x,y,z in metres")->required();
   command->add_option("--out", options->out_dir,
-                      "Write flown.csv, replans.csv, plans.csv, known_map.bt and summary.json");
+                      "Write flown.csv, replans.csv, plans.csv, known_map.bt, summary.json and view.html (the "
+                      "flight in 3D, the known map growing)");
   command->add_option("--seed", options->seed, "Seed of the planner's random streams")
       ->check(within(0.0, 18446744073709551615.0))
       ->capture_default_str();

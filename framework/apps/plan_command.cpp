@@ -13,6 +13,7 @@
 #include "kinolab/core/text.hpp"
 #include "kinolab/planner/planner.hpp"
 #include "kinolab/planner/result_csv.hpp"
+#include "kinolab/view/scene.hpp"
 #include "kinolab/world/world_cache.hpp"
 
 namespace kinolab::apps {
@@ -85,7 +86,13 @@ void runPlan(const PlanOptions& options) {
                         trajectoryCsv(result.trajectory, options.sample_step));
     writeFileAtomically((out / "tree.csv").string(), treeCsv(tree));
     writeFileAtomically((out / "result.json").string(), json.dump(2) + "\n");
-    std::printf("  wrote      %s/{trajectory.csv, tree.csv, result.json}\n",
+    view::Scene scene(options.planner + " in " + load.world->name());
+    scene.setWorld(*load.world);
+    const int index = scene.addQuery(options.start + " to " + options.goal, start, goal);
+    scene.addTrajectory(index, options.planner, result.trajectory);
+    scene.addTree(index, options.planner, tree);
+    view::writeViewHtml((out / "view.html").string(), scene.json());
+    std::printf("  wrote      %s/{trajectory.csv, tree.csv, result.json, view.html}\n",
                 options.out_dir.c_str());
   }
   std::cout << json.dump() << std::endl;
@@ -130,7 +137,8 @@ void addPlanCommand(CLI::App& app) {
       ->required();
   command->add_option("--goal", options->goal, "Goal position x,y,z in metres")->required();
   command->add_option("--out", options->out_dir,
-                      "Write trajectory.csv, tree.csv (the search tree) and result.json here");
+                      "Write trajectory.csv, tree.csv (the search tree), result.json and view.html "
+                      "(the world, trajectory and tree in 3D) here");
   command->add_option("--seed", options->seed, "Seed of the planner's random streams")
       ->check(within(0.0, 18446744073709551615.0))
       ->capture_default_str();

@@ -2,6 +2,7 @@
 // interpreter the build found, on a results directory.
 #include <unistd.h>
 
+#include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <string>
@@ -10,6 +11,7 @@
 #include "commands.hpp"
 #include "kinolab/core/error.hpp"
 #include "kinolab/core/version.hpp"
+#include "kinolab/view/scene.hpp"
 
 namespace kinolab::apps {
 namespace {
@@ -41,6 +43,12 @@ std::string analysisDirectory() {
   const std::string path = directory + (existing && *existing ? ":" + std::string(existing) : "");
   setenv("PYTHONPATH", path.c_str(), 1);
   setenv("MPLBACKEND", "Agg", 1);
+  // The 3D viewer page the report's views are made of (none: the report has no 3D views).
+  try {
+    setenv("KINOLAB_VIEWER", view::viewerTemplatePath().c_str(), 1);
+  } catch (const FileError& error) {
+    std::fprintf(stderr, "report: no 3D views: %s\n", error.what());
+  }
   std::vector<std::string> arguments = {kPythonExecutable, "-m", "kinolab_analysis", "report"};
   arguments.insert(arguments.end(), options.results.begin(), options.results.end());
   for (const auto& [flag, value] :

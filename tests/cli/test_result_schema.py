@@ -36,7 +36,7 @@ def test_a_declared_statistic_reaches_plan_json_sqlite_and_the_report(kinolab, t
     assert declared == [("statistic", "test_metric", "integer", "count",
                          "the answer this test planner always reports")]
     assert {"status", "success", "planning_time_ms", "checker_valid", "wall_time_ms"} <= columns
-    assert version == ("4",)
+    assert version == ("5",)
 
     report = kinolab("report", tmp_path / "out")
     assert report.returncode == 0, report.stderr

@@ -63,7 +63,8 @@ CREATE TABLE IF NOT EXISTS metrics (
   doc TEXT, clock INTEGER, PRIMARY KEY (name, planner_type));
 CREATE TABLE IF NOT EXISTS worlds (
   world_hash TEXT PRIMARY KEY, id TEXT, resolution REAL, origin_x REAL, origin_y REAL,
-  origin_z REAL, nx INTEGER, ny INTEGER, nz INTEGER, top BLOB, side BLOB);
+  origin_z REAL, nx INTEGER, ny INTEGER, nz INTEGER, top BLOB, side BLOB, box_stride INTEGER,
+  boxes BLOB);
 CREATE TABLE IF NOT EXISTS trajectories (run_hash TEXT PRIMARY KEY, csv TEXT NOT NULL);
 CREATE TABLE IF NOT EXISTS trees (run_hash TEXT PRIMARY KEY, csv TEXT NOT NULL);
 CREATE TABLE IF NOT EXISTS flights (run_hash TEXT PRIMARY KEY, replans TEXT NOT NULL,
@@ -377,7 +378,7 @@ std::optional<int> ResultsStore::schemaVersion() const {
 void ResultsStore::insertWorld(const WorldRecord& w) {
   Statement insert(db_,
                    "INSERT OR IGNORE INTO worlds (world_hash, id, resolution, origin_x, origin_y, "
-                   "origin_z, nx, ny, nz, top, side) VALUES (?,?,?,?,?,?,?,?,?,?,?)",
+                   "origin_z, nx, ny, nz, top, side, box_stride, boxes) VALUES (?,?,?,?,?,?,?,?,?,?,?,?,?)",
                    path_);
   insert.add(w.world_hash);
   insert.add(w.id);
@@ -386,6 +387,8 @@ void ResultsStore::insertWorld(const WorldRecord& w) {
   for (const int n : w.dims) insert.add(n);
   insert.addBlob(w.top.data(), w.top.size() * sizeof(std::uint16_t));
   insert.addBlob(w.side.data(), w.side.size());
+  insert.add(w.box_stride);
+  insert.addBlob(w.boxes.data(), w.boxes.size() * sizeof(std::int32_t));
   insert.step(path_);
 }
 

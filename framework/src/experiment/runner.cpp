@@ -22,6 +22,7 @@
 #include "kinolab/core/process.hpp"
 #include "kinolab/core/text.hpp"
 #include "kinolab/core/version.hpp"
+#include "kinolab/view/scene.hpp"
 #include "kinolab/experiment/process_pool.hpp"
 #include "kinolab/experiment/results_store.hpp"
 #include "kinolab/flight/flight.hpp"
@@ -286,6 +287,12 @@ WorldRecord worldRecord(const World& world, const std::string& id) {
         record.side[static_cast<std::size_t>(x) * n.z() + z] = 1;
       }
     }
+  }
+  const auto [boxes, stride] = view::viewerBoxes(grid);
+  record.box_stride = stride;
+  for (const view::VoxelBox& box : boxes) {
+    record.boxes.insert(record.boxes.end(), box.lo.begin(), box.lo.end());
+    record.boxes.insert(record.boxes.end(), box.hi.begin(), box.hi.end());
   }
   return record;
 }

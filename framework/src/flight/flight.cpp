@@ -283,8 +283,8 @@ FlightResult fly(const std::shared_ptr<const World>& truth, const PlannerFactory
   double t = 0.0;
   bool collided = false;
   // The heights of the query, for the map's snapshots from above.
-  const double z_band_low = std::min(start.z(), query.goal.z()) - 0.5;
-  const double z_band_high = std::max(start.z(), query.goal.z()) + 0.5;
+  const double z_band_low = std::min(start.z(), query.goal.z()) - kSnapshotBand;
+  const double z_band_high = std::max(start.z(), query.goal.z()) + kSnapshotBand;
   for (int frame = 0;; ++frame) {
     // The ground truth: the stretch flown since the last frame, every centimetre of time.
     const double from = t;

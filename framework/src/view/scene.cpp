@@ -28,68 +28,59 @@ void appendPoint(nlohmann::ordered_json& flat, const Eigen::Vector3d& p) {
   for (int axis = 0; axis < 3; ++axis) flat.push_back(mm(p[axis]));
 }
 
-/// Whether any fine voxel of the coarse voxel (cx, cy, cz) is occupied.
-bool coarseOccupied(const VoxelGrid& grid, int stride, int cx, int cy, int cz) {
-  const Eigen::Vector3i& n = grid.dims();
-  for (int x = cx * stride; x < std::min(n.x(), (cx + 1) * stride); ++x) {
-    for (int y = cy * stride; y < std::min(n.y(), (cy + 1) * stride); ++y) {
-      for (int z = cz * stride; z < std::min(n.z(), (cz + 1) * stride); ++z) {
-        if (grid.occupied(grid.index(x, y, z))) return true;
-      }
-    }
-  }
-  return false;
-}
-
 }  // namespace
 
 std::vector<VoxelBox> obstacleBoxes(const VoxelGrid& grid, int stride) {
   if (stride < 1) throw InvalidArgument("obstacleBoxes: stride must be at least 1");
   const Eigen::Vector3i& n = grid.dims();
   const Eigen::Vector3i c = (n.array() + stride - 1) / stride;
-  // Rectangles in the y-z plane per x: (y0, y1, z0, z1) -> open box; merged along x when the
-  // same rectangle continues in the next x.
-  using Rect = std::array<int, 4>;
+  const auto at = [&c](int x, int y, int z) {
+    return (static_cast<std::size_t>(x) * c.y() + y) * c.z() + z;
+  };
+  // The coarse grid: 1 occupied, 2 already in a box.
+  std::vector<std::uint8_t> cells(static_cast<std::size_t>(c.x()) * c.y() * c.z(), 0);
+  for (int x = 0; x < n.x(); ++x) {
+    for (int y = 0; y < n.y(); ++y) {
+      for (int z = 0; z < n.z(); ++z) {
+        if (grid.occupied(grid.index(x, y, z))) cells[at(x / stride, y / stride, z / stride)] = 1;
+      }
+    }
+  }
+  // Greedy: from each occupied cell not yet covered, grow a box along z, then y, then x over
+  // cells that are occupied and not covered (a floor becomes one box, a trunk a few).
+  const auto free_of = [&](int x0, int x1, int y0, int y1, int z0, int z1) {
+    for (int x = x0; x < x1; ++x) {
+      for (int y = y0; y < y1; ++y) {
+        for (int z = z0; z < z1; ++z) {
+          if (cells[at(x, y, z)] != 1) return false;
+        }
+      }
+    }
+    return true;
+  };
   std::vector<VoxelBox> boxes;
-  std::map<Rect, int> open_x;  // rectangle -> first x
-  for (int x = 0; x <= c.x(); ++x) {
-    std::map<Rect, int> rects;  // of this x, each with its first x
-    if (x < c.x()) {
-      // Runs along z per y, merged along y.
-      std::map<std::pair<int, int>, int> open_y;  // (z0, z1) -> first y
-      for (int y = 0; y <= c.y(); ++y) {
-        std::map<std::pair<int, int>, int> runs;
-        if (y < c.y()) {
-          for (int z = 0; z < c.z();) {
-            if (!coarseOccupied(grid, stride, x, y, z)) {
-              ++z;
-              continue;
-            }
-            const int z0 = z;
-            while (z < c.z() && coarseOccupied(grid, stride, x, y, z)) ++z;
-            const auto key = std::make_pair(z0, z);
-            const auto found = open_y.find(key);
-            runs[key] = found != open_y.end() ? found->second : y;
+  for (int x = 0; x < c.x(); ++x) {
+    for (int y = 0; y < c.y(); ++y) {
+      for (int z = 0; z < c.z(); ++z) {
+        if (cells[at(x, y, z)] != 1) continue;
+        int z1 = z + 1;
+        while (z1 < c.z() && cells[at(x, y, z1)] == 1) ++z1;
+        int y1 = y + 1;
+        while (y1 < c.y() && free_of(x, x + 1, y1, y1 + 1, z, z1)) ++y1;
+        int x1 = x + 1;
+        while (x1 < c.x() && free_of(x1, x1 + 1, y, y1, z, z1)) ++x1;
+        for (int bx = x; bx < x1; ++bx) {
+          for (int by = y; by < y1; ++by) {
+            for (int bz = z; bz < z1; ++bz) cells[at(bx, by, bz)] = 2;
           }
         }
-        for (const auto& [key, y0] : open_y) {
-          if (!runs.count(key)) rects[{y0, y, key.first, key.second}] = x;
-        }
-        open_y = std::move(runs);
-      }
-      for (auto& [rect, first] : rects) {
-        if (const auto found = open_x.find(rect); found != open_x.end()) first = found->second;
+        VoxelBox box;
+        box.lo = {x * stride, y * stride, z * stride};
+        box.hi = {std::min(n.x(), x1 * stride), std::min(n.y(), y1 * stride),
+                  std::min(n.z(), z1 * stride)};
+        boxes.push_back(box);
       }
     }
-    for (const auto& [rect, x0] : open_x) {
-      if (rects.count(rect)) continue;
-      VoxelBox box;
-      box.lo = {x0 * stride, rect[0] * stride, rect[2] * stride};
-      box.hi = {std::min(n.x(), x * stride), std::min(n.y(), rect[1] * stride),
-                std::min(n.z(), rect[3] * stride)};
-      boxes.push_back(box);
-    }
-    open_x = std::move(rects);
   }
   return boxes;
 }

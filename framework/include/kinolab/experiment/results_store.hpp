@@ -21,7 +21,7 @@ const MetricSpecs& runnerMetrics();
 
 /// The version of the results database layout this kinolab writes (meta `schema_version`).
 /// Version 2 derives the runs table and the `metrics` table from the declared metrics.
-inline constexpr int kResultsSchemaVersion = 4;
+inline constexpr int kResultsSchemaVersion = 5;
 
 /// One finished run as stored: what defines it, then the values of resultMetrics() and
 /// runnerMetrics() (by name; a missing or none value is NULL) and the planner's statistics.
@@ -56,7 +56,8 @@ struct RunRecord {
 
 /// A world as the report draws it: its grid geometry, a top view (per x, y column the
 /// height of the highest occupied voxel, in voxels: 0 when the column is free) and a side
-/// view (per x, z: 1 when any voxel along y is occupied).
+/// view (per x, z: 1 when any voxel along y is occupied), and its obstacles as boxes for the
+/// 3D viewer (view::viewerBoxes).
 struct WorldRecord {
   std::string world_hash;
   std::string id;
@@ -65,6 +66,8 @@ struct WorldRecord {
   int dims[3] = {0, 0, 0};
   std::vector<std::uint16_t> top;  ///< nx * ny, index x * ny + y
   std::vector<std::uint8_t> side;  ///< nx * nz, index x * nz + z
+  int box_stride = 1;
+  std::vector<std::int32_t> boxes;  ///< per box x0, y0, z0, x1, y1, z1 (voxel indices, [lo, hi))
 };
 
 /// The results database of one experiment (SQLite, WAL journal): a `meta` table (the

@@ -156,6 +156,10 @@ struct FlightReplan {
   Trajectory trajectory;          ///< the plan (planner's time, from 0)
 };
 
+/// A flight's known-map snapshots (FlightResult::snapshots) show the heights of the query's
+/// start and goal widened by this much (m) above and below.
+inline constexpr double kSnapshotBand = 0.5;
+
 struct FlightResult {
   /// reached (within goal_tolerance), collision, stuck, timeout, invalid_start, invalid_goal
   std::string status;

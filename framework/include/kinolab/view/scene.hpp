@@ -18,8 +18,8 @@ struct VoxelBox {
 
 /// Boxes covering exactly the occupied voxels of `grid` coarsened by `stride` (a coarse voxel
 /// is occupied when any of its fine voxels is; the boxes are in fine-voxel indices, clipped to
-/// the grid): runs along z, merged along y, then along x, so a forest of trunks is a few
-/// thousand boxes, not a million voxels.
+/// the grid), disjoint: each grown greedily from the first uncovered voxel along z, then y,
+/// then x, so a floor is one box and a forest of trunks a few thousand, not a million voxels.
 std::vector<VoxelBox> obstacleBoxes(const VoxelGrid& grid, int stride = 1);
 
 /// The obstacle boxes of a world for the 3D viewer: at the finest stride (1, 2, 4, ...) that

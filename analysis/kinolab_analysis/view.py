@@ -1,0 +1,115 @@
+"""3D views of a results database for kinolab's viewer (viewer/viewer.js; the scene format
+is in docs/viewer.md): a world's obstacles and, per query, every planner's stored trajectory,
+search tree and flight with its known map growing."""
+
+from __future__ import annotations
+
+import html
+import json
+import os
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from .data import Results, World
+
+# A flight's known-map snapshots show the query's heights widened by this much (m) above and
+# below: kinolab::kSnapshotBand (framework/.../flight/flight.hpp).
+SNAPSHOT_BAND = 0.5
+STATES = ("partial", "full", "certified", "rejected")
+
+
+def template_path() -> Path | None:
+    """The viewer page `kinolab` built (share/kinolab/viewer.html), as `kinolab report`
+    passes it in $KINOLAB_VIEWER; None without one."""
+    path = os.environ.get("KINOLAB_VIEWER")
+    return Path(path) if path and Path(path).is_file() else None
+
+
+def _flat(points: np.ndarray) -> list[float]:
+    return np.round(np.asarray(points, dtype=float), 3).ravel().tolist()
+
+
+def _tree_edges(tree: pd.DataFrame) -> dict[str, list[float]]:
+    """Per evaluation state, the tree's polylines as flat point pairs (line segments)."""
+    tree = tree.sort_values(["edge", "point"])
+    points = tree[["x", "y", "z"]].to_numpy()
+    edge = tree["edge"].to_numpy()
+    state = tree["state"].to_numpy()
+    joined = np.flatnonzero(edge[:-1] == edge[1:])  # segment i -> i + 1 within an edge
+    edges = {}
+    for name in STATES:
+        chosen = joined[state[joined] == name]
+        pairs = np.stack([points[chosen], points[chosen + 1]], axis=1)
+        edges[name] = _flat(pairs)
+    return edges
+
+
+def _known(snapshots, band: tuple[float, float]) -> dict | None:
+    """Each obstacle cell of a flight's known map once, with the time it was first seen."""
+    if not snapshots:
+        return None
+    _, first, origin, resolution = snapshots[0]
+    seen = np.full(first.shape, np.inf)
+    for time, grid, _, _ in snapshots:
+        if grid.shape == seen.shape:
+            seen = np.where((grid == 2) & np.isinf(seen), time, seen)
+    xs, ys = np.nonzero(np.isfinite(seen))
+    cells = np.stack([xs, ys, np.round(seen[xs, ys], 3)], axis=1)
+    return {"resolution": float(resolution), "origin": _flat(origin), "band": _flat(band),
+            "cells": [v for row in cells.tolist() for v in (int(row[0]), int(row[1]), row[2])]}
+
+
+def scene(results: Results, world: World, queries: list[int]) -> dict:
+    """The scene of one world: its obstacles and the given queries' stored runs."""
+    r = world.resolution
+    document = {
+        "format": "kinolab-scene", "version": 1,
+        "title": f"{results.meta.get('name', 'results')}: {world.id}",
+        "world": {"name": world.id, "spec_hash": world.world_hash, "resolution": r,
+                  "origin": _flat(world.origin), "dims": list(map(int, world.dims)),
+                  "stride": int(world.box_stride),
+                  "boxes": world.boxes.ravel().astype(int).tolist()},
+        "queries": []}
+    runs = results.runs
+    for query in queries:
+        chosen = runs[(runs["world_hash"] == world.world_hash) & (runs["query"] == query)]
+        if chosen.empty:
+            continue
+        first = chosen.iloc[0]
+        start = np.array([first["start_x"], first["start_y"], first["start_z"]], dtype=float)
+        goal = np.array([first["goal_x"], first["goal_y"], first["goal_z"]], dtype=float)
+        entry = {"name": f"query {query}", "start": _flat(start), "goal": _flat(goal),
+                 "trajectories": [], "trees": [], "flights": []}
+        for _, run in chosen.sort_values(["planner", "repetition"]).drop_duplicates("planner").iterrows():
+            trajectory = results.trajectory(run["run_hash"])
+            snapshots = results.known_maps(run["run_hash"])
+            if trajectory is not None and len(trajectory) and snapshots:
+                band = (min(start[2], goal[2]) - SNAPSHOT_BAND, max(start[2], goal[2]) + SNAPSHOT_BAND)
+                entry["flights"].append({
+                    "planner": run["planner"], "t": _flat(trajectory["t"]),
+                    "points": _flat(trajectory[["x", "y", "z"]]), "known": _known(snapshots, band)})
+                continue
+            if trajectory is not None and len(trajectory):
+                entry["trajectories"].append({"planner": run["planner"],
+                                              "points": _flat(trajectory[["x", "y", "z"]])})
+            tree = results.tree(run["run_hash"])
+            if tree is not None and len(tree):
+                entry["trees"].append({"planner": run["planner"], "edges": _tree_edges(tree)})
+        document["queries"].append(entry)
+    return document
+
+
+def page(document: dict, template: Path) -> str:
+    """The viewer page with the scene inlined ("</" escaped, as in a script element)."""
+    text = template.read_text()
+    if "__KINOLAB_SCENE__" not in text:
+        raise ValueError(f"{template}: not a kinolab viewer (no scene placeholder)")
+    return text.replace("__KINOLAB_SCENE__", json.dumps(document).replace("</", "<\\/"), 1)
+
+
+def iframe(page_text: str, name: str) -> str:
+    """The page inline in the report: an iframe whose document is the page itself."""
+    return (f'<iframe class="view3d" data-view="{html.escape(name)}" '
+            f'srcdoc="{html.escape(page_text, quote=True)}"></iframe>')
