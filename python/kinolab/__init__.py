@@ -24,6 +24,10 @@ from . import _core
 from ._core import (ConfigError, Error, FileError, InvalidArgument, ParameterConflict,
                     PluginError, Result)
 
+for _error in (Error, ConfigError, ParameterConflict, FileError, PluginError, InvalidArgument,
+               Result):
+    _error.__module__ = __name__  # kinolab.ConfigError in tracebacks, not kinolab._core's
+
 __version__ = _core.__version__
 __all__ = ["World", "Planner", "Result", "Scene", "planners", "samplers", "metrics",
            "load_plugin", "run_experiment", "load_results", "Error", "ConfigError",

@@ -444,10 +444,15 @@ PYBIND11_MODULE(_core, m) {
                                py::dict dict;
                                for (const auto& [name, value] : p.configured.parameters.values())
                                  dict[py::str(name)] = parameterValue(value);
-                               for (const auto& [name, value] :
-                                    p.configured.sampler_parameters.values())
-                                 dict[py::str(p.configured.sampler_key + "." + name)] =
-                                     parameterValue(value);
+                               // As they are set: `sampler.NAME` for the sampler parameter
+                               // `sampler`.
+                               if (const ParameterSpec* sampler =
+                                       p.configured.info->parameters.samplerParameter()) {
+                                 for (const auto& [name, value] :
+                                      p.configured.sampler_parameters.values())
+                                   dict[py::str(sampler->name + "." + name)] =
+                                       parameterValue(value);
+                               }
                                return dict;
                              })
       .def_property_readonly("world",
