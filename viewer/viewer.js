@@ -295,7 +295,8 @@
   window.addEventListener("resize", resize);
   querySelect.addEventListener("change", () => showQuery(Number(querySelect.value)));
 
-  // Pixels that are not the background: what a test reads to know the canvas is not blank.
+  // Pixels that are not the background (a test reads it to know the canvas is not blank) and
+  // a digest of the picture.
   function paintedPixels() {
     render();
     const source = renderer.domElement;
@@ -307,10 +308,12 @@
     const data = context.getImageData(0, 0, canvas.width, canvas.height).data;
     const bg = [(BACKGROUND >> 16) & 255, (BACKGROUND >> 8) & 255, BACKGROUND & 255];
     let painted = 0;
+    let digest = 0x811c9dc5;  // FNV-1a over the pixels: any change to the picture changes it
     for (let i = 0; i < data.length; i += 4) {
       if (Math.abs(data[i] - bg[0]) + Math.abs(data[i + 1] - bg[1]) + Math.abs(data[i + 2] - bg[2]) > 24) ++painted;
+      for (let c = 0; c < 3; ++c) digest = Math.imul(digest ^ data[i + c], 16777619) >>> 0;
     }
-    return {painted: painted, total: canvas.width * canvas.height};
+    return {painted: painted, total: canvas.width * canvas.height, digest: digest};
   }
 
   resize();

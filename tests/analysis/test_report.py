@@ -1,6 +1,7 @@
 """`kinolab report` on a real small results database written by `kinolab run`, and the HTML
 report rendered in headless Chromium."""
 
+import json
 import os
 import re
 import shutil
@@ -132,6 +133,20 @@ def test_the_report_renders_in_headless_chromium(report, tmp_path):
     assert expected >= 5 and loaded == expected
     assert dom.count("<table") >= 5
     assert "Table II beside kinolab" in dom
+    assert 'class="view3d"' in dom  # the 3D view, inline
+
+
+def test_the_report_has_a_3d_view_with_the_lazy_tree(report):
+    directory, _ = report
+    views = sorted(directory.glob("view_*.html"))
+    assert views, "no 3D view written"
+    text = views[0].read_text()
+    scene = json.loads(re.search(r'id="kinolab-scene">(.*?)</script>', text, re.S).group(1))
+    assert scene["world"]["boxes"] and len(scene["world"]["boxes"]) % 6 == 0
+    trees = [tree for query in scene["queries"] for tree in query["trees"]]
+    assert any(tree["edges"]["partial"] for tree in trees)  # the lazy search's tree
+    assert len(scene["queries"][0]["trajectories"]) == 3  # every planner's trajectory
+    assert "THREE.OrbitControls" in text
 
 
 def test_an_experiment_that_reproduces_no_paper_gets_no_paper_tables(tmp_path):

@@ -1,0 +1,105 @@
+"""The 3D viewer in headless Chromium (Debian's chromium and chromedriver, through
+Selenium): the page kinolab writes renders a canvas that is not blank, each layer's
+checkbox toggles what is drawn, and a flight's replay grows its known map."""
+
+import os
+import shutil
+import subprocess
+from pathlib import Path
+
+import pytest
+from selenium import webdriver
+from selenium.webdriver.chrome.service import Service
+from selenium.webdriver.common.by import By
+from selenium.webdriver.support.ui import WebDriverWait
+
+SOURCE_DIR = Path(os.environ.get("KINOLAB_SOURCE_DIR", Path(__file__).resolve().parents[2]))
+BINARY = os.environ.get("KINOLAB_BIN", str(SOURCE_DIR / "build" / "framework" / "kinolab"))
+WORLD = SOURCE_DIR / "tests" / "support" / "small_forest.yaml"
+
+
+def kinolab(*args, tmp_path):
+    env = dict(os.environ, KINOLAB_CACHE_DIR=str(tmp_path / "cache"))
+    result = subprocess.run([BINARY, *map(str, args)], capture_output=True, text=True, env=env,
+                            timeout=300)
+    assert result.returncode == 0, result.stderr
+    return result
+
+
+@pytest.fixture(scope="module")
+def browser(tmp_path_factory):
+    chromium, driver = shutil.which("chromium"), shutil.which("chromedriver")
+    assert chromium and driver, "Debian's chromium and chromium-driver: scripts/setup_debian.sh"
+    options = webdriver.ChromeOptions()
+    options.binary_location = chromium
+    for argument in ("--headless=new", "--no-sandbox", "--disable-dev-shm-usage",
+                     "--window-size=1000,700", "--enable-unsafe-swiftshader",
+                     f"--user-data-dir={tmp_path_factory.mktemp('profile')}"):
+        options.add_argument(argument)
+    options.set_capability("goog:loggingPrefs", {"browser": "ALL"})
+    with webdriver.Chrome(service=Service(driver), options=options) as browser:
+        yield browser
+
+
+def open_view(browser, path):
+    browser.get(Path(path).resolve().as_uri())
+    WebDriverWait(browser, 60).until(
+        lambda b: b.execute_script("return window.kinolabViewer && window.kinolabViewer.ready"))
+    errors = [entry for entry in browser.get_log("browser") if entry["level"] == "SEVERE"]
+    assert not errors, errors
+
+
+def painted(browser):
+    return browser.execute_script("return kinolabViewer.paintedPixels().painted")
+
+
+def picture(browser):
+    """The canvas's painted pixels and a digest of all of them."""
+    state = browser.execute_script("return kinolabViewer.paintedPixels()")
+    return state["painted"], state["digest"]
+
+
+def click(browser, layer):
+    browser.find_element(By.ID, f"layer-{layer}").click()
+    return picture(browser)
+
+
+def test_a_plans_view_renders_and_every_layer_toggles(browser, tmp_path):
+    kinolab("plan", "--world", WORLD, "--planner", "lazy_mp_astar", "--start", "1,1,1.5",
+            "--goal", "9,8,1.5", "--out", tmp_path / "plan", tmp_path=tmp_path)
+    open_view(browser, tmp_path / "plan" / "view.html")
+    total = browser.execute_script("return kinolabViewer.paintedPixels().total")
+    everything = picture(browser)
+    assert everything[0] > 0.05 * total  # the forest and the tree: not a blank canvas
+    layers = browser.execute_script("return kinolabViewer.layers()")
+    assert "obstacles" in layers and "q0-trajectory-lazy_mp_astar" in layers
+    assert {"q0-tree-lazy_mp_astar-partial", "q0-tree-lazy_mp_astar-full"} <= set(layers)
+    for layer in layers:
+        hidden = click(browser, layer)
+        assert hidden[0] <= everything[0] and hidden[1] != everything[1], f"hiding {layer}"
+        assert click(browser, layer) == everything, f"showing {layer} again changed the view"
+    # Without obstacles or trees, only the trajectory over the floor remains; then the floor.
+    for layer in layers:
+        if layer != "q0-trajectory-lazy_mp_astar":
+            click(browser, layer)
+    alone = painted(browser)
+    assert alone < everything[0]
+    assert click(browser, "q0-trajectory-lazy_mp_astar")[0] < alone
+
+
+def test_a_flights_view_replays_the_known_map_growing(browser, tmp_path):
+    kinolab("fly", "--world", WORLD, "--planner", "lazy_mp_astar", "--start", "1,1,1.5",
+            "--goal", "9,9,1.5", "--out", tmp_path / "fly", tmp_path=tmp_path)
+    open_view(browser, tmp_path / "fly" / "view.html")
+    layers = browser.execute_script("return kinolabViewer.layers()")
+    assert {"q0-flight-lazy_mp_astar", "q0-known-lazy_mp_astar"} <= set(layers)
+    click(browser, "obstacles")  # the ground truth off: what remains is what the vehicle saw
+    end = painted(browser)
+    browser.execute_script("kinolabViewer.setTime(0)")
+    start = painted(browser)
+    assert start < end  # at t = 0 the vehicle has seen less and flown nothing
+    slider = browser.find_element(By.ID, "time")
+    assert float(slider.get_attribute("value")) == 0
+    browser.execute_script("kinolabViewer.setTime(1e9)")
+    assert painted(browser) == end
+    assert click(browser, "q0-known-lazy_mp_astar")[0] < end
