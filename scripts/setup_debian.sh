@@ -13,6 +13,9 @@ PACKAGES=(
   # the TGK analogue: OMPL (and the Boost libraries it links) and Ceres
   libompl-dev libboost-serialization-dev libboost-filesystem-dev libboost-system-dev
   libceres-dev
+  # OMPL's ompl_benchmark_statistics: the export test turns kinolab's OMPL logs into Planner
+  # Arena's database with it
+  ompl-demos
   # the experiment runner's results database
   libsqlite3-dev
   # Python (Debian's interpreter and packages; the Python package index is not needed)

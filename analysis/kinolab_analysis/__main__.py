@@ -1,4 +1,5 @@
-"""python3 -m kinolab_analysis report DIR [DIR...] [--out REPORT_DIR] [--compare DIR2]"""
+"""python3 -m kinolab_analysis report DIR [DIR...] [--out REPORT_DIR] [--compare DIR2]
+python3 -m kinolab_analysis export DIR [DIR...] --format ompl OUT"""
 
 from __future__ import annotations
 
@@ -6,7 +7,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from . import report
+from . import export, report
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -22,7 +23,24 @@ def main(argv: list[str] | None = None) -> int:
     rep.add_argument("--sampling-study", type=Path,
                      help="a sampling study's summary.csv for Table I (default: "
                           "RESULTS/sampling_study/*/summary.csv when present)")
+    exp = sub.add_parser("export", help="write the results in another tool's format")
+    exp.add_argument("results", nargs="+", type=Path,
+                     help="results directories (or results.sqlite files) of one experiment")
+    exp.add_argument("--format", required=True, choices=["ompl"],
+                     help="ompl: OMPL benchmark logs (ompl_benchmark_statistics -> Planner Arena)")
+    exp.add_argument("out", type=Path, help="output directory")
     args = parser.parse_args(argv)
+    if args.command == "export":
+        try:
+            written = export.export_ompl(args.results, args.out)
+        except (FileNotFoundError, ValueError) as error:
+            print(f"kinolab export: error: {error}", file=sys.stderr)
+            return 1
+        for path in written:
+            print(path)
+        print(f"{len(written)} OMPL benchmark logs; for Planner Arena: ompl_benchmark_statistics "
+              f"{args.out}/*.log -d benchmark.db")
+        return 0
     first = args.results[0]
     out = args.out or ((first if first.is_dir() else first.parent) / "report")
     try:

@@ -31,6 +31,7 @@ inline CLI::Validator within(double low, double high) {
 Eigen::Vector3d parsePoint(const std::string& text, const std::string& option);
 
 /// Each subcommand adds itself (options, help and the action to run) to the main app.
+void addExportCommand(CLI::App& app);
 void addFlyCommand(CLI::App& app);
 void addListCommand(CLI::App& app);
 void addPlanCommand(CLI::App& app);

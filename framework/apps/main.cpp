@@ -18,6 +18,7 @@ int main(int argc, char** argv) {
       ->type_name("PATH")
       ->each([](const std::string& path) { kinolab::loadPluginLibrary(path); });
   app.footer("Run 'kinolab COMMAND --help' for the options of one command.");
+  kinolab::apps::addExportCommand(app);
   kinolab::apps::addFlyCommand(app);
   kinolab::apps::addListCommand(app);
   kinolab::apps::addPlanCommand(app);

@@ -37,7 +37,8 @@ std::string analysisDirectory() {
                   " nor " + installed.string() + "; set KINOLAB_ANALYSIS_DIR");
 }
 
-[[noreturn]] void runReport(const ReportOptions& options) {
+/// Runs `python3 -m kinolab_analysis ARGUMENTS...` in place of this process.
+[[noreturn]] void runAnalysis(std::vector<std::string> arguments) {
   const std::string directory = analysisDirectory();
   const char* existing = std::getenv("PYTHONPATH");
   const std::string path = directory + (existing && *existing ? ":" + std::string(existing) : "");
@@ -49,7 +50,18 @@ std::string analysisDirectory() {
   } catch (const FileError& error) {
     std::fprintf(stderr, "report: no 3D views: %s\n", error.what());
   }
-  std::vector<std::string> arguments = {kPythonExecutable, "-m", "kinolab_analysis", "report"};
+  arguments.insert(arguments.begin(), {kPythonExecutable, "-m", "kinolab_analysis"});
+  std::vector<char*> argv;
+  for (std::string& argument : arguments) argv.push_back(argument.data());
+  argv.push_back(nullptr);
+  execv(kPythonExecutable, argv.data());
+  throw FileError(std::string("kinolab: cannot run ") + kPythonExecutable +
+                  " (install python3, python3-pandas, python3-scipy, python3-matplotlib and "
+                  "python3-jinja2: scripts/setup_debian.sh)");
+}
+
+[[noreturn]] void runReport(const ReportOptions& options) {
+  std::vector<std::string> arguments = {"report"};
   arguments.insert(arguments.end(), options.results.begin(), options.results.end());
   for (const auto& [flag, value] :
        {std::pair{"--out", options.out}, std::pair{"--compare", options.compare},
@@ -59,14 +71,14 @@ std::string analysisDirectory() {
       arguments.push_back(value);
     }
   }
-  std::vector<char*> argv;
-  for (std::string& argument : arguments) argv.push_back(argument.data());
-  argv.push_back(nullptr);
-  execv(kPythonExecutable, argv.data());
-  throw FileError(std::string("kinolab report: cannot run ") + kPythonExecutable +
-                  " (install python3, python3-pandas, python3-scipy, python3-matplotlib and "
-                  "python3-jinja2: scripts/setup_debian.sh)");
+  runAnalysis(std::move(arguments));
 }
+
+struct ExportOptions {
+  std::vector<std::string> results;
+  std::string format;
+  std::string out;
+};
 
 }  // namespace
 
@@ -92,6 +104,34 @@ void addReportCommand(CLI::App& app) {
       "Holm-corrected. Runs with the interpreter " +
       std::string(kPythonExecutable) + ".");
   command->callback([options] { runReport(*options); });
+}
+
+void addExportCommand(CLI::App& app) {
+  auto options = std::make_shared<ExportOptions>();
+  CLI::App* command = app.add_subcommand(
+      "export", "Write a results directory in another tool's format: OMPL benchmark logs");
+  command
+      ->add_option("results", options->results,
+                   "Results directories (or results.sqlite files) of one experiment, then OUT")
+      ->required();
+  command->add_option("--format", options->format, "ompl: OMPL's benchmark log format")
+      ->required()
+      ->check(CLI::IsMember({"ompl"}));
+  command->footer(
+      "kinolab export DIR --format ompl OUT writes OUT/<world>[_<variant>].log, one OMPL "
+      "benchmark log per world and sweep variant (its runs: every query and repetition of each "
+      "planner, the query a run property); OMPL's ompl_benchmark_statistics OUT/*.log -d "
+      "benchmark.db makes the database Planner Arena (plannerarena) reads. Time is the "
+      "planner's in seconds; solved means a success (exact and checker-valid).");
+  command->callback([options] {
+    if (options->results.size() < 2) {
+      throw ConfigError("kinolab export: expected RESULTS... OUT (the output directory last)");
+    }
+    std::vector<std::string> arguments = {"export"};
+    arguments.insert(arguments.end(), options->results.begin(), options->results.end() - 1);
+    arguments.insert(arguments.end(), {"--format", options->format, options->results.back()});
+    runAnalysis(std::move(arguments));
+  });
 }
 
 }  // namespace kinolab::apps
