@@ -531,4 +531,22 @@ PYBIND11_MODULE(_core, m) {
       });
 
   m.def("run_experiment", &runExperimentFile);
+  // For benchmarks/python_overhead.py: the wall time (ms) of each of `repeats` plans called
+  // from C++, the reference a plan called from Python is compared with.
+  m.def("_plan_wall_ms", [](PyPlanner& self, const py::object& start, const py::object& goal,
+                            int repeats) {
+    PlanningQuery query;
+    query.start = chainState(start, py::none(), py::none());
+    query.goal = chainState(goal, py::none(), py::none()).col(0);
+    std::vector<double> times;
+    py::gil_scoped_release release;
+    for (int i = 0; i < repeats; ++i) {
+      const auto begin = std::chrono::steady_clock::now();
+      const PlanResult result = self.configured.planner->plan(query, Budget{});
+      times.push_back(
+          std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - begin)
+              .count());
+    }
+    return times;
+  });
 }
