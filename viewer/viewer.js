@@ -5,8 +5,9 @@
 (function () {
   "use strict";
   const BACKGROUND = 0xf4f6f8;
-  const PLANNER_COLOURS = ["#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b",
-                           "#e377c2", "#7f7f7f", "#bcbd22", "#17becf"];
+  // Planners: none of the tree's edge colours, nor the start's green or the goal's red.
+  const PLANNER_COLOURS = ["#1f77b4", "#9467bd", "#8c564b", "#e377c2", "#bcbd22", "#17becf",
+                           "#7f7f7f", "#000000"];
   // As the report's search-tree figure (the paper's Fig. 6).
   const EDGE_COLOURS = {partial: "#f4a261", full: "#2a9d8f", certified: "#264653",
                         rejected: "#e63946"};
