@@ -201,6 +201,8 @@ def run_experiment(path: str | os.PathLike, out: str | os.PathLike, jobs: int = 
     database OUT/results.sqlite, resume) and returns its summary. `progress` is True (a bar
     on stdout), False, or a callable(done, total, unsolved, seconds). Ctrl-C stops it as it
     stops `kinolab run` (resumable) and raises KeyboardInterrupt."""
+    if isinstance(jobs, bool) or not isinstance(jobs, int) or not 1 <= jobs <= 1024:
+        raise InvalidArgument(f"jobs: expected a whole number in [1, 1024], got {jobs!r}")
     callback = _Progress() if progress is True else (progress or None)
     summary = _core.run_experiment(os.fspath(path), os.fspath(out), jobs, resume, shard or "",
                                    os.fspath(cache_dir or ""), callback)

@@ -4,7 +4,7 @@
 file(REMOVE_RECURSE "${WORK_DIR}")
 set(copy "${WORK_DIR}/source")
 file(MAKE_DIRECTORY "${copy}")
-foreach(item CMakeLists.txt cmake framework plugins analysis)
+foreach(item CMakeLists.txt cmake framework plugins analysis python viewer)
   file(COPY "${SOURCE_DIR}/${item}" DESTINATION "${copy}")
 endforeach()
 if(NOT EXISTS "${copy}/plugins/planners/rrtstar_ceres/CMakeLists.txt")

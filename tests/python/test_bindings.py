@@ -250,6 +250,11 @@ def test_an_experiment_runs_with_progress_and_loads_with_the_analysis_package(tm
     assert again["skipped"] == 6 and again["finished"] == 0
     with pytest.raises(kinolab.Error, match="already holds"):
         kinolab.run_experiment(path, tmp_path / "out", progress=False)
+    with pytest.raises(kinolab.InvalidArgument, match=r"jobs: expected a whole number"):
+        kinolab.run_experiment(path, tmp_path / "other", jobs=0)
+    with pytest.raises(ZeroDivisionError):  # a failing progress callback stops the run
+        kinolab.run_experiment(path, tmp_path / "stopped", progress=lambda *state: 1 / 0)
+    assert len(kinolab.load_results(tmp_path / "stopped").runs) == 1  # what ran is kept
     with pytest.raises(kinolab.ConfigError, match="budget"):
         bad = tmp_path / "bad.yaml"
         bad.write_text(EXPERIMENT.format(world=SMALL_FOREST).replace("time: 2.0", "tiem: 2.0"))
