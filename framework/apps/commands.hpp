@@ -8,6 +8,10 @@
 
 #include "kinolab/core/text.hpp"
 
+namespace kinolab::view {
+class Scene;
+}
+
 namespace kinolab::apps {
 
 /// A number in [low, high], finite (CLI::Range lets NaN through): every numeric option of
@@ -29,6 +33,10 @@ inline CLI::Validator within(double low, double high) {
 
 /// Exactly three finite numbers "x,y,z" (metres) from `option`, or a ConfigError naming it.
 Eigen::Vector3d parsePoint(const std::string& text, const std::string& option);
+
+/// Writes the 3D view of `scene` to `path`; false (and a note on stderr) in a build without
+/// the viewer.
+bool writeView(const std::string& path, const view::Scene& scene);
 
 /// Each subcommand adds itself (options, help and the action to run) to the main app.
 void addExportCommand(CLI::App& app);

@@ -55,10 +55,9 @@ void writeOutputs(const FlyOptions& options, const World& world, const PlanningQ
   scene.addFlight(index, options.planner, result.flown, result.snapshots,
                   std::min(query.start(2, 0), query.goal.z()) - kSnapshotBand,
                   std::max(query.start(2, 0), query.goal.z()) + kSnapshotBand);
-  view::writeViewHtml((out / "view.html").string(), scene.json());
-  std::printf(
-      "  wrote      %s/{flown.csv, replans.csv, plans.csv, known_map.bt, summary.json, view.html}\n",
-      options.out_dir.c_str());
+  const bool viewed = writeView((out / "view.html").string(), scene);
+  std::printf("  wrote      %s/{flown.csv, replans.csv, plans.csv, known_map.bt, summary.json%s}\n",
+              options.out_dir.c_str(), viewed ? ", view.html" : "");
 }
 
 void runFly(const FlyOptions& options) {

@@ -91,14 +91,25 @@ void runPlan(const PlanOptions& options) {
     const int index = scene.addQuery(options.start + " to " + options.goal, start, goal);
     scene.addTrajectory(index, options.planner, result.trajectory);
     scene.addTree(index, options.planner, tree);
-    view::writeViewHtml((out / "view.html").string(), scene.json());
-    std::printf("  wrote      %s/{trajectory.csv, tree.csv, result.json, view.html}\n",
-                options.out_dir.c_str());
+    const bool viewed = writeView((out / "view.html").string(), scene);
+    std::printf("  wrote      %s/{trajectory.csv, tree.csv, result.json%s}\n",
+                options.out_dir.c_str(), viewed ? ", view.html" : "");
   }
   std::cout << json.dump() << std::endl;
 }
 
 }  // namespace
+
+bool writeView(const std::string& path, const view::Scene& scene) {
+  try {
+    view::viewerTemplatePath();
+  } catch (const FileError& error) {  // a build without the viewer: the rest is written
+    std::fprintf(stderr, "kinolab: no view.html: %s\n", error.what());
+    return false;
+  }
+  view::writeViewHtml(path, scene.json());
+  return true;
+}
 
 Eigen::Vector3d parsePoint(const std::string& text, const std::string& option) {
   std::vector<std::string> items;

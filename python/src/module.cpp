@@ -9,7 +9,6 @@
 
 #include <chrono>
 #include <cmath>
-#include <limits>
 #include <memory>
 #include <string>
 #include <vector>
@@ -161,7 +160,6 @@ py::list pluginList() {
 struct PyPlanner {
   ConfiguredPlanner configured;
   std::shared_ptr<const World> world;
-  std::uint64_t seed = 1;
 };
 
 /// A planning result: the framework's PlanResult, the planner's declared statistics and the
@@ -436,7 +434,7 @@ PYBIND11_MODULE(_core, m) {
 
   py::class_<PyPlanner>(m, "Planner")
       .def(py::init([](const std::string& key, const std::vector<ParameterAssignment>& assignments) {
-        return PyPlanner{configurePlanner(key, assignments), nullptr, 1};
+        return PyPlanner{configurePlanner(key, assignments), nullptr};
       }))
       .def_property_readonly("key", [](const PyPlanner& p) { return p.configured.info->key; })
       .def_property_readonly("parameters",
@@ -455,19 +453,10 @@ PYBIND11_MODULE(_core, m) {
                                }
                                return dict;
                              })
-      .def_property_readonly("world",
-                             [](const PyPlanner& p) -> py::object {
-                               if (!p.world) return py::none();
-                               PyWorld world;
-                               world.world = p.world;
-                               return py::cast(world);
-                             })
-      .def_readonly("seed", &PyPlanner::seed)
       .def("setup",
            [](PyPlanner& p, const PyWorld& world, std::uint64_t seed) {
              p.configured.planner->setup({world.world, p.configured.sampler, seed});
              p.world = world.world;
-             p.seed = seed;
            })
       .def("reset", [](PyPlanner& p) { p.configured.planner->reset(); })
       .def("plan", &plan);
