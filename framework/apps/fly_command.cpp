@@ -6,12 +6,12 @@
 #include <nlohmann/json.hpp>
 
 #include "commands.hpp"
-#include "kinolab/view/scene.hpp"
 #include "kinolab/core/error.hpp"
 #include "kinolab/core/files.hpp"
 #include "kinolab/flight/flight.hpp"
 #include "kinolab/planner/metrics.hpp"
 #include "kinolab/planner/result_csv.hpp"
+#include "kinolab/view/scene.hpp"
 #include "kinolab/world/world_cache.hpp"
 
 namespace kinolab::apps {
@@ -126,9 +126,10 @@ void addFlyCommand(CLI::App& app) {
   command->add_option("--start", options->start, "Start position x,y,z in metres (at rest)")
       ->required();
   command->add_option("--goal", options->goal, "Goal position x,y,z in metres")->required();
-  command->add_option("--out", options->out_dir,
-                      "Write flown.csv, replans.csv, plans.csv, known_map.bt, summary.json and view.html (the "
-                      "flight in 3D, the known map growing)");
+  command->add_option(
+      "--out", options->out_dir,
+      "Write flown.csv, replans.csv, plans.csv, known_map.bt, summary.json and view.html (the "
+      "flight in 3D, the known map growing)");
   command->add_option("--seed", options->seed, "Seed of the planner's random streams")
       ->check(within(0.0, 18446744073709551615.0))
       ->capture_default_str();

@@ -68,19 +68,17 @@ void runSlurm(const SlurmOptions& o) {
       }
     }
   }
-  const auto [array_status, array_id] =
-      client({"sbatch", "--parsable", layout.arrayScript()});
+  const auto [array_status, array_id] = client({"sbatch", "--parsable", layout.arrayScript()});
   if (array_status != 0) throw Error("slurm: sbatch failed: " + array_id);
   SlurmJobs jobs;
   jobs.shards = o.request.shards;
   jobs.array_job = array_id.substr(0, array_id.find(';'));
-  const auto [merge_status, merge_id] =
-      client({"sbatch", "--parsable", "--dependency=afterok:" + jobs.array_job, layout.mergeScript()});
+  const auto [merge_status, merge_id] = client(
+      {"sbatch", "--parsable", "--dependency=afterok:" + jobs.array_job, layout.mergeScript()});
   if (merge_status != 0) throw Error("slurm: sbatch of the merge failed: " + merge_id);
   jobs.merge_job = merge_id.substr(0, merge_id.find(';'));
   // What sbatch printed must be job ids (parse() refuses anything else).
-  writeFileAtomically(layout.jobsFile(),
-                      SlurmJobs::parse(jobs.text(), "sbatch's answers").text());
+  writeFileAtomically(layout.jobsFile(), SlurmJobs::parse(jobs.text(), "sbatch's answers").text());
   std::printf(
       "submitted: array job %s (%d shards), merge job %s (after all succeed)\n"
       "status: kinolab slurm-status %s\n",
@@ -94,9 +92,8 @@ void runStatus(const std::string& directory) {
   std::stringstream text;
   text << file.rdbuf();
   const SlurmJobs jobs = SlurmJobs::parse(text.str(), layout.jobsFile());
-  const auto [status, queue] =
-      client({"squeue", "--noheader", "--array", "--format=%i %T %R",
-              "--jobs=" + jobs.array_job + "," + jobs.merge_job});
+  const auto [status, queue] = client({"squeue", "--noheader", "--array", "--format=%i %T %R",
+                                       "--jobs=" + jobs.array_job + "," + jobs.merge_job});
   std::printf("array job %s, merge job %s\n", jobs.array_job.c_str(), jobs.merge_job.c_str());
   if (status != 0) {
     std::printf("  squeue: %s\n", queue.c_str());

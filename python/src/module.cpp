@@ -72,8 +72,8 @@ py::array arrayView(const T* data, const Eigen::Vector3i& dims, py::handle owner
 /// Points as an (n, 3) array of doubles: one point (3,) or many (n, 3).
 py::array_t<double, py::array::c_style | py::array::forcecast> points3(const py::object& points) {
   auto array = py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(points);
-  if (!array || !((array.ndim() == 2 && array.shape(1) == 3) ||
-                  (array.ndim() == 1 && array.shape(0) == 3))) {
+  if (!array ||
+      !((array.ndim() == 2 && array.shape(1) == 3) || (array.ndim() == 1 && array.shape(0) == 3))) {
     throw InvalidArgument("points: expected an array of shape (n, 3) or (3,) (metres)");
   }
   return array;
@@ -200,7 +200,8 @@ PyResult plan(PyPlanner& self, const py::object& start, const py::object& goal,
   PyResult out;
   out.query.start = chainState(start, start_velocity, start_acceleration);
   out.query.goal = chainState(goal, py::none(), py::none()).col(0);
-  if (!(time_limit > 0.0)) throw InvalidArgument("time_limit: expected a positive number of seconds");
+  if (!(time_limit > 0.0))
+    throw InvalidArgument("time_limit: expected a positive number of seconds");
   if (max_iterations <= 0) throw InvalidArgument("max_iterations: expected a positive count");
   out.statistics = declaredStatistics(*self.configured.info);
   {
@@ -221,13 +222,12 @@ py::dict trajectorySamples(const Trajectory& trajectory, double step) {
       trajectory.empty() ? std::vector<TrajectorySample>{} : trajectory.sample(step);
   const auto n = static_cast<py::ssize_t>(samples.size());
   py::array_t<double> time(n);
-  py::array_t<double> columns[4] = {py::array_t<double>({n, py::ssize_t{3}}),
-                                    py::array_t<double>({n, py::ssize_t{3}}),
-                                    py::array_t<double>({n, py::ssize_t{3}}),
-                                    py::array_t<double>({n, py::ssize_t{3}})};
+  py::array_t<double> columns[4] = {
+      py::array_t<double>({n, py::ssize_t{3}}), py::array_t<double>({n, py::ssize_t{3}}),
+      py::array_t<double>({n, py::ssize_t{3}}), py::array_t<double>({n, py::ssize_t{3}})};
   double* t = time.mutable_data();
-  double* c[4] = {columns[0].mutable_data(), columns[1].mutable_data(),
-                  columns[2].mutable_data(), columns[3].mutable_data()};
+  double* c[4] = {columns[0].mutable_data(), columns[1].mutable_data(), columns[2].mutable_data(),
+                  columns[3].mutable_data()};
   for (py::ssize_t i = 0; i < n; ++i) {
     const TrajectorySample& sample = samples[static_cast<std::size_t>(i)];
     t[i] = sample.time;
@@ -289,7 +289,8 @@ py::dict checkDict(const CheckResult& check) {
 py::dict metricsDict(const PyResult& self) {
   const py::object loads = py::module_::import("json").attr("loads");
   py::dict dict = loads(toJson(resultValues(self.result), resultMetrics()));
-  const py::dict statistics = loads(toJson(statisticValues(self.result.statistics), self.statistics));
+  const py::dict statistics =
+      loads(toJson(statisticValues(self.result.statistics), self.statistics));
   for (const auto& [key, value] : statistics) dict[key] = value;
   return dict;
 }
@@ -381,8 +382,9 @@ PYBIND11_MODULE(_core, m) {
       .def_property_readonly("bounds",
                              [](const PyWorld& w) {
                                const Box b = w.world->bounds();
-                               return py::make_tuple(py::make_tuple(b.min.x(), b.min.y(), b.min.z()),
-                                                     py::make_tuple(b.max.x(), b.max.y(), b.max.z()));
+                               return py::make_tuple(
+                                   py::make_tuple(b.min.x(), b.min.y(), b.min.z()),
+                                   py::make_tuple(b.max.x(), b.max.y(), b.max.z()));
                              })
       .def_readonly("source", &PyWorld::source)
       .def_readonly("seconds", &PyWorld::seconds)
@@ -403,23 +405,21 @@ PYBIND11_MODULE(_core, m) {
            [](const PyWorld& w, const py::object& points) { return distances(w, points, false); })
       .def("distance_with_gradient",
            [](const PyWorld& w, const py::object& points) { return distances(w, points, true); })
-      .def("segment_free",
-           [](const PyWorld& w, const py::object& a, const py::object& b, double radius) {
-             const auto pa = points3(a);
-             const auto pb = points3(b);
-             return w.world->segmentFree(Eigen::Vector3d(pa.data()), Eigen::Vector3d(pb.data()),
-                                         radius);
-           });
+      .def("segment_free", [](const PyWorld& w, const py::object& a, const py::object& b,
+                              double radius) {
+        const auto pa = points3(a);
+        const auto pb = points3(b);
+        return w.world->segmentFree(Eigen::Vector3d(pa.data()), Eigen::Vector3d(pb.data()), radius);
+      });
 
-  m.def("world_from_file",
-        [](const std::string& path, bool cache, const std::string& cache_dir) {
-          return loadWorld(WorldSpec::fromFile(path), cache, cache_dir);
-        });
-  m.def("world_from_text", [](const std::string& text, const std::string& source,
-                              const std::string& directory, bool cache,
-                              const std::string& cache_dir) {
-    return loadWorld(WorldSpec::fromText(text, source, directory), cache, cache_dir);
+  m.def("world_from_file", [](const std::string& path, bool cache, const std::string& cache_dir) {
+    return loadWorld(WorldSpec::fromFile(path), cache, cache_dir);
   });
+  m.def("world_from_text",
+        [](const std::string& text, const std::string& source, const std::string& directory,
+           bool cache, const std::string& cache_dir) {
+          return loadWorld(WorldSpec::fromText(text, source, directory), cache, cache_dir);
+        });
   m.def("default_cache_dir", &WorldCache::defaultDirectory);
 
   m.def("planners", &pluginList<Planner>);
@@ -433,26 +433,25 @@ PYBIND11_MODULE(_core, m) {
   });
 
   py::class_<PyPlanner>(m, "Planner")
-      .def(py::init([](const std::string& key, const std::vector<ParameterAssignment>& assignments) {
-        return PyPlanner{configurePlanner(key, assignments), nullptr};
-      }))
+      .def(
+          py::init([](const std::string& key, const std::vector<ParameterAssignment>& assignments) {
+            return PyPlanner{configurePlanner(key, assignments), nullptr};
+          }))
       .def_property_readonly("key", [](const PyPlanner& p) { return p.configured.info->key; })
-      .def_property_readonly("parameters",
-                             [](const PyPlanner& p) {
-                               py::dict dict;
-                               for (const auto& [name, value] : p.configured.parameters.values())
-                                 dict[py::str(name)] = parameterValue(value);
-                               // As they are set: `sampler.NAME` for the sampler parameter
-                               // `sampler`.
-                               if (const ParameterSpec* sampler =
-                                       p.configured.info->parameters.samplerParameter()) {
-                                 for (const auto& [name, value] :
-                                      p.configured.sampler_parameters.values())
-                                   dict[py::str(sampler->name + "." + name)] =
-                                       parameterValue(value);
-                               }
-                               return dict;
-                             })
+      .def_property_readonly(
+          "parameters",
+          [](const PyPlanner& p) {
+            py::dict dict;
+            for (const auto& [name, value] : p.configured.parameters.values())
+              dict[py::str(name)] = parameterValue(value);
+            // As they are set: `sampler.NAME` for the sampler parameter
+            // `sampler`.
+            if (const ParameterSpec* sampler = p.configured.info->parameters.samplerParameter()) {
+              for (const auto& [name, value] : p.configured.sampler_parameters.values())
+                dict[py::str(sampler->name + "." + name)] = parameterValue(value);
+            }
+            return dict;
+          })
       .def("setup",
            [](PyPlanner& p, const PyWorld& world, std::uint64_t seed) {
              p.configured.planner->setup({world.world, p.configured.sampler, seed});
@@ -467,11 +466,12 @@ PYBIND11_MODULE(_core, m) {
       }));
 
   py::class_<PyResult>(m, "Result")
-      .def_property_readonly("status",
-                             [](const PyResult& r) { return std::string(toString(r.result.status)); })
+      .def_property_readonly(
+          "status", [](const PyResult& r) { return std::string(toString(r.result.status)); })
       .def_property_readonly("message", [](const PyResult& r) { return r.result.message; })
       .def_property_readonly(
-          "success", [](const PyResult& r) { return isSuccess(r.result.status, r.result.check.valid); })
+          "success",
+          [](const PyResult& r) { return isSuccess(r.result.status, r.result.check.valid); })
       .def_property_readonly("cost", [](const PyResult& r) { return r.result.cost; })
       .def_property_readonly("distance_to_goal",
                              [](const PyResult& r) { return r.result.distance_to_goal; })
@@ -484,15 +484,18 @@ PYBIND11_MODULE(_core, m) {
       .def_property_readonly("tree", &treeArrays)
       .def(
           "trajectory",
-          [](const PyResult& r, double step) { return trajectorySamples(r.result.trajectory, step); },
+          [](const PyResult& r, double step) {
+            return trajectorySamples(r.result.trajectory, step);
+          },
           py::arg("step") = 0.01,
           "The trajectory sampled every `step` seconds and at its end: t (n,), position, "
           "velocity, acceleration and jerk (n, 3) NumPy arrays")
-      .def("position", [](const PyResult& r, double t) {
-        if (r.result.trajectory.empty()) throw InvalidArgument("position: no trajectory");
-        const Eigen::Vector3d p = r.result.trajectory.evaluate(t);
-        return py::make_tuple(p.x(), p.y(), p.z());
-      })
+      .def("position",
+           [](const PyResult& r, double t) {
+             if (r.result.trajectory.empty()) throw InvalidArgument("position: no trajectory");
+             const Eigen::Vector3d p = r.result.trajectory.evaluate(t);
+             return py::make_tuple(p.x(), p.y(), p.z());
+           })
       .def("__repr__", [](const PyResult& r) {
         return "Result(status='" + std::string(toString(r.result.status)) +
                "', cost=" + formatNumber(r.result.cost) +
@@ -522,20 +525,20 @@ PYBIND11_MODULE(_core, m) {
   m.def("run_experiment", &runExperimentFile);
   // For benchmarks/python_overhead.py: the wall time (ms) of each of `repeats` plans called
   // from C++, the reference a plan called from Python is compared with.
-  m.def("_plan_wall_ms", [](PyPlanner& self, const py::object& start, const py::object& goal,
-                            int repeats) {
-    PlanningQuery query;
-    query.start = chainState(start, py::none(), py::none());
-    query.goal = chainState(goal, py::none(), py::none()).col(0);
-    std::vector<double> times;
-    py::gil_scoped_release release;
-    for (int i = 0; i < repeats; ++i) {
-      const auto begin = std::chrono::steady_clock::now();
-      const PlanResult result = self.configured.planner->plan(query, Budget{});
-      times.push_back(
-          std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - begin)
-              .count());
-    }
-    return times;
-  });
+  m.def("_plan_wall_ms",
+        [](PyPlanner& self, const py::object& start, const py::object& goal, int repeats) {
+          PlanningQuery query;
+          query.start = chainState(start, py::none(), py::none());
+          query.goal = chainState(goal, py::none(), py::none()).col(0);
+          std::vector<double> times;
+          py::gil_scoped_release release;
+          for (int i = 0; i < repeats; ++i) {
+            const auto begin = std::chrono::steady_clock::now();
+            const PlanResult result = self.configured.planner->plan(query, Budget{});
+            times.push_back(
+                std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - begin)
+                    .count());
+          }
+          return times;
+        });
 }

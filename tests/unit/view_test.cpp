@@ -1,5 +1,3 @@
-#include "kinolab/view/scene.hpp"
-
 #include <gtest/gtest.h>
 
 #include <cstdlib>
@@ -9,6 +7,7 @@
 #include <random>
 
 #include "kinolab/core/error.hpp"
+#include "kinolab/view/scene.hpp"
 #include "kinolab/world/world_spec.hpp"
 
 namespace kinolab::view {
@@ -106,15 +105,15 @@ TEST(Scene, HoldsTheWorldTrajectoriesTreesAndFlights) {
   tree[1].points = {Eigen::Vector3d(0, 0, 1), Eigen::Vector3d(0, 1, 1)};
   tree[1].state = SearchTreeEdge::State::kRejected;
   scene.addTree(query, "p", tree);
-  scene.addFlight(query, "p", line, {{0.0, "2,2,0,0,0.5\n10\n00\n"}, {1.0, "2,2,0,0,0.5\n22\n01\n"}},
-                  0.5, 1.5);
+  scene.addFlight(query, "p", line,
+                  {{0.0, "2,2,0,0,0.5\n10\n00\n"}, {1.0, "2,2,0,0,0.5\n22\n01\n"}}, 0.5, 1.5);
   EXPECT_THROW(scene.addTree(5, "p", tree), InvalidArgument);
 
   const auto json = nlohmann::json::parse(scene.json());
   EXPECT_EQ(json["format"], "kinolab-scene");
   EXPECT_EQ(json["world"]["boxes"], (nlohmann::json{10, 10, 0, 20, 20, 20}));
   const auto& q = json["queries"][0];
-  EXPECT_EQ(q["trajectories"][0]["points"].size(), 5u * 3u);  // t = 0, 0.5, ..., 2
+  EXPECT_EQ(q["trajectories"][0]["points"].size(), 5u * 3u);          // t = 0, 0.5, ..., 2
   EXPECT_EQ(q["trees"][0]["edges"]["partial"].size(), 2u * 2u * 3u);  // two segments
   EXPECT_EQ(q["trees"][0]["edges"]["rejected"].size(), 1u * 2u * 3u);
   EXPECT_TRUE(q["trees"][0]["edges"]["full"].empty());

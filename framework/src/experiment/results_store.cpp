@@ -376,10 +376,11 @@ std::optional<int> ResultsStore::schemaVersion() const {
 }
 
 void ResultsStore::insertWorld(const WorldRecord& w) {
-  Statement insert(db_,
-                   "INSERT OR IGNORE INTO worlds (world_hash, id, resolution, origin_x, origin_y, "
-                   "origin_z, nx, ny, nz, top, side, box_stride, boxes) VALUES (?,?,?,?,?,?,?,?,?,?,?,?,?)",
-                   path_);
+  Statement insert(
+      db_,
+      "INSERT OR IGNORE INTO worlds (world_hash, id, resolution, origin_x, origin_y, "
+      "origin_z, nx, ny, nz, top, side, box_stride, boxes) VALUES (?,?,?,?,?,?,?,?,?,?,?,?,?)",
+      path_);
   insert.add(w.world_hash);
   insert.add(w.id);
   insert.add(w.resolution);

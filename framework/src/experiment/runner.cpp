@@ -22,12 +22,12 @@
 #include "kinolab/core/process.hpp"
 #include "kinolab/core/text.hpp"
 #include "kinolab/core/version.hpp"
-#include "kinolab/view/scene.hpp"
 #include "kinolab/experiment/process_pool.hpp"
 #include "kinolab/experiment/results_store.hpp"
 #include "kinolab/flight/flight.hpp"
 #include "kinolab/planner/result_csv.hpp"
 #include "kinolab/validation/trajectory_checker.hpp"
+#include "kinolab/view/scene.hpp"
 #include "kinolab/world/world_cache.hpp"
 
 namespace kinolab {

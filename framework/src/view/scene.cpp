@@ -124,14 +124,13 @@ void Scene::setWorld(const World& world) {
     for (int axis = 0; axis < 3; ++axis) flat.push_back(box.lo[static_cast<std::size_t>(axis)]);
     for (int axis = 0; axis < 3; ++axis) flat.push_back(box.hi[static_cast<std::size_t>(axis)]);
   }
-  impl_->document["world"] = {
-      {"name", world.name()},
-      {"spec_hash", toHex(world.specHash())},
-      {"resolution", grid.resolution()},
-      {"origin", point(grid.origin())},
-      {"dims", {grid.dims().x(), grid.dims().y(), grid.dims().z()}},
-      {"stride", stride},
-      {"boxes", std::move(flat)}};
+  impl_->document["world"] = {{"name", world.name()},
+                              {"spec_hash", toHex(world.specHash())},
+                              {"resolution", grid.resolution()},
+                              {"origin", point(grid.origin())},
+                              {"dims", {grid.dims().x(), grid.dims().y(), grid.dims().z()}},
+                              {"stride", stride},
+                              {"boxes", std::move(flat)}};
 }
 
 int Scene::addQuery(const std::string& name, const Eigen::Vector3d& start,
@@ -150,9 +149,11 @@ void Scene::addTrajectory(int query, const std::string& planner, const Trajector
                           double step) {
   nlohmann::ordered_json flat = nlohmann::ordered_json::array();
   if (!trajectory.empty()) {
-    for (const TrajectorySample& sample : trajectory.sample(step)) appendPoint(flat, sample.position);
+    for (const TrajectorySample& sample : trajectory.sample(step))
+      appendPoint(flat, sample.position);
   }
-  impl_->query(query)["trajectories"].push_back({{"planner", planner}, {"points", std::move(flat)}});
+  impl_->query(query)["trajectories"].push_back(
+      {{"planner", planner}, {"points", std::move(flat)}});
 }
 
 void Scene::addTree(int query, const std::string& planner, const SearchTree& tree) {
@@ -173,8 +174,8 @@ void Scene::addTree(int query, const std::string& planner, const SearchTree& tre
 }
 
 void Scene::addFlight(int query, const std::string& planner, const Trajectory& flown,
-                      const std::vector<std::pair<double, std::string>>& snapshots,
-                      double band_low, double band_high, double step) {
+                      const std::vector<std::pair<double, std::string>>& snapshots, double band_low,
+                      double band_high, double step) {
   nlohmann::ordered_json times = nlohmann::ordered_json::array();
   nlohmann::ordered_json flat = nlohmann::ordered_json::array();
   if (!flown.empty()) {
@@ -196,10 +197,13 @@ void Scene::addFlight(int query, const std::string& planner, const Trajectory& f
     double oy = 0.0;
     double resolution = 0.0;
     if (std::sscanf(head.c_str(), "%d,%d,%lf,%lf,%lf", &nx, &ny, &ox, &oy, &resolution) != 5) {
-      throw InvalidArgument("Scene::addFlight: a snapshot's first line is not nx,ny,x,y,resolution");
+      throw InvalidArgument(
+          "Scene::addFlight: a snapshot's first line is not nx,ny,x,y,resolution");
     }
     if (known.is_null()) {
-      known = {{"resolution", resolution}, {"origin", {mm(ox), mm(oy)}}, {"band", {mm(band_low), mm(band_high)}}};
+      known = {{"resolution", resolution},
+               {"origin", {mm(ox), mm(oy)}},
+               {"band", {mm(band_low), mm(band_high)}}};
     }
     std::string row;
     for (int x = 0; x < nx && std::getline(lines, row); ++x) {
@@ -217,8 +221,10 @@ void Scene::addFlight(int query, const std::string& planner, const Trajectory& f
     }
     known["cells"] = std::move(cells);
   }
-  impl_->query(query)["flights"].push_back(
-      {{"planner", planner}, {"t", std::move(times)}, {"points", std::move(flat)}, {"known", known}});
+  impl_->query(query)["flights"].push_back({{"planner", planner},
+                                            {"t", std::move(times)},
+                                            {"points", std::move(flat)},
+                                            {"known", known}});
 }
 
 std::string Scene::json() const { return impl_->document.dump(); }
@@ -268,7 +274,8 @@ std::string viewHtml(const std::string& scene_json) {
   scene.reserve(scene_json.size());
   for (std::size_t i = 0; i < scene_json.size(); ++i) {
     scene += scene_json[i];
-    if (scene_json[i] == '<' && i + 1 < scene_json.size() && scene_json[i + 1] == '/') scene += '\\';
+    if (scene_json[i] == '<' && i + 1 < scene_json.size() && scene_json[i + 1] == '/')
+      scene += '\\';
   }
   page.replace(at, kPlaceholder.size(), scene);
   return page;
