@@ -1,8 +1,10 @@
 """`kinolab run` and `kinolab merge` end to end: isolation of misbehaving plugins, resume
 after SIGKILL, shards, Ctrl-C, and malformed experiment files."""
 
+import json
 import os
 import random
+import re
 import signal
 import sqlite3
 import subprocess
@@ -444,6 +446,13 @@ def test_a_flight_experiment_flies_every_query_and_stores_the_flight_metrics(kin
     assert gif.read_bytes().startswith(b"GIF8")
     assert "Flights: each replan is timed once" in (
         tmp_path / "out" / "report" / "index.html").read_text()
+    # The 3D view replays the stored flight with the known map it grew.
+    page = (tmp_path / "out" / "report" / "view_small.html").read_text()
+    scene = json.loads(re.search(r'id="kinolab-scene">(.*?)</script>', page, re.S).group(1))
+    flight = scene["queries"][0]["flights"][0]
+    assert flight["planner"] == "lazy" and len(flight["t"]) * 3 == len(flight["points"])
+    cells = flight["known"]["cells"]
+    assert cells and all(0 <= t <= flight["t"][-1] + 1e-6 for t in cells[2::3])
 
 
 @pytest.mark.parametrize("kind, extra, message", [
