@@ -46,8 +46,12 @@
   }
 
   // Unit boxes scaled and moved per instance: one draw call for every obstacle.
+  // Obstacles above this plane are cut away (the "cut above" slider), to look into buildings.
+  const cut = new THREE.Plane(new THREE.Vector3(0, 0, -1), 1e9);
+  renderer.localClippingEnabled = true;
   function boxes(count, colour, opacity) {
-    const material = new THREE.MeshLambertMaterial({color: colour, transparent: opacity < 1, opacity: opacity});
+    const material = new THREE.MeshLambertMaterial({color: colour, transparent: opacity < 1, opacity: opacity,
+                                                    clippingPlanes: [cut]});
     const mesh = new THREE.InstancedMesh(new THREE.BoxBufferGeometry(1, 1, 1), material, Math.max(count, 1));
     mesh.count = count;
     mesh.frustumCulled = false;  // its bounds are the unit box's, not the instances'
@@ -114,6 +118,26 @@
     heading("World: " + w.name);
     addLayer("obstacles", "obstacles" + (w.stride > 1 ? " (every " + w.stride + " voxels)" : ""),
              "#8d99ae", group, true);
+    const row = document.createElement("label");
+    const slider = document.createElement("input");
+    slider.type = "range";
+    slider.id = "cut";
+    slider.min = o[2];
+    slider.max = o[2] + size[2];
+    slider.step = r;
+    slider.value = slider.max;
+    const label = document.createElement("span");
+    const showCut = () => {
+      const z = Number(slider.value);
+      const none = z >= o[2] + size[2] - r / 2;  // the top, give or take the slider's rounding
+      cut.constant = none ? 1e9 : z;
+      label.textContent = none ? "cut above: none" : "cut above " + z.toFixed(2) + " m";
+      render();
+    };
+    slider.addEventListener("input", showCut);
+    row.append(label, document.createElement("br"), slider);
+    layersDiv.appendChild(row);
+    label.textContent = "cut above: none";
     worldCentre = new THREE.Vector3(o[0] + size[0] / 2, o[1] + size[1] / 2, o[2] + size[2] / 2);
     worldSize = Math.max(size[0], size[1], size[2]);
   }
@@ -324,6 +348,7 @@
     layers: () => Object.keys(layers),
     paintedPixels: paintedPixels,
     setTime: setTime,
+    setCut: (z) => { document.getElementById("cut").value = z; document.getElementById("cut").dispatchEvent(new Event("input")); },
     ready: true,
   };
 })();

@@ -103,3 +103,22 @@ def test_a_flights_view_replays_the_known_map_growing(browser, tmp_path):
     browser.execute_script("kinolabViewer.setTime(1e9)")
     assert painted(browser) == end
     assert click(browser, "q0-known-lazy_mp_astar")[0] < end
+
+
+def test_a_real_octomap_opens_and_can_be_cut_open(browser, tmp_path):
+    """geb079 (the OctoMap project's corridor scan): its obstacles render, and the "cut
+    above" slider takes the ceiling off so that the path inside shows."""
+    kinolab("plan", "--world", SOURCE_DIR / "configs" / "worlds" / "geb079.yaml", "--planner",
+            "lazy_mp_astar", "--start", "0,0,0.7", "--goal", "20,0,0.7", "--out",
+            tmp_path / "geb079", tmp_path=tmp_path)
+    open_view(browser, tmp_path / "geb079" / "view.html")
+    whole = picture(browser)
+    total = browser.execute_script("return kinolabViewer.paintedPixels().total")
+    assert whole[0] > 0.1 * total
+    top = float(browser.find_element(By.ID, "cut").get_attribute("max"))
+    browser.execute_script("kinolabViewer.setCut(1.6)")
+    assert "cut above 1.60 m" in browser.find_element(By.ID, "layers").text
+    opened = picture(browser)
+    assert opened[1] != whole[1]
+    browser.execute_script(f"kinolabViewer.setCut({top})")
+    assert picture(browser) == whole
