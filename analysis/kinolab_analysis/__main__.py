@@ -33,7 +33,7 @@ def main(argv: list[str] | None = None) -> int:
     if args.command == "export":
         try:
             written = export.export_ompl(args.results, args.out)
-        except (FileNotFoundError, ValueError) as error:
+        except (OSError, ValueError) as error:  # a missing database, an OUT that is a file
             print(f"kinolab export: error: {error}", file=sys.stderr)
             return 1
         for path in written:
