@@ -13,6 +13,7 @@ messages the command line prints. docs/python.md walks through a session.
 
 from __future__ import annotations
 
+import html
 import json
 import math
 import os
@@ -242,6 +243,11 @@ class Scene:
 
     def html(self) -> str:
         return self._core.html()
+
+    def _repr_html_(self) -> str:
+        """Shown inline by Jupyter: the viewer in an iframe of its own."""
+        return (f'<iframe srcdoc="{html.escape(self.html(), quote=True)}" '
+                'style="width: 100%; height: 600px; border: 0"></iframe>')
 
     def write(self, path: str | os.PathLike) -> Path:
         self._core.write(os.fspath(path))

@@ -127,6 +127,12 @@ def test_errors_are_exceptions_with_the_command_lines_messages(forest, tmp_path)
     assert issubclass(kinolab.ConfigError, kinolab.Error)
     with pytest.raises(kinolab.InvalidArgument, match="three numbers"):
         kinolab.Planner("lazy_mp_astar", forest).plan(START, (1, 2))
+    with pytest.raises(kinolab.InvalidArgument, match="not finite"):
+        kinolab.Planner("lazy_mp_astar", forest).plan(START, (1, float("nan"), 1))
+    with pytest.raises(kinolab.InvalidArgument, match="no world"):
+        kinolab.Planner("lazy_mp_astar").plan(START, GOAL)
+    with pytest.raises(kinolab.InvalidArgument, match="time_limit"):
+        kinolab.Planner("lazy_mp_astar", forest).plan(START, GOAL, time_limit=-1)
 
 
 # ---- planning -------------------------------------------------------------------------
@@ -273,3 +279,5 @@ def test_a_scene_of_python_results_becomes_a_view(forest, tmp_path):
     assert document["queries"][0]["trees"][0]["edges"]["partial"]
     page = scene.write(tmp_path / "view.html").read_text()
     assert page == scene.html() and "THREE.OrbitControls" in page and "__KINOLAB_SCENE__" not in page
+    inline = scene._repr_html_()  # what a notebook shows
+    assert inline.startswith("<iframe srcdoc=") and "&lt;script" in inline
