@@ -101,7 +101,8 @@ void addReportCommand(CLI::App& app) {
   command->footer(
       "Statistics: Wilson intervals for success rates, bootstrap intervals for "
       "medians, Wilcoxon signed-rank and McNemar for paired comparisons, "
-      "Holm-corrected. Runs with the interpreter " +
+      "Holm-corrected. A 3D view per world (view_<world>.html, also inline): the obstacles, "
+      "the stored trajectories, search trees and flights. Runs with the interpreter " +
       std::string(kPythonExecutable) + ".");
   command->callback([options] { runReport(*options); });
 }
