@@ -35,7 +35,6 @@ import math
 import re
 from pathlib import Path
 
-import numpy as np
 import pandas as pd
 import yaml
 

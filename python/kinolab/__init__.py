@@ -19,7 +19,7 @@ import math
 import os
 import sys
 from pathlib import Path
-from typing import Any, Callable, Iterable, Mapping
+from typing import Any, Callable, Mapping
 
 from . import _core
 from ._core import (ConfigError, Error, FileError, InvalidArgument, ParameterConflict,

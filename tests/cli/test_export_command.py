@@ -2,13 +2,13 @@
 ompl_benchmark_statistics (Debian's ompl-demos) turns into Planner Arena's database, read
 back here run by run."""
 
+import os
 import shutil
 import sqlite3
 import subprocess
 
 import pytest
 
-from conftest import SMALL_FOREST
 
 EXPERIMENT = """
 name: export_test
@@ -31,7 +31,6 @@ sweep:
 
 @pytest.fixture
 def results(kinolab, tmp_path, world):
-    import os
     path = tmp_path / "experiment.yaml"
     path.write_text(EXPERIMENT.format(world=world, misbehaving=os.environ["KINOLAB_MISBEHAVING"]))
     run = kinolab("run", path, "--out", tmp_path / "out", "-j", "2")

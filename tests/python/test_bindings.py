@@ -13,7 +13,7 @@ import pytest
 import yaml
 
 import kinolab
-from conftest import BINARY, SMALL_FOREST, SOURCE_DIR
+from conftest import BINARY, SMALL_FOREST
 
 START, GOAL = (1.0, 1.0, 1.5), (9.0, 8.0, 1.5)
 
