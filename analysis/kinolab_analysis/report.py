@@ -166,7 +166,7 @@ class View:
     title: str
     caption: str
     file: str
-    frame: str  # the iframe, its page inline
+    frame: str  # the iframe, its page inline (markup, not escaped again)
 
 
 @dataclass
@@ -264,7 +264,8 @@ def _view(report: Report, results, world, queries: list[int]) -> None:
         f"{world.id} in 3D", f"Queries {', '.join(map(str, queries))}: the obstacles, every "
         "planner's stored trajectory, search tree (partial, full, certified and rejected edges) "
         "and flight (replayed with its known map growing); drag to orbit, right-drag to pan, "
-        "wheel to zoom, a checkbox per layer.", name, view.iframe(page, world.id)))
+        "wheel to zoom, a checkbox per layer.", name,
+        jinja2.utils.markupsafe.Markup(view.iframe(page, world.id))))
 
 
 def find_sampling_study(directory: Path) -> Path | None:
@@ -422,9 +423,7 @@ def write(paths: list[Path], out: Path, compare: Path | None = None,
         name=results.meta.get("name", "results"), meta=results.meta,
         databases=", ".join(str(p) for p in results.paths), provenance=provenance,
         tables={k: jinja2.utils.markupsafe.Markup(_html(v)) for k, v in report.tables.items()},
-        figures=report.figures, views=[
-            View(v.title, v.caption, v.file, jinja2.utils.markupsafe.Markup(v.frame))
-            for v in report.views], compare_name=compare_name,
+        figures=report.figures, views=report.views, compare_name=compare_name,
         timing_protocol=timing_protocol(results.meta), readings_verdict=readings_verdict,
         regime_sources=f": {regime_sources}" if regime_sources else "",
         paper_rows=", ".join(f"{row} = {planner}" for planner, row in reproduced[1].items())
