@@ -172,24 +172,22 @@ struct PyResult {
   PlanningQuery query;
 };
 
-ChainState chainState(const py::object& position, const py::object& velocity,
+/// Three finite numbers (a point or a vector), named `name` in errors.
+Eigen::Vector3d vector3(const py::object& value, const std::string& name) {
+  const auto array = py::array_t<double, py::array::forcecast>::ensure(value);
+  if (!array || array.size() != 3) throw InvalidArgument(name + ": expected three numbers x, y, z");
+  const Eigen::Vector3d vector(array.data()[0], array.data()[1], array.data()[2]);
+  if (!vector.allFinite()) throw InvalidArgument(name + ": not finite");
+  return vector;
+}
+
+/// A start state: the position, and the velocity and acceleration when given (else zero).
+ChainState startState(const py::object& position, const py::object& velocity,
                       const py::object& acceleration) {
   ChainState state = ChainState::Zero();
-  const std::pair<const py::object*, const char*> columns[] = {
-      {&position, "start"}, {&velocity, "start_velocity"}, {&acceleration, "start_acceleration"}};
-  for (int column = 0; column < 3; ++column) {
-    const auto& [value, name] = columns[column];
-    if (value->is_none()) continue;
-    const auto array = py::array_t<double, py::array::forcecast>::ensure(*value);
-    if (!array || array.size() != 3) {
-      throw InvalidArgument(std::string(name) + ": expected three numbers x, y, z");
-    }
-    for (int axis = 0; axis < 3; ++axis) {
-      const double item = array.data()[axis];
-      if (!std::isfinite(item)) throw InvalidArgument(std::string(name) + ": not finite");
-      state(axis, column) = item;
-    }
-  }
+  state.col(0) = vector3(position, "start");
+  if (!velocity.is_none()) state.col(1) = vector3(velocity, "start_velocity");
+  if (!acceleration.is_none()) state.col(2) = vector3(acceleration, "start_acceleration");
   return state;
 }
 
@@ -198,8 +196,8 @@ PyResult plan(PyPlanner& self, const py::object& start, const py::object& goal,
               double time_limit, long long max_iterations, bool tree) {
   if (!self.world) throw InvalidArgument("plan: the planner has no world (planner.setup(world))");
   PyResult out;
-  out.query.start = chainState(start, start_velocity, start_acceleration);
-  out.query.goal = chainState(goal, py::none(), py::none()).col(0);
+  out.query.start = startState(start, start_velocity, start_acceleration);
+  out.query.goal = vector3(goal, "goal");
   if (!(time_limit > 0.0))
     throw InvalidArgument("time_limit: expected a positive number of seconds");
   if (max_iterations <= 0) throw InvalidArgument("max_iterations: expected a positive count");
@@ -508,8 +506,7 @@ PYBIND11_MODULE(_core, m) {
       .def("add_query",
            [](view::Scene& s, const std::string& name, const py::object& start,
               const py::object& goal) {
-             return s.addQuery(name, chainState(start, py::none(), py::none()).col(0),
-                               chainState(goal, py::none(), py::none()).col(0));
+             return s.addQuery(name, vector3(start, "start"), vector3(goal, "goal"));
            })
       .def("add_result",
            [](view::Scene& s, int query, const std::string& planner, const PyResult& r) {
@@ -528,8 +525,8 @@ PYBIND11_MODULE(_core, m) {
   m.def("_plan_wall_ms",
         [](PyPlanner& self, const py::object& start, const py::object& goal, int repeats) {
           PlanningQuery query;
-          query.start = chainState(start, py::none(), py::none());
-          query.goal = chainState(goal, py::none(), py::none()).col(0);
+          query.start = startState(start, py::none(), py::none());
+          query.goal = vector3(goal, "goal");
           std::vector<double> times;
           py::gil_scoped_release release;
           for (int i = 0; i < repeats; ++i) {

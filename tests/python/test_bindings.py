@@ -3,6 +3,7 @@ results with every metric, errors as exceptions, the GIL released while planning
 experiment runner with its progress."""
 
 import json
+import math
 import os
 import subprocess
 import threading
@@ -125,9 +126,11 @@ def test_errors_are_exceptions_with_the_command_lines_messages(forest, tmp_path)
         kinolab.World.from_file(tmp_path / "nothing.yaml")
     assert issubclass(kinolab.ParameterConflict, kinolab.ConfigError)
     assert issubclass(kinolab.ConfigError, kinolab.Error)
-    with pytest.raises(kinolab.InvalidArgument, match="three numbers"):
+    with pytest.raises(kinolab.InvalidArgument, match="goal: expected three numbers"):
         kinolab.Planner("lazy_mp_astar", forest).plan(START, (1, 2))
-    with pytest.raises(kinolab.InvalidArgument, match="not finite"):
+    with pytest.raises(kinolab.InvalidArgument, match="start_velocity: not finite"):
+        kinolab.Planner("lazy_mp_astar", forest).plan(START, GOAL, start_velocity=(0, math.inf, 0))
+    with pytest.raises(kinolab.InvalidArgument, match="goal: not finite"):
         kinolab.Planner("lazy_mp_astar", forest).plan(START, (1, float("nan"), 1))
     with pytest.raises(kinolab.InvalidArgument, match="no world"):
         kinolab.Planner("lazy_mp_astar").plan(START, GOAL)
