@@ -86,7 +86,9 @@ def _properties(results: Results, runs: pd.DataFrame) -> list[tuple[str, str, st
             continue
         if runs[column].isna().all():
             continue
-        name, ompl_type = OMPL_NAMES.get(column, (column, TYPES[kind]))
+        # A plugin's statistic may be named anything: as a column of OMPL's SQL table it
+        # must be an identifier.
+        name, ompl_type = OMPL_NAMES.get(column, (re.sub(r"\W", "_", column), TYPES[kind]))
         properties.append((column, name, ompl_type))
     return properties
 
