@@ -73,6 +73,8 @@
     layersDiv.appendChild(h);
   }
   function addLayer(id, label, colour, group, visible) {
+    const base = id;
+    for (let n = 2; id in layers; ++n) id = base + "-" + n;  // two layers of one name
     group.visible = visible;
     world3d.add(group);
     const row = document.createElement("label");

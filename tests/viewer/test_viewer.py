@@ -122,3 +122,24 @@ def test_a_real_octomap_opens_and_can_be_cut_open(browser, tmp_path):
     assert opened[1] != whole[1]
     browser.execute_script(f"kinolabViewer.setCut({top})")
     assert picture(browser) == whole
+
+
+def test_a_python_scene_with_two_results_of_one_name_keeps_both_layers(browser, tmp_path,
+                                                                       monkeypatch):
+    monkeypatch.syspath_prepend(os.environ.get("KINOLAB_PYTHON_DIR",
+                                               str(SOURCE_DIR / "build" / "python")))
+    monkeypatch.setenv("KINOLAB_CACHE_DIR", str(tmp_path / "cache"))
+    # The bindings are built by default (CI); a build with -DKINOLAB_BUILD_PYTHON=OFF has none.
+    kinolab = pytest.importorskip("kinolab")
+    world = kinolab.World.from_file(WORLD)
+    scene = kinolab.Scene("two of a name", world)
+    query = scene.add_query("q", (1, 1, 1.5), (9, 8, 1.5))
+    for goal in ((9, 8, 1.5), (8, 2, 1.5)):
+        scene.add_result(query, "same", kinolab.Planner("eager_mp_astar", world).plan((1, 1, 1.5), goal))
+    open_view(browser, scene.write(tmp_path / "view.html"))
+    layers = browser.execute_script("return kinolabViewer.layers()")
+    assert {"q0-trajectory-same", "q0-trajectory-same-2"} <= set(layers)
+    everything = picture(browser)
+    for layer in ("q0-trajectory-same", "q0-trajectory-same-2"):
+        assert click(browser, layer)[1] != everything[1]
+        assert click(browser, layer) == everything
