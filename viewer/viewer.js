@@ -204,13 +204,16 @@
       let known = null;
       let cells = [];
       if (flight.known) {
+        // Each voxel of the final known map (x, y, z, first known occupied), in time order.
         const k = flight.known;
-        for (let i = 0; i + 2 < k.cells.length; i += 3) cells.push([k.cells[i], k.cells[i + 1], k.cells[i + 2]]);
-        cells.sort((a, b) => a[2] - b[2]);
-        known = boxes(cells.length, colour, 0.45);
-        cells.forEach((c, i) => placeBox(known, i,
-            [k.origin[0] + c[0] * k.resolution, k.origin[1] + c[1] * k.resolution, k.band[0]],
-            [k.origin[0] + (c[0] + 1) * k.resolution, k.origin[1] + (c[1] + 1) * k.resolution, k.band[1]]));
+        const half = k.size / 2;
+        for (let i = 0; i + 3 < k.points.length; i += 4) {
+          cells.push([k.points[i], k.points[i + 1], k.points[i + 2], k.points[i + 3]]);
+        }
+        cells.sort((a, b) => a[3] - b[3]);
+        known = boxes(cells.length, colour, 0.6);
+        cells.forEach((c, i) => placeBox(known, i, [c[0] - half, c[1] - half, c[2] - half],
+                                         [c[0] + half, c[1] + half, c[2] + half]));
         known.instanceMatrix.needsUpdate = true;
         const knownGroup = new THREE.Group();
         knownGroup.add(known);
@@ -283,7 +286,7 @@
       const k = Math.max(1, upperBound(f.times, t, (x) => x));
       f.line.geometry.setDrawRange(0, k);
       f.vehicle.position.set(f.points[3 * (k - 1)], f.points[3 * (k - 1) + 1], f.points[3 * (k - 1) + 2]);
-      if (f.known) f.known.count = upperBound(f.cells, t, (c) => c[2]);
+      if (f.known) f.known.count = upperBound(f.cells, t, (c) => c[3]);
     }
     render();
   }

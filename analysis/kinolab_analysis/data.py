@@ -94,6 +94,15 @@ class Results:
                               (run_hash,)).fetchone() if "flights" in tables else None)
         return pd.read_csv(io.StringIO(row[0])) if row and row[0] else None
 
+    def known_voxels(self, run_hash: str) -> pd.DataFrame | None:
+        """A flight's final known map as voxels (t, x, y, z: the centre and the time it was
+        first known occupied), for the queries store.trees names; None when not stored."""
+        with self.connection(run_hash) as db:
+            columns = {row[1] for row in db.execute("PRAGMA table_info(flights)")}
+            row = (db.execute("SELECT known_voxels FROM flights WHERE run_hash = ?",
+                              (run_hash,)).fetchone() if "known_voxels" in columns else None)
+        return pd.read_csv(io.StringIO(row[0])) if row and row[0] else None
+
     def known_maps(self, run_hash: str) -> list[tuple[float, np.ndarray, np.ndarray, float]]:
         """A flight's known map from above as it grew: (time, the (nx, ny) array of 0 unknown,
         1 free, 2 obstacle, the origin (x, y), the resolution) per snapshot, the last at the

@@ -14,9 +14,6 @@ import pandas as pd
 
 from .data import Results, World
 
-# A flight's known-map snapshots show the query's heights widened by this much (m) above and
-# below: kinolab::kSnapshotBand (framework/.../flight/flight.hpp).
-SNAPSHOT_BAND = 0.5
 STATES = ("partial", "full", "certified", "rejected")
 
 
@@ -46,19 +43,11 @@ def _tree_edges(tree: pd.DataFrame) -> dict[str, list[float]]:
     return edges
 
 
-def _known(snapshots, band: tuple[float, float]) -> dict | None:
-    """Each obstacle cell of a flight's known map once, with the time it was first seen."""
-    if not snapshots:
+def _known(voxels: pd.DataFrame | None, size: float) -> dict | None:
+    """A flight's known voxels: centres and the time each was first known occupied."""
+    if voxels is None or voxels.empty:
         return None
-    _, first, origin, resolution = snapshots[0]
-    seen = np.full(first.shape, np.inf)
-    for time, grid, _, _ in snapshots:
-        if grid.shape == seen.shape:
-            seen = np.where((grid == 2) & np.isinf(seen), time, seen)
-    xs, ys = np.nonzero(np.isfinite(seen))
-    cells = np.stack([xs, ys, np.round(seen[xs, ys], 3)], axis=1)
-    return {"resolution": float(resolution), "origin": _flat(origin), "band": _flat(band),
-            "cells": [v for row in cells.tolist() for v in (int(row[0]), int(row[1]), row[2])]}
+    return {"size": float(size), "points": _flat(voxels[["x", "y", "z", "t"]])}
 
 
 def scene(results: Results, world: World, queries: list[int]) -> dict:
@@ -86,10 +75,11 @@ def scene(results: Results, world: World, queries: list[int]) -> dict:
             trajectory = results.trajectory(run["run_hash"])
             snapshots = results.known_maps(run["run_hash"])
             if trajectory is not None and len(trajectory) and snapshots:
-                band = (min(start[2], goal[2]) - SNAPSHOT_BAND, max(start[2], goal[2]) + SNAPSHOT_BAND)
+                size = snapshots[-1][3]  # the map's resolution
                 entry["flights"].append({
                     "planner": run["planner"], "t": _flat(trajectory["t"]),
-                    "points": _flat(trajectory[["x", "y", "z"]]), "known": _known(snapshots, band)})
+                    "points": _flat(trajectory[["x", "y", "z"]]),
+                    "known": _known(results.known_voxels(run["run_hash"]), size)})
                 continue
             if trajectory is not None and len(trajectory):
                 entry["trajectories"].append({"planner": run["planner"],

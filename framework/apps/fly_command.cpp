@@ -34,7 +34,8 @@ std::string point(const Eigen::Vector3d& p) {
 }
 
 void writeOutputs(const FlyOptions& options, const World& world, const PlanningQuery& query,
-                  const FlightResult& result, const nlohmann::ordered_json& summary) {
+                  const FlightResult& result, double map_resolution,
+                  const nlohmann::ordered_json& summary) {
   const std::filesystem::path out(options.out_dir);
   std::filesystem::create_directories(out);
   writeFileAtomically((out / "flown.csv").string(), trajectoryCsv(result.flown, 0.01));
@@ -52,9 +53,7 @@ void writeOutputs(const FlyOptions& options, const World& world, const PlanningQ
   scene.setWorld(world);
   const int index = scene.addQuery(point(query.start.col(0)) + " to " + point(query.goal),
                                    query.start.col(0), query.goal);
-  scene.addFlight(index, options.planner, result.flown, result.snapshots,
-                  std::min(query.start(2, 0), query.goal.z()) - kSnapshotBand,
-                  std::max(query.start(2, 0), query.goal.z()) + kSnapshotBand);
+  scene.addFlight(index, options.planner, result.flown, result.known_voxels, map_resolution);
   const bool viewed = writeView((out / "view.html").string(), scene);
   std::printf("  wrote      %s/{flown.csv, replans.csv, plans.csv, known_map.bt, summary.json%s}\n",
               options.out_dir.c_str(), viewed ? ", view.html" : "");
@@ -98,7 +97,9 @@ void runFly(const FlyOptions& options) {
   nlohmann::ordered_json summary = {
       {"planner", options.planner}, {"world", load.world->name()}, {"seed", options.seed}};
   summary.update(nlohmann::ordered_json::parse(toJson(flightValues(result), flightMetrics())));
-  if (!options.out_dir.empty()) writeOutputs(options, *load.world, query, result, summary);
+  if (!options.out_dir.empty()) {
+    writeOutputs(options, *load.world, query, result, map.resolution, summary);
+  }
   std::cout << summary.dump() << std::endl;
 }
 

@@ -451,8 +451,10 @@ def test_a_flight_experiment_flies_every_query_and_stores_the_flight_metrics(kin
     scene = json.loads(re.search(r'id="kinolab-scene">(.*?)</script>', page, re.S).group(1))
     flight = scene["queries"][0]["flights"][0]
     assert flight["planner"] == "lazy" and len(flight["t"]) * 3 == len(flight["points"])
-    cells = flight["known"]["cells"]
-    assert cells and all(0 <= t <= flight["t"][-1] + 1e-6 for t in cells[2::3])
+    known = flight["known"]["points"]  # x, y, z, first seen: every voxel of the final map
+    stored = select(tmp_path / "out", "SELECT known_voxels FROM flights WHERE known_voxels != ''")
+    assert len(known) == 4 * (stored[0][0].count("\n") - 1) > 0
+    assert all(0 <= t <= flight["t"][-1] + 1e-6 for t in known[3::4])
 
 
 @pytest.mark.parametrize("kind, extra, message", [

@@ -6,6 +6,8 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <set>
+#include <tuple>
 
 #include "kinolab/builtin_plugins.hpp"
 #include "kinolab/core/random.hpp"
@@ -269,6 +271,34 @@ TEST(FlightTest, AWallBeyondTheSensorsRangeIsSeenAndFlownAround) {
   }
   EXPECT_GT(highest_y, 5.0);
   EXPECT_GT(result.min_clearance, -0.01);
+}
+
+TEST(FlightTest, SnapshotsRecordWhenEachVoxelOfTheFinalMapWasFirstSeen) {
+  const auto world = worldOf(kWall);
+  Flight flight;
+  flight.settings.snapshot_period = 1.0;
+  const FlightResult result = flight.fly(world, {2, 3, 1.5}, {18, 3, 1.5});
+  ASSERT_EQ(result.status, "reached") << result.message;
+  // Exactly the final map's occupied voxels, each once, in the order they were first seen,
+  // at snapshot times; the wall 8 m ahead (range 5 m) is not seen at t = 0.
+  const std::vector<Eigen::Vector3d> final_map = result.map->occupiedCenters();
+  ASSERT_EQ(result.known_voxels.size(), final_map.size());
+  ASSERT_FALSE(final_map.empty());
+  std::set<std::tuple<double, double, double>> centres;
+  std::set<double> snapshot_times;
+  for (const auto& [time, view] : result.snapshots) snapshot_times.insert(time);
+  double previous = 0.0;
+  for (const auto& [time, centre] : result.known_voxels) {
+    EXPECT_TRUE(snapshot_times.count(time)) << time;
+    EXPECT_GE(time, previous);
+    previous = time;
+    centres.emplace(centre.x(), centre.y(), centre.z());
+  }
+  for (const Eigen::Vector3d& centre : final_map) {
+    EXPECT_TRUE(centres.count({centre.x(), centre.y(), centre.z()}));
+  }
+  EXPECT_GT(result.known_voxels.front().first, 0.0);
+  EXPECT_EQ(knownVoxelsCsv(result).substr(0, 8), "t,x,y,z\n");
 }
 
 TEST(FlightTest, AWallBehindACornerIsSeenAfterTheTurnAndFlownAround) {

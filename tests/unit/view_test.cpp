@@ -105,8 +105,10 @@ TEST(Scene, HoldsTheWorldTrajectoriesTreesAndFlights) {
   tree[1].points = {Eigen::Vector3d(0, 0, 1), Eigen::Vector3d(0, 1, 1)};
   tree[1].state = SearchTreeEdge::State::kRejected;
   scene.addTree(query, "p", tree);
-  scene.addFlight(query, "p", line,
-                  {{0.0, "2,2,0,0,0.5\n10\n00\n"}, {1.0, "2,2,0,0,0.5\n22\n01\n"}}, 0.5, 1.5);
+  scene.addFlight(
+      query, "p", line,
+      {{0.0, Eigen::Vector3d(1.05, 1.05, 0.05)}, {1.5, Eigen::Vector3d(1.15, 1.05, 0.05)}}, 0.1,
+      0.5);
   EXPECT_THROW(scene.addTree(5, "p", tree), InvalidArgument);
 
   const auto json = nlohmann::json::parse(scene.json());
@@ -117,9 +119,11 @@ TEST(Scene, HoldsTheWorldTrajectoriesTreesAndFlights) {
   EXPECT_EQ(q["trees"][0]["edges"]["partial"].size(), 2u * 2u * 3u);  // two segments
   EXPECT_EQ(q["trees"][0]["edges"]["rejected"].size(), 1u * 2u * 3u);
   EXPECT_TRUE(q["trees"][0]["edges"]["full"].empty());
-  // Cell (0, 1) first seen at t = 1 (it was free before), (1, 0) never, (0, 0) at t = 1.
-  EXPECT_EQ(q["flights"][0]["known"]["cells"], (nlohmann::json{0, 0, 1.0, 0, 1, 1.0}));
-  EXPECT_EQ(q["flights"][0]["known"]["band"], (nlohmann::json{0.5, 1.5}));
+  // The flight every 0.5 s; its known voxels as x, y, z, first seen.
+  EXPECT_EQ(q["flights"][0]["t"], (nlohmann::json{0.0, 0.5, 1.0, 1.5, 2.0}));
+  EXPECT_EQ(q["flights"][0]["known"]["size"], 0.1);
+  EXPECT_EQ(q["flights"][0]["known"]["points"],
+            (nlohmann::json{1.05, 1.05, 0.05, 0.0, 1.15, 1.05, 0.05, 1.5}));
 
   // The page inlines the scene where its element cannot be closed early.
   const auto directory = std::filesystem::temp_directory_path() / "kinolab_view_test";

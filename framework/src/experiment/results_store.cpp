@@ -68,7 +68,7 @@ CREATE TABLE IF NOT EXISTS worlds (
 CREATE TABLE IF NOT EXISTS trajectories (run_hash TEXT PRIMARY KEY, csv TEXT NOT NULL);
 CREATE TABLE IF NOT EXISTS trees (run_hash TEXT PRIMARY KEY, csv TEXT NOT NULL);
 CREATE TABLE IF NOT EXISTS flights (run_hash TEXT PRIMARY KEY, replans TEXT NOT NULL,
-  known_map TEXT NOT NULL, clearance TEXT NOT NULL);
+  known_map TEXT NOT NULL, clearance TEXT NOT NULL, known_voxels TEXT NOT NULL);
 )sql";
 
 /// Every metric column of `runs`, in order: the result metrics, then the runner's.
@@ -337,13 +337,14 @@ void ResultsStore::insert(const RunRecord& r) {
     }
     if (!r.replans_csv.empty()) {
       Statement flight(db_,
-                       "INSERT INTO flights (run_hash, replans, known_map, clearance) "
-                       "VALUES (?, ?, ?, ?)",
+                       "INSERT INTO flights (run_hash, replans, known_map, clearance, "
+                       "known_voxels) VALUES (?, ?, ?, ?, ?)",
                        path_);
       flight.add(r.run_hash);
       flight.add(r.replans_csv);
       flight.add(r.known_map);
       flight.add(r.clearance_csv);
+      flight.add(r.known_voxels_csv);
       flight.step(path_);
     }
   });

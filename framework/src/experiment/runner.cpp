@@ -190,6 +190,7 @@ std::string flyOneRun(const Experiment& experiment, const RunSpec& run,
         maps += "t=" + formatNumber(time) + "\n" + view;
       }
       out["known_map"] = maps;
+      out["known_voxels"] = knownVoxelsCsv(flight);
     }
   });
 }
@@ -260,6 +261,7 @@ RunRecord recordOf(const Experiment& experiment, const RunSpec& run, const Worke
   record.tree_csv = out.value("tree", "");
   record.replans_csv = out.value("replans", "");
   record.known_map = out.value("known_map", "");
+  record.known_voxels_csv = out.value("known_voxels", "");
   record.clearance_csv = out.value("clearance", "");
   return record;
 }

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <unordered_map>
 
 #include "kinolab/core/text.hpp"
 #include "kinolab/validation/trajectory_checker.hpp"
@@ -285,6 +286,21 @@ FlightResult fly(const std::shared_ptr<const World>& truth, const PlannerFactory
   // The heights of the query, for the map's snapshots from above.
   const double z_band_low = std::min(start.z(), query.goal.z()) - kSnapshotBand;
   const double z_band_high = std::max(start.z(), query.goal.z()) + kSnapshotBand;
+  // Snapshots: the map from above, and when each voxel was first known occupied.
+  std::unordered_map<std::int64_t, double> first_occupied;
+  const Eigen::Vector3d lattice_origin = truth->grid().origin();
+  const auto voxelKey = [&](const Eigen::Vector3d& center) {
+    const Eigen::Vector3i v =
+        ((center - lattice_origin) / map_model.resolution).array().floor().cast<int>();
+    return (static_cast<std::int64_t>(v.x()) << 42) ^ (static_cast<std::int64_t>(v.y()) << 21) ^
+           static_cast<std::int64_t>(v.z());
+  };
+  const auto snapshot = [&](double time) {
+    result.snapshots.emplace_back(time, map->topView(z_band_low, z_band_high));
+    for (const Eigen::Vector3d& center : map->occupiedCenters()) {
+      first_occupied.emplace(voxelKey(center), time);
+    }
+  };
   for (int frame = 0;; ++frame) {
     // The ground truth: the stretch flown since the last frame, every centimetre of time.
     const double from = t;
@@ -324,7 +340,7 @@ FlightResult fly(const std::shared_ptr<const World>& truth, const PlannerFactory
     if (settings.snapshot_period > 0.0 &&
         (result.snapshots.empty() ||
          t >= result.snapshots.back().first + settings.snapshot_period - 1e-9)) {
-      result.snapshots.emplace_back(t, map->topView(z_band_low, z_band_high));
+      snapshot(t);
     }
     auto begin = std::chrono::steady_clock::now();
     const SensorFrame sensed =
@@ -398,7 +414,12 @@ FlightResult fly(const std::shared_ptr<const World>& truth, const PlannerFactory
   }
   result.flown = slice(committed, std::max(t, dt));
   if (settings.snapshot_period > 0.0) {
-    result.snapshots.emplace_back(t, map->topView(z_band_low, z_band_high));
+    snapshot(t);
+    for (const Eigen::Vector3d& center : map->occupiedCenters()) {
+      result.known_voxels.emplace_back(first_occupied.at(voxelKey(center)), center);
+    }
+    std::stable_sort(result.known_voxels.begin(), result.known_voxels.end(),
+                     [](const auto& a, const auto& b) { return a.first < b.first; });
   }
   if (collided) result.status = "collision";
   CheckQuery check_query;
@@ -453,6 +474,15 @@ const MetricSpecs& flightMetrics() {
           .boolean("success", "reached the goal without a collision")
           .include(flightStatistics());
   return specs;
+}
+
+std::string knownVoxelsCsv(const FlightResult& result) {
+  std::string csv = "t,x,y,z\n";
+  for (const auto& [time, center] : result.known_voxels) {
+    csv += formatNumber(time) + "," + formatNumber(center.x()) + "," + formatNumber(center.y()) +
+           "," + formatNumber(center.z()) + "\n";
+  }
+  return csv;
 }
 
 std::string replansCsv(const FlightResult& result) {

@@ -9,7 +9,6 @@
 #include <iterator>
 #include <map>
 #include <nlohmann/json.hpp>
-#include <sstream>
 
 #include "kinolab/core/error.hpp"
 #include "kinolab/core/files.hpp"
@@ -174,8 +173,8 @@ void Scene::addTree(int query, const std::string& planner, const SearchTree& tre
 }
 
 void Scene::addFlight(int query, const std::string& planner, const Trajectory& flown,
-                      const std::vector<std::pair<double, std::string>>& snapshots, double band_low,
-                      double band_high, double step) {
+                      const std::vector<std::pair<double, Eigen::Vector3d>>& known_voxels,
+                      double voxel_size, double step) {
   nlohmann::ordered_json times = nlohmann::ordered_json::array();
   nlohmann::ordered_json flat = nlohmann::ordered_json::array();
   if (!flown.empty()) {
@@ -184,42 +183,14 @@ void Scene::addFlight(int query, const std::string& planner, const Trajectory& f
       appendPoint(flat, sample.position);
     }
   }
-  // Each known obstacle cell once, with the time of the first snapshot that shows it.
   nlohmann::ordered_json known = nullptr;
-  std::map<std::pair<int, int>, double> seen;
-  for (const auto& [time, text] : snapshots) {
-    std::istringstream lines(text);
-    std::string head;
-    std::getline(lines, head);
-    int nx = 0;
-    int ny = 0;
-    double ox = 0.0;
-    double oy = 0.0;
-    double resolution = 0.0;
-    if (std::sscanf(head.c_str(), "%d,%d,%lf,%lf,%lf", &nx, &ny, &ox, &oy, &resolution) != 5) {
-      throw InvalidArgument(
-          "Scene::addFlight: a snapshot's first line is not nx,ny,x,y,resolution");
+  if (!known_voxels.empty()) {
+    nlohmann::ordered_json points = nlohmann::ordered_json::array();
+    for (const auto& [time, center] : known_voxels) {
+      appendPoint(points, center);
+      points.push_back(mm(time));
     }
-    if (known.is_null()) {
-      known = {{"resolution", resolution},
-               {"origin", {mm(ox), mm(oy)}},
-               {"band", {mm(band_low), mm(band_high)}}};
-    }
-    std::string row;
-    for (int x = 0; x < nx && std::getline(lines, row); ++x) {
-      for (int y = 0; y < std::min<int>(ny, static_cast<int>(row.size())); ++y) {
-        if (row[static_cast<std::size_t>(y)] == '2') seen.emplace(std::make_pair(x, y), time);
-      }
-    }
-  }
-  if (!known.is_null()) {
-    nlohmann::ordered_json cells = nlohmann::ordered_json::array();
-    for (const auto& [cell, time] : seen) {
-      cells.push_back(cell.first);
-      cells.push_back(cell.second);
-      cells.push_back(mm(time));
-    }
-    known["cells"] = std::move(cells);
+    known = {{"size", voxel_size}, {"points", std::move(points)}};
   }
   impl_->query(query)["flights"].push_back({{"planner", planner},
                                             {"t", std::move(times)},

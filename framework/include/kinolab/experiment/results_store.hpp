@@ -42,11 +42,12 @@ struct RunRecord {
 
   MetricValues metrics;  ///< resultMetrics() and runnerMetrics(), by name
   MetricValues statistics;
-  std::string trajectory_csv;  ///< when the experiment stores trajectories
-  std::string tree_csv;        ///< when it stores search trees
-  std::string replans_csv;     ///< a flight's replans (kind: flight)
-  std::string known_map;       ///< a flight's known map from above (store.trees' queries)
-  std::string clearance_csv;   ///< a flight's clearance to the ground truth over time
+  std::string trajectory_csv;    ///< when the experiment stores trajectories
+  std::string tree_csv;          ///< when it stores search trees
+  std::string replans_csv;       ///< a flight's replans (kind: flight)
+  std::string known_map;         ///< a flight's known map from above (store.trees' queries)
+  std::string clearance_csv;     ///< a flight's clearance to the ground truth over time
+  std::string known_voxels_csv;  ///< its final known map's voxels, each first seen when
 
   /// The text of a metric ("" when it is none or absent).
   std::string text(std::string_view name) const;

@@ -177,7 +177,13 @@ struct FlightResult {
   std::shared_ptr<const KnownMap> map;  ///< the final known map
   /// (time, KnownMap::topView) every snapshot_period and at the end, when asked for.
   std::vector<std::pair<double, std::string>> snapshots;
+  /// With snapshots: every voxel the final known map holds occupied (its centre) and the
+  /// snapshot time it was first known occupied, in that order: the map growing, in 3D.
+  std::vector<std::pair<double, Eigen::Vector3d>> known_voxels;
 };
+
+/// FlightResult::known_voxels as CSV `t,x,y,z` (the runner's flights table).
+std::string knownVoxelsCsv(const FlightResult& result);
 
 /// Makes a planner set up on a world (one per replan window).
 using PlannerFactory = std::function<std::unique_ptr<Planner>(std::shared_ptr<const World>)>;

@@ -42,11 +42,12 @@ class Scene {
   void addTrajectory(int query, const std::string& planner, const Trajectory& trajectory,
                      double step = 0.05);
   void addTree(int query, const std::string& planner, const SearchTree& tree);
-  /// A flight: the flown trajectory and the known map's top views (KnownMap::topView text) at
-  /// their times, drawn as obstacle columns over the heights [band_low, band_high].
+  /// A flight: the flown trajectory sampled every `step` seconds, and its known map as
+  /// voxels (cubes of `voxel_size` at their centres) with the time each was first known
+  /// occupied (FlightResult::known_voxels), so that a replay shows the map growing.
   void addFlight(int query, const std::string& planner, const Trajectory& flown,
-                 const std::vector<std::pair<double, std::string>>& snapshots, double band_low,
-                 double band_high, double step = 0.1);
+                 const std::vector<std::pair<double, Eigen::Vector3d>>& known_voxels,
+                 double voxel_size, double step = 0.1);
   /// The scene as JSON.
   std::string json() const;
 
