@@ -60,13 +60,6 @@ def _config(results: Results) -> dict:
     return yaml.safe_load(results.meta.get("config", "").split("\n--- # variants")[0]) or {}
 
 
-def _statuses(runs: pd.DataFrame) -> list[str]:
-    """Every status, the runner's order first (planner statuses, then the runner's)."""
-    known = ["exact", "approximate", "no_solution", "timeout", "invalid_start", "invalid_goal",
-             "invalid_trajectory", "crash", "killed", "oom", "error"]
-    return known + sorted(set(runs["status"].dropna()) - set(known))
-
-
 def _properties(results: Results, runs: pd.DataFrame) -> list[tuple[str, str, str]]:
     """(column, OMPL name, OMPL type) of every numeric measurement the runs carry."""
     declared = {}
@@ -103,11 +96,11 @@ def _value(value, ompl_type: str) -> str:
     return repr(float(value))
 
 
-def _log(results: Results, runs: pd.DataFrame, variant: str, world: str) -> str:
+def _log(results: Results, runs: pd.DataFrame, variant: str, world: str,
+         statuses: list[str]) -> str:
     config = _config(results)
     budget = config.get("budget", {}) or {}
     meta = results.meta
-    statuses = _statuses(runs)
     runs = runs.assign(status=runs["status"].map({s: i for i, s in enumerate(statuses)}),
                        approximate=(runs["status"] == "approximate"))
     if "planning_time_ms" in runs:
@@ -169,6 +162,8 @@ def export_ompl(paths: list[Path], out: Path) -> list[Path]:
                          "planning runs")
     runs["sweep"] = runs["sweep"].fillna("") if "sweep" in runs else ""
     variants = runs.drop_duplicates("variant").sort_values("variant")[["variant", "sweep"]]
+    # One status enum for every log: ompl_benchmark_statistics keeps the first log's.
+    statuses = sorted(runs["status"].dropna().unique())
     out.mkdir(parents=True, exist_ok=True)
     written = []
     for world, in_world in runs.groupby("world", sort=True):
@@ -183,6 +178,6 @@ def export_ompl(paths: list[Path], out: Path) -> list[Path]:
             if not parts:
                 continue
             path = out / (_name(f"{world}_{sweep}" if sweep else world) + ".log")
-            path.write_text(_log(results, pd.concat(parts), sweep, world))
+            path.write_text(_log(results, pd.concat(parts), sweep, world, statuses))
             written.append(path)
     return written

@@ -43,10 +43,13 @@ def _tree_edges(tree: pd.DataFrame) -> dict[str, list[float]]:
     return edges
 
 
-def _known(voxels: pd.DataFrame | None, size: float) -> dict | None:
-    """A flight's known voxels: centres and the time each was first known occupied."""
+def _known(results: Results, run_hash: str) -> dict | None:
+    """A flight's known voxels (centres and the time each was first known occupied), cubes of
+    its map's resolution; None when the flight's map was not stored."""
+    voxels = results.known_voxels(run_hash)
     if voxels is None or voxels.empty:
         return None
+    size = results.known_maps(run_hash)[-1][3]
     return {"size": float(size), "points": _flat(voxels[["x", "y", "z", "t"]])}
 
 
@@ -62,6 +65,7 @@ def scene(results: Results, world: World, queries: list[int]) -> dict:
                   "boxes": world.boxes.ravel().astype(int).tolist()},
         "queries": []}
     runs = results.runs
+    flights = "time_to_goal" in runs.columns  # a flight experiment: its trajectories were flown
     for query in queries:
         chosen = runs[(runs["world_hash"] == world.world_hash) & (runs["query"] == query)]
         if chosen.empty:
@@ -73,13 +77,12 @@ def scene(results: Results, world: World, queries: list[int]) -> dict:
                  "trajectories": [], "trees": [], "flights": []}
         for _, run in chosen.sort_values(["planner", "repetition"]).drop_duplicates("planner").iterrows():
             trajectory = results.trajectory(run["run_hash"])
-            snapshots = results.known_maps(run["run_hash"])
-            if trajectory is not None and len(trajectory) and snapshots:
-                size = snapshots[-1][3]  # the map's resolution
-                entry["flights"].append({
-                    "planner": run["planner"], "t": _flat(trajectory["t"]),
-                    "points": _flat(trajectory[["x", "y", "z"]]),
-                    "known": _known(results.known_voxels(run["run_hash"]), size)})
+            if flights:
+                if trajectory is not None and len(trajectory):
+                    entry["flights"].append({
+                        "planner": run["planner"], "t": _flat(trajectory["t"]),
+                        "points": _flat(trajectory[["x", "y", "z"]]),
+                        "known": _known(results, run["run_hash"])})
                 continue
             if trajectory is not None and len(trajectory):
                 entry["trajectories"].append({"planner": run["planner"],

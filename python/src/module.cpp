@@ -166,10 +166,9 @@ struct PyPlanner {
 /// search tree when one was asked for.
 struct PyResult {
   PlanResult result;
-  MetricSpecs statistics;
+  const PluginInfo* planner = nullptr;  ///< its registration: the statistics it declares
   SearchTree tree;
   bool has_tree = false;
-  PlanningQuery query;
 };
 
 /// Three finite numbers (a point or a vector), named `name` in errors.
@@ -195,16 +194,17 @@ PyResult plan(PyPlanner& self, const py::object& start, const py::object& goal,
               const py::object& start_velocity, const py::object& start_acceleration,
               double time_limit, long long max_iterations, bool tree) {
   if (!self.world) throw InvalidArgument("plan: the planner has no world (planner.setup(world))");
-  PyResult out;
-  out.query.start = startState(start, start_velocity, start_acceleration);
-  out.query.goal = vector3(goal, "goal");
+  PlanningQuery query;
+  query.start = startState(start, start_velocity, start_acceleration);
+  query.goal = vector3(goal, "goal");
   if (!(time_limit > 0.0))
     throw InvalidArgument("time_limit: expected a positive number of seconds");
   if (max_iterations <= 0) throw InvalidArgument("max_iterations: expected a positive count");
-  out.statistics = declaredStatistics(*self.configured.info);
+  PyResult out;
+  out.planner = self.configured.info;
   {
     py::gil_scoped_release release;
-    out.result = self.configured.planner->plan(out.query, Budget{time_limit, max_iterations},
+    out.result = self.configured.planner->plan(query, Budget{time_limit, max_iterations},
                                                tree ? &out.tree : nullptr);
   }
   out.has_tree = tree;
@@ -288,7 +288,7 @@ py::dict metricsDict(const PyResult& self) {
   const py::object loads = py::module_::import("json").attr("loads");
   py::dict dict = loads(toJson(resultValues(self.result), resultMetrics()));
   const py::dict statistics =
-      loads(toJson(statisticValues(self.result.statistics), self.statistics));
+      loads(toJson(statisticValues(self.result.statistics), declaredStatistics(*self.planner)));
   for (const auto& [key, value] : statistics) dict[key] = value;
   return dict;
 }

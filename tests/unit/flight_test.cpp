@@ -281,7 +281,10 @@ TEST(FlightTest, SnapshotsRecordWhenEachVoxelOfTheFinalMapWasFirstSeen) {
   ASSERT_EQ(result.status, "reached") << result.message;
   // Exactly the final map's occupied voxels, each once, in the order they were first seen,
   // at snapshot times; the wall 8 m ahead (range 5 m) is not seen at t = 0.
-  const std::vector<Eigen::Vector3d> final_map = result.map->occupiedCenters();
+  std::vector<Eigen::Vector3d> final_map;
+  for (const std::size_t voxel : result.map->occupiedVoxels()) {
+    final_map.push_back(result.map->voxelCenter(voxel));
+  }
   ASSERT_EQ(result.known_voxels.size(), final_map.size());
   ASSERT_FALSE(final_map.empty());
   std::set<std::tuple<double, double, double>> centres;

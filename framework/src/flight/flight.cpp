@@ -283,23 +283,14 @@ FlightResult fly(const std::shared_ptr<const World>& truth, const PlannerFactory
   std::string reason = "start";
   double t = 0.0;
   bool collided = false;
-  // The heights of the query, for the map's snapshots from above.
-  const double z_band_low = std::min(start.z(), query.goal.z()) - kSnapshotBand;
-  const double z_band_high = std::max(start.z(), query.goal.z()) + kSnapshotBand;
-  // Snapshots: the map from above, and when each voxel was first known occupied.
-  std::unordered_map<std::int64_t, double> first_occupied;
-  const Eigen::Vector3d lattice_origin = truth->grid().origin();
-  const auto voxelKey = [&](const Eigen::Vector3d& center) {
-    const Eigen::Vector3i v =
-        ((center - lattice_origin) / map_model.resolution).array().floor().cast<int>();
-    return (static_cast<std::int64_t>(v.x()) << 42) ^ (static_cast<std::int64_t>(v.y()) << 21) ^
-           static_cast<std::int64_t>(v.z());
-  };
+  // Snapshots: the map from above over the query's heights (widened by 0.5 m), and when
+  // each voxel was first known occupied.
+  const double z_band_low = std::min(start.z(), query.goal.z()) - 0.5;
+  const double z_band_high = std::max(start.z(), query.goal.z()) + 0.5;
+  std::unordered_map<std::size_t, double> first_occupied;  // lattice index -> time
   const auto snapshot = [&](double time) {
     result.snapshots.emplace_back(time, map->topView(z_band_low, z_band_high));
-    for (const Eigen::Vector3d& center : map->occupiedCenters()) {
-      first_occupied.emplace(voxelKey(center), time);
-    }
+    for (const std::size_t voxel : map->occupiedVoxels()) first_occupied.emplace(voxel, time);
   };
   for (int frame = 0;; ++frame) {
     // The ground truth: the stretch flown since the last frame, every centimetre of time.
@@ -415,8 +406,8 @@ FlightResult fly(const std::shared_ptr<const World>& truth, const PlannerFactory
   result.flown = slice(committed, std::max(t, dt));
   if (settings.snapshot_period > 0.0) {
     snapshot(t);
-    for (const Eigen::Vector3d& center : map->occupiedCenters()) {
-      result.known_voxels.emplace_back(first_occupied.at(voxelKey(center)), center);
+    for (const std::size_t voxel : map->occupiedVoxels()) {
+      result.known_voxels.emplace_back(first_occupied.at(voxel), map->voxelCenter(voxel));
     }
     std::stable_sort(result.known_voxels.begin(), result.known_voxels.end(),
                      [](const auto& a, const auto& b) { return a.first < b.first; });

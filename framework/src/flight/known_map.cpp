@@ -278,20 +278,20 @@ std::size_t KnownMap::knownOccupied() const {
   return static_cast<std::size_t>(std::count(tree_->state.begin(), tree_->state.end(), 2));
 }
 
-std::vector<Eigen::Vector3d> KnownMap::occupiedCenters() const {
-  std::vector<Eigen::Vector3d> centers;
-  const VoxelGrid& lattice = tree_->lattice;
-  const Eigen::Vector3i& n = lattice.dims();
-  for (int x = 0; x < n.x(); ++x) {
-    for (int y = 0; y < n.y(); ++y) {
-      for (int z = 0; z < n.z(); ++z) {
-        if (tree_->state[lattice.index(x, y, z)] == 2) {
-          centers.push_back(lattice.center(VoxelIndex(x, y, z)));
-        }
-      }
-    }
+std::vector<std::size_t> KnownMap::occupiedVoxels() const {
+  std::vector<std::size_t> voxels;
+  for (std::size_t i = 0; i < tree_->state.size(); ++i) {
+    if (tree_->state[i] == 2) voxels.push_back(i);
   }
-  return centers;
+  return voxels;
+}
+
+Eigen::Vector3d KnownMap::voxelCenter(std::size_t index) const {
+  const Eigen::Vector3i& n = tree_->lattice.dims();
+  const auto yz = static_cast<std::size_t>(n.y()) * n.z();
+  return tree_->lattice.center(VoxelIndex(static_cast<int>(index / yz),
+                                          static_cast<int>(index % yz / n.z()),
+                                          static_cast<int>(index % n.z())));
 }
 
 void KnownMap::write(const std::string& path) const {

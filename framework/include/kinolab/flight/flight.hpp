@@ -100,8 +100,10 @@ class KnownMap {
   /// Voxels known free and known occupied.
   std::size_t knownFree() const;
   std::size_t knownOccupied() const;
-  /// Occupied voxel centres (world frame), for figures.
-  std::vector<Eigen::Vector3d> occupiedCenters() const;
+  /// The known occupied voxels, as indices of the map's lattice (x slowest, z fastest).
+  std::vector<std::size_t> occupiedVoxels() const;
+  /// The centre of the lattice voxel `index` (world frame).
+  Eigen::Vector3d voxelCenter(std::size_t index) const;
   /// Writes the OcTree as a .bt file (world frame: the tree is kept relative to the map's
   /// origin, so the file is shifted back on writing).
   void write(const std::string& path) const;
@@ -155,10 +157,6 @@ struct FlightReplan {
   bool accepted = false;          ///< it became the committed trajectory
   Trajectory trajectory;          ///< the plan (planner's time, from 0)
 };
-
-/// A flight's known-map snapshots (FlightResult::snapshots) show the heights of the query's
-/// start and goal widened by this much (m) above and below.
-inline constexpr double kSnapshotBand = 0.5;
 
 struct FlightResult {
   /// reached (within goal_tolerance), collision, stuck, timeout, invalid_start, invalid_goal
