@@ -10,7 +10,6 @@
 #include "kinolab/experiment/results_store.hpp"
 #include "kinolab/flight/flight.hpp"
 #include "kinolab/planner/planner.hpp"
-#include "kinolab/primitives/control_sampler.hpp"
 
 namespace kinolab::apps {
 namespace {
@@ -20,10 +19,13 @@ struct Kind {
   std::vector<const PluginInfo*> plugins;
 };
 
-/// Every plugin kind, in the order they are listed.
+/// Every plugin kind, from the registries, in the order they are listed.
 std::vector<Kind> allKinds() {
-  return {{"planners", pluginRegistry<Planner>().list()},
-          {"samplers", pluginRegistry<ControlSampler>().list()}};
+  std::vector<Kind> kinds;
+  for (const PluginRegistryBase* registry : pluginRegistries()) {
+    kinds.push_back({registry->plural(), registry->list()});
+  }
+  return kinds;
 }
 
 nlohmann::json toJson(const ParameterValue& value) {
@@ -106,6 +108,7 @@ nlohmann::json toJson(const PluginInfo& plugin) {
       parameter["maximum"] = bound(spec.maximum);
     }
     if (spec.type == ParameterType::kChoice) parameter["choices"] = spec.choices;
+    if (spec.type == ParameterType::kPlugin) parameter["kind"] = spec.kind;
     parameters.push_back(parameter);
   }
   return {{"key", plugin.key},
@@ -169,8 +172,9 @@ void addListCommand(CLI::App& app) {
   kind_names.push_back("metrics");
   command
       ->add_option("kind", options->kind,
-                   "Only this kind of plugin, `flight` (the parameters of kinolab fly) or "
-                   "`metrics`: every metric and statistic a run or flight can carry")
+                   "Only this kind of plugin (planners, samplers, heuristics, lower_bounds, "
+                   "worlds, sensors, search_spaces), `flight` (the parameters of kinolab fly) "
+                   "or `metrics`: every metric and statistic a run or flight can carry")
       ->check(CLI::IsMember(kind_names));
   command->add_flag("--json", options->json, "Print JSON instead of a table");
   command->footer("Set a parameter with --set name=value or under `params:` in a config.");

@@ -440,14 +440,9 @@ PYBIND11_MODULE(_core, m) {
           "parameters",
           [](const PyPlanner& p) {
             py::dict dict;
-            for (const auto& [name, value] : p.configured.parameters.values())
+            // As they are set: a plugin parameter's own as `NAME.PARAMETER` (`sampler.sigma`).
+            for (const auto& [name, value] : p.configured.parameters.flattened())
               dict[py::str(name)] = parameterValue(value);
-            // As they are set: `sampler.NAME` for the sampler parameter
-            // `sampler`.
-            if (const ParameterSpec* sampler = p.configured.info->parameters.samplerParameter()) {
-              for (const auto& [name, value] : p.configured.sampler_parameters.values())
-                dict[py::str(sampler->name + "." + name)] = parameterValue(value);
-            }
             return dict;
           })
       .def("setup",

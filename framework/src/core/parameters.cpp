@@ -7,6 +7,7 @@
 #include <optional>
 
 #include "kinolab/core/error.hpp"
+#include "kinolab/core/plugin_registry.hpp"
 #include "kinolab/core/text.hpp"
 #include "kinolab/core/yaml_reader.hpp"
 
@@ -79,7 +80,7 @@ ParameterValue parseValue(const ParameterSpec& spec, const std::string& text,
       }
       return text;
     case ParameterType::kText:
-    case ParameterType::kSampler:
+    case ParameterType::kPlugin:
       return text;
   }
   return reject("a value");
@@ -99,8 +100,8 @@ std::string ParameterSpec::typeName() const {
       return "choice";
     case ParameterType::kText:
       return "text";
-    case ParameterType::kSampler:
-      return "sampler";
+    case ParameterType::kPlugin:
+      return kind;
   }
   return "?";
 }
@@ -123,8 +124,10 @@ std::string ParameterSpec::rangeText() const {
       return join(choices, "|");
     case ParameterType::kText:
       return "any text";
-    case ParameterType::kSampler:
-      return "a sampler key (kinolab list samplers)";
+    case ParameterType::kPlugin: {
+      const PluginRegistryBase* registry = findPluginRegistry(kind);
+      return "key: list " + (registry ? registry->plural() : kind);
+    }
   }
   return "?";
 }
@@ -137,6 +140,27 @@ const ParameterValue& ParameterSet::find(std::string_view name) const {
   throw InvalidArgument("parameter '" + std::string(name) + "' was never declared");
 }
 
+const ParameterSet& ParameterSet::nested(std::string_view name) const {
+  for (const auto& [key, set] : nested_) {
+    if (key == name) return *set;
+  }
+  throw InvalidArgument("parameter '" + std::string(name) + "' is not a plugin parameter");
+}
+
+std::vector<std::pair<std::string, ParameterValue>> ParameterSet::flattened() const {
+  std::vector<std::pair<std::string, ParameterValue>> result;
+  for (const auto& [name, value] : values_) {
+    result.emplace_back(name, value);
+    for (const auto& [key, set] : nested_) {
+      if (key != name) continue;
+      for (auto& [inner, inner_value] : set->flattened()) {
+        result.emplace_back(name + "." + inner, std::move(inner_value));
+      }
+    }
+  }
+  return result;
+}
+
 bool ParameterSet::has(std::string_view name) const {
   return std::any_of(values_.begin(), values_.end(),
                      [name](const auto& entry) { return entry.first == name; });
@@ -147,12 +171,21 @@ std::string ParameterSet::canonical() const {
   for (const auto& [name, value] : values_) {
     if (!text.empty()) text += ';';
     text += name + '=' + formatParameterValue(value);
+    for (const auto& [key, set] : nested_) {
+      if (key == name && !set->values_.empty()) text += '{' + set->canonical() + '}';
+    }
   }
   return text;
 }
 
 ParameterSpecs& ParameterSpecs::add(ParameterSpec spec) {
   if (find(spec.name)) throw InvalidArgument("parameter '" + spec.name + "' declared twice");
+  if (spec.name.find('.') != std::string::npos) {
+    throw InvalidArgument("parameter '" + spec.name + "': '.' separates a plugin parameter's own");
+  }
+  if (spec.type == ParameterType::kPlugin && spec.kind == "sampler" && samplerParameter()) {
+    throw InvalidArgument("parameter '" + spec.name + "': a plugin takes at most one sampler");
+  }
   // A declared default must itself be acceptable.
   parseValue(spec, formatParameterValue(spec.default_value), "default of '" + spec.name + "'");
   specs_.push_back(std::move(spec));
@@ -160,7 +193,7 @@ ParameterSpecs& ParameterSpecs::add(ParameterSpec spec) {
 }
 
 ParameterSpecs& ParameterSpecs::boolean(std::string name, bool default_value, std::string doc) {
-  return add({std::move(name), ParameterType::kBoolean, default_value, 0, 1, {}, std::move(doc)});
+  return add({std::move(name), ParameterType::kBoolean, default_value, 0, 1, {}, std::move(doc), {}});
 }
 
 ParameterSpecs& ParameterSpecs::integer(std::string name, long long default_value,
@@ -171,53 +204,46 @@ ParameterSpecs& ParameterSpecs::integer(std::string name, long long default_valu
               static_cast<double>(minimum),
               static_cast<double>(maximum),
               {},
-              std::move(doc)});
+              std::move(doc),
+              {}});
 }
 
 ParameterSpecs& ParameterSpecs::real(std::string name, double default_value, double minimum,
                                      double maximum, std::string doc) {
   return add(
-      {std::move(name), ParameterType::kReal, default_value, minimum, maximum, {}, std::move(doc)});
+      {std::move(name), ParameterType::kReal, default_value, minimum, maximum, {}, std::move(doc), {}});
 }
 
 ParameterSpecs& ParameterSpecs::choice(std::string name, std::string default_value,
                                        std::vector<std::string> choices, std::string doc) {
   return add({std::move(name), ParameterType::kChoice, std::move(default_value), 0, 0,
-              std::move(choices), std::move(doc)});
+              std::move(choices), std::move(doc), {}});
 }
 
 ParameterSpecs& ParameterSpecs::text(std::string name, std::string default_value, std::string doc) {
   return add(
-      {std::move(name), ParameterType::kText, std::move(default_value), 0, 0, {}, std::move(doc)});
+      {std::move(name), ParameterType::kText, std::move(default_value), 0, 0, {}, std::move(doc), {}});
+}
+
+ParameterSpecs& ParameterSpecs::plugin(std::string kind, std::string name,
+                                       std::string default_value, std::string doc) {
+  return add({std::move(name), ParameterType::kPlugin, std::move(default_value), 0, 0, {},
+              std::move(doc), std::move(kind)});
 }
 
 ParameterSpecs& ParameterSpecs::sampler(std::string name, std::string default_value,
                                         std::string doc) {
-  if (samplerParameter()) {
-    throw InvalidArgument("parameter '" + name + "': a plugin takes at most one sampler");
-  }
-  return add({std::move(name),
-              ParameterType::kSampler,
-              std::move(default_value),
-              0,
-              0,
-              {},
-              std::move(doc)});
+  return plugin("sampler", std::move(name), std::move(default_value), std::move(doc));
 }
 
 ParameterSpecs& ParameterSpecs::include(const ParameterSpecs& group) {
-  for (const ParameterSpec& spec : group.specs_) {
-    if (spec.type == ParameterType::kSampler && samplerParameter()) {
-      throw InvalidArgument("parameter '" + spec.name + "': a plugin takes at most one sampler");
-    }
-    add(spec);
-  }
+  for (const ParameterSpec& spec : group.specs_) add(spec);
   return *this;
 }
 
 const ParameterSpec* ParameterSpecs::samplerParameter() const {
   for (const auto& spec : specs_) {
-    if (spec.type == ParameterType::kSampler) return &spec;
+    if (spec.type == ParameterType::kPlugin && spec.kind == "sampler") return &spec;
   }
   return nullptr;
 }
@@ -233,11 +259,14 @@ ParameterSet ParameterSpecs::resolve(const std::vector<ParameterAssignment>& ass
                                      std::string_view owner) const {
   ParameterSet result;
   for (const auto& spec : specs_) result.values_.emplace_back(spec.name, spec.default_value);
+  // Where each plugin parameter's key was set, and the assignments of its own parameters.
+  std::vector<std::string> key_where(specs_.size());
+  std::vector<std::vector<ParameterAssignment>> inner(specs_.size());
   for (const auto& assignment : assignments) {
-    const std::string context =
-        assignment.where + ": " + std::string(owner) + ": parameter '" + assignment.name + "'";
-    const ParameterSpec* spec = find(assignment.name);
-    if (!spec) {
+    const auto dot = assignment.name.find('.');
+    const ParameterSpec* spec = find(assignment.name.substr(0, dot));
+    const bool nested = dot != std::string::npos;
+    if (!spec || (nested && spec->type != ParameterType::kPlugin)) {
       const auto names = namesOf(specs_);
       throw ConfigError(
           assignment.where + ": " + std::string(owner) + ": unknown parameter '" + assignment.name +
@@ -245,7 +274,37 @@ ParameterSet ParameterSpecs::resolve(const std::vector<ParameterAssignment>& ass
           (names.empty() ? "; it takes no parameters" : "; its parameters: " + join(names, ", ")));
     }
     const std::size_t index = static_cast<std::size_t>(spec - specs_.data());
+    if (nested) {
+      ParameterAssignment own = assignment;
+      own.name = assignment.name.substr(dot + 1);
+      inner[index].push_back(std::move(own));
+      continue;
+    }
+    const std::string context =
+        assignment.where + ": " + std::string(owner) + ": parameter '" + assignment.name + "'";
     result.values_[index].second = parseValue(*spec, assignment.value, context);
+    key_where[index] = assignment.where;
+  }
+  for (std::size_t index = 0; index < specs_.size(); ++index) {
+    const ParameterSpec& spec = specs_[index];
+    if (spec.type != ParameterType::kPlugin) continue;
+    const std::string& key = std::get<std::string>(result.values_[index].second);
+    const std::string where =
+        key_where[index].empty() ? "the default of '" + spec.name + "'" : key_where[index];
+    const PluginRegistryBase* registry = findPluginRegistry(spec.kind);
+    if (!registry) {
+      throw ConfigError(where + ": " + std::string(owner) + ": parameter '" + spec.name +
+                        "' names a plugin of kind '" + spec.kind + "', which kinolab has not");
+    }
+    if (!registry->contains(key)) {
+      const auto known = registry->keys();
+      throw ConfigError(where + ": " + std::string(owner) + ": parameter '" + spec.name +
+                        "': unknown " + spec.kind + " '" + key + "'" + didYouMean(key, known) +
+                        "; known " + registry->plural() + ": " +
+                        (known.empty() ? std::string("none") : join(known, ", ")));
+    }
+    result.nested_.emplace_back(
+        spec.name, std::make_shared<const ParameterSet>(registry->resolve(key, inner[index])));
   }
   return result;
 }

@@ -459,8 +459,8 @@ std::string QuerySpec::canonicalText() const {
 }
 
 std::string ExperimentPlanner::canonicalText() const {
-  return type + "{" + parameters.canonical() + "}" + sampler + "{" +
-         sampler_parameters.canonical() + "}";
+  // The parameters' canonical text holds every plugin parameter's own (the sampler's too).
+  return type + "{" + parameters.canonical() + "}";
 }
 
 // ---- the experiment -------------------------------------------------------------------------

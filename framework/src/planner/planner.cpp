@@ -65,11 +65,8 @@ std::string_view toString(SearchTreeEdge::State state) {
   return "unknown";
 }
 
-template <>
-PluginRegistry<Planner>& pluginRegistry<Planner>() {
-  static PluginRegistry<Planner> registry("planner");
-  return registry;
-}
+KINOLAB_DEFINE_PLUGIN_REGISTRY(Planner, "planner", "planners",
+                               "planners: the contract of kinolab/planner/planner.hpp", 1)
 
 const World& Planner::world() const {
   if (!world_) throw InvalidArgument("planner: setup() was not called");
@@ -211,38 +208,20 @@ MetricSpecs declaredStatistics(const PluginInfo& planner) {
 ConfiguredPlanner configurePlanner(std::string_view key,
                                    const std::vector<ParameterAssignment>& assignments) {
   const PluginRegistry<Planner>& planners = pluginRegistry<Planner>();
-  const ParameterSpec* sampler = planners.info(key).parameters.samplerParameter();
-  const std::string prefix = (sampler ? sampler->name : std::string("sampler")) + ".";
-  std::vector<ParameterAssignment> own;
-  std::vector<ParameterAssignment> for_sampler;
-  for (const auto& assignment : assignments) {
-    if (assignment.name.starts_with(prefix)) {
-      ParameterAssignment inner = assignment;
-      inner.name = assignment.name.substr(prefix.size());
-      for_sampler.push_back(std::move(inner));
-    } else {
-      own.push_back(assignment);
-    }
-  }
   ConfiguredPlanner configured;
-  configured.parameters = planners.resolve(key, own);
-  if (sampler) {
+  configured.parameters = planners.resolve(key, assignments);
+  if (const ParameterSpec* sampler = planners.info(key).parameters.samplerParameter()) {
     configured.sampler_key = configured.parameters.text(sampler->name);
-    const auto& samplers = pluginRegistry<ControlSampler>();
-    configured.sampler_parameters = samplers.resolve(configured.sampler_key, for_sampler);
-    configured.sampler =
-        samplers.createResolved(configured.sampler_key, configured.sampler_parameters);
-  } else if (!for_sampler.empty()) {
-    throw ConfigError(for_sampler.front().where + ": planner '" + std::string(key) +
-                      "' uses no control sampler, so '" + prefix + for_sampler.front().name +
-                      "' cannot be set");
+    configured.sampler_parameters = configured.parameters.nested(sampler->name);
+    configured.sampler = pluginRegistry<ControlSampler>().createChosen(configured.parameters,
+                                                                       sampler->name);
   }
   try {
     configured.planner = planners.createResolved(key, configured.parameters);
   } catch (const ParameterConflict& conflict) {
     // Where the blamed parameter was set (the last assignment wins), or its default.
     std::string where = "the default of '" + conflict.parameter() + "'";
-    for (const auto& assignment : own) {
+    for (const auto& assignment : assignments) {
       if (assignment.name == conflict.parameter()) where = assignment.where;
     }
     throw ConfigError(where + ": planner '" + std::string(key) + "': " + conflict.what());

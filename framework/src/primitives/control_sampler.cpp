@@ -39,10 +39,7 @@ std::vector<Eigen::Vector3d> controlGrid(const std::vector<double>& unit_values,
   return controls;
 }
 
-template <>
-PluginRegistry<ControlSampler>& pluginRegistry<ControlSampler>() {
-  static PluginRegistry<ControlSampler> registry("sampler");
-  return registry;
-}
+KINOLAB_DEFINE_PLUGIN_REGISTRY(ControlSampler, "sampler", "samplers",
+                               "control-set samplers U_M for motion primitives", 2)
 
 }  // namespace kinolab

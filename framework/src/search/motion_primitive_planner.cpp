@@ -29,11 +29,9 @@ ParameterSpecs motionPrimitiveParameters() {
       .real("edge_spacing", 0.0, 0.0, 10.0,
             "> 0: quadrature samples this far apart along the edge instead of K, m")
       .real("safety_distance", 0.5, 0.001, 100.0, "obstacle penalty band beyond the radius, m")
-      .choice("heuristic", "time_optimal", {"euclidean", "min_time", "time_optimal", "obvp", "max"},
-              "euclidean: |d| / |v_max|; min_time: max_i |d_i| / v_max_i (MPL); time_optimal: "
-              "per-axis minimum time from the current velocity under v_max and a_max; obvp: "
-              "least duration + control effort of the unconstrained chain (order 2); max: the "
-              "largest of time_optimal and obvp (obvp only at order 2)")
+      .plugin("heuristic", "heuristic", "time_optimal",
+              "the search's heuristic (kinolab list heuristics); set its parameters as "
+              "heuristic.NAME")
       .real("heuristic_weight", 1.0, 1.0, 100.0,
             "epsilon: f = g + epsilon h; > 1 is bounded suboptimal (cost <= epsilon optimum)")
       .real("key_position_resolution", 0.01, 1e-6, 10.0, "state key: position rounding, m")
@@ -62,23 +60,10 @@ MetricSpecs motionPrimitiveStatistics() {
       .real("heuristic_weight", "", "epsilon: the heuristic's weight");
 }
 
-std::shared_ptr<const SearchHeuristic> heuristicFor(const std::string& name,
+std::shared_ptr<const SearchHeuristic> heuristicFor(const std::string& key,
                                                     const EdgeEvaluatorSettings& edges,
                                                     double goal_radius) {
-  if (name == "euclidean") return std::make_shared<EuclideanHeuristic>(edges, goal_radius);
-  if (name == "min_time") return std::make_shared<MinTimeHeuristic>(edges, goal_radius);
-  auto time_optimal = std::make_shared<TimeOptimalHeuristic>(edges, goal_radius);
-  if (name == "time_optimal") return time_optimal;
-  if (name == "obvp" && edges.order != 2) {
-    throw ParameterConflict("heuristic", "obvp needs order 2 (acceleration control), got order " +
-                                             std::to_string(edges.order) +
-                                             "; use time_optimal or max");
-  }
-  if (name == "obvp") return std::make_shared<ObvpHeuristic>(edges, goal_radius);
-  if (name != "max") throw ParameterConflict("heuristic", "unknown heuristic '" + name + "'");
-  if (edges.order != 2) return time_optimal;
-  return std::make_shared<MaxHeuristic>(std::vector<std::shared_ptr<const SearchHeuristic>>{
-      time_optimal, std::make_shared<ObvpHeuristic>(edges, goal_radius)});
+  return pluginRegistry<HeuristicBuilder>().create(key, {})->build({edges, goal_radius});
 }
 
 MotionPrimitiveConfig MotionPrimitiveConfig::fromParameters(const ParameterSet& parameters) {
@@ -109,8 +94,9 @@ MotionPrimitiveConfig MotionPrimitiveConfig::fromParameters(const ParameterSet& 
   settings.memory_limit_mb = parameters.real("memory_limit_mb");
 
   config.policies.edges = std::make_shared<FullEvaluationPolicy>();
-  config.policies.heuristic =
-      heuristicFor(parameters.text("heuristic"), edges, settings.goal_radius);
+  config.policies.heuristic = pluginRegistry<HeuristicBuilder>()
+                                  .createChosen(parameters, "heuristic")
+                                  ->build({edges, settings.goal_radius});
   config.budget = timeBudgetFrom(parameters);
   if (const long long limit = parameters.integer("max_expansions"); limit > 0) {
     config.budget.max_iterations = limit;

@@ -6,31 +6,22 @@
 #include "kinolab/core/plugin.hpp"
 #include "kinolab/search/motion_primitive_planner.hpp"
 
-namespace {
-
-using namespace kinolab;
-
-std::shared_ptr<const EdgeEvaluationPolicy> lowerBound(const std::string& name) {
-  if (name == "control_only") return std::make_shared<ControlOnlyBoundPolicy>();
-  if (name == "lipschitz") return std::make_shared<LipschitzBoundPolicy>();
-  return std::make_shared<EndpointBoundPolicy>();  // the declared choices leave "endpoint"
-}
-
-}  // namespace
-
 KINOLAB_REGISTER_PLUGINS(registrar) {
+  using namespace kinolab;
   registrar.add<Planner>(
       "lazy_mp_astar", "lazy motion-primitive A*: lower bound at expansion, full check at pop",
       motionPrimitiveParameters()
           .choice("duplicate_rule", "lwa", {"lwa", "seed"},
                   "lwa: keep every cheaper candidate of a state (optimal); seed: the paper's "
                   "literal rule, first candidate only")
-          .choice("lower_bound", "endpoint", {"endpoint", "control_only", "lipschitz"},
-                  "queued cost: end-sample obstacle term; no map term; or endpoint plus "
-                  "Lipschitz certification of clear edges"),
+          .plugin("lower_bound", "lower_bound", "endpoint",
+                  "how an edge is queued (kinolab list lower_bounds): endpoint, the paper's "
+                  "end-sample bound; control_only, no map term; lipschitz, endpoint plus "
+                  "certification of clear edges"),
       [](const ParameterSet& parameters) {
         auto config = MotionPrimitiveConfig::fromParameters(parameters);
-        config.policies.edges = lowerBound(parameters.text("lower_bound"));
+        config.policies.edges =
+            pluginRegistry<EdgeEvaluationPolicy>().createChosen(parameters, "lower_bound");
         config.settings.duplicate_rule = parameters.text("duplicate_rule") == "seed"
                                              ? DuplicateRule::kSeed
                                              : DuplicateRule::kLwa;

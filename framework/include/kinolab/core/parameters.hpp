@@ -1,6 +1,7 @@
 #pragma once
 
 #include <limits>
+#include <memory>
 #include <string>
 #include <string_view>
 #include <utility>
@@ -11,9 +12,10 @@ namespace kinolab {
 
 class YamlReader;
 
-/// kSampler: the key of a control sampler plugin; a planner that declares one is given that
-/// sampler, configured by assignments named `NAME.PARAMETER`.
-enum class ParameterType { kBoolean, kInteger, kReal, kChoice, kText, kSampler };
+/// kPlugin: the key of a plugin of another kind (a control sampler, a heuristic, a sensor, ...)
+/// that the declaring plugin is given, configured by its own parameters, set as
+/// `NAME.PARAMETER` (ParameterSpecs::plugin()).
+enum class ParameterType { kBoolean, kInteger, kReal, kChoice, kText, kPlugin };
 
 /// A parameter value: bool, integer, real, or text (choices and free text).
 using ParameterValue = std::variant<bool, long long, double, std::string>;
@@ -28,8 +30,9 @@ struct ParameterSpec {
   double maximum = std::numeric_limits<double>::infinity();
   std::vector<std::string> choices;  // choice
   std::string doc;
+  std::string kind;  // plugin: the registry's kind ("sampler", "heuristic", ...)
 
-  /// "bool", "int", "real", "choice", "text" or "sampler".
+  /// "bool", "int", "real", "choice", "text", or a plugin parameter's kind ("sampler").
   std::string typeName() const;
   /// What values are accepted: "[0, 1]", "quantile|random", "true|false", "any text".
   std::string rangeText() const;
@@ -51,11 +54,17 @@ class ParameterSet {
   double real(std::string_view name) const { return std::get<double>(find(name)); }
   /// A choice or text value.
   const std::string& text(std::string_view name) const { return std::get<std::string>(find(name)); }
+  /// The parameters of the plugin a plugin-valued parameter chose (its key is text(name)).
+  const ParameterSet& nested(std::string_view name) const;
   /// True when the parameter was declared.
   bool has(std::string_view name) const;
 
   const std::vector<std::pair<std::string, ParameterValue>>& values() const { return values_; }
-  /// "name=value;..." in declaration order: what a run hash includes.
+  /// Every value, nested ones as `NAME.PARAMETER` after their plugin parameter: what
+  /// `--set` would carry.
+  std::vector<std::pair<std::string, ParameterValue>> flattened() const;
+  /// "name=value;..." in declaration order, a plugin parameter's nested values in braces
+  /// after it (`sampler=normal{sigma=0.5}`): what a run hash includes.
   std::string canonical() const;
 
  private:
@@ -63,6 +72,7 @@ class ParameterSet {
   const ParameterValue& find(std::string_view name) const;
 
   std::vector<std::pair<std::string, ParameterValue>> values_;
+  std::vector<std::pair<std::string, std::shared_ptr<const ParameterSet>>> nested_;
 };
 
 /// The declared parameters of one plugin, built fluently in its registration:
@@ -79,7 +89,14 @@ class ParameterSpecs {
   ParameterSpecs& choice(std::string name, std::string default_value,
                          std::vector<std::string> choices, std::string doc);
   ParameterSpecs& text(std::string name, std::string default_value, std::string doc);
-  /// The control sampler the plugin draws its controls from (at most one per plugin).
+  /// A plugin of `kind` (a registry's kind: "heuristic", "sensor", ...) that this plugin is
+  /// given: the value is its key (checked against the registry when resolved) and
+  /// `NAME.PARAMETER` sets its parameters. The plugin makes the instance with
+  /// `pluginRegistry<Interface>().createChosen(parameters, NAME)`.
+  ParameterSpecs& plugin(std::string kind, std::string name, std::string default_value,
+                         std::string doc);
+  /// The control sampler the plugin draws its controls from (a plugin parameter of kind
+  /// "sampler", at most one per plugin).
   ParameterSpecs& sampler(std::string name, std::string default_value, std::string doc);
   /// Appends a declared group (e.g. motionParameters()); a name declared twice is an error.
   ParameterSpecs& include(const ParameterSpecs& group);
@@ -90,8 +107,9 @@ class ParameterSpecs {
   const ParameterSpec* samplerParameter() const;
 
   /// The defaults with `assignments` applied in order. An unknown name, a value of the wrong
-  /// type or out of range throws ConfigError naming where the value came from, `owner` (e.g.
-  /// "sampler 'normal'"), the parameter and what it accepts.
+  /// type or out of range, an unknown plugin key or a wrong nested parameter throws
+  /// ConfigError naming where the value came from, `owner` (e.g. "sampler 'normal'"), the
+  /// parameter and what it accepts.
   ParameterSet resolve(const std::vector<ParameterAssignment>& assignments,
                        std::string_view owner) const;
 

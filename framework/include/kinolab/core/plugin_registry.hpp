@@ -27,50 +27,59 @@ struct PluginInfo {
 template <typename Interface>
 using PluginFactory = std::function<std::unique_ptr<Interface>(const ParameterSet&)>;
 
-/// The plugins of one kind (samplers, planners), by key. One instance per kind lives in the
-/// framework library (`pluginRegistry<Interface>()`), so in-tree plugins and libraries loaded
-/// at run time share it.
-template <typename Interface>
-class PluginRegistry {
+/// What every registry has, whatever its interface: its kind and its plugins' declarations.
+/// `kinolab list` and plugin-valued parameters (ParameterSpecs::plugin()) reach every kind
+/// through this, by name (findPluginRegistry()).
+class PluginRegistryBase {
  public:
-  explicit PluginRegistry(std::string kind) : kind_(std::move(kind)) {}
+  /// `kind` as in messages and parameter types ("heuristic"), `plural` as on the command line
+  /// (`kinolab list heuristics`), `description` one line for `kinolab list`.
+  PluginRegistryBase(std::string kind, std::string plural, std::string description);
+  virtual ~PluginRegistryBase();
+  PluginRegistryBase(const PluginRegistryBase&) = delete;
+  PluginRegistryBase& operator=(const PluginRegistryBase&) = delete;
 
-  /// "sampler", "planner".
   const std::string& kind() const { return kind_; }
+  const std::string& plural() const { return plural_; }
+  const std::string& description() const { return description_; }
 
-  bool contains(std::string_view key) const { return entries_.count(std::string(key)) > 0; }
+  bool contains(std::string_view key) const { return infos_.count(std::string(key)) > 0; }
+  /// The plugin with this key; an unknown key is a PluginError listing the known ones.
+  const PluginInfo& info(std::string_view key) const;
+  /// Every plugin, sorted by key.
+  std::vector<const PluginInfo*> list() const;
+  std::vector<std::string> keys() const;
+  /// The plugin's defaults overridden by `assignments`, validated (ConfigError when not).
+  ParameterSet resolve(std::string_view key,
+                       const std::vector<ParameterAssignment>& assignments) const;
+
+ protected:
+  /// Records a plugin's declaration; a key that is already taken is a PluginError naming
+  /// both origins.
+  void addInfo(PluginInfo info);
+
+ private:
+  std::string kind_;
+  std::string plural_;
+  std::string description_;
+  std::map<std::string, PluginInfo, std::less<>> infos_;
+};
+
+/// The plugins of one kind (samplers, planners, heuristics, ...), by key. One instance per
+/// kind lives in the framework library (`pluginRegistry<Interface>()`, defined with
+/// KINOLAB_DEFINE_PLUGIN_REGISTRY), so in-tree plugins and libraries loaded at run time share
+/// it.
+template <typename Interface>
+class PluginRegistry : public PluginRegistryBase {
+ public:
+  using PluginRegistryBase::PluginRegistryBase;
+  explicit PluginRegistry(std::string kind) : PluginRegistryBase(kind, kind + "s", "") {}
 
   /// Adds a plugin; a key that is already taken is a PluginError naming both origins.
   void add(PluginInfo info, PluginFactory<Interface> factory) {
-    if (const auto found = entries_.find(info.key); found != entries_.end()) {
-      throw PluginError(kind_ + " '" + info.key + "' from " + info.origin +
-                        " is already registered (from " + found->second.info.origin + ")");
-    }
     std::string key = info.key;
-    entries_.emplace(std::move(key), Entry{std::move(info), std::move(factory)});
-  }
-
-  /// The plugin with this key; an unknown key is a PluginError listing the known ones.
-  const PluginInfo& info(std::string_view key) const { return entry(key).info; }
-
-  /// Every plugin, sorted by key.
-  std::vector<const PluginInfo*> list() const {
-    std::vector<const PluginInfo*> result;
-    for (const auto& [key, entry] : entries_) result.push_back(&entry.info);
-    return result;
-  }
-
-  std::vector<std::string> keys() const {
-    std::vector<std::string> result;
-    for (const auto& [key, entry] : entries_) result.push_back(key);
-    return result;
-  }
-
-  /// The plugin's defaults overridden by `assignments`, validated (ConfigError when not).
-  ParameterSet resolve(std::string_view key,
-                       const std::vector<ParameterAssignment>& assignments) const {
-    const Entry& found = entry(key);
-    return found.info.parameters.resolve(assignments, kind_ + " '" + found.info.key + "'");
+    addInfo(std::move(info));
+    factories_.emplace(std::move(key), std::move(factory));
   }
 
   /// A new instance with its defaults overridden by `assignments` (validated first).
@@ -82,35 +91,53 @@ class PluginRegistry {
   /// A new instance from parameters that resolve() returned.
   std::unique_ptr<Interface> createResolved(std::string_view key,
                                             const ParameterSet& parameters) const {
-    auto instance = entry(key).factory(parameters);
-    if (!instance) throw PluginError(kind_ + " '" + std::string(key) + "': factory returned null");
+    info(key);  // an unknown key is an error listing the known ones
+    auto instance = factories_.find(key)->second(parameters);
+    if (!instance) throw PluginError(kind() + " '" + std::string(key) + "': factory returned null");
     return instance;
   }
 
- private:
-  struct Entry {
-    PluginInfo info;
-    PluginFactory<Interface> factory;
-  };
-
-  const Entry& entry(std::string_view key) const {
-    const auto found = entries_.find(std::string(key));
-    if (found == entries_.end()) {
-      const auto known = keys();
-      throw PluginError("unknown " + kind_ + " '" + std::string(key) + "'" +
-                        didYouMean(key, known) + "; known " + kind_ +
-                        "s: " + (known.empty() ? std::string("none") : join(known, ", ")));
-    }
-    return found->second;
+  /// The instance a plugin-valued parameter (ParameterSpecs::plugin()) of `parameters` chose,
+  /// configured by its nested parameters.
+  std::unique_ptr<Interface> createChosen(const ParameterSet& parameters,
+                                          std::string_view name) const {
+    return createResolved(parameters.text(name), parameters.nested(name));
   }
 
-  std::string kind_;
-  std::map<std::string, Entry, std::less<>> entries_;
+ private:
+  std::map<std::string, PluginFactory<Interface>, std::less<>> factories_;
 };
 
-/// The one registry of each plugin interface. Declared here, specialised and defined next to
-/// each interface (e.g. ControlSampler in kinolab/primitives/control_sampler.hpp).
+/// The one registry of each plugin interface. Declared here, defined next to each interface
+/// with KINOLAB_DEFINE_PLUGIN_REGISTRY (e.g. ControlSampler in control_sampler.cpp).
 template <typename Interface>
 PluginRegistry<Interface>& pluginRegistry();
 
+/// The registry of this kind ("sampler", "heuristic"; the plural "heuristics" too), or null.
+const PluginRegistryBase* findPluginRegistry(std::string_view kind);
+/// Every registry, in the order the framework lists them.
+std::vector<const PluginRegistryBase*> pluginRegistries();
+
+namespace detail {
+/// Adds a registry to the directory findPluginRegistry() searches (at most one per kind).
+void listPluginRegistry(const PluginRegistryBase& registry, int order);
+}  // namespace detail
+
 }  // namespace kinolab
+
+/// Defines pluginRegistry<Interface>() and lists it under `kind` (made when the library
+/// loads, so `kinolab list` and plugin-valued parameters see every kind, registered to or
+/// not); used inside namespace kinolab. `order` (a literal integer, unique) sorts the kinds
+/// in listings.
+#define KINOLAB_DEFINE_PLUGIN_REGISTRY(Interface, kind, plural, description, order) \
+  template <>                                                                         \
+  PluginRegistry<Interface>& pluginRegistry<Interface>() {                            \
+    static PluginRegistry<Interface> registry(kind, plural, description);             \
+    static const bool listed = (detail::listPluginRegistry(registry, order), true);   \
+    (void)listed;                                                                     \
+    return registry;                                                                  \
+  }                                                                                   \
+  namespace {                                                                         \
+  [[maybe_unused]] const bool registry_made_##order =                                 \
+      (pluginRegistry<Interface>(), true);                                            \
+  }

@@ -17,18 +17,17 @@ ParameterSpecs motionPrimitiveParameters();
 /// a plugin that reports more includes these in its own declaration.
 MetricSpecs motionPrimitiveStatistics();
 
-/// The built-in heuristic called `name` (the `heuristic` parameter's choices) for these edges:
-/// euclidean, min_time, time_optimal, obvp (order 2 only; ConfigError otherwise) or max (the
-/// largest of time_optimal and, at order 2, obvp).
-std::shared_ptr<const SearchHeuristic> heuristicFor(const std::string& name,
+/// The registered heuristic `key` (kinolab list heuristics), at its default parameters, for
+/// these edges; a heuristic that cannot serve them throws ParameterConflict.
+std::shared_ptr<const SearchHeuristic> heuristicFor(const std::string& key,
                                                     const EdgeEvaluatorSettings& edges,
                                                     double goal_radius);
 
 /// Everything a MotionPrimitivePlanner is built from. fromParameters() reads the parameters
 /// of motionPrimitiveParameters() (and no others) and sets eager defaults: full evaluation,
-/// the `heuristic` parameter's choice, the lwa duplicate rule, cost weight 1. A plugin then
-/// sets what its own parameters choose: a lazy edge policy, its own heuristic, another
-/// duplicate rule or cost weight.
+/// the heuristic the `heuristic` parameter chose (with its own parameters), the lwa duplicate
+/// rule, cost weight 1. A plugin then sets what its own parameters choose: a lazy edge policy
+/// (e.g. from a `lower_bound` plugin parameter), another duplicate rule or cost weight.
 struct MotionPrimitiveConfig {
   SearchSettings settings;
   SearchPolicies policies;

@@ -2,17 +2,20 @@
 
 #include <Eigen/Core>
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <vector>
 
+#include "kinolab/core/plugin_registry.hpp"
 #include "kinolab/primitives/edge_evaluator.hpp"
 
 namespace kinolab {
 
 /// The small policies a motion-primitive planner hands the search core: how an edge is
 /// evaluated when its parent is expanded, and the heuristic. The core knows no parameter
-/// names; a plugin maps its parameters to policies (see docs/adding_a_planner.md), and a new
-/// policy is a class in a plugin folder, not a framework edit.
+/// names. Both are plugin kinds (`kinolab list lower_bounds`, `kinolab list heuristics`),
+/// chosen by a planner's `lower_bound` and `heuristic` parameters; a new one is a class in a
+/// plugin folder or a `--plugin` library (docs/extending/), not a framework edit.
 
 /// What an EdgeEvaluationPolicy's evaluation of a primitive is.
 enum class EdgeEstimate : std::uint8_t {
@@ -84,6 +87,11 @@ class LipschitzBoundPolicy final : public EdgeEvaluationPolicy {
                : EdgeEstimate::kLowerBound;
   }
 };
+
+/// The registry of edge-evaluation policies, kind "lower_bound": built-in `full` (eager),
+/// `endpoint` (the paper's), `control_only` and `lipschitz`.
+template <>
+PluginRegistry<EdgeEvaluationPolicy>& pluginRegistry<EdgeEvaluationPolicy>();
 
 /// A lower bound on the cost from a state to the goal region, consistent with the edges'
 /// lower bounds: h(s) <= c_lower(s, s') + h(s') for every edge. Then the search with weight
@@ -165,6 +173,35 @@ class ObvpHeuristic final : public SearchHeuristic {
   double weight_length_;
   double goal_radius_;
 };
+
+/// What a heuristic is made for: the planner's edges (dynamics, limits, cost weights) and goal
+/// region.
+struct HeuristicContext {
+  EdgeEvaluatorSettings edges;
+  double goal_radius = 0.5;
+};
+
+/// A registered heuristic (kind "heuristic", `kinolab list heuristics`): its factory reads the
+/// heuristic's own parameters, and each planner then makes the heuristic for its edges. A
+/// heuristic that cannot serve those edges (obvp above order 2) throws
+/// ParameterConflict("heuristic", why), which the planner's configuration reports where the
+/// heuristic was chosen.
+class HeuristicBuilder {
+ public:
+  using Make = std::function<std::shared_ptr<const SearchHeuristic>(const HeuristicContext&)>;
+  explicit HeuristicBuilder(Make make) : make_(std::move(make)) {}
+  std::shared_ptr<const SearchHeuristic> build(const HeuristicContext& context) const {
+    return make_(context);
+  }
+
+ private:
+  Make make_;
+};
+
+/// The registry of heuristics: built-in `euclidean`, `min_time`, `time_optimal`, `obvp` and
+/// `max`.
+template <>
+PluginRegistry<HeuristicBuilder>& pluginRegistry<HeuristicBuilder>();
 
 /// The largest of several consistent heuristics (itself consistent).
 class MaxHeuristic final : public SearchHeuristic {

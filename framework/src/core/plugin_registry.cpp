@@ -1,0 +1,111 @@
+#include "kinolab/core/plugin_registry.hpp"
+
+#include <algorithm>
+#include <mutex>
+
+namespace kinolab {
+namespace {
+
+struct Listed {
+  const PluginRegistryBase* registry;
+  int order;
+};
+
+std::vector<Listed>& directory() {
+  static std::vector<Listed> registries;
+  return registries;
+}
+
+std::mutex& directoryMutex() {
+  static std::mutex mutex;
+  return mutex;
+}
+
+}  // namespace
+
+PluginRegistryBase::PluginRegistryBase(std::string kind, std::string plural,
+                                       std::string description)
+    : kind_(std::move(kind)), plural_(std::move(plural)), description_(std::move(description)) {
+  // Made before any registry is complete, so destroyed after every registry (whose
+  // destructor leaves the directory).
+  directoryMutex();
+  directory();
+}
+
+PluginRegistryBase::~PluginRegistryBase() {
+  const std::lock_guard lock(directoryMutex());
+  std::erase_if(directory(), [this](const Listed& listed) { return listed.registry == this; });
+}
+
+const PluginInfo& PluginRegistryBase::info(std::string_view key) const {
+  const auto found = infos_.find(key);
+  if (found == infos_.end()) {
+    const auto known = keys();
+    throw PluginError("unknown " + kind_ + " '" + std::string(key) + "'" +
+                      didYouMean(key, known) + "; known " + plural_ + ": " +
+                      (known.empty() ? std::string("none") : join(known, ", ")));
+  }
+  return found->second;
+}
+
+std::vector<const PluginInfo*> PluginRegistryBase::list() const {
+  std::vector<const PluginInfo*> result;
+  for (const auto& [key, info] : infos_) result.push_back(&info);
+  return result;
+}
+
+std::vector<std::string> PluginRegistryBase::keys() const {
+  std::vector<std::string> result;
+  for (const auto& [key, info] : infos_) result.push_back(key);
+  return result;
+}
+
+ParameterSet PluginRegistryBase::resolve(std::string_view key,
+                                         const std::vector<ParameterAssignment>& assignments) const {
+  const PluginInfo& found = info(key);
+  return found.parameters.resolve(assignments, kind_ + " '" + found.key + "'");
+}
+
+void PluginRegistryBase::addInfo(PluginInfo info) {
+  if (const auto found = infos_.find(info.key); found != infos_.end()) {
+    throw PluginError(kind_ + " '" + info.key + "' from " + info.origin +
+                      " is already registered (from " + found->second.origin + ")");
+  }
+  std::string key = info.key;
+  infos_.emplace(std::move(key), std::move(info));
+}
+
+const PluginRegistryBase* findPluginRegistry(std::string_view kind) {
+  const std::lock_guard lock(directoryMutex());
+  for (const Listed& listed : directory()) {
+    if (listed.registry->kind() == kind || listed.registry->plural() == kind) {
+      return listed.registry;
+    }
+  }
+  return nullptr;
+}
+
+std::vector<const PluginRegistryBase*> pluginRegistries() {
+  const std::lock_guard lock(directoryMutex());
+  std::vector<Listed> sorted = directory();
+  std::sort(sorted.begin(), sorted.end(),
+            [](const Listed& a, const Listed& b) { return a.order < b.order; });
+  std::vector<const PluginRegistryBase*> result;
+  for (const Listed& listed : sorted) result.push_back(listed.registry);
+  return result;
+}
+
+namespace detail {
+
+void listPluginRegistry(const PluginRegistryBase& registry, int order) {
+  const std::lock_guard lock(directoryMutex());
+  for (const Listed& listed : directory()) {
+    if (listed.registry->kind() == registry.kind()) {
+      throw PluginError("two registries of kind '" + registry.kind() + "'");
+    }
+  }
+  directory().push_back({&registry, order});
+}
+
+}  // namespace detail
+}  // namespace kinolab

@@ -1,0 +1,96 @@
+// The registries of the search's policies (heuristics and lower bounds) and the framework's
+// own entries in them, registered when the library loads: every planner, in tree or out,
+// finds them by key.
+#include "kinolab/core/error.hpp"
+#include "kinolab/core/plugin.hpp"
+#include "kinolab/search/search_policies.hpp"
+
+namespace kinolab {
+
+KINOLAB_DEFINE_PLUGIN_REGISTRY(HeuristicBuilder, "heuristic", "heuristics",
+                               "estimates of the cost to the goal, consistent with the edges' "
+                               "lower bounds (a motion-primitive planner's `heuristic`)",
+                               3)
+KINOLAB_DEFINE_PLUGIN_REGISTRY(EdgeEvaluationPolicy, "lower_bound", "lower_bounds",
+                               "how an edge is evaluated when its parent is expanded (a lazy "
+                               "planner's `lower_bound`)",
+                               4)
+
+namespace {
+
+/// A factory for a heuristic that takes no parameters of its own and is made from the edges
+/// and goal radius.
+template <typename Heuristic>
+PluginFactory<HeuristicBuilder> plainHeuristic() {
+  return [](const ParameterSet&) {
+    return std::make_unique<HeuristicBuilder>([](const HeuristicContext& context) {
+      return std::make_shared<Heuristic>(context.edges, context.goal_radius);
+    });
+  };
+}
+
+template <typename Policy>
+PluginFactory<EdgeEvaluationPolicy> plainPolicy() {
+  return [](const ParameterSet&) { return std::make_unique<Policy>(); };
+}
+
+void requireOrderTwo(const HeuristicContext& context) {
+  if (context.edges.order != 2) {
+    throw ParameterConflict("heuristic", "obvp needs order 2 (acceleration control), got order " +
+                                             std::to_string(context.edges.order) +
+                                             "; use time_optimal or max");
+  }
+}
+
+void registerBuiltins() {
+  PluginRegistrar registrar("built-in (framework)");
+  registrar.add<HeuristicBuilder>("euclidean", "w_T |d| / |v_max| + w_L |d| (straight line)",
+                                  ParameterSpecs(), plainHeuristic<EuclideanHeuristic>());
+  registrar.add<HeuristicBuilder>("min_time", "w_T max_i |d_i| / v_max_i + w_L |d| (MPL's)",
+                                  ParameterSpecs(), plainHeuristic<MinTimeHeuristic>());
+  registrar.add<HeuristicBuilder>(
+      "time_optimal",
+      "per-axis minimum time from the current velocity under v_max and a_max (the default)",
+      ParameterSpecs(), plainHeuristic<TimeOptimalHeuristic>());
+  registrar.add<HeuristicBuilder>(
+      "obvp",
+      "least duration + control effort of the unconstrained chain (Fast-Planner's; order 2)",
+      ParameterSpecs(), [](const ParameterSet&) {
+        return std::make_unique<HeuristicBuilder>([](const HeuristicContext& context) {
+          requireOrderTwo(context);
+          return std::make_shared<ObvpHeuristic>(context.edges, context.goal_radius);
+        });
+      });
+  registrar.add<HeuristicBuilder>(
+      "max", "the largest of time_optimal and obvp (obvp only at order 2)", ParameterSpecs(),
+      [](const ParameterSet&) {
+        return std::make_unique<HeuristicBuilder>(
+            [](const HeuristicContext& context) -> std::shared_ptr<const SearchHeuristic> {
+              auto time_optimal =
+                  std::make_shared<TimeOptimalHeuristic>(context.edges, context.goal_radius);
+              if (context.edges.order != 2) return time_optimal;
+              return std::make_shared<MaxHeuristic>(
+                  std::vector<std::shared_ptr<const SearchHeuristic>>{
+                      time_optimal,
+                      std::make_shared<ObvpHeuristic>(context.edges, context.goal_radius)});
+            });
+      });
+
+  registrar.add<EdgeEvaluationPolicy>("full", "every edge fully evaluated at expansion (eager)",
+                                      ParameterSpecs(), plainPolicy<FullEvaluationPolicy>());
+  registrar.add<EdgeEvaluationPolicy>(
+      "endpoint", "the end sample's collision test and obstacle share (the paper's)",
+      ParameterSpecs(), plainPolicy<EndpointBoundPolicy>());
+  registrar.add<EdgeEvaluationPolicy>("control_only",
+                                      "time, length and control terms only (no map query)",
+                                      ParameterSpecs(), plainPolicy<ControlOnlyBoundPolicy>());
+  registrar.add<EdgeEvaluationPolicy>(
+      "lipschitz", "endpoint, and exact when the ESDF's Lipschitz bound certifies the edge clear",
+      ParameterSpecs(), plainPolicy<LipschitzBoundPolicy>());
+  registrar.commit();
+}
+
+[[maybe_unused]] const bool builtins_registered = (registerBuiltins(), true);
+
+}  // namespace
+}  // namespace kinolab
