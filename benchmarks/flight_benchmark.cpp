@@ -20,12 +20,6 @@ std::shared_ptr<const World> denseForest() {
   return world;
 }
 
-/// The defaults of `kinolab fly` (flightParameters()).
-void defaults(SensorModel* sensor, MapModel* map) {
-  FlightSettings settings;
-  flightModels(flightParameters().resolve({}, "flight"), sensor, map, &settings);
-}
-
 /// Poses 0.2 m apart along a diagonal of the forest at 1.5 m, heading along it: a flight's
 /// frames at 2 m/s and 10 Hz, each seeing mostly what the last one saw.
 Eigen::Vector3d pose(int frame) {
@@ -35,10 +29,10 @@ Eigen::Vector3d pose(int frame) {
 
 void BM_FlightFrame(benchmark::State& state) {
   const auto world = denseForest();
-  SensorModel sensor;
-  MapModel map_model;
-  defaults(&sensor, &map_model);
-  KnownMap map(world->bounds(), map_model);
+  // The defaults of `kinolab fly` (flightParameters()).
+  const FlightSetup setup = flightSetup(flightParameters().resolve({}, "flight"));
+  const Sensor& sensor = *setup.sensor;
+  KnownMap map(world->bounds(), setup.map);
   int frame = 0;
   double sense_ms = 0.0;
   double map_ms = 0.0;
@@ -50,7 +44,7 @@ void BM_FlightFrame(benchmark::State& state) {
     auto t0 = Clock::now();
     const SensorFrame sensed = senseFrame(world->grid(), sensor, p, M_PI / 4);
     auto t1 = Clock::now();
-    map.insert(sensed, sensor.range);
+    map.insert(sensed, sensor.maxRange());
     auto t2 = Clock::now();
     benchmark::DoNotOptimize(map.window(p));
     auto t3 = Clock::now();

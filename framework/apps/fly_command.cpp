@@ -67,11 +67,8 @@ void runFly(const FlyOptions& options) {
       parseAssignments(options.assignments, "--set");
   // Validated before anything runs: the planner, its parameters and the flight's.
   const ConfiguredPlanner probe = configurePlanner(options.planner, assignments);
-  SensorModel sensor;
-  MapModel map;
-  FlightSettings settings;
-  flightModels(flightParameters().resolve(parseAssignments(options.flight, "--flight"), "flight"),
-               &sensor, &map, &settings);
+  FlightSetup setup =
+      flightSetup(flightParameters().resolve(parseAssignments(options.flight, "--flight"), "flight"));
   const WorldSpec spec = WorldSpec::fromFile(options.world_path);
   const WorldLoad load = WorldCache(options.cache_dir).loadOrBuild(spec);
   const PlannerFactory factory = [&](std::shared_ptr<const World> world) {
@@ -80,8 +77,11 @@ void runFly(const FlyOptions& options) {
     return std::move(configured.planner);
   };
   // The 3D view replays the known map growing: a snapshot every half second.
-  if (!options.out_dir.empty() && settings.snapshot_period <= 0.0) settings.snapshot_period = 0.5;
-  const FlightResult result = fly(load.world, factory, query, sensor, map, settings);
+  if (!options.out_dir.empty() && setup.settings.snapshot_period <= 0.0) {
+    setup.settings.snapshot_period = 0.5;
+  }
+  const FlightResult result =
+      fly(load.world, factory, query, *setup.sensor, setup.map, setup.settings);
 
   std::printf("flight of %s through world %s, seed %llu\n", options.planner.c_str(),
               load.world->name().c_str(), static_cast<unsigned long long>(options.seed));
@@ -98,7 +98,7 @@ void runFly(const FlyOptions& options) {
       {"planner", options.planner}, {"world", load.world->name()}, {"seed", options.seed}};
   summary.update(nlohmann::ordered_json::parse(toJson(flightValues(result), flightMetrics())));
   if (!options.out_dir.empty()) {
-    writeOutputs(options, *load.world, query, result, map.resolution, summary);
+    writeOutputs(options, *load.world, query, result, setup.map.resolution, summary);
   }
   std::cout << summary.dump() << std::endl;
 }
@@ -119,8 +119,8 @@ void addFlyCommand(CLI::App& app) {
   command->add_option("--set", options->assignments,
                       "Set a planner parameter, NAME=VALUE (repeatable)");
   command->add_option("--flight", options->flight,
-                      "Set a flight parameter, NAME=VALUE (repeatable): sensor, range, rate, "
-                      "fov_horizontal, fov_vertical, width, height, beams, channels, "
+                      "Set a flight parameter, NAME=VALUE (repeatable): sensor (and its own as "
+                      "sensor.NAME: sensor.range, sensor.width, ...; kinolab list sensors), "
                       "map_resolution, window, unknown, free_beyond, replan_period, "
                       "replan_budget, latency, enforce_latency, horizon, max_time, stuck_time, "
                       "goal_tolerance, brake_acceleration (kinolab list flight)");

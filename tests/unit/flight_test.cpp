@@ -40,18 +40,15 @@ PlannerFactory lazyPlanner() {
 }
 
 struct Flight {
-  SensorModel sensor;
-  MapModel map;
-  FlightSettings settings;
-  explicit Flight(const std::vector<ParameterAssignment>& assignments = {}) {
-    flightModels(flightParameters().resolve(assignments, "flight"), &sensor, &map, &settings);
-  }
+  FlightSetup setup;
+  explicit Flight(const std::vector<ParameterAssignment>& assignments = {})
+      : setup(flightSetup(flightParameters().resolve(assignments, "flight"))) {}
   FlightResult fly(const std::shared_ptr<const World>& world, const Eigen::Vector3d& start,
                    const Eigen::Vector3d& goal) const {
     PlanningQuery query;
     query.start.col(0) = start;
     query.goal = goal;
-    return kinolab::fly(world, lazyPlanner(), query, sensor, map, settings);
+    return kinolab::fly(world, lazyPlanner(), query, *setup.sensor, setup.map, setup.settings);
   }
 };
 
@@ -77,7 +74,7 @@ TEST(Sensor, RaysHitAWallAtItsDistance) {
 
   // A frame: every camera hit lies on the wall's face (nudged a hundredth of a voxel in,
   // along its ray).
-  SensorModel camera;
+  DepthCamera camera;
   camera.range = 10.0;
   const SensorFrame frame = senseFrame(world->grid(), camera, origin, 0.0);
   ASSERT_FALSE(frame.hits.empty());
@@ -99,8 +96,7 @@ TEST(Sensor, RaysHitASphereAndMatchADenseMarch) {
                        static_cast<int>(i % n.z()));
     if ((grid.center(v) - centre).norm() <= 1.0) grid.setOccupied(i, true);
   });
-  SensorModel lidar;
-  lidar.kind = SensorModel::Kind::kLidar;
+  Lidar lidar;
   lidar.range = 20.0;
   const Eigen::Vector3d origin(5.05, 5.05, 1.55);
   const SensorFrame frame = senseFrame(grid, lidar, origin, 0.0);
@@ -144,8 +140,7 @@ TEST(KnownMapTest, TheWindowHoldsWhatWasSeenAndItsExactEsdf) {
   model.window = 6.0;
   model.window_height = 2.0;
   KnownMap map(world->bounds(), model);
-  SensorModel lidar;
-  lidar.kind = SensorModel::Kind::kLidar;
+  Lidar lidar;
   lidar.range = 5.0;
   const Eigen::Vector3d origin(7.55, 3.05, 1.55);
   map.insert(senseFrame(world->grid(), lidar, origin, 0.0), lidar.range);
@@ -199,8 +194,7 @@ TEST(KnownMapTest, TheWindowHoldsWhatWasSeenAndItsExactEsdf) {
 TEST(KnownMapTest, TheGuideGoesRoundKnownObstaclesAndThroughUnknownSpace) {
   const auto world = worldOf(kWall);
   KnownMap map(world->bounds(), MapModel());
-  SensorModel lidar;
-  lidar.kind = SensorModel::Kind::kLidar;
+  Lidar lidar;
   lidar.range = 6.0;
   const Eigen::Vector3d from(7.05, 3.05, 1.5);
   map.insert(senseFrame(world->grid(), lidar, from, 0.0), lidar.range);
@@ -276,7 +270,7 @@ TEST(FlightTest, AWallBeyondTheSensorsRangeIsSeenAndFlownAround) {
 TEST(FlightTest, SnapshotsRecordWhenEachVoxelOfTheFinalMapWasFirstSeen) {
   const auto world = worldOf(kWall);
   Flight flight;
-  flight.settings.snapshot_period = 1.0;
+  flight.setup.settings.snapshot_period = 1.0;
   const FlightResult result = flight.fly(world, {2, 3, 1.5}, {18, 3, 1.5});
   ASSERT_EQ(result.status, "reached") << result.message;
   // Exactly the final map's occupied voxels, each once, in the order they were first seen,
@@ -326,7 +320,7 @@ TEST(FlightTest, ACollisionWithTheGroundTruthEndsTheFlight) {
   // A sensor that sees 0.2 m: the wall is found too late to stop from flying speed.
   const auto world = worldOf(kWall);
   const FlightResult result =
-      Flight({{"range", "0.2", "test"}}).fly(world, {2, 3, 1.5}, {18, 3, 1.5});
+      Flight({{"sensor.range", "0.2", "test"}}).fly(world, {2, 3, 1.5}, {18, 3, 1.5});
   EXPECT_EQ(result.status, "collision") << result.message;
   EXPECT_NE(result.message.find("hits the ground truth"), std::string::npos);
   // The flight ends at the wall.
@@ -348,20 +342,28 @@ TEST(FlightTest, AFlightRepeatsBitForBit) {
 
 TEST(FlightTest, TheDeclaredDefaultsAreTheModelsDefaults) {
   const Flight declared;
-  const SensorModel sensor;
+  const DepthCamera camera;
   const MapModel map;
   const FlightSettings settings;
-  EXPECT_EQ(declared.sensor.width, sensor.width);
-  EXPECT_EQ(declared.sensor.height, sensor.height);
-  EXPECT_NEAR(declared.sensor.fov_horizontal, sensor.fov_horizontal, 1e-4);
-  EXPECT_NEAR(declared.sensor.fov_vertical, sensor.fov_vertical, 1e-4);
-  EXPECT_EQ(declared.sensor.range, sensor.range);
-  EXPECT_EQ(declared.map.window, map.window);
-  EXPECT_EQ(declared.map.window_height, map.window_height);
-  EXPECT_EQ(declared.map.resolution, map.resolution);
-  EXPECT_EQ(declared.settings.replan_period, settings.replan_period);
-  EXPECT_EQ(declared.settings.latency, settings.latency);
-  EXPECT_EQ(declared.settings.horizon, settings.horizon);
+  const auto* sensor = dynamic_cast<const DepthCamera*>(declared.setup.sensor.get());
+  ASSERT_NE(sensor, nullptr) << "the default sensor is the depth camera";
+  EXPECT_EQ(sensor->width, camera.width);
+  EXPECT_EQ(sensor->height, camera.height);
+  EXPECT_NEAR(sensor->fov_horizontal, camera.fov_horizontal, 1e-4);
+  EXPECT_NEAR(sensor->fov_vertical, camera.fov_vertical, 1e-4);
+  EXPECT_EQ(sensor->range, camera.range);
+  EXPECT_EQ(declared.setup.map.window, map.window);
+  EXPECT_EQ(declared.setup.map.window_height, map.window_height);
+  EXPECT_EQ(declared.setup.map.resolution, map.resolution);
+  EXPECT_EQ(declared.setup.settings.replan_period, settings.replan_period);
+  EXPECT_EQ(declared.setup.settings.latency, settings.latency);
+  EXPECT_EQ(declared.setup.settings.horizon, settings.horizon);
+
+  const Flight lidar({{"sensor", "lidar", "test"}, {"sensor.beams", "720", "test"}});
+  const auto* chosen = dynamic_cast<const Lidar*>(lidar.setup.sensor.get());
+  ASSERT_NE(chosen, nullptr) << "sensor=lidar chooses the registered lidar";
+  EXPECT_EQ(chosen->beams, 720);
+  EXPECT_EQ(chosen->rayDirections().size(), 720u * static_cast<std::size_t>(chosen->channels));
 }
 
 TEST(FlightTest, BadFlightParametersNameTheParameter) {
@@ -371,7 +373,17 @@ TEST(FlightTest, BadFlightParametersNameTheParameter) {
   } catch (const ConfigError& error) {
     EXPECT_NE(std::string(error.what()).find("unknown"), std::string::npos) << error.what();
   }
-  EXPECT_THROW(Flight({{"range", "-1", "--flight"}}), ConfigError);
+  EXPECT_THROW(Flight({{"sensor.range", "-1", "--flight"}}), ConfigError);
+  // A camera parameter is not the lidar's, and an unknown sensor is named with the known ones.
+  EXPECT_THROW(Flight({{"sensor", "lidar", "--flight"}, {"sensor.width", "64", "--flight"}}),
+               ConfigError);
+  try {
+    Flight({{"sensor", "lidr", "--flight"}});
+    FAIL() << "accepted";
+  } catch (const ConfigError& error) {
+    EXPECT_NE(std::string(error.what()).find("did you mean 'lidar'"), std::string::npos)
+        << error.what();
+  }
   EXPECT_THROW(Flight({{"rnage", "5", "--flight"}}), ConfigError);
 }
 

@@ -332,11 +332,29 @@ std::vector<ParameterAssignment> parseAssignments(const std::vector<std::string>
   return result;
 }
 
+namespace {
+
+/// The entries of `mapping` as assignments named `prefix` + key; a mapping value is a plugin
+/// parameter's: its `type` chooses the plugin, its other keys are the plugin's parameters.
+void appendAssignments(const YamlReader& mapping, const std::string& prefix,
+                       std::vector<ParameterAssignment>& result) {
+  for (const auto& [name, value] : mapping.entries()) {
+    if (!prefix.empty() && name == "type") {
+      result.push_back({prefix.substr(0, prefix.size() - 1), value.as<std::string>(),
+                        value.where()});
+    } else if (value.isMap()) {
+      appendAssignments(value, prefix + name + ".", result);
+    } else {
+      result.push_back({prefix + name, value.as<std::string>(), value.where()});
+    }
+  }
+}
+
+}  // namespace
+
 std::vector<ParameterAssignment> assignmentsFromYaml(const YamlReader& mapping) {
   std::vector<ParameterAssignment> result;
-  for (const auto& [name, value] : mapping.entries()) {
-    result.push_back({name, value.as<std::string>(), value.where()});
-  }
+  appendAssignments(mapping, "", result);
   return result;
 }
 

@@ -126,10 +126,8 @@ std::string flyOneRun(const Experiment& experiment, const RunSpec& run,
   const ExperimentVariant& variant = experiment.variants[run.variant];
   return workerOutput(variant, [&](nlohmann::json& out) {
     const ExperimentPlanner& spec = variant.planners[run.planner];
-    SensorModel sensor;
-    MapModel map;
-    FlightSettings settings;
-    flightModels(variant.flight, &sensor, &map, &settings);
+    FlightSetup setup = flightSetup(variant.flight);
+    FlightSettings& settings = setup.settings;
     // The known map's growth for the queries whose trees a planning experiment would store.
     const bool keep_map =
         experiment.store_tree_queries < 0 || run.query < experiment.store_tree_queries;
@@ -139,7 +137,7 @@ std::string flyOneRun(const Experiment& experiment, const RunSpec& run,
       configured.planner->setup({std::move(window), configured.sampler, run.seed});
       return std::move(configured.planner);
     };
-    const FlightResult flight = fly(world, factory, query, sensor, map, settings);
+    const FlightResult flight = fly(world, factory, query, *setup.sensor, setup.map, settings);
     const MetricValues values = flightValues(flight);
     const auto value = [&](std::string_view name) -> MetricValue {
       for (const auto& [key, item] : values) {

@@ -166,24 +166,13 @@ constexpr double kDegree = M_PI / 180.0;
 }  // namespace
 
 const ParameterSpecs& flightParameters() {
-  // The defaults are the models' own (one place for each).
-  const SensorModel sensor;
+  // The defaults are the models' own (one place for each); the sensor's are its own.
   const MapModel map;
   const FlightSettings loop;
   static const ParameterSpecs specs =
       ParameterSpecs()
-          .choice("sensor", "depth_camera", {"depth_camera", "lidar"},
-                  "depth_camera: a pinhole looking along the heading; lidar: 360 degrees")
-          .real("range", sensor.range, 0.1, 100.0, "sensor range, m")
-          .real("rate", sensor.rate, 0.5, 100.0, "frames per second (the loop's step)")
-          .real("fov_horizontal", sensor.fov_horizontal / kDegree, 1.0, 170.0,
-                "camera horizontal field of view, degrees")
-          .real("fov_vertical", sensor.fov_vertical / kDegree, 1.0, 170.0,
-                "camera (and lidar) vertical field of view, degrees")
-          .integer("width", sensor.width, 1, 4096, "camera pixels across")
-          .integer("height", sensor.height, 1, 4096, "camera pixels down")
-          .integer("beams", sensor.beams, 1, 100000, "lidar beams per revolution")
-          .integer("channels", sensor.channels, 1, 1024, "lidar channels")
+          .plugin("sensor", "sensor", "depth_camera",
+                  "the range sensor (kinolab list sensors); set its parameters as sensor.NAME")
           .real("map_resolution", map.resolution, 0.01, 10.0,
                 "the vehicle's map voxel, m (the ground truth's lattice when equal)")
           .real("window", map.window, 1.0, 1000.0, "planning window side in x and y, m")
@@ -219,18 +208,11 @@ const ParameterSpecs& flightParameters() {
   return specs;
 }
 
-void flightModels(const ParameterSet& p, SensorModel* sensor, MapModel* map,
-                  FlightSettings* settings) {
-  sensor->kind =
-      p.text("sensor") == "lidar" ? SensorModel::Kind::kLidar : SensorModel::Kind::kDepthCamera;
-  sensor->range = p.real("range");
-  sensor->rate = p.real("rate");
-  sensor->fov_horizontal = p.real("fov_horizontal") * kDegree;
-  sensor->fov_vertical = p.real("fov_vertical") * kDegree;
-  sensor->width = static_cast<int>(p.integer("width"));
-  sensor->height = static_cast<int>(p.integer("height"));
-  sensor->beams = static_cast<int>(p.integer("beams"));
-  sensor->channels = static_cast<int>(p.integer("channels"));
+FlightSetup flightSetup(const ParameterSet& p) {
+  FlightSetup setup;
+  setup.sensor = pluginRegistry<Sensor>().createChosen(p, "sensor");
+  MapModel* map = &setup.map;
+  FlightSettings* settings = &setup.settings;
   map->resolution = p.real("map_resolution");
   map->window = p.real("window");
   map->window_height = p.real("window_height");
@@ -248,10 +230,11 @@ void flightModels(const ParameterSet& p, SensorModel* sensor, MapModel* map,
   settings->stuck_time = p.real("stuck_time");
   settings->goal_tolerance = p.real("goal_tolerance");
   settings->brake_acceleration = p.real("brake_acceleration");
+  return setup;
 }
 
 FlightResult fly(const std::shared_ptr<const World>& truth, const PlannerFactory& make_planner,
-                 const PlanningQuery& query, const SensorModel& sensor, const MapModel& map_model,
+                 const PlanningQuery& query, const Sensor& sensor, const MapModel& map_model,
                  const FlightSettings& settings) {
   FlightResult result;
   auto map = std::make_shared<KnownMap>(truth->bounds(), map_model);
@@ -272,7 +255,7 @@ FlightResult fly(const std::shared_ptr<const World>& truth, const PlannerFactory
     return result;
   }
   const double brake_rate = std::min(settings.brake_acceleration, model.limits.bound[2].minCoeff());
-  const double dt = 1.0 / sensor.rate;
+  const double dt = 1.0 / sensor.frameRate();
 
   // The committed trajectory from t = 0; at rest at its end (a hover at the start at first).
   Trajectory committed;
@@ -338,7 +321,7 @@ FlightResult fly(const std::shared_ptr<const World>& truth, const PlannerFactory
         senseFrame(truth->grid(), sensor, now.col(0), headingOf(committed, t, query.goal));
     result.time_sense_ms += millisecondsSince(begin);
     begin = std::chrono::steady_clock::now();
-    map->insert(sensed, sensor.range);
+    map->insert(sensed, sensor.maxRange());
     // Where the vehicle is, nothing is: its body is known free, with two voxels to spare for
     // the ESDF's conservative clearance (so that a cautious map still lets it start).
     map->markFree(now.col(0), model.robot_radius + 2.0 * map_model.resolution);

@@ -126,8 +126,9 @@ std::string formatParameterValue(const ParameterValue& value);
 std::vector<ParameterAssignment> parseAssignments(const std::vector<std::string>& items,
                                                   std::string_view where);
 
-/// The entries of a YAML mapping of scalars (`params: {sigma: 0.4}`) as assignments, each
-/// located at its own line.
+/// The entries of a YAML mapping (`params: {sigma: 0.4}`) as assignments, each located at its
+/// own line. A plugin parameter may be a mapping: `heuristic: {type: obvp}` or
+/// `sensor: {type: lidar, beams: 720}` is `sensor=lidar`, `sensor.beams=720`.
 std::vector<ParameterAssignment> assignmentsFromYaml(const YamlReader& mapping);
 
 }  // namespace kinolab

@@ -9,111 +9,13 @@
 
 #include "kinolab/core/metric_specs.hpp"
 #include "kinolab/core/parameters.hpp"
+#include "kinolab/flight/known_map.hpp"
+#include "kinolab/flight/sensor.hpp"
 #include "kinolab/planner/planner.hpp"
 #include "kinolab/trajectory/trajectory.hpp"
 #include "kinolab/world/world.hpp"
 
 namespace kinolab {
-
-// ---- the sensor ------------------------------------------------------------------------------
-
-/// A range sensor ray-cast into the ground-truth grid: a pinhole depth camera looking along
-/// the vehicle's heading, or a 360-degree lidar (beams around, channels up and down).
-struct SensorModel {
-  enum class Kind { kDepthCamera, kLidar };
-  Kind kind = Kind::kDepthCamera;
-  double range = 5.0;                ///< m
-  double rate = 10.0;                ///< frames per second
-  double fov_horizontal = M_PI / 2;  ///< rad (camera)
-  double fov_vertical = M_PI / 3;    ///< rad (camera and lidar)
-  int width = 32;                    ///< pixels (camera)
-  int height = 24;
-  int beams = 360;  ///< per revolution (lidar)
-  int channels = 16;
-
-  /// Every ray's direction in the vehicle frame (x ahead, z up), unit length.
-  std::vector<Eigen::Vector3d> rayDirections() const;
-};
-
-/// One frame: where it was taken, the hit points (on the struck cube's face, nudged inside it)
-/// and the ends of rays that struck nothing within range (placed just beyond it).
-struct SensorFrame {
-  Eigen::Vector3d origin = Eigen::Vector3d::Zero();
-  std::vector<Eigen::Vector3d> hits;
-  std::vector<Eigen::Vector3d> misses;
-};
-
-/// Distance along the unit `direction` from `origin` to the first occupied voxel cube of
-/// `grid` (0 when origin is inside one), exact (the cube's entry point, Amanatides-Woo
-/// traversal); INFINITY when the ray leaves the grid or passes `max_range` first.
-double castRay(const VoxelGrid& grid, const Eigen::Vector3d& origin,
-               const Eigen::Vector3d& direction, double max_range);
-
-/// A frame of `model` from `origin`, the vehicle heading `yaw` (rad about z), world frame.
-SensorFrame senseFrame(const VoxelGrid& truth, const SensorModel& model,
-                       const Eigen::Vector3d& origin, double yaw);
-
-// ---- the vehicle's map -------------------------------------------------------------------------
-
-/// How the planning window treats space the sensor has not seen.
-enum class UnknownSpace { kFree, kOccupied, kFreeBeyond };
-
-struct MapModel {
-  double resolution = 0.1;     ///< m; the map's voxels align with the ground truth's lattice
-  double window = 8.0;         ///< m: the planning window's side in x and y
-  double window_height = 2.0;  ///< m: its height (centred on the vehicle, within the map)
-  UnknownSpace unknown = UnknownSpace::kFree;
-  double free_beyond = 2.0;      ///< m (kFreeBeyond): unknown is occupied closer than this
-  double probability_hit = 0.7;  ///< OctoMap sensor model
-  double probability_miss = 0.4;
-};
-
-/// What the vehicle knows: an OctoMap OcTree updated with every frame (log-odds, max range),
-/// and from it a planning window around the vehicle with its exact ESDF.
-class KnownMap {
- public:
-  /// A map of `bounds` (the ground truth's box; positions outside are never mapped).
-  KnownMap(const Box& bounds, const MapModel& model);
-  ~KnownMap();
-  KnownMap(KnownMap&&) noexcept;
-  KnownMap& operator=(KnownMap&&) noexcept;
-
-  /// Inserts a frame: free space along every ray, an occupied voxel at every hit.
-  void insert(const SensorFrame& frame, double max_range);
-  /// Marks the unseen voxels within `radius` of `center` free (where the vehicle is, nothing
-  /// can be), in the tree and the mirror; voxels the sensor has seen keep their state.
-  void markFree(const Eigen::Vector3d& center, double radius);
-  /// The planning world: the window of side `window` around `center` (clamped to the map),
-  /// known occupied voxels and unknown ones as `unknown` says (kFreeBeyond: measured from
-  /// `center`), with its exact ESDF.
-  std::shared_ptr<const World> window(const Eigen::Vector3d& center) const;
-  /// A shortest 8-connected path over the map's x-y cells from `from` to `to`, through cells
-  /// with no known occupied voxel within `radius` in the heights [z_low, z_high] (unknown is
-  /// free): the global guide a local goal is taken from. Cell centres at heights
-  /// interpolated from `from` to `to`; empty when the known map leaves no way.
-  std::vector<Eigen::Vector3d> guide(const Eigen::Vector3d& from, const Eigen::Vector3d& to,
-                                     double radius, double z_low, double z_high) const;
-  /// The known map from above over heights [z_low, z_high], as text: a line
-  /// "nx,ny,origin_x,origin_y,resolution", then per x one line of ny digits, per column 2 (a
-  /// known obstacle in the band), 1 (known free there) or 0 (unknown).
-  std::string topView(double z_low, double z_high) const;
-  /// Voxels known free and known occupied.
-  std::size_t knownFree() const;
-  std::size_t knownOccupied() const;
-  /// The known occupied voxels, as indices of the map's lattice (x slowest, z fastest).
-  std::vector<std::size_t> occupiedVoxels() const;
-  /// The centre of the lattice voxel `index` (world frame).
-  Eigen::Vector3d voxelCenter(std::size_t index) const;
-  /// Writes the OcTree as a .bt file (world frame: the tree is kept relative to the map's
-  /// origin, so the file is shifted back on writing).
-  void write(const std::string& path) const;
-
- private:
-  struct Tree;
-  std::unique_ptr<Tree> tree_;
-  Box bounds_;
-  MapModel model_;
-};
 
 // ---- the flight ------------------------------------------------------------------------------
 
@@ -138,12 +40,19 @@ struct FlightSettings {
 };
 
 /// Every parameter of a flight (sensor, map, loop), declared, typed and ranged like a
-/// planner's, their defaults those of SensorModel, MapModel and FlightSettings (`kinolab fly
-/// --flight NAME=VALUE`, an experiment's `flight:`).
+/// planner's, their defaults those of MapModel and FlightSettings; the sensor is a plugin
+/// parameter with its own (`kinolab fly --flight NAME=VALUE --flight sensor.NAME=VALUE`, an
+/// experiment's `flight:`).
 const ParameterSpecs& flightParameters();
-/// The models and settings of resolved flight parameters.
-void flightModels(const ParameterSet& parameters, SensorModel* sensor, MapModel* map,
-                  FlightSettings* settings);
+
+/// What a flight is flown with: the sensor, the vehicle's map model and the loop's settings.
+struct FlightSetup {
+  std::shared_ptr<const Sensor> sensor;
+  MapModel map;
+  FlightSettings settings;
+};
+/// The setup of resolved flight parameters.
+FlightSetup flightSetup(const ParameterSet& parameters);
 
 /// One replan of a flight.
 struct FlightReplan {
@@ -194,7 +103,7 @@ using PlannerFactory = std::function<std::unique_ptr<Planner>(std::shared_ptr<co
 /// the committed trajectory exactly. The flown trajectory goes through the independent
 /// checker against `truth` at the end: a collision ends the flight there, as `collision`.
 FlightResult fly(const std::shared_ptr<const World>& truth, const PlannerFactory& planner,
-                 const PlanningQuery& query, const SensorModel& sensor, const MapModel& map,
+                 const PlanningQuery& query, const Sensor& sensor, const MapModel& map,
                  const FlightSettings& settings);
 
 /// The metrics of a flight (`kinolab list metrics`; the JSON summary of `kinolab fly`):
