@@ -93,7 +93,14 @@ def test_list_shows_the_planners(kinolab):
     assert {"eager_mp_astar", "lazy_mp_astar", "greedy_mp", "rrtstar_ceres", "rrtstar"} <= set(planners)
     lazy = {p["name"]: p for p in planners["lazy_mp_astar"]["parameters"]}
     assert lazy["duplicate_rule"]["choices"] == ["lwa", "seed"]
-    assert lazy["lower_bound"]["choices"] == ["endpoint", "control_only", "lipschitz"]
+    # Lower bounds and heuristics are plugin kinds: the parameter names its kind, and that
+    # kind's registry lists the built-in ones.
+    assert lazy["lower_bound"]["type"] == "lower_bound" and lazy["lower_bound"]["kind"] == "lower_bound"
+    assert lazy["heuristic"]["kind"] == "heuristic" and lazy["heuristic"]["default"] == "time_optimal"
+    everything = json.loads(kinolab("list", "--json").stdout)
+    assert {"endpoint", "control_only", "lipschitz", "full"} <= {p["key"] for p in everything["lower_bounds"]}
+    assert {"euclidean", "min_time", "time_optimal", "obvp", "max"} <= {p["key"] for p in everything["heuristics"]}
+    assert {"depth_camera", "lidar"} <= {p["key"] for p in everything["sensors"]}
     assert lazy["heuristic_weight"]["minimum"] == 1.0
 
 
@@ -123,7 +130,7 @@ def test_the_tgk_analogue_plans_and_reports_both_stages(kinolab, world, tmp_path
     (["--set", "refine_iterations=-1"], "refine_iterations"),
     (["--set", "knot_spacin=0.3"], "did you mean 'knot_spacing'"),
     (["--set", "goal_bias=1.5"], "goal_bias"),
-    (["--set", "sampler.sigma=0.3"], "uses no control sampler"),
+    (["--set", "sampler.sigma=0.3"], "it has no plugin parameter 'sampler'"),
 ])
 def test_the_tgk_analogue_refuses_bad_parameters(kinolab, world, arguments, message):
     result = kinolab("plan", "--world", world, "--planner", "rrtstar_ceres", "--start", "1,1,1.5",

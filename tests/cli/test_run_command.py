@@ -419,7 +419,7 @@ FLIGHT = """
 def test_a_flight_experiment_flies_every_query_and_stores_the_flight_metrics(kinolab, tmp_path):
     path = experiment(tmp_path, FLIGHT, plugins=False, name="flights",
                       queries="random: {count: 2, min_distance: 6, max_distance: 9}",
-                      extra="\nflight: {range: 4, max_time: 40}\n"
+                      extra="\nflight: {sensor: {type: depth_camera, range: 4}, max_time: 40}\n"
                             "store: {trajectories: true, trees: 1}\n")
     path.write_text(path.read_text().replace("kind: planning", "kind: flight"))
     result = kinolab("run", path, "--out", tmp_path / "out")

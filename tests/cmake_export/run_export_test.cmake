@@ -55,35 +55,71 @@ run_step(FAIL "${kinolab}" --plugin "${build}/libno_entry_point.so" list)
 expect_output("libno_entry_point.so': no kinolab entry point")
 run_step(FAIL "${kinolab}" --plugin "${build}/libmissing.so" list)
 expect_output("libmissing.so': no such file")
-# The out-of-tree lower bound plans with eager's cost, and an experiment uses it.
-set(bound "${build}/liblower_bound_plugin.so")
+# The out-of-tree extensions (a lower bound, a heuristic, a sensor) are listed beside the
+# built-in ones of their kinds.
+set(extensions "${build}/libextensions_plugin.so")
+foreach(kind_key lower_bounds:scaled_endpoint heuristics:scaled_time_optimal sensors:ring)
+  string(REPLACE ":" ";" kind_key "${kind_key}")
+  list(GET kind_key 0 kind)
+  list(GET kind_key 1 key)
+  run_step(OK "${kinolab}" --plugin "${extensions}" list ${kind} --json)
+  expect_output("\"key\": \"${key}\"")
+  expect_output("\"origin\": \"[^\"]*libextensions_plugin.so\"")
+endforeach()
+
+# Lazy search with the out-of-tree bound and heuristic returns eager's cost (both stay a lower
+# bound and consistent), chosen by key with their own parameters nested.
 set(world "${CONSUMER_SOURCE_DIR}/../support/small_forest.yaml")
 set(env ${CMAKE_COMMAND} -E env "KINOLAB_CACHE_DIR=${WORK_DIR}/cache")
-foreach(planner lazy_scaled_bound eager_mp_astar)
-  run_step(OK ${env} "${kinolab}" --plugin "${bound}" plan --world "${world}" --planner ${planner}
-           --set sampler.samples_per_axis=3 --set heuristic_weight=1 --start 1,1,1.5
-           --goal 8.5,8,1.5)
-  string(REGEX MATCH "{[^\n]*}[\n]*$" json "${step_output}")
-  string(JSON status GET "${json}" status)
-  string(JSON cost_${planner} GET "${json}" cost)
-  if(NOT status STREQUAL "exact")
-    message(FATAL_ERROR "${planner}: status ${status}\n${step_output}")
-  endif()
-endforeach()
-# Equal up to floating-point ties: the first 9 characters of the printed costs.
-string(SUBSTRING "${cost_lazy_scaled_bound}" 0 9 lazy_cost)
-string(SUBSTRING "${cost_eager_mp_astar}" 0 9 eager_cost)
-if(NOT lazy_cost STREQUAL eager_cost)
-  message(FATAL_ERROR "lazy_scaled_bound cost ${cost_lazy_scaled_bound} != eager ${cost_eager_mp_astar}")
+set(common --set sampler.samples_per_axis=3 --set heuristic_weight=1 --start 1,1,1.5 --goal 8.5,8,1.5)
+run_step(OK ${env} "${kinolab}" --plugin "${extensions}" plan --world "${world}"
+         --planner lazy_mp_astar ${common} --set lower_bound=scaled_endpoint
+         --set lower_bound.scale=0.25 --set heuristic=scaled_time_optimal
+         --set heuristic.scale=0.5)
+string(REGEX MATCH "{[^\n]*}[\n]*$" json "${step_output}")
+string(JSON status GET "${json}" status)
+string(JSON lazy_cost GET "${json}" cost)
+if(NOT status STREQUAL "exact")
+  message(FATAL_ERROR "lazy with the extensions: status ${status}\n${step_output}")
 endif()
+run_step(OK ${env} "${kinolab}" plan --world "${world}" --planner eager_mp_astar ${common})
+string(REGEX MATCH "{[^\n]*}[\n]*$" json "${step_output}")
+string(JSON eager_cost GET "${json}" cost)
+# Equal up to floating-point ties: the first 9 characters of the printed costs.
+string(SUBSTRING "${lazy_cost}" 0 9 lazy_prefix)
+string(SUBSTRING "${eager_cost}" 0 9 eager_prefix)
+if(NOT lazy_prefix STREQUAL eager_prefix)
+  message(FATAL_ERROR "lazy with the extensions: cost ${lazy_cost} != eager ${eager_cost}")
+endif()
+
+# A flight experiment that uses all three: the ring sensor, the bound and the heuristic.
 file(READ "${world}" world_text)
 string(REPLACE "\n" "\n      " world_text "${world_text}")
-file(WRITE "${WORK_DIR}/bound.yaml" "kind: planning\nname: bound\nseed: 4\nplugins: [${bound}]\n"
-  "worlds:\n  - id: small\n    spec:\n      ${world_text}\n"
-  "queries:\n  random: {count: 3, min_distance: 3, max_distance: 7}\n"
-  "planners:\n  - id: scaled\n    type: lazy_scaled_bound\n"
-  "    sampler: {type: uniform, params: {samples_per_axis: 3}}\n"
-  "    params: {bound_scale: 0.25, tau: 0.4}\n")
-run_step(OK ${env} "${kinolab}" run "${WORK_DIR}/bound.yaml" --out "${WORK_DIR}/bound")
-expect_output("3 runs ran, 3 succeeded")
+function(write_experiment path heuristic_scale bound_scale sensor_beams)
+  file(WRITE "${path}" "kind: flight\nname: extensions\nseed: 4\nplugins: [${extensions}]\n"
+    "worlds:\n  - id: small\n    spec:\n      ${world_text}\n"
+    "queries:\n  fixed:\n    - {start: [1, 1, 1.5], goal: [8.5, 8, 1.5]}\n"
+    "planners:\n  - id: scaled\n    type: lazy_mp_astar\n"
+    "    sampler: {type: uniform, params: {samples_per_axis: 3}}\n"
+    "    params:\n"
+    "      heuristic: {type: scaled_time_optimal, ${heuristic_scale}: 0.5}\n"
+    "      lower_bound: {type: scaled_endpoint, ${bound_scale}: 0.25}\n"
+    "flight:\n  sensor: {type: ring, ${sensor_beams}: 90, range: 4}\n  max_time: 30\n")
+endfunction()
+write_experiment("${WORK_DIR}/extensions.yaml" scale scale beams)
+run_step(OK ${env} "${kinolab}" run "${WORK_DIR}/extensions.yaml" --out "${WORK_DIR}/extensions")
+expect_output("1 runs? ran")
+run_step(OK ${env} "${kinolab}" report "${WORK_DIR}/extensions" --out "${WORK_DIR}/extensions/report")
+# A misspelt parameter of each extension is refused before anything runs, with its file, line
+# and the parameter's owner.
+foreach(misspelt "scael;scale;beams;heuristic 'scaled_time_optimal'" "scale;scael;beams;lower_bound 'scaled_endpoint'"
+        "scale;scale;beasm;sensor 'ring'")
+  list(GET misspelt 0 heuristic_scale)
+  list(GET misspelt 1 bound_scale)
+  list(GET misspelt 2 sensor_beams)
+  list(GET misspelt 3 owner)
+  write_experiment("${WORK_DIR}/misspelt.yaml" ${heuristic_scale} ${bound_scale} ${sensor_beams})
+  run_step(FAIL ${env} "${kinolab}" run "${WORK_DIR}/misspelt.yaml" --out "${WORK_DIR}/misspelt" --dry-run)
+  expect_output("misspelt.yaml:[0-9]+:[0-9]+: [^\n]*${owner}: unknown parameter '(scael|beasm)' \\(did you mean '(scale|beams)'")
+endforeach()
 message(STATUS "out-of-tree program and plugins: as expected")

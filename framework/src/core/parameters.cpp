@@ -266,7 +266,12 @@ ParameterSet ParameterSpecs::resolve(const std::vector<ParameterAssignment>& ass
     const auto dot = assignment.name.find('.');
     const ParameterSpec* spec = find(assignment.name.substr(0, dot));
     const bool nested = dot != std::string::npos;
-    if (!spec || (nested && spec->type != ParameterType::kPlugin)) {
+    if (nested && (!spec || spec->type != ParameterType::kPlugin)) {
+      throw ConfigError(assignment.where + ": " + std::string(owner) + ": unknown parameter '" +
+                        assignment.name + "': it has no plugin parameter '" +
+                        assignment.name.substr(0, dot) + "' to set it on");
+    }
+    if (!spec) {
       const auto names = namesOf(specs_);
       throw ConfigError(
           assignment.where + ": " + std::string(owner) + ": unknown parameter '" + assignment.name +
