@@ -90,9 +90,9 @@ const PluginInfo& flightInfo() {
   return info;
 }
 
-nlohmann::json toJson(const PluginInfo& plugin) {
+nlohmann::json toJson(const ParameterSpecs& specs) {
   nlohmann::json parameters = nlohmann::json::array();
-  for (const auto& spec : plugin.parameters.all()) {
+  for (const auto& spec : specs.all()) {
     nlohmann::json parameter = {{"name", spec.name},
                                 {"type", spec.typeName()},
                                 {"default", toJson(spec.default_value)},
@@ -109,13 +109,40 @@ nlohmann::json toJson(const PluginInfo& plugin) {
     }
     if (spec.type == ParameterType::kChoice) parameter["choices"] = spec.choices;
     if (spec.type == ParameterType::kPlugin) parameter["kind"] = spec.kind;
+    if (spec.type == ParameterType::kReals) {
+      parameter["minimum"] = spec.minimum;
+      parameter["maximum"] = spec.maximum;
+      parameter["count"] = spec.count;
+    }
+    if (spec.required) parameter["required"] = true;
+    if (spec.members) parameter["members"] = toJson(*spec.members);
     parameters.push_back(parameter);
   }
+  return parameters;
+}
+
+nlohmann::json toJson(const PluginInfo& plugin) {
   return {{"key", plugin.key},
           {"description", plugin.description},
           {"origin", plugin.origin},
-          {"parameters", parameters},
+          {"parameters", toJson(plugin.parameters)},
           {"statistics", toJson(plugin.statistics)}};
+}
+
+/// One line per parameter; a group's and a group list's members below it as NAME.PARAMETER
+/// (NAME.INDEX.PARAMETER).
+void printParameters(const ParameterSpecs& parameters, const std::string& prefix, int width) {
+  for (const auto& spec : parameters.all()) {
+    const std::string name = prefix + spec.name;
+    std::printf("      %-*s %-7s default %-10s %-18s %s\n", width, name.c_str(),
+                spec.typeName().c_str(),
+                spec.required ? "(required)" : formatParameterValue(spec.default_value).c_str(),
+                spec.rangeText().c_str(), spec.doc.c_str());
+    if (spec.members) {
+      const bool list = spec.type == ParameterType::kGroupList;
+      printParameters(*spec.members, name + (list ? ".INDEX." : "."), width);
+    }
+  }
 }
 
 void printText(const Kind& kind) {
@@ -127,11 +154,7 @@ void printText(const Kind& kind) {
     for (const auto& spec : plugin->parameters.all()) {
       width = std::max(width, static_cast<int>(spec.name.size()));
     }
-    for (const auto& spec : plugin->parameters.all()) {
-      std::printf("      %-*s %-7s default %-10s %-18s %s\n", width, spec.name.c_str(),
-                  spec.typeName().c_str(), formatParameterValue(spec.default_value).c_str(),
-                  spec.rangeText().c_str(), spec.doc.c_str());
-    }
+    printParameters(plugin->parameters, "", width);
   }
 }
 

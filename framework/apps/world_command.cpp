@@ -46,9 +46,9 @@ void runWorld(const WorldOptions& options) {
               load.cache_file.empty() ? "" : " (cache: ",
               load.cache_file.empty() ? "" : (load.cache_file + ")").c_str());
   if (!load.note.empty()) std::printf("  note       %s\n", load.note.c_str());
-  for (const auto& generator : spec.generators) {
+  for (const auto& entry : spec.generators) {
     const std::string note =
-        generator->resamplingNote(load.world->bounds(), load.world->grid().resolution());
+        entry.generator->resamplingNote(load.world->bounds(), load.world->grid().resolution());
     if (!note.empty()) std::printf("  resampled  %s\n", note.c_str());
   }
 
@@ -85,10 +85,13 @@ void addWorldCommand(CLI::App& app) {
       ->add_option("--slice-height", options->slice_height,
                    "Height (m) of the ESDF slice picture (default: 1 m above the floor)")
       ->check(within(-1e6, 1e6));
-  std::string footer = "World generators (the `type:` of a `generators:` entry):\n";
-  for (const auto& [type, description] : worldGeneratorTypes()) {
+  std::string footer =
+      "World generators (the `type:` of a `generators:` entry; their parameters: kinolab list "
+      "worlds):\n";
+  for (const PluginInfo* generator : pluginRegistry<WorldGenerator>().list()) {
+    const std::string& type = generator->key;
     footer += "  " + type + std::string(10 - std::min<std::size_t>(type.size(), 9), ' ') +
-              description + "\n";
+              generator->description + "\n";
   }
   footer +=
       "Specs to start from: configs/worlds/*.yaml. Cache: $KINOLAB_CACHE_DIR overrides the "

@@ -1,13 +1,15 @@
 // A researcher's own extensions, built outside the kinolab tree against an installed kinolab
-// (docs/extending/): one library adding a lazy lower bound, a heuristic and a flight sensor.
-// No file under framework/ knows them or their parameters; every planner and flight chooses
-// them by key (`lower_bound=scaled_endpoint`, `heuristic=scaled_time_optimal`,
-// `sensor=ring`) and sets their parameters as `NAME.PARAMETER`.
+// (docs/extending/): one library adding a world generator, a lazy lower bound, a heuristic and
+// a flight sensor. No file under framework/ knows them or their parameters; world specs,
+// planners and flights choose them by key (`type: pillar_row`, `lower_bound=scaled_endpoint`,
+// `heuristic=scaled_time_optimal`, `sensor=ring`) and set their parameters as
+// `NAME.PARAMETER` (or a YAML mapping).
 #include <cmath>
 
 #include "kinolab/core/plugin.hpp"
 #include "kinolab/flight/sensor.hpp"
 #include "kinolab/search/motion_primitive_planner.hpp"
+#include "kinolab/world/world_generator.hpp"
 
 namespace {
 
@@ -64,9 +66,45 @@ struct RingSensor final : Sensor {
   }
 };
 
+/// A row of square pillars along x at height 0 .. `height`, evenly spaced across the bounds.
+class PillarRow final : public WorldGenerator {
+ public:
+  explicit PillarRow(const ParameterSet& parameters)
+      : y_(parameters.real("y")),
+        count_(parameters.integer("count")),
+        width_(parameters.real("width")),
+        height_(parameters.real("height")) {}
+
+  void apply(VoxelGrid& grid, Rng&) const override {
+    const Box bounds = grid.bounds();
+    const double step = (bounds.max.x() - bounds.min.x()) / static_cast<double>(count_ + 1);
+    for (long long i = 1; i <= count_; ++i) {
+      const Eigen::Vector3d center(bounds.min.x() + step * static_cast<double>(i), y_, 0.0);
+      const Eigen::Vector3d half(0.5 * width_, 0.5 * width_, 0.0);
+      grid.fillBox(center - half + Eigen::Vector3d(0, 0, bounds.min.z()),
+                   center + half + Eigen::Vector3d(0, 0, bounds.min.z() + height_));
+    }
+  }
+
+ private:
+  double y_;
+  long long count_;
+  double width_;
+  double height_;
+};
+
 }  // namespace
 
 KINOLAB_REGISTER_PLUGINS(registrar) {
+  registrar.add<WorldGenerator>("pillar_row", "a row of square pillars along x",
+                                ParameterSpecs()
+                                    .real("y", 5.0, -1e4, 1e4, "the row's y, m")
+                                    .integer("count", 3, 0, 1000, "pillars")
+                                    .real("width", 0.4, 0.01, 100.0, "pillar side, m")
+                                    .real("height", 3.0, 0.0, 1e4, "pillar height, m"),
+                                [](const ParameterSet& parameters) {
+                                  return std::make_unique<PillarRow>(parameters);
+                                });
   registrar.add<EdgeEvaluationPolicy>(
       "scaled_endpoint", "the endpoint bound scaled down (a lazy planner's lower_bound)",
       ParameterSpecs().real("scale", 0.5, 0.0, 1.0, "share of the endpoint bound queued"),

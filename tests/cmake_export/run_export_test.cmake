@@ -55,10 +55,11 @@ run_step(FAIL "${kinolab}" --plugin "${build}/libno_entry_point.so" list)
 expect_output("libno_entry_point.so': no kinolab entry point")
 run_step(FAIL "${kinolab}" --plugin "${build}/libmissing.so" list)
 expect_output("libmissing.so': no such file")
-# The out-of-tree extensions (a lower bound, a heuristic, a sensor) are listed beside the
-# built-in ones of their kinds.
+# The out-of-tree extensions (a world generator, a lower bound, a heuristic, a sensor) are
+# listed beside the built-in ones of their kinds.
 set(extensions "${build}/libextensions_plugin.so")
-foreach(kind_key lower_bounds:scaled_endpoint heuristics:scaled_time_optimal sensors:ring)
+foreach(kind_key worlds:pillar_row lower_bounds:scaled_endpoint heuristics:scaled_time_optimal
+        sensors:ring)
   string(REPLACE ":" ";" kind_key "${kind_key}")
   list(GET kind_key 0 kind)
   list(GET kind_key 1 key)
@@ -92,12 +93,14 @@ if(NOT lazy_prefix STREQUAL eager_prefix)
   message(FATAL_ERROR "lazy with the extensions: cost ${lazy_cost} != eager ${eager_cost}")
 endif()
 
-# A flight experiment that uses all three: the ring sensor, the bound and the heuristic.
+# A flight experiment that uses all four: a world with the pillar row, the ring sensor, the
+# bound and the heuristic.
 file(READ "${world}" world_text)
 string(REPLACE "\n" "\n      " world_text "${world_text}")
-function(write_experiment path heuristic_scale bound_scale sensor_beams)
+function(write_experiment path world_count heuristic_scale bound_scale sensor_beams)
   file(WRITE "${path}" "kind: flight\nname: extensions\nseed: 4\nplugins: [${extensions}]\n"
     "worlds:\n  - id: small\n    spec:\n      ${world_text}\n"
+    "        - {type: pillar_row, y: 4.5, ${world_count}: 2, width: 0.4, height: 3}\n"
     "queries:\n  fixed:\n    - {start: [1, 1, 1.5], goal: [8.5, 8, 1.5]}\n"
     "planners:\n  - id: scaled\n    type: lazy_mp_astar\n"
     "    sampler: {type: uniform, params: {samples_per_axis: 3}}\n"
@@ -106,20 +109,23 @@ function(write_experiment path heuristic_scale bound_scale sensor_beams)
     "      lower_bound: {type: scaled_endpoint, ${bound_scale}: 0.25}\n"
     "flight:\n  sensor: {type: ring, ${sensor_beams}: 90, range: 4}\n  max_time: 30\n")
 endfunction()
-write_experiment("${WORK_DIR}/extensions.yaml" scale scale beams)
+write_experiment("${WORK_DIR}/extensions.yaml" count scale scale beams)
 run_step(OK ${env} "${kinolab}" run "${WORK_DIR}/extensions.yaml" --out "${WORK_DIR}/extensions")
 expect_output("1 runs? ran")
 run_step(OK ${env} "${kinolab}" report "${WORK_DIR}/extensions" --out "${WORK_DIR}/extensions/report")
 # A misspelt parameter of each extension is refused before anything runs, with its file, line
 # and the parameter's owner.
-foreach(misspelt "scael;scale;beams;heuristic 'scaled_time_optimal'" "scale;scael;beams;lower_bound 'scaled_endpoint'"
-        "scale;scale;beasm;sensor 'ring'")
-  list(GET misspelt 0 heuristic_scale)
-  list(GET misspelt 1 bound_scale)
-  list(GET misspelt 2 sensor_beams)
-  list(GET misspelt 3 owner)
-  write_experiment("${WORK_DIR}/misspelt.yaml" ${heuristic_scale} ${bound_scale} ${sensor_beams})
+foreach(misspelt "cuont;scale;scale;beams;world 'pillar_row'"
+        "count;scael;scale;beams;heuristic 'scaled_time_optimal'"
+        "count;scale;scael;beams;lower_bound 'scaled_endpoint'" "count;scale;scale;beasm;sensor 'ring'")
+  list(GET misspelt 0 world_count)
+  list(GET misspelt 1 heuristic_scale)
+  list(GET misspelt 2 bound_scale)
+  list(GET misspelt 3 sensor_beams)
+  list(GET misspelt 4 owner)
+  write_experiment("${WORK_DIR}/misspelt.yaml" ${world_count} ${heuristic_scale} ${bound_scale}
+                   ${sensor_beams})
   run_step(FAIL ${env} "${kinolab}" run "${WORK_DIR}/misspelt.yaml" --out "${WORK_DIR}/misspelt" --dry-run)
-  expect_output("misspelt.yaml:[0-9]+:[0-9]+: [^\n]*${owner}: unknown parameter '(scael|beasm)' \\(did you mean '(scale|beams)'")
+  expect_output("misspelt.yaml:[0-9]+:[0-9]+: [^\n]*${owner}: unknown parameter '(scael|beasm|cuont)' \\(did you mean '(scale|beams|count)'")
 endforeach()
 message(STATUS "out-of-tree program and plugins: as expected")

@@ -89,6 +89,55 @@ TEST(Parameters, DeclarationsAreChecked) {
   EXPECT_THROW(exampleSpecs().resolve({}, "t").real("undeclared"), InvalidArgument);
 }
 
+TEST(Parameters, GroupsListsAndPluginsStayNested) {
+  const ParameterSpecs specs =
+      ParameterSpecs()
+          .interval("radius", {0.1, 0.2}, 0.0, 1.0, "an interval")
+          .reals("corner", {0, 0, 0}, -10.0, 10.0, 3, "a point")
+          .group("canopy", ParameterSpecs().real("p", 0.5, 0.0, 1.0, "share"), "a group")
+          .groupList("boxes",
+                     ParameterSpecs().reals("min", {0, 0, 0}, -9, 9, 3, "corner").required(),
+                     "a list")
+          .plugin("heuristic", "heuristic", "time_optimal", "a plugin");
+  const ParameterSet defaults = specs.resolve({}, "t");
+  EXPECT_EQ(defaults.reals("radius"), (std::vector<double>{0.1, 0.2}));
+  EXPECT_FALSE(defaults.boolean("canopy"));
+  EXPECT_EQ(defaults.nested("canopy").real("p"), 0.5);
+  EXPECT_TRUE(defaults.items("boxes").empty());
+  EXPECT_EQ(defaults.text("heuristic"), "time_optimal");
+
+  const ParameterSet set = specs.resolve({{"radius", "0.3", "t"},
+                                          {"canopy.p", "0.25", "t"},
+                                          {"boxes.1.min", "[1, 2, 3]", "t"},
+                                          {"boxes.0.min", "4 5 6", "t"},
+                                          {"heuristic", "obvp", "t"}},
+                                         "t");
+  EXPECT_EQ(set.reals("radius"), (std::vector<double>{0.3, 0.3}));  // one number: [x, x]
+  EXPECT_TRUE(set.boolean("canopy"));  // set by its member
+  EXPECT_EQ(set.nested("canopy").real("p"), 0.25);
+  ASSERT_EQ(set.items("boxes").size(), 2u);
+  EXPECT_EQ(set.items("boxes")[0]->reals("min"), (std::vector<double>{4, 5, 6}));
+  EXPECT_EQ(set.items("boxes")[1]->reals("min"), (std::vector<double>{1, 2, 3}));
+  EXPECT_NE(set.canonical(), defaults.canonical());
+  EXPECT_NE(set.canonical().find("canopy=true{p=0.25}"), std::string::npos) << set.canonical();
+
+  EXPECT_NE(errorOf(specs, {{"radius", "0.5, 0.2", "w"}}).find("expected [low, high] within"),
+            std::string::npos);
+  EXPECT_NE(errorOf(specs, {{"corner", "1, 2", "w"}}).find("expected 3 numbers"),
+            std::string::npos);
+  EXPECT_NE(errorOf(specs, {{"canopy.q", "1", "w"}}).find("unknown parameter 'q'"),
+            std::string::npos);
+  EXPECT_NE(errorOf(specs, {{"boxes.x.min", "1,2,3", "w"}}).find("boxes.INDEX.PARAMETER"),
+            std::string::npos);
+  // An item without its required member, and an unknown plugin key with the known ones.
+  EXPECT_NE(errorOf(specs, {{"boxes.1.min", "1,2,3", "w"}}).find("missing parameter 'min'"),
+            std::string::npos);
+  EXPECT_NE(errorOf(specs, {{"heuristic", "obpv", "w"}}).find("did you mean 'obvp'"),
+            std::string::npos);
+  EXPECT_NE(errorOf(specs, {{"radius.x", "1", "w"}}).find("no plugin parameter 'radius'"),
+            std::string::npos);
+}
+
 TEST(Parameters, YamlMappingsKeepTheirLocations) {
   const YamlReader reader =
       YamlReader::loadString("params:\n  sigma: 0.3\n  variant: random\n", "exp.yaml");
@@ -97,7 +146,21 @@ TEST(Parameters, YamlMappingsKeepTheirLocations) {
   EXPECT_EQ(assignments[0].name, "sigma");
   EXPECT_EQ(assignments[0].value, "0.3");
   EXPECT_EQ(assignments[0].where, "exp.yaml:2:10: params.sigma");
-  const YamlReader bad = YamlReader::loadString("params:\n  sigma: [1, 2]\n", "exp.yaml");
+  // Nested values: a list of numbers is one value, a plugin's or group's mapping nests with
+  // '.', a list of mappings is indexed.
+  const YamlReader nested = YamlReader::loadString(
+      "params:\n  corner: [1, [2, 3]]\n  heuristic: {type: obvp, scale: 2}\n"
+      "  boxes: [{min: [0, 0, 0]}, {max: [1, 1, 1]}]\n  canopy: {}\n",
+      "exp.yaml");
+  std::vector<std::pair<std::string, std::string>> flat;
+  for (const auto& assignment : assignmentsFromYaml(nested["params"])) {
+    flat.emplace_back(assignment.name, assignment.value);
+  }
+  const std::vector<std::pair<std::string, std::string>> expected = {
+      {"corner", "1,2,3"},           {"heuristic", "obvp"},        {"heuristic.scale", "2"},
+      {"boxes.0.min", "0,0,0"},      {"boxes.1.max", "1,1,1"},     {"canopy", "true"}};
+  EXPECT_EQ(flat, expected);
+  const YamlReader bad = YamlReader::loadString("params:\n  boxes: [{min: 1}, 2]\n", "exp.yaml");
   EXPECT_THROW(assignmentsFromYaml(bad["params"]), ConfigError);
 }
 

@@ -245,8 +245,8 @@ TEST(WorldSpecTest, BadSpecsNameTheKeyAndLine) {
             std::string::npos);
   EXPECT_NE(configErrorOf("resolution: 0.1\n" + bounds +
                           "generators:\n  - type: forest\n    densty: 0.1\n")
-                .find("spec.yaml:5:5: generators[0].densty: unknown key 'densty' (did you mean "
-                      "'density'?)"),
+                .find("spec.yaml:5:13: generators[0].densty: world 'forest': unknown parameter "
+                      "'densty' (did you mean 'density'?)"),
             std::string::npos);
   EXPECT_NE(configErrorOf("resolution: -0.1\n" + bounds + "generators:\n  - {type: empty}\n")
                 .find("resolution: expected a number in [0.001, 100], got -0.1"),
@@ -256,7 +256,8 @@ TEST(WorldSpecTest, BadSpecsNameTheKeyAndLine) {
             std::string::npos);
   EXPECT_NE(configErrorOf("resolution: 0.1\n" + bounds +
                           "generators:\n  - {type: forest, trunk_radius: [0.5, 0.1]}\n")
-                .find("generators[0].trunk_radius: expected [low, high]"),
+                .find("generators[0].trunk_radius: world 'forest': parameter 'trunk_radius': "
+                      "expected [low, high]"),
             std::string::npos);
   EXPECT_NE(configErrorOf("resolution: 0.1\n" + bounds + "generators: []\nextra: 1\n")
                 .find("expected at least one generator"),

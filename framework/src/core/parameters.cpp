@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstdlib>
 #include <optional>
+#include <sstream>
 
 #include "kinolab/core/error.hpp"
 #include "kinolab/core/plugin_registry.hpp"
@@ -49,6 +50,20 @@ std::optional<double> parseReal(const std::string& text) {
   return value;
 }
 
+/// Numbers separated by commas or spaces, optionally in brackets: "1, 2", "[1 2]", "".
+std::optional<std::vector<double>> parseReals(std::string text) {
+  std::replace_if(
+      text.begin(), text.end(), [](char c) { return c == ',' || c == '[' || c == ']'; }, ' ');
+  std::istringstream words(text);
+  std::vector<double> values;
+  for (std::string word; words >> word;) {
+    const auto value = parseReal(word);
+    if (!value) return std::nullopt;
+    values.push_back(*value);
+  }
+  return values;
+}
+
 /// The value of `text` for `spec`, or an explanation of why it is not one.
 ParameterValue parseValue(const ParameterSpec& spec, const std::string& text,
                           const std::string& context) {
@@ -57,12 +72,12 @@ ParameterValue parseValue(const ParameterSpec& spec, const std::string& text,
   };
   switch (spec.type) {
     case ParameterType::kBoolean:
+    case ParameterType::kGroup:
       if (const auto value = parseBoolean(text)) return *value;
       return reject("true or false");
     case ParameterType::kInteger: {
       const auto value = parseInteger(text);
-      if (!value) return reject("an integer in " + spec.rangeText());
-      if (*value < spec.minimum || *value > spec.maximum) {
+      if (!value || *value < spec.minimum || *value > spec.maximum) {
         return reject("an integer in " + spec.rangeText());
       }
       return *value;
@@ -74,12 +89,31 @@ ParameterValue parseValue(const ParameterSpec& spec, const std::string& text,
       }
       return *value;
     }
+    case ParameterType::kReals: {
+      auto values = parseReals(text);
+      if (values && spec.interval && values->size() == 1) values->push_back(values->front());
+      const bool counted = values && (spec.count == 0 || values->size() == spec.count);
+      const bool in_range = counted && std::all_of(values->begin(), values->end(), [&](double v) {
+                              return v >= spec.minimum && v <= spec.maximum;
+                            });
+      if (!in_range || (spec.interval && (*values)[0] > (*values)[1])) {
+        return reject(spec.rangeText());
+      }
+      return *values;
+    }
     case ParameterType::kChoice:
       if (std::find(spec.choices.begin(), spec.choices.end(), text) == spec.choices.end()) {
         return reject("one of " + spec.rangeText() + didYouMean(text, spec.choices));
       }
       return text;
+    case ParameterType::kGroupList: {
+      // Only the empty list is set as a whole (`boxes: []`); items are set one by one.
+      const auto values = parseReals(text);
+      if (!values || !values->empty()) return reject("[] (items are set as NAME.INDEX.PARAMETER)");
+      return 0LL;
+    }
     case ParameterType::kText:
+    case ParameterType::kPath:
     case ParameterType::kPlugin:
       return text;
   }
@@ -100,34 +134,51 @@ std::string ParameterSpec::typeName() const {
       return "choice";
     case ParameterType::kText:
       return "text";
+    case ParameterType::kReals:
+      return interval ? "interval" : "reals";
+    case ParameterType::kPath:
+      return "path";
     case ParameterType::kPlugin:
       return kind;
+    case ParameterType::kGroup:
+      return "group";
+    case ParameterType::kGroupList:
+      return "groups";
   }
   return "?";
 }
 
 std::string ParameterSpec::rangeText() const {
+  // Appended piece by piece: GCC 12 warns (-Wrestrict, a false positive) on "[" + ...
+  std::string bounds = "[";
+  bounds += formatNumber(minimum);
+  bounds += ", ";
+  bounds += formatNumber(maximum);
+  bounds += "]";
   switch (type) {
     case ParameterType::kBoolean:
       return "true|false";
     case ParameterType::kInteger:
-    case ParameterType::kReal: {
-      // Appended piece by piece: GCC 12 warns (-Wrestrict, a false positive) on "[" + ...
-      std::string text = "[";
-      text += formatNumber(minimum);
-      text += ", ";
-      text += formatNumber(maximum);
-      text += "]";
-      return text;
-    }
+    case ParameterType::kReal:
+      return bounds;
+    case ParameterType::kReals:
+      if (interval) return "[low, high] within " + bounds;
+      return (count ? std::to_string(count) : std::string("any number of")) + " numbers in " +
+             bounds;
     case ParameterType::kChoice:
       return join(choices, "|");
     case ParameterType::kText:
       return "any text";
+    case ParameterType::kPath:
+      return "a file";
     case ParameterType::kPlugin: {
       const PluginRegistryBase* registry = findPluginRegistry(kind);
       return "key: list " + (registry ? registry->plural() : kind);
     }
+    case ParameterType::kGroup:
+      return "NAME.PARAMETER";
+    case ParameterType::kGroupList:
+      return "NAME.INDEX.PARAMETER";
   }
   return "?";
 }
@@ -144,7 +195,14 @@ const ParameterSet& ParameterSet::nested(std::string_view name) const {
   for (const auto& [key, set] : nested_) {
     if (key == name) return *set;
   }
-  throw InvalidArgument("parameter '" + std::string(name) + "' is not a plugin parameter");
+  throw InvalidArgument("parameter '" + std::string(name) + "' is not a plugin parameter or group");
+}
+
+std::vector<const ParameterSet*> ParameterSet::items(std::string_view name) const {
+  const auto count = std::get<long long>(find(name));
+  std::vector<const ParameterSet*> result;
+  for (long long i = 0; i < count; ++i) result.push_back(&nested(std::string(name) + "." + std::to_string(i)));
+  return result;
 }
 
 std::vector<std::pair<std::string, ParameterValue>> ParameterSet::flattened() const {
@@ -152,9 +210,9 @@ std::vector<std::pair<std::string, ParameterValue>> ParameterSet::flattened() co
   for (const auto& [name, value] : values_) {
     result.emplace_back(name, value);
     for (const auto& [key, set] : nested_) {
-      if (key != name) continue;
+      if (key != name && !key.starts_with(name + ".")) continue;
       for (auto& [inner, inner_value] : set->flattened()) {
-        result.emplace_back(name + "." + inner, std::move(inner_value));
+        result.emplace_back(key + "." + inner, std::move(inner_value));
       }
     }
   }
@@ -172,7 +230,9 @@ std::string ParameterSet::canonical() const {
     if (!text.empty()) text += ';';
     text += name + '=' + formatParameterValue(value);
     for (const auto& [key, set] : nested_) {
-      if (key == name && !set->values_.empty()) text += '{' + set->canonical() + '}';
+      if (set->values_.empty()) continue;
+      if (key == name) text += '{' + set->canonical() + '}';
+      if (key.starts_with(name + ".")) text += '[' + set->canonical() + ']';
     }
   }
   return text;
@@ -180,60 +240,118 @@ std::string ParameterSet::canonical() const {
 
 ParameterSpecs& ParameterSpecs::add(ParameterSpec spec) {
   if (find(spec.name)) throw InvalidArgument("parameter '" + spec.name + "' declared twice");
-  if (spec.name.find('.') != std::string::npos) {
-    throw InvalidArgument("parameter '" + spec.name + "': '.' separates a plugin parameter's own");
+  if (spec.name.empty() || spec.name.find('.') != std::string::npos) {
+    throw InvalidArgument("parameter '" + spec.name + "': a name without '.' (it nests)");
   }
   if (spec.type == ParameterType::kPlugin && spec.kind == "sampler" && samplerParameter()) {
     throw InvalidArgument("parameter '" + spec.name + "': a plugin takes at most one sampler");
   }
   // A declared default must itself be acceptable.
-  parseValue(spec, formatParameterValue(spec.default_value), "default of '" + spec.name + "'");
+  if (spec.type != ParameterType::kGroupList && spec.type != ParameterType::kPath) {
+    parseValue(spec, formatParameterValue(spec.default_value), "default of '" + spec.name + "'");
+  }
   specs_.push_back(std::move(spec));
   return *this;
 }
 
+namespace {
+
+ParameterSpec declare(std::string name, ParameterType type, ParameterValue default_value,
+                      std::string doc, double minimum = 0.0, double maximum = 0.0) {
+  ParameterSpec spec;
+  spec.name = std::move(name);
+  spec.type = type;
+  spec.default_value = std::move(default_value);
+  spec.doc = std::move(doc);
+  spec.minimum = minimum;
+  spec.maximum = maximum;
+  return spec;
+}
+
+}  // namespace
+
 ParameterSpecs& ParameterSpecs::boolean(std::string name, bool default_value, std::string doc) {
-  return add({std::move(name), ParameterType::kBoolean, default_value, 0, 1, {}, std::move(doc), {}});
+  return add(declare(std::move(name), ParameterType::kBoolean, default_value, std::move(doc)));
 }
 
 ParameterSpecs& ParameterSpecs::integer(std::string name, long long default_value,
                                         long long minimum, long long maximum, std::string doc) {
-  return add({std::move(name),
-              ParameterType::kInteger,
-              default_value,
-              static_cast<double>(minimum),
-              static_cast<double>(maximum),
-              {},
-              std::move(doc),
-              {}});
+  return add(declare(std::move(name), ParameterType::kInteger, default_value, std::move(doc),
+                     static_cast<double>(minimum), static_cast<double>(maximum)));
 }
 
 ParameterSpecs& ParameterSpecs::real(std::string name, double default_value, double minimum,
                                      double maximum, std::string doc) {
-  return add(
-      {std::move(name), ParameterType::kReal, default_value, minimum, maximum, {}, std::move(doc), {}});
+  return add(declare(std::move(name), ParameterType::kReal, default_value, std::move(doc), minimum,
+                     maximum));
 }
 
 ParameterSpecs& ParameterSpecs::choice(std::string name, std::string default_value,
                                        std::vector<std::string> choices, std::string doc) {
-  return add({std::move(name), ParameterType::kChoice, std::move(default_value), 0, 0,
-              std::move(choices), std::move(doc), {}});
+  ParameterSpec spec =
+      declare(std::move(name), ParameterType::kChoice, std::move(default_value), std::move(doc));
+  spec.choices = std::move(choices);
+  return add(std::move(spec));
 }
 
 ParameterSpecs& ParameterSpecs::text(std::string name, std::string default_value, std::string doc) {
   return add(
-      {std::move(name), ParameterType::kText, std::move(default_value), 0, 0, {}, std::move(doc), {}});
+      declare(std::move(name), ParameterType::kText, std::move(default_value), std::move(doc)));
+}
+
+ParameterSpecs& ParameterSpecs::reals(std::string name, std::vector<double> default_value,
+                                      double minimum, double maximum, std::size_t count,
+                                      std::string doc) {
+  ParameterSpec spec = declare(std::move(name), ParameterType::kReals, std::move(default_value),
+                               std::move(doc), minimum, maximum);
+  spec.count = count;
+  return add(std::move(spec));
+}
+
+ParameterSpecs& ParameterSpecs::interval(std::string name, std::array<double, 2> default_value,
+                                         double minimum, double maximum, std::string doc) {
+  ParameterSpec spec = declare(std::move(name), ParameterType::kReals,
+                               std::vector<double>{default_value[0], default_value[1]},
+                               std::move(doc), minimum, maximum);
+  spec.count = 2;
+  spec.interval = true;
+  return add(std::move(spec));
+}
+
+ParameterSpecs& ParameterSpecs::path(std::string name, std::string doc) {
+  return add(declare(std::move(name), ParameterType::kPath, std::string(), std::move(doc)));
 }
 
 ParameterSpecs& ParameterSpecs::plugin(std::string kind, std::string name,
                                        std::string default_value, std::string doc) {
-  return add({std::move(name), ParameterType::kPlugin, std::move(default_value), 0, 0, {},
-              std::move(doc), std::move(kind)});
+  ParameterSpec spec =
+      declare(std::move(name), ParameterType::kPlugin, std::move(default_value), std::move(doc));
+  spec.kind = std::move(kind);
+  return add(std::move(spec));
 }
 
 ParameterSpecs& ParameterSpecs::sampler(std::string name, std::string default_value,
                                         std::string doc) {
   return plugin("sampler", std::move(name), std::move(default_value), std::move(doc));
+}
+
+ParameterSpecs& ParameterSpecs::group(std::string name, ParameterSpecs members, std::string doc) {
+  ParameterSpec spec = declare(std::move(name), ParameterType::kGroup, false, std::move(doc));
+  spec.members = std::make_shared<const ParameterSpecs>(std::move(members));
+  return add(std::move(spec));
+}
+
+ParameterSpecs& ParameterSpecs::groupList(std::string name, ParameterSpecs members,
+                                          std::string doc) {
+  ParameterSpec spec = declare(std::move(name), ParameterType::kGroupList, 0LL, std::move(doc));
+  spec.members = std::make_shared<const ParameterSpecs>(std::move(members));
+  return add(std::move(spec));
+}
+
+ParameterSpecs& ParameterSpecs::required() {
+  if (specs_.empty()) throw InvalidArgument("required(): no parameter declared yet");
+  specs_.back().required = true;
+  return *this;
 }
 
 ParameterSpecs& ParameterSpecs::include(const ParameterSpecs& group) {
@@ -255,61 +373,118 @@ const ParameterSpec* ParameterSpecs::find(std::string_view name) const {
   return nullptr;
 }
 
+namespace {
+
+/// What resolve() collects per declared parameter before the nested ones are resolved.
+struct Pending {
+  std::string where;                                  ///< where its own value was set
+  std::vector<ParameterAssignment> inner;             ///< a plugin's or group's
+  std::vector<std::vector<ParameterAssignment>> items;  ///< a group list's, by index
+};
+
+constexpr long long kMaxItems = 100000;
+
+/// A plugin parameter's chosen plugin, resolved with its own assignments.
+ParameterSet resolvePlugin(const ParameterSpec& spec, const std::string& key,
+                           const Pending& pending, const std::string& owner) {
+  const std::string where =
+      pending.where.empty() ? "the default of '" + spec.name + "'" : pending.where;
+  const PluginRegistryBase* registry = findPluginRegistry(spec.kind);
+  if (!registry) {
+    throw ConfigError(where + ": " + owner + ": parameter '" + spec.name +
+                      "' names a plugin of kind '" + spec.kind + "', which kinolab has not");
+  }
+  if (!registry->contains(key)) {
+    const auto known = registry->keys();
+    throw ConfigError(where + ": " + owner + ": parameter '" + spec.name + "': unknown " +
+                      spec.kind + " '" + key + "'" + didYouMean(key, known) + "; known " +
+                      registry->plural() + ": " +
+                      (known.empty() ? std::string("none") : join(known, ", ")));
+  }
+  return registry->resolve(key, pending.inner, where);
+}
+
+}  // namespace
+
 ParameterSet ParameterSpecs::resolve(const std::vector<ParameterAssignment>& assignments,
-                                     std::string_view owner) const {
+                                     std::string_view owner, std::string_view where) const {
+  const std::string own(owner);
   ParameterSet result;
   for (const auto& spec : specs_) result.values_.emplace_back(spec.name, spec.default_value);
-  // Where each plugin parameter's key was set, and the assignments of its own parameters.
-  std::vector<std::string> key_where(specs_.size());
-  std::vector<std::vector<ParameterAssignment>> inner(specs_.size());
+  std::vector<Pending> pending(specs_.size());
+  std::vector<bool> assigned(specs_.size(), false);
   for (const auto& assignment : assignments) {
     const auto dot = assignment.name.find('.');
-    const ParameterSpec* spec = find(assignment.name.substr(0, dot));
     const bool nested = dot != std::string::npos;
-    if (nested && (!spec || spec->type != ParameterType::kPlugin)) {
-      throw ConfigError(assignment.where + ": " + std::string(owner) + ": unknown parameter '" +
-                        assignment.name + "': it has no plugin parameter '" +
-                        assignment.name.substr(0, dot) + "' to set it on");
+    const ParameterSpec* spec = find(assignment.name.substr(0, dot));
+    const bool nests = spec && (spec->type == ParameterType::kPlugin ||
+                                spec->type == ParameterType::kGroup ||
+                                spec->type == ParameterType::kGroupList);
+    if (nested && !nests) {
+      throw ConfigError(assignment.where + ": " + own + ": unknown parameter '" + assignment.name +
+                        "': it has no plugin parameter '" + assignment.name.substr(0, dot) +
+                        "' to set it on");
     }
     if (!spec) {
       const auto names = namesOf(specs_);
       throw ConfigError(
-          assignment.where + ": " + std::string(owner) + ": unknown parameter '" + assignment.name +
-          "'" + didYouMean(assignment.name, names) +
+          assignment.where + ": " + own + ": unknown parameter '" + assignment.name + "'" +
+          didYouMean(assignment.name, names) +
           (names.empty() ? "; it takes no parameters" : "; its parameters: " + join(names, ", ")));
     }
     const std::size_t index = static_cast<std::size_t>(spec - specs_.data());
-    if (nested) {
-      ParameterAssignment own = assignment;
-      own.name = assignment.name.substr(dot + 1);
-      inner[index].push_back(std::move(own));
+    assigned[index] = true;
+    if (!nested) {
+      const std::string context = assignment.where + ": " + own + ": parameter '" +
+                                  assignment.name + "'";
+      result.values_[index].second = parseValue(*spec, assignment.value, context);
+      pending[index].where = assignment.where;
       continue;
     }
-    const std::string context =
-        assignment.where + ": " + std::string(owner) + ": parameter '" + assignment.name + "'";
-    result.values_[index].second = parseValue(*spec, assignment.value, context);
-    key_where[index] = assignment.where;
+    ParameterAssignment inner = assignment;
+    inner.name = assignment.name.substr(dot + 1);
+    if (spec->type != ParameterType::kGroupList) {
+      if (spec->type == ParameterType::kGroup) result.values_[index].second = true;
+      pending[index].inner.push_back(std::move(inner));
+      continue;
+    }
+    const auto next = inner.name.find('.');
+    const auto item = parseInteger(inner.name.substr(0, next));
+    if (!item || *item < 0 || *item >= kMaxItems || next == std::string::npos) {
+      throw ConfigError(assignment.where + ": " + own + ": parameter '" + assignment.name +
+                        "': expected " + spec->name + ".INDEX.PARAMETER, INDEX in [0, " +
+                        std::to_string(kMaxItems) + ")");
+    }
+    inner.name = inner.name.substr(next + 1);
+    auto& items = pending[index].items;
+    if (items.size() <= static_cast<std::size_t>(*item)) items.resize(*item + 1);
+    items[*item].push_back(std::move(inner));
+    result.values_[index].second = static_cast<long long>(items.size());
   }
   for (std::size_t index = 0; index < specs_.size(); ++index) {
     const ParameterSpec& spec = specs_[index];
-    if (spec.type != ParameterType::kPlugin) continue;
-    const std::string& key = std::get<std::string>(result.values_[index].second);
-    const std::string where =
-        key_where[index].empty() ? "the default of '" + spec.name + "'" : key_where[index];
-    const PluginRegistryBase* registry = findPluginRegistry(spec.kind);
-    if (!registry) {
-      throw ConfigError(where + ": " + std::string(owner) + ": parameter '" + spec.name +
-                        "' names a plugin of kind '" + spec.kind + "', which kinolab has not");
+    if (spec.required && !assigned[index]) {
+      throw ConfigError((where.empty() ? std::string() : std::string(where) + ": ") + own +
+                        ": missing parameter '" + spec.name + "' (" + spec.doc + ")");
     }
-    if (!registry->contains(key)) {
-      const auto known = registry->keys();
-      throw ConfigError(where + ": " + std::string(owner) + ": parameter '" + spec.name +
-                        "': unknown " + spec.kind + " '" + key + "'" + didYouMean(key, known) +
-                        "; known " + registry->plural() + ": " +
-                        (known.empty() ? std::string("none") : join(known, ", ")));
+    const std::string inside = own + ": " + spec.name;
+    if (spec.type == ParameterType::kPlugin) {
+      const std::string& key = std::get<std::string>(result.values_[index].second);
+      result.nested_.emplace_back(spec.name, std::make_shared<const ParameterSet>(resolvePlugin(
+                                                 spec, key, pending[index], own)));
+    } else if (spec.type == ParameterType::kGroup) {
+      result.nested_.emplace_back(spec.name, std::make_shared<const ParameterSet>(
+                                                 spec.members->resolve(pending[index].inner,
+                                                                       inside, where)));
+    } else if (spec.type == ParameterType::kGroupList) {
+      const auto& items = pending[index].items;
+      for (std::size_t i = 0; i < items.size(); ++i) {
+        result.nested_.emplace_back(
+            spec.name + "." + std::to_string(i),
+            std::make_shared<const ParameterSet>(spec.members->resolve(
+                items[i], inside + "[" + std::to_string(i) + "]", where)));
+      }
     }
-    result.nested_.emplace_back(
-        spec.name, std::make_shared<const ParameterSet>(registry->resolve(key, inner[index])));
   }
   return result;
 }
@@ -320,6 +495,11 @@ std::string formatParameterValue(const ParameterValue& value) {
     std::string operator()(long long i) const { return std::to_string(i); }
     std::string operator()(double d) const { return formatNumber(d); }
     std::string operator()(const std::string& s) const { return s; }
+    std::string operator()(const std::vector<double>& v) const {
+      std::string text = "[";
+      for (std::size_t i = 0; i < v.size(); ++i) text += (i ? ", " : "") + formatNumber(v[i]);
+      return text + "]";
+    }
   };
   return std::visit(Formatter{}, value);
 }
@@ -339,8 +519,19 @@ std::vector<ParameterAssignment> parseAssignments(const std::vector<std::string>
 
 namespace {
 
-/// The entries of `mapping` as assignments named `prefix` + key; a mapping value is a plugin
-/// parameter's: its `type` chooses the plugin, its other keys are the plugin's parameters.
+/// The numbers of a sequence (nested sequences flattened) as text: "1,2,3".
+std::string joinedScalars(const YamlReader& sequence) {
+  std::string text;
+  for (const YamlReader& item : sequence.items()) {
+    const std::string value = item.isSequence() ? joinedScalars(item) : item.as<std::string>();
+    if (!value.empty()) text += (text.empty() ? "" : ",") + value;
+  }
+  return text;
+}
+
+/// The entries of `mapping` as assignments named `prefix` + key. A mapping value is a plugin
+/// parameter's (its `type` chooses the plugin) or a group's; a sequence of mappings is a group
+/// list's (`NAME.INDEX.KEY`); a sequence of numbers is one value ("1,2,3").
 void appendAssignments(const YamlReader& mapping, const std::string& prefix,
                        std::vector<ParameterAssignment>& result) {
   for (const auto& [name, value] : mapping.entries()) {
@@ -348,7 +539,18 @@ void appendAssignments(const YamlReader& mapping, const std::string& prefix,
       result.push_back({prefix.substr(0, prefix.size() - 1), value.as<std::string>(),
                         value.where()});
     } else if (value.isMap()) {
+      const std::size_t before = result.size();
       appendAssignments(value, prefix + name + ".", result);
+      // An empty mapping still says the group is there.
+      if (result.size() == before) result.push_back({prefix + name, "true", value.where()});
+    } else if (value.isSequence() && !value.items().empty() && value.items().front().isMap()) {
+      const auto items = value.items();
+      for (std::size_t i = 0; i < items.size(); ++i) {
+        if (!items[i].isMap()) items[i].fail("expected a mapping, as the first item is");
+        appendAssignments(items[i], prefix + name + "." + std::to_string(i) + ".", result);
+      }
+    } else if (value.isSequence()) {
+      result.push_back({prefix + name, joinedScalars(value), value.where()});
     } else {
       result.push_back({prefix + name, value.as<std::string>(), value.where()});
     }

@@ -61,9 +61,10 @@ std::vector<std::string> PluginRegistryBase::keys() const {
 }
 
 ParameterSet PluginRegistryBase::resolve(std::string_view key,
-                                         const std::vector<ParameterAssignment>& assignments) const {
+                                         const std::vector<ParameterAssignment>& assignments,
+                                         std::string_view where) const {
   const PluginInfo& found = info(key);
-  return found.parameters.resolve(assignments, kind_ + " '" + found.key + "'");
+  return found.parameters.resolve(assignments, kind_ + " '" + found.key + "'", where);
 }
 
 void PluginRegistryBase::addInfo(PluginInfo info) {

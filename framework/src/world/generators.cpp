@@ -7,13 +7,17 @@
 #include <numeric>
 
 #include "kinolab/core/error.hpp"
-#include "kinolab/core/yaml_reader.hpp"
+#include "kinolab/core/plugin.hpp"
+#include "kinolab/core/text.hpp"
 #include "kinolab/world/world_generator.hpp"
 
 namespace kinolab {
 
-std::unique_ptr<WorldGenerator> makeOctomapGenerator(const YamlReader& entry,
-                                                     const std::string& spec_directory);
+KINOLAB_DEFINE_PLUGIN_REGISTRY(WorldGenerator, "world", "worlds",
+                               "world generators: the `type:` of a world spec's `generators:`", 5)
+
+/// Registers the `octomap` generator (octomap_generator.cpp).
+void registerOctomapGenerator(PluginRegistrar& registrar);
 
 namespace {
 
@@ -21,19 +25,14 @@ constexpr double kMaxLength = 1e4;  // metres; anything larger is surely a typo
 
 using Interval = std::array<double, 2>;
 
-void writeValue(std::ostream& out, const char* key, double value) {
-  out << ' ' << key << '=' << std::hexfloat << value << std::defaultfloat;
-}
-void writeValue(std::ostream& out, const char* key, const Interval& value) {
-  out << ' ' << key << '=' << std::hexfloat << value[0] << ',' << value[1] << std::defaultfloat;
-}
-void writeValue(std::ostream& out, const char* key, const Eigen::Vector3d& value) {
-  out << ' ' << key << '=' << std::hexfloat << value.x() << ',' << value.y() << ',' << value.z()
-      << std::defaultfloat;
+Interval intervalOf(const ParameterSet& parameters, std::string_view name) {
+  const std::vector<double>& values = parameters.reals(name);
+  return {values[0], values[1]};
 }
 
-Eigen::Vector3d toVector(const std::array<double, 3>& value) {
-  return {value[0], value[1], value[2]};
+Eigen::Vector3d pointOf(const ParameterSet& parameters, std::string_view name) {
+  const std::vector<double>& values = parameters.reals(name);
+  return {values[0], values[1], values[2]};
 }
 
 /// An optional horizontal sub-rectangle of the bounds that a generator fills.
@@ -42,16 +41,19 @@ struct Region {
   Eigen::Vector2d min = Eigen::Vector2d::Zero();
   Eigen::Vector2d max = Eigen::Vector2d::Zero();
 
-  static Region read(const YamlReader& entry) {
+  static ParameterSpecs declared() {
+    return ParameterSpecs()
+        .interval("x", {-kMaxLength, kMaxLength}, -kMaxLength, kMaxLength, "x extent, m")
+        .interval("y", {-kMaxLength, kMaxLength}, -kMaxLength, kMaxLength, "y extent, m");
+  }
+  static Region of(const ParameterSet& parameters) {
     Region region;
-    if (auto node = entry.optional("region")) {
-      const auto low = node->getInterval("x", std::nullopt, -kMaxLength, kMaxLength);
-      const auto high = node->getInterval("y", std::nullopt, -kMaxLength, kMaxLength);
-      node->finish();
-      region.given = true;
-      region.min = {low[0], high[0]};
-      region.max = {low[1], high[1]};
-    }
+    region.given = parameters.boolean("region");
+    const ParameterSet& inner = parameters.nested("region");
+    const Interval x = intervalOf(inner, "x");
+    const Interval y = intervalOf(inner, "y");
+    region.min = {x[0], y[0]};
+    region.max = {x[1], y[1]};
     return region;
   }
   /// The region clipped to the grid.
@@ -64,13 +66,12 @@ struct Region {
     }
     return {low, high};
   }
-  void write(std::ostream& out) const {
-    if (given) {
-      writeValue(out, "region_min", Eigen::Vector3d(min.x(), min.y(), 0.0));
-      writeValue(out, "region_max", Eigen::Vector3d(max.x(), max.y(), 0.0));
-    }
-  }
 };
+
+ParameterSpecs withRegion(ParameterSpecs specs) {
+  return specs.group("region", Region::declared(),
+                     "fill only this horizontal rectangle of the bounds: {x: [lo, hi], y: [lo, hi]}");
+}
 
 /// Marks voxels whose centres lie in a vertical cylinder.
 void fillCylinder(VoxelGrid& grid, const Eigen::Vector2d& center, double radius, double z_low,
@@ -92,9 +93,7 @@ void fillCylinder(VoxelGrid& grid, const Eigen::Vector2d& center, double radius,
 
 class EmptyGenerator final : public WorldGenerator {
  public:
-  explicit EmptyGenerator(const YamlReader& entry) { entry.finish(); }
-  std::string type() const override { return "empty"; }
-  void writeCanonical(std::ostream& out) const override { out << "empty"; }
+  explicit EmptyGenerator(const ParameterSet&) {}
   void apply(VoxelGrid&, Rng&) const override {}
 };
 
@@ -102,37 +101,33 @@ class EmptyGenerator final : public WorldGenerator {
 /// canopies at their tops, and an optional ground plane.
 class ForestGenerator final : public WorldGenerator {
  public:
-  explicit ForestGenerator(const YamlReader& entry)
-      : density_(entry.getNumber("density", 0.05, 0.0, 10.0)),
-        trunk_radius_(entry.getInterval("trunk_radius", Interval{0.15, 0.3}, 0.0, 100.0)),
-        trunk_height_(entry.getInterval("trunk_height", Interval{4.0, 6.0}, 0.0, kMaxLength)),
-        min_spacing_(entry.getNumber("min_spacing", 1.0, 0.0, kMaxLength)),
-        ground_plane_(entry.get<bool>("ground_plane", true)),
-        region_(Region::read(entry)) {
-    if (auto canopy = entry.optional("canopy")) {
-      has_canopy_ = true;
-      canopy_probability_ = canopy->getNumber("probability", 0.5, 0.0, 1.0);
-      canopy_radius_ = canopy->getInterval("radius", Interval{0.8, 1.5}, 0.0, 100.0);
-      canopy_thickness_ = canopy->getInterval("thickness", Interval{0.4, 1.0}, 0.0, 100.0);
-      canopy->finish();
-    }
-    entry.finish();
+  static ParameterSpecs declared() {
+    return withRegion(
+        ParameterSpecs()
+            .real("density", 0.05, 0.0, 10.0, "trees per square metre")
+            .interval("trunk_radius", {0.15, 0.3}, 0.0, 100.0, "trunk radius range, m")
+            .interval("trunk_height", {4.0, 6.0}, 0.0, kMaxLength, "trunk height range, m")
+            .real("min_spacing", 1.0, 0.0, kMaxLength, "least gap between trunks, m")
+            .boolean("ground_plane", true, "the lowest voxel layer occupied")
+            .group("canopy",
+                   ParameterSpecs()
+                       .real("probability", 0.5, 0.0, 1.0, "share of trees with a canopy")
+                       .interval("radius", {0.8, 1.5}, 0.0, 100.0, "canopy radius range, m")
+                       .interval("thickness", {0.4, 1.0}, 0.0, 100.0,
+                                 "canopy thickness range, m"),
+                   "disc canopies at the trunk tops: {probability, radius, thickness}"));
   }
-  std::string type() const override { return "forest"; }
-  void writeCanonical(std::ostream& out) const override {
-    out << "forest";
-    writeValue(out, "density", density_);
-    writeValue(out, "trunk_radius", trunk_radius_);
-    writeValue(out, "trunk_height", trunk_height_);
-    writeValue(out, "min_spacing", min_spacing_);
-    out << " ground_plane=" << ground_plane_;
-    if (has_canopy_) {
-      writeValue(out, "canopy_probability", canopy_probability_);
-      writeValue(out, "canopy_radius", canopy_radius_);
-      writeValue(out, "canopy_thickness", canopy_thickness_);
-    }
-    region_.write(out);
-  }
+  explicit ForestGenerator(const ParameterSet& p)
+      : density_(p.real("density")),
+        trunk_radius_(intervalOf(p, "trunk_radius")),
+        trunk_height_(intervalOf(p, "trunk_height")),
+        min_spacing_(p.real("min_spacing")),
+        ground_plane_(p.boolean("ground_plane")),
+        region_(Region::of(p)),
+        has_canopy_(p.boolean("canopy")),
+        canopy_probability_(p.nested("canopy").real("probability")),
+        canopy_radius_(intervalOf(p.nested("canopy"), "radius")),
+        canopy_thickness_(intervalOf(p.nested("canopy"), "thickness")) {}
   void apply(VoxelGrid& grid, Rng& rng) const override {
     const Box bounds = grid.bounds();
     const auto [low, high] = region_.within(bounds);
@@ -179,33 +174,30 @@ class ForestGenerator final : public WorldGenerator {
   double min_spacing_;
   bool ground_plane_;
   Region region_;
-  bool has_canopy_ = false;
-  double canopy_probability_ = 0.0;
-  Interval canopy_radius_{0.0, 0.0};
-  Interval canopy_thickness_{0.0, 0.0};
+  bool has_canopy_;
+  double canopy_probability_;
+  Interval canopy_radius_;
+  Interval canopy_thickness_;
 };
 
 /// Random axis-aligned boxes, standing on the floor or floating.
 class BoxesGenerator final : public WorldGenerator {
  public:
-  explicit BoxesGenerator(const YamlReader& entry)
-      : count_(entry.getInteger("count", 20, 0, 1000000)),
-        size_x_(entry.getInterval("size_x", Interval{0.5, 2.0}, 0.0, kMaxLength)),
-        size_y_(entry.getInterval("size_y", Interval{0.5, 2.0}, 0.0, kMaxLength)),
-        size_z_(entry.getInterval("size_z", Interval{0.5, 3.0}, 0.0, kMaxLength)),
-        on_ground_(entry.get<bool>("on_ground", true)),
-        region_(Region::read(entry)) {
-    entry.finish();
+  static ParameterSpecs declared() {
+    return withRegion(ParameterSpecs()
+                          .integer("count", 20, 0, 1000000, "number of boxes")
+                          .interval("size_x", {0.5, 2.0}, 0.0, kMaxLength, "x size range, m")
+                          .interval("size_y", {0.5, 2.0}, 0.0, kMaxLength, "y size range, m")
+                          .interval("size_z", {0.5, 3.0}, 0.0, kMaxLength, "z size range, m")
+                          .boolean("on_ground", true, "standing on the floor (else floating)"));
   }
-  std::string type() const override { return "boxes"; }
-  void writeCanonical(std::ostream& out) const override {
-    out << "boxes count=" << count_;
-    writeValue(out, "size_x", size_x_);
-    writeValue(out, "size_y", size_y_);
-    writeValue(out, "size_z", size_z_);
-    out << " on_ground=" << on_ground_;
-    region_.write(out);
-  }
+  explicit BoxesGenerator(const ParameterSet& p)
+      : count_(p.integer("count")),
+        size_x_(intervalOf(p, "size_x")),
+        size_y_(intervalOf(p, "size_y")),
+        size_z_(intervalOf(p, "size_z")),
+        on_ground_(p.boolean("on_ground")),
+        region_(Region::of(p)) {}
   void apply(VoxelGrid& grid, Rng& rng) const override {
     const Box bounds = grid.bounds();
     const auto [low, high] = region_.within(bounds);
@@ -236,27 +228,24 @@ class BoxesGenerator final : public WorldGenerator {
 /// at a random place along the wall, or the whole wall when the gap is wider than a cell.
 class WallsGenerator final : public WorldGenerator {
  public:
-  explicit WallsGenerator(const YamlReader& entry)
-      : cell_size_(entry.getNumber("cell_size", 4.0, 0.1, kMaxLength)),
-        thickness_(entry.getNumber("thickness", 0.3, 0.0, kMaxLength)),
-        height_(entry.getInterval("height", Interval{3.0, 3.0}, 0.0, kMaxLength)),
-        gap_width_(entry.getNumber("gap_width", 1.5, 0.0, kMaxLength)),
-        extra_openings_(entry.getNumber("extra_openings", 0.2, 0.0, 1.0)),
-        border_(entry.get<bool>("border", false)),
-        region_(Region::read(entry)) {
-    entry.finish();
+  static ParameterSpecs declared() {
+    return withRegion(
+        ParameterSpecs()
+            .real("cell_size", 4.0, 0.1, kMaxLength, "side of the maze's square cells, m")
+            .real("thickness", 0.3, 0.0, kMaxLength, "wall thickness, m")
+            .interval("height", {3.0, 3.0}, 0.0, kMaxLength, "wall height range, m")
+            .real("gap_width", 1.5, 0.0, kMaxLength, "doorway width, m")
+            .real("extra_openings", 0.2, 0.0, 1.0, "share of the other walls given a gap too")
+            .boolean("border", false, "closed walls around the region"));
   }
-  std::string type() const override { return "walls"; }
-  void writeCanonical(std::ostream& out) const override {
-    out << "walls";
-    writeValue(out, "cell_size", cell_size_);
-    writeValue(out, "thickness", thickness_);
-    writeValue(out, "height", height_);
-    writeValue(out, "gap_width", gap_width_);
-    writeValue(out, "extra_openings", extra_openings_);
-    out << " border=" << border_;
-    region_.write(out);
-  }
+  explicit WallsGenerator(const ParameterSet& p)
+      : cell_size_(p.real("cell_size")),
+        thickness_(p.real("thickness")),
+        height_(intervalOf(p, "height")),
+        gap_width_(p.real("gap_width")),
+        extra_openings_(p.real("extra_openings")),
+        border_(p.boolean("border")),
+        region_(Region::of(p)) {}
   void apply(VoxelGrid& grid, Rng& rng) const override {
     const Box bounds = grid.bounds();
     const auto [low, high] = region_.within(bounds);
@@ -358,21 +347,25 @@ class WallsGenerator final : public WorldGenerator {
 /// Explicit boxes, e.g. overhangs, bridges or a ceiling: `boxes: [{min: [..], max: [..]}]`.
 class BoxListGenerator final : public WorldGenerator {
  public:
-  explicit BoxListGenerator(const YamlReader& entry) {
-    for (const YamlReader& item : entry["boxes"].items()) {
-      Box box{toVector(item.getVector3("min")), toVector(item.getVector3("max"))};
-      if ((box.max.array() < box.min.array()).any()) item.fail("expected min <= max per axis");
-      item.finish();
-      boxes_.push_back(box);
-    }
-    entry.finish();
+  static ParameterSpecs declared() {
+    return ParameterSpecs().groupList(
+        "boxes",
+        ParameterSpecs()
+            .reals("min", {0.0, 0.0, 0.0}, -kMaxLength, kMaxLength, 3, "low corner [x, y, z], m")
+            .required()
+            .reals("max", {0.0, 0.0, 0.0}, -kMaxLength, kMaxLength, 3, "high corner [x, y, z], m")
+            .required(),
+        "the boxes: [{min: [x, y, z], max: [x, y, z]}, ...]");
   }
-  std::string type() const override { return "box_list"; }
-  void writeCanonical(std::ostream& out) const override {
-    out << "box_list";
-    for (const Box& box : boxes_) {
-      writeValue(out, "min", box.min);
-      writeValue(out, "max", box.max);
+  explicit BoxListGenerator(const ParameterSet& p) {
+    for (const ParameterSet* item : p.items("boxes")) {
+      const Box box{pointOf(*item, "min"), pointOf(*item, "max")};
+      if ((box.max.array() < box.min.array()).any()) {
+        throw ParameterConflict("boxes", "box " + std::to_string(boxes_.size()) + ": expected min " +
+                                             "<= max per axis, got min " + formatPoint(box.min) +
+                                             " and max " + formatPoint(box.max));
+      }
+      boxes_.push_back(box);
     }
   }
   void apply(VoxelGrid& grid, Rng&) const override {
@@ -383,53 +376,29 @@ class BoxListGenerator final : public WorldGenerator {
   std::vector<Box> boxes_;
 };
 
-using Factory =
-    std::function<std::unique_ptr<WorldGenerator>(const YamlReader&, const std::string&)>;
-
-struct GeneratorType {
-  std::string description;
-  Factory make;
-};
-
-template <typename T>
-Factory plain() {
-  return [](const YamlReader& entry, const std::string&) { return std::make_unique<T>(entry); };
+template <typename Generator>
+PluginFactory<WorldGenerator> factoryOf() {
+  return [](const ParameterSet& parameters) { return std::make_unique<Generator>(parameters); };
 }
 
-const std::map<std::string, GeneratorType>& generatorTypes() {
-  static const std::map<std::string, GeneratorType> types = {
-      {"empty", {"nothing (free space)", plain<EmptyGenerator>()}},
-      {"forest",
-       {"tree trunks as vertical cylinders, optional canopies and ground plane",
-        plain<ForestGenerator>()}},
-      {"boxes", {"random axis-aligned boxes", plain<BoxesGenerator>()}},
-      {"walls", {"a maze of walls with gaps (corridors)", plain<WallsGenerator>()}},
-      {"box_list", {"explicit boxes (overhangs, bridges, ceilings)", plain<BoxListGenerator>()}},
-      {"octomap", {"occupied leaves of an OctoMap .bt or .ot file", &makeOctomapGenerator}},
-  };
-  return types;
+void registerBuiltins() {
+  PluginRegistrar registrar("built-in (framework)");
+  registrar.add<WorldGenerator>("empty", "nothing (free space)", ParameterSpecs(),
+                                factoryOf<EmptyGenerator>());
+  registrar.add<WorldGenerator>(
+      "forest", "tree trunks as vertical cylinders, optional canopies and ground plane",
+      ForestGenerator::declared(), factoryOf<ForestGenerator>());
+  registrar.add<WorldGenerator>("boxes", "random axis-aligned boxes", BoxesGenerator::declared(),
+                                factoryOf<BoxesGenerator>());
+  registrar.add<WorldGenerator>("walls", "a maze of walls with gaps (corridors)",
+                                WallsGenerator::declared(), factoryOf<WallsGenerator>());
+  registrar.add<WorldGenerator>("box_list", "explicit boxes (overhangs, bridges, ceilings)",
+                                BoxListGenerator::declared(), factoryOf<BoxListGenerator>());
+  registerOctomapGenerator(registrar);
+  registrar.commit();
 }
+
+[[maybe_unused]] const bool builtins_registered = (registerBuiltins(), true);
 
 }  // namespace
-
-std::unique_ptr<WorldGenerator> makeWorldGenerator(const YamlReader& entry,
-                                                   const std::string& spec_directory) {
-  const auto type_node = entry["type"];
-  const std::string type = type_node.as<std::string>();
-  const auto& types = generatorTypes();
-  const auto found = types.find(type);
-  if (found == types.end()) {
-    std::string known;
-    for (const auto& [name, unused] : types) known += (known.empty() ? "" : ", ") + name;
-    type_node.fail("unknown world generator '" + type + "'; expected one of: " + known);
-  }
-  return found->second.make(entry, spec_directory);
-}
-
-std::vector<std::pair<std::string, std::string>> worldGeneratorTypes() {
-  std::vector<std::pair<std::string, std::string>> result;
-  for (const auto& [name, type] : generatorTypes()) result.emplace_back(name, type.description);
-  return result;
-}
-
 }  // namespace kinolab

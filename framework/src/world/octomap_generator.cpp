@@ -14,7 +14,7 @@
 #include "kinolab/core/files.hpp"
 #include "kinolab/core/hash.hpp"
 #include "kinolab/core/text.hpp"
-#include "kinolab/core/yaml_reader.hpp"
+#include "kinolab/core/plugin.hpp"
 #include "kinolab/world/world_generator.hpp"
 
 namespace kinolab {
@@ -96,31 +96,23 @@ LoadedMap loadMap(const std::string& path) {
 
 class OctomapGenerator final : public WorldGenerator {
  public:
-  OctomapGenerator(const YamlReader& entry, const std::string& spec_directory) {
-    const auto file_node = entry["file"];
-    std::filesystem::path file = file_node.as<std::string>();
-    if (file.is_relative()) file = std::filesystem::path(spec_directory) / file;
-    path_ = file.lexically_normal().string();
-    const auto unknown_node = entry.optional("unknown");
-    const std::string unknown = unknown_node ? unknown_node->as<std::string>() : "free";
-    if (unknown != "free" && unknown != "occupied") {
-      unknown_node->fail("expected 'free' or 'occupied', got \"" + unknown + "\"");
-    }
-    unknown_occupied_ = unknown == "occupied";
-    entry.finish();
-    try {
-      const LoadedMap map = loadMap(path_);
-      tree_ = map.tree;
-      content_hash_ = map.content_hash;
-      extent_ = map.extent;
-    } catch (const FileError& error) {
-      file_node.fail(error.what());
-    }
+  static ParameterSpecs declared() {
+    return ParameterSpecs()
+        .path("file", "the OctoMap .bt or .ot file (relative: to the spec's directory)")
+        .required()
+        .choice("unknown", "free", {"free", "occupied"},
+                "voxels no leaf of the map covers: free or occupied");
   }
-  std::string type() const override { return "octomap"; }
-  void writeCanonical(std::ostream& out) const override {
+  explicit OctomapGenerator(const ParameterSet& p)
+      : path_(p.text("file")), unknown_occupied_(p.text("unknown") == "occupied") {
+    const LoadedMap map = loadMap(path_);  // FileError naming the file when it cannot be read
+    tree_ = map.tree;
+    content_hash_ = map.content_hash;
+    extent_ = map.extent;
+  }
+  void writeContentKey(std::ostream& out) const override {
     // The file's content, not its path: a moved map keeps its cache, an edited one does not.
-    out << "octomap content=" << toHex(content_hash_) << " unknown_occupied=" << unknown_occupied_;
+    out << " content=" << toHex(content_hash_);
   }
   std::optional<Box> naturalBounds() const override { return extent_; }
   void apply(VoxelGrid& grid, Rng&) const override {
@@ -171,9 +163,11 @@ class OctomapGenerator final : public WorldGenerator {
 
 }  // namespace
 
-std::unique_ptr<WorldGenerator> makeOctomapGenerator(const YamlReader& entry,
-                                                     const std::string& spec_directory) {
-  return std::make_unique<OctomapGenerator>(entry, spec_directory);
+void registerOctomapGenerator(PluginRegistrar& registrar) {
+  registrar.add<WorldGenerator>("octomap", "occupied leaves of an OctoMap .bt or .ot file",
+                                OctomapGenerator::declared(), [](const ParameterSet& parameters) {
+                                  return std::make_unique<OctomapGenerator>(parameters);
+                                });
 }
 
 }  // namespace kinolab

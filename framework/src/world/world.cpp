@@ -18,7 +18,7 @@ VoxelGrid World::buildGrid(const WorldSpec& spec) {
   VoxelGrid grid(spec.bounds, spec.resolution);
   for (std::size_t i = 0; i < spec.generators.size(); ++i) {
     Rng rng = Rng::derive(spec.seed, "world-generator", i);
-    spec.generators[i]->apply(grid, rng);
+    spec.generators[i].generator->apply(grid, rng);
   }
   return grid;
 }

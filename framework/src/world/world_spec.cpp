@@ -6,6 +6,7 @@
 #include <filesystem>
 #include <sstream>
 
+#include "kinolab/core/error.hpp"
 #include "kinolab/core/hash.hpp"
 #include "kinolab/core/text.hpp"
 #include "kinolab/core/yaml_reader.hpp"
@@ -14,7 +15,63 @@ namespace kinolab {
 namespace {
 
 // Bump when a generator's output for the same parameters changes, so old caches go stale.
-constexpr int kGeneratorVersion = 3;  // 2: octomap occupied leaves by overlap
+// 4: the key is the declared parameters' canonical text.
+constexpr int kGeneratorVersion = 4;  // 2: octomap occupied leaves by overlap
+
+/// One `generators:` entry: its `type` chosen from the registry, its other keys the
+/// generator's declared parameters (relative file paths against `spec_directory`).
+WorldGeneratorEntry readGenerator(const YamlReader& entry, const std::string& spec_directory) {
+  if (!entry.isMap()) entry.fail("expected a generator: a mapping with a type");
+  const YamlReader type = entry["type"];
+  WorldGeneratorEntry result;
+  result.type = type.as<std::string>();
+  const PluginRegistry<WorldGenerator>& registry = pluginRegistry<WorldGenerator>();
+  if (!registry.contains(result.type)) {
+    const auto known = registry.keys();
+    type.fail("unknown world generator '" + result.type + "'" + didYouMean(result.type, known) +
+              "; known worlds: " + join(known, ", "));
+  }
+  const ParameterSpecs& declared = registry.info(result.type).parameters;
+  std::vector<ParameterAssignment> assignments;
+  for (ParameterAssignment& assignment : assignmentsFromYaml(entry)) {
+    if (assignment.name == "type") continue;
+    const ParameterSpec* spec = declared.find(assignment.name);
+    if (spec && spec->type == ParameterType::kPath && !assignment.value.empty() &&
+        std::filesystem::path(assignment.value).is_relative()) {
+      assignment.value =
+          (std::filesystem::path(spec_directory) / assignment.value).lexically_normal().string();
+    }
+    assignments.push_back(std::move(assignment));
+  }
+  result.parameters = registry.resolve(result.type, assignments, entry.where());
+  try {
+    result.generator = registry.createResolved(result.type, result.parameters);
+  } catch (const ParameterConflict& conflict) {
+    // Values that are each in range but do not fit together: where the parameter was set.
+    const auto node = entry.optional(conflict.parameter());
+    (node ? *node : entry).fail(conflict.what());
+  } catch (const FileError& error) {
+    // A file that cannot be read: where the entry names it.
+    for (const ParameterSpec& spec : declared.all()) {
+      if (const auto node = entry.optional(spec.name); node && spec.type == ParameterType::kPath) {
+        node->fail(error.what());
+      }
+    }
+    entry.fail(error.what());
+  }
+  return result;
+}
+
+/// The parameters' canonical text without file paths (their content is the generator's).
+std::string withoutPaths(const ParameterSpecs& declared, const ParameterSet& parameters) {
+  std::string text;
+  for (const auto& [name, value] : parameters.flattened()) {
+    const ParameterSpec* spec = declared.find(name);
+    if (spec && spec->type == ParameterType::kPath) continue;
+    text += ' ' + name + '=' + formatParameterValue(value);
+  }
+  return text;
+}
 
 }  // namespace
 
@@ -83,7 +140,7 @@ WorldSpec WorldSpec::fromYaml(const YamlReader& node, const std::string& spec_di
   spec.seed = static_cast<std::uint64_t>(node.getInteger("seed", 0, 0, (1LL << 62)));
   spec.resolution = node.getNumber("resolution", std::nullopt, 1e-3, 100.0);
   for (const YamlReader& entry : node["generators"].items()) {
-    spec.generators.push_back(makeWorldGenerator(entry, spec_directory));
+    spec.generators.push_back(readGenerator(entry, spec_directory));
   }
   if (spec.generators.empty()) node["generators"].fail("expected at least one generator");
   if (auto bounds = node.optional("bounds")) {
@@ -96,8 +153,8 @@ WorldSpec WorldSpec::fromYaml(const YamlReader& node, const std::string& spec_di
     }
   } else {
     bool found = false;
-    for (const auto& generator : spec.generators) {
-      if (const auto natural = generator->naturalBounds()) {
+    for (const auto& entry : spec.generators) {
+      if (const auto natural = entry.generator->naturalBounds()) {
         spec.bounds = found ? Box{spec.bounds.min.cwiseMin(natural->min),
                                   spec.bounds.max.cwiseMax(natural->max)}
                             : *natural;
@@ -121,8 +178,11 @@ std::string WorldSpec::canonicalText() const {
       << " resolution=" << resolution << " min=" << bounds.min.x() << ',' << bounds.min.y() << ','
       << bounds.min.z() << " max=" << bounds.max.x() << ',' << bounds.max.y() << ','
       << bounds.max.z() << std::defaultfloat << '\n';
-  for (const auto& generator : generators) {
-    generator->writeCanonical(out);
+  for (const auto& entry : generators) {
+    out << entry.type
+        << withoutPaths(pluginRegistry<WorldGenerator>().info(entry.type).parameters,
+                        entry.parameters);
+    entry.generator->writeContentKey(out);
     out << '\n';
   }
   return out.str();

@@ -49,9 +49,10 @@ class PluginRegistryBase {
   /// Every plugin, sorted by key.
   std::vector<const PluginInfo*> list() const;
   std::vector<std::string> keys() const;
-  /// The plugin's defaults overridden by `assignments`, validated (ConfigError when not).
-  ParameterSet resolve(std::string_view key,
-                       const std::vector<ParameterAssignment>& assignments) const;
+  /// The plugin's defaults overridden by `assignments`, validated (ConfigError when not;
+  /// `where` locates a missing required parameter).
+  ParameterSet resolve(std::string_view key, const std::vector<ParameterAssignment>& assignments,
+                       std::string_view where = "") const;
 
  protected:
   /// Records a plugin's declaration; a key that is already taken is a PluginError naming

@@ -35,6 +35,7 @@ class YamlReader {
   [[noreturn]] void fail(const std::string& message) const;
 
   bool isMap() const { return node_.IsMap(); }
+  bool isSequence() const { return node_.IsSequence(); }
 
   /// A required child of a mapping.
   YamlReader operator[](std::string_view key) const;

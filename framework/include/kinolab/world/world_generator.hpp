@@ -1,29 +1,28 @@
 #pragma once
 
-#include <memory>
 #include <optional>
 #include <ostream>
 #include <string>
-#include <vector>
 
+#include "kinolab/core/plugin_registry.hpp"
 #include "kinolab/core/random.hpp"
 #include "kinolab/world/voxel_grid.hpp"
 
 namespace kinolab {
 
-class YamlReader;
-
 /// One step of building a world: it adds occupied voxels to the grid. A world spec lists
-/// several, applied in order (their union is the world), each with its own random stream.
+/// several (`generators: [{type: forest, density: 0.1}, ...]`), applied in order (their union
+/// is the world), each with its own random stream. A plugin kind ("world", `kinolab list
+/// worlds`): the factory reads the generator's declared parameters, which the world cache's
+/// key already holds (file paths excepted: see writeContentKey()).
 class WorldGenerator {
  public:
   virtual ~WorldGenerator() = default;
 
-  /// The `type:` key in a world spec.
-  virtual std::string type() const = 0;
-  /// Writes every parameter exactly (the hash input of the world cache); two generators
-  /// with equal canonical text produce equal grids.
-  virtual void writeCanonical(std::ostream& out) const = 0;
+  /// What the output depends on beyond the declared parameters, written exactly (the world
+  /// cache's key): a map file's content hash, since its path is left out of the key so that a
+  /// moved map keeps its cache. Nothing by default.
+  virtual void writeContentKey(std::ostream& /*out*/) const {}
   /// The metric box this generator's content naturally spans (a map file's extent), used
   /// when the spec gives no bounds.
   virtual std::optional<Box> naturalBounds() const { return std::nullopt; }
@@ -36,12 +35,9 @@ class WorldGenerator {
   virtual void apply(VoxelGrid& grid, Rng& rng) const = 0;
 };
 
-/// Reads one `generators:` entry (strict: unknown keys and out-of-range values throw
-/// ConfigError with file, line and key path). `spec_directory` resolves relative map paths.
-std::unique_ptr<WorldGenerator> makeWorldGenerator(const YamlReader& entry,
-                                                   const std::string& spec_directory);
-
-/// The generator types makeWorldGenerator knows, with a one-line description each.
-std::vector<std::pair<std::string, std::string>> worldGeneratorTypes();
+/// The registry of world generators: built-in `empty`, `forest`, `boxes`, `walls`,
+/// `box_list` and `octomap`.
+template <>
+PluginRegistry<WorldGenerator>& pluginRegistry<WorldGenerator>();
 
 }  // namespace kinolab

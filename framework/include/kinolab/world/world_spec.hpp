@@ -12,6 +12,14 @@ namespace kinolab {
 
 class YamlReader;
 
+/// One `generators:` entry: the registered generator's key, its resolved parameters and the
+/// generator made from them.
+struct WorldGeneratorEntry {
+  std::string type;
+  ParameterSet parameters;
+  std::shared_ptr<const WorldGenerator> generator;
+};
+
 /// What defines a world: bounds, resolution, seed and an ordered list of generators.
 /// Read from YAML (configs/worlds/*.yaml):
 ///
@@ -28,7 +36,7 @@ struct WorldSpec {
   std::uint64_t seed = 0;
   double resolution = 0.1;
   Box bounds;
-  std::vector<std::shared_ptr<const WorldGenerator>> generators;
+  std::vector<WorldGeneratorEntry> generators;
 
   /// Loads and validates a spec file; errors name the file, line and key path.
   static WorldSpec fromFile(const std::string& path);
@@ -40,7 +48,8 @@ struct WorldSpec {
   /// `spec_directory` resolves relative map paths.
   static WorldSpec fromYaml(const YamlReader& node, const std::string& spec_directory);
 
-  /// Exact text of everything that determines the grid (not the name).
+  /// Exact text of everything that determines the grid (not the name, nor a map file's path:
+  /// its content).
   std::string canonicalText() const;
   /// Hash of canonicalText(): the world cache key.
   std::uint64_t hash() const;
