@@ -15,6 +15,10 @@ KINOLAB_DEFINE_PLUGIN_REGISTRY(EdgeEvaluationPolicy, "lower_bound", "lower_bound
                                "how an edge is evaluated when its parent is expanded (a lazy "
                                "planner's `lower_bound`)",
                                4)
+KINOLAB_DEFINE_PLUGIN_REGISTRY(SearchSpace, "search_space", "search_spaces",
+                               "how a motion-primitive search tells states apart (its "
+                               "`search_space`)",
+                               7)
 
 namespace {
 
@@ -87,6 +91,27 @@ void registerBuiltins() {
   registrar.add<EdgeEvaluationPolicy>(
       "lipschitz", "endpoint, and exact when the ESDF's Lipschitz bound certifies the edge clear",
       ParameterSpecs(), plainPolicy<LipschitzBoundPolicy>());
+  registrar.add<SearchSpace>(
+      "lattice", "every derivative rounded finely: exact on a control grid's lattice (optimal)",
+      ParameterSpecs()
+          .real("position_resolution", 0.01, 1e-6, 10.0, "position rounding, m")
+          .real("velocity_resolution", 0.01, 1e-6, 10.0, "velocity rounding, m/s")
+          .real("acceleration_resolution", 0.01, 1e-6, 100.0,
+                "acceleration (and jerk) rounding"),
+      [](const ParameterSet& p) {
+        return std::make_unique<LatticeSpace>(std::array<double, 3>{
+            p.real("position_resolution"), p.real("velocity_resolution"),
+            p.real("acceleration_resolution")});
+      });
+  registrar.add<SearchSpace>(
+      "cells",
+      "one state per position cell and velocity bin, as hybrid A* keeps them (not optimal)",
+      ParameterSpecs()
+          .real("cell_size", 0.2, 1e-3, 100.0, "position cell side, m")
+          .real("velocity_resolution", 0.5, 1e-3, 100.0, "velocity bin, m/s"),
+      [](const ParameterSet& p) {
+        return std::make_unique<CellSpace>(p.real("cell_size"), p.real("velocity_resolution"));
+      });
   registrar.commit();
 }
 

@@ -34,10 +34,9 @@ ParameterSpecs motionPrimitiveParameters() {
               "heuristic.NAME")
       .real("heuristic_weight", 1.0, 1.0, 100.0,
             "epsilon: f = g + epsilon h; > 1 is bounded suboptimal (cost <= epsilon optimum)")
-      .real("key_position_resolution", 0.01, 1e-6, 10.0, "state key: position rounding, m")
-      .real("key_velocity_resolution", 0.01, 1e-6, 10.0, "state key: velocity rounding, m/s")
-      .real("key_acceleration_resolution", 0.01, 1e-6, 100.0,
-            "state key: acceleration (and jerk) rounding")
+      .plugin("search_space", "search_space", "lattice",
+              "how states are told apart (kinolab list search_spaces): lattice (exact, "
+              "optimal) or cells (hybrid A*'s); set its parameters as search_space.NAME")
       .integer("max_expansions", 0, 0, 1000000000, "expansion budget (0: none)")
       .real("memory_limit_mb", 2048.0, 1.0, 1e6,
             "memory budget of the search, MB: past it the search stops as on any budget");
@@ -87,9 +86,6 @@ MotionPrimitiveConfig MotionPrimitiveConfig::fromParameters(const ParameterSet& 
   edges.sampling.samples = static_cast<int>(parameters.integer("edge_samples"));
   if (spacing > 0.0) edges.sampling.spacing = spacing;
   settings.heuristic_weight = parameters.real("heuristic_weight");
-  settings.key_resolution = {parameters.real("key_position_resolution"),
-                             parameters.real("key_velocity_resolution"),
-                             parameters.real("key_acceleration_resolution")};
   settings.goal_radius = model.goal_radius;
   settings.memory_limit_mb = parameters.real("memory_limit_mb");
 
@@ -97,6 +93,7 @@ MotionPrimitiveConfig MotionPrimitiveConfig::fromParameters(const ParameterSet& 
   config.policies.heuristic = pluginRegistry<HeuristicBuilder>()
                                   .createChosen(parameters, "heuristic")
                                   ->build({edges, settings.goal_radius});
+  config.policies.space = pluginRegistry<SearchSpace>().createChosen(parameters, "search_space");
   config.budget = timeBudgetFrom(parameters);
   if (const long long limit = parameters.integer("max_expansions"); limit > 0) {
     config.budget.max_iterations = limit;
@@ -106,8 +103,9 @@ MotionPrimitiveConfig MotionPrimitiveConfig::fromParameters(const ParameterSet& 
 
 MotionPrimitivePlanner::MotionPrimitivePlanner(MotionPrimitiveConfig config)
     : config_(std::move(config)) {
-  if (!config_.policies.edges || !config_.policies.heuristic) {
-    throw InvalidArgument("motion-primitive planner: an edge policy and a heuristic are needed");
+  if (!config_.policies.edges || !config_.policies.heuristic || !config_.policies.space) {
+    throw InvalidArgument(
+        "motion-primitive planner: an edge policy, a heuristic and a search space are needed");
   }
 }
 

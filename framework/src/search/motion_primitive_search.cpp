@@ -41,8 +41,9 @@ MotionPrimitiveSearch::MotionPrimitiveSearch(std::shared_ptr<const World> world,
       policies_(std::move(policies)),
       evaluator_(world_, settings_.edges) {
   if (controls_.empty()) throw InvalidArgument("motion-primitive search: no controls");
-  if (!policies_.edges || !policies_.heuristic) {
-    throw InvalidArgument("motion-primitive search: an edge policy and a heuristic are needed");
+  if (!policies_.edges || !policies_.heuristic || !policies_.space) {
+    throw InvalidArgument(
+        "motion-primitive search: an edge policy, a heuristic and a search space are needed");
   }
   if (!(settings_.heuristic_weight >= 1.0)) {
     throw InvalidArgument("motion-primitive search: heuristic_weight must be >= 1");
@@ -50,34 +51,12 @@ MotionPrimitiveSearch::MotionPrimitiveSearch(std::shared_ptr<const World> world,
   if (!(settings_.cost_weight >= 0.0)) {
     throw InvalidArgument("motion-primitive search: cost_weight must be >= 0");
   }
-  for (double resolution : settings_.key_resolution) {
-    if (!(resolution > 0.0)) {
-      throw InvalidArgument("motion-primitive search: key resolutions must be positive");
-    }
-  }
   if (controls_.size() >= (std::size_t{1} << 30)) {
     throw InvalidArgument("motion-primitive search: at most 2^30 controls, got " +
                           std::to_string(controls_.size()));
   }
   evaluations_.resize(controls_.size());
   estimates_.resize(controls_.size());
-}
-
-MotionPrimitiveSearch::Key MotionPrimitiveSearch::keyOf(const ChainState& state) const {
-  Key key{};
-  const int order = settings_.edges.order;
-  for (int k = 0; k < order; ++k) {
-    const double inverse = 1.0 / settings_.key_resolution[std::min(k, 2)];
-    for (int axis = 0; axis < 3; ++axis) {
-      // Round half up: floor(x + 0.5) by truncation and a correction (no libm call).
-      const double shifted =
-          std::clamp((state(axis, k) - start_(axis, k)) * inverse, -2.0e9, 2.0e9) + 0.5;
-      auto rounded = static_cast<std::int32_t>(shifted);
-      if (rounded > shifted) --rounded;
-      key[3 * k + axis] = rounded;
-    }
-  }
-  return key;
 }
 
 int MotionPrimitiveSearch::slotOf(const ChainState& state) {
@@ -91,7 +70,7 @@ int MotionPrimitiveSearch::slotOf(const ChainState& state) {
       table_[position] = static_cast<int>(i);
     }
   }
-  const Key key = keyOf(state);
+  const Key key = policies_.space->key(state, start_, settings_.edges.order);
   const std::uint64_t hash = hashOf(key);
   const std::size_t mask = table_.size() - 1;
   for (std::size_t position = hash & mask;; position = (position + 1) & mask) {

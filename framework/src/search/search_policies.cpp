@@ -281,6 +281,56 @@ double ObvpHeuristic::estimate(const ChainState& state, const Eigen::Vector3d& g
   return (std::isfinite(best) ? best : 0.0) + length;
 }
 
+namespace {
+
+/// Round half up: floor(x + 0.5) by truncation and a correction (no libm call), clamped to
+/// the key's 32 bits.
+std::int32_t roundedKey(double value) {
+  const double shifted = std::clamp(value, -2.0e9, 2.0e9) + 0.5;
+  auto rounded = static_cast<std::int32_t>(shifted);
+  if (rounded > shifted) --rounded;
+  return rounded;
+}
+
+}  // namespace
+
+LatticeSpace::LatticeSpace(std::array<double, 3> resolution) {
+  for (int k = 0; k < 3; ++k) {
+    if (!(resolution[k] > 0.0)) {
+      throw InvalidArgument("lattice search space: resolutions must be positive");
+    }
+    inverse_[k] = 1.0 / resolution[k];
+  }
+}
+
+SearchSpace::Key LatticeSpace::key(const ChainState& state, const ChainState& start,
+                                   int order) const {
+  Key key{};
+  for (int k = 0; k < order; ++k) {
+    const double inverse = inverse_[std::min(k, 2)];
+    for (int axis = 0; axis < 3; ++axis) {
+      key[3 * k + axis] = roundedKey((state(axis, k) - start(axis, k)) * inverse);
+    }
+  }
+  return key;
+}
+
+CellSpace::CellSpace(double cell_size, double velocity_resolution)
+    : inverse_cell_(1.0 / cell_size), inverse_velocity_(1.0 / velocity_resolution) {
+  if (!(cell_size > 0.0) || !(velocity_resolution > 0.0)) {
+    throw InvalidArgument("cell search space: cell size and velocity resolution must be positive");
+  }
+}
+
+SearchSpace::Key CellSpace::key(const ChainState& state, const ChainState& start, int) const {
+  Key key{};
+  for (int axis = 0; axis < 3; ++axis) {
+    key[axis] = roundedKey((state(axis, 0) - start(axis, 0)) * inverse_cell_);
+    key[3 + axis] = roundedKey((state(axis, 1) - start(axis, 1)) * inverse_velocity_);
+  }
+  return key;
+}
+
 MaxHeuristic::MaxHeuristic(std::vector<std::shared_ptr<const SearchHeuristic>> parts)
     : parts_(std::move(parts)) {
   if (parts_.empty()) throw InvalidArgument("max heuristic: no heuristics to combine");

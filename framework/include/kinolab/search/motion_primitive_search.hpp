@@ -24,8 +24,6 @@ struct SearchSettings {
   DuplicateRule duplicate_rule = DuplicateRule::kLwa;
   double heuristic_weight = 1.0;  ///< epsilon >= 1: cost within epsilon times the optimum
   double cost_weight = 1.0;       ///< weight of g in the priority; 0 = greedy best-first
-  /// State keys: position, velocity, acceleration (also used for jerk) rounded to these.
-  std::array<double, 3> key_resolution = {0.01, 0.01, 0.01};
   double goal_radius = 0.5;
   /// The search's memory (candidates, states, open list): once past this it stops as on any
   /// budget, so that no search, not even one without a time limit, exhausts the machine (a
@@ -38,6 +36,8 @@ struct SearchPolicies {
   /// How edges are evaluated at expansion: full (eager) or a lower bound (lazy).
   std::shared_ptr<const EdgeEvaluationPolicy> edges;
   std::shared_ptr<const SearchHeuristic> heuristic;
+  /// How states are told apart (LatticeSpace: exact on a control grid's lattice).
+  std::shared_ptr<const SearchSpace> space;
 };
 
 /// Counters of one search; see statistics() for their names.
@@ -66,9 +66,10 @@ struct SearchCounters {
 /// binary heap with lazy deletion (stale entries are skipped when popped).
 ///
 /// With a consistent heuristic and weight 1, lazy (a lower-bound edge policy) with the `lwa`
-/// rule and eager (full evaluation) return the same cost. States are keyed by rounding position and
-/// derivatives to `key_resolution` relative to the start: on the lattice a control grid spans this
-/// is exact; with sampled controls optimality is with respect to that discretisation.
+/// rule and eager (full evaluation) return the same cost. States are keyed by the search space
+/// (SearchPolicies::space): the lattice's keys are exact on the lattice a control grid spans;
+/// with sampled controls optimality is with respect to that discretisation, and with hybrid
+/// A*'s cells there is none.
 class MotionPrimitiveSearch {
  public:
   enum class Outcome { kGoal, kExhausted, kBudget };
@@ -102,7 +103,7 @@ class MotionPrimitiveSearch {
   double memoryBytes() const;
 
  private:
-  using Key = std::array<std::int32_t, 12>;
+  using Key = SearchSpace::Key;
   struct Slot {
     Key key;
     std::uint64_t hash = 0;    ///< hashOf(key)
@@ -142,7 +143,6 @@ class MotionPrimitiveSearch {
     };
   };
 
-  Key keyOf(const ChainState& state) const;
   std::uint64_t hashOf(const Key& key) const;
   /// f = cost_weight g + heuristic_weight h.
   double priority(double g, double h) const;

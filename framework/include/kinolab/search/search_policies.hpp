@@ -1,6 +1,7 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <array>
 #include <cstdint>
 #include <functional>
 #include <memory>
@@ -172,6 +173,46 @@ class ObvpHeuristic final : public SearchHeuristic {
   double weight_control_;
   double weight_length_;
   double goal_radius_;
+};
+
+/// How the search tells states apart (kind "search_space", a motion-primitive planner's
+/// `search_space`): states whose keys are equal are one state, closed once. The key is taken
+/// relative to the search's start. `lattice` rounds every derivative finely: exact on the
+/// lattice a control grid spans, so the search is optimal over it. `cells` keeps one state per
+/// position cell and velocity bin, as hybrid A* does (Fast-Planner): far fewer states, no
+/// optimality.
+class SearchSpace {
+ public:
+  /// Up to 4 derivatives (position .. jerk) x 3 axes; unused entries 0.
+  using Key = std::array<std::int32_t, 12>;
+  virtual ~SearchSpace() = default;
+  /// The key of `state` (derivatives 0 .. order - 1 meaningful) relative to `start`.
+  virtual Key key(const ChainState& state, const ChainState& start, int order) const = 0;
+};
+
+template <>
+PluginRegistry<SearchSpace>& pluginRegistry<SearchSpace>();
+
+/// Rounds derivative k of each axis, relative to the start, to `resolution[min(k, 2)]`.
+class LatticeSpace final : public SearchSpace {
+ public:
+  explicit LatticeSpace(std::array<double, 3> resolution);
+  Key key(const ChainState& state, const ChainState& start, int order) const override;
+
+ private:
+  std::array<double, 3> inverse_;
+};
+
+/// Position cells of `cell_size` and velocity bins of `velocity_resolution` (relative to the
+/// start); higher derivatives ignored: hybrid A*'s grid.
+class CellSpace final : public SearchSpace {
+ public:
+  CellSpace(double cell_size, double velocity_resolution);
+  Key key(const ChainState& state, const ChainState& start, int order) const override;
+
+ private:
+  double inverse_cell_;
+  double inverse_velocity_;
 };
 
 /// What a heuristic is made for: the planner's edges (dynamics, limits, cost weights) and goal
