@@ -33,8 +33,8 @@ class ScaledEndpointBound final : public EdgeEvaluationPolicy {
   double scale_;
 };
 
-/// time_optimal scaled by `scale` in [0, 1]: still consistent (s h(a) <= s c + s h(b) <=
-/// c + s h(b)), so still optimal, with more expansions the smaller the scale.
+/// time_optimal scaled by `scale` in [0, 1]: still consistent with the edge costs (s h(a) <=
+/// s c + s h(b) <= c + s h(b)), so still optimal, with more expansions the smaller the scale.
 class ScaledTimeOptimal final : public SearchHeuristic {
  public:
   ScaledTimeOptimal(const HeuristicContext& context, double scale)

@@ -68,6 +68,13 @@ foreach(kind_key worlds:pillar_row lower_bounds:scaled_endpoint heuristics:scale
   expect_output("\"origin\": \"[^\"]*libextensions_plugin.so\"")
 endforeach()
 
+# They pass their kinds' conformance suites (tests/conformance/extension_conformance_test.cpp):
+# the heuristic consistent, the bound below the full cost and lazy = eager with it, the
+# sensor's rays, the generator's grid.
+run_step(OK ${CMAKE_COMMAND} -E env "KINOLAB_TEST_PLUGINS=${extensions}" "${TEST_BINARY}"
+         "--gtest_filter=Registered/*.*/scaled_time_optimal:Registered/*.*/scaled_endpoint:Registered/*.*/ring:Registered/*.*/pillar_row")
+expect_output("PASSED.* 5 tests")
+
 # Lazy search with the out-of-tree bound and heuristic returns eager's cost (both stay a lower
 # bound and consistent), chosen by key with their own parameters nested.
 set(world "${CONSUMER_SOURCE_DIR}/../support/small_forest.yaml")

@@ -94,9 +94,12 @@ class LipschitzBoundPolicy final : public EdgeEvaluationPolicy {
 template <>
 PluginRegistry<EdgeEvaluationPolicy>& pluginRegistry<EdgeEvaluationPolicy>();
 
-/// A lower bound on the cost from a state to the goal region, consistent with the edges'
-/// lower bounds: h(s) <= c_lower(s, s') + h(s') for every edge. Then the search with weight
-/// 1 is optimal, and lazy and eager return the same cost.
+/// A lower bound on the cost from a state to the goal region, consistent with the edge costs:
+/// h(s) <= c(s, s') + h(s') for every valid edge. Then the search with weight 1 is optimal, and
+/// lazy search returns eager's cost whatever lower bound it queues: a queued entry's priority
+/// is at most that of the candidate it becomes, so the first candidate of a state popped is
+/// its cheapest (up to ties). The built-in heuristics are consistent even with the weakest
+/// bound (control_only); tests/conformance checks every registered one against full costs.
 class SearchHeuristic {
  public:
   virtual ~SearchHeuristic() = default;

@@ -1,0 +1,243 @@
+// Every registered heuristic, lower bound, search space, sensor and world generator (built-in,
+// and any library named in $KINOLAB_TEST_PLUGINS) keeps its kind's contract
+// (docs/extending/).
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "kinolab/core/random.hpp"
+#include "kinolab/flight/sensor.hpp"
+#include "kinolab/primitives/control_sampler.hpp"
+#include "kinolab/search/motion_primitive_planner.hpp"
+#include "kinolab/world/world_generator.hpp"
+#include "support/planning.hpp"
+#include "support/test_plugins.hpp"
+
+namespace kinolab {
+namespace {
+
+template <typename Interface>
+std::vector<std::string> registered() {
+  test::loadTestPlugins();
+  return pluginRegistry<Interface>().keys();
+}
+
+/// Edges of order `order` on the small forest, from random moving states (a control grid of
+/// 5 per axis, the limits included): what the heuristic and lower-bound checks walk.
+struct EdgeSamples {
+  std::shared_ptr<const World> world = test::smallWorld("forest");
+  EdgeEvaluatorSettings settings;
+  std::vector<Eigen::Vector3d> controls;
+
+  explicit EdgeSamples(int order) {
+    settings.order = order;
+    settings.duration = order == 2 ? 0.4 : 0.3;
+    settings.limits = DynamicLimits::uniform(2.0, 3.0, 8.0, 40.0);
+    settings.weights.length = 0.5;
+    settings.weights.control_effort = order == 2 ? 0.7 : 0.1;
+    controls = controlGrid({-1.0, -0.4, 0.0, 0.6, 1.0}, settings.limits.bound[order]);
+  }
+  ChainState state(Rng& rng) const {
+    ChainState state = ChainState::Zero();
+    do {
+      state.col(0) =
+          Eigen::Vector3d(rng.uniform(0.5, 11.5), rng.uniform(0.5, 11.5), rng.uniform(0.5, 2.5));
+    } while (!world->isFree(state.col(0), 0.3));
+    for (int k = 1; k < settings.order; ++k) {
+      for (int axis = 0; axis < 3; ++axis) {
+        state(axis, k) = rng.uniform(-1.0, 1.0) * settings.limits.bound[k][axis];
+      }
+    }
+    return state;
+  }
+};
+
+class HeuristicConformance : public ::testing::TestWithParam<std::string> {};
+
+// h(s) <= c(s, s') + h(s') for every valid edge's full cost: then weight 1 is optimal, and lazy
+// search (whose queued bounds are at most the full costs) returns eager's cost.
+TEST_P(HeuristicConformance, FiniteAndConsistentWithTheFullEdgeCosts) {
+  const PluginInfo& info = pluginRegistry<HeuristicBuilder>().info(GetParam());
+  EXPECT_FALSE(info.description.empty());
+  int orders = 0;
+  for (const int order : {2, 3}) {
+    const EdgeSamples samples(order);
+    const EdgeEvaluator evaluator(samples.world, samples.settings);
+    std::shared_ptr<const SearchHeuristic> heuristic;
+    try {
+      heuristic = pluginRegistry<HeuristicBuilder>()
+                      .create(GetParam(), {})
+                      ->build({samples.settings, 0.5});
+    } catch (const ParameterConflict&) {
+      continue;  // declines this order (obvp above 2), as it may
+    }
+    ++orders;
+    Rng rng(17 + order);
+    int edges = 0;
+    int violations = 0;
+    while (edges < 2000) {
+      const ChainState state = samples.state(rng);
+      const Eigen::Vector3d goal =
+          state.col(0) + Eigen::Vector3d(rng.uniform(-6, 6), rng.uniform(-6, 6), rng.uniform(-2, 2));
+      const double h = heuristic->estimate(state, goal);
+      ASSERT_TRUE(std::isfinite(h) && h >= 0.0) << h;
+      for (const auto& control : samples.controls) {
+        const EdgeEvaluation full = evaluator.full(state, control, samples.world->clearance(state.col(0)));
+        if (!full.valid()) continue;
+        ++edges;
+        const double after = heuristic->estimate(full.end, goal);
+        ASSERT_TRUE(std::isfinite(after) && after >= 0.0) << after;
+        violations += h > full.cost + after + 1e-9 * (1.0 + h);
+      }
+    }
+    EXPECT_EQ(violations, 0) << GetParam() << " at order " << order << ": " << violations
+                             << " of " << edges << " edges";
+  }
+  EXPECT_GT(orders, 0) << GetParam() << " serves neither order 2 nor 3";
+}
+
+INSTANTIATE_TEST_SUITE_P(Registered, HeuristicConformance,
+                         ::testing::ValuesIn(registered<HeuristicBuilder>()),
+                         [](const auto& key) { return key.param; });
+
+class LowerBoundConformance : public ::testing::TestWithParam<std::string> {};
+
+TEST_P(LowerBoundConformance, AtMostTheFullCostAndInvalidOnlyWhenTheEdgeIs) {
+  const auto policy = pluginRegistry<EdgeEvaluationPolicy>().create(GetParam(), {});
+  for (const int order : {2, 3}) {
+    const EdgeSamples samples(order);
+    const EdgeEvaluator evaluator(samples.world, samples.settings);
+    Rng rng(5 + order);
+    for (int i = 0; i < 200; ++i) {
+      const ChainState state = samples.state(rng);
+      const double clearance = samples.world->clearance(state.col(0));
+      for (const auto& control : samples.controls) {
+        const EdgeEvaluation full = evaluator.full(state, control, clearance);
+        EdgeEvaluation estimate;
+        const EdgeEstimate kind = policy->evaluate(evaluator, state, clearance, control, estimate);
+        ASSERT_TRUE(estimate.end.isApprox(full.end, 1e-9)) << "the end state is the edge's";
+        if (!estimate.valid()) {
+          ASSERT_FALSE(full.valid()) << "a valid edge called invalid";
+          continue;
+        }
+        if (!full.valid()) continue;  // a lower bound may pass what full evaluation rejects
+        if (kind == EdgeEstimate::kLowerBound) {
+          ASSERT_LE(estimate.cost, full.cost + 1e-9 * (1.0 + full.cost));
+        } else {
+          ASSERT_NEAR(estimate.cost, full.cost, 1e-9 * (1.0 + full.cost)) << "full or certified";
+        }
+      }
+    }
+  }
+}
+
+// With the bound, lazy search returns eager's cost (the paper's claim, for any bound).
+TEST_P(LowerBoundConformance, LazySearchWithItReturnsEagersCost) {
+  const auto world = test::smallWorld("forest");
+  const auto queries = test::randomQueries(*world, 4, 31, 4.0, 9.0, 0.5);
+  const std::vector<std::string> common = {"sampler.samples_per_axis=3", "tau=0.5"};
+  auto lazy_items = common;
+  lazy_items.push_back("lower_bound=" + GetParam());
+  ConfiguredPlanner lazy = configurePlanner("lazy_mp_astar", test::assignments(lazy_items));
+  ConfiguredPlanner eager = configurePlanner("eager_mp_astar", test::assignments(common));
+  lazy.planner->setup({world, lazy.sampler, 1});
+  eager.planner->setup({world, eager.sampler, 1});
+  for (const PlanningQuery& query : queries) {
+    const PlanResult a = lazy.planner->plan(query, Budget{});
+    const PlanResult b = eager.planner->plan(query, Budget{});
+    ASSERT_EQ(a.status, b.status);
+    if (b.status != PlanStatus::kExact) continue;
+    EXPECT_TRUE(a.check.valid) << a.check.detail;
+    EXPECT_NEAR(a.cost, b.cost, 1e-9 * (1.0 + b.cost));
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(Registered, LowerBoundConformance,
+                         ::testing::ValuesIn(registered<EdgeEvaluationPolicy>()),
+                         [](const auto& key) { return key.param; });
+
+class SearchSpaceConformance : public ::testing::TestWithParam<std::string> {};
+
+// Keys are a function of the state (relative to the start), and a search over the space
+// returns trajectories the independent checker accepts.
+TEST_P(SearchSpaceConformance, KeysAreDeterministicAndTrajectoriesPassTheChecker) {
+  const auto space = pluginRegistry<SearchSpace>().create(GetParam(), {});
+  const EdgeSamples samples(3);
+  Rng rng(3);
+  const ChainState start = samples.state(rng);
+  for (int i = 0; i < 100; ++i) {
+    const ChainState state = samples.state(rng);
+    EXPECT_EQ(space->key(state, start, 3), space->key(state, start, 3));
+  }
+  const auto world = test::smallWorld("forest");
+  ConfiguredPlanner planner = configurePlanner(
+      "eager_mp_astar",
+      test::assignments({"sampler.samples_per_axis=3", "tau=0.5", "search_space=" + GetParam()}));
+  planner.planner->setup({world, planner.sampler, 1});
+  int exact = 0;
+  for (const PlanningQuery& query : test::randomQueries(*world, 4, 7, 4.0, 9.0, 0.5)) {
+    const PlanResult result = planner.planner->plan(query, Budget{});
+    if (result.status != PlanStatus::kExact) continue;
+    ++exact;
+    EXPECT_TRUE(result.check.valid) << result.check.check << ": " << result.check.detail;
+  }
+  EXPECT_GT(exact, 0) << GetParam() << " solved none of 4 queries";
+}
+
+INSTANTIATE_TEST_SUITE_P(Registered, SearchSpaceConformance,
+                         ::testing::ValuesIn(registered<SearchSpace>()),
+                         [](const auto& key) { return key.param; });
+
+class SensorConformance : public ::testing::TestWithParam<std::string> {};
+
+TEST_P(SensorConformance, UnitRaysPositiveRangeAndRateTheSameEveryCall) {
+  const auto sensor = pluginRegistry<Sensor>().create(GetParam(), {});
+  EXPECT_TRUE(std::isfinite(sensor->maxRange()) && sensor->maxRange() > 0.0);
+  EXPECT_TRUE(std::isfinite(sensor->frameRate()) && sensor->frameRate() > 0.0);
+  const auto rays = sensor->rayDirections();
+  ASSERT_FALSE(rays.empty());
+  for (const auto& ray : rays) ASSERT_NEAR(ray.norm(), 1.0, 1e-9);
+  EXPECT_EQ(sensor->rayDirections(), rays);
+  // A frame in the forest: hits within range, on occupied voxels.
+  const auto world = test::smallWorld("forest");
+  const SensorFrame frame = senseFrame(world->grid(), *sensor, {6.0, 6.0, 1.5}, 0.3);
+  EXPECT_EQ(frame.hits.size() + frame.misses.size(), rays.size());
+  for (const auto& hit : frame.hits) {
+    EXPECT_LE((hit - frame.origin).norm(), sensor->maxRange() + world->grid().resolution());
+    const VoxelGrid& grid = world->grid();
+    const VoxelIndex voxel = ((hit - grid.origin()) / grid.resolution()).array().floor().cast<int>();
+    ASSERT_TRUE(grid.inside(voxel));
+    EXPECT_TRUE(grid.occupied(voxel)) << "a hit on a free voxel";
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(Registered, SensorConformance, ::testing::ValuesIn(registered<Sensor>()),
+                         [](const auto& key) { return key.param; });
+
+class WorldGeneratorConformance : public ::testing::TestWithParam<std::string> {};
+
+// At its defaults (a generator that needs a value, like a map file, is skipped), a generator
+// gives the same grid for the same spec, bit for bit.
+TEST_P(WorldGeneratorConformance, TheSameSpecGivesTheSameGrid) {
+  const PluginInfo& info = pluginRegistry<WorldGenerator>().info(GetParam());
+  for (const auto& spec : info.parameters.all()) {
+    if (spec.required) GTEST_SKIP() << "needs " << spec.name;
+  }
+  const std::string text = "seed: 5\nresolution: 0.2\nbounds: {min: [0, 0, 0], max: [8, 8, 3]}\n"
+                           "generators: [{type: " + GetParam() + "}]\n";
+  const auto a = World::build(WorldSpec::fromText(text, "spec.yaml", "."));
+  const auto b = World::build(WorldSpec::fromText(text, "spec.yaml", "."));
+  ASSERT_EQ(a->grid().size(), b->grid().size());
+  for (std::size_t i = 0; i < a->grid().size(); ++i) {
+    ASSERT_EQ(a->grid().occupied(i), b->grid().occupied(i)) << "voxel " << i;
+  }
+  EXPECT_EQ(WorldSpec::fromText(text, "spec.yaml", ".").hash(),
+            WorldSpec::fromText(text, "other.yaml", ".").hash());
+}
+
+INSTANTIATE_TEST_SUITE_P(Registered, WorldGeneratorConformance,
+                         ::testing::ValuesIn(registered<WorldGenerator>()),
+                         [](const auto& key) { return key.param; });
+
+}  // namespace
+}  // namespace kinolab
