@@ -387,6 +387,27 @@ def test_the_timing_protocol_keeps_median_minimum_and_cold_time(kinolab, tmp_pat
     assert refused.returncode == 1 and "timing.repeats" in refused.stderr
 
 
+def test_a_plan_that_spends_its_own_time_limit_is_timed_once(kinolab, tmp_path):
+    """RRT* refining without end spends its own `time_limit` (0.05 s), far inside the
+    experiment's 5 s budget: the
+    timing protocol times against the budget the planner has (Planner::budgetFor), so the
+    plan is made once and that one is timed, not warm-up plus three repeats of it."""
+    rrt = """
+  - id: rrt
+    type: rrtstar
+    params: {time_limit: 0.05, refine_iterations: 100000000}
+"""
+    path = experiment(tmp_path, rrt, queries="random: {count: 2, min_distance: 3, max_distance: 8}",
+                      extra="\nbudget: {time: 5}\ntiming: {warmup: 1, repeats: 3}\n", plugins=False)
+    assert kinolab("run", path, "--out", tmp_path / "out").returncode == 0
+    runs = select(tmp_path / "out", "SELECT planning_time_ms, planning_time_min_ms, "
+                  "planning_time_cold_ms FROM runs")
+    assert len(runs) == 2
+    for median, minimum, cold in runs:
+        assert median >= 50.0
+        assert median == minimum == cold, "planned more than once"
+
+
 def test_a_labelled_sweep_point_is_named_by_its_label(kinolab, tmp_path):
     sweep = """
 sweep:

@@ -80,6 +80,12 @@ void Planner::setup(const PlannerContext& context) {
   world_ = context.world;
 }
 
+Budget Planner::budgetFor(const Budget& budget) const {
+  const Budget own = ownBudget();
+  return {std::min(budget.time_limit, own.time_limit),
+          std::min(budget.max_iterations, own.max_iterations)};
+}
+
 PlanResult Planner::plan(const PlanningQuery& query, const Budget& budget, SearchTree* tree) {
   const World& map = world();
   const PlanningModel model = planningModel();
@@ -108,9 +114,7 @@ PlanResult Planner::plan(const PlanningQuery& query, const Budget& budget, Searc
     return result;
   }
 
-  const Budget own = ownBudget();
-  StopCondition stop(Budget{std::min(budget.time_limit, own.time_limit),
-                            std::min(budget.max_iterations, own.max_iterations)});
+  StopCondition stop(budgetFor(budget));
   const auto begin = std::chrono::steady_clock::now();
   result = doPlan(query, stop);
   result.planning_time_ms =
@@ -162,16 +166,19 @@ PlanResult Planner::plan(const PlanningQuery& query, const Budget& budget, Searc
 
 ParameterSpecs motionParameters(double default_time_limit) {
   return ParameterSpecs()
-      .real("robot_radius", 0.25, 0.0, 10.0,
+      .real("robot_radius", MotionDefaults::kRobotRadius, 0.0, 10.0,
             "body radius (0: a point); the obstacles are the occupied voxel cubes, and a "
             "position whose proven clearance to them (the ESDF's lower bound) is below this "
             "collides, m")
-      .real("collision_tolerance", 0.01, 1e-4, 1.0,
+      .real("collision_tolerance", MotionDefaults::kCollisionTolerance, 1e-4, 1.0,
             "the collision verdict is exact to this: an edge called free keeps robot_radius "
             "less this from every occupied cube, m")
-      .real("max_velocity", 2.0, 0.01, 100.0, "per-axis velocity limit, m/s")
-      .real("max_acceleration", 3.0, 0.01, 1000.0, "per-axis acceleration limit, m/s^2")
-      .real("goal_radius", 0.5, 0.001, 100.0, "goal region: positions this close to the goal, m")
+      .real("max_velocity", MotionDefaults::kMaxVelocity, 0.01, 100.0,
+            "per-axis velocity limit, m/s")
+      .real("max_acceleration", MotionDefaults::kMaxAcceleration, 0.01, 1000.0,
+            "per-axis acceleration limit, m/s^2")
+      .real("goal_radius", MotionDefaults::kGoalRadius, 0.001, 100.0,
+            "goal region: positions this close to the goal, m")
       .real("time_limit", default_time_limit, 0.0, 1e6, "planning time budget, s (0: none)");
 }
 

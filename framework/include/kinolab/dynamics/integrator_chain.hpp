@@ -12,6 +12,17 @@ namespace kinolab {
 /// are used; the control is the order-th derivative.
 using ChainState = Eigen::Matrix<double, 3, 4>;
 
+/// The motion defaults every planner, the edge evaluator and the checker share (one place):
+/// per-axis velocity and acceleration limits, the body's radius, the collision verdict's
+/// tolerance and the goal region's radius.
+struct MotionDefaults {
+  static constexpr double kMaxVelocity = 2.0;         ///< m/s
+  static constexpr double kMaxAcceleration = 3.0;     ///< m/s^2
+  static constexpr double kRobotRadius = 0.25;        ///< m
+  static constexpr double kCollisionTolerance = 0.01; ///< m
+  static constexpr double kGoalRadius = 0.5;          ///< m
+};
+
 /// Per-axis bounds on the absolute value of each derivative; `bound[k]` limits the k-th
 /// derivative (1 = velocity ... 4 = snap). bound[0] (position) is unused: the map bounds
 /// position. An infinite entry means unbounded.

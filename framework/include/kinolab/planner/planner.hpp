@@ -49,13 +49,13 @@ struct PlanningQuery {
 /// The body, limits and goal tolerance a planner plans for: what the checker holds its
 /// output to.
 struct PlanningModel {
-  double robot_radius = 0.25;
+  double robot_radius = MotionDefaults::kRobotRadius;
   DynamicLimits limits;
   int limited_derivatives = 2;  ///< limits apply to derivatives 1..this
-  double goal_radius = 0.5;
+  double goal_radius = MotionDefaults::kGoalRadius;
   /// The planner keeps robot_radius less this from every occupied cube; the checker holds
   /// it to that.
-  double collision_tolerance = 0.01;
+  double collision_tolerance = MotionDefaults::kCollisionTolerance;
 };
 
 /// One edge of a planner's search tree or graph, for figures (the paper's Fig. 6).
@@ -114,6 +114,11 @@ class Planner {
   PlanResult plan(const PlanningQuery& query, const Budget& budget, SearchTree* tree = nullptr);
   /// Forgets everything from earlier queries (setup stays).
   void reset() { doReset(); }
+
+  /// The budget plan(query, budget) works within: per limit, the tighter of `budget` (the
+  /// caller's: an experiment's `budget:`, `kinolab plan --time-limit`) and the planner's own
+  /// (its `time_limit` and expansion parameters). The one rule every caller times against.
+  Budget budgetFor(const Budget& budget) const;
 
   bool isSetup() const { return world_ != nullptr; }
   const World& world() const;

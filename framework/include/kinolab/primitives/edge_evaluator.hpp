@@ -32,14 +32,14 @@ struct CostWeights {
 struct EdgeEvaluatorSettings {
   int order = 2;          ///< integrator chain order: the control is this derivative
   double duration = 0.5;  ///< tau, seconds per primitive
-  DynamicLimits limits = DynamicLimits::uniform(2.0, 3.0);
+  DynamicLimits limits = DynamicLimits::uniform(MotionDefaults::kMaxVelocity, MotionDefaults::kMaxAcceleration);
   CostWeights weights;
-  double robot_radius = 0.25;    ///< the body: a sphere of this radius (0: a point)
+  double robot_radius = MotionDefaults::kRobotRadius;    ///< the body: a sphere of this radius (0: a point)
   double safety_distance = 0.5;  ///< obstacle penalty band beyond the radius, metres
   EdgeSampling sampling;
   /// The collision verdict is exact to this (m): an edge called free keeps robot_radius less
   /// this from every occupied voxel cube; each sphere-tracing step gains at least this.
-  double collision_tolerance = 0.01;
+  double collision_tolerance = MotionDefaults::kCollisionTolerance;
 };
 
 /// The result of evaluating one primitive, fully or partially.

@@ -24,7 +24,7 @@ struct SearchSettings {
   DuplicateRule duplicate_rule = DuplicateRule::kLwa;
   double heuristic_weight = 1.0;  ///< epsilon >= 1: cost within epsilon times the optimum
   double cost_weight = 1.0;       ///< weight of g in the priority; 0 = greedy best-first
-  double goal_radius = 0.5;
+  double goal_radius = MotionDefaults::kGoalRadius;
   /// The search's memory (candidates, states, open list): once past this it stops as on any
   /// budget, so that no search, not even one without a time limit, exhausts the machine (a
   /// container that has just doubled may hold up to twice the limit).

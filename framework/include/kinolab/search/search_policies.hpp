@@ -222,7 +222,7 @@ class CellSpace final : public SearchSpace {
 /// region.
 struct HeuristicContext {
   EdgeEvaluatorSettings edges;
-  double goal_radius = 0.5;
+  double goal_radius = MotionDefaults::kGoalRadius;
 };
 
 /// A registered heuristic (kind "heuristic", `kinolab list heuristics`): its factory reads the

@@ -12,9 +12,9 @@ namespace kinolab {
 
 /// What the checker holds a trajectory to: the body and the limits a planner claims to respect.
 struct CheckerSettings {
-  double robot_radius = 0.25;
+  double robot_radius = MotionDefaults::kRobotRadius;
   /// Per-axis limits on derivatives 1..max_derivative (velocity, acceleration, jerk, ...).
-  DynamicLimits limits = DynamicLimits::uniform(2.0, 3.0);
+  DynamicLimits limits = DynamicLimits::uniform(MotionDefaults::kMaxVelocity, MotionDefaults::kMaxAcceleration);
   int max_derivative = 2;
   /// Distance between consecutive position samples; 0 picks a quarter voxel (at most 2.5 cm).
   double spacing = 0.0;
@@ -22,14 +22,14 @@ struct CheckerSettings {
   double tolerance = 1e-6;
   /// The body may come this much closer than robot_radius to an occupied cube (m): the
   /// planners' collision verdict is exact to this tolerance (their `collision_tolerance`).
-  double collision_tolerance = 0.01;
+  double collision_tolerance = MotionDefaults::kCollisionTolerance;
 };
 
 /// The query a trajectory should answer.
 struct CheckQuery {
   ChainState start = ChainState::Zero();
   Eigen::Vector3d goal = Eigen::Vector3d::Zero();
-  double goal_radius = 0.5;
+  double goal_radius = MotionDefaults::kGoalRadius;
   /// An approximate answer (budget stop) ends short of the goal on purpose.
   bool require_goal = true;
 };
