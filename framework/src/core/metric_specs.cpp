@@ -54,6 +54,12 @@ MetricSpecs& MetricSpecs::include(const MetricSpecs& other) {
   return *this;
 }
 
+std::vector<std::string> MetricSpecs::names() const {
+  std::vector<std::string> result;
+  for (const MetricSpec& spec : specs_) result.push_back(spec.name);
+  return result;
+}
+
 const MetricSpec* MetricSpecs::find(std::string_view name) const {
   for (const MetricSpec& spec : specs_) {
     if (spec.name == name) return &spec;

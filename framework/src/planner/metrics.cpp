@@ -81,12 +81,18 @@ MetricValues statisticValues(const std::vector<std::pair<std::string, double>>& 
 std::string toJson(const MetricValues& values, const MetricSpecs& specs) {
   nlohmann::ordered_json object = nlohmann::ordered_json::object();
   for (const auto& [name, value] : values) {
+    // A name the schema does not declare would be dropped by the store: an error here, where
+    // it is reported, never a silent NULL.
+    const MetricSpec* spec = specs.find(name);
+    if (!spec) {
+      throw InvalidArgument("metric '" + name + "' is not declared" +
+                            didYouMean(name, specs.names()) + "; declare it (MetricSpecs)");
+    }
     nlohmann::ordered_json& item = object[name];
     if (const auto* text = std::get_if<std::string>(&value)) {
       item = *text;
     } else if (const auto* number = std::get_if<double>(&value); number && std::isfinite(*number)) {
-      const MetricSpec* spec = specs.find(name);
-      const MetricType type = spec ? spec->type : MetricType::kReal;
+      const MetricType type = spec->type;
       if (type == MetricType::kBoolean) {
         item = *number != 0.0;
       } else if (type == MetricType::kInteger) {

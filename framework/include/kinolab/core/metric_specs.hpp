@@ -49,6 +49,7 @@ class MetricSpecs {
 
   const std::vector<MetricSpec>& all() const { return specs_; }
   const MetricSpec* find(std::string_view name) const;
+  std::vector<std::string> names() const;
 
  private:
   MetricSpecs& add(MetricSpec spec);

@@ -27,8 +27,8 @@ MetricValues resultValues(const PlanResult& result);
 /// A planner's statistics as metric values (NaN and infinity become none).
 MetricValues statisticValues(const std::vector<std::pair<std::string, double>>& statistics);
 
-/// A JSON object of `values`, typed by `specs` where they declare the name (booleans as
-/// true/false, integers as integers), numbers otherwise; none is null.
+/// A JSON object of `values`, typed by `specs` (booleans as true/false, integers as
+/// integers); none is null. A name `specs` does not declare is an InvalidArgument.
 std::string toJson(const MetricValues& values, const MetricSpecs& specs);
 /// The values of a JSON object written by toJson() (booleans become 1 or 0).
 MetricValues metricValuesFromJson(const std::string& json);

@@ -1,0 +1,249 @@
+// The work of one run in its worker process (plan or fly) and the record made of what the
+// worker returned; the runner (runner.cpp) schedules these.
+#include "kinolab/experiment/run_work.hpp"
+
+#include <sys/wait.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <limits>
+#include <nlohmann/json.hpp>
+
+#include "kinolab/core/hash.hpp"
+#include "kinolab/core/text.hpp"
+#include "kinolab/flight/flight.hpp"
+#include "kinolab/planner/result_csv.hpp"
+
+namespace kinolab {
+namespace {
+
+/// What a worker's `metrics` hold: the result's and the runner's.
+const MetricSpecs& workerMetrics() {
+  static const MetricSpecs specs = MetricSpecs(resultMetrics()).include(runnerMetrics());
+  return specs;
+}
+
+/// Whether the straight line from start to goal collides for the body: the query needs a
+/// detour.
+double lineBlocked(const World& world, const PlanningQuery& query, const PlanningModel& model) {
+  return world.segmentFree(query.start.col(0), query.goal, model.robot_radius) ? 0.0 : 1.0;
+}
+
+/// Runs `work`, which fills a run's JSON ({"metrics": {...}, "statistics": {...},
+/// "trajectory", "tree"}), inside its worker process: every failure the run can report itself
+/// (out of memory, an exception) becomes its status.
+template <typename Work>
+std::string workerOutput(const ExperimentVariant& variant, Work&& work) {
+  nlohmann::json out;
+  try {
+    work(out);
+  } catch (const std::bad_alloc&) {
+    out = {{"metrics",
+            {{"status", "oom"},
+             {"message", "out of memory: the run exceeded its budget of " +
+                             std::to_string(variant.budget.memory_mb) + " MB"}}}};
+  } catch (const std::exception& error) {
+    out = {{"metrics", {{"status", "error"}, {"message", error.what()}}}};
+  }
+  return out.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
+}
+
+/// One run, inside its worker process: plan (under the timing protocol) and return the
+/// result as JSON text.
+}  // namespace
+
+std::string planRun(const Experiment& experiment, const RunSpec& run,
+                    const std::shared_ptr<const World>& world, const PlanningQuery& query) {
+  const ExperimentVariant& variant = experiment.variants[run.variant];
+  return workerOutput(variant, [&](nlohmann::json& out) {
+    const ExperimentPlanner& spec = variant.planners[run.planner];
+    ConfiguredPlanner configured = configurePlanner(spec.type, spec.assignments);
+    configured.planner->setup({world, configured.sampler, run.seed});
+    Budget budget{variant.budget.time, std::numeric_limits<long long>::max()};
+    if (variant.budget.iterations > 0) budget.max_iterations = variant.budget.iterations;
+    SearchTree tree;
+    const bool store_tree =
+        experiment.store_tree_queries < 0 || run.query < experiment.store_tree_queries;
+    // The timing protocol (TimingProtocol): warm-up plans, then timed ones; every plan of a
+    // case repeats the same work (planners are deterministic in their seed and the query).
+    // A plan that spends the whole time budget it has (the tighter of the experiment's and the
+    // planner's own, Planner::budgetFor) would spend it again: it is the only one timed.
+    const double limit_ms = 1000.0 * configured.planner->budgetFor(budget).time_limit;
+    const int plans = variant.timing.warmup + variant.timing.repeats;
+    std::vector<double> timed;
+    double cold_ms = NAN;
+    PlanResult result;
+    for (int i = 0; i < plans; ++i) {
+      result = configured.planner->plan(query, budget, store_tree ? &tree : nullptr);
+      if (i == 0) cold_ms = result.planning_time_ms;
+      const bool spent = result.planning_time_ms >= limit_ms;
+      if (i >= variant.timing.warmup || spent) timed.push_back(result.planning_time_ms);
+      if (spent) break;
+    }
+    std::sort(timed.begin(), timed.end());
+    const std::size_t middle = timed.size() / 2;
+    result.planning_time_ms =
+        timed.size() % 2 ? timed[middle] : 0.5 * (timed[middle - 1] + timed[middle]);
+    MetricValues metrics = resultValues(result);
+    metrics.emplace_back("planning_time_min_ms", timed.front());
+    metrics.emplace_back("planning_time_cold_ms", cold_ms);
+    metrics.emplace_back("line_blocked", lineBlocked(*world, query, configured.planner->model()));
+    out["metrics"] = nlohmann::json::parse(toJson(metrics, workerMetrics()));
+    out["statistics"] = nlohmann::json::parse(
+        toJson(statisticValues(result.statistics), declaredStatistics(*configured.info)));
+    if (!result.trajectory.empty() && experiment.store_trajectories) {
+      out["trajectory"] = trajectoryCsv(result.trajectory, 0.05);
+    }
+    if (store_tree) out["tree"] = treeCsv(tree);
+  });
+}
+
+/// One flight run, inside its worker process: fly and return the result as JSON text, in the
+/// result schema (status, success, planning_time_ms = the replans' median, distance_to_goal
+/// at the end, duration, length, jerk, clearance, the checker's verdict against the ground
+/// truth) with every flight metric as a statistic.
+std::string flyRun(const Experiment& experiment, const RunSpec& run,
+                   const std::shared_ptr<const World>& world, const PlanningQuery& query) {
+  const ExperimentVariant& variant = experiment.variants[run.variant];
+  return workerOutput(variant, [&](nlohmann::json& out) {
+    const ExperimentPlanner& spec = variant.planners[run.planner];
+    FlightSetup setup = flightSetup(variant.flight);
+    FlightSettings& settings = setup.settings;
+    // The known map's growth for the queries whose trees a planning experiment would store.
+    const bool keep_map =
+        experiment.store_tree_queries < 0 || run.query < experiment.store_tree_queries;
+    if (keep_map) settings.snapshot_period = 2.0;
+    const PlannerFactory factory = [&](std::shared_ptr<const World> window) {
+      ConfiguredPlanner configured = configurePlanner(spec.type, spec.assignments);
+      configured.planner->setup({std::move(window), configured.sampler, run.seed});
+      return std::move(configured.planner);
+    };
+    const FlightResult flight = fly(world, factory, query, *setup.sensor, setup.map, settings);
+    const MetricValues values = flightValues(flight);
+    const auto value = [&](std::string_view name) -> MetricValue {
+      for (const auto& [key, item] : values) {
+        if (key == name) return item;
+      }
+      return std::monostate{};
+    };
+    const bool flown = !flight.flown.empty();
+    const bool collided = flight.status == "collision";
+    MetricValues metrics = {
+        {"status", flight.status},
+        {"message", flight.message},
+        {"success", value("success")},
+        {"planning_time_ms", value("replan_time_median_ms")},
+        {"distance_to_goal",
+         flown ? MetricValue((flight.flown.endPosition() - query.goal).norm()) : MetricValue{}},
+        {"duration", flown ? MetricValue(flight.flown.duration()) : MetricValue{}},
+        {"length", value("flown_length")},
+        {"jerk_integral", value("jerk_integral")},
+        {"min_clearance", value("min_clearance")},
+        {"checker_valid", collided ? 0.0 : 1.0},
+        {"checker_check", collided ? std::string("collision") : std::string()},
+        {"checker_detail", collided ? flight.message : std::string()},
+        {"line_blocked", lineBlocked(*world, query, flight.model)},
+    };
+    out["metrics"] = nlohmann::json::parse(toJson(metrics, workerMetrics()));
+    const double radius = flight.model.robot_radius;
+    MetricValues statistics;
+    for (const auto& [name, item] : values) {
+      if (flightStatistics().find(name)) statistics.emplace_back(name, item);
+    }
+    out["statistics"] = nlohmann::json::parse(toJson(statistics, flightStatistics()));
+    if (flown && experiment.store_trajectories) {
+      out["trajectory"] = trajectoryCsv(flight.flown, 0.05);
+    }
+    out["replans"] = replansCsv(flight);
+    // Clearance to the ground truth (its ESDF less the body) over the flight, every 0.05 s.
+    std::string clearance = "t,clearance\n";
+    for (const TrajectorySample& sample : flight.flown.sample(0.05)) {
+      clearance += formatNumber(sample.time) + "," +
+                   formatNumber(world->distance(sample.position) - radius) + "\n";
+    }
+    out["clearance"] = clearance;
+    if (keep_map) {
+      // Snapshots one after the other, each after a line "t=SECONDS"; the last is the end.
+      std::string maps;
+      for (const auto& [time, view] : flight.snapshots) {
+        maps += "t=" + formatNumber(time) + "\n" + view;
+      }
+      out["known_map"] = maps;
+      out["known_voxels"] = knownVoxelsCsv(flight);
+    }
+  });
+}
+
+/// The record of a finished worker, from its output and how it ended.
+RunRecord recordOf(const Experiment& experiment, const RunSpec& run, const WorkerOutcome& worker,
+                   const PlanningQuery& query) {
+  const ExperimentVariant& variant = experiment.variants[run.variant];
+  const ExperimentWorld& world = variant.worlds[run.world];
+  const ExperimentPlanner& planner = variant.planners[run.planner];
+  RunRecord record;
+  record.run_hash = run.hash;
+  record.variant = static_cast<int>(run.variant);
+  record.sweep = variant.label;
+  record.world = world.id;
+  record.world_hash = toHex(world.spec.hash());
+  record.query = run.query;
+  record.planner = planner.id;
+  record.planner_type = planner.type;
+  record.sampler = planner.sampler;
+  record.repetition = run.repetition;
+  record.seed = toHex(run.seed);
+  for (int axis = 0; axis < 3; ++axis) {
+    record.start[axis] = query.start(axis, 0);
+    record.goal[axis] = query.goal[axis];
+  }
+  const double wall_time_ms = worker.wall_ms;
+  const int wait_status = worker.wait_status;
+  const auto finish = [&](std::string status, std::string message) {
+    record.metrics.insert(
+        record.metrics.begin(),
+        {{"status", std::move(status)}, {"message", std::move(message)}, {"success", 0.0}});
+  };
+  record.metrics = {{"peak_memory_mb", static_cast<double>(worker.usage.ru_maxrss) / 1024.0},
+                    {"wall_time_ms", wall_time_ms},
+                    {"started_at", worker.started_at}};
+
+  if (worker.killed_for_time) {
+    finish(
+        "killed",
+        "killed after " + formatNumber(wall_time_ms / 1000.0) + " s: " +
+            (experiment.flights
+                 ? "the flight ran past its budget of " + formatNumber(variant.budget.time) + " s"
+                 : "the planner ignored its time budget of " + formatNumber(variant.budget.time) +
+                       " s per plan (" +
+                       std::to_string(variant.timing.warmup + variant.timing.repeats) + " plans)"));
+    return record;
+  }
+  if (WIFSIGNALED(wait_status)) {
+    finish("crash", std::string("the worker died of signal ") +
+                        std::to_string(WTERMSIG(wait_status)) + " (" +
+                        strsignal(WTERMSIG(wait_status)) + ")");
+    return record;
+  }
+  const nlohmann::json out = nlohmann::json::parse(worker.output, nullptr, false);
+  if (!WIFEXITED(wait_status) || WEXITSTATUS(wait_status) != 0 || out.is_discarded() ||
+      !out.contains("metrics") || !out["metrics"].contains("status")) {
+    finish("crash", "the worker exited with status " +
+                        std::to_string(WIFEXITED(wait_status) ? WEXITSTATUS(wait_status) : -1) +
+                        " without a result");
+    return record;
+  }
+  MetricValues metrics = metricValuesFromJson(out["metrics"].dump());
+  record.metrics.insert(record.metrics.begin(), metrics.begin(), metrics.end());
+  if (out.contains("statistics"))
+    record.statistics = metricValuesFromJson(out["statistics"].dump());
+  record.trajectory_csv = out.value("trajectory", "");
+  record.tree_csv = out.value("tree", "");
+  record.replans_csv = out.value("replans", "");
+  record.known_map = out.value("known_map", "");
+  record.known_voxels_csv = out.value("known_voxels", "");
+  record.clearance_csv = out.value("clearance", "");
+  return record;
+}
+
+}  // namespace kinolab
