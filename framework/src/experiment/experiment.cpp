@@ -283,15 +283,11 @@ YAML::Node loadDocument(const std::string& path, std::string& source,
 
 }  // namespace
 
-Experiment Experiment::fromFile(const std::string& path) {
-  std::string source;
-  std::map<std::string, std::string> spec_directories;
-  const YAML::Node document = loadDocument(path, source, spec_directories);
-  const std::string directory = fs::path(path).parent_path().string();
-  Experiment experiment;
-  experiment.source = path;
+namespace {
 
-  const YamlReader root = YamlReader::fromNode(document, source);
+/// `plugins:` (each loaded now, so that the rest of the file can name their keys) and
+/// `store:`.
+void readHeader(const YamlReader& root, const std::string& directory, Experiment& experiment) {
   const std::string kind = root.get<std::string>("kind", "planning");
   if (kind != "planning" && kind != "flight") {
     root["kind"].fail("expected 'planning' or 'flight' (kinolab run), got '" + kind +
@@ -328,43 +324,42 @@ Experiment Experiment::fromFile(const std::string& path) {
     }
     store->finish();
   }
-  std::optional<YamlReader> reproduces = root.optional("reproduces");
-  if (reproduces) {
-    const YamlReader paper = (*reproduces)["paper"];
-    experiment.reproduces_paper = paper.as<std::string>();
-    const auto known = reproducibleRows().find(experiment.reproduces_paper);
-    if (known == reproducibleRows().end()) {
-      std::vector<std::string> names;
-      for (const auto& [name, rows] : reproducibleRows()) names.push_back(name);
-      paper.fail("unknown paper '" + experiment.reproduces_paper + "'" +
-                 didYouMean(experiment.reproduces_paper, names) + "; known: " + join(names, ", "));
-    }
-    for (const auto& [id, row] : (*reproduces)["rows"].entries()) {
-      const std::string name = row.as<std::string>();
-      if (std::find(known->second.begin(), known->second.end(), name) == known->second.end()) {
-        row.fail("'" + name + "' is not a row of " + experiment.reproduces_paper +
-                 "; its rows: " + join(known->second, ", "));
-      }
-      experiment.reproduces_rows.emplace_back(id, name);
-    }
-    reproduces->finish();
-  }
-  std::vector<SweepPoint> points(1);
-  if (const auto sweep = root.optional("sweep")) points = expandSweep(*sweep);
-  // The keys every variant reads; marked read here so that finish() sees only unknown ones.
-  for (const char* key :
-       {"worlds", "queries", "planners", "repetitions", "budget", "timing", "flight"}) {
-    (void)root.optional(key);
-  }
-  root.finish();
+}
 
-  // Every variant is the one document with its sweep values set, read, then set back: the
-  // sweep's value nodes belong to it (no memory merges) and keep their file positions for
-  // messages, and each variant costs the size of the document without its sweep.
+/// `reproduces: {paper, rows}`: a known paper and rows of it.
+void readReproduces(const YamlReader& reproduces, Experiment& experiment) {
+  const YamlReader paper = reproduces["paper"];
+  experiment.reproduces_paper = paper.as<std::string>();
+  const auto known = reproducibleRows().find(experiment.reproduces_paper);
+  if (known == reproducibleRows().end()) {
+    std::vector<std::string> names;
+    for (const auto& [name, rows] : reproducibleRows()) names.push_back(name);
+    paper.fail("unknown paper '" + experiment.reproduces_paper + "'" +
+               didYouMean(experiment.reproduces_paper, names) + "; known: " + join(names, ", "));
+  }
+  for (const auto& [id, row] : reproduces["rows"].entries()) {
+    const std::string name = row.as<std::string>();
+    if (std::find(known->second.begin(), known->second.end(), name) == known->second.end()) {
+      row.fail("'" + name + "' is not a row of " + experiment.reproduces_paper +
+               "; its rows: " + join(known->second, ", "));
+    }
+    experiment.reproduces_rows.emplace_back(id, name);
+  }
+  reproduces.finish();
+}
+
+/// Every sweep point's variant: the one document with the point's values set, read, then set
+/// back. The sweep's value nodes belong to the document (no memory merges) and keep their
+/// file positions for messages, and each variant costs the size of the document without its
+/// sweep. Also the experiment's canonical text: the document without its sweep, then each
+/// variant's values (dumping every variant would cost far more).
+void readVariants(YAML::Node document, const std::vector<SweepPoint>& points,
+                  const std::string& path, const std::string& source,
+                  const std::map<std::string, std::string>& spec_directories,
+                  Experiment& experiment) {
+  const std::string directory = fs::path(path).parent_path().string();
   YAML::Node variant_node = document;
   variant_node.remove("sweep");
-  // The canonical text: the document without its sweep, then each variant's values (what
-  // the variant is, in the order of the runs); dumping every variant would cost far more.
   experiment.canonical = YAML::Dump(variant_node) + "\n--- # variants\n";
   std::vector<PathChange> changes;
   std::size_t total_runs = 0;
@@ -394,6 +389,31 @@ Experiment Experiment::fromFile(const std::string& path) {
     experiment.variants.push_back(std::move(variant));
     undo(changes);
   }
+}
+
+}  // namespace
+
+Experiment Experiment::fromFile(const std::string& path) {
+  std::string source;
+  std::map<std::string, std::string> spec_directories;
+  const YAML::Node document = loadDocument(path, source, spec_directories);
+  Experiment experiment;
+  experiment.source = path;
+
+  const YamlReader root = YamlReader::fromNode(document, source);
+  readHeader(root, fs::path(path).parent_path().string(), experiment);
+  const std::optional<YamlReader> reproduces = root.optional("reproduces");
+  if (reproduces) readReproduces(*reproduces, experiment);
+  std::vector<SweepPoint> points(1);
+  if (const auto sweep = root.optional("sweep")) points = expandSweep(*sweep);
+  // The keys every variant reads; marked read here so that finish() sees only unknown ones.
+  for (const char* key :
+       {"worlds", "queries", "planners", "repetitions", "budget", "timing", "flight"}) {
+    (void)root.optional(key);
+  }
+  root.finish();
+
+  readVariants(document, points, path, source, spec_directories, experiment);
   experiment.config_hash = toHex(hashString(experiment.canonical));
   // Every row names a planner id of every variant.
   for (const auto& entry : experiment.reproduces_rows) {

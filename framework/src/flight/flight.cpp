@@ -233,187 +233,251 @@ FlightSetup flightSetup(const ParameterSet& p) {
   return setup;
 }
 
-FlightResult fly(const std::shared_ptr<const World>& truth, const PlannerFactory& make_planner,
-                 const PlanningQuery& query, const Sensor& sensor, const MapModel& map_model,
-                 const FlightSettings& settings) {
-  FlightResult result;
-  auto map = std::make_shared<KnownMap>(truth->bounds(), map_model);
-  result.map = map;
-  // The body and limits every replan plans for (the planner's model on any world).
-  result.model = make_planner(truth)->model();
-  const PlanningModel& model = result.model;
-  const TrajectoryChecker checker(truth, checkerSettings(model));
-  const Eigen::Vector3d start = query.start.col(0);
-  if (!truth->isFree(start, model.robot_radius)) {
-    result.status = "invalid_start";
-    result.message = "the start is outside the map or in collision";
-    return result;
-  }
-  if (!truth->isFree(query.goal, model.robot_radius)) {
-    result.status = "invalid_goal";
-    result.message = "the goal is outside the map or in collision";
-    return result;
-  }
-  const double brake_rate = std::min(settings.brake_acceleration, model.limits.bound[2].minCoeff());
-  const double dt = 1.0 / sensor.frameRate();
+namespace {
 
-  // The committed trajectory from t = 0; at rest at its end (a hover at the start at first).
-  Trajectory committed;
-  committed.append(hold(start, dt));
-  double next_replan = 0.0;
-  double best_distance = (start - query.goal).norm();
-  double best_time = 0.0;
-  std::string reason = "start";
-  double t = 0.0;
-  bool collided = false;
-  // Snapshots: the map from above over the query's heights (widened by 0.5 m), and when
-  // each voxel was first known occupied.
-  const double z_band_low = std::min(start.z(), query.goal.z()) - 0.5;
-  const double z_band_high = std::max(start.z(), query.goal.z()) + 0.5;
-  std::unordered_map<std::size_t, double> first_occupied;  // lattice index -> time
-  const auto snapshot = [&](double time) {
-    result.snapshots.emplace_back(time, map->topView(z_band_low, z_band_high));
-    for (const std::size_t voxel : map->occupiedVoxels()) first_occupied.emplace(voxel, time);
-  };
-  for (int frame = 0;; ++frame) {
+/// One flight, step by step (fly()): the committed trajectory, the known map and the record.
+class FlightLoop {
+ public:
+  FlightLoop(const std::shared_ptr<const World>& truth, const PlannerFactory& make_planner,
+             const PlanningQuery& query, const Sensor& sensor, const MapModel& map_model,
+             const FlightSettings& settings)
+      : truth_(truth),
+        make_planner_(make_planner),
+        query_(query),
+        sensor_(sensor),
+        map_model_(map_model),
+        settings_(settings),
+        map_(std::make_shared<KnownMap>(truth->bounds(), map_model)),
+        // The body and limits every replan plans for (the planner's model on any world).
+        model_(make_planner(truth)->model()),
+        checker_(truth, checkerSettings(model_)),
+        brake_rate_(std::min(settings.brake_acceleration, model_.limits.bound[2].minCoeff())),
+        dt_(1.0 / sensor.frameRate()),
+        // Snapshots: the map from above over the query's heights, widened by 0.5 m.
+        z_band_low_(std::min(query.start(2, 0), query.goal.z()) - 0.5),
+        z_band_high_(std::max(query.start(2, 0), query.goal.z()) + 0.5) {
+    result_.map = map_;
+    result_.model = model_;
+  }
+
+  FlightResult run() {
+    const Eigen::Vector3d start = query_.start.col(0);
+    if (!truth_->isFree(start, model_.robot_radius)) {
+      return end("invalid_start", "the start is outside the map or in collision");
+    }
+    if (!truth_->isFree(query_.goal, model_.robot_radius)) {
+      return end("invalid_goal", "the goal is outside the map or in collision");
+    }
+    // The committed trajectory from t = 0; at rest at its end (a hover at the start at first).
+    committed_.append(hold(start, dt_));
+    best_distance_ = (start - query_.goal).norm();
+    for (int frame = 0; step(frame); ++frame) {
+    }
+    finish();
+    return std::move(result_);
+  }
+
+ private:
+  FlightResult end(std::string status, std::string message) {
+    result_.status = std::move(status);
+    result_.message = std::move(message);
+    return std::move(result_);
+  }
+
+  /// One frame: false when the flight ends at it.
+  bool step(int frame) {
     // The ground truth: the stretch flown since the last frame, every centimetre of time.
-    const double from = t;
-    t = frame * dt;
-    for (double s = from; frame > 0 && s <= t; s += 0.01) {
-      if (checker.collides(committed.evaluate(std::min(s, committed.duration())))) {
-        t = s;
-        collided = true;
-        break;
+    const double from = t_;
+    t_ = frame * dt_;
+    for (double s = from; frame > 0 && s <= t_; s += 0.01) {
+      if (checker_.collides(committed_.evaluate(std::min(s, committed_.duration())))) {
+        t_ = s;
+        collided_ = true;
+        return false;
       }
     }
-    if (collided) break;
-    const ChainState now = stateAt(committed, t);
-    const double distance = (now.col(0) - query.goal).norm();
-    if (distance <= settings.goal_tolerance) {
-      result.status = "reached";
-      result.time_to_goal = t;
-      break;
+    const ChainState now = stateAt(committed_, t_);
+    if (ended(now)) return false;
+    ++result_.frames;
+    if (settings_.snapshot_period > 0.0 &&
+        (result_.snapshots.empty() ||
+         t_ >= result_.snapshots.back().first + settings_.snapshot_period - 1e-9)) {
+      snapshot();
     }
-    if (t >= settings.max_time) {
-      result.status = "timeout";
-      result.message =
-          "the goal was not reached within " + formatNumber(settings.max_time) + " s of flight";
-      break;
+    const std::shared_ptr<const World> window = sense(now);
+    if (!freeFrom(committed_, t_, *window, model_)) {
+      reason_ = "collision";
+      next_replan_ = t_;
     }
-    if (distance < best_distance - 0.5) {
-      best_distance = distance;
-      best_time = t;
+    if (t_ + 1e-9 >= next_replan_) replan(*window, window);
+    return true;
+  }
+
+  /// Reached, out of time or stuck (the status set); false while the flight goes on.
+  bool ended(const ChainState& now) {
+    const double distance = (now.col(0) - query_.goal).norm();
+    if (distance <= settings_.goal_tolerance) {
+      result_.status = "reached";
+      result_.time_to_goal = t_;
+      return true;
     }
-    if (t - best_time > settings.stuck_time) {
-      result.status = "stuck";
-      result.message =
-          "no progress towards the goal for " + formatNumber(settings.stuck_time) + " s";
-      break;
+    if (t_ >= settings_.max_time) {
+      result_.status = "timeout";
+      result_.message =
+          "the goal was not reached within " + formatNumber(settings_.max_time) + " s of flight";
+      return true;
     }
-    ++result.frames;
-    if (settings.snapshot_period > 0.0 &&
-        (result.snapshots.empty() ||
-         t >= result.snapshots.back().first + settings.snapshot_period - 1e-9)) {
-      snapshot(t);
+    if (distance < best_distance_ - 0.5) {
+      best_distance_ = distance;
+      best_time_ = t_;
     }
+    if (t_ - best_time_ > settings_.stuck_time) {
+      result_.status = "stuck";
+      result_.message =
+          "no progress towards the goal for " + formatNumber(settings_.stuck_time) + " s";
+      return true;
+    }
+    return false;
+  }
+
+  /// A frame of the sensor into the known map; the planning window around the vehicle.
+  std::shared_ptr<const World> sense(const ChainState& now) {
     auto begin = std::chrono::steady_clock::now();
     const SensorFrame sensed =
-        senseFrame(truth->grid(), sensor, now.col(0), headingOf(committed, t, query.goal));
-    result.time_sense_ms += millisecondsSince(begin);
+        senseFrame(truth_->grid(), sensor_, now.col(0), headingOf(committed_, t_, query_.goal));
+    result_.time_sense_ms += millisecondsSince(begin);
     begin = std::chrono::steady_clock::now();
-    map->insert(sensed, sensor.maxRange());
+    map_->insert(sensed, sensor_.maxRange());
     // Where the vehicle is, nothing is: its body is known free, with two voxels to spare for
     // the ESDF's conservative clearance (so that a cautious map still lets it start).
-    map->markFree(now.col(0), model.robot_radius + 2.0 * map_model.resolution);
-    result.time_map_ms += millisecondsSince(begin);
+    map_->markFree(now.col(0), model_.robot_radius + 2.0 * map_model_.resolution);
+    result_.time_map_ms += millisecondsSince(begin);
     begin = std::chrono::steady_clock::now();
-    const std::shared_ptr<const World> window = map->window(now.col(0));
-    result.time_window_ms += millisecondsSince(begin);
+    std::shared_ptr<const World> window = map_->window(now.col(0));
+    result_.time_window_ms += millisecondsSince(begin);
+    return window;
+  }
 
-    if (!freeFrom(committed, t, *window, model)) {
-      reason = "collision";
-      next_replan = t;
-    }
-    if (t + 1e-9 < next_replan) continue;
-
+  /// A replan from the committed state `latency` ahead towards a local goal on the guide;
+  /// an accepted plan is spliced in, and without one the vehicle brakes if its committed
+  /// trajectory is no longer free.
+  void replan(const World& window, const std::shared_ptr<const World>& shared_window) {
     FlightReplan replan;
-    replan.time = t;
-    replan.reason = reason;
-    const double t_start = t + settings.latency;
+    replan.time = t_;
+    replan.reason = reason_;
+    const double t_start = t_ + settings_.latency;
     PlanningQuery local;
-    local.start = stateAt(committed, t_start);
+    local.start = stateAt(committed_, t_start);
     replan.start = local.start.col(0);
-    bool accepted = false;
-    begin = std::chrono::steady_clock::now();
-    const double z_low = std::min(local.start(2, 0), query.goal.z()) - 0.5;
-    const double z_high = std::max(local.start(2, 0), query.goal.z()) + 0.5;
+    const auto begin = std::chrono::steady_clock::now();
+    const double z_low = std::min(local.start(2, 0), query_.goal.z()) - 0.5;
+    const double z_high = std::max(local.start(2, 0), query_.goal.z()) + 0.5;
     const std::vector<Eigen::Vector3d> guide =
-        map->guide(local.start.col(0), query.goal, model.robot_radius, z_low, z_high);
-    result.time_guide_ms += millisecondsSince(begin);
-    if (localGoal(local.start.col(0), query.goal, guide, settings.horizon, *window,
-                  model.robot_radius, &local.goal)) {
+        map_->guide(local.start.col(0), query_.goal, model_.robot_radius, z_low, z_high);
+    result_.time_guide_ms += millisecondsSince(begin);
+    bool accepted = false;
+    if (localGoal(local.start.col(0), query_.goal, guide, settings_.horizon, window,
+                  model_.robot_radius, &local.goal)) {
       replan.local_goal = local.goal;
-      std::unique_ptr<Planner> planner = make_planner(window);
+      std::unique_ptr<Planner> planner = make_planner_(shared_window);
       const PlanResult plan = planner->plan(
-          local, Budget{settings.replan_budget, std::numeric_limits<long long>::max()});
+          local, Budget{settings_.replan_budget, std::numeric_limits<long long>::max()});
       replan.status = std::string(toString(plan.status));
       replan.planning_time_ms = plan.planning_time_ms;
       replan.distance_to_goal = plan.distance_to_goal;
       // In real time a plan that took longer than the latency arrives after its start.
       const bool late =
-          settings.enforce_latency && plan.planning_time_ms > 1000.0 * settings.latency;
+          settings_.enforce_latency && plan.planning_time_ms > 1000.0 * settings_.latency;
       accepted = !late && !plan.trajectory.empty() && plan.check.valid &&
                  (plan.status == PlanStatus::kExact || plan.status == PlanStatus::kApproximate);
       if (late) replan.status = "late";
       if (accepted) {
         replan.trajectory = plan.trajectory;
-        committed = splice(committed, t_start, plan.trajectory, brake_rate);
+        committed_ = splice(committed_, t_start, plan.trajectory, brake_rate_);
       }
     } else {
       replan.status = "no_local_goal";
     }
     replan.accepted = accepted;
-    result.replans.push_back(std::move(replan));
-    if (!accepted && !freeFrom(committed, t, *window, model)) {
+    result_.replans.push_back(std::move(replan));
+    if (!accepted && !freeFrom(committed_, t_, window, model_)) {
       // Nothing safe to fly on: stop now.
-      const ChainState here = stateAt(committed, t);
-      Trajectory stop = slice(committed, t);
-      const TrajectorySegment braking = brake(here, brake_rate);
+      const ChainState here = stateAt(committed_, t_);
+      Trajectory stop = slice(committed_, t_);
+      const TrajectorySegment braking = brake(here, brake_rate_);
       if (braking.duration > 0.0) stop.append(braking);
-      if (stop.empty()) stop.append(hold(here.col(0), dt));  // at rest at the very start
-      committed = std::move(stop);
+      if (stop.empty()) stop.append(hold(here.col(0), dt_));  // at rest at the very start
+      committed_ = std::move(stop);
     }
-    reason = accepted ? "period" : "retry";
-    next_replan = t + (accepted ? settings.replan_period : dt);
+    reason_ = accepted ? "period" : "retry";
+    next_replan_ = t_ + (accepted ? settings_.replan_period : dt_);
   }
-  result.flown = slice(committed, std::max(t, dt));
-  if (settings.snapshot_period > 0.0) {
-    snapshot(t);
-    for (const std::size_t voxel : map->occupiedVoxels()) {
-      result.known_voxels.emplace_back(first_occupied.at(voxel), map->voxelCenter(voxel));
+
+  /// The map from above, and when each voxel was first known occupied.
+  void snapshot() {
+    result_.snapshots.emplace_back(t_, map_->topView(z_band_low_, z_band_high_));
+    for (const std::size_t voxel : map_->occupiedVoxels()) first_occupied_.emplace(voxel, t_);
+  }
+
+  /// What was flown, checked against the ground truth.
+  void finish() {
+    result_.flown = slice(committed_, std::max(t_, dt_));
+    if (settings_.snapshot_period > 0.0) {
+      snapshot();
+      for (const std::size_t voxel : map_->occupiedVoxels()) {
+        result_.known_voxels.emplace_back(first_occupied_.at(voxel), map_->voxelCenter(voxel));
+      }
+      std::stable_sort(result_.known_voxels.begin(), result_.known_voxels.end(),
+                       [](const auto& a, const auto& b) { return a.first < b.first; });
     }
-    std::stable_sort(result.known_voxels.begin(), result.known_voxels.end(),
-                     [](const auto& a, const auto& b) { return a.first < b.first; });
+    if (collided_) result_.status = "collision";
+    CheckQuery check_query;
+    check_query.start = query_.start;
+    check_query.goal = query_.goal;
+    check_query.require_goal = false;
+    const CheckResult check = checker_.check(result_.flown, check_query);
+    result_.min_clearance = check.min_clearance;
+    if (!check.valid && check.check == "collision") {
+      result_.status = "collision";
+      result_.message = "the flown trajectory hits the ground truth at t = " +
+                        std::to_string(check.time) + " s: " + check.detail;
+      result_.flown = slice(result_.flown, check.time);
+    } else if (!check.valid) {
+      result_.message = "the checker: " + check.check + ": " + check.detail;
+    }
+    if (result_.status != "reached") result_.time_to_goal = NAN;
   }
-  if (collided) result.status = "collision";
-  CheckQuery check_query;
-  check_query.start = query.start;
-  check_query.goal = query.goal;
-  check_query.require_goal = false;
-  const CheckResult check = checker.check(result.flown, check_query);
-  result.min_clearance = check.min_clearance;
-  if (!check.valid && check.check == "collision") {
-    result.status = "collision";
-    result.message =
-        "the flown trajectory hits the ground truth at t = " + std::to_string(check.time) +
-        " s: " + check.detail;
-    result.flown = slice(result.flown, check.time);
-    result.time_to_goal = NAN;
-  } else if (!check.valid) {
-    result.message = "the checker: " + check.check + ": " + check.detail;
-  }
-  if (result.status != "reached") result.time_to_goal = NAN;
-  return result;
+
+  const std::shared_ptr<const World>& truth_;
+  const PlannerFactory& make_planner_;
+  const PlanningQuery& query_;
+  const Sensor& sensor_;
+  const MapModel& map_model_;
+  const FlightSettings& settings_;
+  FlightResult result_;
+  std::shared_ptr<KnownMap> map_;
+  PlanningModel model_;
+  TrajectoryChecker checker_;
+  double brake_rate_;
+  double dt_;
+  double z_band_low_;
+  double z_band_high_;
+  Trajectory committed_;
+  double t_ = 0.0;
+  double next_replan_ = 0.0;
+  double best_distance_ = INFINITY;
+  double best_time_ = 0.0;
+  std::string reason_ = "start";
+  bool collided_ = false;
+  std::unordered_map<std::size_t, double> first_occupied_;  // lattice index -> time
+};
+
+}  // namespace
+
+FlightResult fly(const std::shared_ptr<const World>& truth, const PlannerFactory& make_planner,
+                 const PlanningQuery& query, const Sensor& sensor, const MapModel& map_model,
+                 const FlightSettings& settings) {
+  return FlightLoop(truth, make_planner, query, sensor, map_model, settings).run();
 }
 
 const MetricSpecs& flightStatistics() {

@@ -134,113 +134,144 @@ bool TrajectoryChecker::collides(const Eigen::Vector3d& position) const {
   return false;
 }
 
+namespace {
+
+/// Records a violation in `result`; returns false (the trajectory is not valid).
+bool violation(CheckResult& result, std::string check, double time,
+               const Eigen::Vector3d& position, std::string detail) {
+  result.valid = false;
+  result.check = std::move(check);
+  result.time = time;
+  result.position = position;
+  result.detail = std::move(detail);
+  return false;
+}
+
+/// The sample times of a segment `spacing` apart along its path (a bound of it), at least
+/// its two ends: (global time, local time).
+void sampleTimes(const TrajectorySegment& segment, double segment_start, double speed_bound,
+                 double spacing, std::vector<std::pair<double, double>>& times) {
+  const double path = speed_bound * segment.duration;
+  const int steps = std::clamp(static_cast<int>(std::ceil(path / spacing)), 1, 1000000);
+  times.clear();
+  for (int i = 0; i <= steps; ++i) {
+    const double local = segment.duration * i / steps;
+    times.emplace_back(segment_start + local, local);
+  }
+}
+
+}  // namespace
+
 CheckResult TrajectoryChecker::check(const Trajectory& trajectory, const CheckQuery& query) const {
   CheckResult result;
   result.body_radius = body_radius_;
-  const auto fail = [&result](std::string check, double time, const Eigen::Vector3d& position,
-                              std::string detail) {
-    result.valid = false;
-    result.check = std::move(check);
-    result.time = time;
-    result.position = position;
-    result.detail = std::move(detail);
+  if (trajectory.empty()) {
+    violation(result, "empty", 0.0, query.start.col(0), "no trajectory");
     return result;
-  };
-  if (trajectory.empty()) return fail("empty", 0.0, query.start.col(0), "no trajectory");
+  }
+  result.valid = checkStart(trajectory, query, result) && checkLimits(trajectory, result) &&
+                 checkCollision(trajectory, result) && checkGoal(trajectory, query, result);
+  return result;
+}
 
-  // Start: position and every derivative below the control.
+bool TrajectoryChecker::checkStart(const Trajectory& trajectory, const CheckQuery& query,
+                                   CheckResult& result) const {
+  // Position and every derivative below the control.
   const double tol = settings_.tolerance;
   for (int k = 0; k < settings_.max_derivative; ++k) {
     const Eigen::Vector3d value = trajectory.evaluate(0.0, k);
     if ((value - query.start.col(k)).cwiseAbs().maxCoeff() > tol) {
-      return fail("start", 0.0, trajectory.startPosition(),
-                  std::string(kDerivatives[k]) + " at t = 0 is " + formatPoint(value) +
-                      ", the query's start has " + formatPoint(query.start.col(k)));
+      return violation(result, "start", 0.0, trajectory.startPosition(),
+                       std::string(kDerivatives[k]) + " at t = 0 is " + formatPoint(value) +
+                           ", the query's start has " + formatPoint(query.start.col(k)));
     }
   }
+  return true;
+}
 
-  // Limits, on both sides of every joint and at the position samples in between.
+bool TrajectoryChecker::checkLimits(const Trajectory& trajectory, CheckResult& result) const {
+  // On both sides of every joint and at the position samples in between.
   const DynamicLimits& limits = settings_.limits;
+  const double tol = settings_.tolerance;
   double segment_start = 0.0;
-  std::vector<std::pair<double, double>> times;  // (global time, local time) per segment
+  std::vector<std::pair<double, double>> times;
   for (const auto& segment : trajectory.segments()) {
-    const double path = speedBound(segment) * segment.duration;
-    const int steps = std::clamp(static_cast<int>(std::ceil(path / spacing_)), 1, 1000000);
-    times.clear();
-    for (int i = 0; i <= steps; ++i) {
-      const double local = segment.duration * i / steps;
-      times.emplace_back(segment_start + local, local);
-    }
+    sampleTimes(segment, segment_start, speedBound(segment), spacing_, times);
     for (const auto& [time, local] : times) {
       for (int k = 1; k <= settings_.max_derivative; ++k) {
         const Eigen::Vector3d value = segment.evaluate(local, k);
         if (!value.allFinite()) {
           // A NaN passes every comparison: it is a failure of its own, never valid.
-          return fail("numeric", time, segment.evaluate(local),
-                      std::string(kDerivatives[k]) + " " + formatPoint(value) + " is not finite");
+          return violation(result, "numeric", time, segment.evaluate(local),
+                           std::string(kDerivatives[k]) + " " + formatPoint(value) +
+                               " is not finite");
         }
         for (int axis = 0; axis < 3; ++axis) {
           const double bound = limits.bound[k][axis];
           if (std::abs(value[axis]) > bound * (1.0 + tol) + tol) {
-            return fail("limits", time, segment.evaluate(local),
-                        std::string(kDerivatives[k]) + " " + kAxes[axis] + " = " +
-                            formatNumber(value[axis]) + " exceeds the limit " +
-                            formatNumber(bound));
+            return violation(result, "limits", time, segment.evaluate(local),
+                             std::string(kDerivatives[k]) + " " + kAxes[axis] + " = " +
+                                 formatNumber(value[axis]) + " exceeds the limit " +
+                                 formatNumber(bound));
           }
         }
       }
     }
     segment_start += segment.duration;
   }
+  return true;
+}
 
-  // Collision: every position sample against the map bounds and the occupied cubes.
+bool TrajectoryChecker::checkCollision(const Trajectory& trajectory, CheckResult& result) const {
+  // Every position sample against the map bounds and the occupied cubes.
   const World& world = *world_;
   double clearance_sum = 0.0;
   result.min_clearance = INFINITY;
-  segment_start = 0.0;
+  double segment_start = 0.0;
+  std::vector<std::pair<double, double>> times;
   for (const auto& segment : trajectory.segments()) {
-    const double path = speedBound(segment) * segment.duration;
-    const int steps = std::clamp(static_cast<int>(std::ceil(path / spacing_)), 1, 1000000);
-    for (int i = 0; i <= steps; ++i) {
-      const double local = segment.duration * i / steps;
-      const double time = segment_start + local;
+    sampleTimes(segment, segment_start, speedBound(segment), spacing_, times);
+    for (const auto& [time, local] : times) {
       const Eigen::Vector3d position = segment.evaluate(local);
       ++result.samples;
       if (!world.bounds().contains(position)) {
-        return fail("bounds", time, position,
-                    "position " + formatPoint(position) + " leaves the map");
+        return violation(result, "bounds", time, position,
+                         "position " + formatPoint(position) + " leaves the map");
       }
       const double clearance = world.distance(position) - settings_.robot_radius;
       if (!std::isfinite(clearance)) {
-        return fail("numeric", time, position,
-                    "the ESDF distance at " + formatPoint(position) + " is not finite");
+        return violation(result, "numeric", time, position,
+                         "the ESDF distance at " + formatPoint(position) + " is not finite");
       }
       result.min_clearance = std::min(result.min_clearance, clearance);
       clearance_sum += clearance;
       if (collides(position)) {
-        return fail("collision", time, position,
-                    body_radius_ > 0.0
-                        ? "a sphere of radius " + formatNumber(body_radius_) +
-                              " m (robot_radius less the collision tolerance) touches an "
-                              "occupied voxel cube (FCL)"
-                        : "the point is inside an occupied voxel cube");
+        return violation(result, "collision", time, position,
+                         body_radius_ > 0.0
+                             ? "a sphere of radius " + formatNumber(body_radius_) +
+                                   " m (robot_radius less the collision tolerance) touches an "
+                                   "occupied voxel cube (FCL)"
+                             : "the point is inside an occupied voxel cube");
       }
     }
     segment_start += segment.duration;
   }
   result.mean_clearance = clearance_sum / result.samples;
+  return true;
+}
 
-  if (query.require_goal) {
-    const Eigen::Vector3d end = trajectory.endPosition();
-    const double distance = (end - query.goal).norm();
-    if (distance > query.goal_radius + tol) {
-      return fail("goal", trajectory.duration(), end,
-                  "ends " + formatNumber(distance) + " m from the goal " + formatPoint(query.goal) +
-                      ", outside the goal radius " + formatNumber(query.goal_radius));
-    }
+bool TrajectoryChecker::checkGoal(const Trajectory& trajectory, const CheckQuery& query,
+                                  CheckResult& result) const {
+  if (!query.require_goal) return true;
+  const Eigen::Vector3d end = trajectory.endPosition();
+  const double distance = (end - query.goal).norm();
+  if (distance > query.goal_radius + settings_.tolerance) {
+    return violation(result, "goal", trajectory.duration(), end,
+                     "ends " + formatNumber(distance) + " m from the goal " +
+                         formatPoint(query.goal) + ", outside the goal radius " +
+                         formatNumber(query.goal_radius));
   }
-  result.valid = true;
-  return result;
+  return true;
 }
 
 }  // namespace kinolab

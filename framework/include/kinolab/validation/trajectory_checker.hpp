@@ -72,6 +72,13 @@ class TrajectoryChecker {
 
  private:
   struct Fcl;
+  /// The checks in their order; each returns false, with the violation in `result`, at the
+  /// first one it finds.
+  bool checkStart(const Trajectory& trajectory, const CheckQuery& query, CheckResult& result) const;
+  bool checkLimits(const Trajectory& trajectory, CheckResult& result) const;
+  bool checkCollision(const Trajectory& trajectory, CheckResult& result) const;
+  bool checkGoal(const Trajectory& trajectory, const CheckQuery& query, CheckResult& result) const;
+
   std::shared_ptr<const World> world_;
   CheckerSettings settings_;
   double spacing_;
