@@ -6,6 +6,7 @@
 #include <optional>
 #include <set>
 
+#include "experiment_document.hpp"
 #include "kinolab/core/error.hpp"
 #include "kinolab/core/files.hpp"
 #include "kinolab/core/hash.hpp"
@@ -14,7 +15,6 @@
 #include "kinolab/core/text.hpp"
 #include "kinolab/core/yaml_reader.hpp"
 #include "kinolab/experiment/query_sampler.hpp"
-#include "experiment_document.hpp"
 #include "kinolab/flight/flight.hpp"
 #include "kinolab/world/world.hpp"
 

@@ -52,7 +52,6 @@ YAML::Node loadWithBase(const std::string& path, std::vector<std::string>& chain
   return node;
 }
 
-
 /// Sets `value` at a dotted path: mapping keys by name (a missing last key is added), list
 /// items by their `id` or their index. Every change is appended to `changes`. The value node
 /// must belong to the same document: nodes of another document would merge its whole memory
@@ -113,8 +112,6 @@ void undo(std::vector<PathChange>& changes) {
   }
   changes.clear();
 }
-
-
 
 /// grid (cartesian product) x zip (parallel lists) x list (explicit points).
 std::vector<SweepPoint> expandSweep(const YamlReader& sweep) {

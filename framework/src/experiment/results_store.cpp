@@ -394,21 +394,21 @@ void ResultsStore::insertWorld(const WorldRecord& w) {
   insert.step(path_);
 }
 
-void ResultsStore::merge(const std::string& output, const std::vector<std::string>& inputs,
-                         bool partial) {
-  if (inputs.empty()) throw ConfigError("merge: no shard databases given");
-  // One writer per results directory: two merges (or a merge and a run) into one directory
-  // would mix their databases.
-  const std::filesystem::path parent = std::filesystem::absolute(output).parent_path();
-  const DirectoryLock lock(parent.string(), "kinolab merge into " + output);
-  std::error_code error;
-  if (std::filesystem::exists(output, error) || error) {
-    throw FileError(output + ": exists already; merge writes a new database");
-  }
+namespace {
+
+/// What the shard databases of a merge are: one experiment's shards of one split.
+struct ShardSet {
+  int count = 0;                        ///< the split: shards i/count
+  std::set<int> indices;                ///< the shards given
+  std::vector<std::string> incomplete;  ///< those with fewer runs than planned
+  long long planned = 0;                ///< runs planned over the shards given
+};
+
+/// Checks every input is a shard of the same experiment and split, each given once, complete
+/// unless `partial`; every mistake is an error naming the input.
+ShardSet checkShards(const std::vector<std::string>& inputs, bool partial) {
+  ShardSet set;
   std::string config_hash;
-  int shard_count = 0;
-  std::set<int> shards;
-  std::vector<std::string> incomplete;
   for (const std::string& input : inputs) {
     if (!isRegularFile(input)) throw FileError(input + ": no such database");
     ResultsStore shard(input);
@@ -429,16 +429,17 @@ void ResultsStore::merge(const std::string& output, const std::vector<std::strin
                         ", the first input has " + config_hash + ")");
     }
     const Shard parsed = Shard::parse(*which, input + ": shard");
-    if (shard_count == 0) shard_count = parsed.count;
-    if (parsed.count != shard_count) {
+    if (set.count == 0) set.count = parsed.count;
+    if (parsed.count != set.count) {
       throw ConfigError("merge: " + input + " is shard " + *which +
-                        " but the first input is one of " + std::to_string(shard_count));
+                        " but the first input is one of " + std::to_string(set.count));
     }
-    if (!shards.insert(parsed.index).second) {
+    if (!set.indices.insert(parsed.index).second) {
       throw ConfigError("merge: shard " + *which + " is given twice (" + input + ")");
     }
     const long long stored = shard.runCount();
-    if (stored < std::stoll(*planned)) incomplete.push_back(parsed.text());
+    set.planned += std::stoll(*planned);
+    if (stored < std::stoll(*planned)) set.incomplete.push_back(parsed.text());
     if (!partial && stored < std::stoll(*planned)) {
       throw ConfigError("merge: " + input + " (shard " + *which +
                         ") is incomplete: " + std::to_string(stored) + " of " + *planned +
@@ -446,16 +447,27 @@ void ResultsStore::merge(const std::string& output, const std::vector<std::strin
                         ", or pass --partial");
     }
   }
-  if (!partial && shards.size() != static_cast<std::size_t>(shard_count)) {
-    throw ConfigError("merge: " + std::to_string(shards.size()) + " of " +
-                      std::to_string(shard_count) +
-                      " shards given; pass every shard, or --partial");
+  if (!partial && set.indices.size() != static_cast<std::size_t>(set.count)) {
+    throw ConfigError("merge: " + std::to_string(set.indices.size()) + " of " +
+                      std::to_string(set.count) + " shards given; pass every shard, or --partial");
   }
+  return set;
+}
 
-  long long planned_total = 0;
-  for (const std::string& input : inputs) {
-    planned_total += std::stoll(*ResultsStore(input).meta("runs_planned"));
+}  // namespace
+
+void ResultsStore::merge(const std::string& output, const std::vector<std::string>& inputs,
+                         bool partial) {
+  if (inputs.empty()) throw ConfigError("merge: no shard databases given");
+  // One writer per results directory: two merges (or a merge and a run) into one directory
+  // would mix their databases.
+  const std::filesystem::path parent = std::filesystem::absolute(output).parent_path();
+  const DirectoryLock lock(parent.string(), "kinolab merge into " + output);
+  std::error_code error;
+  if (std::filesystem::exists(output, error) || error) {
+    throw FileError(output + ": exists already; merge writes a new database");
   }
+  const ShardSet shards = checkShards(inputs, partial);
   try {
     ResultsStore merged(output);
     for (std::size_t i = 0; i < inputs.size(); ++i) {
@@ -475,16 +487,16 @@ void ResultsStore::merge(const std::string& output, const std::vector<std::strin
     }
     // A partial merge says so: it is not a complete result, and no run resumes into it.
     std::vector<std::string> missing;
-    for (int index = 1; index <= shard_count; ++index) {
-      if (!shards.count(index)) missing.push_back(Shard{index, shard_count}.text());
+    for (int index = 1; index <= shards.count; ++index) {
+      if (!shards.indices.count(index)) missing.push_back(Shard{index, shards.count}.text());
     }
     std::string from =
-        std::to_string(inputs.size()) + " of " + std::to_string(shard_count) + " shards";
+        std::to_string(inputs.size()) + " of " + std::to_string(shards.count) + " shards";
     if (!missing.empty()) from += "; missing " + join(missing, ", ");
-    if (!incomplete.empty()) from += "; incomplete " + join(incomplete, ", ");
-    const bool complete = missing.empty() && incomplete.empty();
+    if (!shards.incomplete.empty()) from += "; incomplete " + join(shards.incomplete, ", ");
+    const bool complete = missing.empty() && shards.incomplete.empty();
     merged.setMeta({{"shard", complete ? "1/1" : "partial"},
-                    {"runs_planned", std::to_string(planned_total)},
+                    {"runs_planned", std::to_string(shards.planned)},
                     {"merged_from", from}});
   } catch (...) {
     for (const char* suffix : {"", "-wal", "-shm"}) std::filesystem::remove(output + suffix);

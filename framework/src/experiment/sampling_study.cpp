@@ -51,20 +51,10 @@ void spreadOf(const std::vector<double>& nearest, double threshold, int* useful,
 
 }  // namespace
 
-SamplingStudyConfig SamplingStudyConfig::fromFile(const std::string& path) {
-  const YamlReader root = YamlReader::loadFile(path);
-  SamplingStudyConfig config;
-  config.source = path;
-  const std::string kind = root.get<std::string>("kind");
-  if (kind != "sampling_study") {
-    root["kind"].fail("expected 'sampling_study' (this command runs sampling studies), got '" +
-                      kind + "'");
-  }
-  config.name = root.get<std::string>("name");
-  config.seed = static_cast<std::uint64_t>(
-      root.getInteger("seed", 1, 0, std::numeric_limits<long long>::max()));
-  config.threshold = root.getNumber("threshold", 0.1, 1e-9, 100.0);
+namespace {
 
+/// `dynamics: {order, duration, propagation, euler_steps, limits}`.
+void readDynamics(const YamlReader& root, SamplingStudyConfig& config) {
   const YamlReader dynamics = root["dynamics"];
   config.order = static_cast<int>(dynamics.getInteger("order", 2, 2, 4));
   config.duration = dynamics.getNumber("duration", std::nullopt, 1e-6, 100.0);
@@ -86,7 +76,10 @@ SamplingStudyConfig SamplingStudyConfig::fromFile(const std::string& path) {
   }
   limits.finish();
   dynamics.finish();
+}
 
+/// `states: {rest, moving, speed}` (absent: the defaults).
+void readStates(const YamlReader& root, SamplingStudyConfig& config) {
   // An absent `states:` means the defaults; an empty mapping reads the same way.
   const YamlReader states = root.optional("states").value_or(
       YamlReader::loadString("{}", config.source + " (default states)"));
@@ -101,7 +94,11 @@ SamplingStudyConfig SamplingStudyConfig::fromFile(const std::string& path) {
     states["speed"].fail("initial speeds must not exceed the velocity limit " +
                          std::to_string(config.limits.bound[1].x()));
   }
+}
 
+/// `samplers: [{type, id, params, paper: {alpha, L}}, ...]`.
+void readSamplers(const YamlReader& root, SamplingStudyConfig& config) {
+  using Sampler = SamplingStudyConfig::Sampler;
   const auto& registry = pluginRegistry<ControlSampler>();
   for (const YamlReader& item : root["samplers"].items()) {
     Sampler sampler;
@@ -126,34 +123,58 @@ SamplingStudyConfig SamplingStudyConfig::fromFile(const std::string& path) {
     config.samplers.push_back(std::move(sampler));
   }
   if (config.samplers.empty()) root["samplers"].fail("expected at least one sampler");
-  if (const auto readings = root.optional("readings")) {
-    Readings& r = config.readings;
-    for (const YamlReader& item : (*readings)["thresholds"].items()) {
-      r.thresholds.push_back(numberIn(item, 1e-9, 100.0));
-    }
-    r.with_velocity = twoChoices((*readings)["distance"], "position", "position_velocity");
-    for (const bool euler : twoChoices((*readings)["propagation"], "exact", "euler")) {
-      r.propagations.push_back(euler ? Propagation::kEuler : Propagation::kExact);
-    }
-    r.pooled = twoChoices((*readings)["pooling"], "per_state", "pooled");
-    for (const YamlReader& item : (*readings)["samples_per_axis"].items()) {
-      const double per_axis = numberIn(item, 1, 9);
-      if (per_axis != std::floor(per_axis)) item.fail("expected an integer from 1 to 9");
-      r.samples_per_axis.push_back(static_cast<int>(per_axis));
-    }
-    for (const char* key :
-         {"thresholds", "distance", "propagation", "pooling", "samples_per_axis"}) {
-      if ((*readings)[key].items().empty()) (*readings)[key].fail("expected at least one value");
-    }
-    readings->finish();
-    // Every sampler must take the M of the readings.
-    for (const Sampler& sampler : config.samplers) {
-      if (!registry.info(sampler.type).parameters.find("samples_per_axis")) {
-        (*readings)["samples_per_axis"].fail("sampler '" + sampler.id +
-                                             "' has no samples_per_axis parameter");
-      }
+}
+
+/// `readings: {thresholds, distance, propagation, pooling, samples_per_axis}`.
+void readReadings(const YamlReader& readings, SamplingStudyConfig& config) {
+  SamplingStudyConfig::Readings& r = config.readings;
+  for (const YamlReader& item : readings["thresholds"].items()) {
+    r.thresholds.push_back(numberIn(item, 1e-9, 100.0));
+  }
+  r.with_velocity = twoChoices(readings["distance"], "position", "position_velocity");
+  for (const bool euler : twoChoices(readings["propagation"], "exact", "euler")) {
+    r.propagations.push_back(euler ? Propagation::kEuler : Propagation::kExact);
+  }
+  r.pooled = twoChoices(readings["pooling"], "per_state", "pooled");
+  for (const YamlReader& item : readings["samples_per_axis"].items()) {
+    const double per_axis = numberIn(item, 1, 9);
+    if (per_axis != std::floor(per_axis)) item.fail("expected an integer from 1 to 9");
+    r.samples_per_axis.push_back(static_cast<int>(per_axis));
+  }
+  for (const char* key : {"thresholds", "distance", "propagation", "pooling", "samples_per_axis"}) {
+    if (readings[key].items().empty()) readings[key].fail("expected at least one value");
+  }
+  readings.finish();
+  // Every sampler must take the M of the readings.
+  const auto& registry = pluginRegistry<ControlSampler>();
+  for (const SamplingStudyConfig::Sampler& sampler : config.samplers) {
+    if (!registry.info(sampler.type).parameters.find("samples_per_axis")) {
+      readings["samples_per_axis"].fail("sampler '" + sampler.id +
+                                        "' has no samples_per_axis parameter");
     }
   }
+}
+
+}  // namespace
+
+SamplingStudyConfig SamplingStudyConfig::fromFile(const std::string& path) {
+  const YamlReader root = YamlReader::loadFile(path);
+  SamplingStudyConfig config;
+  config.source = path;
+  const std::string kind = root.get<std::string>("kind");
+  if (kind != "sampling_study") {
+    root["kind"].fail("expected 'sampling_study' (this command runs sampling studies), got '" +
+                      kind + "'");
+  }
+  config.name = root.get<std::string>("name");
+  config.seed = static_cast<std::uint64_t>(
+      root.getInteger("seed", 1, 0, std::numeric_limits<long long>::max()));
+  config.threshold = root.getNumber("threshold", 0.1, 1e-9, 100.0);
+
+  readDynamics(root, config);
+  readStates(root, config);
+  readSamplers(root, config);
+  if (const auto readings = root.optional("readings")) readReadings(*readings, config);
   root.finish();
   return config;
 }

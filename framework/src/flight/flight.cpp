@@ -439,8 +439,9 @@ class FlightLoop {
     result_.min_clearance = check.min_clearance;
     if (!check.valid && check.check == "collision") {
       result_.status = "collision";
-      result_.message = "the flown trajectory hits the ground truth at t = " +
-                        std::to_string(check.time) + " s: " + check.detail;
+      result_.message =
+          "the flown trajectory hits the ground truth at t = " + std::to_string(check.time) +
+          " s: " + check.detail;
       result_.flown = slice(result_.flown, check.time);
     } else if (!check.valid) {
       result_.message = "the checker: " + check.check + ": " + check.detail;

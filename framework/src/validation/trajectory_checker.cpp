@@ -137,8 +137,8 @@ bool TrajectoryChecker::collides(const Eigen::Vector3d& position) const {
 namespace {
 
 /// Records a violation in `result`; returns false (the trajectory is not valid).
-bool violation(CheckResult& result, std::string check, double time,
-               const Eigen::Vector3d& position, std::string detail) {
+bool violation(CheckResult& result, std::string check, double time, const Eigen::Vector3d& position,
+               std::string detail) {
   result.valid = false;
   result.check = std::move(check);
   result.time = time;
@@ -202,9 +202,9 @@ bool TrajectoryChecker::checkLimits(const Trajectory& trajectory, CheckResult& r
         const Eigen::Vector3d value = segment.evaluate(local, k);
         if (!value.allFinite()) {
           // A NaN passes every comparison: it is a failure of its own, never valid.
-          return violation(result, "numeric", time, segment.evaluate(local),
-                           std::string(kDerivatives[k]) + " " + formatPoint(value) +
-                               " is not finite");
+          return violation(
+              result, "numeric", time, segment.evaluate(local),
+              std::string(kDerivatives[k]) + " " + formatPoint(value) + " is not finite");
         }
         for (int axis = 0; axis < 3; ++axis) {
           const double bound = limits.bound[k][axis];
