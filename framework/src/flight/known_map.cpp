@@ -147,26 +147,20 @@ std::shared_ptr<const World> KnownMap::window(const Eigen::Vector3d& center) con
   return std::make_shared<const World>("known_window", 0, std::move(grid), std::move(esdf));
 }
 
-std::vector<Eigen::Vector3d> KnownMap::guide(const Eigen::Vector3d& from, const Eigen::Vector3d& to,
-                                             double radius, double z_low, double z_high) const {
-  const VoxelGrid& lattice = tree_->lattice;
+namespace {
+
+/// Per x-y cell of `lattice` (x slowest): 1 where a column with a known obstacle (state 2) in
+/// the voxel layers [z0, z1] lies within `radius` of the cell's centre.
+std::vector<std::uint8_t> blockedCells(const VoxelGrid& lattice,
+                                       const std::vector<std::uint8_t>& state, int z0, int z1,
+                                       double radius) {
   const Eigen::Vector3i& n = lattice.dims();
-  const double r = model_.resolution;
-  const auto cellOf = [&](const Eigen::Vector3d& p) {
-    const Eigen::Vector3d local = (p - lattice.origin()) / r;
-    return Eigen::Vector2i(std::clamp(static_cast<int>(std::floor(local.x())), 0, n.x() - 1),
-                           std::clamp(static_cast<int>(std::floor(local.y())), 0, n.y() - 1));
-  };
-  // Columns with a known obstacle in the band, dilated by the body.
-  const int z0 =
-      std::clamp(static_cast<int>(std::floor((z_low - lattice.origin().z()) / r)), 0, n.z() - 1);
-  const int z1 =
-      std::clamp(static_cast<int>(std::floor((z_high - lattice.origin().z()) / r)), 0, n.z() - 1);
+  const double r = lattice.resolution();
   std::vector<std::uint8_t> blocked(static_cast<std::size_t>(n.x()) * n.y(), 0);
   const int reach = static_cast<int>(std::ceil(radius / r));
   for (int x = 0; x < n.x(); ++x) {
     for (int y = 0; y < n.y(); ++y) {
-      const std::uint8_t* column = &tree_->state[lattice.index(x, y, 0)];
+      const std::uint8_t* column = &state[lattice.index(x, y, 0)];
       if (std::none_of(column + z0, column + z1 + 1, [](std::uint8_t v) { return v == 2; })) {
         continue;
       }
@@ -186,14 +180,16 @@ std::vector<Eigen::Vector3d> KnownMap::guide(const Eigen::Vector3d& from, const 
       }
     }
   }
-  const Eigen::Vector2i start = cellOf(from);
-  const Eigen::Vector2i goal = cellOf(to);
+  return blocked;
+}
+
+/// A shortest 8-connected path of cells (indices x * ny + y) from `start` to `goal` over the
+/// cells not `blocked`: A* with the octile distance. Empty when there is none.
+std::vector<std::size_t> cellPath(const std::vector<std::uint8_t>& blocked, int nx, int ny,
+                                  const Eigen::Vector2i& start, const Eigen::Vector2i& goal) {
   const auto id = [&](const Eigen::Vector2i& c) {
-    return static_cast<std::size_t>(c.x()) * n.y() + c.y();
+    return static_cast<std::size_t>(c.x()) * ny + c.y();
   };
-  blocked[id(start)] = 0;  // the vehicle is where it is
-  if (blocked[id(goal)]) return {};
-  // A* with the octile distance.
   const auto octile = [&](const Eigen::Vector2i& c) {
     const Eigen::Vector2i d = (c - goal).cwiseAbs();
     return static_cast<double>(std::max(d.x(), d.y())) + (M_SQRT2 - 1.0) * std::min(d.x(), d.y());
@@ -204,21 +200,24 @@ std::vector<Eigen::Vector3d> KnownMap::guide(const Eigen::Vector3d& from, const 
   std::priority_queue<Entry, std::vector<Entry>, std::greater<>> open;
   cost[id(start)] = 0.0;
   open.emplace(octile(start), id(start));
-  bool found = false;
   while (!open.empty()) {
     const auto [f, at] = open.top();
     open.pop();
-    const Eigen::Vector2i c(static_cast<int>(at / n.y()), static_cast<int>(at % n.y()));
+    const Eigen::Vector2i c(static_cast<int>(at / ny), static_cast<int>(at % ny));
     if (f > cost[at] + octile(c) + 1e-9) continue;  // stale
     if (c == goal) {
-      found = true;
-      break;
+      std::vector<std::size_t> path;
+      for (auto cell = static_cast<std::int64_t>(at); cell >= 0; cell = parent[cell]) {
+        path.push_back(static_cast<std::size_t>(cell));
+      }
+      std::reverse(path.begin(), path.end());
+      return path;
     }
     for (int dx = -1; dx <= 1; ++dx) {
       for (int dy = -1; dy <= 1; ++dy) {
         const Eigen::Vector2i next = c + Eigen::Vector2i(dx, dy);
-        if ((dx == 0 && dy == 0) || next.x() < 0 || next.y() < 0 || next.x() >= n.x() ||
-            next.y() >= n.y() || blocked[id(next)]) {
+        if ((dx == 0 && dy == 0) || next.x() < 0 || next.y() < 0 || next.x() >= nx ||
+            next.y() >= ny || blocked[id(next)]) {
           continue;
         }
         const double step = dx != 0 && dy != 0 ? M_SQRT2 : 1.0;
@@ -230,14 +229,39 @@ std::vector<Eigen::Vector3d> KnownMap::guide(const Eigen::Vector3d& from, const 
       }
     }
   }
-  if (!found) return {};
+  return {};
+}
+
+}  // namespace
+
+std::vector<Eigen::Vector3d> KnownMap::guide(const Eigen::Vector3d& from, const Eigen::Vector3d& to,
+                                             double radius, double z_low, double z_high) const {
+  const VoxelGrid& lattice = tree_->lattice;
+  const Eigen::Vector3i& n = lattice.dims();
+  const double r = model_.resolution;
+  const auto cellOf = [&](const Eigen::Vector3d& p) {
+    const Eigen::Vector3d local = (p - lattice.origin()) / r;
+    return Eigen::Vector2i(std::clamp(static_cast<int>(std::floor(local.x())), 0, n.x() - 1),
+                           std::clamp(static_cast<int>(std::floor(local.y())), 0, n.y() - 1));
+  };
+  // Columns with a known obstacle in the band, dilated by the body.
+  const int z0 =
+      std::clamp(static_cast<int>(std::floor((z_low - lattice.origin().z()) / r)), 0, n.z() - 1);
+  const int z1 =
+      std::clamp(static_cast<int>(std::floor((z_high - lattice.origin().z()) / r)), 0, n.z() - 1);
+  std::vector<std::uint8_t> blocked = blockedCells(lattice, tree_->state, z0, z1, radius);
+  const Eigen::Vector2i start = cellOf(from);
+  const Eigen::Vector2i goal = cellOf(to);
+  blocked[static_cast<std::size_t>(start.x()) * n.y() + start.y()] = 0;  // the vehicle is here
+  if (blocked[static_cast<std::size_t>(goal.x()) * n.y() + goal.y()]) return {};
+  const std::vector<std::size_t> cells = cellPath(blocked, n.x(), n.y(), start, goal);
+  if (cells.empty()) return {};
   std::vector<Eigen::Vector3d> path;
-  for (std::int64_t at = static_cast<std::int64_t>(id(goal)); at >= 0; at = parent[at]) {
-    const Eigen::Vector3d centre =
-        lattice.center(VoxelIndex(static_cast<int>(at / n.y()), static_cast<int>(at % n.y()), 0));
+  for (const std::size_t cell : cells) {
+    const Eigen::Vector3d centre = lattice.center(
+        VoxelIndex(static_cast<int>(cell / n.y()), static_cast<int>(cell % n.y()), 0));
     path.emplace_back(centre.x(), centre.y(), 0.0);
   }
-  std::reverse(path.begin(), path.end());
   path.front().head<2>() = from.head<2>();
   path.back().head<2>() = to.head<2>();
   for (std::size_t i = 0; i < path.size(); ++i) {
