@@ -67,8 +67,8 @@ void runFly(const FlyOptions& options) {
       parseAssignments(options.assignments, "--set");
   // Validated before anything runs: the planner, its parameters and the flight's.
   const ConfiguredPlanner probe = configurePlanner(options.planner, assignments);
-  FlightSetup setup =
-      flightSetup(flightParameters().resolve(parseAssignments(options.flight, "--flight"), "flight"));
+  FlightSetup setup = flightSetup(
+      flightParameters().resolve(parseAssignments(options.flight, "--flight"), "flight"));
   const WorldSpec spec = WorldSpec::fromFile(options.world_path);
   const WorldLoad load = WorldCache(options.cache_dir).loadOrBuild(spec);
   const PlannerFactory factory = [&](std::shared_ptr<const World> world) {

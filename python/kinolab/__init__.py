@@ -30,7 +30,7 @@ for _error in (Error, ConfigError, ParameterConflict, FileError, PluginError, In
     _error.__module__ = __name__  # kinolab.ConfigError in tracebacks, not kinolab._core's
 
 __version__ = _core.__version__
-__all__ = ["World", "Planner", "Result", "Scene", "planners", "samplers", "metrics",
+__all__ = ["World", "Planner", "Result", "Scene", "plugins", "plugin_kinds", "planners", "samplers", "metrics",
            "load_plugin", "run_experiment", "load_results", "Error", "ConfigError",
            "ParameterConflict", "FileError", "PluginError", "InvalidArgument"]
 
@@ -156,15 +156,26 @@ class Planner:
         return f"Planner({self.key!r})"
 
 
+def plugins(kind: str) -> list[dict]:
+    """Every registered plugin of a kind (as `kinolab list KIND`: planners, samplers,
+    heuristics, lower_bounds, worlds, sensors, search_spaces): key, description, origin,
+    parameters (name, type, default, range, doc) and the statistics it reports."""
+    return _core.plugins(kind)
+
+
+def plugin_kinds() -> list[str]:
+    """The plugin kinds, in the order `kinolab list` shows them."""
+    return _core.plugin_kinds()
+
+
 def planners() -> list[dict]:
-    """Every registered planner: key, description, origin, parameters (name, type, default,
-    range, doc) and the statistics it reports."""
-    return _core.planners()
+    """Every registered planner: plugins("planners")."""
+    return plugins("planners")
 
 
 def samplers() -> list[dict]:
-    """Every registered control sampler, as planners()."""
-    return _core.samplers()
+    """Every registered control sampler: plugins("samplers")."""
+    return plugins("samplers")
 
 
 def metrics() -> dict:

@@ -141,10 +141,18 @@ py::list metricList(const MetricSpecs& specs) {
   return list;
 }
 
-template <typename Interface>
-py::list pluginList() {
+/// The plugins of one kind ("planners", "heuristics", ...: kinolab list's names) with their
+/// parameters and statistics.
+py::list pluginList(const std::string& kind) {
+  const PluginRegistryBase* registry = findPluginRegistry(kind);
+  if (!registry) {
+    std::vector<std::string> kinds;
+    for (const PluginRegistryBase* known : pluginRegistries()) kinds.push_back(known->plural());
+    throw InvalidArgument("unknown plugin kind '" + kind + "'" + didYouMean(kind, kinds) +
+                          "; kinds: " + join(kinds, ", "));
+  }
   py::list list;
-  for (const PluginInfo* info : pluginRegistry<Interface>().list()) {
+  for (const PluginInfo* info : registry->list()) {
     py::dict item;
     item["key"] = info->key;
     item["description"] = info->description;
@@ -329,14 +337,11 @@ py::dict runExperimentFile(const std::string& path, const std::string& out, int 
 }  // namespace
 }  // namespace kinolab::python
 
-PYBIND11_MODULE(_core, m) {
-  using namespace kinolab;
-  using namespace kinolab::python;
-  m.doc() = "kinolab's C++ core (see the kinolab package for the documented API)";
-  m.attr("__version__") = kVersion;
-  registerBuiltinPlugins();
+namespace kinolab::python {
+namespace {
 
-  // kinolab::Error and its subclasses, with the same messages.
+/// kinolab::Error and its subclasses, with the same messages.
+void bindErrors(py::module_& m) {
   static py::exception<Error> error(m, "Error", PyExc_RuntimeError);
   static py::exception<ConfigError> config_error(m, "ConfigError", error.ptr());
   static py::exception<ParameterConflict> conflict(m, "ParameterConflict", config_error.ptr());
@@ -360,7 +365,9 @@ PYBIND11_MODULE(_core, m) {
       error(e.what());
     }
   });
+}
 
+void bindWorld(py::module_& m) {
   py::class_<PyWorld>(m, "World")
       .def_property_readonly("name", [](const PyWorld& w) { return w.world->name(); })
       .def_property_readonly("spec_hash",
@@ -419,9 +426,18 @@ PYBIND11_MODULE(_core, m) {
           return loadWorld(WorldSpec::fromText(text, source, directory), cache, cache_dir);
         });
   m.def("default_cache_dir", &WorldCache::defaultDirectory);
+}
 
-  m.def("planners", &pluginList<Planner>);
-  m.def("samplers", &pluginList<ControlSampler>);
+void bindPlugins(py::module_& m) {
+  m.def("plugins", &pluginList, py::arg("kind"),
+        "The plugins of a kind (planners, samplers, heuristics, lower_bounds, worlds, sensors, "
+        "search_spaces) with their parameters");
+  m.def("plugin_kinds", [] {
+    std::vector<std::string> kinds;
+    for (const PluginRegistryBase* registry : pluginRegistries())
+      kinds.push_back(registry->plural());
+    return kinds;
+  });
   m.def("load_plugin", &loadPluginLibrary);
   m.def("metrics", [] {
     py::dict dict;
@@ -429,22 +445,24 @@ PYBIND11_MODULE(_core, m) {
     dict["statistics"] = metricList(commonStatistics());
     return dict;
   });
+}
 
+void bindPlanner(py::module_& m) {
   py::class_<PyPlanner>(m, "Planner")
       .def(
           py::init([](const std::string& key, const std::vector<ParameterAssignment>& assignments) {
             return PyPlanner{configurePlanner(key, assignments), nullptr};
           }))
       .def_property_readonly("key", [](const PyPlanner& p) { return p.configured.info->key; })
-      .def_property_readonly(
-          "parameters",
-          [](const PyPlanner& p) {
-            py::dict dict;
-            // As they are set: a plugin parameter's own as `NAME.PARAMETER` (`sampler.sigma`).
-            for (const auto& [name, value] : p.configured.parameters.flattened())
-              dict[py::str(name)] = parameterValue(value);
-            return dict;
-          })
+      .def_property_readonly("parameters",
+                             [](const PyPlanner& p) {
+                               py::dict dict;
+                               // As they are set: a plugin parameter's own as `NAME.PARAMETER`
+                               // (`sampler.sigma`).
+                               for (const auto& [name, value] : p.configured.parameters.flattened())
+                                 dict[py::str(name)] = parameterValue(value);
+                               return dict;
+                             })
       .def("setup",
            [](PyPlanner& p, const PyWorld& world, std::uint64_t seed) {
              p.configured.planner->setup({world.world, p.configured.sampler, seed});
@@ -457,7 +475,9 @@ PYBIND11_MODULE(_core, m) {
       .def(py::init([](std::string name, std::string value, std::string where) {
         return ParameterAssignment{std::move(name), std::move(value), std::move(where)};
       }));
+}
 
+void bindResult(py::module_& m) {
   py::class_<PyResult>(m, "Result")
       .def_property_readonly(
           "status", [](const PyResult& r) { return std::string(toString(r.result.status)); })
@@ -494,7 +514,9 @@ PYBIND11_MODULE(_core, m) {
                "', cost=" + formatNumber(r.result.cost) +
                ", planning_time_ms=" + formatNumber(r.result.planning_time_ms) + ")";
       });
+}
 
+void bindScene(py::module_& m) {
   py::class_<view::Scene>(m, "Scene")
       .def(py::init<const std::string&>())
       .def("set_world", [](view::Scene& s, const PyWorld& w) { s.setWorld(*w.world); })
@@ -513,7 +535,23 @@ PYBIND11_MODULE(_core, m) {
       .def("write", [](const view::Scene& s, const std::string& path) {
         view::writeViewHtml(path, s.json());
       });
+}
 
+}  // namespace
+}  // namespace kinolab::python
+
+PYBIND11_MODULE(_core, m) {
+  using namespace kinolab;
+  using namespace kinolab::python;
+  m.doc() = "kinolab's C++ core (see the kinolab package for the documented API)";
+  m.attr("__version__") = kVersion;
+  registerBuiltinPlugins();
+  bindErrors(m);
+  bindWorld(m);
+  bindPlugins(m);
+  bindPlanner(m);
+  bindResult(m);
+  bindScene(m);
   m.def("run_experiment", &runExperimentFile);
   // For benchmarks/python_overhead.py: the wall time (ms) of each of `repeats` plans called
   // from C++, the reference a plan called from Python is compared with.

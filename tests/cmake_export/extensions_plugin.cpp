@@ -96,15 +96,14 @@ class PillarRow final : public WorldGenerator {
 }  // namespace
 
 KINOLAB_REGISTER_PLUGINS(registrar) {
-  registrar.add<WorldGenerator>("pillar_row", "a row of square pillars along x",
-                                ParameterSpecs()
-                                    .real("y", 5.0, -1e4, 1e4, "the row's y, m")
-                                    .integer("count", 3, 0, 1000, "pillars")
-                                    .real("width", 0.4, 0.01, 100.0, "pillar side, m")
-                                    .real("height", 3.0, 0.0, 1e4, "pillar height, m"),
-                                [](const ParameterSet& parameters) {
-                                  return std::make_unique<PillarRow>(parameters);
-                                });
+  registrar.add<WorldGenerator>(
+      "pillar_row", "a row of square pillars along x",
+      ParameterSpecs()
+          .real("y", 5.0, -1e4, 1e4, "the row's y, m")
+          .integer("count", 3, 0, 1000, "pillars")
+          .real("width", 0.4, 0.01, 100.0, "pillar side, m")
+          .real("height", 3.0, 0.0, 1e4, "pillar height, m"),
+      [](const ParameterSet& parameters) { return std::make_unique<PillarRow>(parameters); });
   registrar.add<EdgeEvaluationPolicy>(
       "scaled_endpoint", "the endpoint bound scaled down (a lazy planner's lower_bound)",
       ParameterSpecs().real("scale", 0.5, 0.0, 1.0, "share of the endpoint bound queued"),

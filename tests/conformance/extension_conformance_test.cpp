@@ -65,9 +65,8 @@ TEST_P(HeuristicConformance, FiniteAndConsistentWithTheFullEdgeCosts) {
     const EdgeEvaluator evaluator(samples.world, samples.settings);
     std::shared_ptr<const SearchHeuristic> heuristic;
     try {
-      heuristic = pluginRegistry<HeuristicBuilder>()
-                      .create(GetParam(), {})
-                      ->build({samples.settings, 0.5});
+      heuristic =
+          pluginRegistry<HeuristicBuilder>().create(GetParam(), {})->build({samples.settings, 0.5});
     } catch (const ParameterConflict&) {
       continue;  // declines this order (obvp above 2), as it may
     }
@@ -78,11 +77,13 @@ TEST_P(HeuristicConformance, FiniteAndConsistentWithTheFullEdgeCosts) {
     while (edges < 2000) {
       const ChainState state = samples.state(rng);
       const Eigen::Vector3d goal =
-          state.col(0) + Eigen::Vector3d(rng.uniform(-6, 6), rng.uniform(-6, 6), rng.uniform(-2, 2));
+          state.col(0) +
+          Eigen::Vector3d(rng.uniform(-6, 6), rng.uniform(-6, 6), rng.uniform(-2, 2));
       const double h = heuristic->estimate(state, goal);
       ASSERT_TRUE(std::isfinite(h) && h >= 0.0) << h;
       for (const auto& control : samples.controls) {
-        const EdgeEvaluation full = evaluator.full(state, control, samples.world->clearance(state.col(0)));
+        const EdgeEvaluation full =
+            evaluator.full(state, control, samples.world->clearance(state.col(0)));
         if (!full.valid()) continue;
         ++edges;
         const double after = heuristic->estimate(full.end, goal);
@@ -90,8 +91,8 @@ TEST_P(HeuristicConformance, FiniteAndConsistentWithTheFullEdgeCosts) {
         violations += h > full.cost + after + 1e-9 * (1.0 + h);
       }
     }
-    EXPECT_EQ(violations, 0) << GetParam() << " at order " << order << ": " << violations
-                             << " of " << edges << " edges";
+    EXPECT_EQ(violations, 0) << GetParam() << " at order " << order << ": " << violations << " of "
+                             << edges << " edges";
   }
   EXPECT_GT(orders, 0) << GetParam() << " serves neither order 2 nor 3";
 }
@@ -205,7 +206,8 @@ TEST_P(SensorConformance, UnitRaysPositiveRangeAndRateTheSameEveryCall) {
   for (const auto& hit : frame.hits) {
     EXPECT_LE((hit - frame.origin).norm(), sensor->maxRange() + world->grid().resolution());
     const VoxelGrid& grid = world->grid();
-    const VoxelIndex voxel = ((hit - grid.origin()) / grid.resolution()).array().floor().cast<int>();
+    const VoxelIndex voxel =
+        ((hit - grid.origin()) / grid.resolution()).array().floor().cast<int>();
     ASSERT_TRUE(grid.inside(voxel));
     EXPECT_TRUE(grid.occupied(voxel)) << "a hit on a free voxel";
   }
@@ -223,8 +225,10 @@ TEST_P(WorldGeneratorConformance, TheSameSpecGivesTheSameGrid) {
   for (const auto& spec : info.parameters.all()) {
     if (spec.required) GTEST_SKIP() << "needs " << spec.name;
   }
-  const std::string text = "seed: 5\nresolution: 0.2\nbounds: {min: [0, 0, 0], max: [8, 8, 3]}\n"
-                           "generators: [{type: " + GetParam() + "}]\n";
+  const std::string text =
+      "seed: 5\nresolution: 0.2\nbounds: {min: [0, 0, 0], max: [8, 8, 3]}\n"
+      "generators: [{type: " +
+      GetParam() + "}]\n";
   const auto a = World::build(WorldSpec::fromText(text, "spec.yaml", "."));
   const auto b = World::build(WorldSpec::fromText(text, "spec.yaml", "."));
   ASSERT_EQ(a->grid().size(), b->grid().size());

@@ -284,3 +284,16 @@ def test_a_scene_of_python_results_becomes_a_view(forest, tmp_path):
     assert page == scene.html() and "THREE.OrbitControls" in page and "__KINOLAB_SCENE__" not in page
     inline = scene._repr_html_()  # what a notebook shows
     assert inline.startswith("<iframe srcdoc=") and "&lt;script" in inline
+
+
+def test_every_plugin_kind_is_listed_from_its_registry():
+    """plugins(kind) lists any registry, as `kinolab list KIND` does; an unknown kind is a clear
+    error naming the known ones."""
+    kinds = kinolab.plugin_kinds()
+    assert {"planners", "samplers", "heuristics", "lower_bounds", "worlds", "sensors",
+            "search_spaces"} <= set(kinds)
+    assert {"time_optimal", "obvp"} <= {p["key"] for p in kinolab.plugins("heuristics")}
+    forest = next(p for p in kinolab.plugins("worlds") if p["key"] == "forest")
+    assert {"density", "canopy", "region"} <= {p["name"] for p in forest["parameters"]}
+    with pytest.raises(kinolab.InvalidArgument, match="did you mean 'sensors'"):
+        kinolab.plugins("sensor_s")

@@ -50,7 +50,8 @@ TEST(RunWork, APlannedRunReportsDeclaredMetricsAndItsTiming) {
   const auto& metrics = out["metrics"];
   ASSERT_EQ(metrics["status"], "exact") << out.dump();
   EXPECT_EQ(metrics["line_blocked"], true);  // the wall stands between start and goal
-  EXPECT_LE(metrics["planning_time_min_ms"].get<double>(), metrics["planning_time_ms"].get<double>());
+  EXPECT_LE(metrics["planning_time_min_ms"].get<double>(),
+            metrics["planning_time_ms"].get<double>());
   EXPECT_GT(out["statistics"]["expansions"].get<double>(), 0.0);
   for (const auto& [name, value] : metrics.items()) {
     EXPECT_TRUE(resultMetrics().find(name) || runnerMetrics().find(name)) << name;

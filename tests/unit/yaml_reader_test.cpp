@@ -76,14 +76,15 @@ TEST(YamlReaderTest, DuplicateKeysAreRefusedAtTheSecondOneAtEveryDepth) {
 }
 
 TEST(YamlReaderTest, OnlyUtf8TextWithoutControlCharactersIsRead) {
-  EXPECT_NE(errorOf([] { YamlReader::loadString(std::string("name: a\0b\n", 10), "n.yaml"); })
-                .find("n.yaml:1:8: byte 0x00 is not allowed"),
+  EXPECT_NE(errorOf([] {
+              YamlReader::loadString(std::string("name: a\0b\n", 10), "n.yaml");
+            }).find("n.yaml:1:8: byte 0x00 is not allowed"),
             std::string::npos);
-  EXPECT_NE(errorOf([] { YamlReader::loadString("a: 1\nname: caf\xe9\n", "l.yaml"); })
-                .find("l.yaml:2:10: byte 0xe9"),
+  EXPECT_NE(errorOf([] {
+              YamlReader::loadString("a: 1\nname: caf\xe9\n", "l.yaml");
+            }).find("l.yaml:2:10: byte 0xe9"),
             std::string::npos);
-  EXPECT_NE(errorOf([] { YamlReader::loadString("a: \x1b[31mred\n", "e.yaml"); })
-                .find("byte 0x1b"),
+  EXPECT_NE(errorOf([] { YamlReader::loadString("a: \x1b[31mred\n", "e.yaml"); }).find("byte 0x1b"),
             std::string::npos);
   const YamlReader utf8 = YamlReader::loadString("name: caf\xc3\xa9\t# tab\r\n", "u.yaml");
   EXPECT_EQ(utf8.get<std::string>("name"), "caf\xc3\xa9");

@@ -201,7 +201,8 @@ const ParameterSet& ParameterSet::nested(std::string_view name) const {
 std::vector<const ParameterSet*> ParameterSet::items(std::string_view name) const {
   const auto count = std::get<long long>(find(name));
   std::vector<const ParameterSet*> result;
-  for (long long i = 0; i < count; ++i) result.push_back(&nested(std::string(name) + "." + std::to_string(i)));
+  for (long long i = 0; i < count; ++i)
+    result.push_back(&nested(std::string(name) + "." + std::to_string(i)));
   return result;
 }
 
@@ -377,8 +378,8 @@ namespace {
 
 /// What resolve() collects per declared parameter before the nested ones are resolved.
 struct Pending {
-  std::string where;                                  ///< where its own value was set
-  std::vector<ParameterAssignment> inner;             ///< a plugin's or group's
+  std::string where;                                    ///< where its own value was set
+  std::vector<ParameterAssignment> inner;               ///< a plugin's or group's
   std::vector<std::vector<ParameterAssignment>> items;  ///< a group list's, by index
 };
 
@@ -417,9 +418,9 @@ ParameterSet ParameterSpecs::resolve(const std::vector<ParameterAssignment>& ass
     const auto dot = assignment.name.find('.');
     const bool nested = dot != std::string::npos;
     const ParameterSpec* spec = find(assignment.name.substr(0, dot));
-    const bool nests = spec && (spec->type == ParameterType::kPlugin ||
-                                spec->type == ParameterType::kGroup ||
-                                spec->type == ParameterType::kGroupList);
+    const bool nests =
+        spec && (spec->type == ParameterType::kPlugin || spec->type == ParameterType::kGroup ||
+                 spec->type == ParameterType::kGroupList);
     if (nested && !nests) {
       throw ConfigError(assignment.where + ": " + own + ": unknown parameter '" + assignment.name +
                         "': it has no plugin parameter '" + assignment.name.substr(0, dot) +
@@ -435,8 +436,8 @@ ParameterSet ParameterSpecs::resolve(const std::vector<ParameterAssignment>& ass
     const std::size_t index = static_cast<std::size_t>(spec - specs_.data());
     assigned[index] = true;
     if (!nested) {
-      const std::string context = assignment.where + ": " + own + ": parameter '" +
-                                  assignment.name + "'";
+      const std::string context =
+          assignment.where + ": " + own + ": parameter '" + assignment.name + "'";
       result.values_[index].second = parseValue(*spec, assignment.value, context);
       pending[index].where = assignment.where;
       continue;
@@ -470,19 +471,18 @@ ParameterSet ParameterSpecs::resolve(const std::vector<ParameterAssignment>& ass
     const std::string inside = own + ": " + spec.name;
     if (spec.type == ParameterType::kPlugin) {
       const std::string& key = std::get<std::string>(result.values_[index].second);
-      result.nested_.emplace_back(spec.name, std::make_shared<const ParameterSet>(resolvePlugin(
-                                                 spec, key, pending[index], own)));
-    } else if (spec.type == ParameterType::kGroup) {
       result.nested_.emplace_back(spec.name, std::make_shared<const ParameterSet>(
-                                                 spec.members->resolve(pending[index].inner,
-                                                                       inside, where)));
+                                                 resolvePlugin(spec, key, pending[index], own)));
+    } else if (spec.type == ParameterType::kGroup) {
+      result.nested_.emplace_back(spec.name,
+                                  std::make_shared<const ParameterSet>(
+                                      spec.members->resolve(pending[index].inner, inside, where)));
     } else if (spec.type == ParameterType::kGroupList) {
       const auto& items = pending[index].items;
       for (std::size_t i = 0; i < items.size(); ++i) {
-        result.nested_.emplace_back(
-            spec.name + "." + std::to_string(i),
-            std::make_shared<const ParameterSet>(spec.members->resolve(
-                items[i], inside + "[" + std::to_string(i) + "]", where)));
+        result.nested_.emplace_back(spec.name + "." + std::to_string(i),
+                                    std::make_shared<const ParameterSet>(spec.members->resolve(
+                                        items[i], inside + "[" + std::to_string(i) + "]", where)));
       }
     }
   }
@@ -536,8 +536,8 @@ void appendAssignments(const YamlReader& mapping, const std::string& prefix,
                        std::vector<ParameterAssignment>& result) {
   for (const auto& [name, value] : mapping.entries()) {
     if (!prefix.empty() && name == "type") {
-      result.push_back({prefix.substr(0, prefix.size() - 1), value.as<std::string>(),
-                        value.where()});
+      result.push_back(
+          {prefix.substr(0, prefix.size() - 1), value.as<std::string>(), value.where()});
     } else if (value.isMap()) {
       const std::size_t before = result.size();
       appendAssignments(value, prefix + name + ".", result);

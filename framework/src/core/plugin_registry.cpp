@@ -41,8 +41,8 @@ const PluginInfo& PluginRegistryBase::info(std::string_view key) const {
   const auto found = infos_.find(key);
   if (found == infos_.end()) {
     const auto known = keys();
-    throw PluginError("unknown " + kind_ + " '" + std::string(key) + "'" +
-                      didYouMean(key, known) + "; known " + plural_ + ": " +
+    throw PluginError("unknown " + kind_ + " '" + std::string(key) + "'" + didYouMean(key, known) +
+                      "; known " + plural_ + ": " +
                       (known.empty() ? std::string("none") : join(known, ", ")));
   }
   return found->second;

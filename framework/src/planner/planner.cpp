@@ -220,8 +220,8 @@ ConfiguredPlanner configurePlanner(std::string_view key,
   if (const ParameterSpec* sampler = planners.info(key).parameters.samplerParameter()) {
     configured.sampler_key = configured.parameters.text(sampler->name);
     configured.sampler_parameters = configured.parameters.nested(sampler->name);
-    configured.sampler = pluginRegistry<ControlSampler>().createChosen(configured.parameters,
-                                                                       sampler->name);
+    configured.sampler =
+        pluginRegistry<ControlSampler>().createChosen(configured.parameters, sampler->name);
   }
   try {
     configured.planner = planners.createResolved(key, configured.parameters);

@@ -188,55 +188,67 @@ EdgeEvaluation EdgeEvaluator::full(const ChainState& start, const Eigen::Vector3
     result.collision_time = settings_.duration;
     return result;
   }
+  const double seconds_per_metre = secondsPerMetre(path_bound);
+  Traced traced;
+  if (!traceFree(start, control, start_clearance, seconds_per_metre, traced, result)) {
+    return result;
+  }
+  result.collision_free = true;
+  integrate(start, control, samples, seconds_per_metre, traced, result);
+  return result;
+}
+
+bool EdgeEvaluator::traceFree(const ChainState& start, const Eigen::Vector3d& control,
+                              double start_clearance, double seconds_per_metre, Traced& traced,
+                              EdgeEvaluation& result) const {
   const Esdf& esdf = world_->esdf();
   const double tau = settings_.duration;
   const double radius = settings_.robot_radius;
   const int order = settings_.order;
-  const Eigen::Vector3d end = result.end.col(0);
-
-  // Sphere tracing. The first 64 traced times and trilinear values are kept for the
-  // quadrature (at the start only its clearance is known, which bounds the value from below).
-  std::array<double, 64> traced_time;
-  std::array<double, 64> traced_distance;
-  traced_time[0] = 0.0;
-  traced_distance[0] = start_clearance;
-  int traced = 1;
+  traced.time[0] = 0.0;
+  traced.distance[0] = start_clearance;
+  traced.count = 1;
   const auto trace = [&](double t, const Eigen::Vector3d& position) {
     ++result.esdf_queries;
     double distance = 0.0;
     const double clearance = esdf.clearance(position, &distance);
-    if (traced < static_cast<int>(traced_time.size())) {
-      traced_time[traced] = t;
-      traced_distance[traced++] = distance;
+    if (traced.count < static_cast<int>(traced.time.size())) {
+      traced.time[traced.count] = t;
+      traced.distance[traced.count++] = distance;
     }
     return clearance;
   };
-  const double seconds_per_metre = secondsPerMetre(path_bound);
   double t = 0.0;
   double clearance = start_clearance;
   for (;;) {
     if (clearance < radius) {
       result.collision_time = t;
-      return result;
+      return false;
     }
     t += tracingReach(clearance) * seconds_per_metre;
     if (!(t < tau)) break;
     clearance = trace(t, positionFromPowers(start, control, order, powersOver(t, order)));
   }
-  if (trace(tau, end) < radius) {
+  if (trace(tau, result.end.col(0)) < radius) {
     result.collision_time = tau;
-    return result;
+    return false;
   }
-  result.collision_free = true;
+  return true;
+}
 
-  // Quadrature of the obstacle term (and the length polyline). A sample is outside the
-  // penalty band when a traced point's lower bound, less sqrt(3) times the path between
-  // them (the trilinear ESDF is sqrt(3)-Lipschitz), is beyond it.
+void EdgeEvaluator::integrate(const ChainState& start, const Eigen::Vector3d& control, int samples,
+                              double seconds_per_metre, const Traced& traced,
+                              EdgeEvaluation& result) const {
+  // A sample is outside the penalty band when a traced point's lower bound, less sqrt(3)
+  // times the path between them (the trilinear ESDF is sqrt(3)-Lipschitz), is beyond it.
+  const Esdf& esdf = world_->esdf();
+  const double tau = settings_.duration;
+  const Eigen::Vector3d end = result.end.col(0);
   const bool obstacle_term = settings_.weights.obstacle > 0.0;
   const bool length_term = settings_.weights.length > 0.0;
   double penalty_sum = 0.0;
   if (obstacle_term || length_term) {
-    const double band = radius + settings_.safety_distance;
+    const double band = settings_.robot_radius + settings_.safety_distance;
     const double lipschitz_per_second = std::sqrt(3.0) / seconds_per_metre;
     Eigen::Vector3d previous = start.col(0);
     int next_traced = 0;
@@ -246,12 +258,12 @@ EdgeEvaluation EdgeEvaluator::full(const ChainState& start, const Eigen::Vector3
       previous = position;
       if (!obstacle_term) continue;
       const double time = tau * k / samples;
-      while (next_traced < traced && traced_time[next_traced] <= time) ++next_traced;
+      while (next_traced < traced.count && traced.time[next_traced] <= time) ++next_traced;
       bool outside_band = false;
       for (const int i : {next_traced - 1, next_traced}) {
-        if (i < 0 || i >= traced) continue;
+        if (i < 0 || i >= traced.count) continue;
         const double bound =
-            traced_distance[i] - lipschitz_per_second * std::abs(time - traced_time[i]);
+            traced.distance[i] - lipschitz_per_second * std::abs(time - traced.time[i]);
         outside_band = outside_band || bound >= band;
       }
       if (outside_band) continue;
@@ -263,7 +275,6 @@ EdgeEvaluation EdgeEvaluator::full(const ChainState& start, const Eigen::Vector3
   result.obstacle_cost = settings_.weights.obstacle * penalty_sum * tau / samples;
   result.cost =
       mapFreeCost(control) + settings_.weights.length * result.length + result.obstacle_cost;
-  return result;
 }
 
 bool EdgeEvaluator::certify(const ChainState& start, double start_clearance,

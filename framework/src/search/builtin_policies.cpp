@@ -68,16 +68,14 @@ void registerBuiltins() {
   registrar.add<HeuristicBuilder>(
       "max", "the largest of time_optimal and obvp (obvp only at order 2)", ParameterSpecs(),
       [](const ParameterSet&) {
-        return std::make_unique<HeuristicBuilder>(
-            [](const HeuristicContext& context) -> std::shared_ptr<const SearchHeuristic> {
-              auto time_optimal =
-                  std::make_shared<TimeOptimalHeuristic>(context.edges, context.goal_radius);
-              if (context.edges.order != 2) return time_optimal;
-              return std::make_shared<MaxHeuristic>(
-                  std::vector<std::shared_ptr<const SearchHeuristic>>{
-                      time_optimal,
-                      std::make_shared<ObvpHeuristic>(context.edges, context.goal_radius)});
-            });
+        return std::make_unique<HeuristicBuilder>([](const HeuristicContext& context)
+                                                      -> std::shared_ptr<const SearchHeuristic> {
+          auto time_optimal =
+              std::make_shared<TimeOptimalHeuristic>(context.edges, context.goal_radius);
+          if (context.edges.order != 2) return time_optimal;
+          return std::make_shared<MaxHeuristic>(std::vector<std::shared_ptr<const SearchHeuristic>>{
+              time_optimal, std::make_shared<ObvpHeuristic>(context.edges, context.goal_radius)});
+        });
       });
 
   registrar.add<EdgeEvaluationPolicy>("full", "every edge fully evaluated at expansion (eager)",
@@ -96,12 +94,11 @@ void registerBuiltins() {
       ParameterSpecs()
           .real("position_resolution", 0.01, 1e-6, 10.0, "position rounding, m")
           .real("velocity_resolution", 0.01, 1e-6, 10.0, "velocity rounding, m/s")
-          .real("acceleration_resolution", 0.01, 1e-6, 100.0,
-                "acceleration (and jerk) rounding"),
+          .real("acceleration_resolution", 0.01, 1e-6, 100.0, "acceleration (and jerk) rounding"),
       [](const ParameterSet& p) {
-        return std::make_unique<LatticeSpace>(std::array<double, 3>{
-            p.real("position_resolution"), p.real("velocity_resolution"),
-            p.real("acceleration_resolution")});
+        return std::make_unique<LatticeSpace>(
+            std::array<double, 3>{p.real("position_resolution"), p.real("velocity_resolution"),
+                                  p.real("acceleration_resolution")});
       });
   registrar.add<SearchSpace>(
       "cells",

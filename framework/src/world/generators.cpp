@@ -69,8 +69,9 @@ struct Region {
 };
 
 ParameterSpecs withRegion(ParameterSpecs specs) {
-  return specs.group("region", Region::declared(),
-                     "fill only this horizontal rectangle of the bounds: {x: [lo, hi], y: [lo, hi]}");
+  return specs.group(
+      "region", Region::declared(),
+      "fill only this horizontal rectangle of the bounds: {x: [lo, hi], y: [lo, hi]}");
 }
 
 /// Marks voxels whose centres lie in a vertical cylinder.
@@ -113,8 +114,7 @@ class ForestGenerator final : public WorldGenerator {
                    ParameterSpecs()
                        .real("probability", 0.5, 0.0, 1.0, "share of trees with a canopy")
                        .interval("radius", {0.8, 1.5}, 0.0, 100.0, "canopy radius range, m")
-                       .interval("thickness", {0.4, 1.0}, 0.0, 100.0,
-                                 "canopy thickness range, m"),
+                       .interval("thickness", {0.4, 1.0}, 0.0, 100.0, "canopy thickness range, m"),
                    "disc canopies at the trunk tops: {probability, radius, thickness}"));
   }
   explicit ForestGenerator(const ParameterSet& p)
@@ -253,40 +253,8 @@ class WallsGenerator final : public WorldGenerator {
     const int cells_y = std::max(1, static_cast<int>((high.y() - low.y()) / cell_size_));
     const Eigen::Vector2d cell((high.x() - low.x()) / cells_x, (high.y() - low.y()) / cells_y);
 
-    // Interior walls: vertical walls between (i, j) and (i + 1, j), horizontal walls between
-    // (i, j) and (i, j + 1). open[w] says the wall gets a gap.
     const int vertical = (cells_x - 1) * cells_y;
-    const int horizontal = cells_x * (cells_y - 1);
-    std::vector<bool> open(static_cast<std::size_t>(vertical + horizontal), false);
-    auto cellId = [&](int i, int j) { return j * cells_x + i; };
-    std::vector<bool> visited(static_cast<std::size_t>(cells_x * cells_y), false);
-    std::vector<std::pair<int, int>> stack{{0, 0}};
-    visited[0] = true;
-    while (!stack.empty()) {
-      const auto [i, j] = stack.back();
-      // (neighbour i, neighbour j, wall id)
-      std::vector<std::array<int, 3>> options;
-      if (i > 0 && !visited[cellId(i - 1, j)])
-        options.push_back({i - 1, j, j * (cells_x - 1) + i - 1});
-      if (i + 1 < cells_x && !visited[cellId(i + 1, j)])
-        options.push_back({i + 1, j, j * (cells_x - 1) + i});
-      if (j > 0 && !visited[cellId(i, j - 1)])
-        options.push_back({i, j - 1, vertical + (j - 1) * cells_x + i});
-      if (j + 1 < cells_y && !visited[cellId(i, j + 1)])
-        options.push_back({i, j + 1, vertical + j * cells_x + i});
-      if (options.empty()) {
-        stack.pop_back();
-        continue;
-      }
-      const auto& pick = options[static_cast<std::size_t>(
-          rng.uniformInt(0, static_cast<std::int64_t>(options.size()) - 1))];
-      open[static_cast<std::size_t>(pick[2])] = true;
-      visited[cellId(pick[0], pick[1])] = true;
-      stack.push_back({pick[0], pick[1]});
-    }
-    for (std::size_t w = 0; w < open.size(); ++w) {
-      if (!open[w] && rng.uniform01() < extra_openings_) open[w] = true;
-    }
+    const std::vector<bool> open = mazeOpenings(cells_x, cells_y, rng);
 
     const double floor = bounds.min.z();
     const double half = 0.5 * thickness_;
@@ -335,6 +303,46 @@ class WallsGenerator final : public WorldGenerator {
   }
 
  private:
+  /// Which interior walls get a gap: vertical walls between cells (i, j) and (i + 1, j) first
+  /// (index j (cells_x - 1) + i), then horizontal ones between (i, j) and (i, j + 1). A random
+  /// spanning tree of the cells (depth-first carving) opens one wall per tree edge, then each
+  /// closed wall opens with probability extra_openings, so that there are loops.
+  std::vector<bool> mazeOpenings(int cells_x, int cells_y, Rng& rng) const {
+    const int vertical = (cells_x - 1) * cells_y;
+    const int horizontal = cells_x * (cells_y - 1);
+    std::vector<bool> open(static_cast<std::size_t>(vertical + horizontal), false);
+    auto cellId = [&](int i, int j) { return j * cells_x + i; };
+    std::vector<bool> visited(static_cast<std::size_t>(cells_x * cells_y), false);
+    std::vector<std::pair<int, int>> stack{{0, 0}};
+    visited[0] = true;
+    while (!stack.empty()) {
+      const auto [i, j] = stack.back();
+      // (neighbour i, neighbour j, wall id)
+      std::vector<std::array<int, 3>> options;
+      if (i > 0 && !visited[cellId(i - 1, j)])
+        options.push_back({i - 1, j, j * (cells_x - 1) + i - 1});
+      if (i + 1 < cells_x && !visited[cellId(i + 1, j)])
+        options.push_back({i + 1, j, j * (cells_x - 1) + i});
+      if (j > 0 && !visited[cellId(i, j - 1)])
+        options.push_back({i, j - 1, vertical + (j - 1) * cells_x + i});
+      if (j + 1 < cells_y && !visited[cellId(i, j + 1)])
+        options.push_back({i, j + 1, vertical + j * cells_x + i});
+      if (options.empty()) {
+        stack.pop_back();
+        continue;
+      }
+      const auto& pick = options[static_cast<std::size_t>(
+          rng.uniformInt(0, static_cast<std::int64_t>(options.size()) - 1))];
+      open[static_cast<std::size_t>(pick[2])] = true;
+      visited[cellId(pick[0], pick[1])] = true;
+      stack.push_back({pick[0], pick[1]});
+    }
+    for (std::size_t w = 0; w < open.size(); ++w) {
+      if (!open[w] && rng.uniform01() < extra_openings_) open[w] = true;
+    }
+    return open;
+  }
+
   double cell_size_;
   double thickness_;
   Interval height_;
@@ -361,9 +369,10 @@ class BoxListGenerator final : public WorldGenerator {
     for (const ParameterSet* item : p.items("boxes")) {
       const Box box{pointOf(*item, "min"), pointOf(*item, "max")};
       if ((box.max.array() < box.min.array()).any()) {
-        throw ParameterConflict("boxes", "box " + std::to_string(boxes_.size()) + ": expected min " +
-                                             "<= max per axis, got min " + formatPoint(box.min) +
-                                             " and max " + formatPoint(box.max));
+        throw ParameterConflict("boxes", "box " + std::to_string(boxes_.size()) +
+                                             ": expected min " + "<= max per axis, got min " +
+                                             formatPoint(box.min) + " and max " +
+                                             formatPoint(box.max));
       }
       boxes_.push_back(box);
     }

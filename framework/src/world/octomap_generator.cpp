@@ -13,8 +13,8 @@
 #include "kinolab/core/error.hpp"
 #include "kinolab/core/files.hpp"
 #include "kinolab/core/hash.hpp"
-#include "kinolab/core/text.hpp"
 #include "kinolab/core/plugin.hpp"
+#include "kinolab/core/text.hpp"
 #include "kinolab/world/world_generator.hpp"
 
 namespace kinolab {

@@ -48,10 +48,10 @@ struct ParameterSpec {
   double maximum = std::numeric_limits<double>::infinity();
   std::vector<std::string> choices;  // choice
   std::string doc;
-  std::string kind;          // plugin: the registry's kind ("sampler", "heuristic", ...)
-  std::size_t count = 0;     // reals: how many (0: any number)
-  bool interval = false;     // reals: [low, high] with low <= high; one number x is [x, x]
-  bool required = false;     // no default: resolving without a value is an error
+  std::string kind;       // plugin: the registry's kind ("sampler", "heuristic", ...)
+  std::size_t count = 0;  // reals: how many (0: any number)
+  bool interval = false;  // reals: [low, high] with low <= high; one number x is [x, x]
+  bool required = false;  // no default: resolving without a value is an error
   std::shared_ptr<const ParameterSpecs> members;  // group and group list: each group's
 
   /// "bool", "int", "real", "choice", "text", "reals", "path", "group", "groups", or a plugin

@@ -130,15 +130,14 @@ void listPluginRegistry(const PluginRegistryBase& registry, int order);
 /// loads, so `kinolab list` and plugin-valued parameters see every kind, registered to or
 /// not); used inside namespace kinolab. `order` (a literal integer, unique) sorts the kinds
 /// in listings.
-#define KINOLAB_DEFINE_PLUGIN_REGISTRY(Interface, kind, plural, description, order) \
-  template <>                                                                         \
-  PluginRegistry<Interface>& pluginRegistry<Interface>() {                            \
-    static PluginRegistry<Interface> registry(kind, plural, description);             \
-    static const bool listed = (detail::listPluginRegistry(registry, order), true);   \
-    (void)listed;                                                                     \
-    return registry;                                                                  \
-  }                                                                                   \
-  namespace {                                                                         \
-  [[maybe_unused]] const bool registry_made_##order =                                 \
-      (pluginRegistry<Interface>(), true);                                            \
+#define KINOLAB_DEFINE_PLUGIN_REGISTRY(Interface, kind, plural, description, order)        \
+  template <>                                                                              \
+  PluginRegistry<Interface>& pluginRegistry<Interface>() {                                 \
+    static PluginRegistry<Interface> registry(kind, plural, description);                  \
+    static const bool listed = (detail::listPluginRegistry(registry, order), true);        \
+    (void)listed;                                                                          \
+    return registry;                                                                       \
+  }                                                                                        \
+  namespace {                                                                              \
+  [[maybe_unused]] const bool registry_made_##order = (pluginRegistry<Interface>(), true); \
   }

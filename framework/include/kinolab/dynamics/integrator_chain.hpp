@@ -16,11 +16,11 @@ using ChainState = Eigen::Matrix<double, 3, 4>;
 /// per-axis velocity and acceleration limits, the body's radius, the collision verdict's
 /// tolerance and the goal region's radius.
 struct MotionDefaults {
-  static constexpr double kMaxVelocity = 2.0;         ///< m/s
-  static constexpr double kMaxAcceleration = 3.0;     ///< m/s^2
-  static constexpr double kRobotRadius = 0.25;        ///< m
-  static constexpr double kCollisionTolerance = 0.01; ///< m
-  static constexpr double kGoalRadius = 0.5;          ///< m
+  static constexpr double kMaxVelocity = 2.0;          ///< m/s
+  static constexpr double kMaxAcceleration = 3.0;      ///< m/s^2
+  static constexpr double kRobotRadius = 0.25;         ///< m
+  static constexpr double kCollisionTolerance = 0.01;  ///< m
+  static constexpr double kGoalRadius = 0.5;           ///< m
 };
 
 /// Per-axis bounds on the absolute value of each derivative; `bound[k]` limits the k-th

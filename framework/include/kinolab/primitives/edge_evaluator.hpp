@@ -32,10 +32,12 @@ struct CostWeights {
 struct EdgeEvaluatorSettings {
   int order = 2;          ///< integrator chain order: the control is this derivative
   double duration = 0.5;  ///< tau, seconds per primitive
-  DynamicLimits limits = DynamicLimits::uniform(MotionDefaults::kMaxVelocity, MotionDefaults::kMaxAcceleration);
+  DynamicLimits limits =
+      DynamicLimits::uniform(MotionDefaults::kMaxVelocity, MotionDefaults::kMaxAcceleration);
   CostWeights weights;
-  double robot_radius = MotionDefaults::kRobotRadius;    ///< the body: a sphere of this radius (0: a point)
-  double safety_distance = 0.5;  ///< obstacle penalty band beyond the radius, metres
+  double robot_radius =
+      MotionDefaults::kRobotRadius;  ///< the body: a sphere of this radius (0: a point)
+  double safety_distance = 0.5;      ///< obstacle penalty band beyond the radius, metres
   EdgeSampling sampling;
   /// The collision verdict is exact to this (m): an edge called free keeps robot_radius less
   /// this from every occupied voxel cube; each sphere-tracing step gains at least this.
@@ -121,6 +123,21 @@ class EdgeEvaluator {
   }
 
  private:
+  /// The first points sphere tracing visited: times and trilinear ESDF values (the start's
+  /// is its clearance, a lower bound), kept for the obstacle quadrature.
+  struct Traced {
+    std::array<double, 64> time;
+    std::array<double, 64> distance;
+    int count = 0;
+  };
+  /// Sphere tracing from the start to the end: false (with the collision time in `result`)
+  /// when the body comes within the collision tolerance of an occupied cube.
+  bool traceFree(const ChainState& start, const Eigen::Vector3d& control, double start_clearance,
+                 double seconds_per_metre, Traced& traced, EdgeEvaluation& result) const;
+  /// The quadrature of the obstacle term over `samples` samples and the length polyline, into
+  /// `result` (its cost).
+  void integrate(const ChainState& start, const Eigen::Vector3d& control, int samples,
+                 double seconds_per_metre, const Traced& traced, EdgeEvaluation& result) const;
   /// An upper bound on the path length over the primitive (speed bound times tau).
   double pathBound(const ChainState& start, const Eigen::Vector3d& control) const;
   int sampleCountFor(double path_bound) const;
