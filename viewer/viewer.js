@@ -178,7 +178,7 @@
     // One tree shown at first (the first lazy one: with partial edges); the others a click away.
     const shown = query.trees.find((t) => (t.edges.partial || []).length) || query.trees[0];
     for (const tree of query.trees) {
-      for (const state of ["partial", "full", "certified", "rejected"]) {
+      for (const state of Object.keys(EDGE_COLOURS)) {
         const flat = tree.edges[state] || [];
         if (!flat.length) continue;
         const geometry = new THREE.BufferGeometry();

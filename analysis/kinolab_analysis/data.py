@@ -18,6 +18,14 @@ from . import stats
 # version 4 added the flights table, version 5 the worlds' obstacle boxes (for the 3D view).
 SCHEMA_VERSION = 5
 
+# A stored search tree's edge states (the trees table's `state`), each with the colour every
+# figure and the 3D viewer draw it in. The names are kinolab's (SearchTreeEdge::State;
+# `kinolab list metrics --json` prints them, and tests/analysis holds this and viewer.js to
+# them).
+EDGE_COLOURS = {"partial": "#f4a261", "full": "#2a9d8f", "certified": "#264653",
+                "rejected": "#e63946"}
+EDGE_STATES = tuple(EDGE_COLOURS)
+
 
 @dataclass
 class World:

@@ -15,7 +15,7 @@ import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 
 from . import stats  # noqa: E402
-from .data import Results, World  # noqa: E402
+from .data import EDGE_COLOURS, Results, World  # noqa: E402
 from .tables import SPEEDUP_COLUMNS  # noqa: E402
 
 COLOURS = plt.rcParams["axes.prop_cycle"].by_key()["color"]
@@ -185,8 +185,7 @@ def search_tree(results: Results, run: pd.Series, world: World | None) -> plt.Fi
         extent = [world.origin[0], world.origin[0] + nx * r, world.origin[1], world.origin[1] + ny * r]
         axis.imshow(np.ma.masked_equal(world.top.T.astype(float), 0), origin="lower",
                     extent=extent, cmap="Greys", vmin=0, interpolation="nearest", alpha=0.6)
-    colours = {"partial": "#f4a261", "full": "#2a9d8f", "certified": "#264653",
-               "rejected": "#e63946"}
+    colours = EDGE_COLOURS
     for state, edges in tree.groupby("state"):
         segments = [group[["x", "y"]].to_numpy() for _, group in edges.groupby("edge")]
         partial = state == "partial"

@@ -297,17 +297,17 @@ def write(paths: list[Path], out: Path, compare: Path | None = None,
     if runs["sampler"].fillna("").nunique() > 1:
         report.tables["per_sampler"] = _summary_columns(
             tables.summary(runs, by=["sampler", "planner"],
-                           metrics=[m for m in tables.METRICS
-                                    if m[0] in ("planning_time_ms", "expansions")]))
+                           metrics=tables.metrics(results.metrics,
+                                                  ("planning_time_ms", "expansions"))))
     if runs["world"].nunique() > 1:
         report.tables["per_world"] = _summary_columns(
             tables.summary(runs, by=["world", "planner"],
-                           metrics=[m for m in tables.METRICS if m[0] == "planning_time_ms"]))
+                           metrics=tables.metrics(results.metrics, ("planning_time_ms",))))
     if runs["sweep"].fillna("").nunique() > 1:
         report.tables["sweep"] = _summary_columns(
             tables.summary(runs, by=["sweep", "planner"],
-                           metrics=[m for m in tables.METRICS
-                                    if m[0] in ("planning_time_ms", "expansions", "cost")]))
+                           metrics=tables.metrics(results.metrics,
+                                                  ("planning_time_ms", "expansions", "cost"))))
     if not (statistics := tables.statistics(runs, results.metrics)).empty:
         report.tables["statistics"] = statistics
     report.tables["paired"] = tables.paired(runs)
@@ -330,9 +330,9 @@ def write(paths: list[Path], out: Path, compare: Path | None = None,
 
     _save(plots.ecdf(runs), report, "ecdf_planning_time", "Time to solve",
           "ECDF of planning time per planner; failed runs count as never solved.")
-    _save(plots.boxes(runs, [m for m in tables.METRICS if m[0] in
-                             ("planning_time_ms", "expansions", "duration", "length",
-                              "jerk_integral")]),
+    _save(plots.boxes(runs, tables.metrics(results.metrics,
+                                           ("planning_time_ms", "expansions", "duration",
+                                            "length", "jerk_integral"))),
           report, "metrics", "Metrics per planner", "Box plots over successful runs.")
     if runs["world"].nunique() > 1:
         _save(plots.per_world(runs), report, "per_world", "Per world",

@@ -14,27 +14,39 @@ from . import stats
 
 CASE = ["sweep", "world", "query", "repetition"]
 
-# Metrics summarised over successful runs: (column, label, unit).
-METRICS = [
-    ("planning_time_ms", "T", "ms"),
-    ("expansions", "N", ""),
-    ("partial_evaluations", "partial evals", ""),
-    ("full_evaluations", "full evals", ""),
-    ("cost", "cost", ""),
-    ("distance_to_goal", "D", "m"),
-    ("duration", "duration", "s"),
-    ("length", "length", "m"),
-    ("jerk_integral", "jerk", "m^2/s^5"),
-    ("min_clearance", "min clearance", "m"),
+# Metrics summarised over successful runs: (column, short label). Their units are the
+# database's declaration (Results.metrics, written from kinolab's metric specs): metrics().
+SUMMARISED = [
+    ("planning_time_ms", "T"),
+    ("expansions", "N"),
+    ("partial_evaluations", "partial evals"),
+    ("full_evaluations", "full evals"),
+    ("cost", "cost"),
+    ("distance_to_goal", "D"),
+    ("duration", "duration"),
+    ("length", "length"),
+    ("jerk_integral", "jerk"),
+    ("min_clearance", "min clearance"),
     # Flights (kind: flight): their statistics.
-    ("time_to_goal", "time to goal", "s"),
-    ("mean_speed", "mean speed", "m/s"),
-    ("replans", "replans", ""),
-    ("failed_replans", "failed replans", ""),
-    ("replan_time_p95_ms", "replan p95", "ms"),
-    ("replan_time_max_ms", "replan max", "ms"),
-    ("frame_time_ms", "frame time", "ms"),
+    ("time_to_goal", "time to goal"),
+    ("mean_speed", "mean speed"),
+    ("replans", "replans"),
+    ("failed_replans", "failed replans"),
+    ("replan_time_p95_ms", "replan p95"),
+    ("replan_time_max_ms", "replan max"),
+    ("frame_time_ms", "frame time"),
 ]
+
+
+def metrics(declared: pd.DataFrame, columns: tuple[str, ...] | None = None
+            ) -> list[tuple[str, str, str]]:
+    """(column, label, unit) of the summarised metrics (those in `columns`, or all), the unit
+    from the database's declaration `declared` (Results.metrics; "" where it declares none)."""
+    units: dict[str, str] = {}
+    if not declared.empty and {"name", "unit"} <= set(declared.columns):
+        units = dict(zip(declared["name"], declared["unit"].fillna("")))
+    return [(column, label, units.get(column, "")) for column, label in SUMMARISED
+            if columns is None or column in columns]
 
 # The paper's Table II (T ms, N, D m) and Table I (alpha, L m).
 PAPER_TABLE2 = {"TGK": (8.78, math.nan, 2.27), "MP-A*": (6.82, 973.0, 2.31),
@@ -56,7 +68,8 @@ def summary(runs: pd.DataFrame, by: list[str] | None = None,
     successful runs, median and mean of each metric with bootstrap intervals."""
     by = by or ["planner"]
     # Only the metrics these runs have (a flight has no expansions, a plan no time to goal).
-    metrics = [m for m in (metrics or METRICS) if m[0] in runs.columns]
+    metrics = [m for m in (metrics or [(c, label, "") for c, label in SUMMARISED])
+               if m[0] in runs.columns]
     rows = []
     for key, group in runs.groupby(by if len(by) > 1 else by[0], sort=False, dropna=False):
         key = key if isinstance(key, tuple) else (key,)

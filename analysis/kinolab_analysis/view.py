@@ -12,9 +12,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from .data import Results, World
-
-STATES = ("partial", "full", "certified", "rejected")
+from .data import EDGE_STATES as STATES, Results, World
 
 
 def template_path() -> Path | None:

@@ -62,10 +62,18 @@ void listMetrics(bool json) {
     for (const PluginInfo* planner : planners) {
       statistics[planner->key] = toJson(planner->statistics);
     }
-    std::cout << nlohmann::json{{"result", toJson(resultMetrics())},
+    // The edge states of stored search trees, by their one definition (toString).
+    nlohmann::json edge_states = nlohmann::json::array();
+    for (const auto state : {SearchTreeEdge::State::kPartial, SearchTreeEdge::State::kFull,
+                             SearchTreeEdge::State::kCertified, SearchTreeEdge::State::kRejected}) {
+      edge_states.push_back(std::string(toString(state)));
+    }
+    std::cout << nlohmann::json{{"schema_version", kResultsSchemaVersion},
+                                {"result", toJson(resultMetrics())},
                                 {"runner", toJson(runnerMetrics())},
                                 {"statistics", statistics},
-                                {"flight", toJson(flightMetrics())}}
+                                {"flight", toJson(flightMetrics())},
+                                {"edge_states", edge_states}}
                      .dump(2)
               << '\n';
     return;
