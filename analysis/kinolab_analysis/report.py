@@ -273,21 +273,18 @@ def find_sampling_study(directory: Path) -> Path | None:
     return found[0] if found else None
 
 
-def write(paths: list[Path], out: Path, compare: Path | None = None,
-          sampling_csv: Path | None = None) -> Report:
-    """Writes the report directory and returns what it holds."""
-    results = load(paths)
+def _tables(report: Report, results, paths: list[Path], compare: Path | None,
+            sampling_csv: Path | None) -> tuple[Path | None, pd.DataFrame | None, str, str]:
+    """The report's tables; returns the sampling study's CSV, its readings and their verdict,
+    and the compared database's name."""
     runs = results.runs
-    report = Report(out)
-    out.mkdir(parents=True, exist_ok=True)
-
+    reproduced = results.reproduces()
     report.tables["status_counts"] = tables.status_counts(runs).reset_index()
     if runs["line_blocked"].notna().any():
         report.tables["worlds"] = tables.worlds(runs)
     if runs["planning_time_cold_ms"].notna().any():
         report.tables["timing"] = tables.timing(runs)
     # The paper's tables only for an experiment that says what it reproduces.
-    reproduced = results.reproduces()
     if reproduced:
         report.tables["paper_table2"] = tables.paper_table2(runs)
     full_summary = tables.summary(runs)
@@ -328,6 +325,13 @@ def write(paths: list[Path], out: Path, compare: Path | None = None,
         compare_name = str(compare)
         report.tables["compare"] = tables.compare(runs, other.runs)
 
+    return sampling_csv, readings, readings_verdict, compare_name
+
+
+def _summary_figures(report: Report, results, sampling_csv: Path | None,
+                     readings: pd.DataFrame | None, readings_verdict: str) -> None:
+    """The figures over all runs: time to solve, metrics, worlds, sweep, the sampling study."""
+    runs = results.runs
     _save(plots.ecdf(runs), report, "ecdf_planning_time", "Time to solve",
           "ECDF of planning time per planner; failed runs count as never solved.")
     _save(plots.boxes(runs, tables.metrics(results.metrics,
@@ -350,6 +354,13 @@ def write(paths: list[Path], out: Path, compare: Path | None = None,
               "each sampler and M, and L against M; stars and dashed lines: the paper's "
               "figures. With one Euler step the end position p + v tau does not depend on the "
               "control, so position-only Euler readings have alpha = L = 0. " + readings_verdict)
+
+
+def _case_figures(report: Report, results, out: Path) -> None:
+    """The figures of single cases: per world its 3D view, trajectories, speeds and known
+    maps; a flight animation per planner; replan times; the search tree."""
+    runs = results.runs
+    reproduced = results.reproduces()
     tree_run = _tree_run(results)
     for world in results.worlds.values():
         # The query most planners solved, the first on ties.
@@ -398,12 +409,13 @@ def write(paths: list[Path], out: Path, compare: Path | None = None,
                   + (" (the paper's Fig. 6)" if reproduced else ""),
                   "Edges only partially evaluated (queued on their lower bound) and fully "
                   "evaluated ones, in two colours; the trajectory in black.")
-    regime_sources = _lazy_regime(report, results,
-                                  paths[0] if paths[0].is_dir() else paths[0].parent)
-    if (figure := plots.anytime(runs)) is not None:
-        _save(figure, report, "rrtstar_anytime", "RRT* anytime cost",
-              "Median best path length on the fixed time grid, over runs with a solution.")
 
+
+def _write_page(report: Report, results, out: Path, compare_name: str,
+                readings_verdict: str, regime_sources: str) -> None:
+    """The tables as Markdown and LaTeX, and index.html."""
+    runs = results.runs
+    reproduced = results.reproduces()
     table_directory = out / "tables"
     table_directory.mkdir(exist_ok=True)
     for name, table in report.tables.items():
@@ -429,6 +441,25 @@ def write(paths: list[Path], out: Path, compare: Path | None = None,
         paper_rows=", ".join(f"{row} = {planner}" for planner, row in reproduced[1].items())
         if reproduced else "")
     (out / "index.html").write_text(html)
+
+
+
+def write(paths: list[Path], out: Path, compare: Path | None = None,
+          sampling_csv: Path | None = None) -> Report:
+    """Writes the report directory and returns what it holds."""
+    results = load(paths)
+    report = Report(out)
+    out.mkdir(parents=True, exist_ok=True)
+    sampling_csv, readings, readings_verdict, compare_name = _tables(
+        report, results, paths, compare, sampling_csv)
+    _summary_figures(report, results, sampling_csv, readings, readings_verdict)
+    _case_figures(report, results, out)
+    regime_sources = _lazy_regime(report, results,
+                                  paths[0] if paths[0].is_dir() else paths[0].parent)
+    if (figure := plots.anytime(results.runs)) is not None:
+        _save(figure, report, "rrtstar_anytime", "RRT* anytime cost",
+              "Median best path length on the fixed time grid, over runs with a solution.")
+    _write_page(report, results, out, compare_name, readings_verdict, regime_sources)
     return report
 
 

@@ -3,6 +3,7 @@
 // (docs/extending/).
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 
 #include "kinolab/core/random.hpp"
@@ -218,13 +219,21 @@ INSTANTIATE_TEST_SUITE_P(Registered, SensorConformance, ::testing::ValuesIn(regi
 
 class WorldGeneratorConformance : public ::testing::TestWithParam<std::string> {};
 
-// At its defaults (a generator that needs a value, like a map file, is skipped), a generator
-// gives the same grid for the same spec, bit for bit.
-TEST_P(WorldGeneratorConformance, TheSameSpecGivesTheSameGrid) {
-  const PluginInfo& info = pluginRegistry<WorldGenerator>().info(GetParam());
-  for (const auto& spec : info.parameters.all()) {
-    if (spec.required) GTEST_SKIP() << "needs " << spec.name;
+/// The generators that build at their defaults: those that need a value (a map file: the
+/// `octomap` generator, tested with real maps in tests/unit/world_test.cpp) are not listed.
+std::vector<std::string> generatorsWithDefaults() {
+  std::vector<std::string> keys;
+  for (const std::string& key : registered<WorldGenerator>()) {
+    const auto& specs = pluginRegistry<WorldGenerator>().info(key).parameters.all();
+    if (std::none_of(specs.begin(), specs.end(), [](const auto& s) { return s.required; })) {
+      keys.push_back(key);
+    }
   }
+  return keys;
+}
+
+// At its defaults a generator gives the same grid for the same spec, bit for bit.
+TEST_P(WorldGeneratorConformance, TheSameSpecGivesTheSameGrid) {
   const std::string text =
       "seed: 5\nresolution: 0.2\nbounds: {min: [0, 0, 0], max: [8, 8, 3]}\n"
       "generators: [{type: " +
@@ -240,7 +249,7 @@ TEST_P(WorldGeneratorConformance, TheSameSpecGivesTheSameGrid) {
 }
 
 INSTANTIATE_TEST_SUITE_P(Registered, WorldGeneratorConformance,
-                         ::testing::ValuesIn(registered<WorldGenerator>()),
+                         ::testing::ValuesIn(generatorsWithDefaults()),
                          [](const auto& key) { return key.param; });
 
 }  // namespace

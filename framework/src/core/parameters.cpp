@@ -405,6 +405,22 @@ ParameterSet resolvePlugin(const ParameterSpec& spec, const std::string& key,
   return registry->resolve(key, pending.inner, where);
 }
 
+/// `inner` (INDEX.PARAMETER, from `assignment`) into the group list's pending items.
+void addItemAssignment(const ParameterSpec& spec, ParameterAssignment inner,
+                       const ParameterAssignment& assignment, const std::string& owner,
+                       Pending& pending) {
+  const auto next = inner.name.find('.');
+  const auto item = parseInteger(inner.name.substr(0, next));
+  if (!item || *item < 0 || *item >= kMaxItems || next == std::string::npos) {
+    throw ConfigError(assignment.where + ": " + owner + ": parameter '" + assignment.name +
+                      "': expected " + spec.name + ".INDEX.PARAMETER, INDEX in [0, " +
+                      std::to_string(kMaxItems) + ")");
+  }
+  inner.name = inner.name.substr(next + 1);
+  if (pending.items.size() <= static_cast<std::size_t>(*item)) pending.items.resize(*item + 1);
+  pending.items[*item].push_back(std::move(inner));
+}
+
 }  // namespace
 
 ParameterSet ParameterSpecs::resolve(const std::vector<ParameterAssignment>& assignments,
@@ -444,23 +460,13 @@ ParameterSet ParameterSpecs::resolve(const std::vector<ParameterAssignment>& ass
     }
     ParameterAssignment inner = assignment;
     inner.name = assignment.name.substr(dot + 1);
+    if (spec->type == ParameterType::kGroup) result.values_[index].second = true;
     if (spec->type != ParameterType::kGroupList) {
-      if (spec->type == ParameterType::kGroup) result.values_[index].second = true;
       pending[index].inner.push_back(std::move(inner));
-      continue;
+    } else {
+      addItemAssignment(*spec, std::move(inner), assignment, own, pending[index]);
+      result.values_[index].second = static_cast<long long>(pending[index].items.size());
     }
-    const auto next = inner.name.find('.');
-    const auto item = parseInteger(inner.name.substr(0, next));
-    if (!item || *item < 0 || *item >= kMaxItems || next == std::string::npos) {
-      throw ConfigError(assignment.where + ": " + own + ": parameter '" + assignment.name +
-                        "': expected " + spec->name + ".INDEX.PARAMETER, INDEX in [0, " +
-                        std::to_string(kMaxItems) + ")");
-    }
-    inner.name = inner.name.substr(next + 1);
-    auto& items = pending[index].items;
-    if (items.size() <= static_cast<std::size_t>(*item)) items.resize(*item + 1);
-    items[*item].push_back(std::move(inner));
-    result.values_[index].second = static_cast<long long>(items.size());
   }
   for (std::size_t index = 0; index < specs_.size(); ++index) {
     const ParameterSpec& spec = specs_[index];
