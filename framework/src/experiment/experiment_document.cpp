@@ -113,6 +113,62 @@ void undo(std::vector<PathChange>& changes) {
   changes.clear();
 }
 
+namespace {
+
+/// `zip:` axes, walked in parallel: one option per index.
+std::vector<SweepPoint> zipOptions(const YamlReader& zip) {
+  std::vector<SweepPoint> rows;
+  std::size_t length = 0;
+  for (const auto& [path, values] : zip.entries()) {
+    const std::vector<YamlReader> items = values.items();
+    if (rows.empty()) {
+      length = items.size();
+      rows.resize(length);
+      if (length == 0) values.fail("a zip axis needs at least one value");
+    } else if (items.size() != length) {
+      values.fail("zip axes must have equal lengths: " + std::to_string(items.size()) +
+                  " values here, " + std::to_string(length) + " in the first axis");
+    }
+    for (std::size_t i = 0; i < items.size(); ++i) {
+      rows[i].values.emplace_back(path, items[i].node());
+      rows[i].where.push_back(items[i]);
+      rows[i].shown.push_back(path + "=" + scalarText(items[i].node()));
+    }
+  }
+  return rows;
+}
+
+/// `list:` items, each one option (a `label` names it).
+std::vector<SweepPoint> listOptions(const YamlReader& list) {
+  std::vector<SweepPoint> options;
+  std::set<std::string> labels;  // a label names one point: results group by it
+  for (const YamlReader& item : list.items()) {
+    SweepPoint option;
+    std::string label;
+    for (const auto& [path, value] : item.entries()) {
+      if (path == "label") {
+        label = readName(value);
+        if (!labels.insert(label).second)
+          value.fail("another list item has the label '" + label + "'");
+        continue;
+      }
+      option.values.emplace_back(path, value.node());
+      option.where.push_back(value);
+      option.shown.push_back(path + "=" + scalarText(value.node()));
+    }
+    if (option.values.empty()) item.fail("a sweep list item needs at least one path: value");
+    if (!label.empty()) {
+      // The item reads as its label: on its first value, nothing on the others.
+      option.shown.assign(option.values.size(), "");
+      option.shown.front() = label;
+    }
+    options.push_back(std::move(option));
+  }
+  return options;
+}
+
+}  // namespace
+
 /// grid (cartesian product) x zip (parallel lists) x list (explicit points).
 std::vector<SweepPoint> expandSweep(const YamlReader& sweep) {
   std::vector<SweepPoint> points(1);
@@ -148,51 +204,11 @@ std::vector<SweepPoint> expandSweep(const YamlReader& sweep) {
     }
   }
   if (const auto zip = sweep.optional("zip")) {
-    std::vector<SweepPoint> rows;
-    std::size_t length = 0;
-    for (const auto& [path, values] : zip->entries()) {
-      const std::vector<YamlReader> items = values.items();
-      if (rows.empty()) {
-        length = items.size();
-        rows.resize(length);
-        if (length == 0) values.fail("a zip axis needs at least one value");
-      } else if (items.size() != length) {
-        values.fail("zip axes must have equal lengths: " + std::to_string(items.size()) +
-                    " values here, " + std::to_string(length) + " in the first axis");
-      }
-      for (std::size_t i = 0; i < items.size(); ++i) {
-        rows[i].values.emplace_back(path, items[i].node());
-        rows[i].where.push_back(items[i]);
-        rows[i].shown.push_back(path + "=" + scalarText(items[i].node()));
-      }
-    }
+    const std::vector<SweepPoint> rows = zipOptions(*zip);
     if (!rows.empty()) product(rows);
   }
   if (const auto list = sweep.optional("list")) {
-    std::vector<SweepPoint> options;
-    std::set<std::string> labels;  // a label names one point: results group by it
-    for (const YamlReader& item : list->items()) {
-      SweepPoint option;
-      std::string label;
-      for (const auto& [path, value] : item.entries()) {
-        if (path == "label") {
-          label = readName(value);
-          if (!labels.insert(label).second)
-            value.fail("another list item has the label '" + label + "'");
-          continue;
-        }
-        option.values.emplace_back(path, value.node());
-        option.where.push_back(value);
-        option.shown.push_back(path + "=" + scalarText(value.node()));
-      }
-      if (option.values.empty()) item.fail("a sweep list item needs at least one path: value");
-      if (!label.empty()) {
-        // The item reads as its label: on its first value, nothing on the others.
-        option.shown.assign(option.values.size(), "");
-        option.shown.front() = label;
-      }
-      options.push_back(std::move(option));
-    }
+    const std::vector<SweepPoint> options = listOptions(*list);
     if (options.empty()) list->fail("a sweep list needs at least one item");
     product(options);
   }
