@@ -157,8 +157,8 @@ TEST(Parameters, YamlMappingsKeepTheirLocations) {
     flat.emplace_back(assignment.name, assignment.value);
   }
   const std::vector<std::pair<std::string, std::string>> expected = {
-      {"corner", "1,2,3"},      {"heuristic", "obvp"},    {"heuristic.scale", "2"},
-      {"boxes.0.min", "0,0,0"}, {"boxes.1.max", "1,1,1"}, {"canopy", "true"}};
+      {"corner", "[1,2,3]"},      {"heuristic", "obvp"},      {"heuristic.scale", "2"},
+      {"boxes.0.min", "[0,0,0]"}, {"boxes.1.max", "[1,1,1]"}, {"canopy", "true"}};
   EXPECT_EQ(flat, expected);
   const YamlReader bad = YamlReader::loadString("params:\n  boxes: [{min: 1}, 2]\n", "exp.yaml");
   EXPECT_THROW(assignmentsFromYaml(bad["params"]), ConfigError);

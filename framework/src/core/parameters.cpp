@@ -525,7 +525,7 @@ std::vector<ParameterAssignment> parseAssignments(const std::vector<std::string>
 
 namespace {
 
-/// The numbers of a sequence (nested sequences flattened) as text: "1,2,3".
+/// The numbers of a sequence (nested sequences flattened) as text: "1,2,3" (no brackets).
 std::string joinedScalars(const YamlReader& sequence) {
   std::string text;
   for (const YamlReader& item : sequence.items()) {
@@ -537,7 +537,7 @@ std::string joinedScalars(const YamlReader& sequence) {
 
 /// The entries of `mapping` as assignments named `prefix` + key. A mapping value is a plugin
 /// parameter's (its `type` chooses the plugin) or a group's; a sequence of mappings is a group
-/// list's (`NAME.INDEX.KEY`); a sequence of numbers is one value ("1,2,3").
+/// list's (`NAME.INDEX.KEY`); a sequence of numbers is one value ("[1,2,3]").
 void appendAssignments(const YamlReader& mapping, const std::string& prefix,
                        std::vector<ParameterAssignment>& result) {
   for (const auto& [name, value] : mapping.entries()) {
@@ -556,7 +556,12 @@ void appendAssignments(const YamlReader& mapping, const std::string& prefix,
         appendAssignments(items[i], prefix + name + "." + std::to_string(i) + ".", result);
       }
     } else if (value.isSequence()) {
-      result.push_back({prefix + name, joinedScalars(value), value.where()});
+      // In brackets: a list is never read as one number (`density: [1]` is refused).
+      // Appended piece by piece: GCC 12 warns (-Wrestrict, a false positive) on "[" + ...
+      std::string text = "[";
+      text += joinedScalars(value);
+      text += "]";
+      result.push_back({prefix + name, std::move(text), value.where()});
     } else {
       result.push_back({prefix + name, value.as<std::string>(), value.where()});
     }
