@@ -108,8 +108,8 @@ TEST(Parameters, GroupsListsAndPluginsStayNested) {
 
   const ParameterSet set = specs.resolve({{"radius", "0.3", "t"},
                                           {"canopy.p", "0.25", "t"},
-                                          {"boxes.1.min", "[1, 2, 3]", "t"},
                                           {"boxes.0.min", "4 5 6", "t"},
+                                          {"boxes.1.min", "[1, 2, 3]", "t"},
                                           {"heuristic", "obvp", "t"}},
                                          "t");
   EXPECT_EQ(set.reals("radius"), (std::vector<double>{0.3, 0.3}));  // one number: [x, x]
@@ -130,7 +130,17 @@ TEST(Parameters, GroupsListsAndPluginsStayNested) {
   EXPECT_NE(errorOf(specs, {{"boxes.x.min", "1,2,3", "w"}}).find("boxes.INDEX.PARAMETER"),
             std::string::npos);
   // An item without its required member, and an unknown plugin key with the known ones.
-  EXPECT_NE(errorOf(specs, {{"boxes.1.min", "1,2,3", "w"}}).find("missing parameter 'min'"),
+  EXPECT_NE(errorOf(specs, {{"boxes.0.min", "1,2,3", "w"}, {"boxes.1.max", "1", "w"}})
+                .find("boxes[1]: unknown parameter 'max'"),
+            std::string::npos);
+  // Items come in order, by plain indices: no gap, no huge or padded index.
+  for (const char* name : {"boxes.1.min", "boxes.99999.min", "boxes.00.min", "boxes.+0.min"}) {
+    EXPECT_NE(errorOf(specs, {{name, "1,2,3", "w"}}).find("items in order"), std::string::npos)
+        << name;
+  }
+  // A YAML mapping only for a plugin parameter or a group; a nested list is not a point.
+  EXPECT_NE(errorOf(specs, {{"radius", "3", "w", true}}).find("not a mapping"), std::string::npos);
+  EXPECT_NE(errorOf(specs, {{"corner", "[1, [2, 3]]", "w"}}).find("expected 3 numbers"),
             std::string::npos);
   EXPECT_NE(errorOf(specs, {{"heuristic", "obpv", "w"}}).find("did you mean 'obvp'"),
             std::string::npos);
@@ -157,7 +167,7 @@ TEST(Parameters, YamlMappingsKeepTheirLocations) {
     flat.emplace_back(assignment.name, assignment.value);
   }
   const std::vector<std::pair<std::string, std::string>> expected = {
-      {"corner", "[1,2,3]"},      {"heuristic", "obvp"},      {"heuristic.scale", "2"},
+      {"corner", "[1,[2,3]]"},    {"heuristic", "obvp"},      {"heuristic.scale", "2"},
       {"boxes.0.min", "[0,0,0]"}, {"boxes.1.max", "[1,1,1]"}, {"canopy", "true"}};
   EXPECT_EQ(flat, expected);
   const YamlReader bad = YamlReader::loadString("params:\n  boxes: [{min: 1}, 2]\n", "exp.yaml");

@@ -240,6 +240,23 @@ TEST(WorldSpecTest, CorruptOrMissingMapFilesAreClearErrors) {
 
 TEST(WorldSpecTest, BadSpecsNameTheKeyAndLine) {
   const std::string bounds = "bounds: {min: [0, 0, 0], max: [10, 10, 3]}\n";
+  // Nothing malformed is read as something else: a list or a mapping for a number, an empty
+  // or incomplete box, a box list without boxes.
+  for (const auto& [generator, expected] : std::vector<std::pair<std::string, std::string>>{
+           {"{type: forest, density: [0.1]}", "parameter 'density': expected a number"},
+           {"{type: forest, density: {type: 3}}", "not a mapping"},
+           {"{type: forest, ground_plane: {}}", "not a mapping"},
+           {"{type: box_list, boxes: [{}]}", "generators[0].boxes[0]: an empty item"},
+           {"{type: box_list}", "missing parameter 'boxes'"},
+           {"{type: box_list, boxes: [{min: [1, 1, 0], max: [2, 2, 2]}, {min: [1, 1, 0]}]}",
+            "generators[0].boxes[1].min: world 'box_list': boxes[1]: missing parameter 'max'"},
+           {"{type: box_list, boxes: [{min: [[1], [1, 0]], max: [2, 2, 2]}]}",
+            "expected 3 numbers"}}) {
+    EXPECT_NE(configErrorOf("resolution: 0.1\n" + bounds + "generators: [" + generator + "]\n")
+                  .find(expected),
+              std::string::npos)
+        << generator;
+  }
   EXPECT_NE(configErrorOf("resolution: 0.1\n" + bounds + "generators:\n  - {type: jungle}\n")
                 .find("spec.yaml:4:12: generators[0].type: unknown world generator 'jungle'"),
             std::string::npos);

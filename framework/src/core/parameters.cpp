@@ -52,8 +52,14 @@ std::optional<double> parseReal(const std::string& text) {
 
 /// Numbers separated by commas or spaces, optionally in brackets: "1, 2", "[1 2]", "".
 std::optional<std::vector<double>> parseReals(std::string text) {
-  std::replace_if(
-      text.begin(), text.end(), [](char c) { return c == ',' || c == '[' || c == ']'; }, ' ');
+  // One pair of brackets at most, around the whole list: a nested list is not a point.
+  const auto first = text.find_first_not_of(' ');
+  const auto last = text.find_last_not_of(' ');
+  if (first != std::string::npos && text[first] == '[' && text[last] == ']') {
+    text = text.substr(first + 1, last - first - 1);
+  }
+  if (text.find_first_of("[]") != std::string::npos) return std::nullopt;
+  std::replace(text.begin(), text.end(), ',', ' ');
   std::istringstream words(text);
   std::vector<double> values;
   for (std::string word; words >> word;) {
@@ -410,11 +416,17 @@ void addItemAssignment(const ParameterSpec& spec, ParameterAssignment inner,
                        const ParameterAssignment& assignment, const std::string& owner,
                        Pending& pending) {
   const auto next = inner.name.find('.');
-  const auto item = parseInteger(inner.name.substr(0, next));
-  if (!item || *item < 0 || *item >= kMaxItems || next == std::string::npos) {
+  const std::string index = inner.name.substr(0, next);
+  const bool digits =
+      !index.empty() && index.size() <= 6 && (index.size() == 1 || index.front() != '0') &&
+      std::all_of(index.begin(), index.end(), [](char c) { return c >= '0' && c <= '9'; });
+  const auto item = digits ? parseInteger(index) : std::nullopt;
+  // Items come in order: an index at most one past the last (no gaps, no huge index).
+  const auto count = static_cast<long long>(pending.items.size());
+  if (!item || *item > count || *item >= kMaxItems || next == std::string::npos) {
     throw ConfigError(assignment.where + ": " + owner + ": parameter '" + assignment.name +
-                      "': expected " + spec.name + ".INDEX.PARAMETER, INDEX in [0, " +
-                      std::to_string(kMaxItems) + ")");
+                      "': expected " + spec.name + ".INDEX.PARAMETER, INDEX one of 0.." +
+                      std::to_string(std::min(count, kMaxItems - 1)) + " (items in order)");
   }
   inner.name = inner.name.substr(next + 1);
   if (pending.items.size() <= static_cast<std::size_t>(*item)) pending.items.resize(*item + 1);
@@ -451,6 +463,11 @@ ParameterSet ParameterSpecs::resolve(const std::vector<ParameterAssignment>& ass
     }
     const std::size_t index = static_cast<std::size_t>(spec - specs_.data());
     assigned[index] = true;
+    if (!nested && assignment.mapping && spec->type != ParameterType::kPlugin &&
+        spec->type != ParameterType::kGroup) {
+      throw ConfigError(assignment.where + ": " + own + ": parameter '" + assignment.name +
+                        "': expected a value (" + spec->rangeText() + "), not a mapping");
+    }
     if (!nested) {
       const std::string context =
           assignment.where + ": " + own + ": parameter '" + assignment.name + "'";
@@ -486,9 +503,11 @@ ParameterSet ParameterSpecs::resolve(const std::vector<ParameterAssignment>& ass
     } else if (spec.type == ParameterType::kGroupList) {
       const auto& items = pending[index].items;
       for (std::size_t i = 0; i < items.size(); ++i) {
-        result.nested_.emplace_back(spec.name + "." + std::to_string(i),
-                                    std::make_shared<const ParameterSet>(spec.members->resolve(
-                                        items[i], inside + "[" + std::to_string(i) + "]", where)));
+        result.nested_.emplace_back(
+            spec.name + "." + std::to_string(i),
+            std::make_shared<const ParameterSet>(spec.members->resolve(
+                items[i], inside + "[" + std::to_string(i) + "]",
+                items[i].empty() ? where : std::string_view(items[i].front().where))));
       }
     }
   }
@@ -529,7 +548,14 @@ namespace {
 std::string joinedScalars(const YamlReader& sequence) {
   std::string text;
   for (const YamlReader& item : sequence.items()) {
-    const std::string value = item.isSequence() ? joinedScalars(item) : item.as<std::string>();
+    std::string value;
+    if (item.isSequence()) {  // kept in brackets: a nested list is not a list of numbers
+      value = "[";
+      value += joinedScalars(item);
+      value += "]";
+    } else {
+      value = item.as<std::string>();
+    }
     if (!value.empty()) text += (text.empty() ? "" : ",") + value;
   }
   return text;
@@ -543,16 +569,17 @@ void appendAssignments(const YamlReader& mapping, const std::string& prefix,
   for (const auto& [name, value] : mapping.entries()) {
     if (!prefix.empty() && name == "type") {
       result.push_back(
-          {prefix.substr(0, prefix.size() - 1), value.as<std::string>(), value.where()});
+          {prefix.substr(0, prefix.size() - 1), value.as<std::string>(), value.where(), true});
     } else if (value.isMap()) {
       const std::size_t before = result.size();
       appendAssignments(value, prefix + name + ".", result);
       // An empty mapping still says the group is there.
-      if (result.size() == before) result.push_back({prefix + name, "true", value.where()});
+      if (result.size() == before) result.push_back({prefix + name, "true", value.where(), true});
     } else if (value.isSequence() && !value.items().empty() && value.items().front().isMap()) {
       const auto items = value.items();
       for (std::size_t i = 0; i < items.size(); ++i) {
         if (!items[i].isMap()) items[i].fail("expected a mapping, as the first item is");
+        if (items[i].entries().empty()) items[i].fail("an empty item: give its parameters");
         appendAssignments(items[i], prefix + name + "." + std::to_string(i) + ".", result);
       }
     } else if (value.isSequence()) {

@@ -414,7 +414,10 @@ Experiment Experiment::fromFile(const std::string& path) {
   root.finish();
 
   readVariants(document, points, path, source, spec_directories, experiment);
-  experiment.config_hash = toHex(hashString(experiment.canonical));
+  // The run-hash format is part of the experiment's identity: a database whose runs were
+  // hashed another way (before plugin parameters nested) is another experiment, never
+  // resumed into or merged with this one.
+  experiment.config_hash = toHex(hashString("run hashes 2\n" + experiment.canonical));
   // Every row names a planner id of every variant.
   for (const auto& entry : experiment.reproduces_rows) {
     const std::string& id = entry.first;  // (a structured binding: not capturable by clang 14)

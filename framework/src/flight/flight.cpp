@@ -211,6 +211,13 @@ const ParameterSpecs& flightParameters() {
 FlightSetup flightSetup(const ParameterSet& p) {
   FlightSetup setup;
   setup.sensor = pluginRegistry<Sensor>().createChosen(p, "sensor");
+  const double range = setup.sensor->maxRange();
+  const double rate = setup.sensor->frameRate();
+  if (!(std::isfinite(range) && range > 0.0 && std::isfinite(rate) && rate > 0.0)) {
+    throw PluginError("sensor '" + p.text("sensor") + "' reports a range of " +
+                      formatNumber(range) + " m and a rate of " + formatNumber(rate) +
+                      " Hz; both must be finite and positive");
+  }
   MapModel* map = &setup.map;
   FlightSettings* settings = &setup.settings;
   map->resolution = p.real("map_resolution");

@@ -356,14 +356,17 @@ class WallsGenerator final : public WorldGenerator {
 class BoxListGenerator final : public WorldGenerator {
  public:
   static ParameterSpecs declared() {
-    return ParameterSpecs().groupList(
-        "boxes",
-        ParameterSpecs()
-            .reals("min", {0.0, 0.0, 0.0}, -kMaxLength, kMaxLength, 3, "low corner [x, y, z], m")
-            .required()
-            .reals("max", {0.0, 0.0, 0.0}, -kMaxLength, kMaxLength, 3, "high corner [x, y, z], m")
-            .required(),
-        "the boxes: [{min: [x, y, z], max: [x, y, z]}, ...]");
+    return ParameterSpecs()
+        .groupList("boxes",
+                   ParameterSpecs()
+                       .reals("min", {0.0, 0.0, 0.0}, -kMaxLength, kMaxLength, 3,
+                              "low corner [x, y, z], m")
+                       .required()
+                       .reals("max", {0.0, 0.0, 0.0}, -kMaxLength, kMaxLength, 3,
+                              "high corner [x, y, z], m")
+                       .required(),
+                   "the boxes: [{min: [x, y, z], max: [x, y, z]}, ...]")
+        .required();
   }
   explicit BoxListGenerator(const ParameterSet& p) {
     for (const ParameterSet* item : p.items("boxes")) {

@@ -67,6 +67,9 @@ struct ParameterAssignment {
   std::string name;
   std::string value;
   std::string where;
+  /// Written as a YAML mapping (`{type: KEY}` or `{}`): only a plugin parameter or a group
+  /// takes one.
+  bool mapping = false;
 };
 
 /// Resolved values of every declared parameter, in declaration order.
