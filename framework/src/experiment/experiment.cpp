@@ -108,7 +108,6 @@ ExperimentPlanner readPlanner(const YamlReader& node) {
     ConfiguredPlanner configured = configurePlanner(planner.type, planner.assignments);
     planner.parameters = std::move(configured.parameters);
     planner.sampler = configured.sampler_key;
-    planner.sampler_parameters = std::move(configured.sampler_parameters);
   } catch (const PluginError& error) {
     // An unknown planner or sampler key: the registry cannot know where it was written.
     // (Errors about assignments are ConfigErrors that carry their own position.)

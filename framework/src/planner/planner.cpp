@@ -219,7 +219,6 @@ ConfiguredPlanner configurePlanner(std::string_view key,
   configured.parameters = planners.resolve(key, assignments);
   if (const ParameterSpec* sampler = planners.info(key).parameters.samplerParameter()) {
     configured.sampler_key = configured.parameters.text(sampler->name);
-    configured.sampler_parameters = configured.parameters.nested(sampler->name);
     configured.sampler =
         pluginRegistry<ControlSampler>().createChosen(configured.parameters, sampler->name);
   }

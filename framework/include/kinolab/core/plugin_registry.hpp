@@ -43,7 +43,7 @@ class PluginRegistryBase {
   const std::string& plural() const { return plural_; }
   const std::string& description() const { return description_; }
 
-  bool contains(std::string_view key) const { return infos_.count(std::string(key)) > 0; }
+  bool contains(std::string_view key) const { return infos_.find(key) != infos_.end(); }
   /// The plugin with this key; an unknown key is a PluginError listing the known ones.
   const PluginInfo& info(std::string_view key) const;
   /// Every plugin, sorted by key.

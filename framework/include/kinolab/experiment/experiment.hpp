@@ -51,9 +51,8 @@ struct ExperimentPlanner {
   std::string id;
   std::string type;
   std::vector<ParameterAssignment> assignments;  ///< own and `sampler.NAME` ones
-  ParameterSet parameters;
-  std::string sampler;
-  ParameterSet sampler_parameters;
+  ParameterSet parameters;  ///< the sampler's own nested (parameters.nested(its name))
+  std::string sampler;      ///< the sampler's key, "" for planners without one
   /// Everything that determines its behaviour, as text.
   std::string canonicalText() const;
 };

@@ -171,15 +171,14 @@ MetricSpecs declaredStatistics(const PluginInfo& planner);
 
 /// A planner created from its registered key and assignments. A planner that declares a
 /// sampler parameter (ParameterSpecs::sampler(), e.g. `sampler`) gets that sampler,
-/// configured by the assignments named `sampler.NAME`; every assignment is validated before
+/// configured by its nested parameters (`sampler.NAME`); every assignment is validated before
 /// anything is created.
 struct ConfiguredPlanner {
   std::unique_ptr<Planner> planner;
   const PluginInfo* info = nullptr;  ///< its registration: key, parameters, statistics
   ParameterSet parameters;
   std::shared_ptr<const ControlSampler> sampler;  ///< null for planners without one
-  std::string sampler_key;
-  ParameterSet sampler_parameters;
+  std::string sampler_key;  ///< its key (its parameters: parameters.nested(the parameter))
 };
 ConfiguredPlanner configurePlanner(std::string_view key,
                                    const std::vector<ParameterAssignment>& assignments);
