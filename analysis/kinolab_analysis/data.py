@@ -15,8 +15,9 @@ from . import stats
 # The results database layout this package reads (meta `schema_version`); version 1
 # databases (written before the schema was declared) are upgraded in memory by `load`;
 # version 2 lacks the timing protocol's and the query's columns (version 3), read as missing;
-# version 4 added the flights table, version 5 the worlds' obstacle boxes (for the 3D view).
-SCHEMA_VERSION = 5
+# version 4 added the flights table, version 5 the worlds' obstacle boxes (for the 3D view),
+# version 6 the progress table (anytime progress series; empty in older databases).
+SCHEMA_VERSION = 6
 
 # A stored search tree's edge states (the trees table's `state`), each with the colour every
 # figure and the 3D viewer draw it in. The names are kinolab's (SearchTreeEdge::State;
@@ -55,6 +56,17 @@ class Results:
     # The declaration of every column and statistic (name, kind, planner_type, type, unit,
     # doc, clock), as `kinolab list metrics` prints it.
     metrics: pd.DataFrame = field(default_factory=pd.DataFrame)
+    # Every sample of the planners' progress series (run_hash, name, time_ms, value).
+    progress: pd.DataFrame = field(default_factory=lambda: pd.DataFrame(
+        columns=["run_hash", "name", "time_ms", "value"]))
+
+    def series(self) -> pd.DataFrame:
+        """The declared progress series (the metrics table's kind 'progress'): name,
+        planner_type, unit, doc."""
+        if self.metrics.empty:
+            return pd.DataFrame(columns=["name", "planner_type", "unit", "doc"])
+        declared = self.metrics[self.metrics["kind"] == "progress"]
+        return declared[["name", "planner_type", "unit", "doc"]].reset_index(drop=True)
 
     def reproduces(self) -> tuple[str, dict[str, str]] | None:
         """The paper the experiment reproduces and its planner id -> row mapping."""
@@ -168,6 +180,7 @@ def load(paths: str | Path | list[str | Path]) -> Results:
     meta: dict[str, str] = {}
     worlds: dict[str, World] = {}
     metrics = []
+    progress = []
     for index, file in enumerate(files):
         with sqlite3.connect(file) as db:
             try:
@@ -179,6 +192,9 @@ def load(paths: str | Path | list[str | Path]) -> Results:
                           db.execute("SELECT name FROM sqlite_master WHERE type = 'table'")}
                 if "metrics" in tables:
                     metrics.append(pd.read_sql("SELECT * FROM metrics", db))
+                if "progress" in tables:
+                    progress.append(pd.read_sql(
+                        "SELECT run_hash, name, time_ms, value FROM progress", db))
             except (sqlite3.DatabaseError, pd.errors.DatabaseError) as error:
                 raise ValueError(f"{file}: not a kinolab results database ({error})") from error
         version = int(this_meta.get("schema_version", "1"))
@@ -216,6 +232,10 @@ def load(paths: str | Path | list[str | Path]) -> Results:
     results = Results(files, runs, meta, worlds,
                       pd.concat(metrics, ignore_index=True).drop_duplicates(["name", "planner_type"])
                       if metrics else pd.DataFrame())
+    if progress:
+        samples = pd.concat(progress, ignore_index=True)
+        results.progress = samples[samples["run_hash"].isin(runs["run_hash"])].drop_duplicates(
+            ["run_hash", "name", "time_ms"]).reset_index(drop=True)
     reproduced = results.reproduces()
     runs["paper"] = runs["planner"].map(reproduced[1]) if reproduced else None
     return results

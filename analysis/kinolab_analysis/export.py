@@ -26,6 +26,10 @@ that cases stay identifiable. The format (OMPL's "Benchmark log file format"):
     <q> properties for each run         (name TYPE: BOOLEAN, INTEGER, REAL, ENUM)
     <r> runs
     v1; v2; ...; vq;                    (empty for none)
+    <k> progress properties for each run  (when the planner's runs have progress series:
+    time REAL                              time in seconds, then each series, REAL)
+    <r> runs
+    t,v1,...,vk,;t,v1,...,vk,;...       (per run, one sample per time any series changed)
     .
 """
 
@@ -35,9 +39,11 @@ import math
 import re
 from pathlib import Path
 
+import numpy as np
 import pandas as pd
 import yaml
 
+from . import stats
 from .data import Results, load
 
 # kinolab's metrics under the names OMPL's benchmarks and Planner Arena use.
@@ -96,6 +102,26 @@ def _value(value, ompl_type: str) -> str:
     return repr(float(value))
 
 
+def _progress(samples: pd.DataFrame, runs: list[str]) -> list[str]:
+    """The progress block of a planner's runs (none when they have no series): per run, a
+    sample at every time one of its series changed, each series read as a step function."""
+    samples = samples[samples["run_hash"].isin(runs)]
+    names = sorted(samples["name"].unique())
+    if not names:
+        return []
+    lines = [f"{len(names) + 1} progress properties for each run", "time REAL",
+             *[f"{_name(name)} REAL" for name in names], f"{len(runs)} runs"]
+    for run in runs:
+        of_run = samples[samples["run_hash"] == run]
+        times = np.unique(of_run["time_ms"].to_numpy(dtype=float))
+        values = [stats.step_values(of_run[of_run["name"] == name], [run], times)[0]
+                  for name in names]
+        lines.append("".join(
+            ",".join([repr(time / 1000.0), *[_value(series[i], "REAL") for series in values]])
+            + ",;" for i, time in enumerate(times)))
+    return lines
+
+
 def _log(results: Results, runs: pd.DataFrame, variant: str, world: str,
          statuses: list[str]) -> str:
     config = _config(results)
@@ -147,6 +173,7 @@ def _log(results: Results, runs: pd.DataFrame, variant: str, world: str,
         for index in range(len(chosen)):
             lines.append("".join(f"{_value(values[index], ompl_type)}; "
                                  for values, (_, _, ompl_type) in zip(columns, properties)))
+        lines += _progress(results.progress, chosen["run_hash"].tolist())
         lines.append(".")
     return "\n".join(lines) + "\n"
 

@@ -207,35 +207,44 @@ def search_tree(results: Results, run: pd.Series, world: World | None) -> plt.Fi
     return figure
 
 
-def anytime(runs: pd.DataFrame, by: str = "planner") -> plt.Figure | None:
-    """RRT* anytime curves: median best path cost at each time of the fixed grid
-    (best_cost_at_<t>ms), over runs that had a solution by then."""
-    columns = [c for c in runs.columns if re.fullmatch(r"best_cost_at_[0-9.e+]+ms", str(c))]
-    if not columns:
+def anytime(runs: pd.DataFrame, samples: pd.DataFrame, name: str, unit: str,
+            by: str = "planner") -> plt.Figure | None:
+    """A progress series over planning time (OMPL's planner progress, Planner Arena's
+    progress plots): per planner, the median and interquartile range over *all* its runs of
+    the series read as a step function (stats.step_values: no value yet counts as infinite,
+    a run that stopped keeps its last value), and below, the share of runs with a value."""
+    samples = samples[samples["name"] == name]
+    if samples.empty:
         return None
-    times = sorted((float(c[len("best_cost_at_"):-2]), c) for c in columns)
-    figure, axis = plt.subplots(figsize=(6, 4))
-    drawn = False
-    for index, (name, group) in enumerate(runs.groupby(by, sort=False)):
-        xs, ys = [], []
-        for t, column in times:
-            values = group[column].to_numpy(dtype=float)
-            values = values[np.isfinite(values)]
-            if values.size:
-                xs.append(t)
-                ys.append(float(np.median(values)))
-        if xs:
-            axis.plot(xs, ys, marker="o", ms=3, label=name, color=_colour(index))
-            drawn = True
-    if not drawn:
-        plt.close(figure)
-        return None
+    positive = samples["time_ms"][samples["time_ms"] > 0]
+    low = float(positive.min()) if not positive.empty else 1e-3
+    times = np.geomspace(low, max(float(samples["time_ms"].max()), low) * 1.1, 200)
+    figure, (axis, solved_axis) = plt.subplots(
+        2, 1, figsize=(6, 5), sharex=True, gridspec_kw={"height_ratios": [3, 1]})
+    with_samples = runs[runs["run_hash"].isin(samples["run_hash"])][by].unique()
+    for index, (label, group) in enumerate(runs.groupby(by, sort=False)):
+        if label not in with_samples:
+            continue
+        table = stats.step_values(samples, group["run_hash"].tolist(), times)
+        median = np.quantile(table, 0.5, axis=0, method="inverted_cdf")
+        low_q, high_q = np.quantile(table, [0.25, 0.75], axis=0, method="inverted_cdf")
+        colour = _colour(index)
+        shown = np.isfinite(median)
+        axis.step(times[shown], median[shown], where="post", color=colour,
+                  label=f"{label} (n = {len(group)})")
+        band = np.isfinite(high_q)
+        axis.fill_between(times[band], low_q[band], high_q[band], step="post", color=colour,
+                          alpha=0.15, linewidth=0)
+        solved_axis.step(times, np.isfinite(table).mean(axis=0), where="post", color=colour)
     axis.set_xscale("log")
-    axis.set_xlabel("time (ms)")
-    axis.set_ylabel("median best path length (m)")
+    axis.set_ylabel(f"{name} ({unit})" if unit else name)
     axis.grid(alpha=0.3)
     axis.legend(fontsize=8)
-    axis.set_title("RRT* anytime progress")
+    axis.set_title(f"Anytime progress: {name}")
+    solved_axis.set_ylim(-0.05, 1.05)
+    solved_axis.set_ylabel("runs with\na value")
+    solved_axis.set_xlabel("planning time (ms)")
+    solved_axis.grid(alpha=0.3)
     figure.tight_layout()
     return figure
 

@@ -444,6 +444,21 @@ def _write_page(report: Report, results, out: Path, compare_name: str,
 
 
 
+def _progress_figures(report: Report, results: Results) -> None:
+    """One figure per declared progress series (the planners' anytime progress)."""
+    for name, declared in results.series().groupby("name", sort=True):
+        unit = str(declared["unit"].iloc[0] or "")
+        figure = plots.anytime(results.runs, results.progress, name, unit)
+        if figure is None:
+            continue
+        _save(figure, report, f"progress_{name}", f"Anytime progress: {name}",
+              f"{declared['doc'].iloc[0]}. Per planner, the median (line) and interquartile "
+              "range (band) over all its runs, each read as a step function of its planning "
+              "time: before a run's first value it counts as infinite (unsolved), after its "
+              "last one it keeps that value, so no run drops out. Below: the share of runs "
+              "with a value. Times are the last timed plan's (a clock figure).")
+
+
 def write(paths: list[Path], out: Path, compare: Path | None = None,
           sampling_csv: Path | None = None) -> Report:
     """Writes the report directory and returns what it holds."""
@@ -456,9 +471,7 @@ def write(paths: list[Path], out: Path, compare: Path | None = None,
     _case_figures(report, results, out)
     regime_sources = _lazy_regime(report, results,
                                   paths[0] if paths[0].is_dir() else paths[0].parent)
-    if (figure := plots.anytime(results.runs)) is not None:
-        _save(figure, report, "rrtstar_anytime", "RRT* anytime cost",
-              "Median best path length on the fixed time grid, over runs with a solution.")
+    _progress_figures(report, results)
     _write_page(report, results, out, compare_name, readings_verdict, regime_sources)
     return report
 

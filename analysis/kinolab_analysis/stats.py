@@ -145,6 +145,25 @@ def ecdf_unsolved(times: Sequence[float], solved: Sequence[bool]) -> tuple[np.nd
     return x, y
 
 
+def step_values(samples: pd.DataFrame, runs: Sequence[str], times: Sequence[float]) -> np.ndarray:
+    """A progress series (samples: run_hash, time_ms, value) as a step function per run, read
+    at `times`: an array (len(runs), len(times)) with each run's last value at or before the
+    time, and infinity before its first sample (no solution yet). A run that stopped keeps
+    its last value: every run counts at every time, so a statistic over the runs never rises
+    because runs drop out."""
+    times = np.asarray(times, dtype=float)
+    table = np.full((len(runs), len(times)), np.inf)
+    by_run = {run: group for run, group in samples.groupby("run_hash")}
+    for row, run in enumerate(runs):
+        if run not in by_run:
+            continue
+        group = by_run[run].sort_values("time_ms", kind="stable")
+        at = np.searchsorted(group["time_ms"].to_numpy(dtype=float), times, side="right") - 1
+        values = group["value"].to_numpy(dtype=float)
+        table[row, at >= 0] = values[at[at >= 0]]
+    return table
+
+
 def is_success(runs: pd.DataFrame) -> pd.Series:
     """Exact and accepted by the independent checker: kinolab's one definition (C++
     `isSuccess`), which the runner stores as the `success` column. Only data that predates

@@ -39,6 +39,7 @@ nlohmann::json toJson(const MetricSpecs& specs) {
                     {"type", spec.typeName()},
                     {"unit", spec.unit},
                     {"clock", spec.clock},
+                    {"series", spec.series},
                     {"doc", spec.doc}});
   }
   return list;
@@ -47,8 +48,11 @@ nlohmann::json toJson(const MetricSpecs& specs) {
 void printMetrics(const char* title, const MetricSpecs& specs) {
   std::printf("  %s\n", title);
   for (const MetricSpec& spec : specs.all()) {
-    std::printf("      %-26s %-8s %-8s %-5s %s\n", spec.name.c_str(), spec.typeName().c_str(),
-                spec.unit.empty() ? "-" : spec.unit.c_str(), spec.clock ? "clock" : "",
+    std::printf("      %-26s %-8s %-8s %-6s %s\n", spec.name.c_str(), spec.typeName().c_str(),
+                spec.unit.empty() ? "-" : spec.unit.c_str(),
+                spec.series  ? "series"
+                : spec.clock ? "clock"
+                             : "",
                 spec.doc.c_str());
   }
 }

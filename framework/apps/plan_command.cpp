@@ -64,12 +64,15 @@ void runPlan(const PlanOptions& options) {
     }
   }
 
-  // Every result metric, then every statistic, by their declared names and types.
+  // Every result metric, then every statistic, by their declared names and types, then the
+  // progress series as [name, time_ms, value] samples.
   nlohmann::ordered_json json = {
       {"planner", options.planner}, {"world", load.world->name()}, {"seed", options.seed}};
   json.update(nlohmann::ordered_json::parse(toJson(resultValues(result), resultMetrics())));
   json.update(nlohmann::ordered_json::parse(
       toJson(statisticValues(result.statistics), declaredStatistics(*configured.info))));
+  if (!result.progress.empty())
+    json["progress"] = nlohmann::json::parse(progressToJson(result.progress));
 
   if (!options.out_dir.empty()) {
     // trajectory.csv is bounded: a tiny step on a long trajectory would fill memory and disk.

@@ -135,6 +135,7 @@ py::list metricList(const MetricSpecs& specs) {
     item["type"] = spec.typeName();
     item["unit"] = spec.unit;
     item["clock"] = spec.clock;
+    item["series"] = spec.series;
     item["doc"] = spec.doc;
     list.append(item);
   }
@@ -494,6 +495,16 @@ void bindResult(py::module_& m) {
                              [](const PyResult& r) { return r.result.trajectory.duration(); })
       .def_property_readonly("check", [](const PyResult& r) { return checkDict(r.result.check); })
       .def_property_readonly("metrics", &metricsDict)
+      .def_property_readonly(
+          "progress",
+          [](const PyResult& r) {
+            py::list samples;
+            for (const ProgressSample& sample : r.result.progress)
+              samples.append(py::make_tuple(sample.name, sample.time_ms, sample.value));
+            return samples;
+          },
+          "the anytime progress: (series, time_ms, value) samples of the planner's declared "
+          "series, in time order")
       .def_property_readonly("tree", &treeArrays)
       .def(
           "trajectory",

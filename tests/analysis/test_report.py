@@ -82,7 +82,7 @@ def test_the_report_directory_holds_html_figures_and_tables(report):
     html = (directory / "index.html").read_text()
     figures = sorted(p.stem for p in (directory / "figures").glob("*.png"))
     for name in ("ecdf_planning_time", "metrics", "trajectories_small", "search_tree",
-                 "rrtstar_anytime"):
+                 "progress_anytime_cost"):
         assert name in figures, figures
         assert (directory / "figures" / f"{name}.svg").stat().st_size > 1000
     for name in ("status_counts", "paper_table2", "summary", "paired", "compare"):

@@ -289,3 +289,17 @@ def test_wilson_interval_always_holds_its_estimate():
         for k in (0, 1, n - 1, n):
             interval = stats.wilson(k, n)
             assert interval.low <= interval.estimate <= interval.high, (k, n)
+
+
+def test_progress_step_values_keep_every_run_and_hold_the_last_value():
+    samples = pd.DataFrame({"run_hash": ["a", "a", "a", "b", "b"],
+                            "time_ms": [2.0, 5.0, 9.0, 1.0, 3.0],
+                            "value": [30.0, 25.0, 20.0, 12.0, 11.0]})
+    table = stats.step_values(samples, ["a", "b", "c"], [0.5, 1.0, 2.0, 4.0, 10.0])
+    assert table[0].tolist() == [math.inf, math.inf, 30.0, 30.0, 20.0]
+    assert table[1].tolist() == [math.inf, 12.0, 12.0, 11.0, 11.0]
+    assert np.isinf(table[2]).all()  # never solved
+    # The runs that stopped early (b at 3 ms, the cheapest) still count later: the median
+    # over all runs never rises, unlike a median over the runs still going.
+    medians = np.median(table, axis=0)
+    assert all(later <= earlier for earlier, later in zip(medians, medians[1:]))

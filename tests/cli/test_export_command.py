@@ -20,6 +20,7 @@ planners:
   - {{id: eager, type: eager_mp_astar}}
   - {{id: lazy, type: lazy_mp_astar, params: {{heuristic_weight: 1.0}}}}
   - {{id: crashes, type: test_crash}}
+  - {{id: rrt, type: rrtstar, params: {{refine_iterations: 200}}}}
 budget: {{time: 2.0}}
 timing: {{warmup: 0, repeats: 1}}
 sweep:
@@ -55,7 +56,7 @@ def test_the_logs_become_planner_arenas_database_with_every_run(kinolab, results
         assert sorted(experiments.values()) == ["export_test.forest.loose", "export_test.forest.tight"]
         assert {row[0] for row in arena.execute("SELECT timelimit FROM experiments")} == {2.0}
         planners = dict(arena.execute("SELECT id, name FROM plannerConfigs"))
-        assert set(planners.values()) == {"eager", "lazy", "crashes"}
+        assert set(planners.values()) == {"eager", "lazy", "crashes", "rrt"}
         statuses = [row[0] for row in arena.execute(
             "SELECT description FROM enums WHERE name = 'status' ORDER BY value")]
         mine = {}
@@ -65,15 +66,31 @@ def test_the_logs_become_planner_arenas_database_with_every_run(kinolab, results
         # The sweep changes only lazy: the runner stores eager's and crashes' runs once (in
         # the first variant, tight); each variant's log has them.
         assert {(s, p) for s, p, _ in mine} == {("tight", "eager"), ("tight", "crashes"),
-                                                ("tight", "lazy"), ("loose", "lazy")}
-        for planner in ("eager", "crashes"):
+                                                ("tight", "rrt"), ("tight", "lazy"),
+                                                ("loose", "lazy")}
+        for planner in ("eager", "crashes", "rrt"):
             mine.update({("loose", planner, q): mine[("tight", planner, q)] for q in range(4)})
         theirs = {}
         for row in arena.execute("SELECT experimentid, plannerid, query, status, solved, time, "
                                  "cost, \"solution_length\" FROM runs"):
             variant = experiments[row[0]].rsplit(".", 1)[1]
             theirs[(variant, planners[row[1]], row[2])] = row[3:]
-    assert set(theirs) == set(mine) and len(mine) == 2 * 3 * 4  # every run, once
+        # RRT*'s anytime progress: Planner Arena's progress table holds every sample of
+        # ours, in seconds, for the run it belongs to.
+        our_progress = {}
+        for query, time_ms, value in ours.execute(
+                "SELECT runs.query, time_ms, value FROM progress JOIN runs USING (run_hash) "
+                "WHERE runs.planner = 'rrt' AND progress.name = 'anytime_cost'"):
+            our_progress.setdefault(query, []).append((time_ms / 1000.0, value))
+        arena_progress = {}
+        for experiment, query, time_s, value in arena.execute(
+                "SELECT runs.experimentid, runs.query, progress.time, anytime_cost FROM progress "
+                "JOIN runs ON progress.runid = runs.id ORDER BY progress.time"):
+            if experiments[experiment].endswith("tight"):
+                arena_progress.setdefault(query, []).append((time_s, value))
+    assert our_progress and sum(map(len, our_progress.values())) >= 4
+    assert {q: sorted(samples) for q, samples in our_progress.items()} == arena_progress
+    assert set(theirs) == set(mine) and len(mine) == 2 * 4 * 4  # every run, once
     for case, (status, success, time_ms, cost, length) in mine.items():
         arena_status, solved, time_s, arena_cost, arena_length = theirs[case]
         assert statuses[arena_status] == status, case

@@ -114,8 +114,13 @@ def test_the_tgk_analogue_plans_and_reports_both_stages(kinolab, world, tmp_path
     summary = last_json(result)
     assert summary["status"] == "exact" and summary["checker_valid"] is True
     assert summary["iterations"] == summary["first_solution_iteration"] + 200
-    for key in ("tree_size", "collision_checks", "time_rrt_ms", "best_cost_at_1ms"):
+    for key in ("tree_size", "collision_checks", "time_rrt_ms"):
         assert key in summary, key
+    # The anytime series: [name, time_ms, value], the cost falling to RRT*'s best.
+    progress = summary["progress"]
+    assert progress and {name for name, _, _ in progress} == {"anytime_cost"}
+    assert progress[-1][2] == summary["best_cost"]
+    assert all(later[2] < earlier[2] for earlier, later in zip(progress, progress[1:]))
     if planner == "rrtstar_ceres":
         assert summary["ceres_iterations"] > 0 and summary["smoothing_valid"] is True
         assert summary["jerk_integral"] > 0

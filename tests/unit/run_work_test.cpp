@@ -103,5 +103,45 @@ TEST(RunWork, AnUndeclaredMetricIsAnErrorWhereItIsReported) {
   }
 }
 
+TEST(RunWork, ProgressSeriesAreDeclaredInOrderFiniteAndSurviveTheWorkersJson) {
+  const MetricSpecs declared =
+      MetricSpecs().counter("iterations", "i").series("anytime_cost", "m", "best cost");
+  PlanResult result;
+  result.statistics = {{"iterations", 7.0}};
+  result.progress = {
+      {"anytime_cost", 1.5, 30.0}, {"anytime_cost", 1.5, 29.0}, {"anytime_cost", 4.25, 21.5}};
+  EXPECT_NO_THROW(checkStatisticsDeclared(result, declared, "p"));
+  const Progress back = progressFromJson(progressToJson(result.progress));
+  ASSERT_EQ(back.size(), 3u);
+  EXPECT_EQ(back[2].name, "anytime_cost");
+  EXPECT_EQ(back[2].time_ms, 4.25);
+  EXPECT_EQ(back[2].value, 21.5);
+
+  const auto refused = [&](const PlanResult& bad, const std::string& expected) {
+    try {
+      checkStatisticsDeclared(bad, declared, "p");
+      ADD_FAILURE() << "accepted: " << expected;
+    } catch (const PluginError& error) {
+      EXPECT_NE(std::string(error.what()).find(expected), std::string::npos) << error.what();
+    }
+  };
+  PlanResult bad = result;
+  bad.progress.push_back({"anytime_cots", 5.0, 20.0});
+  refused(bad, "'anytime_cots', which it does not declare with MetricSpecs::series");
+  bad = result;
+  bad.progress.push_back({"iterations", 5.0, 20.0});  // a value, not a series
+  refused(bad, "does not declare with MetricSpecs::series");
+  bad = result;
+  bad.statistics.emplace_back("anytime_cost", 20.0);  // a series, not a value
+  refused(bad, "declares as a progress series");
+  bad = result;
+  bad.progress.push_back({"anytime_cost", 2.0, 20.0});
+  refused(bad, "out of time order (2 ms after 4.25 ms)");
+  bad = result;
+  bad.progress.push_back({"anytime_cost", 5.0, INFINITY});
+  refused(bad, "not finite");
+  EXPECT_THROW(progressFromJson(R"([["anytime_cost", 1.0]])"), InvalidArgument);
+}
+
 }  // namespace
 }  // namespace kinolab

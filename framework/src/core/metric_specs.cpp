@@ -49,6 +49,12 @@ MetricSpecs& MetricSpecs::text(std::string name, std::string doc) {
   return add({std::move(name), MetricType::kText, "", std::move(doc), false});
 }
 
+MetricSpecs& MetricSpecs::series(std::string name, std::string unit, std::string doc) {
+  MetricSpec spec{std::move(name), MetricType::kReal, std::move(unit), std::move(doc), false};
+  spec.series = true;
+  return add(std::move(spec));
+}
+
 MetricSpecs& MetricSpecs::include(const MetricSpecs& other) {
   for (const MetricSpec& spec : other.specs_) add(spec);
   return *this;

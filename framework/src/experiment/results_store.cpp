@@ -65,6 +65,9 @@ CREATE TABLE IF NOT EXISTS worlds (
   world_hash TEXT PRIMARY KEY, id TEXT, resolution REAL, origin_x REAL, origin_y REAL,
   origin_z REAL, nx INTEGER, ny INTEGER, nz INTEGER, top BLOB, side BLOB, box_stride INTEGER,
   boxes BLOB);
+CREATE TABLE IF NOT EXISTS progress (
+  run_hash TEXT NOT NULL, name TEXT NOT NULL, time_ms REAL NOT NULL, value REAL NOT NULL,
+  PRIMARY KEY (run_hash, name, time_ms));
 CREATE TABLE IF NOT EXISTS trajectories (run_hash TEXT PRIMARY KEY, csv TEXT NOT NULL);
 CREATE TABLE IF NOT EXISTS trees (run_hash TEXT PRIMARY KEY, csv TEXT NOT NULL);
 CREATE TABLE IF NOT EXISTS flights (run_hash TEXT PRIMARY KEY, replans TEXT NOT NULL,
@@ -269,7 +272,7 @@ long long ResultsStore::removeRuns(const std::set<std::string>& statuses) {
   long long removed = 0;
   transaction([&] {
     for (const std::string& status : statuses) {
-      for (const char* table : {"statistics", "trajectories", "trees", "flights"}) {
+      for (const char* table : {"statistics", "progress", "trajectories", "trees", "flights"}) {
         Statement remove(db_,
                          std::string("DELETE FROM ") + table +
                              " WHERE run_hash IN (SELECT run_hash FROM runs WHERE status = ?)",
@@ -290,6 +293,29 @@ long long ResultsStore::runCount() const {
   Statement query(db_, "SELECT COUNT(*) FROM runs", path_);
   query.step(path_);
   return query.integer(0);
+}
+
+void ResultsStore::insertStatistics(const RunRecord& r) {
+  Statement statistic(db_, "INSERT INTO statistics (run_hash, name, value) VALUES (?, ?, ?)",
+                      path_);
+  for (const auto& [name, value] : r.statistics) {
+    statistic.add(r.run_hash);
+    statistic.add(name);
+    statistic.add(&value, MetricType::kReal);
+    statistic.step(path_);
+    statistic.reset();
+  }
+  // A series sampled twice at one time keeps its last value there (a step function).
+  Statement progress(
+      db_, "INSERT OR REPLACE INTO progress (run_hash, name, time_ms, value) VALUES (?, ?, ?, ?)",
+      path_);
+  for (const ProgressSample& sample : r.progress) {
+    progress.add(r.run_hash);
+    progress.add(sample.name);
+    for (const double number : {sample.time_ms, sample.value}) progress.add(number);
+    progress.step(path_);
+    progress.reset();
+  }
 }
 
 void ResultsStore::insert(const RunRecord& r) {
@@ -314,15 +340,7 @@ void ResultsStore::insert(const RunRecord& r) {
     for (const double v : r.goal) run.add(v);
     for (const MetricSpec* spec : columns) run.add(findValue(r.metrics, spec->name), spec->type);
     run.step(path_);
-    Statement statistic(db_, "INSERT INTO statistics (run_hash, name, value) VALUES (?, ?, ?)",
-                        path_);
-    for (const auto& [name, value] : r.statistics) {
-      statistic.add(r.run_hash);
-      statistic.add(name);
-      statistic.add(&value, MetricType::kReal);
-      statistic.step(path_);
-      statistic.reset();
-    }
+    insertStatistics(r);
     if (!r.trajectory_csv.empty()) {
       Statement trajectory(db_, "INSERT INTO trajectories (run_hash, csv) VALUES (?, ?)", path_);
       trajectory.add(r.run_hash);
@@ -359,8 +377,9 @@ void ResultsStore::declareMetrics(const std::string& kind, const std::string& pl
                      path_);
     for (const MetricSpec& spec : specs.all()) {
       const std::string type = spec.typeName();
+      const std::string row_kind = spec.series ? "progress" : kind;
       for (const std::string* text :
-           {&spec.name, &kind, &planner_type, &type, &spec.unit, &spec.doc}) {
+           {&spec.name, &row_kind, &planner_type, &type, &spec.unit, &spec.doc}) {
         insert.add(*text);
       }
       insert.add(spec.clock ? 1 : 0);
@@ -476,8 +495,8 @@ void ResultsStore::merge(const std::string& output, const std::vector<std::strin
       for (const char c : inputs[i]) quoted += c == '\'' ? std::string("''") : std::string(1, c);
       merged.execute("ATTACH DATABASE '" + quoted + "' AS shard");
       merged.execute("BEGIN IMMEDIATE");
-      for (const char* table :
-           {"runs", "statistics", "metrics", "worlds", "trajectories", "trees", "flights"}) {
+      for (const char* table : {"runs", "statistics", "progress", "metrics", "worlds",
+                                "trajectories", "trees", "flights"}) {
         merged.execute(std::string("INSERT OR IGNORE INTO ") + table + " SELECT * FROM shard." +
                        table);
       }

@@ -92,6 +92,9 @@ std::string planRun(const Experiment& experiment, const RunSpec& run,
     out["metrics"] = nlohmann::json::parse(toJson(metrics, workerMetrics()));
     out["statistics"] = nlohmann::json::parse(
         toJson(statisticValues(result.statistics), declaredStatistics(*configured.info)));
+    // The anytime progress of the last plan (a clock figure, as its planning time).
+    if (!result.progress.empty())
+      out["progress"] = nlohmann::json::parse(progressToJson(result.progress));
     if (!result.trajectory.empty() && experiment.store_trajectories) {
       out["trajectory"] = trajectoryCsv(result.trajectory, 0.05);
     }
@@ -237,6 +240,7 @@ RunRecord recordOf(const Experiment& experiment, const RunSpec& run, const Worke
   record.metrics.insert(record.metrics.begin(), metrics.begin(), metrics.end());
   if (out.contains("statistics"))
     record.statistics = metricValuesFromJson(out["statistics"].dump());
+  if (out.contains("progress")) record.progress = progressFromJson(out["progress"].dump());
   record.trajectory_csv = out.value("trajectory", "");
   record.tree_csv = out.value("tree", "");
   record.replans_csv = out.value("replans", "");

@@ -88,9 +88,9 @@ WorldRecord worldRecord(const World& world, const std::string& id) {
 
 /// Progress on stderr: a bar redrawn in place on a terminal, a line every 10 s or 10 %
 /// otherwise.
-class Progress {
+class ProgressBar {
  public:
-  Progress(long long total, long long already)
+  ProgressBar(long long total, long long already)
       : total_(total), done_(already), tty_(isatty(STDERR_FILENO)), begin_(seconds()) {}
 
   void update(bool success) {
@@ -377,7 +377,7 @@ RunnerSummary runExperiment(const Experiment& experiment, const RunnerOptions& o
                experiment.name.c_str(), options.shard.text().c_str(), runs.size(), summary.skipped,
                pending.size(), options.jobs);
   const StopSignals signals;
-  Progress progress(summary.planned, summary.skipped);
+  ProgressBar progress(summary.planned, summary.skipped);
   std::size_t next = 0;
   while ((next < pending.size() && !g_stop_signal) || !pool.empty()) {
     while (!g_stop_signal && next < pending.size() && !pool.full()) {

@@ -1,10 +1,12 @@
 #include "kinolab/planner/metrics.hpp"
 
 #include <cmath>
+#include <map>
 #include <nlohmann/json.hpp>
 #include <set>
 
 #include "kinolab/core/error.hpp"
+#include "kinolab/core/text.hpp"
 #include "kinolab/planner/planner.hpp"
 
 namespace kinolab {
@@ -123,20 +125,75 @@ MetricValues metricValuesFromJson(const std::string& json) {
   return values;
 }
 
+namespace {
+
+[[noreturn]] void undeclared(std::string_view planner, std::string_view what,
+                             const std::string& name, std::string_view problem) {
+  throw PluginError("planner '" + std::string(planner) + "' reported the " + std::string(what) +
+                    " '" + name + "', " + std::string(problem));
+}
+
+}  // namespace
+
 void checkStatisticsDeclared(const PlanResult& result, const MetricSpecs& declared,
                              std::string_view planner) {
+  constexpr std::string_view kAdd =
+      "; add it to the MetricSpecs of its registration (kinolab list metrics shows what is "
+      "declared)";
   std::set<std::string_view> seen;
   for (const auto& [name, value] : result.statistics) {
-    if (!declared.find(name)) {
-      throw PluginError("planner '" + std::string(planner) + "' reported the statistic '" + name +
-                        "', which it does not declare; add it to the MetricSpecs of its "
-                        "registration (kinolab list metrics shows what is declared)");
+    const MetricSpec* spec = declared.find(name);
+    if (!spec || spec->series) {
+      undeclared(planner, "statistic", name,
+                 std::string(spec ? "which it declares as a progress series (report it in "
+                                    "PlanResult::progress)"
+                                  : "which it does not declare") +
+                     std::string(kAdd));
     }
-    if (!seen.insert(name).second) {
-      throw PluginError("planner '" + std::string(planner) + "' reported the statistic '" + name +
-                        "' twice");
-    }
+    if (!seen.insert(name).second) undeclared(planner, "statistic", name, "twice");
   }
+  std::map<std::string_view, double> last;
+  for (const ProgressSample& sample : result.progress) {
+    const MetricSpec* spec = declared.find(sample.name);
+    if (!spec || !spec->series) {
+      undeclared(planner, "progress series", sample.name,
+                 "which it does not declare with MetricSpecs::series" + std::string(kAdd));
+    }
+    if (!std::isfinite(sample.time_ms) || !std::isfinite(sample.value)) {
+      undeclared(planner, "progress series", sample.name,
+                 "with a sample that is not finite (time " + formatNumber(sample.time_ms) +
+                     " ms, value " + formatNumber(sample.value) + ")");
+    }
+    const auto [previous, first] = last.emplace(sample.name, sample.time_ms);
+    if (!first && sample.time_ms < previous->second) {
+      undeclared(planner, "progress series", sample.name,
+                 "out of time order (" + formatNumber(sample.time_ms) + " ms after " +
+                     formatNumber(previous->second) + " ms)");
+    }
+    previous->second = sample.time_ms;
+  }
+}
+
+std::string progressToJson(const Progress& progress) {
+  nlohmann::json samples = nlohmann::json::array();
+  for (const ProgressSample& sample : progress)
+    samples.push_back({sample.name, sample.time_ms, sample.value});
+  return samples.dump();
+}
+
+Progress progressFromJson(const std::string& json) {
+  const auto samples = nlohmann::json::parse(json);
+  if (!samples.is_array()) throw InvalidArgument("progress: expected a JSON array");
+  Progress progress;
+  for (const auto& sample : samples) {
+    if (!sample.is_array() || sample.size() != 3 || !sample[0].is_string() ||
+        !sample[1].is_number() || !sample[2].is_number()) {
+      throw InvalidArgument("progress: expected [name, time_ms, value], got " + sample.dump());
+    }
+    progress.push_back(
+        {sample[0].get<std::string>(), sample[1].get<double>(), sample[2].get<double>()});
+  }
+  return progress;
 }
 
 }  // namespace kinolab

@@ -75,17 +75,6 @@ std::vector<Eigen::Vector3d> waypoints(const og::PathGeometric& path) {
 
 }  // namespace
 
-const std::vector<double>& progressGridMs() {
-  static const std::vector<double> grid = [] {
-    std::vector<double> times;
-    for (double decade = 1.0; decade <= 1e5; decade *= 10.0) {
-      for (const double step : {1.0, 2.0, 5.0}) times.push_back(step * decade);
-    }
-    return times;
-  }();
-  return grid;
-}
-
 struct RrtFrontEnd::Ompl {
   std::shared_ptr<const World> world;
   FrontEndSettings settings;
@@ -150,14 +139,9 @@ SearchTree RrtFrontEnd::tree(std::size_t max_edges) const {
   return tree;
 }
 
-FrontEndResult RrtFrontEnd::plan(const Eigen::Vector3d& start, const Eigen::Vector3d& goal,
-                                 std::uint32_t seed, StopCondition& stop) {
-  Ompl& o = *ompl_;
-  const FrontEndSettings& settings = o.settings;
-  o.seed = seed;
-  o.validity_checks = 0;
-  o.si->getMotionValidator()->resetMotionCounter();
-
+std::shared_ptr<ob::ProblemDefinition> RrtFrontEnd::problem(const Eigen::Vector3d& start,
+                                                            const Eigen::Vector3d& goal) const {
+  const Ompl& o = *ompl_;
   auto problem = std::make_shared<ob::ProblemDefinition>(o.si);
   ob::ScopedState<> start_state(o.space);
   fromVector(start, start_state.get());
@@ -166,10 +150,66 @@ FrontEndResult RrtFrontEnd::plan(const Eigen::Vector3d& start, const Eigen::Vect
   ob::ScopedState<> goal_state(o.space);
   fromVector(goal, goal_state.get());
   goal_region->setState(goal_state);
-  goal_region->setThreshold(settings.goal_radius);
+  goal_region->setThreshold(o.settings.goal_radius);
   problem->setGoal(goal_region);
   problem->setOptimizationObjective(std::make_shared<ob::PathLengthOptimizationObjective>(o.si));
+  return problem;
+}
 
+namespace {
+
+/// The termination condition, run once per RRT* iteration: it applies the budget, stops
+/// after the refinement iterations or at the vertex cap, and records the anytime progress
+/// (every improvement of the best cost, as the `anytime_cost` series) and the first solution.
+class Monitor {
+ public:
+  Monitor(const SeededRrtStar& planner, const FrontEndSettings& settings, StopCondition& stop)
+      : planner_(planner), settings_(settings), stop_(stop) {}
+
+  bool operator()() {
+    const long long iterations = planner_.numIterations();
+    const double cost = planner_.bestCost().value();
+    const double now_ms = millisecondsSince(begin_);
+    if (std::isfinite(cost) && (progress.empty() || cost < progress.back().value)) {
+      progress.push_back({"anytime_cost", now_ms, cost});
+    }
+    if (first_iteration < 0 && std::isfinite(cost)) {
+      first_iteration = iterations;
+      first_ms = now_ms;
+      first_cost = cost;
+    }
+    if (first_iteration >= 0 && iterations - first_iteration >= settings_.refine_iterations) {
+      return true;
+    }
+    if (static_cast<long long>(planner_.treeSize()) >= settings_.max_vertices) return true;
+    return stop_.expired(iterations);
+  }
+
+  double elapsedMs() const { return millisecondsSince(begin_); }
+
+  Progress progress;
+  long long first_iteration = -1;
+  double first_ms = NAN;
+  double first_cost = NAN;
+
+ private:
+  const SeededRrtStar& planner_;
+  const FrontEndSettings& settings_;
+  StopCondition& stop_;
+  std::chrono::steady_clock::time_point begin_ = std::chrono::steady_clock::now();
+};
+
+}  // namespace
+
+FrontEndResult RrtFrontEnd::plan(const Eigen::Vector3d& start, const Eigen::Vector3d& goal,
+                                 std::uint32_t seed, StopCondition& stop) {
+  Ompl& o = *ompl_;
+  const FrontEndSettings& settings = o.settings;
+  o.seed = seed;
+  o.validity_checks = 0;
+  o.si->getMotionValidator()->resetMotionCounter();
+
+  const auto problem = this->problem(start, goal);
   auto planner = std::make_shared<SeededRrtStar>(o.si, seed);
   if (settings.range > 0.0) planner->setRange(settings.range);
   planner->setGoalBias(settings.goal_bias);
@@ -180,60 +220,17 @@ FrontEndResult RrtFrontEnd::plan(const Eigen::Vector3d& start, const Eigen::Vect
   planner->setup();
   o.last_planner = planner;
 
-  // The termination condition runs once per iteration: it applies the budget, stops after
-  // the refinement iterations, and records the anytime progress on the fixed grid.
   FrontEndResult result;
-  const std::vector<double>& grid = progressGridMs();
-  std::vector<double> progress;
-  long long first_iteration = -1;
-  double first_ms = NAN;
-  double first_cost = NAN;
-  const auto begin = std::chrono::steady_clock::now();
-  const ob::PlannerTerminationCondition condition([&] {
-    const long long iterations = planner->numIterations();
-    const double cost = planner->bestCost().value();
-    const double now_ms = millisecondsSince(begin);
-    while (progress.size() < grid.size() && grid[progress.size()] <= now_ms) {
-      progress.push_back(cost);
-    }
-    if (first_iteration < 0 && std::isfinite(cost)) {
-      first_iteration = iterations;
-      first_ms = now_ms;
-      first_cost = cost;
-    }
-    if (first_iteration >= 0 && iterations - first_iteration >= settings.refine_iterations) {
-      return true;
-    }
-    if (static_cast<long long>(planner->treeSize()) >= settings.max_vertices) return true;
-    return stop.expired(iterations);
-  });
-  const ob::PlannerStatus status = planner->solve(condition);
-  const double rrt_ms = millisecondsSince(begin);
+  Monitor monitor(*planner, settings, stop);
+  const ob::PlannerStatus status =
+      planner->solve(ob::PlannerTerminationCondition([&monitor] { return monitor(); }));
+  const double rrt_ms = monitor.elapsedMs();
   result.iterations = planner->numIterations();
-
   if (status == ob::PlannerStatus::EXACT_SOLUTION ||
       status == ob::PlannerStatus::APPROXIMATE_SOLUTION) {
     result.outcome = problem->hasApproximateSolution() ? FrontEndResult::Outcome::kApproximate
                                                        : FrontEndResult::Outcome::kExact;
-    auto& path = static_cast<og::PathGeometric&>(*problem->getSolutionPath());
-    const std::size_t raw_vertices = path.getStateCount();
-    const double raw_length = path.length();
-    const auto simplify_begin = std::chrono::steady_clock::now();
-    if (settings.simplify) {
-      // Iteration-bounded (not timed) so that the result depends on the seed only.
-      SeededSimplifier simplifier(o.si, seed ^ 0x9e3779b9u);
-      for (int round = 0; round < 5 && simplifier.reduceVertices(path); ++round) {
-      }
-      for (int round = 0; round < 5 && simplifier.shortcutPath(path); ++round) {
-      }
-    }
-    result.statistics.emplace_back("time_simplify_ms", millisecondsSince(simplify_begin));
-    result.path = waypoints(path);
-    result.path_length = path.length();
-    result.statistics.emplace_back("path_vertices_raw", static_cast<double>(raw_vertices));
-    result.statistics.emplace_back("path_length_raw", raw_length);
-    result.statistics.emplace_back("path_vertices", static_cast<double>(path.getStateCount()));
-    result.statistics.emplace_back("path_length", result.path_length);
+    simplify(static_cast<og::PathGeometric&>(*problem->getSolutionPath()), result);
   }
 
   const ob::MotionValidatorPtr& motions = o.si->getMotionValidator();
@@ -245,16 +242,37 @@ FrontEndResult RrtFrontEnd::plan(const Eigen::Vector3d& start, const Eigen::Vect
                                                           motions->getInvalidMotionCount()));
   stats.emplace_back("motion_checks_invalid",
                      static_cast<double>(motions->getInvalidMotionCount()));
-  stats.emplace_back("first_solution_iteration",
-                     first_iteration < 0 ? NAN : static_cast<double>(first_iteration));
-  stats.emplace_back("first_solution_ms", first_ms);
-  stats.emplace_back("first_solution_cost", first_cost);
+  stats.emplace_back(
+      "first_solution_iteration",
+      monitor.first_iteration < 0 ? NAN : static_cast<double>(monitor.first_iteration));
+  stats.emplace_back("first_solution_ms", monitor.first_ms);
+  stats.emplace_back("first_solution_cost", monitor.first_cost);
   stats.emplace_back("best_cost", planner->bestCost().value());
   stats.emplace_back("time_rrt_ms", rrt_ms);
-  for (std::size_t i = 0; i < progress.size(); ++i) {
-    stats.emplace_back("best_cost_at_" + formatNumber(grid[i]) + "ms", progress[i]);
-  }
+  result.progress = std::move(monitor.progress);
   return result;
+}
+
+void RrtFrontEnd::simplify(og::PathGeometric& path, FrontEndResult& result) const {
+  const Ompl& o = *ompl_;
+  const std::size_t raw_vertices = path.getStateCount();
+  const double raw_length = path.length();
+  const auto simplify_begin = std::chrono::steady_clock::now();
+  if (o.settings.simplify) {
+    // Iteration-bounded (not timed) so that the result depends on the seed only.
+    SeededSimplifier simplifier(o.si, o.seed ^ 0x9e3779b9u);
+    for (int round = 0; round < 5 && simplifier.reduceVertices(path); ++round) {
+    }
+    for (int round = 0; round < 5 && simplifier.shortcutPath(path); ++round) {
+    }
+  }
+  result.statistics.emplace_back("time_simplify_ms", millisecondsSince(simplify_begin));
+  result.path = waypoints(path);
+  result.path_length = path.length();
+  result.statistics.emplace_back("path_vertices_raw", static_cast<double>(raw_vertices));
+  result.statistics.emplace_back("path_length_raw", raw_length);
+  result.statistics.emplace_back("path_vertices", static_cast<double>(path.getStateCount()));
+  result.statistics.emplace_back("path_length", result.path_length);
 }
 
 std::string omplVersion() {

@@ -10,6 +10,13 @@
 #include "kinolab/planner/planner.hpp"
 #include "kinolab/world/world.hpp"
 
+namespace ompl::base {
+class ProblemDefinition;
+}  // namespace ompl::base
+namespace ompl::geometric {
+class PathGeometric;
+}  // namespace ompl::geometric
+
 namespace kinolab::rrt {
 
 /// The geometric front end: OMPL's RRT* in the world's bounds (OMPL stays inside the .cpp).
@@ -36,11 +43,9 @@ struct FrontEndResult {
   double path_length = 0.0;
   long long iterations = 0;
   Statistics statistics;
+  /// The anytime progress: the `anytime_cost` series, a sample at every improvement.
+  Progress progress;
 };
-
-/// Times, from the start of planning, at which the anytime best cost is recorded: a fixed
-/// 1-2-5 grid (1 ms .. 100 s), the same for every run so curves can be aggregated.
-const std::vector<double>& progressGridMs();
 
 class RrtFrontEnd {
  public:
@@ -58,6 +63,12 @@ class RrtFrontEnd {
 
  private:
   struct Ompl;
+  std::shared_ptr<ompl::base::ProblemDefinition> problem(const Eigen::Vector3d& start,
+                                                         const Eigen::Vector3d& goal) const;
+  /// Simplifies the found path (when the settings say so) into `result`'s path, with the
+  /// path statistics.
+  void simplify(ompl::geometric::PathGeometric& path, FrontEndResult& result) const;
+
   std::unique_ptr<Ompl> ompl_;
 };
 

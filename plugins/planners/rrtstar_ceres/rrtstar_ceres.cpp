@@ -69,10 +69,9 @@ MetricSpecs frontEndStatistics() {
       .real("first_solution_cost", "m", "path length of the first exact solution")
       .real("best_cost", "m", "RRT*'s best path length")
       .clock("time_rrt_ms", "RRT* (front end) time");
-  for (const double ms : progressGridMs()) {
-    specs.machine("best_cost_at_" + formatNumber(ms) + "ms", MetricType::kReal, "m",
-                  "best path length after this much planning time (anytime progress)");
-  }
+  specs.series("anytime_cost", "m",
+               "RRT*'s best path length over its planning time (a sample at every "
+               "improvement)");
   return specs;
 }
 
@@ -160,6 +159,7 @@ class RrtStarPlanner final : public Planner {
     FrontEndResult path =
         front_end_->plan(start, query.goal, static_cast<std::uint32_t>(seed), stop);
     result.statistics = std::move(path.statistics);
+    result.progress = std::move(path.progress);
     if (path.outcome == FrontEndResult::Outcome::kNone) {
       result.status = PlanStatus::kTimeout;
       result.message = "no RRT* path after " + std::to_string(path.iterations) + " iterations";

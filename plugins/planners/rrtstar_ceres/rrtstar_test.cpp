@@ -110,18 +110,17 @@ TEST(RrtStar, ReportsBothStagesAndAnytimeProgress) {
   const double stages = statistic(result, "time_rrt_ms") + statistic(result, "time_simplify_ms") +
                         statistic(result, "time_smooth_ms");
   EXPECT_LE(stages, result.planning_time_ms + 1e-6);
-  // The best cost on the 1-2-5 ms grid never rises, and is finite once a solution exists.
-  double previous = INFINITY;
-  int points = 0;
-  for (const auto& [name, value] : result.statistics) {
-    if (name.rfind("best_cost_at_", 0) != 0) continue;
-    ++points;
-    if (std::isfinite(previous)) {
-      EXPECT_LE(value, previous) << name;
-    }
-    if (std::isfinite(value)) previous = value;
+  // The anytime series: a sample at every improvement, strictly falling in cost, in time
+  // order within the plan, from the first solution's cost to RRT*'s final best cost.
+  ASSERT_FALSE(result.progress.empty());
+  EXPECT_EQ(result.progress.front().value, statistic(result, "first_solution_cost"));
+  EXPECT_EQ(result.progress.back().value, statistic(result, "best_cost"));
+  for (std::size_t i = 1; i < result.progress.size(); ++i) {
+    EXPECT_EQ(result.progress[i].name, "anytime_cost");
+    EXPECT_LT(result.progress[i].value, result.progress[i - 1].value);
+    EXPECT_GE(result.progress[i].time_ms, result.progress[i - 1].time_ms);
   }
-  EXPECT_GT(points, 0);
+  EXPECT_LE(result.progress.back().time_ms, statistic(result, "time_rrt_ms"));
   EXPECT_NEAR(result.cost, result.trajectory.length(), 1e-9);
 }
 

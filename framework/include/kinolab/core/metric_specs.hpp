@@ -23,6 +23,9 @@ struct MetricSpec {
   /// clock): it varies from run to run of the same case, so comparisons of repeated runs
   /// leave it out.
   bool clock = false;
+  /// A progress series (MetricSpecs::series): values over the planning time, reported as
+  /// PlanResult::progress and stored in the `progress` table, never as one value.
+  bool series = false;
 
   /// "real", "integer", "boolean" or "text".
   std::string typeName() const;
@@ -44,6 +47,10 @@ class MetricSpecs {
   MetricSpecs& machine(std::string name, MetricType type, std::string unit, std::string doc);
   MetricSpecs& boolean(std::string name, std::string doc);
   MetricSpecs& text(std::string name, std::string doc);
+  /// An anytime progress series (real, e.g. the best cost so far): a planner reports its
+  /// values against its planning time (ProgressSample), as OMPL's planner progress
+  /// properties; the store keeps them as a time series.
+  MetricSpecs& series(std::string name, std::string unit, std::string doc);
   /// Appends another list; a name declared twice is an error.
   MetricSpecs& include(const MetricSpecs& other);
 
@@ -61,6 +68,15 @@ class MetricSpecs {
 /// integers too), or text.
 using MetricValue = std::variant<std::monostate, double, std::string>;
 using MetricValues = std::vector<std::pair<std::string, MetricValue>>;
+
+/// One value of a progress series (MetricSpecs::series): `value` after `time_ms` of
+/// planning. A series is a step function: the value holds until its next sample.
+struct ProgressSample {
+  std::string name;
+  double time_ms = 0.0;
+  double value = 0.0;
+};
+using Progress = std::vector<ProgressSample>;
 
 /// A number as a metric's value: none when it is not finite (NaN and infinity are never
 /// stored as figures).

@@ -20,8 +20,9 @@ namespace kinolab {
 const MetricSpecs& runnerMetrics();
 
 /// The version of the results database layout this kinolab writes (meta `schema_version`).
-/// Version 2 derives the runs table and the `metrics` table from the declared metrics.
-inline constexpr int kResultsSchemaVersion = 5;
+/// Version 2 derives the runs table and the `metrics` table from the declared metrics;
+/// version 6 adds the `progress` table (anytime progress series).
+inline constexpr int kResultsSchemaVersion = 6;
 
 /// One finished run as stored: what defines it, then the values of resultMetrics() and
 /// runnerMetrics() (by name; a missing or none value is NULL) and the planner's statistics.
@@ -42,6 +43,7 @@ struct RunRecord {
 
   MetricValues metrics;  ///< resultMetrics() and runnerMetrics(), by name
   MetricValues statistics;
+  Progress progress;             ///< the planner's anytime progress (its declared series)
   std::string trajectory_csv;    ///< when the experiment stores trajectories
   std::string tree_csv;          ///< when it stores search trees
   std::string replans_csv;       ///< a flight's replans (kind: flight)
@@ -74,8 +76,10 @@ struct WorldRecord {
 /// The results database of one experiment (SQLite, WAL journal): a `meta` table (the
 /// expanded config, its hash, provenance, `schema_version`), `runs` (one row per run keyed by
 /// `run_hash`: the identity columns, then one column per result and runner metric),
-/// `statistics` (run_hash, name, value: every statistic a planner reported), `metrics` (the
-/// declaration of every column and statistic: kind, planner type, type, unit, doc, clock),
+/// `statistics` (run_hash, name, value: every statistic a planner reported), `progress`
+/// (run_hash, name, time_ms, value: samples of the planner's progress series), `metrics` (the
+/// declaration of every column, statistic and series: kind, planner type, type, unit, doc,
+/// clock),
 /// `worlds` (for figures), and optional `trajectories` and `trees` (CSV text) and `flights`
 /// (a flight's replans as CSV and its final known map's top view). Every run is written
 /// in its own transaction, so a kill at any moment loses at most the runs in flight.
@@ -101,8 +105,9 @@ class ResultsStore {
   void insert(const RunRecord& record);
   /// Stores a world's views once (a world already stored is left as it is).
   void insertWorld(const WorldRecord& world);
-  /// Declares metrics in the `metrics` table: `kind` is "result", "runner" or "statistic";
-  /// statistics are declared per planner type.
+  /// Declares metrics in the `metrics` table: `kind` is "result", "runner" or "statistic"
+  /// ("progress" for a series among the statistics); statistics are declared per planner
+  /// type.
   void declareMetrics(const std::string& kind, const std::string& planner_type,
                       const MetricSpecs& specs);
   /// The schema version of the stored runs (1 for databases written before versions were
@@ -116,6 +121,9 @@ class ResultsStore {
                     bool partial);
 
  private:
+  /// The run's statistics and progress samples (within insert()'s transaction).
+  void insertStatistics(const RunRecord& record);
+
   void execute(const std::string& sql) const;
   /// Runs `body` in one write transaction, rolled back when it throws.
   void transaction(const std::function<void()>& body);

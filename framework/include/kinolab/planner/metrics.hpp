@@ -27,6 +27,10 @@ MetricValues resultValues(const PlanResult& result);
 /// A planner's statistics as metric values (NaN and infinity become none).
 MetricValues statisticValues(const std::vector<std::pair<std::string, double>>& statistics);
 
+/// Progress samples as JSON ([[name, time_ms, value], ...]) and back.
+std::string progressToJson(const Progress& progress);
+Progress progressFromJson(const std::string& json);
+
 /// A JSON object of `values`, typed by `specs` (booleans as true/false, integers as
 /// integers); none is null. A name `specs` does not declare is an InvalidArgument.
 std::string toJson(const MetricValues& values, const MetricSpecs& specs);
@@ -34,7 +38,9 @@ std::string toJson(const MetricValues& values, const MetricSpecs& specs);
 MetricValues metricValuesFromJson(const std::string& json);
 
 /// Throws PluginError naming `planner` when it reported a statistic that `declared`
-/// (declaredStatistics()) does not declare, or one twice.
+/// (declaredStatistics()) does not declare as a value, or one twice; or a progress sample of
+/// a name `declared` does not declare as a series, with a time or value that is not finite,
+/// or earlier than the series' previous sample.
 void checkStatisticsDeclared(const PlanResult& result, const MetricSpecs& declared,
                              std::string_view planner);
 

@@ -87,6 +87,9 @@ struct PlanResult {
   double distance_to_goal = INFINITY;  ///< D: from the trajectory's closest point (or start)
   double planning_time_ms = 0.0;       ///< around the planner's work only (no checking)
   Statistics statistics;
+  /// Anytime progress: samples of the planner's declared series (MetricSpecs::series), each
+  /// series in time order from the start of its work.
+  Progress progress;
   CheckResult check;    ///< the independent checker's verdict on the trajectory
   std::string message;  ///< why, for statuses other than exact
 };
