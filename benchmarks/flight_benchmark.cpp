@@ -32,7 +32,9 @@ void BM_FlightFrame(benchmark::State& state) {
   // The defaults of `kinolab fly` (flightParameters()).
   const FlightSetup setup = flightSetup(flightParameters().resolve({}, "flight"));
   const Sensor& sensor = *setup.sensor;
-  KnownMap map(world->bounds(), setup.map);
+  const std::unique_ptr<VehicleMap> known = setup.make_map();
+  known->setup(world->bounds(), setup.map);
+  VehicleMap& map = *known;
   int frame = 0;
   double sense_ms = 0.0;
   double map_ms = 0.0;

@@ -1,13 +1,14 @@
 // A researcher's own extensions, built outside the kinolab tree against an installed kinolab
-// (docs/extending/): one library adding a world generator, a lazy lower bound, a heuristic and
-// a flight sensor. No file under framework/ knows them or their parameters; world specs,
-// planners and flights choose them by key (`type: pillar_row`, `lower_bound=scaled_endpoint`,
-// `heuristic=scaled_time_optimal`, `sensor=ring`) and set their parameters as
-// `NAME.PARAMETER` (or a YAML mapping).
+// (docs/extending/): one library adding a world generator, a lazy lower bound, a heuristic, a
+// flight sensor and a vehicle map. No file under framework/ knows them or their parameters;
+// world specs, planners and flights choose them by key (`type: pillar_row`,
+// `lower_bound=scaled_endpoint`, `heuristic=scaled_time_optimal`, `sensor=ring`,
+// `map=obstacles_only`) and set their parameters as `NAME.PARAMETER` (or a YAML mapping).
 #include <cmath>
 
 #include "kinolab/core/plugin.hpp"
 #include "kinolab/flight/sensor.hpp"
+#include "kinolab/flight/vehicle_map.hpp"
 #include "kinolab/search/motion_primitive_planner.hpp"
 #include "kinolab/world/world_generator.hpp"
 
@@ -64,6 +65,29 @@ struct RingSensor final : Sensor {
     }
     return rays;
   }
+};
+
+/// A map that keeps obstacles only: a voxel becomes known occupied after `hits` hits, and
+/// free space is never known from rays (only where the body has been).
+class ObstaclesOnly final : public VehicleMap {
+ public:
+  explicit ObstaclesOnly(long long hits) : hits_(hits) {}
+
+ protected:
+  void doSetup() override { counts_.assign(lattice().size(), 0); }
+  void doInsert(const SensorFrame& frame, double /*max_range*/) override {
+    for (const Eigen::Vector3d& hit : frame.hits) {
+      const VoxelIndex voxel =
+          ((hit - lattice().origin()) / lattice().resolution()).array().floor().cast<int>();
+      if (!lattice().inside(voxel)) continue;
+      const std::size_t index = lattice().index(voxel);
+      if (++counts_[index] >= hits_) setState(index, Voxel::kOccupied);
+    }
+  }
+
+ private:
+  long long hits_;
+  std::vector<long long> counts_;
 };
 
 /// A row of square pillars along x at height 0 .. `height`, evenly spaced across the bounds.
@@ -132,4 +156,10 @@ KINOLAB_REGISTER_PLUGINS(registrar) {
                           sensor->beams = static_cast<int>(parameters.integer("beams"));
                           return sensor;
                         });
+  registrar.add<VehicleMap>(
+      "obstacles_only", "keeps obstacles only: occupied after some hits, free never from rays",
+      ParameterSpecs().integer("hits", 1, 1, 1000, "hits that make a voxel known occupied"),
+      [](const ParameterSet& parameters) {
+        return std::make_unique<ObstaclesOnly>(parameters.integer("hits"));
+      });
 }

@@ -55,11 +55,11 @@ run_step(FAIL "${kinolab}" --plugin "${build}/libno_entry_point.so" list)
 expect_output("libno_entry_point.so': no kinolab entry point")
 run_step(FAIL "${kinolab}" --plugin "${build}/libmissing.so" list)
 expect_output("libmissing.so': no such file")
-# The out-of-tree extensions (a world generator, a lower bound, a heuristic, a sensor) are
-# listed beside the built-in ones of their kinds.
+# The out-of-tree extensions (a world generator, a lower bound, a heuristic, a sensor, a
+# vehicle map) are listed beside the built-in ones of their kinds.
 set(extensions "${build}/libextensions_plugin.so")
 foreach(kind_key worlds:pillar_row lower_bounds:scaled_endpoint heuristics:scaled_time_optimal
-        sensors:ring)
+        sensors:ring vehicle_maps:obstacles_only)
   string(REPLACE ":" ";" kind_key "${kind_key}")
   list(GET kind_key 0 kind)
   list(GET kind_key 1 key)
@@ -70,10 +70,10 @@ endforeach()
 
 # They pass their kinds' conformance suites (tests/conformance/extension_conformance_test.cpp):
 # the heuristic consistent, the bound below the full cost and lazy = eager with it, the
-# sensor's rays, the generator's grid.
+# sensor's rays, the map's knowledge, the generator's grid.
 run_step(OK ${CMAKE_COMMAND} -E env "KINOLAB_TEST_PLUGINS=${extensions}" "${TEST_BINARY}"
-         "--gtest_filter=Registered/*.*/scaled_time_optimal:Registered/*.*/scaled_endpoint:Registered/*.*/ring:Registered/*.*/pillar_row")
-expect_output("PASSED.* 5 tests")
+         "--gtest_filter=Registered/*.*/scaled_time_optimal:Registered/*.*/scaled_endpoint:Registered/*.*/ring:Registered/*.*/obstacles_only:Registered/*.*/pillar_row")
+expect_output("PASSED.* 6 tests")
 
 # Lazy search with the out-of-tree bound and heuristic returns eager's cost (both stay a lower
 # bound and consistent), chosen by key with their own parameters nested.
@@ -100,11 +100,11 @@ if(NOT lazy_prefix STREQUAL eager_prefix)
   message(FATAL_ERROR "lazy with the extensions: cost ${lazy_cost} != eager ${eager_cost}")
 endif()
 
-# A flight experiment that uses all four: a world with the pillar row, the ring sensor, the
-# bound and the heuristic.
+# A flight experiment that uses all five: a world with the pillar row, the ring sensor, the
+# obstacles-only map, the bound and the heuristic.
 file(READ "${world}" world_text)
 string(REPLACE "\n" "\n      " world_text "${world_text}")
-function(write_experiment path world_count heuristic_scale bound_scale sensor_beams)
+function(write_experiment path world_count heuristic_scale bound_scale sensor_beams map_hits)
   file(WRITE "${path}" "kind: flight\nname: extensions\nseed: 4\nplugins: [${extensions}]\n"
     "worlds:\n  - id: small\n    spec:\n      ${world_text}\n"
     "        - {type: pillar_row, y: 4.5, ${world_count}: 2, width: 0.4, height: 3}\n"
@@ -114,25 +114,29 @@ function(write_experiment path world_count heuristic_scale bound_scale sensor_be
     "    params:\n"
     "      heuristic: {type: scaled_time_optimal, ${heuristic_scale}: 0.5}\n"
     "      lower_bound: {type: scaled_endpoint, ${bound_scale}: 0.25}\n"
-    "flight:\n  sensor: {type: ring, ${sensor_beams}: 90, range: 4}\n  max_time: 30\n")
+    "flight:\n  sensor: {type: ring, ${sensor_beams}: 90, range: 4}\n"
+    "  map: {type: obstacles_only, ${map_hits}: 2}\n  max_time: 30\n")
 endfunction()
-write_experiment("${WORK_DIR}/extensions.yaml" count scale scale beams)
+write_experiment("${WORK_DIR}/extensions.yaml" count scale scale beams hits)
 run_step(OK ${env} "${kinolab}" run "${WORK_DIR}/extensions.yaml" --out "${WORK_DIR}/extensions")
 expect_output("1 runs? ran")
 run_step(OK ${env} "${kinolab}" report "${WORK_DIR}/extensions" --out "${WORK_DIR}/extensions/report")
 # A misspelt parameter of each extension is refused before anything runs, with its file, line
 # and the parameter's owner.
-foreach(misspelt "cuont;scale;scale;beams;world 'pillar_row'"
-        "count;scael;scale;beams;heuristic 'scaled_time_optimal'"
-        "count;scale;scael;beams;lower_bound 'scaled_endpoint'" "count;scale;scale;beasm;sensor 'ring'")
+foreach(misspelt "cuont;scale;scale;beams;hits;world 'pillar_row'"
+        "count;scael;scale;beams;hits;heuristic 'scaled_time_optimal'"
+        "count;scale;scael;beams;hits;lower_bound 'scaled_endpoint'"
+        "count;scale;scale;beasm;hits;sensor 'ring'"
+        "count;scale;scale;beams;hist;vehicle_map 'obstacles_only'")
   list(GET misspelt 0 world_count)
   list(GET misspelt 1 heuristic_scale)
   list(GET misspelt 2 bound_scale)
   list(GET misspelt 3 sensor_beams)
-  list(GET misspelt 4 owner)
+  list(GET misspelt 4 map_hits)
+  list(GET misspelt 5 owner)
   write_experiment("${WORK_DIR}/misspelt.yaml" ${world_count} ${heuristic_scale} ${bound_scale}
-                   ${sensor_beams})
+                   ${sensor_beams} ${map_hits})
   run_step(FAIL ${env} "${kinolab}" run "${WORK_DIR}/misspelt.yaml" --out "${WORK_DIR}/misspelt" --dry-run)
-  expect_output("misspelt.yaml:[0-9]+:[0-9]+: [^\n]*${owner}: unknown parameter '(scael|beasm|cuont)' \\(did you mean '(scale|beams|count)'")
+  expect_output("misspelt.yaml:[0-9]+:[0-9]+: [^\n]*${owner}: unknown parameter '(scael|beasm|cuont|hist)' \\(did you mean '(scale|beams|count|hits)'")
 endforeach()
 message(STATUS "out-of-tree program and plugins: as expected")

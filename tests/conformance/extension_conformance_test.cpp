@@ -1,4 +1,5 @@
-// Every registered heuristic, lower bound, search space, sensor and world generator (built-in,
+// Every registered heuristic, lower bound, search space, sensor, vehicle map and world
+// generator (built-in,
 // and any library named in $KINOLAB_TEST_PLUGINS) keeps its kind's contract
 // (docs/extending/).
 #include <gtest/gtest.h>
@@ -8,6 +9,7 @@
 
 #include "kinolab/core/random.hpp"
 #include "kinolab/flight/sensor.hpp"
+#include "kinolab/flight/vehicle_map.hpp"
 #include "kinolab/primitives/control_sampler.hpp"
 #include "kinolab/search/motion_primitive_planner.hpp"
 #include "kinolab/world/world_generator.hpp"
@@ -222,6 +224,58 @@ TEST_P(SensorConformance, UnitRaysPositiveRangeAndRateTheSameEveryCall) {
 }
 
 INSTANTIATE_TEST_SUITE_P(Registered, SensorConformance, ::testing::ValuesIn(registered<Sensor>()),
+                         [](const auto& key) { return key.param; });
+
+class VehicleMapConformance : public ::testing::TestWithParam<std::string> {};
+
+TEST_P(VehicleMapConformance, KnowsOnlyWhatWasSeenAndStartsOverOnSetup) {
+  const auto world = test::smallWorld("forest");
+  const VoxelGrid& truth = world->grid();
+  const auto map = pluginRegistry<VehicleMap>().create(GetParam(), {});
+  MapModel model;
+  model.resolution = truth.resolution();
+  map->setup(world->bounds(), model);
+  EXPECT_EQ(map->knownFree() + map->knownOccupied(), 0u);
+  Lidar lidar;
+  lidar.range = 6.0;
+  const Eigen::Vector3d origin(6.0, 6.0, 1.5);
+  ASSERT_TRUE(world->isFree(origin, 0.3));
+  map->insert(senseFrame(truth, lidar, origin, 0.3), lidar.range);
+  // What a noise-free sensor saw as an obstacle is one (on the truth's own lattice), and
+  // nothing farther than the range is known.
+  ASSERT_GT(map->knownOccupied(), 0u);
+  for (const std::size_t voxel : map->occupiedVoxels()) {
+    const Eigen::Vector3d c = map->voxelCenter(voxel);
+    const VoxelIndex at =
+        ((c - truth.origin()) / truth.resolution()).array().floor().cast<int>();
+    ASSERT_TRUE(truth.inside(at));
+    EXPECT_TRUE(truth.occupied(at)) << c.transpose();
+  }
+  const std::size_t known = map->knownFree() + map->knownOccupied();
+  for (std::size_t i = 0; i < map->lattice().size(); ++i) {
+    if (map->state(i) == VehicleMap::Voxel::kUnknown) continue;
+    EXPECT_LE((map->voxelCenter(i) - origin).norm(), lidar.range + 2.0 * truth.resolution());
+  }
+  // markFree makes unseen voxels near the body known, never changes a seen one.
+  const Eigen::Vector3d far(2.0, 10.0, 1.5);
+  std::vector<VehicleMap::Voxel> before;
+  for (std::size_t i = 0; i < map->lattice().size(); ++i) before.push_back(map->state(i));
+  map->markFree(far, 0.5);
+  EXPECT_GT(map->knownFree() + map->knownOccupied(), known);
+  for (std::size_t i = 0; i < before.size(); ++i) {
+    if (before[i] != VehicleMap::Voxel::kUnknown) {
+      EXPECT_EQ(map->state(i), before[i]) << i;
+    }
+  }
+  // A window's ESDF agrees with its occupancy, and a second setup forgets everything.
+  const auto window = map->window(origin);
+  EXPECT_GT(window->grid().occupiedCount(), 0u);
+  map->setup(world->bounds(), model);
+  EXPECT_EQ(map->knownFree() + map->knownOccupied(), 0u);
+}
+
+INSTANTIATE_TEST_SUITE_P(Registered, VehicleMapConformance,
+                         ::testing::ValuesIn(registered<VehicleMap>()),
                          [](const auto& key) { return key.param; });
 
 class WorldGeneratorConformance : public ::testing::TestWithParam<std::string> {};

@@ -48,7 +48,7 @@ struct Flight {
     PlanningQuery query;
     query.start.col(0) = start;
     query.goal = goal;
-    return kinolab::fly(world, lazyPlanner(), query, *setup.sensor, setup.map, setup.settings);
+    return kinolab::fly(world, lazyPlanner(), query, setup);
   }
 };
 
@@ -134,12 +134,22 @@ TEST(Sensor, RaysHitASphereAndMatchADenseMarch) {
   }
 }
 
-TEST(KnownMapTest, TheWindowHoldsWhatWasSeenAndItsExactEsdf) {
+/// A vehicle map of the kind `key` at its defaults, set up over `bounds`.
+std::unique_ptr<VehicleMap> mapOf(const std::string& key, const Box& bounds,
+                                  const MapModel& model = {}) {
+  auto map = pluginRegistry<VehicleMap>().create(key, {});
+  map->setup(bounds, model);
+  return map;
+}
+
+/// Every map kind: what the window holds was seen, and its ESDF is exact.
+void checkWindow(const std::string& key) {
   const auto world = worldOf(kWall);
   MapModel model;
   model.window = 6.0;
   model.window_height = 2.0;
-  KnownMap map(world->bounds(), model);
+  std::unique_ptr<VehicleMap> known = mapOf(key, world->bounds(), model);
+  VehicleMap& map = *known;
   Lidar lidar;
   lidar.range = 5.0;
   const Eigen::Vector3d origin(7.55, 3.05, 1.55);
@@ -186,14 +196,25 @@ TEST(KnownMapTest, TheWindowHoldsWhatWasSeenAndItsExactEsdf) {
   }
   // Unknown space as occupied: the unseen side of the window is blocked.
   model.unknown = UnknownSpace::kOccupied;
-  KnownMap cautious(world->bounds(), model);
-  cautious.insert(senseFrame(world->grid(), lidar, origin, 0.0), lidar.range);
-  EXPECT_GT(cautious.window(origin)->grid().occupiedCount(), grid.occupiedCount());
+  std::unique_ptr<VehicleMap> cautious = mapOf(key, world->bounds(), model);
+  cautious->insert(senseFrame(world->grid(), lidar, origin, 0.0), lidar.range);
+  EXPECT_GT(cautious->window(origin)->grid().occupiedCount(), grid.occupiedCount());
+  // A second setup starts over: nothing known.
+  map.setup(world->bounds(), model);
+  EXPECT_EQ(map.knownFree() + map.knownOccupied(), 0u);
 }
 
-TEST(KnownMapTest, TheGuideGoesRoundKnownObstaclesAndThroughUnknownSpace) {
+TEST(VehicleMapTest, TheWindowHoldsWhatWasSeenAndItsExactEsdf) {
+  for (const PluginInfo* kind : pluginRegistry<VehicleMap>().list()) {
+    SCOPED_TRACE(kind->key);
+    checkWindow(kind->key);
+  }
+}
+
+TEST(VehicleMapTest, TheGuideGoesRoundKnownObstaclesAndThroughUnknownSpace) {
   const auto world = worldOf(kWall);
-  KnownMap map(world->bounds(), MapModel());
+  std::unique_ptr<VehicleMap> known = mapOf("octomap", world->bounds());
+  VehicleMap& map = *known;
   Lidar lidar;
   lidar.range = 6.0;
   const Eigen::Vector3d from(7.05, 3.05, 1.5);
@@ -215,13 +236,13 @@ TEST(KnownMapTest, TheGuideGoesRoundKnownObstaclesAndThroughUnknownSpace) {
   // A wall across the whole map: no way once it is known.
   const auto closed =
       worldOf("  - type: box_list\n    boxes: [{min: [9, 0, 0], max: [9.4, 10, 3]}]\n");
-  KnownMap walled(closed->bounds(), MapModel());
-  walled.insert(senseFrame(closed->grid(), lidar, from, 0.0), lidar.range);
+  std::unique_ptr<VehicleMap> walled = mapOf("octomap", closed->bounds());
+  walled->insert(senseFrame(closed->grid(), lidar, from, 0.0), lidar.range);
   // Seen to 6 m, the wall's far end (y > 8.7) is unknown, so free: the guide goes there.
-  EXPECT_FALSE(walled.guide(from, to, 0.25, 1.0, 2.0).empty());
+  EXPECT_FALSE(walled->guide(from, to, 0.25, 1.0, 2.0).empty());
   lidar.range = 12.0;  // seen whole
-  walled.insert(senseFrame(closed->grid(), lidar, from, 0.0), lidar.range);
-  EXPECT_TRUE(walled.guide(from, to, 0.25, 1.0, 2.0).empty());
+  walled->insert(senseFrame(closed->grid(), lidar, from, 0.0), lidar.range);
+  EXPECT_TRUE(walled->guide(from, to, 0.25, 1.0, 2.0).empty());
 }
 
 TEST(FlightTest, AnEmptyWorldIsFlownToTheGoal) {
@@ -364,6 +385,20 @@ TEST(FlightTest, TheDeclaredDefaultsAreTheModelsDefaults) {
   ASSERT_NE(chosen, nullptr) << "sensor=lidar chooses the registered lidar";
   EXPECT_EQ(chosen->beams, 720);
   EXPECT_EQ(chosen->rayDirections().size(), 720u * static_cast<std::size_t>(chosen->channels));
+  // The map kind is a plugin parameter too, with its own parameters nested; each flight gets
+  // a new map.
+  const Flight octomap({{"map", "octomap", "test"}, {"map.probability_hit", "0.9", "test"}});
+  const std::unique_ptr<VehicleMap> first = octomap.setup.make_map();
+  EXPECT_NE(first, nullptr);
+  EXPECT_NE(first.get(), octomap.setup.make_map().get());
+  try {
+    Flight({{"map.probability_hit", "1.5", "test"}});
+    ADD_FAILURE() << "accepted a probability of 1.5";
+  } catch (const ConfigError& error) {
+    EXPECT_NE(std::string(error.what()).find("vehicle_map 'octomap': parameter 'probability_hit'"),
+              std::string::npos)
+        << error.what();
+  }
 }
 
 TEST(FlightTest, BadFlightParametersNameTheParameter) {

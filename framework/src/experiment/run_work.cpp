@@ -122,7 +122,7 @@ std::string flyRun(const Experiment& experiment, const RunSpec& run,
       configured.planner->setup({std::move(window), configured.sampler, run.seed});
       return std::move(configured.planner);
     };
-    const FlightResult flight = fly(world, factory, query, *setup.sensor, setup.map, settings);
+    const FlightResult flight = fly(world, factory, query, setup);
     const MetricValues values = flightValues(flight);
     const auto value = [&](std::string_view name) -> MetricValue {
       for (const auto& [key, item] : values) {

@@ -173,6 +173,9 @@ const ParameterSpecs& flightParameters() {
       ParameterSpecs()
           .plugin("sensor", "sensor", "depth_camera",
                   "the range sensor (kinolab list sensors); set its parameters as sensor.NAME")
+          .plugin("vehicle_map", "map", "octomap",
+                  "the vehicle's map, its sensor model (kinolab list vehicle_maps); set its "
+                  "parameters as map.NAME")
           .real("map_resolution", map.resolution, 0.01, 10.0,
                 "the vehicle's map voxel, m (the ground truth's lattice when equal)")
           .real("window", map.window, 1.0, 1000.0, "planning window side in x and y, m")
@@ -218,6 +221,9 @@ FlightSetup flightSetup(const ParameterSet& p) {
                       formatNumber(range) + " m and a rate of " + formatNumber(rate) +
                       " Hz; both must be finite and positive");
   }
+  // A new map for each flight, made as the parameters say (checked now, once).
+  setup.make_map = [p] { return pluginRegistry<VehicleMap>().createChosen(p, "map"); };
+  setup.make_map();
   MapModel* map = &setup.map;
   FlightSettings* settings = &setup.settings;
   map->resolution = p.real("map_resolution");
@@ -246,23 +252,23 @@ namespace {
 class FlightLoop {
  public:
   FlightLoop(const std::shared_ptr<const World>& truth, const PlannerFactory& make_planner,
-             const PlanningQuery& query, const Sensor& sensor, const MapModel& map_model,
-             const FlightSettings& settings)
+             const PlanningQuery& query, const FlightSetup& setup)
       : truth_(truth),
         make_planner_(make_planner),
         query_(query),
-        sensor_(sensor),
-        map_model_(map_model),
-        settings_(settings),
-        map_(std::make_shared<KnownMap>(truth->bounds(), map_model)),
+        sensor_(*setup.sensor),
+        map_model_(setup.map),
+        settings_(setup.settings),
+        map_(setup.make_map()),
         // The body and limits every replan plans for (the planner's model on any world).
         model_(make_planner(truth)->model()),
         checker_(truth, checkerSettings(model_)),
-        brake_rate_(std::min(settings.brake_acceleration, model_.limits.bound[2].minCoeff())),
-        dt_(1.0 / sensor.frameRate()),
+        brake_rate_(std::min(settings_.brake_acceleration, model_.limits.bound[2].minCoeff())),
+        dt_(1.0 / sensor_.frameRate()),
         // Snapshots: the map from above over the query's heights, widened by 0.5 m.
         z_band_low_(std::min(query.start(2, 0), query.goal.z()) - 0.5),
         z_band_high_(std::max(query.start(2, 0), query.goal.z()) + 0.5) {
+    map_->setup(truth->bounds(), map_model_);
     result_.map = map_;
     result_.model = model_;
   }
@@ -463,7 +469,7 @@ class FlightLoop {
   const MapModel& map_model_;
   const FlightSettings& settings_;
   FlightResult result_;
-  std::shared_ptr<KnownMap> map_;
+  std::shared_ptr<VehicleMap> map_;
   PlanningModel model_;
   TrajectoryChecker checker_;
   double brake_rate_;
@@ -483,9 +489,8 @@ class FlightLoop {
 }  // namespace
 
 FlightResult fly(const std::shared_ptr<const World>& truth, const PlannerFactory& make_planner,
-                 const PlanningQuery& query, const Sensor& sensor, const MapModel& map_model,
-                 const FlightSettings& settings) {
-  return FlightLoop(truth, make_planner, query, sensor, map_model, settings).run();
+                 const PlanningQuery& query, const FlightSetup& setup) {
+  return FlightLoop(truth, make_planner, query, setup).run();
 }
 
 const MetricSpecs& flightStatistics() {

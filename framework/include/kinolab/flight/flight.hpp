@@ -9,7 +9,7 @@
 
 #include "kinolab/core/metric_specs.hpp"
 #include "kinolab/core/parameters.hpp"
-#include "kinolab/flight/known_map.hpp"
+#include "kinolab/flight/vehicle_map.hpp"
 #include "kinolab/flight/sensor.hpp"
 #include "kinolab/planner/planner.hpp"
 #include "kinolab/trajectory/trajectory.hpp"
@@ -34,7 +34,7 @@ struct FlightSettings {
   double stuck_time = 15.0;         ///< s without 0.5 m of progress towards the goal
   double goal_tolerance = 0.5;      ///< m: reached when this close to the goal
   double brake_acceleration = 3.0;  ///< m/s^2 per axis for braking to a stop
-  /// > 0: keep the known map from above (KnownMap::topView over the query's heights) every
+  /// > 0: keep the known map from above (VehicleMap::topView over the query's heights) every
   /// this many seconds of flight, for animations; 0: none.
   double snapshot_period = 0.0;
 };
@@ -45,9 +45,12 @@ struct FlightSettings {
 /// experiment's `flight:`).
 const ParameterSpecs& flightParameters();
 
-/// What a flight is flown with: the sensor, the vehicle's map model and the loop's settings.
+/// What a flight is flown with: the sensor, the vehicle's map (its kind, lattice and planning
+/// window) and the loop's settings.
 struct FlightSetup {
   std::shared_ptr<const Sensor> sensor;
+  /// A new vehicle map of the chosen kind (the `map` parameter), not yet set up.
+  std::function<std::unique_ptr<VehicleMap>()> make_map;
   MapModel map;
   FlightSettings settings;
 };
@@ -81,8 +84,8 @@ struct FlightResult {
   double time_map_ms = 0.0;
   double time_window_ms = 0.0;
   double time_guide_ms = 0.0;  ///< summed over the replans: the global guide on the known map
-  std::shared_ptr<const KnownMap> map;  ///< the final known map
-  /// (time, KnownMap::topView) every snapshot_period and at the end, when asked for.
+  std::shared_ptr<const VehicleMap> map;  ///< the final known map
+  /// (time, VehicleMap::topView) every snapshot_period and at the end, when asked for.
   std::vector<std::pair<double, std::string>> snapshots;
   /// With snapshots: every voxel the final known map holds occupied (its centre) and the
   /// snapshot time it was first known occupied, in that order: the map growing, in 3D.
@@ -95,7 +98,8 @@ std::string knownVoxelsCsv(const FlightResult& result);
 /// Makes a planner set up on a world (one per replan window).
 using PlannerFactory = std::function<std::unique_ptr<Planner>(std::shared_ptr<const World>)>;
 
-/// Flies `query` through `truth`, seeing it only through `sensor`: simulated time, a replan
+/// Flies `query` through `truth`, seeing it only through the setup's sensor into a new map of
+/// its kind: simulated time, a replan
 /// at every `replan_period` and whenever the committed trajectory collides in the updated
 /// map; a replan starts from the committed state `latency` after its frame; a failed replan
 /// keeps the committed trajectory (every committed trajectory ends at rest: plans get a
@@ -103,8 +107,7 @@ using PlannerFactory = std::function<std::unique_ptr<Planner>(std::shared_ptr<co
 /// the committed trajectory exactly. The flown trajectory goes through the independent
 /// checker against `truth` at the end: a collision ends the flight there, as `collision`.
 FlightResult fly(const std::shared_ptr<const World>& truth, const PlannerFactory& planner,
-                 const PlanningQuery& query, const Sensor& sensor, const MapModel& map,
-                 const FlightSettings& settings);
+                 const PlanningQuery& query, const FlightSetup& setup);
 
 /// The metrics of a flight (`kinolab list metrics`; the JSON summary of `kinolab fly`):
 /// status, success (reached), time to goal, flown length, mean speed, replans and failed

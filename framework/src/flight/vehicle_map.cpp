@@ -1,3 +1,5 @@
+#include "kinolab/flight/vehicle_map.hpp"
+
 #include <octomap/OcTree.h>
 
 #include <algorithm>
@@ -6,111 +8,67 @@
 
 #include "kinolab/core/error.hpp"
 #include "kinolab/core/text.hpp"
-#include "kinolab/flight/flight.hpp"
 #include "kinolab/world/esdf.hpp"
 
 namespace kinolab {
 
-// The tree holds positions relative to the map's origin (the ground truth's minimum corner),
-// so that its voxels [k r, (k + 1) r) are exactly the ground truth's voxels.
-// Beside it a dense mirror of every voxel's state (0 unknown, 1 free, 2 occupied) over the
-// map's box, kept current with every node the tree updates, from which a window is a copy.
-struct KnownMap::Tree {
-  explicit Tree(double resolution) : tree(resolution) {}
-  octomap::OcTree tree;
-  VoxelGrid lattice;  // the mirror's geometry (its occupancy unused)
-  std::vector<std::uint8_t> state;
-};
+KINOLAB_DEFINE_PLUGIN_REGISTRY(VehicleMap, "vehicle_map", "vehicle_maps",
+                               "what a flying vehicle knows of the world: its sensor model (the "
+                               "flight's `map`)",
+                               8)
 
-namespace {
+VehicleMap::~VehicleMap() = default;
 
-octomap::point3d toTree(const Eigen::Vector3d& p, const Eigen::Vector3d& origin) {
-  const Eigen::Vector3d q = p - origin;
-  return {static_cast<float>(q.x()), static_cast<float>(q.y()), static_cast<float>(q.z())};
-}
-
-}  // namespace
-
-KnownMap::KnownMap(const Box& bounds, const MapModel& model)
-    : tree_(std::make_unique<Tree>(model.resolution)), bounds_(bounds), model_(model) {
-  tree_->tree.setProbHit(model.probability_hit);
-  tree_->tree.setProbMiss(model.probability_miss);
+void VehicleMap::setup(const Box& bounds, const MapModel& model) {
   const Eigen::Vector3d cells = (bounds.max - bounds.min) / model.resolution;
-  // OctoMap addresses 2^15 voxels either side of its origin; the mirror is a byte a voxel.
+  // A byte a voxel; map kinds index voxels in 32-bit keys (OctoMap: 2^15 either side).
   if (!(cells.maxCoeff() < 32000.0 && cells.prod() < 4e8)) {
     throw ConfigError("flight: a map of " + formatPoint(bounds.max - bounds.min) + " m at " +
                       formatNumber(model.resolution) +
                       " m is too many voxels (at most 32,000 per axis and 4e8 in all): use a "
                       "coarser map_resolution");
   }
-  tree_->lattice = VoxelGrid(bounds, model.resolution);
-  tree_->state.assign(tree_->lattice.size(), 0);
+  model_ = model;
+  bounds_ = bounds;
+  lattice_ = VoxelGrid(bounds, model.resolution);
+  state_.assign(lattice_.size(), 0);
+  doSetup();
 }
 
-KnownMap::~KnownMap() = default;
-KnownMap::KnownMap(KnownMap&&) noexcept = default;
-KnownMap& KnownMap::operator=(KnownMap&&) noexcept = default;
-
-void KnownMap::insert(const SensorFrame& frame, double max_range) {
-  octomap::Pointcloud cloud;
-  cloud.reserve(frame.hits.size() + frame.misses.size());
-  for (const auto& p : frame.hits) cloud.push_back(toTree(p, bounds_.min));
-  for (const auto& p : frame.misses) cloud.push_back(toTree(p, bounds_.min));
-  // Rays are cut at max_range: the misses (placed beyond it) insert free space only.
-  // OctoMap's insertPointCloud, spelt out (the same two library calls) so that each updated
-  // node comes back and the mirror follows it without a search.
-  octomap::OcTree& tree = tree_->tree;
-  octomap::KeySet free_cells;
-  octomap::KeySet occupied_cells;
-  tree.computeDiscreteUpdate(cloud, toTree(frame.origin, bounds_.min), free_cells, occupied_cells,
-                             max_range);
-  const VoxelGrid& lattice = tree_->lattice;
-  const auto update = [&](const octomap::OcTreeKey& key, bool hit) {
-    // Inner nodes are not updated (lazy): the mirror follows the leaves; write() updates them.
-    const octomap::OcTreeNode* node = tree.updateNode(key, hit, /*lazy_eval=*/true);
-    // Keys count from the tree's centre, 2^15 voxels from its origin (the map's corner).
-    const VoxelIndex voxel(static_cast<int>(key[0]) - 32768, static_cast<int>(key[1]) - 32768,
-                           static_cast<int>(key[2]) - 32768);
-    if (node && lattice.inside(voxel)) {
-      tree_->state[lattice.index(voxel)] = tree.isNodeOccupied(node) ? 2 : 1;
-    }
-  };
-  for (const octomap::OcTreeKey& key : free_cells) {
-    if (occupied_cells.find(key) == occupied_cells.end()) update(key, false);
-  }
-  for (const octomap::OcTreeKey& key : occupied_cells) update(key, true);
+void VehicleMap::insert(const SensorFrame& frame, double max_range) {
+  if (!isSetup()) throw InvalidArgument("VehicleMap::insert before setup()");
+  doInsert(frame, max_range);
 }
 
-void KnownMap::markFree(const Eigen::Vector3d& center, double radius) {
-  const VoxelGrid& lattice = tree_->lattice;
-  octomap::OcTree& tree = tree_->tree;
-  lattice.forEachVoxelIn(center.array() - radius, center.array() + radius, [&](std::size_t i) {
-    const Eigen::Vector3i& n = lattice.dims();
-    const VoxelIndex voxel(static_cast<int>(i / (static_cast<std::size_t>(n.y()) * n.z())),
-                           static_cast<int>(i / n.z() % n.y()), static_cast<int>(i % n.z()));
-    const Eigen::Vector3d c = lattice.center(voxel);
+void VehicleMap::doMarkFree(std::size_t index, const Eigen::Vector3d& /*center*/) {
+  setState(index, Voxel::kFree);
+}
+
+void VehicleMap::markFree(const Eigen::Vector3d& center, double radius) {
+  if (!isSetup()) throw InvalidArgument("VehicleMap::markFree before setup()");
+  lattice_.forEachVoxelIn(center.array() - radius, center.array() + radius, [&](std::size_t i) {
+    const Eigen::Vector3d c = voxelCenter(i);
     // Only unseen voxels: what the sensor saw (an obstacle beside the body) stays as seen.
-    if ((c - center).norm() > radius || tree_->state[i] != 0) return;
-    const octomap::OcTreeNode* node = tree.updateNode(toTree(c, bounds_.min), false, true);
-    if (node) tree_->state[i] = tree.isNodeOccupied(node) ? 2 : 1;
+    if ((c - center).norm() <= radius && state_[i] == 0) doMarkFree(i, c);
   });
 }
 
-std::shared_ptr<const World> KnownMap::window(const Eigen::Vector3d& center) const {
+std::shared_ptr<const World> VehicleMap::window(const Eigen::Vector3d& center) const {
   const double r = model_.resolution;
+  const Box& bounds = bounds_;
   // The window's box on the map's lattice, within the map.
   Box box;
   for (int axis = 0; axis < 3; ++axis) {
     const double half = 0.5 * (axis < 2 ? model_.window : model_.window_height);
-    const double low = std::max(bounds_.min[axis], center[axis] - half);
-    const double high = std::min(bounds_.max[axis], center[axis] + half);
-    box.min[axis] = bounds_.min[axis] + std::floor((low - bounds_.min[axis]) / r + 1e-9) * r;
-    box.max[axis] = bounds_.min[axis] + std::ceil((high - bounds_.min[axis]) / r - 1e-9) * r;
+    const double low = std::max(bounds.min[axis], center[axis] - half);
+    const double high = std::min(bounds.max[axis], center[axis] + half);
+    box.min[axis] = bounds.min[axis] + std::floor((low - bounds.min[axis]) / r + 1e-9) * r;
+    box.max[axis] = bounds.min[axis] + std::ceil((high - bounds.min[axis]) / r - 1e-9) * r;
     box.max[axis] = std::max(box.max[axis], box.min[axis] + r);
   }
   VoxelGrid grid(box, r);
   const Eigen::Vector3i& n = grid.dims();
-  const VoxelGrid& lattice = tree_->lattice;
+  const VoxelGrid& lattice = lattice_;
   // The window's first voxel in the mirror (both on the map's lattice).
   const Eigen::Vector3i first =
       ((grid.origin() - lattice.origin()) / r).array().round().cast<int>();
@@ -121,7 +79,7 @@ std::shared_ptr<const World> KnownMap::window(const Eigen::Vector3d& center) con
       // One z column of the window is a run of the mirror's column (both z fastest).
       const VoxelIndex column(first.x() + x, first.y() + y, first.z());
       const bool inside = lattice.inside(column);
-      const std::uint8_t* states = inside ? &tree_->state[lattice.index(column)] : nullptr;
+      const std::uint8_t* states = inside ? &state_[lattice.index(column)] : nullptr;
       const int known = inside ? std::min(n.z(), lattice.dims().z() - first.z()) : 0;
       std::uint8_t* out = &occupancy[grid.index(x, y, 0)];
       for (int z = 0; z < n.z(); ++z) {
@@ -234,9 +192,9 @@ std::vector<std::size_t> cellPath(const std::vector<std::uint8_t>& blocked, int 
 
 }  // namespace
 
-std::vector<Eigen::Vector3d> KnownMap::guide(const Eigen::Vector3d& from, const Eigen::Vector3d& to,
+std::vector<Eigen::Vector3d> VehicleMap::guide(const Eigen::Vector3d& from, const Eigen::Vector3d& to,
                                              double radius, double z_low, double z_high) const {
-  const VoxelGrid& lattice = tree_->lattice;
+  const VoxelGrid& lattice = lattice_;
   const Eigen::Vector3i& n = lattice.dims();
   const double r = model_.resolution;
   const auto cellOf = [&](const Eigen::Vector3d& p) {
@@ -249,7 +207,7 @@ std::vector<Eigen::Vector3d> KnownMap::guide(const Eigen::Vector3d& from, const 
       std::clamp(static_cast<int>(std::floor((z_low - lattice.origin().z()) / r)), 0, n.z() - 1);
   const int z1 =
       std::clamp(static_cast<int>(std::floor((z_high - lattice.origin().z()) / r)), 0, n.z() - 1);
-  std::vector<std::uint8_t> blocked = blockedCells(lattice, tree_->state, z0, z1, radius);
+  std::vector<std::uint8_t> blocked = blockedCells(lattice, state_, z0, z1, radius);
   const Eigen::Vector2i start = cellOf(from);
   const Eigen::Vector2i goal = cellOf(to);
   blocked[static_cast<std::size_t>(start.x()) * n.y() + start.y()] = 0;  // the vehicle is here
@@ -271,8 +229,8 @@ std::vector<Eigen::Vector3d> KnownMap::guide(const Eigen::Vector3d& from, const 
   return path;
 }
 
-std::string KnownMap::topView(double z_low, double z_high) const {
-  const VoxelGrid& lattice = tree_->lattice;
+std::string VehicleMap::topView(double z_low, double z_high) const {
+  const VoxelGrid& lattice = lattice_;
   const Eigen::Vector3i& n = lattice.dims();
   const double r = model_.resolution;
   const int z0 =
@@ -285,7 +243,7 @@ std::string KnownMap::topView(double z_low, double z_high) const {
   text.reserve(text.size() + static_cast<std::size_t>(n.x()) * (n.y() + 1));
   for (int x = 0; x < n.x(); ++x) {
     for (int y = 0; y < n.y(); ++y) {
-      const std::uint8_t* column = &tree_->state[lattice.index(x, y, 0)];
+      const std::uint8_t* column = &state_[lattice.index(x, y, 0)];
       const std::uint8_t top = *std::max_element(column + z0, column + z1 + 1);
       text += static_cast<char>('0' + top);
     }
@@ -294,42 +252,44 @@ std::string KnownMap::topView(double z_low, double z_high) const {
   return text;
 }
 
-std::size_t KnownMap::knownFree() const {
-  return static_cast<std::size_t>(std::count(tree_->state.begin(), tree_->state.end(), 1));
+std::size_t VehicleMap::knownFree() const {
+  return static_cast<std::size_t>(std::count(state_.begin(), state_.end(), 1));
 }
 
-std::size_t KnownMap::knownOccupied() const {
-  return static_cast<std::size_t>(std::count(tree_->state.begin(), tree_->state.end(), 2));
+std::size_t VehicleMap::knownOccupied() const {
+  return static_cast<std::size_t>(std::count(state_.begin(), state_.end(), 2));
 }
 
-std::vector<std::size_t> KnownMap::occupiedVoxels() const {
+std::vector<std::size_t> VehicleMap::occupiedVoxels() const {
   std::vector<std::size_t> voxels;
-  for (std::size_t i = 0; i < tree_->state.size(); ++i) {
-    if (tree_->state[i] == 2) voxels.push_back(i);
+  for (std::size_t i = 0; i < state_.size(); ++i) {
+    if (state_[i] == 2) voxels.push_back(i);
   }
   return voxels;
 }
 
-Eigen::Vector3d KnownMap::voxelCenter(std::size_t index) const {
-  const Eigen::Vector3i& n = tree_->lattice.dims();
+Eigen::Vector3d VehicleMap::voxelCenter(std::size_t index) const {
+  const Eigen::Vector3i& n = lattice_.dims();
   const auto yz = static_cast<std::size_t>(n.y()) * n.z();
-  return tree_->lattice.center(VoxelIndex(static_cast<int>(index / yz),
+  return lattice_.center(VoxelIndex(static_cast<int>(index / yz),
                                           static_cast<int>(index % yz / n.z()),
                                           static_cast<int>(index % n.z())));
 }
 
-void KnownMap::write(const std::string& path) const {
+void VehicleMap::write(const std::string& path) const {
   // OctoMap writes its own frame: the known voxels (the mirror's) go into a tree in the
   // world's frame, and so does their state.
   octomap::OcTree shifted(model_.resolution);
-  const VoxelGrid& lattice = tree_->lattice;
+  const VoxelGrid& lattice = lattice_;
   const Eigen::Vector3i& n = lattice.dims();
   for (int x = 0; x < n.x(); ++x) {
     for (int y = 0; y < n.y(); ++y) {
       for (int z = 0; z < n.z(); ++z) {
-        const std::uint8_t state = tree_->state[lattice.index(x, y, z)];
+        const std::uint8_t state = state_[lattice.index(x, y, z)];
         if (state == 0) continue;
-        shifted.updateNode(toTree(lattice.center(VoxelIndex(x, y, z)), Eigen::Vector3d::Zero()),
+        const Eigen::Vector3d c = lattice.center(VoxelIndex(x, y, z));
+        shifted.updateNode(octomap::point3d(static_cast<float>(c.x()), static_cast<float>(c.y()),
+                                            static_cast<float>(c.z())),
                            state == 2, /*lazy_eval=*/true);
       }
     }

@@ -1,0 +1,106 @@
+#pragma once
+
+#include <Eigen/Core>
+#include <cstddef>
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "kinolab/core/plugin_registry.hpp"
+#include "kinolab/flight/sensor.hpp"
+#include "kinolab/world/voxel_grid.hpp"
+#include "kinolab/world/world.hpp"
+
+namespace kinolab {
+
+/// How the planning window treats space the sensor has not seen.
+enum class UnknownSpace { kFree, kOccupied, kFreeBeyond };
+
+/// The vehicle map's lattice and the planning window a flight takes from it.
+struct MapModel {
+  double resolution = 0.1;     ///< m; the map's voxels align with the ground truth's lattice
+  double window = 8.0;         ///< m: the planning window's side in x and y
+  double window_height = 2.0;  ///< m: its height (centred on the vehicle, within the map)
+  UnknownSpace unknown = UnknownSpace::kFree;
+  double free_beyond = 2.0;  ///< m (kFreeBeyond): unknown is occupied closer than this
+};
+
+/// What the vehicle knows: the state of every voxel of the map's lattice (unknown, free or
+/// occupied), grown frame by frame, and from it a planning window around the vehicle with its
+/// exact ESDF, a global guide, views and the map as an OctoMap file.
+///
+/// A map kind (`kinolab list vehicle_maps`, the flight parameter `map`) is its sensor model:
+/// how a frame changes what is known (doInsert()). Everything a flight asks of the map is
+/// answered here from the known states, the same for every kind. Configured from its
+/// parameters by its factory, then set up once per flight (setup()).
+class VehicleMap {
+ public:
+  enum class Voxel : std::uint8_t { kUnknown = 0, kFree = 1, kOccupied = 2 };
+
+  virtual ~VehicleMap();
+
+  /// Starts a map of `bounds` (the ground truth's box; positions outside are never mapped),
+  /// everything unknown. A ConfigError when the lattice is too large to keep.
+  void setup(const Box& bounds, const MapModel& model);
+  bool isSetup() const { return !state_.empty(); }
+
+  /// Inserts a frame seen from frame.origin, rays cut at `max_range`: free space along every
+  /// ray, an obstacle at every hit, as the map kind's sensor model decides.
+  void insert(const SensorFrame& frame, double max_range);
+  /// Marks the unseen voxels within `radius` of `center` known (where the vehicle is, nothing
+  /// can be: free); voxels the sensor has seen keep their state.
+  void markFree(const Eigen::Vector3d& center, double radius);
+  /// The planning world: the window of side `window` around `center` (clamped to the map),
+  /// known occupied voxels and unknown ones as `unknown` says (kFreeBeyond: measured from
+  /// `center`), with its exact ESDF.
+  std::shared_ptr<const World> window(const Eigen::Vector3d& center) const;
+  /// A shortest 8-connected path over the map's x-y cells from `from` to `to`, through cells
+  /// with no known occupied voxel within `radius` in the heights [z_low, z_high] (unknown is
+  /// free): the global guide a local goal is taken from. Cell centres at heights
+  /// interpolated from `from` to `to`; empty when the known map leaves no way.
+  std::vector<Eigen::Vector3d> guide(const Eigen::Vector3d& from, const Eigen::Vector3d& to,
+                                     double radius, double z_low, double z_high) const;
+  /// The known map from above over heights [z_low, z_high], as text: a line
+  /// "nx,ny,origin_x,origin_y,resolution", then per x one line of ny digits, per column 2 (a
+  /// known obstacle in the band), 1 (known free there) or 0 (unknown).
+  std::string topView(double z_low, double z_high) const;
+  /// Voxels known free and known occupied.
+  std::size_t knownFree() const;
+  std::size_t knownOccupied() const;
+  /// The known occupied voxels, as indices of the map's lattice (x slowest, z fastest).
+  std::vector<std::size_t> occupiedVoxels() const;
+  /// The centre of the lattice voxel `index` (world frame).
+  Eigen::Vector3d voxelCenter(std::size_t index) const;
+  /// Writes the known voxels as an OctoMap .bt file (world frame).
+  void write(const std::string& path) const;
+
+  /// The map's box (setup()'s) and its lattice, which covers it.
+  const Box& bounds() const { return bounds_; }
+  const VoxelGrid& lattice() const { return lattice_; }
+  const MapModel& model() const { return model_; }
+  Voxel state(std::size_t index) const { return static_cast<Voxel>(state_[index]); }
+
+ protected:
+  /// After setup() made the lattice (all unknown): start the kind's own state.
+  virtual void doSetup() {}
+  /// The kind's sensor model: updates its state from the frame and calls setState() for
+  /// every lattice voxel whose known state it changes.
+  virtual void doInsert(const SensorFrame& frame, double max_range) = 0;
+  /// The unseen voxel `index` (centre `center`) is inside the vehicle's body: make it known
+  /// free in the kind's state and call setState(). By default, only the latter.
+  virtual void doMarkFree(std::size_t index, const Eigen::Vector3d& center);
+
+  void setState(std::size_t index, Voxel state) { state_[index] = static_cast<std::uint8_t>(state); }
+
+ private:
+  MapModel model_;
+  Box bounds_;
+  VoxelGrid lattice_;  // the map's geometry (its occupancy unused)
+  std::vector<std::uint8_t> state_;
+};
+
+template <>
+PluginRegistry<VehicleMap>& pluginRegistry<VehicleMap>();
+
+}  // namespace kinolab
