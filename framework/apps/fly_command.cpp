@@ -80,8 +80,7 @@ void runFly(const FlyOptions& options) {
   if (!options.out_dir.empty() && setup.settings.snapshot_period <= 0.0) {
     setup.settings.snapshot_period = 0.5;
   }
-  const FlightResult result =
-      fly(load.world, factory, query, setup);
+  const FlightResult result = fly(load.world, factory, query, setup);
 
   std::printf("flight of %s through world %s, seed %llu\n", options.planner.c_str(),
               load.world->name().c_str(), static_cast<unsigned long long>(options.seed));

@@ -246,8 +246,7 @@ TEST_P(VehicleMapConformance, KnowsOnlyWhatWasSeenAndStartsOverOnSetup) {
   ASSERT_GT(map->knownOccupied(), 0u);
   for (const std::size_t voxel : map->occupiedVoxels()) {
     const Eigen::Vector3d c = map->voxelCenter(voxel);
-    const VoxelIndex at =
-        ((c - truth.origin()) / truth.resolution()).array().floor().cast<int>();
+    const VoxelIndex at = ((c - truth.origin()) / truth.resolution()).array().floor().cast<int>();
     ASSERT_TRUE(truth.inside(at));
     EXPECT_TRUE(truth.occupied(at)) << c.transpose();
   }

@@ -192,8 +192,9 @@ std::vector<std::size_t> cellPath(const std::vector<std::uint8_t>& blocked, int 
 
 }  // namespace
 
-std::vector<Eigen::Vector3d> VehicleMap::guide(const Eigen::Vector3d& from, const Eigen::Vector3d& to,
-                                             double radius, double z_low, double z_high) const {
+std::vector<Eigen::Vector3d> VehicleMap::guide(const Eigen::Vector3d& from,
+                                               const Eigen::Vector3d& to, double radius,
+                                               double z_low, double z_high) const {
   const VoxelGrid& lattice = lattice_;
   const Eigen::Vector3i& n = lattice.dims();
   const double r = model_.resolution;
@@ -272,8 +273,8 @@ Eigen::Vector3d VehicleMap::voxelCenter(std::size_t index) const {
   const Eigen::Vector3i& n = lattice_.dims();
   const auto yz = static_cast<std::size_t>(n.y()) * n.z();
   return lattice_.center(VoxelIndex(static_cast<int>(index / yz),
-                                          static_cast<int>(index % yz / n.z()),
-                                          static_cast<int>(index % n.z())));
+                                    static_cast<int>(index % yz / n.z()),
+                                    static_cast<int>(index % n.z())));
 }
 
 void VehicleMap::write(const std::string& path) const {

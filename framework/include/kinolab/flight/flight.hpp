@@ -9,8 +9,8 @@
 
 #include "kinolab/core/metric_specs.hpp"
 #include "kinolab/core/parameters.hpp"
-#include "kinolab/flight/vehicle_map.hpp"
 #include "kinolab/flight/sensor.hpp"
+#include "kinolab/flight/vehicle_map.hpp"
 #include "kinolab/planner/planner.hpp"
 #include "kinolab/trajectory/trajectory.hpp"
 #include "kinolab/world/world.hpp"

@@ -91,7 +91,9 @@ class VehicleMap {
   /// free in the kind's state and call setState(). By default, only the latter.
   virtual void doMarkFree(std::size_t index, const Eigen::Vector3d& center);
 
-  void setState(std::size_t index, Voxel state) { state_[index] = static_cast<std::uint8_t>(state); }
+  void setState(std::size_t index, Voxel state) {
+    state_[index] = static_cast<std::uint8_t>(state);
+  }
 
  private:
   MapModel model_;
