@@ -21,6 +21,8 @@ PACKAGES=(
   # Python (Debian's interpreter and packages; the Python package index is not needed)
   python3 python3-numpy python3-scipy python3-yaml python3-pytest python3-pandas
   python3-matplotlib python3-pil python3-jinja2
+  # the scene format test validates both scene writers against viewer/scene.schema.json
+  python3-jsonschema
   # the Python bindings (pybind11) and the 3D viewer (three.js r111, inlined at build time)
   python3-dev pybind11-dev python3-pybind11 libjs-three
   # the report and viewer tests render HTML in a headless browser (the viewer's clicked
