@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import base64
 import io
+import math
 import sqlite3
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -14,7 +15,7 @@ import yaml
 import matplotlib.pyplot as plt
 import pandas as pd
 
-from . import plots, tables, view
+from . import paper, plots, tables, view
 from .data import Results, load
 
 TEMPLATE = """<!DOCTYPE html>
@@ -70,7 +71,7 @@ value (this experiment's sweep and the lazy-regime experiments beside it{{ regim
 over the cases both answered (exact, or approximate at the same budget), the share with the
 same cost (lazy with the lwa rule is exact), and over those the median ratio with a
 bootstrap 95 % interval and its range. The figures "Lazy speedup: ..." below plot
-each sweep, the heat map two at once; the paper's figure is 6.82 / 3.87 = 1.76x.</p>
+each sweep, the heat map two at once{{ paper_speedup }}.</p>
 {{ tables['lazy_regime'] }}
 {% endif %}
 
@@ -227,7 +228,12 @@ def find_lazy_regime(directory: Path) -> list[Path]:
 
 def _lazy_regime(report: Report, results: Results, directory: Path) -> str:
     """The speedup table and figures: of this experiment when it sweeps eager and lazy,
-    and of every lazy-regime experiment beside it. Returns where they came from."""
+    and of every lazy-regime experiment beside it (with the reproduced paper's speedup, when
+    this experiment reproduces one). Returns where they came from."""
+    reproduced = results.reproduces()
+    reference = None
+    if reproduced and math.isfinite(claimed := paper.load(reproduced[0]).speedup):
+        reference = (f"the paper's {claimed:.2f}x", claimed)
     sets = [(results.meta.get("name", "this experiment"), results.runs)]
     for path in find_lazy_regime(directory):
         other = load(path)
@@ -237,10 +243,14 @@ def _lazy_regime(report: Report, results: Results, directory: Path) -> str:
         table = tables.lazy_speedup(runs)
         if table.empty or runs["sweep"].fillna("").nunique() < 2:
             continue
-        if (figure := plots.lazy_speedup(table, name)) is not None:
+        if (figure := plots.lazy_speedup(table, name, reference)) is not None:
+            heat_map = len([c for c in table.columns if c not in tables.SPEEDUP_COLUMNS]) >= 2
             _save(figure, report, f"lazy_speedup_{name}", f"Lazy speedup: {name}",
-                  "Median eager T / lazy T over the cases both answered at the same cost, bootstrap "
-                  "95 % interval and range; dotted: the paper's 1.76x; dashed: parity.")
+                  ("Median eager T / lazy T over the cases both answered at the same cost, per "
+                   "pair of swept values (colour and label)." if heat_map else
+                   "Median eager T / lazy T over the cases both answered at the same cost, "
+                   "bootstrap 95 % interval and range; dashed: parity"
+                   + (f"; dotted: {reference[0]}." if reference else ".")))
         axes = [c for c in table.columns if c not in tables.SPEEDUP_COLUMNS]
         values = [", ".join(f"{a}={row[a]}" for a in axes) or row["sweep"]
                   for _, row in table.iterrows()]
@@ -285,8 +295,9 @@ def _tables(report: Report, results, paths: list[Path], compare: Path | None,
     if runs["planning_time_cold_ms"].notna().any():
         report.tables["timing"] = tables.timing(runs)
     # The paper's tables only for an experiment that says what it reproduces.
-    if reproduced:
-        report.tables["paper_table2"] = tables.paper_table2(runs)
+    reproduced_paper = paper.load(reproduced[0]) if reproduced else None
+    if reproduced_paper:
+        report.tables["paper_table2"] = paper.table2(runs, reproduced_paper)
     full_summary = tables.summary(runs)
     report.tables["summary"] = _summary_columns(full_summary)
     report.tables["means"] = full_summary[["planner"] + [c for c in full_summary.columns
@@ -314,11 +325,11 @@ def _tables(report: Report, results, paths: list[Path], compare: Path | None,
     readings = None
     readings_verdict = ""
     if sampling_csv is not None:
-        report.tables["paper_table1"] = tables.paper_table1(sampling_csv)
-        if (sampling_csv.parent / "readings.csv").is_file():
+        report.tables["paper_table1"] = paper.table1(sampling_csv, reproduced_paper)
+        if reproduced_paper and (sampling_csv.parent / "readings.csv").is_file():
             readings = pd.read_csv(sampling_csv.parent / "readings.csv")
-            report.tables["sampling_readings"], readings_verdict = tables.sampling_readings(
-                readings)
+            report.tables["sampling_readings"], readings_verdict = paper.sampling_readings(
+                readings, reproduced_paper)
     compare_name = ""
     if compare is not None:
         other = load(compare)
@@ -348,7 +359,8 @@ def _summary_figures(report: Report, results, sampling_csv: Path | None,
         _save(plots.sampling_study(report.tables["paper_table1"]), report, "sampling_study",
               "Sampling study (Table I)", "alpha and L per sampler, kinolab beside the paper.")
     if readings is not None:
-        _save(plots.sampling_readings(readings, tables.PAPER_TABLE1), report, "sampling_readings",
+        _save(plots.sampling_readings(readings, paper.load(results.reproduces()[0]).samplers),
+              report, "sampling_readings",
               "Table I under every reading",
               "Per reading (distance, propagation, pooling): alpha against the threshold for "
               "each sampler and M, and L against M; stars and dashed lines: the paper's "
@@ -439,10 +451,18 @@ def _write_page(report: Report, results, out: Path, compare_name: str,
         timing_protocol=timing_protocol(results.meta), readings_verdict=readings_verdict,
         regime_sources=f": {regime_sources}" if regime_sources else "",
         paper_rows=", ".join(f"{row} = {planner}" for planner, row in reproduced[1].items())
-        if reproduced else "")
+        if reproduced else "", paper_speedup=_paper_speedup(reproduced))
     (out / "index.html").write_text(html)
 
 
+def _paper_speedup(reproduced: tuple[str, dict[str, str]] | None) -> str:
+    """The reproduced paper's speedup claim as a clause, or nothing."""
+    if not reproduced:
+        return ""
+    claimed = paper.load(reproduced[0])
+    if not math.isfinite(claimed.speedup):
+        return ""
+    return f"; the paper's figure is {claimed.speedup:.2f}x ({claimed.title})"
 
 def _progress_figures(report: Report, results: Results) -> None:
     """One figure per declared progress series (the planners' anytime progress)."""

@@ -1,11 +1,10 @@
 """Summary tables: counts by status, per-planner statistics with intervals, paired
-comparisons, and the paper's tables beside what kinolab measured."""
+comparisons and the lazy speedup. A paper's tables are kinolab_analysis.paper's."""
 
 from __future__ import annotations
 
 import itertools
 import math
-from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -47,12 +46,6 @@ def metrics(declared: pd.DataFrame, columns: tuple[str, ...] | None = None
         units = dict(zip(declared["name"], declared["unit"].fillna("")))
     return [(column, label, units.get(column, "")) for column, label in SUMMARISED
             if columns is None or column in columns]
-
-# The paper's Table II (T ms, N, D m) and Table I (alpha, L m).
-PAPER_TABLE2 = {"TGK": (8.78, math.nan, 2.27), "MP-A*": (6.82, 973.0, 2.31),
-                "Lazy": (3.87, 1254.0, 2.25)}
-PAPER_TABLE1 = {"random": (0.60, 0.049), "uniform": (0.84, 0.069), "normal": (0.94, 0.079)}
-
 
 def status_counts(runs: pd.DataFrame, by: str = "planner") -> pd.DataFrame:
     """Runs per status (every status, failures included), with the total."""
@@ -188,38 +181,6 @@ def answered(runs: pd.DataFrame) -> pd.Series:
         ["exact", "approximate"])
 
 
-def paper_table2(runs: pd.DataFrame) -> pd.DataFrame:
-    """The paper's T, N, D beside the medians kinolab measured for the same planner
-    families, per sweep variant and world when there are several: T and N over the runs that returned
-    a checked trajectory (answered: exact, or approximate at the budget), D over all runs,
-    with intervals and the one-sample Wilcoxon p of each difference."""
-    rows = []
-    variants = list(dict.fromkeys(runs["sweep"].fillna("")))
-    worlds = list(dict.fromkeys(runs["world"]))
-    for variant, world in itertools.product(variants, worlds):
-        for family, (t, n, d) in PAPER_TABLE2.items():
-            group = runs[(runs["paper"] == family) & (runs["sweep"].fillna("") == variant)
-                         & (runs["world"] == world)]
-            ok = group[answered(group)]
-            row = {"variant": variant} if len(variants) > 1 else {}
-            if len(worlds) > 1:
-                row["world"] = world
-            row.update({"planner": family, "runs": len(group),
-                        "success": stats.wilson(int(group["success"].sum()), len(group)),
-                        "answered": stats.wilson(len(ok), len(group))})
-            for label, column, paper_value, subset in (("T (ms)", "planning_time_ms", t, ok),
-                                                       ("N", "expansions", n, ok),
-                                                       ("D (m)", "distance_to_goal", d, group)):
-                values = (subset[column].dropna().to_numpy(dtype=float) if column in subset
-                          else np.array([]))
-                row[f"paper {label}"] = paper_value
-                row[f"kinolab {label}"] = stats.bootstrap(values, np.median)
-                row[f"p {label}"] = (stats.one_sample_wilcoxon(values, paper_value)
-                                     if math.isfinite(paper_value) and len(values) else math.nan)
-            rows.append(row)
-    return pd.DataFrame(rows)
-
-
 def worlds(runs: pd.DataFrame) -> pd.DataFrame:
     """Per world: its queries and the share whose straight line from start to goal is
     blocked for the planners' body (a query needs a detour), with a Wilson interval."""
@@ -253,34 +214,6 @@ def timing(runs: pd.DataFrame) -> pd.DataFrame:
         ratio = (group["planning_time_cold_ms"] / group["planning_time_ms"]).dropna()
         row["cold / warm"] = stats.bootstrap(ratio.to_numpy(dtype=float), np.median)
         rows.append(row)
-    return pd.DataFrame(rows)
-
-
-def paper_table1(summary_csv: Path) -> pd.DataFrame:
-    """The sampling study's summary (kinolab sampling-study's summary.csv) beside the
-    paper's Table I: alpha and L (mean nearest-neighbour distance of endpoints), with the
-    one-sample Wilcoxon p of each difference over the study's initial states (from the
-    sampling_study.csv beside it, when present)."""
-    study = pd.read_csv(summary_csv)
-    per_state_csv = summary_csv.parent / "sampling_study.csv"
-    per_state = pd.read_csv(per_state_csv) if per_state_csv.is_file() else None
-    rows = []
-    for _, row in study.iterrows():
-        name = str(row["sampler"])
-        paper = PAPER_TABLE1.get(name, (math.nan, math.nan))
-        paper_alpha = float(row.get("paper_alpha", paper[0]))
-        paper_l = float(row.get("paper_mean_nearest", paper[1]))
-        states = per_state[per_state["sampler"] == name] if per_state is not None else None
-        p_alpha = p_l = math.nan
-        if states is not None and len(states):
-            if math.isfinite(paper_alpha):
-                p_alpha = stats.one_sample_wilcoxon(states["alpha"], paper_alpha)
-            if math.isfinite(paper_l):
-                p_l = stats.one_sample_wilcoxon(states["mean_nearest"], paper_l)
-        rows.append({"sampler": name, "paper alpha": paper_alpha,
-                     "kinolab alpha": float(row["alpha"]), "p alpha": p_alpha,
-                     "paper L (m)": paper_l, "kinolab L (m)": float(row["mean_nearest"]),
-                     "p L": p_l})
     return pd.DataFrame(rows)
 
 
@@ -321,47 +254,6 @@ def to_latex(table: pd.DataFrame, caption: str) -> str:
         lines.append(" & ".join(_latex_escape(text(v)) for v in row) + r" \\")
     lines += [r"\bottomrule", r"\end{tabular}", r"\end{table}"]
     return "\n".join(lines) + "\n"
-
-
-def sampling_readings(readings: pd.DataFrame,
-                      samplers: tuple[str, str, str] = ("random", "uniform", "normal")
-                      ) -> tuple[pd.DataFrame, str]:
-    """Table I under every reading (the sampling study's readings.csv): per reading
-    (M, distance, propagation, pooling, threshold) alpha and L of the three samplers,
-    whether the paper's ranking (random < uniform < normal) holds for each, and the largest
-    gap to the paper's six figures; then a one-sentence verdict."""
-    keys = ["controls", "distance", "propagation", "pooling", "threshold"]
-    chosen = readings[readings["sampler"].isin(samplers)]
-    wide = chosen.pivot_table(index=keys, columns="sampler", values=["alpha", "mean_nearest"])
-    rows = []
-    for key, values in wide.iterrows():
-        alpha = [values[("alpha", s)] for s in samplers]
-        length = [values[("mean_nearest", s)] for s in samplers]
-        gap = max(max(abs(alpha[i] - PAPER_TABLE1[s][0]), abs(length[i] - PAPER_TABLE1[s][1]))
-                  for i, s in enumerate(samplers))
-        rows.append({**dict(zip(keys, key)),
-                     **{f"alpha {s}": alpha[i] for i, s in enumerate(samplers)},
-                     **{f"L {s}": length[i] for i, s in enumerate(samplers)},
-                     "alpha ranked as the paper": alpha[0] < alpha[1] < alpha[2],
-                     "L ranked as the paper": length[0] < length[1] < length[2],
-                     "largest gap to the paper": gap})
-    table = pd.DataFrame(rows)
-    if table.empty:
-        return table, "No readings."
-    both = table["alpha ranked as the paper"] & table["L ranked as the paper"]
-    closest = table.loc[table["largest gap to the paper"].idxmin()]
-    verdict = (
-        f"Of {len(table)} readings ({table['controls'].nunique()} M x "
-        f"{table['distance'].nunique()} distances x {table['propagation'].nunique()} "
-        f"propagations x {table['pooling'].nunique()} poolings x "
-        f"{table['threshold'].nunique()} thresholds), the paper's ranking random < uniform < "
-        f"normal holds for alpha in {int(table['alpha ranked as the paper'].sum())}, for L in "
-        f"{int(table['L ranked as the paper'].sum())} and for both in {int(both.sum())}; "
-        f"the reading closest to the paper's six figures (M {int(closest['controls'])}, "
-        f"{closest['distance']}, {closest['propagation']}, {closest['pooling']}, threshold "
-        f"{closest['threshold']:g}) is still {closest['largest gap to the paper']:.2f} away in "
-        f"its worst figure.")
-    return table, verdict
 
 
 # The columns of lazy_speedup besides the swept axes.

@@ -10,6 +10,7 @@
 
 #include "commands.hpp"
 #include "kinolab/core/error.hpp"
+#include "kinolab/core/files.hpp"
 #include "kinolab/core/version.hpp"
 #include "kinolab/view/scene.hpp"
 
@@ -22,20 +23,6 @@ struct ReportOptions {
   std::string compare;
   std::string sampling_study;
 };
-
-/// The folder holding the kinolab_analysis package: $KINOLAB_ANALYSIS_DIR, the source
-/// tree's analysis/, or share/kinolab/analysis beside an installed binary.
-std::string analysisDirectory() {
-  namespace fs = std::filesystem;
-  if (const char* set = std::getenv("KINOLAB_ANALYSIS_DIR")) return set;
-  const fs::path source = fs::path(kSourceDir) / "analysis";
-  if (fs::is_directory(source / "kinolab_analysis")) return source.string();
-  const fs::path installed =
-      fs::read_symlink("/proc/self/exe").parent_path().parent_path() / "share/kinolab/analysis";
-  if (fs::is_directory(installed / "kinolab_analysis")) return installed.string();
-  throw FileError("kinolab report: the analysis package is in neither " + source.string() +
-                  " nor " + installed.string() + "; set KINOLAB_ANALYSIS_DIR");
-}
 
 /// Runs `python3 -m kinolab_analysis ARGUMENTS...` in place of this process.
 [[noreturn]] void runAnalysis(std::vector<std::string> arguments) {

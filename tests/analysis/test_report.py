@@ -160,7 +160,7 @@ def test_an_experiment_that_reproduces_no_paper_gets_no_paper_tables(tmp_path):
     result = kinolab("report", tmp_path / "plain", cache=tmp_path / "cache")
     assert result.returncode == 0, result.stderr
     html = (tmp_path / "plain" / "report" / "index.html").read_text()
-    assert "Table II" not in html and "Table I" not in html
+    assert "Table II" not in html and "Table I" not in html and "1.76x" not in html
     assert not (tmp_path / "plain" / "report" / "tables" / "paper_table2.md").exists()
     assert "Table II" not in result.stdout and "per planner" in result.stdout
     # The lazy planner's tree is still drawn (chosen by its partial edges, not its key).
@@ -221,6 +221,8 @@ def test_the_lazy_regime_and_table_one_readings_beside_a_reproduction(results, t
     assert "edge_samples=2" in regime and "edge_samples=20" in regime
     html = (out / "index.html").read_text()
     assert "Where lazy pays off" in html and "Table I under every reading" in html
+    # The reproduced paper's speedup, from papers.yaml, beside the regime's.
+    assert "the paper&#39;s figure is 1.76x" in html and "dotted: the paper&#39;s 1.76x" in html
     assert "the paper&#39;s ranking random &lt; uniform &lt; normal holds for alpha in" in html
     assert "Warm: in each run&#39;s worker, 1 discarded plan(s)" in html
     assert (out / "tables" / "worlds.md").read_text().count("| small |") == 1

@@ -8,7 +8,7 @@ import pandas as pd
 import pytest
 from scipy import stats as sps
 
-from kinolab_analysis import stats, tables
+from kinolab_analysis import paper, stats, tables
 
 
 def test_wilson_interval_matches_the_textbook_values():
@@ -131,7 +131,7 @@ def test_paired_comparisons_find_the_constant_difference():
 
 
 def test_paper_table_two_beside_the_measured_medians():
-    table = tables.paper_table2(synthetic_runs()).set_index("planner")
+    table = paper.table2(synthetic_runs(), paper.load("lazy_mp_astar_paper")).set_index("planner")
     assert table.loc["MP-A*", "paper T (ms)"] == 6.82
     assert table.loc["Lazy", "kinolab N"].estimate == 100.0
     measured = synthetic_runs().query("planner == 'fast'")["planning_time_ms"]
@@ -155,7 +155,7 @@ def test_paper_table_one_from_a_sampling_study_summary(tmp_path):
     csv.write_text("sampler,type,controls,alpha,mean_nearest,paper_alpha,paper_mean_nearest\n"
                    "uniform,uniform,125,0.9,0.07,0.84,0.069\n"
                    "mine,uniform,125,0.5,0.02,,\n")
-    table = tables.paper_table1(csv).set_index("sampler")
+    table = paper.table1(csv, paper.load("lazy_mp_astar_paper")).set_index("sampler")
     assert table.loc["uniform", "kinolab alpha"] == 0.9
     assert table.loc["uniform", "paper L (m)"] == 0.069
     assert table.loc["mine", "kinolab L (m)"] == 0.02
@@ -164,7 +164,7 @@ def test_paper_table_one_from_a_sampling_study_summary(tmp_path):
     (tmp_path / "sampling_study.csv").write_text(
         "sampler,state,alpha,mean_nearest\n" +
         "".join(f"uniform,{i},{0.9 + 0.01 * i},0.07\n" for i in range(8)))
-    table = tables.paper_table1(csv).set_index("sampler")
+    table = paper.table1(csv, paper.load("lazy_mp_astar_paper")).set_index("sampler")
     alphas = [0.9 + 0.01 * i for i in range(8)]
     assert table.loc["uniform", "p alpha"] == pytest.approx(
         sps.wilcoxon(np.array(alphas) - 0.84).pvalue)
@@ -237,7 +237,7 @@ def test_table_one_readings_verdict_counts_the_readings_that_rank_as_the_paper()
             rows.append({"sampler": sampler, "controls": 125, "distance": "position",
                          "propagation": "exact", "pooling": "per_state",
                          "threshold": threshold, "alpha": a, "mean_nearest": length})
-    table, verdict = tables.sampling_readings(pd.DataFrame(rows))
+    table, verdict = paper.sampling_readings(pd.DataFrame(rows), paper.load("lazy_mp_astar_paper"))
     assert len(table) == 2
     assert table["alpha ranked as the paper"].tolist() == [False, True]
     assert table["L ranked as the paper"].all()
@@ -273,7 +273,7 @@ def test_worlds_timing_and_table_two_per_variant_over_answered_runs():
     timing = tables.timing(runs).set_index("planner")
     assert timing.loc["lazy", "cold / warm"].estimate == pytest.approx(3.0)
     assert timing.loc["eager", "fastest T (ms)"].estimate == pytest.approx(1.5)
-    table2 = tables.paper_table2(runs).set_index(["variant", "planner"])
+    table2 = paper.table2(runs, paper.load("lazy_mp_astar_paper")).set_index(["variant", "planner"])
     # Budget stops are not successes but answered runs: T, N and D come from them.
     assert table2.loc[("horizon", "Lazy"), "success"].estimate == 0.0
     assert table2.loc[("horizon", "Lazy"), "answered"].estimate == 1.0

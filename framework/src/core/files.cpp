@@ -1,5 +1,6 @@
 #include "kinolab/core/files.hpp"
 
+#include <dlfcn.h>
 #include <fcntl.h>
 #include <sys/file.h>
 #include <unistd.h>
@@ -12,12 +13,45 @@
 #include <system_error>
 
 #include "kinolab/core/error.hpp"
+#include "kinolab/core/version.hpp"
 
 namespace kinolab {
 
 bool isRegularFile(const std::string& path) {
   std::error_code error;
   return std::filesystem::is_regular_file(path, error) && !error;
+}
+
+std::string installedDataDirectory() {
+  namespace fs = std::filesystem;
+  Dl_info info{};
+  if (dladdr(reinterpret_cast<void*>(&installedDataDirectory), &info) == 0 || !info.dli_fname) {
+    return "";
+  }
+  // <prefix>/lib[/<multiarch>]/libkinolab_framework.so -> <prefix>/share/kinolab
+  std::error_code error;
+  for (fs::path up = fs::absolute(info.dli_fname, error).parent_path(); up.has_relative_path();
+       up = up.parent_path()) {
+    if (up.filename() == "lib") {
+      const fs::path share = up.parent_path() / "share/kinolab";
+      return fs::is_directory(share, error) ? share.string() : "";
+    }
+  }
+  return "";
+}
+
+std::string analysisDirectory() {
+  namespace fs = std::filesystem;
+  if (const char* set = std::getenv("KINOLAB_ANALYSIS_DIR"); set && *set) return set;
+  std::error_code error;
+  const fs::path source = fs::path(kSourceDir) / "analysis";
+  if (fs::is_directory(source / "kinolab_analysis", error)) return source.string();
+  const std::string installed = installedDataDirectory();
+  if (!installed.empty() && fs::is_directory(installed + "/analysis/kinolab_analysis", error)) {
+    return installed + "/analysis";
+  }
+  throw FileError("the analysis package (kinolab_analysis) is in neither " + source.string() +
+                  " nor an installation's share/kinolab/analysis; set KINOLAB_ANALYSIS_DIR");
 }
 
 void writeFileAtomically(const std::string& path, const std::string& text) {

@@ -329,10 +329,11 @@ void readHeader(const YamlReader& root, const std::string& directory, Experiment
 void readReproduces(const YamlReader& reproduces, Experiment& experiment) {
   const YamlReader paper = reproduces["paper"];
   experiment.reproduces_paper = paper.as<std::string>();
-  const auto known = reproducibleRows().find(experiment.reproduces_paper);
-  if (known == reproducibleRows().end()) {
+  const auto papers = reproducibleRows();
+  const auto known = papers.find(experiment.reproduces_paper);
+  if (known == papers.end()) {
     std::vector<std::string> names;
-    for (const auto& [name, rows] : reproducibleRows()) names.push_back(name);
+    for (const auto& [name, rows] : papers) names.push_back(name);
     paper.fail("unknown paper '" + experiment.reproduces_paper + "'" +
                didYouMean(experiment.reproduces_paper, names) + "; known: " + join(names, ", "));
   }
@@ -429,11 +430,14 @@ Experiment Experiment::fromFile(const std::string& path) {
   return experiment;
 }
 
-const std::map<std::string, std::vector<std::string>>& reproducibleRows() {
-  static const std::map<std::string, std::vector<std::string>> papers = {
-      // Wang, Shen, Chen, Lu: "Towards Efficient Motion Planning for UAVs: Lazy A* Search with
-      // Motion Primitives", Table II.
-      {"lazy_mp_astar_paper", {"TGK", "MP-A*", "Lazy"}}};
+std::map<std::string, std::vector<std::string>> reproducibleRows() {
+  // The one definition of the papers, which the analysis package reads for their figures.
+  const std::string path = analysisDirectory() + "/kinolab_analysis/papers.yaml";
+  std::map<std::string, std::vector<std::string>> papers;
+  for (const auto& [key, paper] : YamlReader::loadFile(path).entries()) {
+    std::vector<std::string>& rows = papers[key];
+    for (const auto& [row, figures] : paper["rows"].entries()) rows.push_back(row);
+  }
   return papers;
 }
 

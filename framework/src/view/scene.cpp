@@ -1,7 +1,5 @@
 #include "kinolab/view/scene.hpp"
 
-#include <dlfcn.h>
-
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
@@ -209,16 +207,8 @@ std::string viewerTemplatePath() {
     return set;
   }
   std::vector<fs::path> candidates;
-  Dl_info info{};
-  if (dladdr(reinterpret_cast<void*>(&viewerTemplatePath), &info) != 0 && info.dli_fname) {
-    // <prefix>/lib[/<multiarch>]/libkinolab_framework.so -> <prefix>/share/kinolab/
-    for (fs::path up = fs::absolute(info.dli_fname).parent_path(); up.has_relative_path();
-         up = up.parent_path()) {
-      if (up.filename() == "lib") {
-        candidates.push_back(up.parent_path() / "share/kinolab/viewer.html");
-        break;
-      }
-    }
+  if (const std::string installed = installedDataDirectory(); !installed.empty()) {
+    candidates.push_back(fs::path(installed) / "viewer.html");
   }
   candidates.push_back(fs::path(kBinaryDir) / "share/kinolab/viewer.html");
   for (const fs::path& candidate : candidates) {

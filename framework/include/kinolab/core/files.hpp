@@ -12,6 +12,15 @@ bool isRegularFile(const std::string& path);
 /// never sees half a file. Throws FileError naming the path when it cannot.
 void writeFileAtomically(const std::string& path, const std::string& text);
 
+/// <prefix>/share/kinolab of the installed framework library this code runs in (found from
+/// the library's own path), or "" when it does not run from an installation.
+std::string installedDataDirectory();
+
+/// The folder holding the analysis package (kinolab_analysis, with papers.yaml):
+/// $KINOLAB_ANALYSIS_DIR, the source tree's analysis/, or share/kinolab/analysis of the
+/// installation. Throws FileError naming where it looked.
+std::string analysisDirectory();
+
 /// An exclusive lock on a directory, held by one process for as long as this object lives
 /// (and released by the kernel when the process dies, even of SIGKILL): the lock file
 /// `<directory>/.kinolab.lock` holds the holder's pid, host and start time. A directory held

@@ -140,8 +140,9 @@ struct Experiment {
   std::vector<RunSpec> runs() const;
 };
 
-/// The papers an experiment can say it reproduces, with the rows of their tables
-/// (analysis/kinolab_analysis/tables.py holds the papers' figures for these rows).
-const std::map<std::string, std::vector<std::string>>& reproducibleRows();
+/// The papers an experiment can say it reproduces, with the rows of their tables: read from
+/// their one definition, analysis/kinolab_analysis/papers.yaml (analysisDirectory()), which
+/// also holds the figures the analysis package compares with.
+std::map<std::string, std::vector<std::string>> reproducibleRows();
 
 }  // namespace kinolab
