@@ -3,7 +3,9 @@
 #include <gtest/gtest.h>
 
 #include "kinolab/core/error.hpp"
+#include "kinolab/core/fields.hpp"
 #include "kinolab/core/yaml_reader.hpp"
+#include "kinolab/flight/flight.hpp"
 
 namespace kinolab {
 namespace {
@@ -172,6 +174,52 @@ TEST(Parameters, YamlMappingsKeepTheirLocations) {
   EXPECT_EQ(flat, expected);
   const YamlReader bad = YamlReader::loadString("params:\n  boxes: [{min: 1}, 2]\n", "exp.yaml");
   EXPECT_THROW(assignmentsFromYaml(bad["params"]), ConfigError);
+}
+
+}  // namespace
+}  // namespace kinolab
+
+namespace kinolab {
+namespace {
+
+/// A settings struct's field list: its declaration carries the struct's defaults, reading
+/// resolved defaults gives the defaults back, and any settings written back as assignments
+/// resolve and read to themselves (units and choices included).
+template <typename Settings>
+void checkFieldsRoundTrip(Settings changed) {
+  const ParameterSpecs specs = declareFields<Settings>();
+  const auto text = [](const Settings& s) {
+    std::string all;
+    for (const ParameterAssignment& a : writeFields(s, "test")) all += a.name + "=" + a.value + " ";
+    return all;
+  };
+  EXPECT_EQ(text(readFields<Settings>(specs.resolve({}, "test"))), text(Settings()));
+  const Settings back = readFields<Settings>(specs.resolve(writeFields(changed, "test"), "test"));
+  EXPECT_EQ(text(back), text(changed));
+  EXPECT_NE(text(changed), text(Settings())) << "the change must change something";
+}
+
+TEST(Fields, EveryFieldListDeclaresReadsAndWritesBackTheSameValues) {
+  DepthCamera camera;
+  camera.fov_horizontal = 1.2;
+  camera.width = 640;
+  checkFieldsRoundTrip(camera);
+  Lidar lidar;
+  lidar.fov_vertical = 0.5;
+  lidar.channels = 32;
+  checkFieldsRoundTrip(lidar);
+  MapModel map;
+  map.unknown = UnknownSpace::kFreeBeyond;
+  map.resolution = 0.05;
+  checkFieldsRoundTrip(map);
+  FlightSettings flight;
+  flight.latency = 0.25;
+  flight.enforce_latency = true;
+  checkFieldsRoundTrip(flight);
+  // Declared in degrees, kept in radians: the default camera's 90 degrees, not 89.999...
+  const ParameterSpecs specs = declareFields<DepthCamera>();
+  EXPECT_EQ(std::get<double>(specs.find("fov_horizontal")->default_value), 90.0);
+  EXPECT_DOUBLE_EQ(readFields<DepthCamera>(specs.resolve({}, "t")).fov_horizontal, M_PI / 2);
 }
 
 }  // namespace

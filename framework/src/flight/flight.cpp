@@ -5,6 +5,7 @@
 #include <cmath>
 #include <unordered_map>
 
+#include "kinolab/core/fields.hpp"
 #include "kinolab/core/text.hpp"
 #include "kinolab/validation/trajectory_checker.hpp"
 
@@ -166,9 +167,6 @@ constexpr double kDegree = M_PI / 180.0;
 }  // namespace
 
 const ParameterSpecs& flightParameters() {
-  // The defaults are the models' own (one place for each); the sensor's are its own.
-  const MapModel map;
-  const FlightSettings loop;
   static const ParameterSpecs specs =
       ParameterSpecs()
           .plugin("sensor", "sensor", "depth_camera",
@@ -176,38 +174,8 @@ const ParameterSpecs& flightParameters() {
           .plugin("vehicle_map", "map", "octomap",
                   "the vehicle's map, its sensor model (kinolab list vehicle_maps); set its "
                   "parameters as map.NAME")
-          .real("map_resolution", map.resolution, 0.01, 10.0,
-                "the vehicle's map voxel, m (the ground truth's lattice when equal)")
-          .real("window", map.window, 1.0, 1000.0, "planning window side in x and y, m")
-          .real("window_height", map.window_height, 0.2, 1000.0,
-                "planning window height, m (centred on the vehicle, within the map; a camera "
-                "looking ahead does not see far above or below, so a tall window lets a planner "
-                "climb into unseen space)")
-          .choice("unknown", "free", {"free", "occupied", "free_beyond"},
-                  "unseen space in the planning window: free, occupied, or occupied closer "
-                  "than free_beyond and free farther")
-          .real("free_beyond", map.free_beyond, 0.0, 1000.0, "see unknown, m")
-          .real("replan_period", loop.replan_period, 0.01, 100.0,
-                "s between replans (and on collision)")
-          .real("replan_budget", loop.replan_budget, 0.001, 100.0,
-                "each replan's planning time budget, s")
-          .real("latency", -1.0, -1.0, 100.0,
-                "the plan starts from the committed state this long after its frame, s; "
-                "-1: the replan budget (a flight repeats bit for bit)")
-          .boolean("enforce_latency", loop.enforce_latency,
-                   "reject a plan whose measured planning time exceeds the latency (it would "
-                   "arrive after its start; real time, so not repeatable)")
-          .real("horizon", loop.horizon, 0.5, 1000.0,
-                "local goal distance when the goal is farther, m (kept 0.5 m inside the "
-                "window)")
-          .real("max_time", loop.max_time, 0.1, 1e5, "flight time limit, s (status timeout)")
-          .real("stuck_time", loop.stuck_time, 0.1, 1e5,
-                "s without 0.5 m of progress towards the goal (status stuck)")
-          .real("goal_tolerance", loop.goal_tolerance, 0.01, 100.0,
-                "reached: this close to the goal, m")
-          .real("brake_acceleration", loop.brake_acceleration, 0.01, 1000.0,
-                "deceleration of the stops that end every committed trajectory, m/s^2 (at most "
-                "the planner's max_acceleration is used)");
+          .include(declareFields<MapModel>())
+          .include(declareFields<FlightSettings>());
   return specs;
 }
 
@@ -224,25 +192,8 @@ FlightSetup flightSetup(const ParameterSet& p) {
   // A new map for each flight, made as the parameters say (checked now, once).
   setup.make_map = [p] { return pluginRegistry<VehicleMap>().createChosen(p, "map"); };
   setup.make_map();
-  MapModel* map = &setup.map;
-  FlightSettings* settings = &setup.settings;
-  map->resolution = p.real("map_resolution");
-  map->window = p.real("window");
-  map->window_height = p.real("window_height");
-  const std::string unknown = p.text("unknown");
-  map->unknown = unknown == "occupied"      ? UnknownSpace::kOccupied
-                 : unknown == "free_beyond" ? UnknownSpace::kFreeBeyond
-                                            : UnknownSpace::kFree;
-  map->free_beyond = p.real("free_beyond");
-  settings->replan_period = p.real("replan_period");
-  settings->replan_budget = p.real("replan_budget");
-  settings->latency = p.real("latency") < 0.0 ? settings->replan_budget : p.real("latency");
-  settings->enforce_latency = p.boolean("enforce_latency");
-  settings->horizon = p.real("horizon");
-  settings->max_time = p.real("max_time");
-  settings->stuck_time = p.real("stuck_time");
-  settings->goal_tolerance = p.real("goal_tolerance");
-  settings->brake_acceleration = p.real("brake_acceleration");
+  setup.map = readFields<MapModel>(p);
+  setup.settings = readFields<FlightSettings>(p);
   return setup;
 }
 
@@ -378,7 +329,7 @@ class FlightLoop {
     FlightReplan replan;
     replan.time = t_;
     replan.reason = reason_;
-    const double t_start = t_ + settings_.latency;
+    const double t_start = t_ + settings_.replanLatency();
     PlanningQuery local;
     local.start = stateAt(committed_, t_start);
     replan.start = local.start.col(0);
@@ -400,7 +351,7 @@ class FlightLoop {
       replan.distance_to_goal = plan.distance_to_goal;
       // In real time a plan that took longer than the latency arrives after its start.
       const bool late =
-          settings_.enforce_latency && plan.planning_time_ms > 1000.0 * settings_.latency;
+          settings_.enforce_latency && plan.planning_time_ms > 1000.0 * settings_.replanLatency();
       accepted = !late && !plan.trajectory.empty() && plan.check.valid &&
                  (plan.status == PlanStatus::kExact || plan.status == PlanStatus::kApproximate);
       if (late) replan.status = "late";

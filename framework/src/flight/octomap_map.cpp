@@ -4,25 +4,38 @@
 
 #include <optional>
 
+#include "kinolab/core/fields.hpp"
 #include "kinolab/core/plugin.hpp"
 #include "kinolab/flight/vehicle_map.hpp"
 
 namespace kinolab {
 namespace {
 
+/// OctoMap's sensor model.
+struct OctomapModel {
+  double probability_hit = 0.7;
+  double probability_miss = 0.4;
+
+  template <typename Fields>
+  void fields(Fields& f) {
+    f.real("probability_hit", probability_hit, 0.51, 0.99,
+           "the probability a hit gives its voxel (OctoMap's prob_hit)");
+    f.real("probability_miss", probability_miss, 0.01, 0.49,
+           "the probability a ray passing through gives a voxel (prob_miss)");
+  }
+};
+
 class OctomapVehicleMap final : public VehicleMap {
  public:
-  explicit OctomapVehicleMap(const ParameterSet& parameters)
-      : probability_hit_(parameters.real("probability_hit")),
-        probability_miss_(parameters.real("probability_miss")) {}
+  explicit OctomapVehicleMap(const OctomapModel& model) : sensor_model_(model) {}
 
  protected:
   // The tree holds positions relative to the map's origin (the lattice's minimum corner), so
   // that its voxels [k r, (k + 1) r) are exactly the lattice's voxels.
   void doSetup() override {
     tree_.emplace(model().resolution);
-    tree_->setProbHit(probability_hit_);
-    tree_->setProbMiss(probability_miss_);
+    tree_->setProbHit(sensor_model_.probability_hit);
+    tree_->setProbMiss(sensor_model_.probability_miss);
   }
 
   void doInsert(const SensorFrame& frame, double max_range) override {
@@ -66,8 +79,7 @@ class OctomapVehicleMap final : public VehicleMap {
     }
   }
 
-  double probability_hit_;
-  double probability_miss_;
+  OctomapModel sensor_model_;
   std::optional<octomap::OcTree> tree_;
 };
 
@@ -81,12 +93,9 @@ void registerBuiltins() {
       "octomap",
       "OctoMap's probabilistic sensor model: per voxel log-odds that a hit raises and a passing "
       "ray lowers (clamped); occupied above probability 0.5",
-      ParameterSpecs()
-          .real("probability_hit", 0.7, 0.51, 0.99,
-                "the probability a hit gives its voxel (OctoMap's prob_hit)")
-          .real("probability_miss", 0.4, 0.01, 0.49,
-                "the probability a ray passing through gives a voxel (prob_miss)"),
-      [](const ParameterSet& p) { return std::make_unique<OctomapVehicleMap>(p); });
+      declareFields<OctomapModel>(), [](const ParameterSet& p) {
+        return std::make_unique<OctomapVehicleMap>(readFields<OctomapModel>(p));
+      });
   registrar.commit();
 }
 

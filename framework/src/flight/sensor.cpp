@@ -3,6 +3,7 @@
 #include <cmath>
 #include <limits>
 
+#include "kinolab/core/fields.hpp"
 #include "kinolab/core/plugin.hpp"
 
 namespace kinolab {
@@ -12,52 +13,15 @@ KINOLAB_DEFINE_PLUGIN_REGISTRY(Sensor, "sensor", "sensors",
 
 namespace {
 
-constexpr double kDegree = M_PI / 180.0;
-
-/// The declared parameters of each built-in sensor, their defaults the models' own.
-ParameterSpecs rangeAndRate(double range, double rate) {
-  return ParameterSpecs()
-      .real("range", range, 0.1, 100.0, "sensor range, m")
-      .real("rate", rate, 0.5, 100.0, "frames per second (the flight loop's step)");
-}
-
 void registerBuiltins() {
   PluginRegistrar registrar("built-in (framework)");
-  const DepthCamera camera;
   registrar.add<Sensor>("depth_camera", "a pinhole depth camera looking along the heading",
-                        rangeAndRate(camera.range, camera.rate)
-                            .real("fov_horizontal", camera.fov_horizontal / kDegree, 1.0, 170.0,
-                                  "horizontal field of view, degrees")
-                            .real("fov_vertical", camera.fov_vertical / kDegree, 1.0, 170.0,
-                                  "vertical field of view, degrees")
-                            .integer("width", camera.width, 1, 4096, "pixels across")
-                            .integer("height", camera.height, 1, 4096, "pixels down"),
-                        [](const ParameterSet& p) {
-                          auto sensor = std::make_unique<DepthCamera>();
-                          sensor->range = p.real("range");
-                          sensor->rate = p.real("rate");
-                          sensor->fov_horizontal = p.real("fov_horizontal") * kDegree;
-                          sensor->fov_vertical = p.real("fov_vertical") * kDegree;
-                          sensor->width = static_cast<int>(p.integer("width"));
-                          sensor->height = static_cast<int>(p.integer("height"));
-                          return sensor;
+                        declareFields<DepthCamera>(), [](const ParameterSet& p) {
+                          return std::make_unique<DepthCamera>(readFields<DepthCamera>(p));
                         });
-  const Lidar lidar;
-  registrar.add<Sensor>("lidar", "a 360-degree lidar: beams around, channels up and down",
-                        rangeAndRate(lidar.range, lidar.rate)
-                            .real("fov_vertical", lidar.fov_vertical / kDegree, 1.0, 170.0,
-                                  "vertical field of view of the channels, degrees")
-                            .integer("beams", lidar.beams, 1, 100000, "beams per revolution")
-                            .integer("channels", lidar.channels, 1, 1024, "channels"),
-                        [](const ParameterSet& p) {
-                          auto sensor = std::make_unique<Lidar>();
-                          sensor->range = p.real("range");
-                          sensor->rate = p.real("rate");
-                          sensor->fov_vertical = p.real("fov_vertical") * kDegree;
-                          sensor->beams = static_cast<int>(p.integer("beams"));
-                          sensor->channels = static_cast<int>(p.integer("channels"));
-                          return sensor;
-                        });
+  registrar.add<Sensor>(
+      "lidar", "a 360-degree lidar: beams around, channels up and down", declareFields<Lidar>(),
+      [](const ParameterSet& p) { return std::make_unique<Lidar>(readFields<Lidar>(p)); });
   registrar.commit();
 }
 

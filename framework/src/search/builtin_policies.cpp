@@ -2,6 +2,7 @@
 // own entries in them, registered when the library loads: every planner, in tree or out,
 // finds them by key.
 #include "kinolab/core/error.hpp"
+#include "kinolab/core/fields.hpp"
 #include "kinolab/core/plugin.hpp"
 #include "kinolab/search/search_policies.hpp"
 
@@ -91,23 +92,14 @@ void registerBuiltins() {
       ParameterSpecs(), plainPolicy<LipschitzBoundPolicy>());
   registrar.add<SearchSpace>(
       "lattice", "every derivative rounded finely: exact on a control grid's lattice (optimal)",
-      ParameterSpecs()
-          .real("position_resolution", 0.01, 1e-6, 10.0, "position rounding, m")
-          .real("velocity_resolution", 0.01, 1e-6, 10.0, "velocity rounding, m/s")
-          .real("acceleration_resolution", 0.01, 1e-6, 100.0, "acceleration (and jerk) rounding"),
-      [](const ParameterSet& p) {
-        return std::make_unique<LatticeSpace>(
-            std::array<double, 3>{p.real("position_resolution"), p.real("velocity_resolution"),
-                                  p.real("acceleration_resolution")});
+      declareFields<LatticeSpace::Resolution>(), [](const ParameterSet& p) {
+        return std::make_unique<LatticeSpace>(readFields<LatticeSpace::Resolution>(p));
       });
   registrar.add<SearchSpace>(
       "cells",
       "one state per position cell and velocity bin, as hybrid A* keeps them (not optimal)",
-      ParameterSpecs()
-          .real("cell_size", 0.2, 1e-3, 100.0, "position cell side, m")
-          .real("velocity_resolution", 0.5, 1e-3, 100.0, "velocity bin, m/s"),
-      [](const ParameterSet& p) {
-        return std::make_unique<CellSpace>(p.real("cell_size"), p.real("velocity_resolution"));
+      declareFields<CellSpace::Cells>(), [](const ParameterSet& p) {
+        return std::make_unique<CellSpace>(readFields<CellSpace::Cells>(p));
       });
   registrar.commit();
 }

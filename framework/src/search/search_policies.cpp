@@ -294,7 +294,8 @@ std::int32_t roundedKey(double value) {
 
 }  // namespace
 
-LatticeSpace::LatticeSpace(std::array<double, 3> resolution) {
+LatticeSpace::LatticeSpace(const Resolution& r) {
+  const std::array<double, 3> resolution{r.position, r.velocity, r.acceleration};
   for (int k = 0; k < 3; ++k) {
     if (!(resolution[k] > 0.0)) {
       throw InvalidArgument("lattice search space: resolutions must be positive");
@@ -315,9 +316,9 @@ SearchSpace::Key LatticeSpace::key(const ChainState& state, const ChainState& st
   return key;
 }
 
-CellSpace::CellSpace(double cell_size, double velocity_resolution)
-    : inverse_cell_(1.0 / cell_size), inverse_velocity_(1.0 / velocity_resolution) {
-  if (!(cell_size > 0.0) || !(velocity_resolution > 0.0)) {
+CellSpace::CellSpace(const Cells& cells)
+    : inverse_cell_(1.0 / cells.cell_size), inverse_velocity_(1.0 / cells.velocity_resolution) {
+  if (!(cells.cell_size > 0.0) || !(cells.velocity_resolution > 0.0)) {
     throw InvalidArgument("cell search space: cell size and velocity resolution must be positive");
   }
 }

@@ -29,6 +29,28 @@ struct SmootherSettings {
   int obstacle_samples = 4;          ///< ESDF samples per span
   int max_solver_iterations = 100;   ///< per Ceres solve
   int max_rounds = 4;                ///< re-solves after a collision (denser, heavier)
+
+  /// Its parameters (core/fields.hpp); the radius and limits are the planner's.
+  template <typename Fields>
+  void fields(Fields& f) {
+    f.real("knot_spacing", knot_spacing, 0.02, 10.0, "B-spline control points along the path, m");
+    f.real("initial_speed", initial_speed, 0.05, 1.0,
+           "first time allocation: this share of max_velocity");
+    f.real("safety_distance", safety_distance, 0.0, 10.0,
+           "the obstacle penalty acts below the radius plus this, m");
+    f.real("weight_smoothness", weight_smoothness, 0.0, 1e6,
+           "weight of the jerk (third difference) term");
+    f.real("weight_guide", weight_guide, 0.0, 1e6,
+           "weight keeping control points near the time-allocated path (0: free)");
+    f.real("weight_obstacle", weight_obstacle, 0.0, 1e6, "weight of the ESDF obstacle penalty");
+    f.real("weight_feasibility", weight_feasibility, 0.0, 1e6,
+           "weight of the velocity/acceleration penalty");
+    f.integer("obstacle_samples", obstacle_samples, 1, 100, "ESDF samples per B-spline span");
+    f.integer("max_solver_iterations", max_solver_iterations, 1, 100000,
+              "Ceres iterations per solve");
+    f.integer("max_rounds", max_rounds, 1, 20,
+              "solves: after a collision, again with half the knot spacing, 4x obstacle weight");
+  }
 };
 
 struct SmootherResult {

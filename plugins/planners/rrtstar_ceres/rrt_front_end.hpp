@@ -26,14 +26,32 @@ struct FrontEndSettings {
   double rewire_factor = 1.1;  ///< scales RRT*'s rewiring radius or k
   bool k_nearest = true;       ///< rewire over k nearest (else a radius)
   bool delay_collision_checking = true;
-  double clearance = 0.35;             ///< a valid state's ESDF value: body radius + margin, m
-  double motion_resolution = 0.05;     ///< spacing of checked states along a motion, m
   bool simplify = true;                ///< OMPL's vertex reduction and shortcutting afterwards
   long long refine_iterations = 1000;  ///< iterations after the first exact solution
   /// Tree vertices at most: the search stops there as on a budget, so that no run, not even
   /// one without a time limit towards an unreachable goal, exhausts the machine.
   long long max_vertices = 500000;
+  // Set by the planner from its body, world and goal region (not parameters):
+  double clearance = 0.35;          ///< a valid state's ESDF value: body radius + margin, m
+  double motion_resolution = 0.05;  ///< spacing of checked states along a motion, m
   double goal_radius = 0.5;
+
+  /// Its parameters (core/fields.hpp).
+  template <typename Fields>
+  void fields(Fields& f) {
+    f.real("range", range, 0.0, 1000.0,
+           "longest RRT* edge, m (0: OMPL's default, 20 % of the map's extent)");
+    f.real("goal_bias", goal_bias, 0.0, 1.0, "probability of sampling the goal");
+    f.real("rewire_factor", rewire_factor, 1.0, 10.0, "scales RRT*'s rewiring neighbourhood");
+    f.boolean("k_nearest", k_nearest, "rewire over the k nearest vertices (else within a radius)");
+    f.boolean("delay_collision_checking", delay_collision_checking,
+              "check a neighbour's edge only when it would win");
+    f.boolean("simplify", simplify, "OMPL's vertex reduction and shortcutting of the path");
+    f.integer("refine_iterations", refine_iterations, 0, 1000000000,
+              "RRT* iterations after the first solution (0: stop at the first)");
+    f.integer("max_vertices", max_vertices, 100, 100000000,
+              "RRT* tree size budget: the search stops there (bounds its memory)");
+  }
 };
 
 struct FrontEndResult {

@@ -7,6 +7,7 @@
 #include <cmath>
 
 #include "bspline_smoother.hpp"
+#include "kinolab/core/fields.hpp"
 #include "kinolab/core/hash.hpp"
 #include "kinolab/core/plugin.hpp"
 #include "kinolab/core/text.hpp"
@@ -15,41 +16,30 @@
 namespace kinolab::rrt {
 namespace {
 
+/// What the planner adds to the front end's and smoother's fields.
+struct RrtChecks {
+  double clearance_margin = 0.1;   ///< m beyond the body radius
+  double motion_resolution = 0.5;  ///< voxels between checked states of a motion
+  long long max_iterations = 0;    ///< 0: none
+
+  template <typename Fields>
+  void fields(Fields& f) {
+    f.real("clearance_margin", clearance_margin, 0.0, 10.0,
+           "RRT* states need the radius plus this much clearance, m");
+    f.real("motion_resolution", motion_resolution, 0.05, 10.0,
+           "RRT* motions are checked every this many voxels");
+    f.integer("max_iterations", max_iterations, 0, 1000000000, "RRT* iteration budget (0: none)");
+  }
+};
+
 ParameterSpecs frontEndParameters() {
-  return ParameterSpecs()
-      .real("range", 1.5, 0.0, 1000.0,
-            "longest RRT* edge, m (0: OMPL's default, 20 % of the map's extent)")
-      .real("goal_bias", 0.05, 0.0, 1.0, "probability of sampling the goal")
-      .real("rewire_factor", 1.1, 1.0, 10.0, "scales RRT*'s rewiring neighbourhood")
-      .boolean("k_nearest", true, "rewire over the k nearest vertices (else within a radius)")
-      .boolean("delay_collision_checking", true, "check a neighbour's edge only when it would win")
+  return declareFields<FrontEndSettings>()
       .include(motionParameters(5.0))
-      .real("clearance_margin", 0.1, 0.0, 10.0,
-            "RRT* states need the radius plus this much clearance, m")
-      .real("motion_resolution", 0.5, 0.05, 10.0, "RRT* motions are checked every this many voxels")
-      .boolean("simplify", true, "OMPL's vertex reduction and shortcutting of the path")
-      .integer("refine_iterations", 1000, 0, 1000000000,
-               "RRT* iterations after the first solution (0: stop at the first)")
-      .integer("max_iterations", 0, 0, 1000000000, "RRT* iteration budget (0: none)")
-      .integer("max_vertices", 500000, 100, 100000000,
-               "RRT* tree size budget: the search stops there (bounds its memory)");
+      .include(declareFields<RrtChecks>());
 }
 
 ParameterSpecs smoothingParameters() {
-  return frontEndParameters()
-      .real("knot_spacing", 0.5, 0.02, 10.0, "B-spline control points along the path, m")
-      .real("initial_speed", 0.7, 0.05, 1.0, "first time allocation: this share of max_velocity")
-      .real("safety_distance", 0.25, 0.0, 10.0,
-            "the obstacle penalty acts below the radius plus this, m")
-      .real("weight_smoothness", 1.0, 0.0, 1e6, "weight of the jerk (third difference) term")
-      .real("weight_guide", 0.01, 0.0, 1e6,
-            "weight keeping control points near the time-allocated path (0: free)")
-      .real("weight_obstacle", 10.0, 0.0, 1e6, "weight of the ESDF obstacle penalty")
-      .real("weight_feasibility", 10.0, 0.0, 1e6, "weight of the velocity/acceleration penalty")
-      .integer("obstacle_samples", 4, 1, 100, "ESDF samples per B-spline span")
-      .integer("max_solver_iterations", 100, 1, 100000, "Ceres iterations per solve")
-      .integer("max_rounds", 4, 1, 20,
-               "solves: after a collision, again with half the knot spacing, 4x obstacle weight");
+  return frontEndParameters().include(declareFields<SmootherSettings>());
 }
 
 MetricSpecs frontEndStatistics() {
@@ -91,44 +81,24 @@ MetricSpecs smoothingStatistics() {
 class RrtStarPlanner final : public Planner {
  public:
   RrtStarPlanner(const ParameterSet& parameters, bool smooth)
-      : parameters_(parameters),
+      : front_end_settings_(readFields<FrontEndSettings>(parameters)),
+        checks_(readFields<RrtChecks>(parameters)),
         model_(planningModelFrom(parameters)),
         budget_(timeBudgetFrom(parameters)) {
-    if (const long long limit = parameters.integer("max_iterations"); limit > 0) {
-      budget_.max_iterations = limit;
-    }
+    if (checks_.max_iterations > 0) budget_.max_iterations = checks_.max_iterations;
+    front_end_settings_.clearance = model_.robot_radius + checks_.clearance_margin;
+    front_end_settings_.goal_radius = model_.goal_radius;
     if (smooth) {
-      SmootherSettings& s = smoother_settings_.emplace();
-      s.knot_spacing = parameters.real("knot_spacing");
-      s.initial_speed = parameters.real("initial_speed");
+      SmootherSettings& s = smoother_settings_.emplace(readFields<SmootherSettings>(parameters));
       s.robot_radius = model_.robot_radius;
-      s.safety_distance = parameters.real("safety_distance");
       s.limits = model_.limits;
-      s.weight_smoothness = parameters.real("weight_smoothness");
-      s.weight_guide = parameters.real("weight_guide");
-      s.weight_obstacle = parameters.real("weight_obstacle");
-      s.weight_feasibility = parameters.real("weight_feasibility");
-      s.obstacle_samples = static_cast<int>(parameters.integer("obstacle_samples"));
-      s.max_solver_iterations = static_cast<int>(parameters.integer("max_solver_iterations"));
-      s.max_rounds = static_cast<int>(parameters.integer("max_rounds"));
     }
   }
 
  protected:
   void doSetup(const PlannerContext& context) override {
-    FrontEndSettings settings;
-    settings.range = parameters_.real("range");
-    settings.goal_bias = parameters_.real("goal_bias");
-    settings.rewire_factor = parameters_.real("rewire_factor");
-    settings.k_nearest = parameters_.boolean("k_nearest");
-    settings.delay_collision_checking = parameters_.boolean("delay_collision_checking");
-    settings.clearance = model_.robot_radius + parameters_.real("clearance_margin");
-    settings.motion_resolution =
-        parameters_.real("motion_resolution") * context.world->esdf().resolution();
-    settings.simplify = parameters_.boolean("simplify");
-    settings.refine_iterations = parameters_.integer("refine_iterations");
-    settings.max_vertices = parameters_.integer("max_vertices");
-    settings.goal_radius = model_.goal_radius;
+    FrontEndSettings settings = front_end_settings_;
+    settings.motion_resolution = checks_.motion_resolution * context.world->esdf().resolution();
     front_end_ = std::make_unique<RrtFrontEnd>(context.world, settings);
     clearance_ = settings.clearance;
     seed_ = context.seed;
@@ -195,7 +165,8 @@ class RrtStarPlanner final : public Planner {
   Budget ownBudget() const override { return budget_; }
 
  private:
-  ParameterSet parameters_;
+  FrontEndSettings front_end_settings_;
+  RrtChecks checks_;
   PlanningModel model_;
   Budget budget_;
   std::optional<SmootherSettings> smoother_settings_;

@@ -24,9 +24,9 @@ struct FlightSettings {
   double replan_period = 0.5;  ///< s between planned replans (and on every collision found)
   double replan_budget = 0.1;  ///< s: each replan's time budget
   /// A replan plans from the committed state this long after its frame (the vehicle flies
-  /// the committed trajectory meanwhile), by default the budget: simulated time does not
-  /// depend on the measured planning time, so a flight repeats bit for bit.
-  double latency = 0.1;
+  /// the committed trajectory meanwhile); negative: the replan budget, so that simulated time
+  /// does not depend on the measured planning time and a flight repeats bit for bit.
+  double latency = -1.0;
   /// Reject a plan whose measured planning time exceeds the latency (real time).
   bool enforce_latency = false;
   double horizon = 3.5;             ///< m: the local goal's distance when the goal is farther
@@ -35,13 +35,38 @@ struct FlightSettings {
   double goal_tolerance = 0.5;      ///< m: reached when this close to the goal
   double brake_acceleration = 3.0;  ///< m/s^2 per axis for braking to a stop
   /// > 0: keep the known map from above (VehicleMap::topView over the query's heights) every
-  /// this many seconds of flight, for animations; 0: none.
+  /// this many seconds of flight, for animations; 0: none. Not a parameter: the caller's.
   double snapshot_period = 0.0;
+
+  /// The latency a replan starts after (latency, or the replan budget when negative).
+  double replanLatency() const { return latency < 0.0 ? replan_budget : latency; }
+
+  /// Its parameters (core/fields.hpp).
+  template <typename Fields>
+  void fields(Fields& f) {
+    f.real("replan_period", replan_period, 0.01, 100.0, "s between replans (and on collision)");
+    f.real("replan_budget", replan_budget, 0.001, 100.0, "each replan's planning time budget, s");
+    f.real("latency", latency, -1.0, 100.0,
+           "the plan starts from the committed state this long after its frame, s; -1: the "
+           "replan budget (a flight repeats bit for bit)");
+    f.boolean("enforce_latency", enforce_latency,
+              "reject a plan whose measured planning time exceeds the latency (it would arrive "
+              "after its start; real time, so not repeatable)");
+    f.real("horizon", horizon, 0.5, 1000.0,
+           "local goal distance when the goal is farther, m (kept 0.5 m inside the window)");
+    f.real("max_time", max_time, 0.1, 1e5, "flight time limit, s (status timeout)");
+    f.real("stuck_time", stuck_time, 0.1, 1e5,
+           "s without 0.5 m of progress towards the goal (status stuck)");
+    f.real("goal_tolerance", goal_tolerance, 0.01, 100.0, "reached: this close to the goal, m");
+    f.real("brake_acceleration", brake_acceleration, 0.01, 1000.0,
+           "deceleration of the stops that end every committed trajectory, m/s^2 (at most the "
+           "planner's max_acceleration is used)");
+  }
 };
 
 /// Every parameter of a flight (sensor, map, loop), declared, typed and ranged like a
-/// planner's, their defaults those of MapModel and FlightSettings; the sensor is a plugin
-/// parameter with its own (`kinolab fly --flight NAME=VALUE --flight sensor.NAME=VALUE`, an
+/// planner's: the fields of MapModel and FlightSettings; the sensor and the map are plugin
+/// parameters with their own (`kinolab fly --flight NAME=VALUE --flight sensor.NAME=VALUE`, an
 /// experiment's `flight:`).
 const ParameterSpecs& flightParameters();
 

@@ -29,12 +29,25 @@ PluginRegistry<Sensor>& pluginRegistry<Sensor>();
 
 /// A pinhole depth camera looking along the vehicle's heading.
 struct DepthCamera final : Sensor {
-  double range = 5.0;                ///< m
-  double rate = 10.0;                ///< frames per second
-  double fov_horizontal = M_PI / 2;  ///< rad
+  double range = 5.0;
+  double rate = 10.0;
+  double fov_horizontal = M_PI / 2;  ///< rad (declared in degrees)
   double fov_vertical = M_PI / 3;    ///< rad
-  int width = 32;                    ///< pixels
+  int width = 32;
   int height = 24;
+
+  /// Its parameters (core/fields.hpp).
+  template <typename Fields>
+  void fields(Fields& f) {
+    f.real("range", range, 0.1, 100.0, "sensor range, m");
+    f.real("rate", rate, 0.5, 100.0, "frames per second (the flight loop's step)");
+    f.real("fov_horizontal", fov_horizontal, 1.0, 170.0, "horizontal field of view, degrees",
+           M_PI / 180.0);
+    f.real("fov_vertical", fov_vertical, 1.0, 170.0, "vertical field of view, degrees",
+           M_PI / 180.0);
+    f.integer("width", width, 1, 4096, "pixels across");
+    f.integer("height", height, 1, 4096, "pixels down");
+  }
 
   double maxRange() const override { return range; }
   double frameRate() const override { return rate; }
@@ -43,11 +56,22 @@ struct DepthCamera final : Sensor {
 
 /// A 360-degree lidar: `beams` around, `channels` spread over the vertical field of view.
 struct Lidar final : Sensor {
-  double range = 5.0;              ///< m
-  double rate = 10.0;              ///< revolutions per second
-  double fov_vertical = M_PI / 3;  ///< rad
-  int beams = 360;                 ///< per revolution
+  double range = 5.0;
+  double rate = 10.0;
+  double fov_vertical = M_PI / 3;  ///< rad (declared in degrees)
+  int beams = 360;
   int channels = 16;
+
+  /// Its parameters (core/fields.hpp).
+  template <typename Fields>
+  void fields(Fields& f) {
+    f.real("range", range, 0.1, 100.0, "sensor range, m");
+    f.real("rate", rate, 0.5, 100.0, "revolutions per second (the flight loop's step)");
+    f.real("fov_vertical", fov_vertical, 1.0, 170.0,
+           "vertical field of view of the channels, degrees", M_PI / 180.0);
+    f.integer("beams", beams, 1, 100000, "beams per revolution");
+    f.integer("channels", channels, 1, 1024, "channels");
+  }
 
   double maxRange() const override { return range; }
   double frameRate() const override { return rate; }

@@ -24,6 +24,25 @@ struct MapModel {
   double window_height = 2.0;  ///< m: its height (centred on the vehicle, within the map)
   UnknownSpace unknown = UnknownSpace::kFree;
   double free_beyond = 2.0;  ///< m (kFreeBeyond): unknown is occupied closer than this
+
+  /// Its parameters, a flight's (core/fields.hpp).
+  template <typename Fields>
+  void fields(Fields& f) {
+    f.real("map_resolution", resolution, 0.01, 10.0,
+           "the vehicle's map voxel, m (the ground truth's lattice when equal)");
+    f.real("window", window, 1.0, 1000.0, "planning window side in x and y, m");
+    f.real("window_height", window_height, 0.2, 1000.0,
+           "planning window height, m (centred on the vehicle, within the map; a camera looking "
+           "ahead does not see far above or below, so a tall window lets a planner climb into "
+           "unseen space)");
+    f.choice("unknown", unknown,
+             {{"free", UnknownSpace::kFree},
+              {"occupied", UnknownSpace::kOccupied},
+              {"free_beyond", UnknownSpace::kFreeBeyond}},
+             "unseen space in the planning window: free, occupied, or occupied closer than "
+             "free_beyond and free farther");
+    f.real("free_beyond", free_beyond, 0.0, 1000.0, "see unknown, m");
+  }
 };
 
 /// What the vehicle knows: the state of every voxel of the map's lattice (unknown, free or

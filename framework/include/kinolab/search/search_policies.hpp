@@ -196,10 +196,24 @@ class SearchSpace {
 template <>
 PluginRegistry<SearchSpace>& pluginRegistry<SearchSpace>();
 
-/// Rounds derivative k of each axis, relative to the start, to `resolution[min(k, 2)]`.
+/// Rounds derivative k of each axis, relative to the start, to its resolution (jerk as
+/// acceleration).
 class LatticeSpace final : public SearchSpace {
  public:
-  explicit LatticeSpace(std::array<double, 3> resolution);
+  struct Resolution {
+    double position = 0.01;
+    double velocity = 0.01;
+    double acceleration = 0.01;
+
+    template <typename Fields>
+    void fields(Fields& f) {
+      f.real("position_resolution", position, 1e-6, 10.0, "position rounding, m");
+      f.real("velocity_resolution", velocity, 1e-6, 10.0, "velocity rounding, m/s");
+      f.real("acceleration_resolution", acceleration, 1e-6, 100.0,
+             "acceleration (and jerk) rounding");
+    }
+  };
+  explicit LatticeSpace(const Resolution& resolution);
   Key key(const ChainState& state, const ChainState& start, int order) const override;
 
  private:
@@ -210,7 +224,17 @@ class LatticeSpace final : public SearchSpace {
 /// start); higher derivatives ignored: hybrid A*'s grid.
 class CellSpace final : public SearchSpace {
  public:
-  CellSpace(double cell_size, double velocity_resolution);
+  struct Cells {
+    double cell_size = 0.2;
+    double velocity_resolution = 0.5;
+
+    template <typename Fields>
+    void fields(Fields& f) {
+      f.real("cell_size", cell_size, 1e-3, 100.0, "position cell side, m");
+      f.real("velocity_resolution", velocity_resolution, 1e-3, 100.0, "velocity bin, m/s");
+    }
+  };
+  explicit CellSpace(const Cells& cells);
   Key key(const ChainState& state, const ChainState& start, int order) const override;
 
  private:
