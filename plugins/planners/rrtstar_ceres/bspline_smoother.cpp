@@ -186,6 +186,96 @@ BsplineSmoother::BsplineSmoother(std::shared_ptr<const World> world,
                                  const SmootherSettings& settings)
     : world_(world), settings_(settings), checker_(world, clearanceCheck(settings)) {}
 
+void BsplineSmoother::addCosts(ceres::Problem& problem, Eigen::Matrix3Xd& control, double interval,
+                               double weight_obstacle) const {
+  const int count = static_cast<int>(control.cols());
+  for (int i = 0; i < count; ++i) problem.AddParameterBlock(control.col(i).data(), 3);
+  for (const int i : {0, 1, 2, count - 3, count - 2, count - 1}) {
+    problem.SetParameterBlockConstant(control.col(i).data());
+  }
+  const auto block = [&](int i) { return control.col(i).data(); };
+  const double smooth_scale = std::sqrt(settings_.weight_smoothness);
+  const double obstacle_scale = std::sqrt(weight_obstacle / settings_.obstacle_samples);
+  const double threshold = settings_.robot_radius + settings_.safety_distance;
+  for (int i = 0; i + 3 < count; ++i) {
+    problem.AddResidualBlock(new ceres::AutoDiffCostFunction<SmoothnessCost, 3, 3, 3, 3, 3>(
+                                 new SmoothnessCost{smooth_scale}),
+                             nullptr, block(i), block(i + 1), block(i + 2), block(i + 3));
+    for (int k = 0; k < settings_.obstacle_samples; ++k) {
+      const double u = static_cast<double>(k) / settings_.obstacle_samples;
+      problem.AddResidualBlock(
+          new ObstacleCost(world_->esdf(), UniformBspline::basis(u), threshold, obstacle_scale),
+          nullptr, block(i), block(i + 1), block(i + 2), block(i + 3));
+    }
+  }
+  const double feasibility_scale = std::sqrt(settings_.weight_feasibility);
+  const Eigen::Vector3d velocity_reach = settings_.limits.bound[1] * interval;
+  const Eigen::Vector3d acceleration_reach = settings_.limits.bound[2] * interval * interval;
+  for (int i = 0; i + 1 < count; ++i) {
+    problem.AddResidualBlock(new ceres::AutoDiffCostFunction<VelocityCost, 3, 3, 3>(
+                                 new VelocityCost{feasibility_scale, velocity_reach}),
+                             nullptr, block(i), block(i + 1));
+  }
+  for (int i = 0; i + 2 < count; ++i) {
+    problem.AddResidualBlock(new ceres::AutoDiffCostFunction<AccelerationCost, 3, 3, 3, 3>(
+                                 new AccelerationCost{feasibility_scale, acceleration_reach}),
+                             nullptr, block(i), block(i + 1), block(i + 2));
+  }
+  const double guide_scale = std::sqrt(settings_.weight_guide);
+  const Eigen::Vector3d low = world_->bounds().min;
+  const Eigen::Vector3d high = world_->bounds().max;
+  for (int i = 3; i < count - 3; ++i) {
+    if (guide_scale > 0.0) {
+      problem.AddResidualBlock(new ceres::AutoDiffCostFunction<GuideCost, 3, 3>(
+                                   new GuideCost{guide_scale, control.col(i)}),
+                               nullptr, block(i));
+    }
+    problem.AddResidualBlock(new ceres::AutoDiffCostFunction<BoundsCost, 3, 3>(
+                                 new BoundsCost{obstacle_scale, low, high}),
+                             nullptr, block(i));
+  }
+}
+
+void BsplineSmoother::solve(Eigen::Matrix3Xd& control, double interval, double weight_obstacle,
+                            StopCondition& stop, Tally& tally) const {
+  ceres::Problem problem;
+  addCosts(problem, control, interval, weight_obstacle);
+  ceres::Solver::Options options;
+  options.linear_solver_type = ceres::SPARSE_NORMAL_CHOLESKY;
+  options.max_num_iterations = settings_.max_solver_iterations;
+  options.logging_type = ceres::SILENT;
+  options.num_threads = 1;
+  if (std::isfinite(stop.budget().time_limit)) {
+    options.max_solver_time_in_seconds = std::max(stop.budget().time_limit - stop.elapsed(), 1e-3);
+  }
+  ceres::Solver::Summary summary;
+  ceres::Solve(options, &problem, &summary);
+  tally.ceres_iterations += static_cast<int>(summary.iterations.size());
+  if (tally.rounds == 1) tally.initial_cost = summary.initial_cost;
+  tally.final_cost = summary.final_cost;
+}
+
+bool BsplineSmoother::reallocateTime(const ChainState& start, Eigen::Matrix3Xd& control,
+                                     double& interval, int& reallocations) const {
+  // Scale the knot interval until the tightest velocity or acceleration control point is at
+  // its limit (stretching when a limit is broken, compressing when all are slack). At rest
+  // the leading points do not depend on the interval, so one scaling suffices; otherwise
+  // they move with it and the loop repeats.
+  const bool at_rest = start.col(1).isZero() && start.col(2).isZero();
+  const double first_interval = interval;
+  for (int attempt = 0; attempt < 20; ++attempt) {
+    const double factor = limitFactor(UniformBspline(control, interval), settings_.limits);
+    if (!(factor > 0.0) || (factor <= 1.0 && factor > 1.0 - 1e-6)) break;
+    interval *= factor * (1.0 + 1e-9);
+    ++reallocations;
+    // From a moving start on a path too short to stop on, the scaling collapses or inflates
+    // the interval without end: no spline within the limits fits, a failure, not an error.
+    if (!(interval > 1e-9 && interval < 100.0 * first_interval)) return false;
+    if (!at_rest) control.leftCols<3>() = UniformBspline::startControlPoints(start, interval);
+  }
+  return true;
+}
+
 SmootherResult BsplineSmoother::smooth(const ChainState& start,
                                        const std::vector<Eigen::Vector3d>& path,
                                        StopCondition& stop) const {
@@ -194,19 +284,10 @@ SmootherResult BsplineSmoother::smooth(const ChainState& start,
   const SpeedProfile profile(polylineLength(path),
                              settings_.initial_speed * settings_.limits.bound[1].minCoeff(),
                              settings_.initial_speed * settings_.limits.bound[2].minCoeff());
-  const Eigen::Vector3d low = world_->bounds().min;
-  const Eigen::Vector3d high = world_->bounds().max;
-  const bool at_rest = start.col(1).isZero() && start.col(2).isZero();
-
   double spacing = settings_.knot_spacing;
   double weight_obstacle = settings_.weight_obstacle;
-  int rounds = 0;  // solved
-  int ceres_iterations = 0;
-  int reallocations = 0;
-  double initial_cost = NAN;
-  double final_cost = NAN;
-  double control_points = NAN;  // of the last spline
-  double knot_interval = NAN;
+  Tally tally;
+  int& rounds = tally.rounds;
   while (rounds < settings_.max_rounds) {
     if (rounds > 0 && stop.elapsed() >= stop.budget().time_limit) {
       result.problem += "; the time budget ran out before another round";
@@ -223,102 +304,21 @@ SmootherResult BsplineSmoother::smooth(const ChainState& start,
                        " m) leaves no positive time to fit a spline in";
       break;
     }
-    const int count = pieces + 5;
-    Eigen::Matrix3Xd control(3, count);
+    Eigen::Matrix3Xd control(3, pieces + 5);
     control.leftCols<3>() = UniformBspline::startControlPoints(start, interval);
     for (int j = 1; j < pieces; ++j) control.col(2 + j) = pointAt(path, profile.at(j * interval));
     control.rightCols<3>().colwise() = path.back();
 
-    ceres::Problem problem;
-    for (int i = 0; i < count; ++i) problem.AddParameterBlock(control.col(i).data(), 3);
-    for (const int i : {0, 1, 2, count - 3, count - 2, count - 1}) {
-      problem.SetParameterBlockConstant(control.col(i).data());
-    }
-    const auto block = [&](int i) { return control.col(i).data(); };
-    const double smooth_scale = std::sqrt(settings_.weight_smoothness);
-    const double obstacle_scale = std::sqrt(weight_obstacle / settings_.obstacle_samples);
-    const double threshold = settings_.robot_radius + settings_.safety_distance;
-    for (int i = 0; i + 3 < count; ++i) {
-      problem.AddResidualBlock(new ceres::AutoDiffCostFunction<SmoothnessCost, 3, 3, 3, 3, 3>(
-                                   new SmoothnessCost{smooth_scale}),
-                               nullptr, block(i), block(i + 1), block(i + 2), block(i + 3));
-      for (int k = 0; k < settings_.obstacle_samples; ++k) {
-        const double u = static_cast<double>(k) / settings_.obstacle_samples;
-        problem.AddResidualBlock(
-            new ObstacleCost(world_->esdf(), UniformBspline::basis(u), threshold, obstacle_scale),
-            nullptr, block(i), block(i + 1), block(i + 2), block(i + 3));
-      }
-    }
-    const double feasibility_scale = std::sqrt(settings_.weight_feasibility);
-    const Eigen::Vector3d velocity_reach = settings_.limits.bound[1] * interval;
-    const Eigen::Vector3d acceleration_reach = settings_.limits.bound[2] * interval * interval;
-    for (int i = 0; i + 1 < count; ++i) {
-      problem.AddResidualBlock(new ceres::AutoDiffCostFunction<VelocityCost, 3, 3, 3>(
-                                   new VelocityCost{feasibility_scale, velocity_reach}),
-                               nullptr, block(i), block(i + 1));
-    }
-    for (int i = 0; i + 2 < count; ++i) {
-      problem.AddResidualBlock(new ceres::AutoDiffCostFunction<AccelerationCost, 3, 3, 3, 3>(
-                                   new AccelerationCost{feasibility_scale, acceleration_reach}),
-                               nullptr, block(i), block(i + 1), block(i + 2));
-    }
-    const double guide_scale = std::sqrt(settings_.weight_guide);
-    for (int i = 3; i < count - 3; ++i) {
-      if (guide_scale > 0.0) {
-        problem.AddResidualBlock(new ceres::AutoDiffCostFunction<GuideCost, 3, 3>(
-                                     new GuideCost{guide_scale, control.col(i)}),
-                                 nullptr, block(i));
-      }
-      problem.AddResidualBlock(new ceres::AutoDiffCostFunction<BoundsCost, 3, 3>(
-                                   new BoundsCost{obstacle_scale, low, high}),
-                               nullptr, block(i));
-    }
-
-    ceres::Solver::Options options;
-    options.linear_solver_type = ceres::SPARSE_NORMAL_CHOLESKY;
-    options.max_num_iterations = settings_.max_solver_iterations;
-    options.logging_type = ceres::SILENT;
-    options.num_threads = 1;
-    if (std::isfinite(stop.budget().time_limit)) {
-      options.max_solver_time_in_seconds =
-          std::max(stop.budget().time_limit - stop.elapsed(), 1e-3);
-    }
-    ceres::Solver::Summary summary;
-    ceres::Solve(options, &problem, &summary);
-    ceres_iterations += static_cast<int>(summary.iterations.size());
-    if (rounds == 1) initial_cost = summary.initial_cost;
-    final_cost = summary.final_cost;
-
-    // Time re-allocation: scale the knot interval until the tightest velocity or
-    // acceleration control point is at its limit (stretching when a limit is broken,
-    // compressing when all are slack). At rest the leading points do not depend on the
-    // interval, so one scaling suffices; otherwise they move with it and the loop repeats.
-    bool timed = true;
-    const double first_interval = interval;
-    for (int attempt = 0; attempt < 20; ++attempt) {
-      const double factor = limitFactor(UniformBspline(control, interval), settings_.limits);
-      if (!(factor > 0.0) || (factor <= 1.0 && factor > 1.0 - 1e-6)) break;
-      interval *= factor * (1.0 + 1e-9);
-      ++reallocations;
-      // From a moving start on a path too short to stop on, the scaling collapses or
-      // inflates the interval without end: no spline within the limits fits, a failure,
-      // not an error.
-      if (!(interval > 1e-9 && interval < 100.0 * first_interval)) {
-        timed = false;
-        break;
-      }
-      if (!at_rest) control.leftCols<3>() = UniformBspline::startControlPoints(start, interval);
-    }
-    if (!timed) {
+    solve(control, interval, weight_obstacle, stop, tally);
+    if (!reallocateTime(start, control, interval, tally.reallocations)) {
       result.problem = "no time allocation fits the start state on this path (" +
                        std::to_string(polylineLength(path)) + " m)";
       result.trajectory = Trajectory();
       break;
     }
-    const UniformBspline spline(control, interval);
-    result.trajectory = spline.toTrajectory();
-    control_points = static_cast<double>(control.cols());
-    knot_interval = interval;
+    result.trajectory = UniformBspline(control, interval).toTrajectory();
+    tally.control_points = static_cast<double>(control.cols());
+    tally.knot_interval = interval;
 
     CheckQuery query;
     query.start = start;
@@ -336,17 +336,16 @@ SmootherResult BsplineSmoother::smooth(const ChainState& start,
     weight_obstacle *= 4.0;
   }
 
-  Statistics& stats = result.statistics;
-  stats.emplace_back("smoothing_rounds", rounds);
-  stats.emplace_back("ceres_iterations", ceres_iterations);
-  stats.emplace_back("ceres_initial_cost", initial_cost);
-  stats.emplace_back("ceres_final_cost", final_cost);
-  stats.emplace_back("time_reallocations", reallocations);
-  stats.emplace_back("control_points", control_points);
-  stats.emplace_back("knot_interval", knot_interval);
-  stats.emplace_back(
-      "time_smooth_ms",
-      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - begin).count());
+  result.statistics = {{"smoothing_rounds", rounds},
+                       {"ceres_iterations", tally.ceres_iterations},
+                       {"ceres_initial_cost", tally.initial_cost},
+                       {"ceres_final_cost", tally.final_cost},
+                       {"time_reallocations", tally.reallocations},
+                       {"control_points", tally.control_points},
+                       {"knot_interval", tally.knot_interval},
+                       {"time_smooth_ms", std::chrono::duration<double, std::milli>(
+                                              std::chrono::steady_clock::now() - begin)
+                                              .count()}};
   return result;
 }
 

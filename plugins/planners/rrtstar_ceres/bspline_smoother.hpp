@@ -1,6 +1,7 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <cmath>
 #include <memory>
 #include <string>
 #include <vector>
@@ -11,6 +12,10 @@
 #include "kinolab/trajectory/uniform_bspline.hpp"
 #include "kinolab/validation/trajectory_checker.hpp"
 #include "kinolab/world/world.hpp"
+
+namespace ceres {
+class Problem;
+}  // namespace ceres
 
 namespace kinolab::rrt {
 
@@ -73,6 +78,28 @@ class BsplineSmoother {
                         StopCondition& stop) const;
 
  private:
+  /// What the rounds did, for the statistics.
+  struct Tally {
+    int rounds = 0;  ///< solved
+    int ceres_iterations = 0;
+    int reallocations = 0;
+    double initial_cost = NAN;
+    double final_cost = NAN;
+    double control_points = NAN;  ///< of the last spline
+    double knot_interval = NAN;
+  };
+
+  /// One Ceres solve of the control points (the budget's time left at most).
+  void solve(Eigen::Matrix3Xd& control, double interval, double weight_obstacle,
+             StopCondition& stop, Tally& tally) const;
+  /// The cost terms over the control points (the first and last three held fixed).
+  void addCosts(ceres::Problem& problem, Eigen::Matrix3Xd& control, double interval,
+                double weight_obstacle) const;
+  /// Rescales the knot interval until the limits are just met; false when no interval fits
+  /// the start state.
+  bool reallocateTime(const ChainState& start, Eigen::Matrix3Xd& control, double& interval,
+                      int& reallocations) const;
+
   std::shared_ptr<const World> world_;
   SmootherSettings settings_;
   TrajectoryChecker checker_;
