@@ -211,6 +211,112 @@ TEST(MotionPrimitiveSearch, CertifiedEdgesCostExactlyWhatFullEvaluationFinds) {
   }
 }
 
+TEST(GoalShot, TheObvpCubicJoinsTheStateToRestAtTheGoalWithTheStatedEffort) {
+  EdgeEvaluatorSettings edges;
+  edges.weights.control_effort = 0.5;
+  edges.weights.length = 0.3;
+  const ObvpShot shot(edges, 5.0);
+  Rng rng(3);
+  for (int trial = 0; trial < 200; ++trial) {
+    ChainState state = ChainState::Zero();
+    state.col(0) = Eigen::Vector3d(rng.uniform(0, 3), rng.uniform(0, 3), rng.uniform(0, 3));
+    state.col(1) = Eigen::Vector3d(rng.uniform(-1, 1), rng.uniform(-1, 1), rng.uniform(-1, 1));
+    const Eigen::Vector3d goal(rng.uniform(0, 3), rng.uniform(0, 3), rng.uniform(0, 3));
+    const double t = rng.uniform(0.3, 3.0);
+    const TrajectorySegment cubic = ObvpShot::cubic(state, goal, t);
+    EXPECT_LT((cubic.evaluate(0.0) - state.col(0)).norm(), 1e-12);
+    EXPECT_LT((cubic.evaluate(0.0, 1) - state.col(1)).norm(), 1e-12);
+    EXPECT_LT((cubic.evaluate(t) - goal).norm(), 1e-9);
+    EXPECT_LT(cubic.evaluate(t, 1).norm(), 1e-9);
+    // The cost: w_T T + w_U (integral of |a|^2, here by the midpoint rule) + w_L length.
+    Trajectory one;
+    one.append(cubic);
+    double effort = 0.0;
+    constexpr int kSteps = 4000;
+    for (int i = 0; i < kSteps; ++i) {
+      effort += cubic.evaluate((i + 0.5) * t / kSteps, 2).squaredNorm() * t / kSteps;
+    }
+    EXPECT_NEAR(shot.cost(one), t + 0.5 * effort + 0.3 * one.length(), 1e-6 * (1.0 + effort));
+  }
+  // Beyond its reach it does not try; its shots keep the limits when it can stretch to them.
+  ChainState far = ChainState::Zero();
+  EXPECT_TRUE(shot.shoot(far, Eigen::Vector3d(6, 0, 0)).empty());
+  const Trajectory near = shot.shoot(far, Eigen::Vector3d(4, 1, 0));
+  ASSERT_FALSE(near.empty());
+  for (const TrajectorySample& sample : near.sample(0.01)) {
+    EXPECT_LE(sample.velocity.cwiseAbs().maxCoeff(), 2.0 + 1e-9);
+    EXPECT_LE(sample.acceleration.cwiseAbs().maxCoeff(), 3.0 + 1e-9);
+  }
+}
+
+/// A search of the small world `kind` from `start` to `goal`, with or without a shot.
+struct ShotSearch {
+  MotionPrimitiveSearch search;
+  MotionPrimitiveSearch::Outcome outcome;
+
+  ShotSearch(const std::string& kind, const ChainState& start, const Eigen::Vector3d& goal,
+             std::shared_ptr<const GoalShot> shot)
+      : search(test::smallWorld(kind), controlGrid({-1.0, 0.0, 1.0}, Eigen::Vector3d(3, 3, 3)),
+               SearchSettings(), policies(std::move(shot))) {
+    StopCondition stop(Budget{});
+    outcome = search.search(start, goal, stop);
+  }
+  static SearchPolicies policies(std::shared_ptr<const GoalShot> shot) {
+    SearchPolicies p;
+    p.edges = std::make_shared<FullEvaluationPolicy>();
+    p.heuristic = std::make_shared<TimeOptimalHeuristic>(EdgeEvaluatorSettings(), 0.5);
+    p.space = std::make_shared<LatticeSpace>(LatticeSpace::Resolution());
+    p.shot = std::move(shot);
+    return p;
+  }
+  double statistic(const std::string& name) const {
+    for (const auto& [key, value] : search.statistics()) {
+      if (key == name) return value;
+    }
+    return NAN;
+  }
+};
+
+TEST(GoalShot, AnAcceptedShotEndsTheSearchWithAPathTheCheckerAccepts) {
+  ChainState start = ChainState::Zero();
+  start.col(0) = Eigen::Vector3d(1, 1, 1.5);
+  const Eigen::Vector3d goal(7, 5, 1.5);
+  const auto shot = std::make_shared<ObvpShot>(EdgeEvaluatorSettings(), 4.0);
+  const ShotSearch with("empty", start, goal, shot);
+  const ShotSearch without("empty", start, goal, nullptr);
+  ASSERT_EQ(with.outcome, MotionPrimitiveSearch::Outcome::kGoal);
+  ASSERT_EQ(without.outcome, MotionPrimitiveSearch::Outcome::kGoal);
+  EXPECT_GE(with.statistic("shots"), 1.0);
+  EXPECT_TRUE(std::isnan(without.statistic("shots")));  // only with a shot policy
+  EXPECT_LT(with.search.counters().expansions, without.search.counters().expansions);
+  // The path ends with the shot, at rest at the goal, and passes the independent checker.
+  const Trajectory path = with.search.trajectory();
+  EXPECT_LT((path.endPosition() - goal).norm(), 1e-9);
+  EXPECT_LT(path.evaluate(path.duration(), 1).norm(), 1e-9);
+  const TrajectoryChecker checker(test::smallWorld("empty"), CheckerSettings());
+  CheckQuery query;
+  query.start = start;
+  query.goal = goal;
+  EXPECT_TRUE(checker.check(path, query).valid) << checker.check(path, query).detail;
+  EXPECT_TRUE(std::isfinite(with.search.cost()) && with.search.cost() > 0.0);
+}
+
+TEST(GoalShot, AShotThroughAnObstacleIsRefusedAndTheSearchGoesOn) {
+  // Through the walls world, shots from within 6 m of the goal: those that
+  // cross a wall are refused by the checker, and the path found still passes it.
+  const auto world = test::smallWorld("walls");
+  const auto query = test::randomQueries(*world, 1, 5, 8.0, 11.0, 0.5).front();
+  const auto shot = std::make_shared<ObvpShot>(EdgeEvaluatorSettings(), 6.0);
+  const ShotSearch with("walls", query.start, query.goal, shot);
+  ASSERT_EQ(with.outcome, MotionPrimitiveSearch::Outcome::kGoal);
+  EXPECT_GT(with.statistic("shots_rejected"), 0.0);
+  const TrajectoryChecker checker(world, CheckerSettings());
+  CheckQuery check;
+  check.start = query.start;
+  check.goal = query.goal;
+  EXPECT_TRUE(checker.check(with.search.trajectory(), check).valid);
+}
+
 TEST(MotionPrimitiveSearch, BudgetStopReturnsThePathToTheNearestState) {
   test::loadTestPlugins();
   ConfiguredPlanner configured = configurePlanner(

@@ -57,6 +57,35 @@ MotionPrimitiveSearch::MotionPrimitiveSearch(std::shared_ptr<const World> world,
   }
   evaluations_.resize(controls_.size());
   estimates_.resize(controls_.size());
+  if (policies_.shot) {
+    // A shot is held to what the search's edges are: its limits, body and tolerance.
+    CheckerSettings check;
+    check.robot_radius = settings_.edges.robot_radius;
+    check.limits = settings_.edges.limits;
+    check.max_derivative = settings_.edges.order;
+    check.collision_tolerance = settings_.edges.collision_tolerance;
+    shot_checker_ = std::make_unique<TrajectoryChecker>(world_, check);
+  }
+}
+
+MotionPrimitiveSearch::~MotionPrimitiveSearch() = default;
+
+bool MotionPrimitiveSearch::tryShot(int node) {
+  const ChainState& state = candidates_[node].state;
+  Trajectory shot = policies_.shot->shoot(state, goal_);
+  if (shot.empty()) return false;
+  ++counters_.shots;
+  CheckQuery query;
+  query.start = state;
+  query.goal = goal_;
+  query.goal_radius = settings_.goal_radius;
+  if (!shot_checker_->check(shot, query).valid) {
+    ++counters_.shots_rejected;
+    return false;
+  }
+  shot_cost_ = policies_.shot->cost(shot);
+  shot_ = std::move(shot);
+  return true;
 }
 
 int MotionPrimitiveSearch::slotOf(const ChainState& state) {
@@ -133,6 +162,8 @@ void MotionPrimitiveSearch::prepare() {
   goal_candidate_ = -1;
   nearest_candidate_ = -1;
   counters_ = {};
+  shot_ = Trajectory();
+  shot_cost_ = 0.0;
 }
 
 void MotionPrimitiveSearch::evaluatePopped(const HeapEntry& entry) {
@@ -279,7 +310,7 @@ MotionPrimitiveSearch::Outcome MotionPrimitiveSearch::search(const ChainState& s
       nearest = distance;
       nearest_candidate_ = index;
     }
-    if (distance <= settings_.goal_radius) {
+    if (distance <= settings_.goal_radius || (policies_.shot && tryShot(index))) {
       goal_candidate_ = index;
       outcome = Outcome::kGoal;
       break;
@@ -300,29 +331,39 @@ Trajectory MotionPrimitiveSearch::trajectory() const {
         candidates_[candidate.parent].state, controls_[candidate.control], settings_.edges.order,
         settings_.edges.duration));
   }
+  if (goal_candidate_ >= 0) {
+    for (const TrajectorySegment& segment : shot_.segments()) trajectory.append(segment);
+  }
   return trajectory;
 }
 
 double MotionPrimitiveSearch::cost() const {
   const int last = goal_candidate_ >= 0 ? goal_candidate_ : nearest_candidate_;
-  return last >= 0 ? candidates_[last].g : INFINITY;
+  if (last < 0) return INFINITY;
+  return candidates_[last].g + (goal_candidate_ >= 0 ? shot_cost_ : 0.0);
 }
 
 Statistics MotionPrimitiveSearch::statistics() const {
   const auto value = [](long long count) { return static_cast<double>(count); };
-  return {{"expansions", value(counters_.expansions)},
-          {"pops", value(counters_.pops)},
-          {"partial_evaluations", value(counters_.partial_evaluations)},
-          {"full_evaluations", value(counters_.full_evaluations)},
-          {"certified_edges", value(counters_.certified_edges)},
-          {"rejected_edges", value(counters_.rejected_edges)},
-          {"esdf_queries", value(counters_.esdf_queries)},
-          {"open_peak", value(counters_.open_peak)},
-          {"candidates", value(counters_.candidates)},
-          {"closed_states",
-           value(static_cast<long long>(std::count_if(
-               slots_.begin(), slots_.end(), [](const Slot& slot) { return slot.closed >= 0; })))},
-          {"time_evaluation_ms", 1e3 * counters_.evaluation_seconds}};
+  Statistics statistics = {
+      {"expansions", value(counters_.expansions)},
+      {"pops", value(counters_.pops)},
+      {"partial_evaluations", value(counters_.partial_evaluations)},
+      {"full_evaluations", value(counters_.full_evaluations)},
+      {"certified_edges", value(counters_.certified_edges)},
+      {"rejected_edges", value(counters_.rejected_edges)},
+      {"esdf_queries", value(counters_.esdf_queries)},
+      {"open_peak", value(counters_.open_peak)},
+      {"candidates", value(counters_.candidates)},
+      {"closed_states",
+       value(static_cast<long long>(std::count_if(
+           slots_.begin(), slots_.end(), [](const Slot& slot) { return slot.closed >= 0; })))},
+      {"time_evaluation_ms", 1e3 * counters_.evaluation_seconds}};
+  if (policies_.shot) {
+    statistics.emplace_back("shots", value(counters_.shots));
+    statistics.emplace_back("shots_rejected", value(counters_.shots_rejected));
+  }
+  return statistics;
 }
 
 SearchTree MotionPrimitiveSearch::tree(std::size_t max_edges, int points_per_edge) const {

@@ -332,6 +332,104 @@ SearchSpace::Key CellSpace::key(const ChainState& state, const ChainState& start
   return key;
 }
 
+ObvpShot::ObvpShot(const EdgeEvaluatorSettings& edges, double reach)
+    : weights_(edges.weights), limits_(edges.limits), reach_(reach) {
+  if (edges.order != 2) {
+    throw InvalidArgument("the obvp shot needs order 2 (acceleration control), got order " +
+                          std::to_string(edges.order));
+  }
+  if (!(reach > 0.0)) throw InvalidArgument("the obvp shot's reach must be positive");
+}
+
+TrajectorySegment ObvpShot::cubic(const ChainState& state, const Eigen::Vector3d& goal,
+                                  double duration) {
+  const double t = duration;
+  const Eigen::Vector3d d = goal - state.col(0) - state.col(1) * t;
+  const Eigen::Vector3d e = -state.col(1);
+  TrajectorySegment segment;
+  segment.duration = t;
+  segment.coefficients.resize(3, 4);
+  segment.coefficients.col(0) = state.col(0);
+  segment.coefficients.col(1) = state.col(1);
+  segment.coefficients.col(2) = (3.0 * d - e * t) / (t * t);
+  segment.coefficients.col(3) = (e * t - 2.0 * d) / (t * t * t);
+  return segment;
+}
+
+double ObvpShot::objective(const ChainState& state, const Eigen::Vector3d& goal, double t) const {
+  const Eigen::Vector3d d = goal - state.col(0) - state.col(1) * t;
+  const Eigen::Vector3d e = -state.col(1);
+  const double effort =
+      12.0 * d.squaredNorm() / (t * t * t) - 12.0 * d.dot(e) / (t * t) + 4.0 * e.squaredNorm() / t;
+  return weights_.duration * t + weights_.control_effort * effort;
+}
+
+Trajectory ObvpShot::shoot(const ChainState& state, const Eigen::Vector3d& goal) const {
+  const double distance = (goal - state.col(0)).norm();
+  if (distance > reach_) return {};
+  // The objective over T: a log-spaced scan, then golden-section refinement around the best.
+  const double speed = limits_.bound[1].minCoeff();
+  const double low = std::max(1e-3, 0.25 * distance / speed);
+  const double high =
+      4.0 * (distance / speed + state.col(1).norm() / limits_.bound[2].minCoeff()) + 1.0;
+  constexpr int kScan = 48;
+  double best = low;
+  for (int i = 0; i <= kScan; ++i) {
+    const double t = low * std::pow(high / low, static_cast<double>(i) / kScan);
+    if (objective(state, goal, t) < objective(state, goal, best)) best = t;
+  }
+  const double step = std::pow(high / low, 1.0 / kScan);
+  double a = best / step;
+  double b = best * step;
+  constexpr double kGolden = 0.6180339887498949;
+  for (int i = 0; i < 40; ++i) {
+    const double x1 = b - kGolden * (b - a);
+    const double x2 = a + kGolden * (b - a);
+    if (objective(state, goal, x1) < objective(state, goal, x2)) {
+      b = x2;
+    } else {
+      a = x1;
+    }
+  }
+  double duration = 0.5 * (a + b);
+  // Stretch while a limit breaks: the acceleration is linear in time (extremes at the ends),
+  // the velocity quadratic (extremes at the ends or its vertex).
+  const auto within = [&](const TrajectorySegment& c) {
+    const Eigen::Vector3d b2 = c.coefficients.col(2);
+    const Eigen::Vector3d c3 = c.coefficients.col(3);
+    for (int axis = 0; axis < 3; ++axis) {
+      const double vertex = c3[axis] != 0.0 ? -b2[axis] / (3.0 * c3[axis]) : 0.0;
+      for (const double t : {0.0, c.duration, std::clamp(vertex, 0.0, c.duration)}) {
+        if (std::abs(c.evaluate(t, 1)[axis]) > limits_.bound[1][axis]) return false;
+      }
+      for (const double t : {0.0, c.duration}) {
+        if (std::abs(c.evaluate(t, 2)[axis]) > limits_.bound[2][axis]) return false;
+      }
+    }
+    return true;
+  };
+  TrajectorySegment segment = cubic(state, goal, duration);
+  for (int i = 0; i < 8 && !within(segment); ++i) {
+    duration *= 1.25;
+    segment = cubic(state, goal, duration);
+  }
+  Trajectory shot;
+  shot.append(std::move(segment));
+  return shot;
+}
+
+double ObvpShot::cost(const Trajectory& shot) const {
+  double effort = 0.0;
+  for (const TrajectorySegment& segment : shot.segments()) {
+    // |a(t)|^2 with a linear: (a0^2 + a0 a1 + a1^2) T / 3 per axis, exact.
+    const Eigen::Vector3d a0 = segment.evaluate(0.0, 2);
+    const Eigen::Vector3d a1 = segment.evaluate(segment.duration, 2);
+    effort += (a0.squaredNorm() + a0.dot(a1) + a1.squaredNorm()) * segment.duration / 3.0;
+  }
+  return weights_.duration * shot.duration() + weights_.control_effort * effort +
+         weights_.length * shot.length();
+}
+
 MaxHeuristic::MaxHeuristic(std::vector<std::shared_ptr<const SearchHeuristic>> parts)
     : parts_(std::move(parts)) {
   if (parts_.empty()) throw InvalidArgument("max heuristic: no heuristics to combine");

@@ -10,6 +10,7 @@
 #include "kinolab/planner/planner.hpp"
 #include "kinolab/primitives/edge_evaluator.hpp"
 #include "kinolab/search/search_policies.hpp"
+#include "kinolab/validation/trajectory_checker.hpp"
 
 namespace kinolab {
 
@@ -38,6 +39,8 @@ struct SearchPolicies {
   std::shared_ptr<const SearchHeuristic> heuristic;
   /// How states are told apart (LatticeSpace: exact on a control grid's lattice).
   std::shared_ptr<const SearchSpace> space;
+  /// An analytic expansion to the goal from each closed state (hybrid A*), or none.
+  std::shared_ptr<const GoalShot> shot;
 };
 
 /// Counters of one search; see statistics() for their names.
@@ -52,7 +55,9 @@ struct SearchCounters {
   long long open_peak = 0;
   long long candidates = 0;
   double evaluation_seconds = 0.0;
-  bool memory_limited = false;  ///< stopped by memory_limit_mb
+  bool memory_limited = false;   ///< stopped by memory_limit_mb
+  long long shots = 0;           ///< analytic expansions tried (SearchPolicies::shot)
+  long long shots_rejected = 0;  ///< of those, refused by the checker
 };
 
 /// The motion-primitive A* core shared by the lazy and eager planners and by any new
@@ -76,6 +81,9 @@ class MotionPrimitiveSearch {
 
   MotionPrimitiveSearch(std::shared_ptr<const World> world, std::vector<Eigen::Vector3d> controls,
                         SearchSettings settings, SearchPolicies policies);
+  ~MotionPrimitiveSearch();
+  MotionPrimitiveSearch(const MotionPrimitiveSearch&) = delete;
+  MotionPrimitiveSearch& operator=(const MotionPrimitiveSearch&) = delete;
 
   const SearchSettings& settings() const { return settings_; }
   const EdgeEvaluator& evaluator() const { return evaluator_; }
@@ -84,12 +92,14 @@ class MotionPrimitiveSearch {
   /// Searches from `start` (assumed valid) towards `goal`.
   Outcome search(const ChainState& start, const Eigen::Vector3d& goal, StopCondition& stop);
 
-  /// After search(): the path to the goal (kGoal) or to the closed state nearest the goal.
+  /// After search(): the path to the goal (kGoal: ending with the accepted shot, if any) or
+  /// to the closed state nearest the goal.
   Trajectory trajectory() const;
-  /// Cost of that path (sum of its edges' full costs).
+  /// Cost of that path (sum of its edges' full costs, and the shot's).
   double cost() const;
   const SearchCounters& counters() const { return counters_; }
-  /// The counters by name, for results: expansions, pops, partial_evaluations, ...
+  /// The counters by name, for results: expansions, pops, partial_evaluations, ... (and
+  /// shots, shots_rejected with a shot policy).
   Statistics statistics() const;
   /// The edges of the last search for figures: every evaluated, certified or rejected edge,
   /// then the lower-bound edges still queued (lower-bound edges popped after their state was
@@ -154,6 +164,8 @@ class MotionPrimitiveSearch {
   /// candidate of its state is at least as good). Returns false when dropped.
   bool queueCandidate(const Candidate& candidate, double h);
   void expand(int node);
+  /// Tries the shot policy from the closed candidate `node`; true when a shot was accepted.
+  bool tryShot(int node);
   /// A popped lower-bound or certified edge: materialises it unless its state is closed
   /// (full evaluation for a lower bound) and queues the candidate.
   void evaluatePopped(const HeapEntry& entry);
@@ -177,7 +189,10 @@ class MotionPrimitiveSearch {
   std::vector<EdgeEvaluation> evaluations_;  // scratch: one per control
   std::vector<EdgeEstimate> estimates_;      // scratch: one per control
   int goal_candidate_ = -1;
-  int nearest_candidate_ = -1;  ///< closed, nearest the goal
+  int nearest_candidate_ = -1;                       ///< closed, nearest the goal
+  std::unique_ptr<TrajectoryChecker> shot_checker_;  ///< with a shot policy
+  Trajectory shot_;                                  ///< the accepted shot
+  double shot_cost_ = 0.0;
   SearchCounters counters_;
 };
 

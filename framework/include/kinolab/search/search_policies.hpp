@@ -9,6 +9,7 @@
 
 #include "kinolab/core/plugin_registry.hpp"
 #include "kinolab/primitives/edge_evaluator.hpp"
+#include "kinolab/trajectory/trajectory.hpp"
 
 namespace kinolab {
 
@@ -176,6 +177,47 @@ class ObvpHeuristic final : public SearchHeuristic {
   double weight_control_;
   double weight_length_;
   double goal_radius_;
+};
+
+/// An analytic expansion, as hybrid A* tries one (Fast-Planner's computeShotTraj): from a state
+/// the search has just closed, a trajectory straight to the goal region. The search accepts the
+/// first shot the independent checker accepts (the search's limits, the map's bounds, the body
+/// clear of every occupied cube to collision_tolerance, ending in the goal region) and ends
+/// with it; the path is then the closed state's followed by the shot, which no longer makes the
+/// search optimal. Optional (SearchPolicies::shot); a plugin gives one.
+class GoalShot {
+ public:
+  virtual ~GoalShot() = default;
+  /// The shot from `state` towards `goal`, starting at `state` (time 0), or an empty
+  /// trajectory when it does not try from here (e.g. too far from the goal).
+  virtual Trajectory shoot(const ChainState& state, const Eigen::Vector3d& goal) const = 0;
+  /// The shot's cost in the search's terms (added to the closed state's for the path's cost).
+  virtual double cost(const Trajectory& shot) const = 0;
+};
+
+/// Fast-Planner's shot for acceleration control (order 2): from a state within `reach` of the
+/// goal, the double integrator's least-effort cubic to rest at the goal in time T, T the
+/// minimiser of w_T T + w_U J(T) (J(T) = 12 |d|^2 / T^3 - 12 d.e / T^2 + 4 |e|^2 / T, with
+/// d = goal - p - v T, e = -v, the effort of that cubic), stretched (x1.25, up to 8 times)
+/// while its velocity or acceleration breaks a limit. Its cost: w_T T + w_U J(T) + w_L times
+/// its length (no obstacle term: the checker decides collisions).
+class ObvpShot final : public GoalShot {
+ public:
+  ObvpShot(const EdgeEvaluatorSettings& edges, double reach);
+  Trajectory shoot(const ChainState& state, const Eigen::Vector3d& goal) const override;
+  double cost(const Trajectory& shot) const override;
+
+  /// The cubic from `state` to rest at `goal` in time `duration`.
+  static TrajectorySegment cubic(const ChainState& state, const Eigen::Vector3d& goal,
+                                 double duration);
+
+ private:
+  /// w_T T + w_U J(T).
+  double objective(const ChainState& state, const Eigen::Vector3d& goal, double t) const;
+
+  CostWeights weights_;
+  DynamicLimits limits_;
+  double reach_;
 };
 
 /// How the search tells states apart (kind "search_space", a motion-primitive planner's
