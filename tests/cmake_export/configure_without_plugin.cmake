@@ -1,5 +1,6 @@
-# Configures a copy of the source tree without plugins/planners/rrtstar_ceres/: the only
-# folder that uses OMPL and Ceres. The build must configure, and find neither library.
+# Configures a copy of the source tree without the folders that use OMPL or Ceres
+# (plugins/planners/rrtstar_ceres, plugins/planners/hybrid_astar and the B-spline back end they
+# share). The build must configure, and find neither library.
 # Run with cmake -P -DSOURCE_DIR=... -DWORK_DIR=...
 file(REMOVE_RECURSE "${WORK_DIR}")
 set(copy "${WORK_DIR}/source")
@@ -10,7 +11,9 @@ endforeach()
 if(NOT EXISTS "${copy}/plugins/planners/rrtstar_ceres/CMakeLists.txt")
   message(FATAL_ERROR "the copy has no rrtstar_ceres folder to remove: is SOURCE_DIR right?")
 endif()
-file(REMOVE_RECURSE "${copy}/plugins/planners/rrtstar_ceres")
+foreach(folder planners/rrtstar_ceres planners/hybrid_astar backends/bspline_smoother)
+  file(REMOVE_RECURSE "${copy}/plugins/${folder}")
+endforeach()
 execute_process(
   COMMAND ${CMAKE_COMMAND} -S "${copy}" -B "${WORK_DIR}/build" -DCMAKE_BUILD_TYPE=Release
           -DKINOLAB_BUILD_TESTS=OFF -DKINOLAB_BUILD_BENCHMARKS=OFF

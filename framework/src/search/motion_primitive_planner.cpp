@@ -115,11 +115,13 @@ const MotionPrimitiveSearch& MotionPrimitivePlanner::search() const {
 }
 
 void MotionPrimitivePlanner::doSetup(const PlannerContext& context) {
-  if (!context.sampler) {
+  if (!context.sampler && config_.controls.empty()) {
     throw InvalidArgument("motion-primitive planner: set up without a control sampler");
   }
   const EdgeEvaluatorSettings& edges = config_.settings.edges;
-  auto controls = context.sampler->sample(edges.limits.bound[edges.order], context.seed);
+  auto controls = config_.controls.empty()
+                      ? context.sampler->sample(edges.limits.bound[edges.order], context.seed)
+                      : config_.controls;
   search_ = std::make_unique<MotionPrimitiveSearch>(context.world, std::move(controls),
                                                     config_.settings, config_.policies);
 }

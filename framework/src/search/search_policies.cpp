@@ -317,9 +317,12 @@ SearchSpace::Key LatticeSpace::key(const ChainState& state, const ChainState& st
 }
 
 CellSpace::CellSpace(const Cells& cells)
-    : inverse_cell_(1.0 / cells.cell_size), inverse_velocity_(1.0 / cells.velocity_resolution) {
-  if (!(cells.cell_size > 0.0) || !(cells.velocity_resolution > 0.0)) {
-    throw InvalidArgument("cell search space: cell size and velocity resolution must be positive");
+    : inverse_cell_(1.0 / cells.cell_size),
+      inverse_velocity_(cells.velocity_resolution > 0.0 ? 1.0 / cells.velocity_resolution : 0.0) {
+  if (!(cells.cell_size > 0.0) || !(cells.velocity_resolution >= 0.0)) {
+    throw InvalidArgument(
+        "cell search space: the cell size must be positive and the velocity resolution at "
+        "least 0");
   }
 }
 

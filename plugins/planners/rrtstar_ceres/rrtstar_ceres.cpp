@@ -16,6 +16,10 @@
 namespace kinolab::rrt {
 namespace {
 
+using smoothing::BsplineSmoother;
+using smoothing::SmootherResult;
+using smoothing::SmootherSettings;
+
 /// What the planner adds to the front end's and smoother's fields.
 struct RrtChecks {
   double clearance_margin = 0.1;   ///< m beyond the body radius
@@ -182,7 +186,7 @@ class RrtStarPlanner final : public Planner {
 KINOLAB_REGISTER_PLUGINS(registrar) {
   using namespace kinolab;
   registrar.library("ompl", rrt::omplVersion());
-  registrar.library("ceres", rrt::ceresVersion());
+  registrar.library("ceres", smoothing::ceresVersion());
   registrar.add<Planner>(
       "rrtstar_ceres",
       "TGK analogue: OMPL RRT* path, Ceres-smoothed uniform cubic B-spline (jerk, ESDF, limits)",

@@ -32,6 +32,9 @@ struct MotionPrimitiveConfig {
   SearchSettings settings;
   SearchPolicies policies;
   Budget budget;
+  /// A fixed control set: when not empty, used instead of drawing one from the planner's
+  /// sampler at setup (a planner whose controls are its own parameters).
+  std::vector<Eigen::Vector3d> controls;
 
   static MotionPrimitiveConfig fromParameters(const ParameterSet& parameters);
 };

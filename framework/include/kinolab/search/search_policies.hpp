@@ -273,7 +273,8 @@ class CellSpace final : public SearchSpace {
     template <typename Fields>
     void fields(Fields& f) {
       f.real("cell_size", cell_size, 1e-3, 100.0, "position cell side, m");
-      f.real("velocity_resolution", velocity_resolution, 1e-3, 100.0, "velocity bin, m/s");
+      f.real("velocity_resolution", velocity_resolution, 0.0, 100.0,
+             "velocity bin, m/s (0: position cells only, as Fast-Planner keys its nodes)");
     }
   };
   explicit CellSpace(const Cells& cells);

@@ -8,7 +8,7 @@
 
 #include "kinolab/core/text.hpp"
 
-namespace kinolab::rrt {
+namespace kinolab::smoothing {
 namespace {
 
 template <typename T>
@@ -351,4 +351,4 @@ SmootherResult BsplineSmoother::smooth(const ChainState& start,
 
 std::string ceresVersion() { return CERES_VERSION_STRING; }
 
-}  // namespace kinolab::rrt
+}  // namespace kinolab::smoothing

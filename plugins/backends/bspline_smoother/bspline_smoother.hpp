@@ -17,7 +17,7 @@ namespace ceres {
 class Problem;
 }  // namespace ceres
 
-namespace kinolab::rrt {
+namespace kinolab::smoothing {
 
 /// The back end: a uniform cubic B-spline through a collision-free path, optimised with Ceres
 /// (Ceres stays inside the .cpp).
@@ -108,4 +108,4 @@ class BsplineSmoother {
 /// The Ceres release this plugin was built against, for provenance.
 std::string ceresVersion();
 
-}  // namespace kinolab::rrt
+}  // namespace kinolab::smoothing
