@@ -10,13 +10,22 @@
 #include <ompl/config.h>
 #include <ompl/geometric/PathGeometric.h>
 #include <ompl/geometric/PathSimplifier.h>
+#include <ompl/geometric/planners/informedtrees/ABITstar.h>
+#include <ompl/geometric/planners/informedtrees/AITstar.h>
+#include <ompl/geometric/planners/informedtrees/BITstar.h>
+#include <ompl/geometric/planners/prm/LazyPRMstar.h>
+#include <ompl/geometric/planners/rrt/InformedRRTstar.h>
+#include <ompl/geometric/planners/rrt/RRTConnect.h>
 #include <ompl/geometric/planners/rrt/RRTstar.h>
 #include <ompl/util/Console.h>
 
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdlib>
+#include <functional>
 
+#include "kinolab/core/error.hpp"
 #include "kinolab/core/text.hpp"
 
 namespace kinolab::rrt {
@@ -210,6 +219,7 @@ FrontEndResult RrtFrontEnd::plan(const Eigen::Vector3d& start, const Eigen::Vect
   o.si->getMotionValidator()->resetMotionCounter();
 
   const auto problem = this->problem(start, goal);
+  if (settings.planner != OmplPlanner::kRrtStar) return planOther(problem, stop);
   auto planner = std::make_shared<SeededRrtStar>(o.si, seed);
   if (settings.range > 0.0) planner->setRange(settings.range);
   planner->setGoalBias(settings.goal_bias);
@@ -233,15 +243,10 @@ FrontEndResult RrtFrontEnd::plan(const Eigen::Vector3d& start, const Eigen::Vect
     simplify(static_cast<og::PathGeometric&>(*problem->getSolutionPath()), result);
   }
 
-  const ob::MotionValidatorPtr& motions = o.si->getMotionValidator();
   Statistics& stats = result.statistics;
   stats.emplace_back("iterations", static_cast<double>(result.iterations));
   stats.emplace_back("tree_size", static_cast<double>(planner->treeSize()));
-  stats.emplace_back("collision_checks", static_cast<double>(o.validity_checks));
-  stats.emplace_back("motion_checks", static_cast<double>(motions->getValidMotionCount() +
-                                                          motions->getInvalidMotionCount()));
-  stats.emplace_back("motion_checks_invalid",
-                     static_cast<double>(motions->getInvalidMotionCount()));
+  countChecks(result);
   stats.emplace_back(
       "first_solution_iteration",
       monitor.first_iteration < 0 ? NAN : static_cast<double>(monitor.first_iteration));
@@ -249,6 +254,127 @@ FrontEndResult RrtFrontEnd::plan(const Eigen::Vector3d& start, const Eigen::Vect
   stats.emplace_back("first_solution_cost", monitor.first_cost);
   stats.emplace_back("best_cost", planner->bestCost().value());
   stats.emplace_back("time_rrt_ms", rrt_ms);
+  result.progress = std::move(monitor.progress);
+  return result;
+}
+
+void RrtFrontEnd::countChecks(FrontEndResult& result) const {
+  const ob::MotionValidatorPtr& motions = ompl_->si->getMotionValidator();
+  Statistics& stats = result.statistics;
+  stats.emplace_back("collision_checks", static_cast<double>(ompl_->validity_checks));
+  stats.emplace_back("motion_checks", static_cast<double>(motions->getValidMotionCount() +
+                                                          motions->getInvalidMotionCount()));
+  stats.emplace_back("motion_checks_invalid",
+                     static_cast<double>(motions->getInvalidMotionCount()));
+}
+
+namespace {
+
+ob::PlannerPtr allocatePlanner(const ob::SpaceInformationPtr& si, const FrontEndSettings& s) {
+  switch (s.planner) {
+    case OmplPlanner::kRrtConnect: {
+      auto planner = std::make_shared<og::RRTConnect>(si);
+      if (s.range > 0.0) planner->setRange(s.range);
+      return planner;
+    }
+    case OmplPlanner::kInformedRrtStar: {
+      auto planner = std::make_shared<og::InformedRRTstar>(si);
+      if (s.range > 0.0) planner->setRange(s.range);
+      planner->setGoalBias(s.goal_bias);
+      planner->setRewireFactor(s.rewire_factor);
+      planner->setKNearest(s.k_nearest);
+      planner->setDelayCC(s.delay_collision_checking);
+      return planner;
+    }
+    // Named for their default k-nearest variant (else OMPL warns on every allocation).
+    case OmplPlanner::kBitStar:
+      return std::make_shared<og::BITstar>(si, "kBITstar");
+    case OmplPlanner::kAbitStar:
+      return std::make_shared<og::ABITstar>(si, "kABITstar");
+    case OmplPlanner::kAitStar:
+      return std::make_shared<og::AITstar>(si);
+    case OmplPlanner::kLazyPrmStar:
+      return std::make_shared<og::LazyPRMstar>(si);
+    case OmplPlanner::kRrtStar:
+      break;
+  }
+  throw InvalidArgument("ompl_geometric: RRT* runs its own loop");
+}
+
+/// The termination condition of any planner but RRT*: the budget (its iterations are calls of
+/// the condition), the first exact solution with stop_at_first; records the first solution
+/// and the anytime progress (OMPL's "best cost" progress property, at every improvement).
+class AnyPlannerMonitor {
+ public:
+  AnyPlannerMonitor(const ob::Planner& planner, const ob::ProblemDefinition& problem,
+                    bool stop_at_first, StopCondition& stop)
+      : problem_(problem), stop_at_first_(stop_at_first), stop_(stop) {
+    // OMPL names it "best cost REAL" or "best cost DOUBLE" (BIT*, ABIT*, AIT*).
+    for (const auto& [name, read] : planner.getPlannerProgressProperties()) {
+      if (name.rfind("best cost ", 0) == 0) best_cost_ = read;
+    }
+  }
+
+  bool operator()() {
+    ++calls;
+    const double now_ms = millisecondsSince(begin_);
+    double cost = INFINITY;
+    if (best_cost_) cost = std::strtod(best_cost_().c_str(), nullptr);
+    if (std::isfinite(cost) && (progress.empty() || cost < progress.back().value)) {
+      progress.push_back({"anytime_cost", now_ms, cost});
+    }
+    // The first solution: the first finite best cost (planners add their solution to the
+    // problem only when they return).
+    if (stop_at_first_ && (!progress.empty() || problem_.hasExactSolution())) return true;
+    return stop_.expired(calls);
+  }
+
+  double elapsedMs() const { return millisecondsSince(begin_); }
+
+  Progress progress;
+  long long calls = 0;
+
+ private:
+  const ob::ProblemDefinition& problem_;
+  bool stop_at_first_;
+  StopCondition& stop_;
+  std::function<std::string()> best_cost_;
+  std::chrono::steady_clock::time_point begin_ = std::chrono::steady_clock::now();
+};
+
+}  // namespace
+
+FrontEndResult RrtFrontEnd::planOther(const std::shared_ptr<ob::ProblemDefinition>& problem,
+                                      StopCondition& stop) {
+  Ompl& o = *ompl_;
+  const ob::PlannerPtr planner = allocatePlanner(o.si, o.settings);
+  planner->setProblemDefinition(problem);
+  planner->setup();
+  o.last_planner = planner;
+  FrontEndResult result;
+  AnyPlannerMonitor monitor(*planner, *problem, o.settings.stop_at_first, stop);
+  const ob::PlannerStatus status =
+      planner->solve(ob::PlannerTerminationCondition([&monitor] { return monitor(); }));
+  const double planning_ms = monitor.elapsedMs();
+  result.iterations = monitor.calls;
+  double best = NAN;
+  if (status == ob::PlannerStatus::EXACT_SOLUTION ||
+      status == ob::PlannerStatus::APPROXIMATE_SOLUTION) {
+    result.outcome = problem->hasApproximateSolution() ? FrontEndResult::Outcome::kApproximate
+                                                       : FrontEndResult::Outcome::kExact;
+    auto& path = static_cast<og::PathGeometric&>(*problem->getSolutionPath());
+    best = path.length();
+    simplify(path, result);
+  }
+  Statistics& stats = result.statistics;
+  countChecks(result);
+  // Without a best-cost property (RRT-Connect) a planner returns at its first solution.
+  stats.emplace_back("first_solution_ms", !monitor.progress.empty()
+                                              ? monitor.progress.front().time_ms
+                                          : std::isfinite(best) ? planning_ms
+                                                                : NAN);
+  stats.emplace_back("best_cost", best);
+  stats.emplace_back("time_front_end_ms", planning_ms);
   result.progress = std::move(monitor.progress);
   return result;
 }

@@ -19,8 +19,24 @@ class PathGeometric;
 
 namespace kinolab::rrt {
 
-/// The geometric front end: OMPL's RRT* in the world's bounds (OMPL stays inside the .cpp).
+/// The OMPL geometric planners the front end runs (ompl_geometric's `planner`).
+enum class OmplPlanner {
+  kRrtConnect,
+  kRrtStar,
+  kInformedRrtStar,
+  kBitStar,
+  kAbitStar,
+  kAitStar,
+  kLazyPrmStar
+};
+
+/// The geometric front end: an OMPL planner in the world's bounds (OMPL stays inside the .cpp).
 struct FrontEndSettings {
+  /// RRT* (rrtstar, rrtstar_ceres) runs its own loop: refinement iterations, vertex cap, a
+  /// seed for every stream. The others run to the budget (or their first solution, with
+  /// stop_at_first), seeded where OMPL lets (the uniform state sampler).
+  OmplPlanner planner = OmplPlanner::kRrtStar;
+  bool stop_at_first = false;
   double range = 1.5;          ///< longest tree edge, m (0: OMPL's choice, 20 % of the extent)
   double goal_bias = 0.05;     ///< probability of sampling the goal
   double rewire_factor = 1.1;  ///< scales RRT*'s rewiring radius or k
@@ -81,6 +97,11 @@ class RrtFrontEnd {
 
  private:
   struct Ompl;
+  /// Any planner but RRT*, to its budget.
+  FrontEndResult planOther(const std::shared_ptr<ompl::base::ProblemDefinition>& problem,
+                           StopCondition& stop);
+  /// Counters of the validity checks into `result` (every planner).
+  void countChecks(FrontEndResult& result) const;
   std::shared_ptr<ompl::base::ProblemDefinition> problem(const Eigen::Vector3d& start,
                                                          const Eigen::Vector3d& goal) const;
   /// Simplifies the found path (when the settings say so) into `result`'s path, with the

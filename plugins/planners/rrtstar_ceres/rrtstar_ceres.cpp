@@ -36,14 +36,45 @@ struct RrtChecks {
   }
 };
 
-ParameterSpecs frontEndParameters() {
+ParameterSpecs frontEndParameters(double time_limit = 5.0) {
   return declareFields<FrontEndSettings>()
-      .include(motionParameters(5.0))
+      .include(motionParameters(time_limit))
       .include(declareFields<RrtChecks>());
 }
 
 ParameterSpecs smoothingParameters() {
   return frontEndParameters().include(declareFields<SmootherSettings>());
+}
+
+/// ompl_geometric's choices: which OMPL planner, and which back end.
+struct GeometricChoice {
+  OmplPlanner planner = OmplPlanner::kBitStar;
+  bool bspline = false;
+  bool stop_at_first = false;
+
+  template <typename Fields>
+  void fields(Fields& f) {
+    f.choice("planner", planner,
+             {{"rrtconnect", OmplPlanner::kRrtConnect},
+              {"rrtstar", OmplPlanner::kRrtStar},
+              {"informed_rrtstar", OmplPlanner::kInformedRrtStar},
+              {"bitstar", OmplPlanner::kBitStar},
+              {"abitstar", OmplPlanner::kAbitStar},
+              {"aitstar", OmplPlanner::kAitStar},
+              {"lazyprmstar", OmplPlanner::kLazyPrmStar}},
+             "OMPL's geometric planner (rrtstar: kinolab's seeded RRT* loop, as rrtstar and "
+             "rrtstar_ceres)");
+    f.choice("back_end", bspline, {{"none", false}, {"bspline", true}},
+             "none: the path flown stop-and-go; bspline: the Ceres B-spline smoother");
+    f.boolean("stop_at_first", stop_at_first,
+              "stop at the first exact solution (else refine to the budget; not rrtstar)");
+  }
+};
+
+ParameterSpecs geometricParameters() {
+  return declareFields<GeometricChoice>()
+      .include(frontEndParameters(1.0))
+      .include(declareFields<SmootherSettings>());
 }
 
 MetricSpecs frontEndStatistics() {
@@ -82,9 +113,16 @@ MetricSpecs smoothingStatistics() {
       .boolean("smoothing_valid", "the smoothed trajectory passed the smoother's own check");
 }
 
+MetricSpecs geometricStatistics() {
+  MetricSpecs specs = smoothingStatistics();
+  specs.clock("time_front_end_ms", "the OMPL planner's time (planners other than rrtstar)");
+  return specs;
+}
+
 class RrtStarPlanner final : public Planner {
  public:
-  RrtStarPlanner(const ParameterSet& parameters, bool smooth)
+  RrtStarPlanner(const ParameterSet& parameters, bool smooth,
+                 OmplPlanner planner = OmplPlanner::kRrtStar, bool stop_at_first = false)
       : front_end_settings_(readFields<FrontEndSettings>(parameters)),
         checks_(readFields<RrtChecks>(parameters)),
         model_(planningModelFrom(parameters)),
@@ -92,6 +130,8 @@ class RrtStarPlanner final : public Planner {
     if (checks_.max_iterations > 0) budget_.max_iterations = checks_.max_iterations;
     front_end_settings_.clearance = model_.robot_radius + checks_.clearance_margin;
     front_end_settings_.goal_radius = model_.goal_radius;
+    front_end_settings_.planner = planner;
+    front_end_settings_.stop_at_first = stop_at_first;
     if (smooth) {
       SmootherSettings& s = smoother_settings_.emplace(readFields<SmootherSettings>(parameters));
       s.robot_radius = model_.robot_radius;
@@ -136,7 +176,7 @@ class RrtStarPlanner final : public Planner {
     result.progress = std::move(path.progress);
     if (path.outcome == FrontEndResult::Outcome::kNone) {
       result.status = PlanStatus::kTimeout;
-      result.message = "no RRT* path after " + std::to_string(path.iterations) + " iterations";
+      result.message = "no path after " + std::to_string(path.iterations) + " iterations";
       return result;
     }
     result.status = path.outcome == FrontEndResult::Outcome::kExact ? PlanStatus::kExact
@@ -202,4 +242,23 @@ KINOLAB_REGISTER_PLUGINS(registrar) {
         return std::make_unique<rrt::RrtStarPlanner>(parameters, false);
       },
       rrt::frontEndStatistics());
+  registrar.add<Planner>(
+      "ompl_geometric",
+      "OMPL's geometric planners by name (RRT-Connect, RRT*, Informed RRT*, BIT*, ABIT*, AIT*, "
+      "LazyPRM*) on the ESDF, with or without the B-spline back end",
+      rrt::geometricParameters(),
+      [](const ParameterSet& parameters) {
+        const auto choice = readFields<rrt::GeometricChoice>(parameters);
+        if (choice.planner == rrt::OmplPlanner::kAitStar) {
+          throw ConfigError(
+              "ompl_geometric: planner 'aitstar' is refused: the AIT* of OMPL " +
+              rrt::omplVersion() +
+              " aborts the whole process on an internal assertion (AITstar.cpp:810, "
+              "performForwardSearchIteration) on 2 of 4 forest queries tried; use bitstar or "
+              "abitstar (OMPL 1.6 rewrote AIT*)");
+        }
+        return std::make_unique<rrt::RrtStarPlanner>(parameters, choice.bspline, choice.planner,
+                                                     choice.stop_at_first);
+      },
+      rrt::geometricStatistics());
 }

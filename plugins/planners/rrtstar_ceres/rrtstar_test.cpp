@@ -194,3 +194,57 @@ TEST(RrtStar, StartsTooCloseForTheMarginAreRefusedByName) {
 
 }  // namespace
 }  // namespace kinolab
+
+namespace kinolab {
+namespace {
+
+TEST(OmplGeometric, EveryPlannerAndBackEndReturnsACheckedTrajectory) {
+  const PlanningQuery query =
+      test::randomQueries(*test::smallWorld("forest"), 1, 41, 6.0, 9.0, 0.8).front();
+  for (const std::string planner :
+       {"rrtconnect", "rrtstar", "informed_rrtstar", "bitstar", "abitstar", "lazyprmstar"}) {
+    for (const std::string back_end : {"none", "bspline"}) {
+      SCOPED_TRACE(planner + " / " + back_end);
+      // Work-bounded, not timed: 3000 iterations (calls of the termination condition), or
+      // RRT*'s refinement after its first solution.
+      ConfiguredPlanner configured =
+          makePlanner("ompl_geometric", "forest", 7,
+                      {"planner=" + planner, "back_end=" + back_end, "refine_iterations=200"});
+      PlanResult result = configured.planner->plan(query, Budget{INFINITY, 3000});
+      ASSERT_TRUE(result.status == PlanStatus::kExact || result.status == PlanStatus::kApproximate)
+          << result.message;
+      EXPECT_TRUE(result.check.valid) << result.check.detail;
+      EXPECT_NEAR(result.cost, result.trajectory.length(), 1e-9);
+      // An anytime planner's series falls; RRT-Connect has none (it stops at its first).
+      for (std::size_t i = 1; i < result.progress.size(); ++i) {
+        EXPECT_LT(result.progress[i].value, result.progress[i - 1].value);
+      }
+      EXPECT_EQ(result.progress.empty(), planner == "rrtconnect");
+    }
+  }
+}
+
+TEST(OmplGeometric, AitStarIsRefusedWithTheReasonNotRunIntoOmplsAbort) {
+  try {
+    makePlanner("ompl_geometric", "forest", 7, {"planner=aitstar"});
+    FAIL() << "aitstar was accepted";
+  } catch (const ConfigError& error) {
+    EXPECT_NE(std::string(error.what()).find("AITstar.cpp:810"), std::string::npos) << error.what();
+  }
+}
+
+TEST(OmplGeometric, RrtStarWithTheBsplineBackEndIsTheTgkAnalogue) {
+  const PlanningQuery query =
+      test::randomQueries(*test::smallWorld("walls"), 1, 43, 6.0, 9.0, 0.8).front();
+  const PlanResult named = makePlanner("rrtstar_ceres", "walls", 9).planner->plan(query, Budget{});
+  const PlanResult chosen =
+      makePlanner("ompl_geometric", "walls", 9, {"planner=rrtstar", "back_end=bspline"})
+          .planner->plan(query, Budget{});
+  ASSERT_EQ(named.status, PlanStatus::kExact) << named.message;
+  EXPECT_EQ(chosen.status, named.status);
+  EXPECT_EQ(chosen.cost, named.cost);  // bit for bit: the same seeded loop and smoother
+  EXPECT_EQ(statistic(chosen, "iterations"), statistic(named, "iterations"));
+}
+
+}  // namespace
+}  // namespace kinolab
