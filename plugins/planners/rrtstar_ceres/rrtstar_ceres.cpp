@@ -11,6 +11,7 @@
 #include "kinolab/core/hash.hpp"
 #include "kinolab/core/plugin.hpp"
 #include "kinolab/core/text.hpp"
+#include "ompl_control.hpp"
 #include "rrt_front_end.hpp"
 
 namespace kinolab::rrt {
@@ -261,4 +262,9 @@ KINOLAB_REGISTER_PLUGINS(registrar) {
                                                      choice.stop_at_first);
       },
       rrt::geometricStatistics());
+  registrar.add<Planner>(
+      "ompl_control",
+      "OMPL's kinodynamic planners by name (SST, KPIECE1, RRT, EST, PDST) over the integrator "
+      "chain, exact propagation",
+      rrt::omplControlParameters(), &rrt::makeOmplControl, rrt::omplControlStatistics());
 }

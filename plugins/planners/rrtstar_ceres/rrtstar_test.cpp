@@ -248,3 +248,49 @@ TEST(OmplGeometric, RrtStarWithTheBsplineBackEndIsTheTgkAnalogue) {
 
 }  // namespace
 }  // namespace kinolab
+
+namespace kinolab {
+namespace {
+
+TEST(OmplControl, EveryPlannerReturnsTrajectoriesTheCheckerAccepts) {
+  const PlanningQuery query =
+      test::randomQueries(*test::smallWorld("forest"), 1, 47, 4.0, 6.0, 0.8).front();
+  for (const std::string planner : {"sst", "kpiece1", "rrt", "est", "pdst"}) {
+    for (const std::string order : {"2", "3"}) {
+      SCOPED_TRACE(planner + " at order " + order);
+      // Work-bounded: 20000 calls of the termination condition, or the first solution.
+      ConfiguredPlanner configured = configurePlanner(
+          "ompl_control", test::assignments({"planner=" + planner, "order=" + order, "time_limit=0",
+                                             "max_iterations=20000", "stop_at_first=true"}));
+      configured.planner->setup({test::smallWorld("forest"), nullptr, 3});
+      const PlanResult result = configured.planner->plan(query, Budget{});
+      ASSERT_TRUE(result.status == PlanStatus::kExact || result.status == PlanStatus::kApproximate)
+          << result.message;
+      EXPECT_TRUE(result.check.valid) << result.check.check << ": " << result.check.detail;
+      EXPECT_GT(statistic(result, "propagations"), 0.0);
+    }
+  }
+}
+
+TEST(OmplControl, SstRefinesAnytimeAndRepeatsBitForBit) {
+  const PlanningQuery query =
+      test::randomQueries(*test::smallWorld("forest"), 1, 53, 4.0, 6.0, 0.8).front();
+  const auto plan = [&] {
+    ConfiguredPlanner configured = configurePlanner(
+        "ompl_control", test::assignments({"planner=sst", "time_limit=0", "max_iterations=30000"}));
+    configured.planner->setup({test::smallWorld("forest"), nullptr, 5});
+    return configured.planner->plan(query, Budget{});
+  };
+  const PlanResult a = plan();
+  const PlanResult b = plan();
+  ASSERT_FALSE(a.trajectory.empty()) << a.message;
+  EXPECT_TRUE(a.check.valid) << a.check.detail;
+  EXPECT_EQ(a.cost, b.cost);  // every OMPL stream is seeded from the run and the query
+  EXPECT_EQ(a.trajectory.duration(), b.trajectory.duration());
+  for (std::size_t i = 1; i < a.progress.size(); ++i) {
+    EXPECT_LT(a.progress[i].value, a.progress[i - 1].value);
+  }
+}
+
+}  // namespace
+}  // namespace kinolab
