@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cstdio>
+#include <map>
 #include <ostream>
 
 #include "kinolab/experiment/query_sampler.hpp"
@@ -129,6 +130,74 @@ TEST_P(LazyEagerEquivalence, SameCostAsEagerAndEveryTrajectoryPassesTheChecker) 
   RecordProperty("seed_worse", seed_worse);
   RecordProperty("seed_no_solution", seed_lost);
 }
+
+double statisticOf(const std::string& key, const std::vector<std::string>& items,
+                   const std::shared_ptr<const World>& world, const PlanningQuery& query,
+                   const std::string& name, Outcome& outcome) {
+  ConfiguredPlanner configured = configurePlanner(key, test::assignments(items));
+  configured.planner->setup({world, configured.sampler, 1});
+  const PlanResult result = configured.planner->plan(query, Budget{});
+  outcome = {result.status, result.cost, result.check.valid, 0.0};
+  for (const auto& [key_name, value] : result.statistics) {
+    if (key_name == name) return value;
+  }
+  return NAN;
+}
+
+class LazySpEquivalence : public ::testing::TestWithParam<std::string> {
+ protected:
+  static void SetUpTestSuite() { test::loadTestPlugins(); }
+};
+
+TEST_P(LazySpEquivalence, EverySelectorReturnsEagersCostEvaluatingFewerEdges) {
+  // LazySP (lookahead inf) with every selector against eager at epsilon 1: the same cost on
+  // every query eager solves, every trajectory checked; and it fully evaluates fewer edges
+  // than eager (every edge of every expansion) and no more than lazy (LWA*) over the suite.
+  const auto world = test::smallWorld(GetParam());
+  const auto queries = test::randomQueries(*world, 12, 300, 2.0, 7.0, 0.45);
+  std::vector<std::string> base = settingsFor(2);
+  base.back() = "max_expansions=5000000";  // LazySP counts expansions over all its searches
+  base.erase(std::remove(base.begin(), base.end(), "max_expansions=10000"), base.end());
+  const auto with = [&base](std::vector<std::string> extra) {
+    auto items = base;
+    items.insert(items.end(), extra.begin(), extra.end());
+    return items;
+  };
+  double eager_full = 0.0;
+  double lwa_full = 0.0;
+  std::map<std::string, double> lazysp_full;
+  int exact = 0;
+  for (std::size_t q = 0; q < queries.size(); ++q) {
+    SCOPED_TRACE("query " + std::to_string(q));
+    Outcome eager{};
+    eager_full += statisticOf("eager_mp_astar", base, world, queries[q], "full_evaluations", eager);
+    Outcome lwa{};
+    lwa_full += statisticOf("lazy_mp_astar", base, world, queries[q], "full_evaluations", lwa);
+    if (eager.status != PlanStatus::kExact) continue;
+    ++exact;
+    for (const std::string selector : {"forward", "reverse", "alternate", "failfast"}) {
+      SCOPED_TRACE(selector);
+      Outcome lazysp{};
+      lazysp_full[selector] +=
+          statisticOf("lazy_mp_astar", with({"lookahead=inf", "selector=" + selector}), world,
+                      queries[q], "full_evaluations", lazysp);
+      ASSERT_EQ(lazysp.status, PlanStatus::kExact);
+      EXPECT_NEAR(lazysp.cost, eager.cost, 1e-9 * std::max(1.0, eager.cost));
+      EXPECT_TRUE(lazysp.valid);
+    }
+  }
+  EXPECT_GE(exact, 8);
+  for (const auto& [selector, full] : lazysp_full) {
+    EXPECT_LT(full, eager_full) << selector;
+    EXPECT_LE(full, lwa_full) << selector;
+    std::printf("[ lazysp ] %s %s: %.0f full evaluations (lwa %.0f, eager %.0f)\n",
+                GetParam().c_str(), selector.c_str(), full, lwa_full, eager_full);
+  }
+}
+
+// Not the walls world: there every rejected edge starts a new lazy search over a maze, and the
+// suite would take minutes (LazySP trades search for evaluations; docs/lazy_search.md).
+INSTANTIATE_TEST_SUITE_P(Worlds, LazySpEquivalence, ::testing::Values("forest", "boxes"));
 
 INSTANTIATE_TEST_SUITE_P(Worlds, LazyEagerEquivalence,
                          ::testing::Values(Case{"forest", 2}, Case{"boxes", 2}, Case{"walls", 2},

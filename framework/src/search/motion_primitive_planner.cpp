@@ -55,6 +55,7 @@ MetricSpecs motionPrimitiveStatistics() {
       .counter("candidates", "candidate edges created")
       .counter("closed_states", "states closed")
       .clock("time_evaluation_ms", "time spent evaluating edges (within planning_time_ms)")
+      .clock("time_search_ms", "time in the search besides edge evaluation (Dellin's breakdown)")
       .counter("controls", "size of the control set")
       .real("heuristic_weight", "", "epsilon: the heuristic's weight");
 }
@@ -140,12 +141,12 @@ PlanningModel MotionPrimitivePlanner::planningModel() const {
   return model;
 }
 
-PlanResult MotionPrimitivePlanner::doPlan(const PlanningQuery& query, StopCondition& stop) {
-  MotionPrimitiveSearch& search = *search_;
-  const auto outcome = search.search(query.start, query.goal, stop);
+PlanResult MotionPrimitivePlanner::resultOf(MotionPrimitiveSearch::Outcome outcome,
+                                            Trajectory trajectory, double cost,
+                                            const std::string& budget_spent) {
   PlanResult result;
-  result.trajectory = search.trajectory();
-  result.cost = result.trajectory.empty() ? INFINITY : search.cost();
+  result.trajectory = std::move(trajectory);
+  result.cost = result.trajectory.empty() ? INFINITY : cost;
   switch (outcome) {
     case MotionPrimitiveSearch::Outcome::kGoal:
       result.status = PlanStatus::kExact;
@@ -156,11 +157,19 @@ PlanResult MotionPrimitivePlanner::doPlan(const PlanningQuery& query, StopCondit
       break;
     case MotionPrimitiveSearch::Outcome::kBudget:
       result.status = result.trajectory.empty() ? PlanStatus::kTimeout : PlanStatus::kApproximate;
-      result.message = std::string(search.counters().memory_limited ? "memory budget" : "budget") +
-                       " spent after " + std::to_string(search.counters().expansions) +
-                       " expansions";
+      result.message = budget_spent;
       break;
   }
+  return result;
+}
+
+PlanResult MotionPrimitivePlanner::doPlan(const PlanningQuery& query, StopCondition& stop) {
+  MotionPrimitiveSearch& search = *search_;
+  const auto outcome = search.search(query.start, query.goal, stop);
+  PlanResult result =
+      resultOf(outcome, search.trajectory(), search.cost(),
+               std::string(search.counters().memory_limited ? "memory budget" : "budget") +
+                   " spent after " + std::to_string(search.counters().expansions) + " expansions");
   result.statistics = search.statistics();
   result.statistics.emplace_back("controls", static_cast<double>(search.controls().size()));
   result.statistics.emplace_back("heuristic_weight", config_.settings.heuristic_weight);

@@ -267,6 +267,7 @@ void MotionPrimitiveSearch::expand(int node) {
 MotionPrimitiveSearch::Outcome MotionPrimitiveSearch::search(const ChainState& start,
                                                              const Eigen::Vector3d& goal,
                                                              StopCondition& stop) {
+  const auto begin = std::chrono::steady_clock::now();
   prepare();
   start_ = start;
   goal_ = goal;
@@ -317,6 +318,8 @@ MotionPrimitiveSearch::Outcome MotionPrimitiveSearch::search(const ChainState& s
     }
     expand(index);
   }
+  counters_.search_seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - begin).count();
   return outcome;
 }
 
@@ -358,7 +361,8 @@ Statistics MotionPrimitiveSearch::statistics() const {
       {"closed_states",
        value(static_cast<long long>(std::count_if(
            slots_.begin(), slots_.end(), [](const Slot& slot) { return slot.closed >= 0; })))},
-      {"time_evaluation_ms", 1e3 * counters_.evaluation_seconds}};
+      {"time_evaluation_ms", 1e3 * counters_.evaluation_seconds},
+      {"time_search_ms", 1e3 * (counters_.search_seconds - counters_.evaluation_seconds)}};
   if (policies_.shot) {
     statistics.emplace_back("shots", value(counters_.shots));
     statistics.emplace_back("shots_rejected", value(counters_.shots_rejected));

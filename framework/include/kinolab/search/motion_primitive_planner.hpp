@@ -49,8 +49,14 @@ class MotionPrimitivePlanner : public Planner {
 
   /// The search of the last setup (for tests and benchmarks).
   const MotionPrimitiveSearch& search() const;
+  const MotionPrimitiveConfig& config() const { return config_; }
 
  protected:
+  /// A plan result of a search outcome: its status (exact, no_solution, or approximate /
+  /// timeout at a budget stop, with `budget_spent` as the message), trajectory and cost.
+  static PlanResult resultOf(MotionPrimitiveSearch::Outcome outcome, Trajectory trajectory,
+                             double cost, const std::string& budget_spent);
+
   void doSetup(const PlannerContext& context) override;
   PlanResult doPlan(const PlanningQuery& query, StopCondition& stop) override;
   SearchTree doTree(std::size_t max_edges) const override;

@@ -55,6 +55,7 @@ struct SearchCounters {
   long long open_peak = 0;
   long long candidates = 0;
   double evaluation_seconds = 0.0;
+  double search_seconds = 0.0;   ///< the whole search (evaluation included)
   bool memory_limited = false;   ///< stopped by memory_limit_mb
   long long shots = 0;           ///< analytic expansions tried (SearchPolicies::shot)
   long long shots_rejected = 0;  ///< of those, refused by the checker
