@@ -249,6 +249,42 @@ def anytime(runs: pd.DataFrame, samples: pd.DataFrame, name: str, unit: str,
     return figure
 
 
+def pareto(runs: pd.DataFrame, world: str, quality: str = "duration",
+           by: str = "planner") -> plt.Figure | None:
+    """Time against quality in one world: per planner the median planning time and the median
+    trajectory `quality` over its successful runs (interquartile bars), its success rate in
+    the label, and the Pareto front (no other planner both faster and better) joined."""
+    chosen = runs[(runs["world"] == world) & runs["success"]]
+    if chosen.empty:
+        return None
+    figure, axis = plt.subplots(figsize=(6.5, 4.5))
+    points = []
+    for index, (name, group) in enumerate(runs[runs["world"] == world].groupby(by, sort=False)):
+        solved = group[group["success"]]
+        if solved.empty:
+            continue
+        t = solved["planning_time_ms"].to_numpy(dtype=float)
+        q = solved[quality].to_numpy(dtype=float)
+        x, y = float(np.median(t)), float(np.median(q))
+        axis.errorbar(x, y, xerr=[[x - np.percentile(t, 25)], [np.percentile(t, 75) - x]],
+                      yerr=[[y - np.percentile(q, 25)], [np.percentile(q, 75) - y]],
+                      fmt="o", color=_colour(index), capsize=3,
+                      label=f"{name} ({100.0 * len(solved) / len(group):.0f} % solved)")
+        points.append((x, y))
+    front = sorted(p for p in points
+                   if not any(o[0] <= p[0] and o[1] <= p[1] and o != p for o in points))
+    if len(front) > 1:
+        axis.plot(*zip(*front), "--", color="grey", linewidth=0.8, label="Pareto front")
+    axis.set_xscale("log")
+    axis.set_xlabel("median planning time (ms)")
+    axis.set_ylabel(f"median {quality}")
+    axis.grid(alpha=0.3)
+    axis.legend(fontsize=7)
+    axis.set_title(f"Time against quality: {world}")
+    figure.tight_layout()
+    return figure
+
+
 def sampling_study(table: pd.DataFrame) -> plt.Figure:
     """Table I as bars: alpha and L per sampler, kinolab beside the paper."""
     figure, axes = plt.subplots(1, 2, figsize=(9, 3.6))

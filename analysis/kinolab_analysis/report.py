@@ -99,6 +99,16 @@ sweep variant and world. Rows as the experiment's <code>reproduces:</code> maps 
 bootstrap 95 % intervals.</p>
 {{ tables['summary'] }}
 
+{% if 'which_planner' in tables %}
+<h2>Which planner when</h2>
+<p class="note">Per world, every planner: success with Wilson 95 % intervals; over its successful
+runs the median planning time, trajectory duration, jerk integral and clearance with bootstrap
+95 % intervals; each paired against {{ field_reference }} on the cases both ran (McNemar on
+success, Wilcoxon signed-rank on each metric over cases both solved), p-values Holm-corrected
+over the table. The figures "Time against quality" plot each world.</p>
+{{ tables['which_planner'] }}
+{% endif %}
+
 <h2>Paired comparisons</h2>
 <p class="note">Planners on the cases both ran (same world, query, repetition and sweep
 value): McNemar (exact) on success, Wilcoxon signed-rank on planning time, expansions (N) and cost over
@@ -319,6 +329,10 @@ def _tables(report: Report, results, paths: list[Path], compare: Path | None,
     if not (statistics := tables.statistics(runs, results.metrics)).empty:
         report.tables["statistics"] = statistics
     report.tables["paired"] = tables.paired(runs)
+    # The field: three planners or more, each against the paper's lazy planner.
+    if runs["planner"].nunique() >= 3 and "time_to_goal" not in runs.columns:
+        report.tables["which_planner"] = tables.which_planner(
+            runs, tables.reference_planner(runs))
     if reproduced:
         sampling_csv = sampling_csv or find_sampling_study(paths[0] if paths[0].is_dir()
                                                            else paths[0].parent)
@@ -352,6 +366,13 @@ def _summary_figures(report: Report, results, sampling_csv: Path | None,
     if runs["world"].nunique() > 1:
         _save(plots.per_world(runs), report, "per_world", "Per world",
               "Success rate (Wilson 95 %) and median planning time per world.")
+    if "which_planner" in report.tables:
+        for world in dict.fromkeys(runs["world"]):
+            if (figure := plots.pareto(runs, world)) is not None:
+                _save(figure, report, f"pareto_{world}", f"Time against quality: {world}",
+                      "Median planning time against median trajectory duration of the "
+                      "successful runs (bars: interquartile ranges), success in the legend; "
+                      "dashed: the Pareto front (no planner both faster and shorter).")
     if (figure := plots.sweep(runs)) is not None:
         _save(figure, report, "sweep", "Sweep", "Median planning time (bootstrap 95 %) "
               "against the swept value.")
@@ -450,6 +471,7 @@ def _write_page(report: Report, results, out: Path, compare_name: str,
         figures=report.figures, views=report.views, compare_name=compare_name,
         timing_protocol=timing_protocol(results.meta), readings_verdict=readings_verdict,
         regime_sources=f": {regime_sources}" if regime_sources else "",
+        field_reference=tables.reference_planner(runs) if not runs.empty else "",
         paper_rows=", ".join(f"{row} = {planner}" for planner, row in reproduced[1].items())
         if reproduced else "", paper_speedup=_paper_speedup(reproduced))
     (out / "index.html").write_text(html)

@@ -155,6 +155,44 @@ def paired(runs: pd.DataFrame,
     return _with_holm(rows)
 
 
+# What "which planner when" compares: time to plan, and the trajectory's quality.
+FIELD_METRICS = ("planning_time_ms", "duration", "jerk_integral", "min_clearance")
+
+
+def reference_planner(runs: pd.DataFrame) -> str:
+    """The planner the field is paired against: the paper's lazy MP-A* (the first planner of
+    type lazy_mp_astar), else the first planner."""
+    lazy = runs[runs["planner_type"] == "lazy_mp_astar"]
+    return str((lazy if not lazy.empty else runs)["planner"].iloc[0])
+
+
+def which_planner(runs: pd.DataFrame, reference: str) -> pd.DataFrame:
+    """Per world and planner: success (Wilson 95 %), the medians of FIELD_METRICS over its
+    successful runs (bootstrap 95 %), and each paired against `reference` on the cases both
+    ran (McNemar on success, Wilcoxon on each metric over cases both solved), p-values
+    Holm-corrected over the whole table."""
+    rows = []
+    tests = []
+    for world, in_world in runs.groupby("world", sort=False):
+        base = in_world[in_world["planner"] == reference]
+        for planner, group in in_world.groupby("planner", sort=False):
+            row = {"world": world, "planner": planner, "runs": len(group),
+                   "success": stats.wilson(int(group["success"].sum()), len(group))}
+            solved = group[group["success"]]
+            for metric in FIELD_METRICS:
+                row[metric] = stats.bootstrap(solved[metric].to_numpy(dtype=float))
+            if planner != reference and not base.empty:
+                left, right = _aligned(group, base)
+                for test in paired_tests(left, right, (planner, reference), FIELD_METRICS):
+                    tests.append((len(rows), test))
+            rows.append(row)
+    table = pd.DataFrame(rows)
+    adjusted = stats.holm([test["p"] for _, test in tests])
+    for (index, test), p in zip(tests, adjusted):
+        table.loc[index, f"p {test['metric']} vs {reference}"] = p
+    return table
+
+
 def compare(a: pd.DataFrame, b: pd.DataFrame,
             metrics: tuple[str, ...] = ("planning_time_ms", "cost")) -> pd.DataFrame:
     """Two result sets (A, B), each planner on the cases both ran: success rates and median

@@ -303,3 +303,21 @@ def test_progress_step_values_keep_every_run_and_hold_the_last_value():
     # over all runs never rises, unlike a median over the runs still going.
     medians = np.median(table, axis=0)
     assert all(later <= earlier for earlier, later in zip(medians, medians[1:]))
+
+
+def test_which_planner_pairs_every_planner_against_the_lazy_one():
+    runs = synthetic_runs()
+    for metric, value in (("duration", 8.0), ("jerk_integral", 0.0), ("min_clearance", 0.3)):
+        runs[metric] = value
+    assert tables.reference_planner(runs) == "fast"  # the lazy_mp_astar one
+    table = tables.which_planner(runs, "fast").set_index("planner")
+    assert list(table.index) == ["slow", "fast", "flaky"] and (table["world"] == "w").all()
+    assert table.loc["flaky", "success"].estimate == pytest.approx(20 / 30)
+    # 'slow' is 1 ms slower on all 30 cases: Wilcoxon's exact p is 2 / 2^30, Holm at most
+    # times the number of tests; the reference has no test against itself.
+    assert table.loc["slow", "p planning_time_ms vs fast"] < 1e-6
+    assert math.isnan(table.loc["fast", "p planning_time_ms vs fast"])
+    # McNemar on success: flaky fails 10 cases the reference solves (exact p = 2 / 2^10),
+    # Holm-adjusted over the table's 10 tests.
+    raw = 2 * 0.5 ** 10
+    assert raw <= table.loc["flaky", "p success vs fast"] <= 10 * raw
