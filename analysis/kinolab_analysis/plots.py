@@ -277,7 +277,7 @@ def pareto(runs: pd.DataFrame, world: str, quality: str = "duration",
         axis.plot(*zip(*front), "--", color="grey", linewidth=0.8, label="Pareto front")
     axis.set_xscale("log")
     axis.set_xlabel("median planning time (ms)")
-    axis.set_ylabel(f"median {quality}")
+    axis.set_ylabel("median trajectory duration (s)" if quality == "duration" else f"median {quality}")
     axis.grid(alpha=0.3)
     axis.legend(fontsize=7)
     axis.set_title(f"Time against quality: {world}")
