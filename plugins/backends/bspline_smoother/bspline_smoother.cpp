@@ -70,19 +70,6 @@ struct AccelerationCost {
 };
 
 /// Keeps a control point inside the map (the curve then stays inside: the box is convex).
-struct BoundsCost {
-  double scale;
-  Eigen::Vector3d low;
-  Eigen::Vector3d high;
-  template <typename T>
-  bool operator()(const T* p, T* residual) const {
-    for (int axis = 0; axis < 3; ++axis) {
-      residual[axis] = scale * (hinge(T(low[axis]) - p[axis]) + hinge(p[axis] - T(high[axis])));
-    }
-    return true;
-  }
-};
-
 /// Obstacle penalty at one curve point p = sum_j b_j P_{i+j}: scale (threshold - d(p)) where
 /// the trilinear ESDF value d is below the threshold, with the ESDF's analytic gradient:
 /// d residual / d P_{i+j} = -scale b_j grad d(p).
@@ -230,9 +217,14 @@ void BsplineSmoother::addCosts(ceres::Problem& problem, Eigen::Matrix3Xd& contro
                                    new GuideCost{guide_scale, control.col(i)}),
                                nullptr, block(i));
     }
-    problem.AddResidualBlock(new ceres::AutoDiffCostFunction<BoundsCost, 3, 3>(
-                                 new BoundsCost{obstacle_scale, low, high}),
-                             nullptr, block(i));
+    // The free control points stay in the map, as hard bounds: a uniform B-spline lies in
+    // the convex hull of its control points, so the curve cannot leave the map between them
+    // (a soft penalty let splines dip below a floor).
+    for (int axis = 0; axis < 3; ++axis) {
+      control(axis, i) = std::clamp(control(axis, i), low[axis], high[axis]);
+      problem.SetParameterLowerBound(block(i), axis, low[axis]);
+      problem.SetParameterUpperBound(block(i), axis, high[axis]);
+    }
   }
 }
 
@@ -347,6 +339,18 @@ SmootherResult BsplineSmoother::smooth(const ChainState& start,
                                               std::chrono::steady_clock::now() - begin)
                                               .count()}};
   return result;
+}
+
+MetricSpecs smootherStatistics() {
+  return MetricSpecs()
+      .counter("smoothing_rounds", "Ceres solves")
+      .counter("ceres_iterations", "Ceres iterations over all solves")
+      .real("ceres_initial_cost", "", "objective before the first solve")
+      .real("ceres_final_cost", "", "objective after the last solve")
+      .counter("time_reallocations", "time re-allocations until the limits hold")
+      .counter("control_points", "B-spline control points")
+      .real("knot_interval", "s", "B-spline knot interval")
+      .clock("time_smooth_ms", "Ceres smoothing (back end) time");
 }
 
 std::string ceresVersion() { return CERES_VERSION_STRING; }

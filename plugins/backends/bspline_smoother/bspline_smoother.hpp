@@ -105,6 +105,10 @@ class BsplineSmoother {
   TrajectoryChecker checker_;
 };
 
+/// The statistics smooth() reports (SmootherResult::statistics), for a planner's declaration;
+/// the planner adds `smoothing_valid` itself.
+MetricSpecs smootherStatistics();
+
 /// The Ceres release this plugin was built against, for provenance.
 std::string ceresVersion();
 

@@ -76,14 +76,7 @@ MetricSpecs hybridBsplineStatistics() {
   return hybridStatistics()
       .real("front_end_cost", "", "the front end's cost (the search's, before smoothing)")
       .clock("time_front_end_ms", "front end (hybrid A*) time")
-      .counter("smoothing_rounds", "Ceres solves")
-      .counter("ceres_iterations", "Ceres iterations over all solves")
-      .real("ceres_initial_cost", "", "objective before the first solve")
-      .real("ceres_final_cost", "", "objective after the last solve")
-      .counter("time_reallocations", "time re-allocations until the limits hold")
-      .counter("control_points", "B-spline control points")
-      .real("knot_interval", "s", "B-spline knot interval")
-      .clock("time_smooth_ms", "Ceres smoothing (back end) time")
+      .include(smoothing::smootherStatistics())
       .boolean("smoothing_valid",
                "the smoothed trajectory passed the smoother's own check (else the front end's "
                "trajectory is returned)");

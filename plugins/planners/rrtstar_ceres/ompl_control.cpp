@@ -21,6 +21,7 @@
 #include <ompl/control/planners/rrt/RRT.h>
 #include <ompl/control/planners/sst/SST.h>
 #include <ompl/control/spaces/RealVectorControlSpace.h>
+#include <ompl/util/Console.h>
 
 #include <chrono>
 #include <cmath>
@@ -217,19 +218,28 @@ void setUpPropagation(ControlProblem& p) {
   });
   // Between two states one step apart the body travels at most sqrt(3) v_max step (the speed
   // bound of per-axis limits): clearance of half that beyond the radius at both keeps the
-  // motion clear. At order 3 the velocity is quadratic within a step and can exceed its
-  // endpoints' by j_max step^2 / 8: the states keep that much below the limit.
+  // motion clear, and as far inside the map's box keeps it in the map. At order 3 the velocity is
+  // quadratic within a step and can exceed its endpoints' by j_max step^2 / 8: the states keep that
+  // much below the limit.
   const double step = p.settings.step;
   const double margin = 0.5 * std::sqrt(3.0) * p.model.limits.bound[1].maxCoeff() * step;
   const double velocity_slack = order == 3 ? p.settings.max_jerk * step * step / 8.0 : 0.0;
-  p.si->setStateValidityChecker([shared, order, margin, velocity_slack](const ob::State* state) {
-    ++shared->validity_checks;
-    const ChainState chain = chainOf(state, order);
-    const Eigen::Vector3d& bound = shared->model.limits.bound[1];
-    if ((chain.col(1).cwiseAbs() - bound).maxCoeff() > -velocity_slack) return false;
-    return shared->si->satisfiesBounds(state) &&
-           shared->world->isFree(chain.col(0), shared->model.robot_radius + margin);
-  });
+  // The same margin inside the map's box keeps the motion inside it.
+  const Box& box = p.world->bounds();
+  const Eigen::Vector3d low = box.min.array() + margin;
+  const Eigen::Vector3d high = box.max.array() - margin;
+  p.si->setStateValidityChecker(
+      [shared, order, margin, velocity_slack, low, high](const ob::State* state) {
+        ++shared->validity_checks;
+        const ChainState chain = chainOf(state, order);
+        const Eigen::Vector3d& bound = shared->model.limits.bound[1];
+        if ((chain.col(1).cwiseAbs() - bound).maxCoeff() > -velocity_slack) return false;
+        if ((chain.col(0) - low).minCoeff() < 0.0 || (high - chain.col(0)).minCoeff() < 0.0) {
+          return false;
+        }
+        return shared->si->satisfiesBounds(state) &&
+               shared->world->isFree(chain.col(0), shared->model.robot_radius + margin);
+      });
   p.si->setPropagationStepSize(step);
   p.si->setMinMaxControlDuration(static_cast<unsigned>(p.settings.min_steps),
                                  static_cast<unsigned>(p.settings.max_steps));
@@ -294,6 +304,7 @@ class OmplControlPlanner final : public Planner {
 
  protected:
   void doSetup(const PlannerContext& context) override {
+    ompl::msg::setLogLevel(ompl::msg::LOG_WARN);  // no "Info:" line per plan
     problem_ = std::make_unique<ControlProblem>();
     problem_->world = context.world;
     problem_->settings = settings_;
