@@ -219,11 +219,15 @@ void BsplineSmoother::addCosts(ceres::Problem& problem, Eigen::Matrix3Xd& contro
     }
     // The free control points stay in the map, as hard bounds: a uniform B-spline lies in
     // the convex hull of its control points, so the curve cannot leave the map between them
-    // (a soft penalty let splines dip below a floor).
+    // (a soft penalty let splines dip below a floor). A micrometre inside, so that rounding
+    // in the curve's evaluation cannot put a point on the wrong side of the map's face.
+    constexpr double kInside = 1e-6;
     for (int axis = 0; axis < 3; ++axis) {
-      control(axis, i) = std::clamp(control(axis, i), low[axis], high[axis]);
-      problem.SetParameterLowerBound(block(i), axis, low[axis]);
-      problem.SetParameterUpperBound(block(i), axis, high[axis]);
+      const double lower = low[axis] + kInside;
+      const double upper = high[axis] - kInside;
+      control(axis, i) = std::clamp(control(axis, i), lower, upper);
+      problem.SetParameterLowerBound(block(i), axis, lower);
+      problem.SetParameterUpperBound(block(i), axis, upper);
     }
   }
 }
