@@ -317,6 +317,60 @@ TEST(GoalShot, AShotThroughAnObstacleIsRefusedAndTheSearchGoesOn) {
   EXPECT_TRUE(checker.check(with.search.trajectory(), check).valid);
 }
 
+TEST(LazySp, ABudgetStopReturnsTheEvaluatedStartOfTheLastLazyPath) {
+  // Across the second and later lazy searches the nodes are rebuilt: what a budget stop
+  // returns must be the last path's own edges, checked, starting at the start.
+  test::loadTestPlugins();
+  const auto world = test::smallWorld("forest");
+  const auto query = test::randomQueries(*world, 1, 21, 8.0, 11.0, 0.5).front();
+  const auto plan = [&](const std::string& budget) {
+    ConfiguredPlanner configured = configurePlanner(
+        "lazy_mp_astar",
+        test::assignments({"sampler.samples_per_axis=3", "time_limit=0", "lookahead=inf", budget}));
+    configured.planner->setup({world, configured.sampler, 1});
+    return configured.planner->plan(query, Budget{});
+  };
+  const auto statistic = [](const PlanResult& result, const std::string& name) -> double {
+    for (const auto& [key, value] : result.statistics) {
+      if (key == name) return value;
+    }
+    return NAN;
+  };
+  // Unbounded first: the budgets below stop half-way, after several lazy searches.
+  const PlanResult whole = plan("max_expansions=0");
+  ASSERT_EQ(whole.status, PlanStatus::kExact) << whole.message;
+  ASSERT_GE(statistic(whole, "lazy_searches"), 4.0);
+  const long long half = static_cast<long long>(statistic(whole, "expansions") / 2);
+  const PlanResult result = plan("max_expansions=" + std::to_string(half));
+  ASSERT_TRUE(result.status == PlanStatus::kApproximate || result.status == PlanStatus::kTimeout)
+      << result.message;
+  EXPECT_GE(statistic(result, "lazy_searches"), 2.0);
+  EXPECT_NE(result.message.find("budget spent"), std::string::npos) << result.message;
+  if (!result.trajectory.empty()) {
+    EXPECT_TRUE(result.check.valid) << result.check.detail;
+    EXPECT_LT((result.trajectory.startPosition() - query.start.col(0)).norm(), 1e-12);
+    EXPECT_LE(result.cost, whole.cost);  // a start of a path no cheaper than the answer
+  }
+  // The memory budget holds too: a long query through the walls outgrows 1 MB of nodes and
+  // edge records long before it is solved.
+  const auto walls = test::smallWorld("walls");
+  const auto far = test::randomQueries(*walls, 1, 5, 9.0, 11.0, 0.5).front();
+  ConfiguredPlanner capped = configurePlanner(
+      "lazy_mp_astar", test::assignments({"sampler.samples_per_axis=3", "time_limit=0",
+                                          "lookahead=inf", "memory_limit_mb=1"}));
+  capped.planner->setup({walls, capped.sampler, 1});
+  const PlanResult capped_result = capped.planner->plan(far, Budget{});
+  EXPECT_TRUE(capped_result.status == PlanStatus::kApproximate ||
+              capped_result.status == PlanStatus::kTimeout)
+      << capped_result.message;
+  EXPECT_NE(capped_result.message.find("memory budget"), std::string::npos)
+      << capped_result.message;
+  // The cells space is refused: its keys do not tell a state's evaluations apart.
+  EXPECT_THROW(
+      configurePlanner("lazy_mp_astar", test::assignments({"lookahead=inf", "search_space=cells"})),
+      ConfigError);
+}
+
 TEST(MotionPrimitiveSearch, BudgetStopReturnsThePathToTheNearestState) {
   test::loadTestPlugins();
   ConfiguredPlanner configured = configurePlanner(

@@ -43,23 +43,39 @@ LazySpSearch::LazySpSearch(std::shared_ptr<const World> world,
   }
 }
 
-LazySpSearch::Edge& LazySpSearch::edgeOf(int node, int control) {
+LazySpSearch::Edge& LazySpSearch::edgeOf(int node, double clearance, int control) {
   const ChainState& parent = nodes_[node].state;
   const Key key = policies_.space->key(parent, start_, settings_.edges.order);
   auto& slot = edges_[key];
   if (slot.empty()) slot.resize(controls_.size());
   std::unique_ptr<Edge>& edge = slot[control];
-  // An edge's records hold for its continuous parent only: another parent of the same key
-  // (not on a control grid's lattice) is evaluated afresh.
-  if (!edge || edge->parent != parent) {
+  // An edge's records hold for its continuous parent: routes to one lattice key agree up to
+  // rounding, and another parent of the key is evaluated afresh.
+  if (!edge || (edge->parent - parent).cwiseAbs().maxCoeff() > 1e-9) {
+    if (!edge) ++edge_records_;
     edge = std::make_unique<Edge>();
     edge->parent = parent;
-    const double clearance = world_->clearance(parent.col(0));
-    policies_.edges->evaluate(evaluator_, parent, clearance, controls_[control], edge->bound);
-    ++partial_evaluations_;
+    const auto begin = std::chrono::steady_clock::now();
+    const EdgeEstimate estimate =
+        policies_.edges->evaluate(evaluator_, parent, clearance, controls_[control], edge->bound);
+    evaluation_seconds_ += secondsSince(begin);
     esdf_queries_ += edge->bound.esdf_queries;
+    if (estimate == EdgeEstimate::kLowerBound) {
+      ++partial_evaluations_;
+    } else {  // the policy evaluated it exactly (full, or a certified bound)
+      edge->full = edge->bound;
+      edge->evaluated = true;
+      ++full_evaluations_;
+      rejected_edges_ += !edge->full.valid();
+    }
   }
   return *edge;
+}
+
+double LazySpSearch::memoryBytes() const {
+  return static_cast<double>(nodes_.capacity() * sizeof(Node) +
+                             edge_records_ * (sizeof(Edge) + sizeof(void*)) +
+                             edges_.size() * (sizeof(Key) + 4 * sizeof(void*)));
 }
 
 int LazySpSearch::lazySearch(StopCondition& stop, bool& stopped) {
@@ -75,8 +91,10 @@ int LazySpSearch::lazySearch(StopCondition& stop, bool& stopped) {
   };
   open.emplace(h(start_), 0.0, 0);
   const int order = settings_.edges.order;
+  const double memory_limit = settings_.memory_limit_mb * 1024.0 * 1024.0;
   while (!open.empty()) {
-    if (stop.expired(expansions_)) {
+    if (stop.expired(expansions_) || memoryBytes() > memory_limit) {
+      memory_limited_ = memoryBytes() > memory_limit;
       stopped = true;
       return -1;
     }
@@ -86,8 +104,10 @@ int LazySpSearch::lazySearch(StopCondition& stop, bool& stopped) {
     if (!closed.emplace(key, node).second) continue;
     if ((nodes_[node].state.col(0) - goal_).norm() <= settings_.goal_radius) return node;
     ++expansions_;
+    const double clearance = world_->clearance(nodes_[node].state.col(0));
+    ++esdf_queries_;
     for (int control = 0; control < static_cast<int>(controls_.size()); ++control) {
-      Edge& edge = edgeOf(node, control);
+      Edge& edge = edgeOf(node, clearance, control);
       const EdgeEvaluation& known = edge.evaluated ? edge.full : edge.bound;
       if (!known.valid()) continue;
       const Key child_key = policies_.space->key(known.end, start_, order);
@@ -105,12 +125,20 @@ int LazySpSearch::lazySearch(StopCondition& stop, bool& stopped) {
 }
 
 bool LazySpSearch::evaluateOnPath(int goal_node) {
-  path_.clear();
-  for (int node = goal_node; node > 0; node = nodes_[node].parent) path_.push_back(node);
-  std::reverse(path_.begin(), path_.end());
+  std::vector<int> nodes;
+  for (int node = goal_node; node > 0; node = nodes_[node].parent) nodes.push_back(node);
+  std::reverse(nodes.begin(), nodes.end());
   std::vector<int> unevaluated;
-  for (const int node : path_) {
+  for (const int node : nodes) {
     if (!nodes_[node].edge->evaluated) unevaluated.push_back(node);
+  }
+  // The path by value: whole when it is evaluated whole (the answer), else its evaluated
+  // start (what a budget stop returns); the next lazy search rebuilds nodes_.
+  path_.clear();
+  for (const int node : nodes) {
+    const Edge& edge = *nodes_[node].edge;
+    if (!edge.evaluated || !edge.full.valid()) break;
+    path_.push_back({edge.parent, nodes_[node].control, edge.full.cost});
   }
   if (unevaluated.empty()) return false;
   int chosen = unevaluated.front();
@@ -147,7 +175,7 @@ bool LazySpSearch::evaluateOnPath(int goal_node) {
   evaluation_seconds_ += secondsSince(begin);
   edge.evaluated = true;
   ++full_evaluations_;
-  esdf_queries_ += edge.full.esdf_queries;
+  esdf_queries_ += edge.full.esdf_queries + 1;  // and the parent's clearance
   rejected_edges_ += !edge.full.valid();
   return true;
 }
@@ -159,8 +187,10 @@ MotionPrimitiveSearch::Outcome LazySpSearch::search(const ChainState& start,
   start_ = start;
   goal_ = goal;
   edges_.clear();
+  edge_records_ = 0;
   path_.clear();
   solved_ = false;
+  memory_limited_ = false;
   reverse_next_ = false;
   expansions_ = lazy_searches_ = partial_evaluations_ = full_evaluations_ = 0;
   rejected_edges_ = esdf_queries_ = 0;
@@ -173,19 +203,15 @@ MotionPrimitiveSearch::Outcome LazySpSearch::search(const ChainState& start,
       outcome = MotionPrimitiveSearch::Outcome::kBudget;
       break;
     }
-    if (goal_node < 0) break;  // no path even at the lower bounds: exhausted
+    if (goal_node < 0) {  // no path even at the lower bounds: exhausted
+      path_.clear();
+      break;
+    }
     if (!evaluateOnPath(goal_node)) {
       solved_ = true;
       outcome = MotionPrimitiveSearch::Outcome::kGoal;
       break;
     }
-  }
-  if (!solved_) {
-    // The evaluated, valid prefix of the last lazy path: a start towards the goal.
-    const auto first_open = std::find_if(path_.begin(), path_.end(), [&](int node) {
-      return !nodes_[node].edge->evaluated || !nodes_[node].edge->full.valid();
-    });
-    path_.erase(first_open, path_.end());
   }
   total_seconds_ = secondsSince(begin);
   return outcome;
@@ -193,10 +219,9 @@ MotionPrimitiveSearch::Outcome LazySpSearch::search(const ChainState& start,
 
 Trajectory LazySpSearch::trajectory() const {
   Trajectory trajectory;
-  for (const int node : path_) {
-    trajectory.append(
-        TrajectorySegment::primitive(nodes_[node].edge->parent, controls_[nodes_[node].control],
-                                     settings_.edges.order, settings_.edges.duration));
+  for (const Step& step : path_) {
+    trajectory.append(TrajectorySegment::primitive(
+        step.parent, controls_[step.control], settings_.edges.order, settings_.edges.duration));
   }
   return trajectory;
 }
@@ -204,7 +229,7 @@ Trajectory LazySpSearch::trajectory() const {
 double LazySpSearch::cost() const {
   if (path_.empty()) return solved_ ? 0.0 : INFINITY;
   double total = 0.0;
-  for (const int node : path_) total += nodes_[node].edge->full.cost;
+  for (const Step& step : path_) total += step.cost;
   return total;
 }
 

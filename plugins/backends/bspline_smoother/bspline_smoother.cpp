@@ -212,15 +212,11 @@ void BsplineSmoother::addCosts(ceres::Problem& problem, Eigen::Matrix3Xd& contro
   const Eigen::Vector3d low = world_->bounds().min;
   const Eigen::Vector3d high = world_->bounds().max;
   for (int i = 3; i < count - 3; ++i) {
-    if (guide_scale > 0.0) {
-      problem.AddResidualBlock(new ceres::AutoDiffCostFunction<GuideCost, 3, 3>(
-                                   new GuideCost{guide_scale, control.col(i)}),
-                               nullptr, block(i));
-    }
     // The free control points stay in the map, as hard bounds: a uniform B-spline lies in
-    // the convex hull of its control points, so the curve cannot leave the map between them
-    // (a soft penalty let splines dip below a floor). A micrometre inside, so that rounding
-    // in the curve's evaluation cannot put a point on the wrong side of the map's face.
+    // the convex hull of its control points, so the curve cannot leave the map (a soft
+    // penalty let splines dip below a floor), except in its first span from a moving start
+    // whose fixed leading points lie outside. A micrometre inside, so that rounding in the
+    // curve's evaluation cannot put a point on the wrong side of the map's face.
     constexpr double kInside = 1e-6;
     for (int axis = 0; axis < 3; ++axis) {
       const double lower = low[axis] + kInside;
@@ -228,6 +224,11 @@ void BsplineSmoother::addCosts(ceres::Problem& problem, Eigen::Matrix3Xd& contro
       control(axis, i) = std::clamp(control(axis, i), lower, upper);
       problem.SetParameterLowerBound(block(i), axis, lower);
       problem.SetParameterUpperBound(block(i), axis, upper);
+    }
+    if (guide_scale > 0.0) {
+      problem.AddResidualBlock(new ceres::AutoDiffCostFunction<GuideCost, 3, 3>(
+                                   new GuideCost{guide_scale, control.col(i)}),
+                               nullptr, block(i));
     }
   }
 }

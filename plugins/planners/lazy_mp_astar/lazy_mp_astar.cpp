@@ -26,7 +26,8 @@ class LazySpPlanner final : public MotionPrimitivePlanner {
   PlanResult doPlan(const PlanningQuery& query, StopCondition& stop) override {
     const auto outcome = lazy_->search(query.start, query.goal, stop);
     PlanResult result = resultOf(outcome, lazy_->trajectory(), lazy_->cost(),
-                                 "budget spent: the evaluated start of the last lazy path");
+                                 std::string(lazy_->memoryLimited() ? "memory budget" : "budget") +
+                                     " spent: the evaluated start of the last lazy path");
     result.statistics = lazy_->statistics();
     result.statistics.emplace_back("controls", static_cast<double>(search().controls().size()));
     result.statistics.emplace_back("heuristic_weight", config().settings.heuristic_weight);
@@ -76,6 +77,11 @@ KINOLAB_REGISTER_PLUGINS(registrar) {
                                              ? DuplicateRule::kSeed
                                              : DuplicateRule::kLwa;
         if (parameters.text("lookahead") == "inf") {
+          if (parameters.text("search_space") != "lattice") {
+            throw ParameterConflict("search_space",
+                                    "LazySP (lookahead inf) reuses an edge's evaluations by its "
+                                    "parent's key, which holds on the lattice only");
+          }
           if (config.settings.duplicate_rule == DuplicateRule::kSeed) {
             throw ParameterConflict("duplicate_rule",
                                     "seed is Algorithm 1's rule for lookahead 1; LazySP "

@@ -296,6 +296,11 @@ class OmplControlPlanner final : public Planner {
                         " is below min_steps " + std::to_string(settings_.min_steps));
     }
     if (settings_.max_iterations > 0) budget_.max_iterations = settings_.max_iterations;
+    if (!std::isfinite(budget_.time_limit) && settings_.max_iterations <= 0) {
+      throw ConfigError(
+          "ompl_control: time_limit 0 (none) needs max_iterations > 0: the planners stop only "
+          "at their budget");
+    }
     const Eigen::Vector3d& v = model_.limits.bound[1];
     const Eigen::Vector3d& a = model_.limits.bound[2];
     model_.limits = DynamicLimits::uniform(v.x(), a.x(), settings_.max_jerk);
@@ -429,7 +434,9 @@ MetricSpecs omplControlStatistics() {
       .counter("validity_checks", "state validity checks")
       .counter("termination_checks", "calls of the termination condition (the iteration budget)")
       .clock("time_front_end_ms", "the OMPL planner's time")
-      .series("anytime_cost", "m", "SST's best path length over its planning time");
+      .series("anytime_cost", "m",
+              "SST's best cost over its planning time: its own objective, the summed straight "
+              "distances between the ends of its controls (at most the flown length)");
 }
 
 std::unique_ptr<Planner> makeOmplControl(const ParameterSet& parameters) {

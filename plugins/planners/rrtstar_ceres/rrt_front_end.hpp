@@ -34,7 +34,8 @@ enum class OmplPlanner {
 struct FrontEndSettings {
   /// RRT* (rrtstar, rrtstar_ceres) runs its own loop: refinement iterations, vertex cap, a
   /// seed for every stream. The others run to the budget (or their first solution, with
-  /// stop_at_first), seeded where OMPL lets (the uniform state sampler).
+  /// stop_at_first); only their uniform state sampler is seeded (the informed planners sample
+  /// through OMPL's own informed sampler), so their runs may differ.
   OmplPlanner planner = OmplPlanner::kRrtStar;
   bool stop_at_first = false;
   double range = 1.5;          ///< longest tree edge, m (0: OMPL's choice, 20 % of the extent)

@@ -126,6 +126,13 @@ class RrtStarPlanner final : public Planner {
     front_end_settings_.goal_radius = model_.goal_radius;
     front_end_settings_.planner = planner;
     front_end_settings_.stop_at_first = stop_at_first;
+    // RRT*'s loop stops at its vertex cap; the others only at the budget.
+    if (planner != OmplPlanner::kRrtStar && !std::isfinite(budget_.time_limit) &&
+        checks_.max_iterations <= 0) {
+      throw ConfigError(
+          "ompl_geometric: time_limit 0 (none) needs max_iterations > 0: this planner stops "
+          "only at its budget");
+    }
     if (smooth) {
       SmootherSettings& s = smoother_settings_.emplace(readFields<SmootherSettings>(parameters));
       s.robot_radius = model_.robot_radius;

@@ -233,6 +233,18 @@ TEST(OmplGeometric, AitStarIsRefusedWithTheReasonNotRunIntoOmplsAbort) {
   }
 }
 
+TEST(OmplGeometric, APlannerThatStopsOnlyAtItsBudgetNeedsOne) {
+  for (const std::string key : {"ompl_geometric", "ompl_control"}) {
+    EXPECT_THROW(configurePlanner(key, test::assignments({"time_limit=0"})), ConfigError) << key;
+    EXPECT_NO_THROW(
+        configurePlanner(key, test::assignments({"time_limit=0", "max_iterations=100"})))
+        << key;
+  }
+  // RRT* stops at its vertex cap.
+  EXPECT_NO_THROW(
+      configurePlanner("ompl_geometric", test::assignments({"planner=rrtstar", "time_limit=0"})));
+}
+
 TEST(OmplGeometric, RrtStarWithTheBsplineBackEndIsTheTgkAnalogue) {
   const PlanningQuery query =
       test::randomQueries(*test::smallWorld("walls"), 1, 43, 6.0, 9.0, 0.8).front();

@@ -35,12 +35,14 @@ class LazySpSearch {
   MotionPrimitiveSearch::Outcome search(const ChainState& start, const Eigen::Vector3d& goal,
                                         StopCondition& stop);
   /// After search(): the path (every edge fully evaluated, kGoal) or, on a budget stop, the
-  /// evaluated prefix of the last lazy path.
+  /// evaluated, valid start of the last lazy path found (empty when exhausted).
   Trajectory trajectory() const;
   double cost() const;
+  /// The last search stopped at memory_limit_mb.
+  bool memoryLimited() const { return memory_limited_; }
   /// expansions (over every lazy search), lazy_searches, partial_evaluations (lower bounds),
-  /// full_evaluations, rejected_edges, esdf_queries, time_evaluation_ms (full evaluations),
-  /// time_search_ms (the rest).
+  /// full_evaluations, rejected_edges, esdf_queries, time_evaluation_ms (lower bounds and full
+  /// evaluations, as the core search counts them), time_search_ms (the rest).
   Statistics statistics() const;
 
  private:
@@ -57,6 +59,12 @@ class LazySpSearch {
     int control = -1;
     Edge* edge = nullptr;
   };
+  /// One edge of a path, by value (it outlives the lazy search that found it).
+  struct Step {
+    ChainState parent;
+    int control = -1;
+    double cost = 0.0;
+  };
   using Key = SearchSpace::Key;
   struct KeyHash {
     std::size_t operator()(const Key& key) const;
@@ -64,8 +72,11 @@ class LazySpSearch {
 
   /// One lazy search from the start; returns the goal node or -1 (none, or the budget).
   int lazySearch(StopCondition& stop, bool& stopped);
-  /// The record of the edge `control` from `node`, its lower bound computed on first use.
-  Edge& edgeOf(int node, int control);
+  /// The record of the edge `control` from `node` (whose clearance is `clearance`), its lower
+  /// bound computed on first use.
+  Edge& edgeOf(int node, double clearance, int control);
+  /// Bytes the search holds (nodes and edge records), against memory_limit_mb.
+  double memoryBytes() const;
   /// Fully evaluates the edges the selector picks on the path to `goal_node`; false when the
   /// path was already fully evaluated.
   bool evaluateOnPath(int goal_node);
@@ -82,8 +93,10 @@ class LazySpSearch {
   std::vector<Node> nodes_;
   /// Edge records by parent key, then control.
   std::unordered_map<Key, std::vector<std::unique_ptr<Edge>>, KeyHash> edges_;
-  std::vector<int> path_;  ///< the final (or last) path's nodes, start excluded
+  std::vector<Step> path_;  ///< the final path, or the last one's evaluated valid start
+  std::size_t edge_records_ = 0;
   bool solved_ = false;
+  bool memory_limited_ = false;
   bool reverse_next_ = false;
   long long expansions_ = 0;
   long long lazy_searches_ = 0;
