@@ -25,6 +25,8 @@ ConfiguredPlanner makePlanner(const std::string& key) {
   std::vector<std::string> items;
   if (specs.find("sampler")) items = {"sampler=uniform", "sampler.samples_per_axis=3"};
   if (specs.find("time_limit")) items.push_back("time_limit=0");
+  // Work-bounded instead, where a planner counts its work (one without a time limit must).
+  if (specs.find("max_iterations")) items.push_back("max_iterations=20000");
   ConfiguredPlanner configured = configurePlanner(key, test::assignments(items));
   configured.planner->setup({test::smallWorld("forest"), configured.sampler, 7});
   return configured;
