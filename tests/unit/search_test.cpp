@@ -371,6 +371,41 @@ TEST(LazySp, ABudgetStopReturnsTheEvaluatedStartOfTheLastLazyPath) {
       ConfigError);
 }
 
+TEST(Planner, StartsAreHeldToTheCollisionRuleEdgesUse) {
+  // An edge is free when it keeps robot_radius less collision_tolerance (0.25 - 0.01 m) from
+  // every cube: a start with 0.245 m of clearance is a start, one with 0.235 m is not.
+  test::loadTestPlugins();
+  const auto world = test::smallWorld("walls");
+  const auto query = test::randomQueries(*world, 1, 3, 4.0, 6.0, 0.6).front();
+  // Towards the nearest obstacle from a free start, the point with the wanted clearance.
+  const auto at = [&](double wanted) {
+    Eigen::Vector3d free = query.start.col(0);
+    Eigen::Vector3d gradient = Eigen::Vector3d::Zero();
+    world->esdf().distanceWithGradient(free, &gradient);
+    Eigen::Vector3d blocked = free - 2.0 * gradient.normalized();
+    for (int i = 0; i < 60; ++i) {
+      const Eigen::Vector3d middle = 0.5 * (free + blocked);
+      (world->clearance(middle) >= wanted ? free : blocked) = middle;
+    }
+    return free;
+  };
+  ConfiguredPlanner configured = configurePlanner(
+      "lazy_mp_astar",
+      test::assignments({"sampler.samples_per_axis=3", "time_limit=0", "max_expansions=2000"}));
+  configured.planner->setup({world, configured.sampler, 1});
+  PlanningQuery near = query;
+  near.start.col(0) = at(0.245);
+  ASSERT_GE(world->clearance(near.start.col(0)), 0.245);
+  ASSERT_LT(world->clearance(near.start.col(0)), 0.25);
+  EXPECT_NE(configured.planner->plan(near, Budget{}).status, PlanStatus::kInvalidStart);
+  near.start.col(0) = at(0.235);
+  ASSERT_LT(world->clearance(near.start.col(0)), 0.24);
+  const PlanResult refused = configured.planner->plan(near, Budget{});
+  EXPECT_EQ(refused.status, PlanStatus::kInvalidStart);
+  EXPECT_NE(refused.message.find("less the collision tolerance"), std::string::npos)
+      << refused.message;
+}
+
 TEST(MotionPrimitiveSearch, BudgetStopReturnsThePathToTheNearestState) {
   test::loadTestPlugins();
   ConfiguredPlanner configured = configurePlanner(

@@ -11,8 +11,12 @@
 namespace kinolab {
 namespace {
 
-/// Why a position cannot be a start or goal, or "" when it can.
-std::string positionProblem(const World& world, const Eigen::Vector3d& position, double radius) {
+/// Why a position cannot be a start or goal, or "" when it can: outside the map, or closer to
+/// the occupied cubes than the body may come (its radius less the collision tolerance, the
+/// rule every edge and the checker hold to).
+std::string positionProblem(const World& world, const Eigen::Vector3d& position,
+                            const PlanningModel& model) {
+  const double radius = model.robot_radius - model.collision_tolerance;
   if (!position.allFinite()) return "is not finite";
   if (!world.bounds().contains(position)) {
     const Box& b = world.bounds();
@@ -24,7 +28,8 @@ std::string positionProblem(const World& world, const Eigen::Vector3d& position,
     return formatPoint(position) + " is in collision: clearance " + formatNumber(clearance) +
            " m (a lower bound of the distance to the occupied voxel cubes) is below the robot "
            "radius " +
-           formatNumber(radius) + " m";
+           formatNumber(model.robot_radius) + " m less the collision tolerance " +
+           formatNumber(model.collision_tolerance) + " m";
   }
   return "";
 }
@@ -92,7 +97,7 @@ PlanResult Planner::plan(const PlanningQuery& query, const Budget& budget, Searc
   PlanResult result;
   const Eigen::Vector3d start = query.start.col(0);
   result.distance_to_goal = (start - query.goal).norm();
-  if (std::string problem = positionProblem(map, start, model.robot_radius); !problem.empty()) {
+  if (std::string problem = positionProblem(map, start, model); !problem.empty()) {
     result.status = PlanStatus::kInvalidStart;
     result.message = "start " + problem;
     return result;
@@ -107,8 +112,7 @@ PlanResult Planner::plan(const PlanningQuery& query, const Budget& budget, Searc
       return result;
     }
   }
-  if (std::string problem = positionProblem(map, query.goal, model.robot_radius);
-      !problem.empty()) {
+  if (std::string problem = positionProblem(map, query.goal, model); !problem.empty()) {
     result.status = PlanStatus::kInvalidGoal;
     result.message = "goal " + problem;
     return result;
