@@ -141,18 +141,44 @@ nlohmann::json toJson(const PluginInfo& plugin) {
           {"statistics", toJson(plugin.statistics)}};
 }
 
-/// One line per parameter; a group's and a group list's members below it as NAME.PARAMETER
-/// (NAME.INDEX.PARAMETER).
-void printParameters(const ParameterSpecs& parameters, const std::string& prefix, int width) {
+/// The widths of the parameter columns: at least the widest entry of each, members included.
+struct Columns {
+  int name = 0;
+  int type = 7;
+  int value = 10;
+  int range = 18;
+};
+
+std::string defaultText(const ParameterSpec& spec) {
+  return spec.required ? "(required)" : formatParameterValue(spec.default_value);
+}
+
+void measure(const ParameterSpecs& parameters, const std::string& prefix, Columns& columns) {
   for (const auto& spec : parameters.all()) {
     const std::string name = prefix + spec.name;
-    std::printf("      %-*s %-7s default %-10s %-18s %s\n", width, name.c_str(),
-                spec.typeName().c_str(),
-                spec.required ? "(required)" : formatParameterValue(spec.default_value).c_str(),
+    columns.name = std::max(columns.name, static_cast<int>(name.size()));
+    columns.type = std::max(columns.type, static_cast<int>(spec.typeName().size()));
+    columns.value = std::max(columns.value, static_cast<int>(defaultText(spec).size()));
+    columns.range = std::max(columns.range, static_cast<int>(spec.rangeText().size()));
+    if (spec.members) {
+      const bool list = spec.type == ParameterType::kGroupList;
+      measure(*spec.members, name + (list ? ".INDEX." : "."), columns);
+    }
+  }
+}
+
+/// One line per parameter; a group's and a group list's members below it as NAME.PARAMETER
+/// (NAME.INDEX.PARAMETER).
+void printParameters(const ParameterSpecs& parameters, const std::string& prefix,
+                     const Columns& columns) {
+  for (const auto& spec : parameters.all()) {
+    const std::string name = prefix + spec.name;
+    std::printf("      %-*s %-*s default %-*s %-*s %s\n", columns.name, name.c_str(), columns.type,
+                spec.typeName().c_str(), columns.value, defaultText(spec).c_str(), columns.range,
                 spec.rangeText().c_str(), spec.doc.c_str());
     if (spec.members) {
       const bool list = spec.type == ParameterType::kGroupList;
-      printParameters(*spec.members, name + (list ? ".INDEX." : "."), width);
+      printParameters(*spec.members, name + (list ? ".INDEX." : "."), columns);
     }
   }
 }
@@ -162,11 +188,9 @@ void printText(const Kind& kind) {
   for (const PluginInfo* plugin : kind.plugins) {
     std::printf("  %-16s %s\n", plugin->key.c_str(), plugin->description.c_str());
     std::printf("  %-16s from %s\n", "", plugin->origin.c_str());
-    int width = 0;
-    for (const auto& spec : plugin->parameters.all()) {
-      width = std::max(width, static_cast<int>(spec.name.size()));
-    }
-    printParameters(plugin->parameters, "", width);
+    Columns columns;
+    measure(plugin->parameters, "", columns);
+    printParameters(plugin->parameters, "", columns);
   }
 }
 
