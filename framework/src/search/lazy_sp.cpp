@@ -43,10 +43,8 @@ LazySpSearch::LazySpSearch(std::shared_ptr<const World> world,
   }
 }
 
-LazySpSearch::Edge& LazySpSearch::edgeOf(int node, double clearance, int control) {
-  const ChainState& parent = nodes_[node].state;
-  const Key key = policies_.space->key(parent, start_, settings_.edges.order);
-  auto& slot = edges_[key];
+LazySpSearch::Edge& LazySpSearch::edgeOf(Slot& slot, const ChainState& parent, double& clearance,
+                                         int control) {
   if (slot.empty()) slot.resize(controls_.size());
   std::unique_ptr<Edge>& edge = slot[control];
   // An edge's records hold for its continuous parent: routes to one lattice key agree up to
@@ -55,6 +53,10 @@ LazySpSearch::Edge& LazySpSearch::edgeOf(int node, double clearance, int control
     if (!edge) ++edge_records_;
     edge = std::make_unique<Edge>();
     edge->parent = parent;
+    if (std::isnan(clearance)) {  // once per expansion, and only when an edge is new
+      clearance = world_->clearance(parent.col(0));
+      ++esdf_queries_;
+    }
     const auto begin = std::chrono::steady_clock::now();
     const EdgeEstimate estimate =
         policies_.edges->evaluate(evaluator_, parent, clearance, controls_[control], edge->bound);
@@ -93,8 +95,9 @@ int LazySpSearch::lazySearch(StopCondition& stop, bool& stopped) {
   const int order = settings_.edges.order;
   const double memory_limit = settings_.memory_limit_mb * 1024.0 * 1024.0;
   while (!open.empty()) {
-    if (stop.expired(expansions_) || memoryBytes() > memory_limit) {
-      memory_limited_ = memoryBytes() > memory_limit;
+    const double bytes = memoryBytes();
+    if (stop.expired(expansions_) || bytes > memory_limit) {
+      memory_limited_ = bytes > memory_limit;
       stopped = true;
       return -1;
     }
@@ -104,10 +107,11 @@ int LazySpSearch::lazySearch(StopCondition& stop, bool& stopped) {
     if (!closed.emplace(key, node).second) continue;
     if ((nodes_[node].state.col(0) - goal_).norm() <= settings_.goal_radius) return node;
     ++expansions_;
-    const double clearance = world_->clearance(nodes_[node].state.col(0));
-    ++esdf_queries_;
+    // The node's edge records, by its key (the closed-set key): one look-up per expansion.
+    Slot& slot = edges_[key];
+    double clearance = NAN;
     for (int control = 0; control < static_cast<int>(controls_.size()); ++control) {
-      Edge& edge = edgeOf(node, clearance, control);
+      Edge& edge = edgeOf(slot, nodes_[node].state, clearance, control);
       const EdgeEvaluation& known = edge.evaluated ? edge.full : edge.bound;
       if (!known.valid()) continue;
       const Key child_key = policies_.space->key(known.end, start_, order);

@@ -377,21 +377,36 @@ Trajectory ObvpShot::shoot(const ChainState& state, const Eigen::Vector3d& goal)
       4.0 * (distance / speed + state.col(1).norm() / limits_.bound[2].minCoeff()) + 1.0;
   constexpr int kScan = 48;
   double best = low;
-  for (int i = 0; i <= kScan; ++i) {
+  double best_value = objective(state, goal, low);
+  for (int i = 1; i <= kScan; ++i) {
     const double t = low * std::pow(high / low, static_cast<double>(i) / kScan);
-    if (objective(state, goal, t) < objective(state, goal, best)) best = t;
+    if (const double value = objective(state, goal, t); value < best_value) {
+      best = t;
+      best_value = value;
+    }
   }
+  // Golden section on the bracket around it, one new evaluation per step.
   const double step = std::pow(high / low, 1.0 / kScan);
   double a = best / step;
   double b = best * step;
   constexpr double kGolden = 0.6180339887498949;
+  double x1 = b - kGolden * (b - a);
+  double x2 = a + kGolden * (b - a);
+  double f1 = objective(state, goal, x1);
+  double f2 = objective(state, goal, x2);
   for (int i = 0; i < 40; ++i) {
-    const double x1 = b - kGolden * (b - a);
-    const double x2 = a + kGolden * (b - a);
-    if (objective(state, goal, x1) < objective(state, goal, x2)) {
+    if (f1 < f2) {
       b = x2;
+      x2 = x1;
+      f2 = f1;
+      x1 = b - kGolden * (b - a);
+      f1 = objective(state, goal, x1);
     } else {
       a = x1;
+      x1 = x2;
+      f1 = f2;
+      x2 = a + kGolden * (b - a);
+      f2 = objective(state, goal, x2);
     }
   }
   double duration = 0.5 * (a + b);

@@ -1,6 +1,6 @@
 // hybrid_astar and hybrid_astar_bspline: they plan, their trajectories pass the independent
 // checker, the analytic shot is what ends their searches, and they close far fewer states
-// than eager MP-A* at a cost no better than... measured, not assumed (docs/hybrid_astar.md).
+// than eager MP-A* (their cost gap is measured, not asserted: docs/hybrid_astar.md).
 #include <gtest/gtest.h>
 
 #include "kinolab/planner/planner.hpp"
@@ -34,11 +34,9 @@ TEST(HybridAstar, PlansCheckedTrajectoriesThatEndWithTheShot) {
       const PlanResult result = planWith("hybrid_astar", world, query);
       ASSERT_EQ(result.status, PlanStatus::kExact) << world << ": " << result.message;
       EXPECT_TRUE(result.check.valid) << world << ": " << result.check.detail;
-      // The search ended with an accepted shot unless the goal region was reached first;
-      // either way the trajectory ends at rest (the shot) or inside the region.
-      const double tried = statistic(result, "shots");
-      EXPECT_GE(tried, statistic(result, "shots_rejected"));
-      shots += tried > statistic(result, "shots_rejected");
+      // The search ended with an accepted shot (one more tried than refused) unless the goal
+      // region was reached first.
+      shots += statistic(result, "shots") > statistic(result, "shots_rejected");
       EXPECT_EQ(statistic(result, "controls"), 125.0);  // Fast-Planner's 5 per axis
     }
     EXPECT_GE(shots, 6) << world << ": most searches end with the analytic expansion";

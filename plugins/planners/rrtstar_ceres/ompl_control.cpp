@@ -29,6 +29,7 @@
 #include "kinolab/core/fields.hpp"
 #include "kinolab/core/hash.hpp"
 #include "kinolab/core/plugin.hpp"
+#include "ompl_common.hpp"
 #include "rrt_front_end.hpp"
 
 namespace kinolab::rrt {
@@ -280,11 +281,6 @@ ob::PlannerPtr allocate(const ControlProblem& p, std::uint32_t seed) {
   return nullptr;
 }
 
-double millisecondsSince(std::chrono::steady_clock::time_point begin) {
-  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - begin)
-      .count();
-}
-
 class OmplControlPlanner final : public Planner {
  public:
   explicit OmplControlPlanner(const ParameterSet& parameters)
@@ -402,24 +398,7 @@ PlanResult OmplControlPlanner::doPlan(const PlanningQuery& query, StopCondition&
 
 SearchTree OmplControlPlanner::doTree(std::size_t max_edges) const {
   if (!problem_ || !problem_->last_planner) return {};
-  ob::PlannerData data(problem_->si);
-  problem_->last_planner->getPlannerData(data);
-  const int order = static_cast<int>(settings_.order);
-  std::vector<std::pair<unsigned int, unsigned int>> edges;
-  std::vector<unsigned int> children;
-  for (unsigned int parent = 0; parent < data.numVertices(); ++parent) {
-    data.getEdges(parent, children);
-    for (const unsigned int child : children) edges.emplace_back(parent, child);
-  }
-  SearchTree tree;
-  for (std::size_t i = 0; i < edges.size(); i += treeStride(edges.size(), max_edges)) {
-    SearchTreeEdge edge;
-    edge.points = {chainOf(data.getVertex(edges[i].first).getState(), order).col(0),
-                   chainOf(data.getVertex(edges[i].second).getState(), order).col(0)};
-    edge.closed = true;
-    tree.push_back(std::move(edge));
-  }
-  return tree;
+  return plannerTree(*problem_->last_planner, problem_->si, max_edges);
 }
 
 }  // namespace

@@ -1,6 +1,5 @@
 #include "rrt_front_end.hpp"
 
-#include <ompl/base/PlannerData.h>
 #include <ompl/base/PlannerTerminationCondition.h>
 #include <ompl/base/ProblemDefinition.h>
 #include <ompl/base/SpaceInformation.h>
@@ -27,6 +26,7 @@
 
 #include "kinolab/core/error.hpp"
 #include "kinolab/core/text.hpp"
+#include "ompl_common.hpp"
 
 namespace kinolab::rrt {
 namespace {
@@ -68,11 +68,6 @@ class SeededSimplifier final : public og::PathSimplifier {
     rng_.setLocalSeed(seed);
   }
 };
-
-double millisecondsSince(std::chrono::steady_clock::time_point begin) {
-  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - begin)
-      .count();
-}
 
 std::vector<Eigen::Vector3d> waypoints(const og::PathGeometric& path) {
   std::vector<Eigen::Vector3d> points;
@@ -126,26 +121,7 @@ RrtFrontEnd::~RrtFrontEnd() = default;
 
 SearchTree RrtFrontEnd::tree(std::size_t max_edges) const {
   const Ompl& o = *ompl_;
-  if (!o.last_planner) return {};
-  ob::PlannerData data(o.si);
-  o.last_planner->getPlannerData(data);
-  std::vector<std::pair<unsigned int, unsigned int>> edges;
-  std::vector<unsigned int> children;
-  for (unsigned int parent = 0; parent < data.numVertices(); ++parent) {
-    data.getEdges(parent, children);
-    for (const unsigned int child : children) edges.emplace_back(parent, child);
-  }
-  const std::size_t stride = treeStride(edges.size(), max_edges);
-  SearchTree tree;
-  for (std::size_t i = 0; i < edges.size(); i += stride) {
-    SearchTreeEdge edge;
-    edge.points = {toVector(data.getVertex(edges[i].first).getState()),
-                   toVector(data.getVertex(edges[i].second).getState())};
-    edge.state = SearchTreeEdge::State::kFull;
-    edge.closed = true;
-    tree.push_back(std::move(edge));
-  }
-  return tree;
+  return o.last_planner ? plannerTree(*o.last_planner, o.si, max_edges) : SearchTree{};
 }
 
 std::shared_ptr<ob::ProblemDefinition> RrtFrontEnd::problem(const Eigen::Vector3d& start,

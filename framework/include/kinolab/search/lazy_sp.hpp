@@ -72,9 +72,10 @@ class LazySpSearch {
 
   /// One lazy search from the start; returns the goal node or -1 (none, or the budget).
   int lazySearch(StopCondition& stop, bool& stopped);
-  /// The record of the edge `control` from `node` (whose clearance is `clearance`), its lower
-  /// bound computed on first use.
-  Edge& edgeOf(int node, double clearance, int control);
+  using Slot = std::vector<std::unique_ptr<Edge>>;  ///< a parent key's records, by control
+  /// The record of the edge `control` from `parent` in its key's `slot`, its lower bound
+  /// computed on first use (and the parent's `clearance` then, when it is still NaN).
+  Edge& edgeOf(Slot& slot, const ChainState& parent, double& clearance, int control);
   /// Bytes the search holds (nodes and edge records), against memory_limit_mb.
   double memoryBytes() const;
   /// Fully evaluates the edges the selector picks on the path to `goal_node`; false when the
@@ -92,7 +93,7 @@ class LazySpSearch {
   Eigen::Vector3d goal_;
   std::vector<Node> nodes_;
   /// Edge records by parent key, then control.
-  std::unordered_map<Key, std::vector<std::unique_ptr<Edge>>, KeyHash> edges_;
+  std::unordered_map<Key, Slot, KeyHash> edges_;
   std::vector<Step> path_;  ///< the final path, or the last one's evaluated valid start
   std::size_t edge_records_ = 0;
   bool solved_ = false;
