@@ -144,20 +144,29 @@ double statisticOf(const std::string& key, const std::vector<std::string>& items
   return NAN;
 }
 
-class LazySpEquivalence : public ::testing::TestWithParam<std::string> {
+struct FamilyCase {
+  std::string world;
+  std::vector<std::string> lookaheads;
+};
+
+void PrintTo(const FamilyCase& c, std::ostream* out) { *out << c.world; }
+
+class LazyFamilyEquivalence : public ::testing::TestWithParam<FamilyCase> {
  protected:
   static void SetUpTestSuite() { test::loadTestPlugins(); }
 };
 
-TEST_P(LazySpEquivalence, EverySelectorReturnsEagersCostEvaluatingFewerEdges) {
-  // LazySP (lookahead inf) with every selector against eager at epsilon 1: the same cost on
-  // every query eager solves, every trajectory checked; and it fully evaluates fewer edges
-  // than eager (every edge of every expansion) and no more than lazy (LWA*) over the suite.
-  const auto world = test::smallWorld(GetParam());
+TEST_P(LazyFamilyEquivalence, EveryLookaheadAndSelectorReturnsEagersCostEvaluatingFewerEdges) {
+  // LRA* (lookahead 2, 4, 16) and LazySP (inf) with every selector against eager at epsilon 1:
+  // the same cost on every query eager solves, every trajectory checked; over the suite each
+  // fully evaluates fewer edges than eager (every edge of every expansion) and no more than
+  // lazy (LWA*, lookahead 1).
+  const auto world = test::smallWorld(GetParam().world);
   const auto queries = test::randomQueries(*world, 12, 300, 2.0, 7.0, 0.45);
   std::vector<std::string> base = settingsFor(2);
-  base.back() = "max_expansions=5000000";  // LazySP counts expansions over all its searches
-  base.erase(std::remove(base.begin(), base.end(), "max_expansions=10000"), base.end());
+  // LazySP counts expansions over all its searches.
+  std::replace(base.begin(), base.end(), std::string("max_expansions=10000"),
+               std::string("max_expansions=5000000"));
   const auto with = [&base](std::vector<std::string> extra) {
     auto items = base;
     items.insert(items.end(), extra.begin(), extra.end());
@@ -165,7 +174,7 @@ TEST_P(LazySpEquivalence, EverySelectorReturnsEagersCostEvaluatingFewerEdges) {
   };
   double eager_full = 0.0;
   double lwa_full = 0.0;
-  std::map<std::string, double> lazysp_full;
+  std::map<std::string, double> family_full;
   int exact = 0;
   for (std::size_t q = 0; q < queries.size(); ++q) {
     SCOPED_TRACE("query " + std::to_string(q));
@@ -173,31 +182,42 @@ TEST_P(LazySpEquivalence, EverySelectorReturnsEagersCostEvaluatingFewerEdges) {
     eager_full += statisticOf("eager_mp_astar", base, world, queries[q], "full_evaluations", eager);
     Outcome lwa{};
     lwa_full += statisticOf("lazy_mp_astar", base, world, queries[q], "full_evaluations", lwa);
-    if (eager.status != PlanStatus::kExact) continue;
+    if (eager.status != PlanStatus::kExact) {
+      EXPECT_NE(lwa.status, PlanStatus::kExact) << "lazy solved what eager did not";
+      continue;
+    }
     ++exact;
-    for (const std::string selector : {"forward", "reverse", "alternate", "failfast"}) {
-      SCOPED_TRACE(selector);
-      Outcome lazysp{};
-      lazysp_full[selector] +=
-          statisticOf("lazy_mp_astar", with({"lookahead=inf", "selector=" + selector}), world,
-                      queries[q], "full_evaluations", lazysp);
-      ASSERT_EQ(lazysp.status, PlanStatus::kExact);
-      EXPECT_NEAR(lazysp.cost, eager.cost, 1e-9 * std::max(1.0, eager.cost));
-      EXPECT_TRUE(lazysp.valid);
+    for (const std::string& lookahead : GetParam().lookaheads) {
+      for (const std::string selector : {"forward", "reverse", "alternate", "failfast"}) {
+        SCOPED_TRACE("lookahead " + lookahead + ", " + selector);
+        Outcome lazy{};
+        family_full[lookahead + " " + selector] +=
+            statisticOf("lazy_mp_astar",
+                        with({"lookahead=" + lookahead, "selector=" + selector}), world,
+                        queries[q], "full_evaluations", lazy);
+        ASSERT_EQ(lazy.status, PlanStatus::kExact);
+        EXPECT_NEAR(lazy.cost, eager.cost, 1e-9 * std::max(1.0, eager.cost));
+        EXPECT_TRUE(lazy.valid);
+      }
     }
   }
   EXPECT_GE(exact, 8);
-  for (const auto& [selector, full] : lazysp_full) {
-    EXPECT_LT(full, eager_full) << selector;
-    EXPECT_LE(full, lwa_full) << selector;
-    std::printf("[ lazysp ] %s %s: %.0f full evaluations (lwa %.0f, eager %.0f)\n",
-                GetParam().c_str(), selector.c_str(), full, lwa_full, eager_full);
+  for (const auto& [variant, full] : family_full) {
+    EXPECT_LT(full, eager_full) << variant;
+    EXPECT_LE(full, lwa_full) << variant;
+    std::printf("[ lazy family ] %s lookahead %s: %.0f full evaluations (lwa %.0f, eager %.0f)\n",
+                GetParam().world.c_str(), variant.c_str(), full, lwa_full, eager_full);
   }
 }
 
-// Not the walls world: there every rejected edge starts a new lazy search over a maze, and the
-// suite would take minutes (LazySP trades search for evaluations; docs/lazy_search.md).
-INSTANTIATE_TEST_SUITE_P(Worlds, LazySpEquivalence, ::testing::Values("forest", "boxes"));
+// LazySP (inf) not on the walls world: there every rejected edge starts a new lazy search
+// over a maze, and the suite would take minutes (LazySP trades search for evaluations;
+// docs/lazy_search.md). LRA* repairs its tree instead of searching again.
+INSTANTIATE_TEST_SUITE_P(Worlds, LazyFamilyEquivalence,
+                         ::testing::Values(FamilyCase{"forest", {"2", "4", "16", "inf"}},
+                                           FamilyCase{"boxes", {"2", "4", "16", "inf"}},
+                                           FamilyCase{"walls", {"2", "4", "16"}}),
+                         [](const auto& param_info) { return param_info.param.world; });
 
 INSTANTIATE_TEST_SUITE_P(Worlds, LazyEagerEquivalence,
                          ::testing::Values(Case{"forest", 2}, Case{"boxes", 2}, Case{"walls", 2},

@@ -3,24 +3,34 @@
 // queued with a lower bound and fully evaluated only when popped. With the `lwa` duplicate
 // rule it returns the same cost as eager_mp_astar; `seed` is the paper's Algorithm 1 read
 // literally.
+#include <charconv>
+#include <type_traits>
+
 #include "kinolab/core/plugin.hpp"
-#include "kinolab/search/lazy_sp.hpp"
+#include "kinolab/search/lazy_family.hpp"
 #include "kinolab/search/motion_primitive_planner.hpp"
 
 namespace kinolab {
 namespace {
 
-/// Lookahead infinity: LazySP over the same lattice, controls, costs, heuristic and bound.
-class LazySpPlanner final : public MotionPrimitivePlanner {
+/// A lookahead above 1 over the same lattice, controls, costs, heuristic and bound: LRA*
+/// (`Search` = LraStarSearch) or, at infinity, LazySP (LazySpSearch).
+template <typename Search>
+class LazyFamilyPlanner final : public MotionPrimitivePlanner {
  public:
-  LazySpPlanner(MotionPrimitiveConfig config, EdgeSelector selector)
-      : MotionPrimitivePlanner(std::move(config)), selector_(selector) {}
+  LazyFamilyPlanner(MotionPrimitiveConfig config, EdgeSelector selector, int lookahead)
+      : MotionPrimitivePlanner(std::move(config)), selector_(selector), lookahead_(lookahead) {}
 
  protected:
   void doSetup(const PlannerContext& context) override {
     MotionPrimitivePlanner::doSetup(context);
-    lazy_ = std::make_unique<LazySpSearch>(context.world, search().controls(), config().settings,
-                                           config().policies, selector_);
+    if constexpr (std::is_same_v<Search, LazySpSearch>) {
+      lazy_ = std::make_unique<Search>(context.world, search().controls(), config().settings,
+                                       config().policies, selector_);
+    } else {
+      lazy_ = std::make_unique<Search>(context.world, search().controls(), config().settings,
+                                       config().policies, lookahead_, selector_);
+    }
   }
 
   PlanResult doPlan(const PlanningQuery& query, StopCondition& stop) override {
@@ -38,7 +48,8 @@ class LazySpPlanner final : public MotionPrimitivePlanner {
 
  private:
   EdgeSelector selector_;
-  std::unique_ptr<LazySpSearch> lazy_;
+  int lookahead_;
+  std::unique_ptr<Search> lazy_;
 };
 
 EdgeSelector selectorOf(const std::string& name) {
@@ -46,6 +57,19 @@ EdgeSelector selectorOf(const std::string& name) {
   if (name == "alternate") return EdgeSelector::kAlternate;
   if (name == "failfast") return EdgeSelector::kFailFast;
   return EdgeSelector::kForward;
+}
+
+/// The lookahead parameter: a whole number from 1, or "inf" (returned as 0).
+int lookaheadOf(const std::string& text) {
+  if (text == "inf") return 0;
+  int value = 0;
+  const auto [end, error] = std::from_chars(text.data(), text.data() + text.size(), value);
+  if (error != std::errc() || end != text.data() + text.size() || value < 1 || value > 1000000) {
+    throw ParameterConflict("lookahead",
+                            "expected a whole number from 1 to 1000000 or 'inf', got '" + text +
+                                "'");
+  }
+  return value;
 }
 
 }  // namespace
@@ -63,12 +87,14 @@ KINOLAB_REGISTER_PLUGINS(registrar) {
                   "how an edge is queued (kinolab list lower_bounds): endpoint, the paper's "
                   "end-sample bound; control_only, no map term; lipschitz, endpoint plus "
                   "certification of clear edges")
-          .choice("lookahead", "1", {"1", "inf"},
-                  "1: LWA* (an edge is evaluated when popped, the paper's lazy); inf: LazySP "
-                  "(shortest lazy paths, evaluating the edges the selector picks on them)")
+          .text("lookahead", "1",
+                "unevaluated edges a lazy path may hold: 1, LWA* (an edge is evaluated when "
+                "popped, the paper's lazy); k > 1, LRA* (the best path k edges ahead is "
+                "evaluated); inf, LazySP (shortest lazy paths to the goal)")
           .choice("selector", "forward", {"forward", "reverse", "alternate", "failfast"},
-                  "LazySP's edge selector (lookahead inf): the first, the last, in turn, or the "
-                  "edge likeliest to collide (least clearance at its end)"),
+                  "the order in which a lazy path's edges are evaluated (lookahead above 1): "
+                  "the first, the last, in turn, or the likeliest to collide (least clearance "
+                  "at its end) first"),
       [](const ParameterSet& parameters) {
         auto config = MotionPrimitiveConfig::fromParameters(parameters);
         config.policies.edges =
@@ -76,23 +102,33 @@ KINOLAB_REGISTER_PLUGINS(registrar) {
         config.settings.duplicate_rule = parameters.text("duplicate_rule") == "seed"
                                              ? DuplicateRule::kSeed
                                              : DuplicateRule::kLwa;
-        if (parameters.text("lookahead") == "inf") {
-          if (parameters.text("search_space") != "lattice") {
-            throw ParameterConflict("search_space",
-                                    "LazySP (lookahead inf) reuses an edge's evaluations by its "
-                                    "parent's key, which holds on the lattice only");
-          }
-          if (config.settings.duplicate_rule == DuplicateRule::kSeed) {
-            throw ParameterConflict("duplicate_rule",
-                                    "seed is Algorithm 1's rule for lookahead 1; LazySP "
-                                    "(lookahead inf) keeps the cheapest path to each state");
-          }
-          return std::unique_ptr<Planner>(std::make_unique<LazySpPlanner>(
-              std::move(config), selectorOf(parameters.text("selector"))));
+        const int lookahead = lookaheadOf(parameters.text("lookahead"));
+        if (lookahead == 1) {
+          return std::unique_ptr<Planner>(
+              std::make_unique<MotionPrimitivePlanner>(std::move(config)));
         }
-        return std::unique_ptr<Planner>(
-            std::make_unique<MotionPrimitivePlanner>(std::move(config)));
+        if (parameters.text("search_space") != "lattice") {
+          throw ParameterConflict("search_space",
+                                  "a lookahead above 1 (LRA*, LazySP) reuses an edge's "
+                                  "evaluations by its parent's key, which holds on the lattice "
+                                  "only");
+        }
+        if (config.settings.duplicate_rule == DuplicateRule::kSeed) {
+          throw ParameterConflict("duplicate_rule",
+                                  "seed is Algorithm 1's rule for lookahead 1; a larger "
+                                  "lookahead keeps the cheapest path to each state");
+        }
+        const EdgeSelector selector = selectorOf(parameters.text("selector"));
+        if (lookahead == 0) {
+          return std::unique_ptr<Planner>(std::make_unique<LazyFamilyPlanner<LazySpSearch>>(
+              std::move(config), selector, lookahead));
+        }
+        return std::unique_ptr<Planner>(std::make_unique<LazyFamilyPlanner<LraStarSearch>>(
+            std::move(config), selector, lookahead));
       },
-      motionPrimitiveStatistics().counter("lazy_searches",
-                                          "LazySP's shortest-path searches (lookahead inf)"));
+      motionPrimitiveStatistics()
+          .counter("lazy_searches", "LazySP's shortest-path searches (lookahead inf)")
+          .counter("rewired_vertices",
+                   "LRA*'s vertices taken out of the tree below an invalid or dearer edge "
+                   "(lookahead above 1, finite)"));
 }

@@ -1,0 +1,258 @@
+#pragma once
+
+#include <cstdint>
+#include <deque>
+#include <memory>
+#include <queue>
+#include <unordered_map>
+#include <vector>
+
+#include "kinolab/search/motion_primitive_search.hpp"
+
+namespace kinolab {
+
+/// Which edge of the lazy shortest path LazySP evaluates next (Dellin and Srinivasa, "A Unifying
+/// Formalism for Shortest Path Problems with Expensive Edge Evaluations via Lazy Best-First
+/// Search over Paths with Edge Selectors", ICAPS 2016).
+enum class EdgeSelector {
+  kForward,    ///< the first unevaluated edge from the start
+  kReverse,    ///< the last one (nearest the goal)
+  kAlternate,  ///< forward and reverse in turn
+  kFailFast,   ///< the one most likely to collide: the least clearance at its end
+};
+
+/// One lattice edge of the lazy-search family: the edge policy's estimate at first use (a
+/// lower bound, or exact when the policy certified it) and the full evaluation once asked for.
+struct LazyEdge {
+  ChainState parent;  ///< the continuous state the records below are of
+  EdgeEvaluation bound;
+  EdgeEvaluation full;
+  bool evaluated = false;
+
+  /// What the search knows of the edge: the full evaluation, else the bound.
+  const EdgeEvaluation& known() const { return evaluated ? full : bound; }
+};
+
+/// Evaluates the family's edges and counts the Dellin-style breakdown every member reports:
+/// partial evaluations (lower bounds), full evaluations, rejected edges, ESDF queries and the
+/// time spent evaluating.
+class LazyEdgeWork {
+ public:
+  LazyEdgeWork(std::shared_ptr<const World> world, const SearchSettings& settings,
+               std::shared_ptr<const EdgeEvaluationPolicy> policy);
+
+  void reset();
+  /// The map's clearance at `position` (counted as one ESDF query).
+  double clearance(const Eigen::Vector3d& position);
+  /// Fills `edge` for `control` from `parent` with the policy's estimate (evaluated when the
+  /// policy's estimate is exact).
+  void estimate(LazyEdge& edge, const ChainState& parent, double parent_clearance,
+                const Eigen::Vector3d& control);
+  /// Fully evaluates `edge` (once).
+  void evaluate(LazyEdge& edge, const Eigen::Vector3d& control);
+  /// partial_evaluations, full_evaluations, rejected_edges, esdf_queries, time_evaluation_ms
+  /// and time_search_ms (`total_seconds` less the evaluations).
+  void addStatistics(Statistics& statistics, double total_seconds) const;
+
+ private:
+  std::shared_ptr<const World> world_;
+  std::shared_ptr<const EdgeEvaluationPolicy> policy_;
+  EdgeEvaluator evaluator_;
+  long long partial_evaluations_ = 0;
+  long long full_evaluations_ = 0;
+  long long rejected_edges_ = 0;
+  long long esdf_queries_ = 0;
+  double evaluation_seconds_ = 0.0;
+};
+
+/// One edge of a lazy path, by value (it outlives the search that found it).
+struct LazyPathStep {
+  ChainState parent;
+  int control = -1;
+  double cost = 0.0;
+};
+
+/// The trajectory and cost of a path of `steps`.
+Trajectory trajectoryOf(const std::vector<LazyPathStep>& steps,
+                        const std::vector<Eigen::Vector3d>& controls, const SearchSettings& settings);
+double costOf(const std::vector<LazyPathStep>& steps, bool solved);
+
+/// Hash of a search-space key.
+struct LatticeKeyHash {
+  std::size_t operator()(const SearchSpace::Key& key) const;
+};
+
+/// LazySP on the motion-primitive lattice: repeatedly the shortest path to the goal region with
+/// every edge not yet evaluated at its lower bound (the edge policy's) and every evaluated one
+/// at its full cost (or removed when invalid), then full evaluation of the edge(s) the
+/// selector picks on it, until a shortest path has every edge evaluated. With a consistent
+/// heuristic, lower bounds and weight 1 its cost is eager MP-A*'s; it evaluates only edges on
+/// candidate shortest paths. Each lazy search starts over (the evaluations are kept), so it
+/// spends search time to save evaluations: it pays where an evaluation is dear. Lattice search
+/// spaces only (a state is one continuous state per key); evaluations are reused only for the
+/// same continuous parent.
+class LazySpSearch {
+ public:
+  LazySpSearch(std::shared_ptr<const World> world, std::vector<Eigen::Vector3d> controls,
+               SearchSettings settings, SearchPolicies policies, EdgeSelector selector);
+
+  MotionPrimitiveSearch::Outcome search(const ChainState& start, const Eigen::Vector3d& goal,
+                                        StopCondition& stop);
+  /// After search(): the path (every edge fully evaluated, kGoal) or, on a budget stop, the
+  /// evaluated, valid start of the last lazy path found (empty when exhausted).
+  Trajectory trajectory() const;
+  double cost() const;
+  /// The last search stopped at memory_limit_mb.
+  bool memoryLimited() const { return memory_limited_; }
+  /// expansions (over every lazy search), lazy_searches, partial_evaluations (lower bounds),
+  /// full_evaluations, rejected_edges, esdf_queries, time_evaluation_ms (lower bounds and full
+  /// evaluations, as the core search counts them), time_search_ms (the rest).
+  Statistics statistics() const;
+
+ private:
+  struct Node {
+    ChainState state;
+    double g = 0.0;
+    int parent = -1;
+    int control = -1;
+    LazyEdge* edge = nullptr;
+  };
+  using Key = SearchSpace::Key;
+
+  /// One lazy search from the start; returns the goal node or -1 (none, or the budget).
+  int lazySearch(StopCondition& stop, bool& stopped);
+  using Slot = std::vector<std::unique_ptr<LazyEdge>>;  ///< a parent key's records, by control
+  /// The record of the edge `control` from `parent` in its key's `slot`, its lower bound
+  /// computed on first use (and the parent's `clearance` then, when it is still NaN).
+  LazyEdge& edgeOf(Slot& slot, const ChainState& parent, double& clearance, int control);
+  /// Bytes the search holds (nodes and edge records), against memory_limit_mb.
+  double memoryBytes() const;
+  /// Fully evaluates the edges the selector picks on the path to `goal_node`; false when the
+  /// path was already fully evaluated.
+  bool evaluateOnPath(int goal_node);
+
+  std::shared_ptr<const World> world_;
+  std::vector<Eigen::Vector3d> controls_;
+  SearchSettings settings_;
+  SearchPolicies policies_;
+  EdgeSelector selector_;
+  LazyEdgeWork work_;
+
+  ChainState start_;
+  Eigen::Vector3d goal_;
+  std::vector<Node> nodes_;
+  /// Edge records by parent key, then control.
+  std::unordered_map<Key, Slot, LatticeKeyHash> edges_;
+  std::vector<LazyPathStep> path_;  ///< the final path, or the last one's evaluated valid start
+  std::size_t edge_records_ = 0;
+  bool solved_ = false;
+  bool memory_limited_ = false;
+  bool reverse_next_ = false;
+  long long expansions_ = 0;
+  long long lazy_searches_ = 0;
+  double total_seconds_ = 0.0;
+};
+
+/// LRA* on the motion-primitive lattice (Mandalika, Salzman and Srinivasa, "Lazy Receding
+/// Horizon A* for Efficient Path Planning in Graphs with Expensive-to-Evaluate Edges", ICAPS
+/// 2018), with GLS's edge selectors on the path it evaluates (Mandalika, Choudhury, Salzman and
+/// Srinivasa, "Generalized Lazy Search for Robot Motion Planning", ICAPS 2019). One search tree
+/// over lattice keys: its evaluated part (every edge from the start fully evaluated) carries a
+/// lazy band of at most `lookahead` unevaluated edges, extended best-first at the lower bounds
+/// while a band vertex is cheaper than the best frontier vertex (`lookahead` unevaluated edges
+/// deep, or at the goal). The best frontier vertex's unevaluated edges are then evaluated in the
+/// selector's order until one is invalid or costs more than its bound; that edge's subtree
+/// leaves the tree and the tree vertices that reached it are extended again (LRA*'s rewiring,
+/// by the same relaxation that grows the tree). The search ends when the best frontier vertex
+/// is a fully evaluated goal: with a consistent heuristic, lower bounds and weight 1, eager's
+/// cost. Lookahead 1 evaluates edges as LWA* does; a larger lookahead evaluates fewer edges
+/// (only those on paths that stay best `lookahead` edges ahead) for more search.
+class LraStarSearch {
+ public:
+  LraStarSearch(std::shared_ptr<const World> world, std::vector<Eigen::Vector3d> controls,
+                SearchSettings settings, SearchPolicies policies, int lookahead,
+                EdgeSelector selector);
+
+  MotionPrimitiveSearch::Outcome search(const ChainState& start, const Eigen::Vector3d& goal,
+                                        StopCondition& stop);
+  /// After search(): the path (kGoal) or, on a budget stop, the evaluated start of the path to
+  /// the best frontier vertex (empty when exhausted).
+  Trajectory trajectory() const;
+  double cost() const;
+  bool memoryLimited() const { return memory_limited_; }
+  /// expansions (extensions, re-extensions after a rewire included), rewired_vertices, and the
+  /// breakdown of LazyEdgeWork.
+  Statistics statistics() const;
+
+ private:
+  enum class Queue : std::uint8_t { kNone, kExtend, kFrontier };
+  struct Vertex {
+    ChainState state;
+    double g = INFINITY;
+    double h = 0.0;
+    int parent = -1;
+    int control = -1;
+    int budget = 0;        ///< unevaluated edges on the tree path from the start
+    int first_edge = -1;   ///< its edge records (one per control) in edges_, once extended
+    bool in_tree = false;
+    bool goal = false;
+    Queue queue = Queue::kNone;
+    std::uint32_t stamp = 0;                          ///< the valid queue entry's
+    std::vector<int> children;                        ///< in the tree
+    std::vector<std::pair<int, int>> predecessors;    ///< (vertex, control) that reached it
+  };
+  struct Entry {
+    double f;
+    double g;
+    int vertex;
+    std::uint32_t stamp;
+    bool operator>(const Entry& other) const;
+  };
+  using Heap = std::priority_queue<Entry, std::vector<Entry>, std::greater<>>;
+  using Key = SearchSpace::Key;
+
+  LazyEdge& edgeOf(int vertex, int control);
+  int vertexOf(const ChainState& state);
+  void enqueue(int vertex);
+  /// The valid entry on top of `heap` (stale ones dropped), or nullptr.
+  const Entry* top(Heap& heap, Queue queue);
+  void extend(int vertex);
+  /// Takes `vertex`'s descendants (and `vertex` itself when `inclusive`) out of the tree.
+  void discardBelow(int vertex, bool inclusive, std::vector<int>* removed);
+  void detach(int vertex);
+  /// `vertex`'s edge was found invalid or dearer than its bound: its subtree leaves the tree
+  /// and every tree vertex that reached one of them is extended again.
+  void rewire(int vertex);
+  /// Recomputes the budgets below `vertex`; frontier vertices whose band shrank are extended.
+  void updateBudgets(int vertex);
+  /// Evaluates the unevaluated edges on the path to `vertex` in the selector's order, until one
+  /// is invalid or dearer than its bound.
+  void evaluateBand(int vertex);
+  std::vector<int> pathTo(int vertex) const;
+  double memoryBytes() const;
+
+  std::shared_ptr<const World> world_;
+  std::vector<Eigen::Vector3d> controls_;
+  SearchSettings settings_;
+  SearchPolicies policies_;
+  int lookahead_;
+  EdgeSelector selector_;
+  LazyEdgeWork work_;
+
+  ChainState start_;
+  Eigen::Vector3d goal_;
+  std::vector<Vertex> vertices_;
+  std::deque<LazyEdge> edges_;
+  std::unordered_map<Key, int, LatticeKeyHash> index_;
+  Heap extend_;
+  Heap frontier_;
+  std::vector<LazyPathStep> path_;
+  bool solved_ = false;
+  bool memory_limited_ = false;
+  bool reverse_next_ = false;
+  long long expansions_ = 0;
+  long long rewired_ = 0;
+  double total_seconds_ = 0.0;
+};
+
+}  // namespace kinolab

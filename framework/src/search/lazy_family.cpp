@@ -1,0 +1,590 @@
+#include "kinolab/search/lazy_family.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <queue>
+
+#include "kinolab/core/error.hpp"
+
+namespace kinolab {
+namespace {
+
+double secondsSince(std::chrono::steady_clock::time_point begin) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - begin).count();
+}
+
+}  // namespace
+
+std::size_t LatticeKeyHash::operator()(const SearchSpace::Key& key) const {
+  std::uint64_t hash = 1469598103934665603ull;
+  for (const std::int32_t value : key) {
+    hash ^= static_cast<std::uint32_t>(value);
+    hash *= 1099511628211ull;
+  }
+  return static_cast<std::size_t>(hash ^ (hash >> 29));
+}
+
+LazyEdgeWork::LazyEdgeWork(std::shared_ptr<const World> world, const SearchSettings& settings,
+                           std::shared_ptr<const EdgeEvaluationPolicy> policy)
+    : world_(std::move(world)), policy_(std::move(policy)), evaluator_(world_, settings.edges) {}
+
+void LazyEdgeWork::reset() {
+  partial_evaluations_ = full_evaluations_ = rejected_edges_ = esdf_queries_ = 0;
+  evaluation_seconds_ = 0.0;
+}
+
+double LazyEdgeWork::clearance(const Eigen::Vector3d& position) {
+  ++esdf_queries_;
+  return world_->clearance(position);
+}
+
+void LazyEdgeWork::estimate(LazyEdge& edge, const ChainState& parent, double parent_clearance,
+                            const Eigen::Vector3d& control) {
+  edge.parent = parent;
+  edge.evaluated = false;
+  const auto begin = std::chrono::steady_clock::now();
+  const EdgeEstimate estimate =
+      policy_->evaluate(evaluator_, parent, parent_clearance, control, edge.bound);
+  evaluation_seconds_ += secondsSince(begin);
+  esdf_queries_ += edge.bound.esdf_queries;
+  if (estimate == EdgeEstimate::kLowerBound) {
+    ++partial_evaluations_;
+  } else {  // the policy evaluated it exactly (full, or a certified bound)
+    edge.full = edge.bound;
+    edge.evaluated = true;
+    ++full_evaluations_;
+    rejected_edges_ += !edge.full.valid();
+  }
+}
+
+void LazyEdgeWork::evaluate(LazyEdge& edge, const Eigen::Vector3d& control) {
+  if (edge.evaluated) return;
+  const auto begin = std::chrono::steady_clock::now();
+  edge.full = evaluator_.full(edge.parent, control, world_->clearance(edge.parent.col(0)));
+  evaluation_seconds_ += secondsSince(begin);
+  edge.evaluated = true;
+  ++full_evaluations_;
+  esdf_queries_ += edge.full.esdf_queries + 1;  // and the parent's clearance
+  rejected_edges_ += !edge.full.valid();
+}
+
+void LazyEdgeWork::addStatistics(Statistics& statistics, double total_seconds) const {
+  const auto value = [](long long count) { return static_cast<double>(count); };
+  statistics.emplace_back("partial_evaluations", value(partial_evaluations_));
+  statistics.emplace_back("full_evaluations", value(full_evaluations_));
+  statistics.emplace_back("rejected_edges", value(rejected_edges_));
+  statistics.emplace_back("esdf_queries", value(esdf_queries_));
+  statistics.emplace_back("time_evaluation_ms", 1e3 * evaluation_seconds_);
+  statistics.emplace_back("time_search_ms", 1e3 * (total_seconds - evaluation_seconds_));
+}
+
+Trajectory trajectoryOf(const std::vector<LazyPathStep>& steps,
+                        const std::vector<Eigen::Vector3d>& controls,
+                        const SearchSettings& settings) {
+  Trajectory trajectory;
+  for (const LazyPathStep& step : steps) {
+    trajectory.append(TrajectorySegment::primitive(step.parent, controls[step.control],
+                                                   settings.edges.order, settings.edges.duration));
+  }
+  return trajectory;
+}
+
+double costOf(const std::vector<LazyPathStep>& steps, bool solved) {
+  if (steps.empty()) return solved ? 0.0 : INFINITY;
+  double total = 0.0;
+  for (const LazyPathStep& step : steps) total += step.cost;
+  return total;
+}
+
+namespace {
+
+/// The order in which `selector` evaluates the unevaluated edges `band` (in path order) of a
+/// lazy path; `reverse_next` carries alternate's turn from one call to the next.
+template <typename Clearance>
+std::vector<int> selectorOrder(EdgeSelector selector, std::vector<int> band,
+                               const Clearance& clearance, bool& reverse_next) {
+  switch (selector) {
+    case EdgeSelector::kForward:
+      break;
+    case EdgeSelector::kReverse:
+      std::reverse(band.begin(), band.end());
+      break;
+    case EdgeSelector::kAlternate: {
+      std::vector<int> order;
+      order.reserve(band.size());
+      std::size_t front = 0, back = band.size();
+      bool from_back = reverse_next;
+      while (front < back) {
+        order.push_back(from_back ? band[--back] : band[front++]);
+        from_back = !from_back;
+      }
+      reverse_next = !reverse_next;
+      return order;
+    }
+    case EdgeSelector::kFailFast: {
+      // The least clearance at the end first: the likeliest to fail.
+      std::vector<std::pair<double, int>> keyed;
+      for (const int item : band) keyed.emplace_back(clearance(item), item);
+      std::stable_sort(keyed.begin(), keyed.end(),
+                       [](const auto& a, const auto& b) { return a.first < b.first; });
+      for (std::size_t i = 0; i < band.size(); ++i) band[i] = keyed[i].second;
+      break;
+    }
+  }
+  return band;
+}
+
+void checkLazySearch(const char* name, const std::vector<Eigen::Vector3d>& controls,
+                     const SearchSettings& settings, const SearchPolicies& policies) {
+  const std::string who(name);
+  if (controls.empty()) throw InvalidArgument(who + ": no controls");
+  if (!policies.edges || !policies.heuristic || !policies.space) {
+    throw InvalidArgument(who + ": an edge policy, a heuristic and a search space are needed");
+  }
+  if (!(settings.heuristic_weight >= 1.0)) {
+    throw InvalidArgument(who + ": heuristic_weight must be >= 1");
+  }
+}
+
+}  // namespace
+
+LazySpSearch::LazySpSearch(std::shared_ptr<const World> world,
+                           std::vector<Eigen::Vector3d> controls, SearchSettings settings,
+                           SearchPolicies policies, EdgeSelector selector)
+    : world_(std::move(world)),
+      controls_(std::move(controls)),
+      settings_(settings),
+      policies_(std::move(policies)),
+      selector_(selector),
+      work_(world_, settings_, policies_.edges) {
+  checkLazySearch("LazySP", controls_, settings_, policies_);
+}
+
+LazyEdge& LazySpSearch::edgeOf(Slot& slot, const ChainState& parent, double& clearance,
+                               int control) {
+  if (slot.empty()) slot.resize(controls_.size());
+  std::unique_ptr<LazyEdge>& edge = slot[control];
+  // An edge's records hold for its continuous parent: routes to one lattice key agree up to
+  // rounding, and another parent of the key is evaluated afresh.
+  if (!edge || (edge->parent - parent).cwiseAbs().maxCoeff() > 1e-9) {
+    if (!edge) ++edge_records_;
+    edge = std::make_unique<LazyEdge>();
+    // The parent's clearance once per expansion, and only when an edge is new.
+    if (std::isnan(clearance)) clearance = work_.clearance(parent.col(0));
+    work_.estimate(*edge, parent, clearance, controls_[control]);
+  }
+  return *edge;
+}
+
+double LazySpSearch::memoryBytes() const {
+  return static_cast<double>(nodes_.capacity() * sizeof(Node) +
+                             edge_records_ * (sizeof(LazyEdge) + sizeof(void*)) +
+                             edges_.size() * (sizeof(Key) + 4 * sizeof(void*)));
+}
+
+int LazySpSearch::lazySearch(StopCondition& stop, bool& stopped) {
+  ++lazy_searches_;
+  nodes_.clear();
+  nodes_.push_back({start_, 0.0, -1, -1, nullptr});
+  std::unordered_map<Key, int, LatticeKeyHash> closed;
+  std::unordered_map<Key, double, LatticeKeyHash> best_g;
+  using Entry = std::tuple<double, double, int>;  // f, -g (deeper first among equal f), node
+  std::priority_queue<Entry, std::vector<Entry>, std::greater<>> open;
+  const auto h = [&](const ChainState& state) {
+    return settings_.heuristic_weight * policies_.heuristic->estimate(state, goal_);
+  };
+  open.emplace(h(start_), 0.0, 0);
+  const int order = settings_.edges.order;
+  const double memory_limit = settings_.memory_limit_mb * 1024.0 * 1024.0;
+  while (!open.empty()) {
+    const double bytes = memoryBytes();
+    if (stop.expired(expansions_) || bytes > memory_limit) {
+      memory_limited_ = bytes > memory_limit;
+      stopped = true;
+      return -1;
+    }
+    const int node = std::get<2>(open.top());
+    open.pop();
+    const Key key = policies_.space->key(nodes_[node].state, start_, order);
+    if (!closed.emplace(key, node).second) continue;
+    if ((nodes_[node].state.col(0) - goal_).norm() <= settings_.goal_radius) return node;
+    ++expansions_;
+    // The node's edge records, by its key (the closed-set key): one look-up per expansion.
+    Slot& slot = edges_[key];
+    double clearance = NAN;
+    for (int control = 0; control < static_cast<int>(controls_.size()); ++control) {
+      LazyEdge& edge = edgeOf(slot, nodes_[node].state, clearance, control);
+      const EdgeEvaluation& known = edge.known();
+      if (!known.valid()) continue;
+      const Key child_key = policies_.space->key(known.end, start_, order);
+      if (closed.count(child_key)) continue;
+      const double g = nodes_[node].g + known.cost;
+      const auto [best, inserted] = best_g.emplace(child_key, g);
+      if (!inserted && g >= best->second) continue;
+      best->second = g;
+      nodes_.push_back({known.end, g, node, control, &edge});
+      const int child = static_cast<int>(nodes_.size()) - 1;
+      open.emplace(settings_.cost_weight * g + h(known.end), -g, child);
+    }
+  }
+  return -1;
+}
+
+bool LazySpSearch::evaluateOnPath(int goal_node) {
+  std::vector<int> nodes;
+  for (int node = goal_node; node > 0; node = nodes_[node].parent) nodes.push_back(node);
+  std::reverse(nodes.begin(), nodes.end());
+  std::vector<int> unevaluated;
+  for (const int node : nodes) {
+    if (!nodes_[node].edge->evaluated) unevaluated.push_back(node);
+  }
+  // The path by value: whole when it is evaluated whole (the answer), else its evaluated
+  // start (what a budget stop returns); the next lazy search rebuilds nodes_.
+  path_.clear();
+  for (const int node : nodes) {
+    const LazyEdge& edge = *nodes_[node].edge;
+    if (!edge.evaluated || !edge.full.valid()) break;
+    path_.push_back({edge.parent, nodes_[node].control, edge.full.cost});
+  }
+  if (unevaluated.empty()) return false;
+  const auto clearance = [&](int node) {
+    const EdgeEvaluation& bound = nodes_[node].edge->bound;
+    return std::isfinite(bound.end_clearance) ? bound.end_clearance
+                                              : world_->clearance(bound.end.col(0));
+  };
+  const int chosen = selectorOrder(selector_, unevaluated, clearance, reverse_next_).front();
+  work_.evaluate(*nodes_[chosen].edge, controls_[nodes_[chosen].control]);
+  return true;
+}
+
+MotionPrimitiveSearch::Outcome LazySpSearch::search(const ChainState& start,
+                                                    const Eigen::Vector3d& goal,
+                                                    StopCondition& stop) {
+  const auto begin = std::chrono::steady_clock::now();
+  start_ = start;
+  goal_ = goal;
+  edges_.clear();
+  edge_records_ = 0;
+  path_.clear();
+  solved_ = false;
+  memory_limited_ = false;
+  reverse_next_ = false;
+  expansions_ = lazy_searches_ = 0;
+  work_.reset();
+  auto outcome = MotionPrimitiveSearch::Outcome::kExhausted;
+  for (;;) {
+    bool stopped = false;
+    const int goal_node = lazySearch(stop, stopped);
+    if (stopped) {
+      outcome = MotionPrimitiveSearch::Outcome::kBudget;
+      break;
+    }
+    if (goal_node < 0) {  // no path even at the lower bounds: exhausted
+      path_.clear();
+      break;
+    }
+    if (!evaluateOnPath(goal_node)) {
+      solved_ = true;
+      outcome = MotionPrimitiveSearch::Outcome::kGoal;
+      break;
+    }
+  }
+  total_seconds_ = secondsSince(begin);
+  return outcome;
+}
+
+Trajectory LazySpSearch::trajectory() const {
+  return trajectoryOf(path_, controls_, settings_);
+}
+
+double LazySpSearch::cost() const { return costOf(path_, solved_); }
+
+Statistics LazySpSearch::statistics() const {
+  Statistics statistics{{"expansions", static_cast<double>(expansions_)},
+                        {"lazy_searches", static_cast<double>(lazy_searches_)}};
+  work_.addStatistics(statistics, total_seconds_);
+  return statistics;
+}
+
+bool LraStarSearch::Entry::operator>(const Entry& other) const {
+  if (f != other.f) return f > other.f;
+  if (g != other.g) return g < other.g;  // deeper first among equal f
+  return vertex > other.vertex;
+}
+
+LraStarSearch::LraStarSearch(std::shared_ptr<const World> world,
+                             std::vector<Eigen::Vector3d> controls, SearchSettings settings,
+                             SearchPolicies policies, int lookahead, EdgeSelector selector)
+    : world_(std::move(world)),
+      controls_(std::move(controls)),
+      settings_(settings),
+      policies_(std::move(policies)),
+      lookahead_(lookahead),
+      selector_(selector),
+      work_(world_, settings_, policies_.edges) {
+  checkLazySearch("LRA*", controls_, settings_, policies_);
+  if (lookahead_ < 1) throw InvalidArgument("LRA*: lookahead must be >= 1");
+}
+
+int LraStarSearch::vertexOf(const ChainState& state) {
+  const Key key = policies_.space->key(state, start_, settings_.edges.order);
+  const auto [found, inserted] = index_.emplace(key, static_cast<int>(vertices_.size()));
+  if (inserted) {
+    // A key's state is fixed when it is first reached (routes to one lattice key agree up to
+    // rounding), so its edge records hold for every later parent.
+    Vertex vertex;
+    vertex.state = state;
+    vertex.h = settings_.heuristic_weight * policies_.heuristic->estimate(state, goal_);
+    vertex.goal = (state.col(0) - goal_).norm() <= settings_.goal_radius;
+    vertices_.push_back(std::move(vertex));
+  }
+  return found->second;
+}
+
+LazyEdge& LraStarSearch::edgeOf(int vertex, int control) {
+  Vertex& parent = vertices_[vertex];
+  if (parent.first_edge < 0) {
+    parent.first_edge = static_cast<int>(edges_.size());
+    edges_.resize(edges_.size() + controls_.size());
+    const double clearance = work_.clearance(parent.state.col(0));
+    for (std::size_t c = 0; c < controls_.size(); ++c) {
+      work_.estimate(edges_[parent.first_edge + c], parent.state, clearance, controls_[c]);
+    }
+  }
+  return edges_[vertices_[vertex].first_edge + control];
+}
+
+void LraStarSearch::enqueue(int vertex) {
+  Vertex& v = vertices_[vertex];
+  ++v.stamp;
+  v.queue = v.goal || v.budget >= lookahead_ ? Queue::kFrontier : Queue::kExtend;
+  (v.queue == Queue::kFrontier ? frontier_ : extend_)
+      .push({settings_.cost_weight * v.g + v.h, v.g, vertex, v.stamp});
+}
+
+const LraStarSearch::Entry* LraStarSearch::top(Heap& heap, Queue queue) {
+  while (!heap.empty()) {
+    const Entry& entry = heap.top();
+    const Vertex& v = vertices_[entry.vertex];
+    if (v.in_tree && v.queue == queue && v.stamp == entry.stamp) return &entry;
+    heap.pop();
+  }
+  return nullptr;
+}
+
+void LraStarSearch::detach(int vertex) {
+  const int parent = vertices_[vertex].parent;
+  if (parent < 0) return;
+  std::vector<int>& siblings = vertices_[parent].children;
+  const auto found = std::find(siblings.begin(), siblings.end(), vertex);
+  if (found != siblings.end()) {
+    *found = siblings.back();
+    siblings.pop_back();
+  }
+}
+
+void LraStarSearch::discardBelow(int vertex, bool inclusive, std::vector<int>* removed) {
+  std::vector<int> stack;
+  if (inclusive) {
+    stack.push_back(vertex);
+  } else {
+    stack.swap(vertices_[vertex].children);
+  }
+  while (!stack.empty()) {
+    const int current = stack.back();
+    stack.pop_back();
+    Vertex& v = vertices_[current];
+    v.in_tree = false;
+    v.queue = Queue::kNone;
+    v.g = INFINITY;
+    v.parent = -1;
+    stack.insert(stack.end(), v.children.begin(), v.children.end());
+    v.children.clear();
+    if (removed) removed->push_back(current);
+  }
+}
+
+void LraStarSearch::extend(int vertex) {
+  ++expansions_;
+  for (int control = 0; control < static_cast<int>(controls_.size()); ++control) {
+    const LazyEdge& edge = edgeOf(vertex, control);
+    const EdgeEvaluation& known = edge.known();
+    if (!known.valid()) continue;
+    const int child = vertexOf(known.end);  // may grow vertices_: no references kept across
+    Vertex& v = vertices_[child];
+    const Vertex& u = vertices_[vertex];
+    const std::pair<int, int> predecessor{vertex, control};
+    if (std::find(v.predecessors.begin(), v.predecessors.end(), predecessor) ==
+        v.predecessors.end()) {
+      v.predecessors.push_back(predecessor);
+    }
+    const double g = u.g + known.cost;
+    if (v.in_tree && v.g <= g) continue;
+    if (v.in_tree) {  // a cheaper route: its subtree is found again from it
+      detach(child);
+      discardBelow(child, false, nullptr);
+    }
+    v.in_tree = true;
+    v.g = g;
+    v.parent = vertex;
+    v.control = control;
+    v.budget = u.budget + (edge.evaluated ? 0 : 1);
+    vertices_[vertex].children.push_back(child);
+    enqueue(child);
+  }
+}
+
+void LraStarSearch::rewire(int vertex) {
+  detach(vertex);
+  std::vector<int> removed;
+  discardBelow(vertex, true, &removed);
+  rewired_ += static_cast<long long>(removed.size());
+  // The tree vertices that reached a removed one extend again: the same relaxation that grew
+  // the tree finds each removed vertex's best remaining parent, and their subtrees after them.
+  for (const int gone : removed) {
+    for (const auto& [predecessor, control] : vertices_[gone].predecessors) {
+      const Vertex& u = vertices_[predecessor];
+      if (u.in_tree && u.queue == Queue::kNone) enqueue(predecessor);
+    }
+  }
+}
+
+void LraStarSearch::updateBudgets(int vertex) {
+  std::vector<int> stack{vertex};
+  while (!stack.empty()) {
+    const int current = stack.back();
+    stack.pop_back();
+    Vertex& v = vertices_[current];
+    if (v.parent >= 0) {
+      const LazyEdge& edge = edges_[vertices_[v.parent].first_edge + v.control];
+      v.budget = vertices_[v.parent].budget + (edge.evaluated ? 0 : 1);
+    }
+    if (v.queue == Queue::kFrontier && !v.goal && v.budget < lookahead_) enqueue(current);
+    stack.insert(stack.end(), v.children.begin(), v.children.end());
+  }
+}
+
+std::vector<int> LraStarSearch::pathTo(int vertex) const {
+  std::vector<int> path;
+  for (int v = vertex; vertices_[v].parent >= 0; v = vertices_[v].parent) path.push_back(v);
+  std::reverse(path.begin(), path.end());
+  return path;
+}
+
+void LraStarSearch::evaluateBand(int vertex) {
+  std::vector<int> band;
+  for (const int v : pathTo(vertex)) {
+    if (!edges_[vertices_[vertices_[v].parent].first_edge + vertices_[v].control].evaluated) {
+      band.push_back(v);
+    }
+  }
+  const auto edge = [&](int v) -> LazyEdge& {
+    return edges_[vertices_[vertices_[v].parent].first_edge + vertices_[v].control];
+  };
+  const auto clearance = [&](int v) {
+    const EdgeEvaluation& bound = edge(v).bound;
+    return std::isfinite(bound.end_clearance) ? bound.end_clearance
+                                              : world_->clearance(bound.end.col(0));
+  };
+  const int top = band.front();  // the band's first vertex: every budget changes below it
+  for (const int v : selectorOrder(selector_, band, clearance, reverse_next_)) {
+    LazyEdge& evaluated = edge(v);
+    work_.evaluate(evaluated, controls_[vertices_[v].control]);
+    // Valid at its bound's cost: the tree stands. Invalid, or dearer (the bound's obstacle
+    // share): its subtree is rewired, which ends this band.
+    if (!evaluated.full.valid() || evaluated.full.cost > evaluated.bound.cost) {
+      rewire(v);
+      break;
+    }
+  }
+  if (vertices_[top].in_tree) updateBudgets(top);
+}
+
+double LraStarSearch::memoryBytes() const {
+  return static_cast<double>(vertices_.capacity() * sizeof(Vertex) +
+                             edges_.size() * sizeof(LazyEdge) +
+                             index_.size() * (sizeof(Key) + 4 * sizeof(void*)) +
+                             (expansions_ + rewired_) * sizeof(std::pair<int, int>));
+}
+
+MotionPrimitiveSearch::Outcome LraStarSearch::search(const ChainState& start,
+                                                     const Eigen::Vector3d& goal,
+                                                     StopCondition& stop) {
+  const auto begin = std::chrono::steady_clock::now();
+  start_ = start;
+  goal_ = goal;
+  vertices_.clear();
+  edges_.clear();
+  index_.clear();
+  extend_ = Heap();
+  frontier_ = Heap();
+  path_.clear();
+  solved_ = memory_limited_ = reverse_next_ = false;
+  expansions_ = rewired_ = 0;
+  work_.reset();
+  const int root = vertexOf(start);
+  vertices_[root].g = 0.0;
+  vertices_[root].in_tree = true;
+  enqueue(root);
+  const double memory_limit = settings_.memory_limit_mb * 1024.0 * 1024.0;
+  auto outcome = MotionPrimitiveSearch::Outcome::kExhausted;
+  int best = -1;  // the last frontier vertex taken
+  for (;;) {
+    const double bytes = memoryBytes();
+    if (stop.expired(expansions_) || bytes > memory_limit) {
+      memory_limited_ = bytes > memory_limit;
+      outcome = MotionPrimitiveSearch::Outcome::kBudget;
+      break;
+    }
+    const Entry* frontier = top(frontier_, Queue::kFrontier);
+    const Entry* extendable = top(extend_, Queue::kExtend);
+    // Extend the band while a band vertex is cheaper than the best frontier vertex.
+    if (extendable && (!frontier || *frontier > *extendable)) {
+      const int vertex = extendable->vertex;
+      extend_.pop();
+      vertices_[vertex].queue = Queue::kNone;
+      extend(vertex);
+      continue;
+    }
+    if (!frontier) {
+      best = -1;
+      break;  // exhausted: no path even at the lower bounds
+    }
+    best = frontier->vertex;
+    frontier_.pop();
+    Vertex& v = vertices_[best];
+    v.queue = Queue::kNone;
+    if (v.goal && v.budget == 0) {
+      solved_ = true;
+      outcome = MotionPrimitiveSearch::Outcome::kGoal;
+      break;
+    }
+    evaluateBand(best);
+    if (vertices_[best].in_tree) enqueue(best);
+  }
+  // The path to the goal, or the evaluated, valid start of the path to the last frontier vertex.
+  if (best >= 0 && vertices_[best].in_tree) {
+    for (const int v : pathTo(best)) {
+      const Vertex& child = vertices_[v];
+      const LazyEdge& edge = edges_[vertices_[child.parent].first_edge + child.control];
+      if (!edge.evaluated || !edge.full.valid()) break;
+      path_.push_back({edge.parent, child.control, edge.full.cost});
+    }
+  }
+  total_seconds_ = secondsSince(begin);
+  return outcome;
+}
+
+Trajectory LraStarSearch::trajectory() const { return trajectoryOf(path_, controls_, settings_); }
+
+double LraStarSearch::cost() const { return costOf(path_, solved_); }
+
+Statistics LraStarSearch::statistics() const {
+  Statistics statistics{{"expansions", static_cast<double>(expansions_)},
+                        {"rewired_vertices", static_cast<double>(rewired_)}};
+  work_.addStatistics(statistics, total_seconds_);
+  return statistics;
+}
+
+}  // namespace kinolab
