@@ -371,6 +371,67 @@ TEST(LazySp, ABudgetStopReturnsTheEvaluatedStartOfTheLastLazyPath) {
       ConfigError);
 }
 
+TEST(LraStar, ABudgetStopReturnsACheckedStartAndBadLookaheadsAreRefused) {
+  // LRA* (a finite lookahead above 1) stopped half-way returns the evaluated, valid start of
+  // the path to its best frontier vertex; its memory budget holds; and a lookahead that is not
+  // a whole number from 1 or "inf" is refused naming the parameter.
+  test::loadTestPlugins();
+  const auto world = test::smallWorld("forest");
+  const auto query = test::randomQueries(*world, 1, 21, 8.0, 11.0, 0.5).front();
+  const auto plan = [&](const std::vector<std::string>& extra) {
+    std::vector<std::string> items = {"sampler.samples_per_axis=3", "time_limit=0",
+                                      "lookahead=4"};
+    items.insert(items.end(), extra.begin(), extra.end());
+    ConfiguredPlanner configured = configurePlanner("lazy_mp_astar", test::assignments(items));
+    configured.planner->setup({world, configured.sampler, 1});
+    return configured.planner->plan(query, Budget{});
+  };
+  const auto statistic = [](const PlanResult& result, const std::string& name) -> double {
+    for (const auto& [key, value] : result.statistics) {
+      if (key == name) return value;
+    }
+    return NAN;
+  };
+  const PlanResult whole = plan({"max_expansions=0"});
+  ASSERT_EQ(whole.status, PlanStatus::kExact) << whole.message;
+  EXPECT_TRUE(whole.check.valid) << whole.check.detail;
+  ASSERT_GT(statistic(whole, "rewired_vertices"), 0.0);
+  const long long half = static_cast<long long>(statistic(whole, "expansions") / 2);
+  const PlanResult result = plan({"max_expansions=" + std::to_string(half)});
+  ASSERT_TRUE(result.status == PlanStatus::kApproximate || result.status == PlanStatus::kTimeout)
+      << result.message;
+  EXPECT_NE(result.message.find("budget spent"), std::string::npos) << result.message;
+  if (!result.trajectory.empty()) {
+    EXPECT_TRUE(result.check.valid) << result.check.detail;
+    EXPECT_LT((result.trajectory.startPosition() - query.start.col(0)).norm(), 1e-12);
+  }
+  // A long query through the walls outgrows 1 MB of vertices and arcs long before it is solved.
+  const auto walls = test::smallWorld("walls");
+  const auto far = test::randomQueries(*walls, 1, 5, 9.0, 11.0, 0.5).front();
+  ConfiguredPlanner capped = configurePlanner(
+      "lazy_mp_astar", test::assignments({"sampler.samples_per_axis=3", "time_limit=0",
+                                          "lookahead=4", "memory_limit_mb=1"}));
+  capped.planner->setup({walls, capped.sampler, 1});
+  const PlanResult capped_result = capped.planner->plan(far, Budget{});
+  EXPECT_TRUE(capped_result.status == PlanStatus::kApproximate ||
+              capped_result.status == PlanStatus::kTimeout)
+      << capped_result.message;
+  EXPECT_NE(capped_result.message.find("memory budget"), std::string::npos)
+      << capped_result.message;
+  for (const char* bad : {"0", "-2", "2.5", "four", "", "1e3", "99999999999"}) {
+    SCOPED_TRACE(bad);
+    try {
+      configurePlanner("lazy_mp_astar", test::assignments({std::string("lookahead=") + bad}));
+      ADD_FAILURE() << "accepted";
+    } catch (const ConfigError& error) {
+      EXPECT_NE(std::string(error.what()).find("lookahead"), std::string::npos) << error.what();
+    }
+  }
+  EXPECT_THROW(
+      configurePlanner("lazy_mp_astar", test::assignments({"lookahead=3", "search_space=cells"})),
+      ConfigError);
+}
+
 TEST(Planner, StartsAreHeldToTheCollisionRuleEdgesUse) {
   // An edge is free when it keeps robot_radius less collision_tolerance (0.25 - 0.01 m) from
   // every cube: a start with 0.245 m of clearance is a start, one with 0.235 m is not.

@@ -39,34 +39,30 @@ double LazyEdgeWork::clearance(const Eigen::Vector3d& position) {
   return world_->clearance(position);
 }
 
-void LazyEdgeWork::estimate(LazyEdge& edge, const ChainState& parent, double parent_clearance,
-                            const Eigen::Vector3d& control) {
-  edge.parent = parent;
-  edge.evaluated = false;
+bool LazyEdgeWork::estimate(const ChainState& parent, double parent_clearance,
+                            const Eigen::Vector3d& control, EdgeEvaluation& estimate) {
   const auto begin = std::chrono::steady_clock::now();
-  const EdgeEstimate estimate =
-      policy_->evaluate(evaluator_, parent, parent_clearance, control, edge.bound);
+  const bool exact = policy_->evaluate(evaluator_, parent, parent_clearance, control, estimate) !=
+                     EdgeEstimate::kLowerBound;
   evaluation_seconds_ += secondsSince(begin);
-  esdf_queries_ += edge.bound.esdf_queries;
-  if (estimate == EdgeEstimate::kLowerBound) {
-    ++partial_evaluations_;
-  } else {  // the policy evaluated it exactly (full, or a certified bound)
-    edge.full = edge.bound;
-    edge.evaluated = true;
+  esdf_queries_ += estimate.esdf_queries;
+  if (exact) {  // the policy evaluated it exactly (full, or a certified bound)
     ++full_evaluations_;
-    rejected_edges_ += !edge.full.valid();
+    rejected_edges_ += !estimate.valid();
+  } else {
+    ++partial_evaluations_;
   }
+  return exact;
 }
 
-void LazyEdgeWork::evaluate(LazyEdge& edge, const Eigen::Vector3d& control) {
-  if (edge.evaluated) return;
+EdgeEvaluation LazyEdgeWork::evaluate(const ChainState& parent, const Eigen::Vector3d& control) {
   const auto begin = std::chrono::steady_clock::now();
-  edge.full = evaluator_.full(edge.parent, control, world_->clearance(edge.parent.col(0)));
+  EdgeEvaluation full = evaluator_.full(parent, control, world_->clearance(parent.col(0)));
   evaluation_seconds_ += secondsSince(begin);
-  edge.evaluated = true;
   ++full_evaluations_;
-  esdf_queries_ += edge.full.esdf_queries + 1;  // and the parent's clearance
-  rejected_edges_ += !edge.full.valid();
+  esdf_queries_ += full.esdf_queries + 1;  // and the parent's clearance
+  rejected_edges_ += !full.valid();
+  return full;
 }
 
 void LazyEdgeWork::addStatistics(Statistics& statistics, double total_seconds) const {
@@ -161,25 +157,27 @@ LazySpSearch::LazySpSearch(std::shared_ptr<const World> world,
   checkLazySearch("LazySP", controls_, settings_, policies_);
 }
 
-LazyEdge& LazySpSearch::edgeOf(Slot& slot, const ChainState& parent, double& clearance,
-                               int control) {
+LazySpSearch::Edge& LazySpSearch::edgeOf(Slot& slot, const ChainState& parent, double& clearance,
+                                         int control) {
   if (slot.empty()) slot.resize(controls_.size());
-  std::unique_ptr<LazyEdge>& edge = slot[control];
+  std::unique_ptr<Edge>& edge = slot[control];
   // An edge's records hold for its continuous parent: routes to one lattice key agree up to
   // rounding, and another parent of the key is evaluated afresh.
   if (!edge || (edge->parent - parent).cwiseAbs().maxCoeff() > 1e-9) {
     if (!edge) ++edge_records_;
-    edge = std::make_unique<LazyEdge>();
+    edge = std::make_unique<Edge>();
+    edge->parent = parent;
     // The parent's clearance once per expansion, and only when an edge is new.
     if (std::isnan(clearance)) clearance = work_.clearance(parent.col(0));
-    work_.estimate(*edge, parent, clearance, controls_[control]);
+    edge->evaluated = work_.estimate(parent, clearance, controls_[control], edge->bound);
+    if (edge->evaluated) edge->full = edge->bound;
   }
   return *edge;
 }
 
 double LazySpSearch::memoryBytes() const {
   return static_cast<double>(nodes_.capacity() * sizeof(Node) +
-                             edge_records_ * (sizeof(LazyEdge) + sizeof(void*)) +
+                             edge_records_ * (sizeof(Edge) + sizeof(void*)) +
                              edges_.size() * (sizeof(Key) + 4 * sizeof(void*)));
 }
 
@@ -214,7 +212,7 @@ int LazySpSearch::lazySearch(StopCondition& stop, bool& stopped) {
     Slot& slot = edges_[key];
     double clearance = NAN;
     for (int control = 0; control < static_cast<int>(controls_.size()); ++control) {
-      LazyEdge& edge = edgeOf(slot, nodes_[node].state, clearance, control);
+      Edge& edge = edgeOf(slot, nodes_[node].state, clearance, control);
       const EdgeEvaluation& known = edge.known();
       if (!known.valid()) continue;
       const Key child_key = policies_.space->key(known.end, start_, order);
@@ -243,7 +241,7 @@ bool LazySpSearch::evaluateOnPath(int goal_node) {
   // start (what a budget stop returns); the next lazy search rebuilds nodes_.
   path_.clear();
   for (const int node : nodes) {
-    const LazyEdge& edge = *nodes_[node].edge;
+    const Edge& edge = *nodes_[node].edge;
     if (!edge.evaluated || !edge.full.valid()) break;
     path_.push_back({edge.parent, nodes_[node].control, edge.full.cost});
   }
@@ -254,7 +252,9 @@ bool LazySpSearch::evaluateOnPath(int goal_node) {
                                               : world_->clearance(bound.end.col(0));
   };
   const int chosen = selectorOrder(selector_, unevaluated, clearance, reverse_next_).front();
-  work_.evaluate(*nodes_[chosen].edge, controls_[nodes_[chosen].control]);
+  Edge& edge = *nodes_[chosen].edge;
+  edge.full = work_.evaluate(edge.parent, controls_[nodes_[chosen].control]);
+  edge.evaluated = true;
   return true;
 }
 
@@ -342,17 +342,31 @@ int LraStarSearch::vertexOf(const ChainState& state) {
   return found->second;
 }
 
-LazyEdge& LraStarSearch::edgeOf(int vertex, int control) {
-  Vertex& parent = vertices_[vertex];
-  if (parent.first_edge < 0) {
-    parent.first_edge = static_cast<int>(edges_.size());
-    edges_.resize(edges_.size() + controls_.size());
-    const double clearance = work_.clearance(parent.state.col(0));
+LraStarSearch::Arc& LraStarSearch::arcOf(int vertex, int control) {
+  if (vertices_[vertex].first_arc < 0) {
+    const ChainState parent = vertices_[vertex].state;  // vertexOf below may move vertices_
+    const double clearance = work_.clearance(parent.col(0));
+    const int first = static_cast<int>(arcs_.size());
+    vertices_[vertex].first_arc = first;
+    arcs_.resize(arcs_.size() + controls_.size());
+    EdgeEvaluation estimate;
     for (std::size_t c = 0; c < controls_.size(); ++c) {
-      work_.estimate(edges_[parent.first_edge + c], parent.state, clearance, controls_[c]);
+      const bool exact = work_.estimate(parent, clearance, controls_[c], estimate);
+      Arc& arc = arcs_[first + c];
+      arc.evaluated = exact;
+      arc.valid = estimate.valid();
+      arc.bound_cost = arc.cost = estimate.cost;
+      if (!arc.valid) continue;
+      arc.child = vertexOf(estimate.end);
+      // failfast's order: the bound's clearance at the end, else the map's.
+      if (selector_ == EdgeSelector::kFailFast) {
+        arc.end_clearance = static_cast<float>(std::isfinite(estimate.end_clearance)
+                                                   ? estimate.end_clearance
+                                                   : world_->clearance(estimate.end.col(0)));
+      }
     }
   }
-  return edges_[vertices_[vertex].first_edge + control];
+  return arcs_[vertices_[vertex].first_arc + control];
 }
 
 void LraStarSearch::enqueue(int vertex) {
@@ -408,30 +422,28 @@ void LraStarSearch::discardBelow(int vertex, bool inclusive, std::vector<int>* r
 void LraStarSearch::extend(int vertex) {
   ++expansions_;
   for (int control = 0; control < static_cast<int>(controls_.size()); ++control) {
-    const LazyEdge& edge = edgeOf(vertex, control);
-    const EdgeEvaluation& known = edge.known();
-    if (!known.valid()) continue;
-    const int child = vertexOf(known.end);  // may grow vertices_: no references kept across
-    Vertex& v = vertices_[child];
+    const Arc& arc = arcOf(vertex, control);
+    if (!arc.valid) continue;
     const Vertex& u = vertices_[vertex];
+    Vertex& v = vertices_[arc.child];
     const std::pair<int, int> predecessor{vertex, control};
     if (std::find(v.predecessors.begin(), v.predecessors.end(), predecessor) ==
         v.predecessors.end()) {
       v.predecessors.push_back(predecessor);
     }
-    const double g = u.g + known.cost;
+    const double g = u.g + arc.cost;
     if (v.in_tree && v.g <= g) continue;
     if (v.in_tree) {  // a cheaper route: its subtree is found again from it
-      detach(child);
-      discardBelow(child, false, nullptr);
+      detach(arc.child);
+      discardBelow(arc.child, false, nullptr);
     }
     v.in_tree = true;
     v.g = g;
     v.parent = vertex;
     v.control = control;
-    v.budget = u.budget + (edge.evaluated ? 0 : 1);
-    vertices_[vertex].children.push_back(child);
-    enqueue(child);
+    v.budget = u.budget + (arc.evaluated ? 0 : 1);
+    vertices_[vertex].children.push_back(arc.child);
+    enqueue(arc.child);
   }
 }
 
@@ -440,12 +452,41 @@ void LraStarSearch::rewire(int vertex) {
   std::vector<int> removed;
   discardBelow(vertex, true, &removed);
   rewired_ += static_cast<long long>(removed.size());
-  // The tree vertices that reached a removed one extend again: the same relaxation that grew
-  // the tree finds each removed vertex's best remaining parent, and their subtrees after them.
+  // Each removed vertex's best parent among the tree vertices that reached it...
+  using Candidate = std::pair<double, int>;
+  std::priority_queue<Candidate, std::vector<Candidate>, std::greater<>> candidates;
+  const auto offer = [&](int parent, int control, int child) {
+    const Vertex& u = vertices_[parent];
+    const Arc& arc = arcs_[u.first_arc + control];
+    Vertex& v = vertices_[child];
+    if (!u.in_tree || u.goal || u.budget >= lookahead_ || !arc.valid || v.in_tree) return;
+    const double g = u.g + arc.cost;
+    if (g >= v.g) return;
+    v.g = g;
+    v.parent = parent;
+    v.control = control;
+    v.budget = u.budget + (arc.evaluated ? 0 : 1);
+    candidates.emplace(g, child);
+  };
   for (const int gone : removed) {
     for (const auto& [predecessor, control] : vertices_[gone].predecessors) {
-      const Vertex& u = vertices_[predecessor];
-      if (u.in_tree && u.queue == Queue::kNone) enqueue(predecessor);
+      offer(predecessor, control, gone);
+    }
+  }
+  // ...then each other's, in cost order (Dijkstra over the removed set); each returns to the
+  // tree and is extended again (its other successors may have lost their parents earlier).
+  while (!candidates.empty()) {
+    const auto [g, child] = candidates.top();
+    candidates.pop();
+    Vertex& v = vertices_[child];
+    if (v.in_tree || g > v.g) continue;
+    v.in_tree = true;
+    vertices_[v.parent].children.push_back(child);
+    enqueue(child);
+    if (v.first_arc < 0) continue;
+    for (int control = 0; control < static_cast<int>(controls_.size()); ++control) {
+      const Arc& arc = arcs_[vertices_[child].first_arc + control];
+      if (arc.valid) offer(child, control, arc.child);
     }
   }
 }
@@ -456,10 +497,7 @@ void LraStarSearch::updateBudgets(int vertex) {
     const int current = stack.back();
     stack.pop_back();
     Vertex& v = vertices_[current];
-    if (v.parent >= 0) {
-      const LazyEdge& edge = edges_[vertices_[v.parent].first_edge + v.control];
-      v.budget = vertices_[v.parent].budget + (edge.evaluated ? 0 : 1);
-    }
+    if (v.parent >= 0) v.budget = vertices_[v.parent].budget + (treeArc(current).evaluated ? 0 : 1);
     if (v.queue == Queue::kFrontier && !v.goal && v.budget < lookahead_) enqueue(current);
     stack.insert(stack.end(), v.children.begin(), v.children.end());
   }
@@ -475,25 +513,20 @@ std::vector<int> LraStarSearch::pathTo(int vertex) const {
 void LraStarSearch::evaluateBand(int vertex) {
   std::vector<int> band;
   for (const int v : pathTo(vertex)) {
-    if (!edges_[vertices_[vertices_[v].parent].first_edge + vertices_[v].control].evaluated) {
-      band.push_back(v);
-    }
+    if (!treeArc(v).evaluated) band.push_back(v);
   }
-  const auto edge = [&](int v) -> LazyEdge& {
-    return edges_[vertices_[vertices_[v].parent].first_edge + vertices_[v].control];
-  };
-  const auto clearance = [&](int v) {
-    const EdgeEvaluation& bound = edge(v).bound;
-    return std::isfinite(bound.end_clearance) ? bound.end_clearance
-                                              : world_->clearance(bound.end.col(0));
-  };
+  const auto clearance = [&](int v) { return treeArc(v).end_clearance; };
   const int top = band.front();  // the band's first vertex: every budget changes below it
   for (const int v : selectorOrder(selector_, band, clearance, reverse_next_)) {
-    LazyEdge& evaluated = edge(v);
-    work_.evaluate(evaluated, controls_[vertices_[v].control]);
+    Arc& arc = treeArc(v);
+    const EdgeEvaluation full =
+        work_.evaluate(vertices_[vertices_[v].parent].state, controls_[vertices_[v].control]);
+    arc.evaluated = true;
+    arc.valid = full.valid();
+    arc.cost = full.cost;
     // Valid at its bound's cost: the tree stands. Invalid, or dearer (the bound's obstacle
     // share): its subtree is rewired, which ends this band.
-    if (!evaluated.full.valid() || evaluated.full.cost > evaluated.bound.cost) {
+    if (!arc.valid || arc.cost > arc.bound_cost) {
       rewire(v);
       break;
     }
@@ -503,7 +536,7 @@ void LraStarSearch::evaluateBand(int vertex) {
 
 double LraStarSearch::memoryBytes() const {
   return static_cast<double>(vertices_.capacity() * sizeof(Vertex) +
-                             edges_.size() * sizeof(LazyEdge) +
+                             arcs_.capacity() * sizeof(Arc) +
                              index_.size() * (sizeof(Key) + 4 * sizeof(void*)) +
                              (expansions_ + rewired_) * sizeof(std::pair<int, int>));
 }
@@ -515,7 +548,7 @@ MotionPrimitiveSearch::Outcome LraStarSearch::search(const ChainState& start,
   start_ = start;
   goal_ = goal;
   vertices_.clear();
-  edges_.clear();
+  arcs_.clear();
   index_.clear();
   extend_ = Heap();
   frontier_ = Heap();
@@ -566,10 +599,9 @@ MotionPrimitiveSearch::Outcome LraStarSearch::search(const ChainState& start,
   // The path to the goal, or the evaluated, valid start of the path to the last frontier vertex.
   if (best >= 0 && vertices_[best].in_tree) {
     for (const int v : pathTo(best)) {
-      const Vertex& child = vertices_[v];
-      const LazyEdge& edge = edges_[vertices_[child.parent].first_edge + child.control];
-      if (!edge.evaluated || !edge.full.valid()) break;
-      path_.push_back({edge.parent, child.control, edge.full.cost});
+      const Arc& arc = treeArc(v);
+      if (!arc.evaluated || !arc.valid) break;
+      path_.push_back({vertices_[vertices_[v].parent].state, vertices_[v].control, arc.cost});
     }
   }
   total_seconds_ = secondsSince(begin);

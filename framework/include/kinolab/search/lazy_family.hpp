@@ -1,7 +1,6 @@
 #pragma once
 
 #include <cstdint>
-#include <deque>
 #include <memory>
 #include <queue>
 #include <unordered_map>
@@ -21,18 +20,6 @@ enum class EdgeSelector {
   kFailFast,   ///< the one most likely to collide: the least clearance at its end
 };
 
-/// One lattice edge of the lazy-search family: the edge policy's estimate at first use (a
-/// lower bound, or exact when the policy certified it) and the full evaluation once asked for.
-struct LazyEdge {
-  ChainState parent;  ///< the continuous state the records below are of
-  EdgeEvaluation bound;
-  EdgeEvaluation full;
-  bool evaluated = false;
-
-  /// What the search knows of the edge: the full evaluation, else the bound.
-  const EdgeEvaluation& known() const { return evaluated ? full : bound; }
-};
-
 /// Evaluates the family's edges and counts the Dellin-style breakdown every member reports:
 /// partial evaluations (lower bounds), full evaluations, rejected edges, ESDF queries and the
 /// time spent evaluating.
@@ -44,12 +31,12 @@ class LazyEdgeWork {
   void reset();
   /// The map's clearance at `position` (counted as one ESDF query).
   double clearance(const Eigen::Vector3d& position);
-  /// Fills `edge` for `control` from `parent` with the policy's estimate (evaluated when the
-  /// policy's estimate is exact).
-  void estimate(LazyEdge& edge, const ChainState& parent, double parent_clearance,
-                const Eigen::Vector3d& control);
-  /// Fully evaluates `edge` (once).
-  void evaluate(LazyEdge& edge, const Eigen::Vector3d& control);
+  /// The policy's estimate of `control` from `parent` into `estimate`; true when it is exact
+  /// (fully evaluated or certified), false for a lower bound.
+  bool estimate(const ChainState& parent, double parent_clearance, const Eigen::Vector3d& control,
+                EdgeEvaluation& estimate);
+  /// The full evaluation of `control` from `parent`.
+  EdgeEvaluation evaluate(const ChainState& parent, const Eigen::Vector3d& control);
   /// partial_evaluations, full_evaluations, rejected_edges, esdf_queries, time_evaluation_ms
   /// and time_search_ms (`total_seconds` less the evaluations).
   void addStatistics(Statistics& statistics, double total_seconds) const;
@@ -110,21 +97,32 @@ class LazySpSearch {
   Statistics statistics() const;
 
  private:
+  /// One lattice edge: the policy's estimate at first use (a lower bound, or exact when the
+  /// policy certified it) and the full evaluation once asked for.
+  struct Edge {
+    ChainState parent;  ///< the continuous state the records below are of
+    EdgeEvaluation bound;
+    EdgeEvaluation full;
+    bool evaluated = false;
+
+    /// What the search knows of the edge: the full evaluation, else the bound.
+    const EdgeEvaluation& known() const { return evaluated ? full : bound; }
+  };
   struct Node {
     ChainState state;
     double g = 0.0;
     int parent = -1;
     int control = -1;
-    LazyEdge* edge = nullptr;
+    Edge* edge = nullptr;
   };
   using Key = SearchSpace::Key;
 
   /// One lazy search from the start; returns the goal node or -1 (none, or the budget).
   int lazySearch(StopCondition& stop, bool& stopped);
-  using Slot = std::vector<std::unique_ptr<LazyEdge>>;  ///< a parent key's records, by control
+  using Slot = std::vector<std::unique_ptr<Edge>>;  ///< a parent key's records, by control
   /// The record of the edge `control` from `parent` in its key's `slot`, its lower bound
   /// computed on first use (and the parent's `clearance` then, when it is still NaN).
-  LazyEdge& edgeOf(Slot& slot, const ChainState& parent, double& clearance, int control);
+  Edge& edgeOf(Slot& slot, const ChainState& parent, double& clearance, int control);
   /// Bytes the search holds (nodes and edge records), against memory_limit_mb.
   double memoryBytes() const;
   /// Fully evaluates the edges the selector picks on the path to `goal_node`; false when the
@@ -186,6 +184,15 @@ class LraStarSearch {
 
  private:
   enum class Queue : std::uint8_t { kNone, kExtend, kFrontier };
+  /// One lattice edge from a vertex, as the search knows it: the bound until evaluated.
+  struct Arc {
+    int child = -1;            ///< the vertex at its end (-1 when the bound already refused it)
+    float end_clearance = 0;   ///< the bound's clearance at the end (failfast's order)
+    bool evaluated = false;
+    bool valid = false;
+    double bound_cost = INFINITY;
+    double cost = INFINITY;    ///< the full cost when evaluated, else the bound's
+  };
   struct Vertex {
     ChainState state;
     double g = INFINITY;
@@ -193,7 +200,7 @@ class LraStarSearch {
     int parent = -1;
     int control = -1;
     int budget = 0;        ///< unevaluated edges on the tree path from the start
-    int first_edge = -1;   ///< its edge records (one per control) in edges_, once extended
+    int first_arc = -1;    ///< its arcs (one per control) in arcs_, once extended
     bool in_tree = false;
     bool goal = false;
     Queue queue = Queue::kNone;
@@ -211,7 +218,10 @@ class LraStarSearch {
   using Heap = std::priority_queue<Entry, std::vector<Entry>, std::greater<>>;
   using Key = SearchSpace::Key;
 
-  LazyEdge& edgeOf(int vertex, int control);
+  /// The arc `control` from `vertex` (every arc of the vertex estimated at first use).
+  Arc& arcOf(int vertex, int control);
+  /// The arc from `vertex`'s parent to it.
+  Arc& treeArc(int vertex) { return arcOf(vertices_[vertex].parent, vertices_[vertex].control); }
   int vertexOf(const ChainState& state);
   void enqueue(int vertex);
   /// The valid entry on top of `heap` (stale ones dropped), or nullptr.
@@ -220,8 +230,9 @@ class LraStarSearch {
   /// Takes `vertex`'s descendants (and `vertex` itself when `inclusive`) out of the tree.
   void discardBelow(int vertex, bool inclusive, std::vector<int>* removed);
   void detach(int vertex);
-  /// `vertex`'s edge was found invalid or dearer than its bound: its subtree leaves the tree
-  /// and every tree vertex that reached one of them is extended again.
+  /// `vertex`'s edge was found invalid or dearer than its bound: its subtree leaves the tree,
+  /// and each of them returns below its best remaining parent (the tree vertices that reached
+  /// it, then each other in cost order, as LRA*'s rewiring) and is extended again.
   void rewire(int vertex);
   /// Recomputes the budgets below `vertex`; frontier vertices whose band shrank are extended.
   void updateBudgets(int vertex);
@@ -242,7 +253,7 @@ class LraStarSearch {
   ChainState start_;
   Eigen::Vector3d goal_;
   std::vector<Vertex> vertices_;
-  std::deque<LazyEdge> edges_;
+  std::vector<Arc> arcs_;
   std::unordered_map<Key, int, LatticeKeyHash> index_;
   Heap extend_;
   Heap frontier_;
