@@ -125,6 +125,56 @@ def sweep(runs: pd.DataFrame, metric: str = "planning_time_ms",
     return figure
 
 
+def sweep_winners(table: pd.DataFrame, metric: str = "planning_time_ms") -> plt.Figure | None:
+    """Where each planner wins: one cell per sweep value (the first two axes with more than one
+    value as columns and rows), coloured by the planner with the least median `metric` on the
+    cases all solved, with the runner-up's ratio; hatched where the two are not told apart
+    (paired Wilcoxon, Holm, p >= 0.05). None without a sweep of two or more values."""
+    if table.empty or "winner" not in table or len(table) < 2:
+        return None
+    axes = [column for column in table.columns
+            if column not in {"cases", "of", "winner", "winner median", "runner-up",
+                              "runner-up median", "ratio", "p", "p (Holm)"}
+            and table[column].nunique() > 1]
+    if not axes:
+        return None
+    across = axes[0]
+    down = axes[1] if len(axes) > 1 else None
+    columns = list(dict.fromkeys(table[across]))
+    rows = list(dict.fromkeys(table[down])) if down else [""]
+    planners = list(dict.fromkeys(table["winner"].dropna()))
+    order = {name: index for index, name in enumerate(dict.fromkeys(
+        list(planners) + list(table["runner-up"].dropna())))}
+    figure, axis = plt.subplots(figsize=(1.9 * len(columns) + 1.6, 1.1 * len(rows) + 1.4))
+    for _, row in table.iterrows():
+        x = columns.index(row[across])
+        y = rows.index(row[down]) if down else 0
+        if not isinstance(row.get("winner"), str):
+            axis.text(x, y, "no case\nall solved", ha="center", va="center", fontsize=7)
+            continue
+        tied = not (row.get("p (Holm)", math.nan) < 0.05)
+        axis.add_patch(plt.Rectangle((x - 0.48, y - 0.48), 0.96, 0.96,
+                                     facecolor=_colour(order[row["winner"]]), alpha=0.35,
+                                     hatch="//" if tied else None, edgecolor="0.5"))
+        axis.text(x, y, f"{row['winner']}\n{row['winner median']:.3g} {_unit(metric)}\n"
+                  f"{row['runner-up']} x{row['ratio']:.2g}\n"
+                  f"{row['cases']}/{row['of']} cases", ha="center", va="center", fontsize=7)
+    axis.set_xlim(-0.5, len(columns) - 0.5)
+    axis.set_ylim(len(rows) - 0.5, -0.5)
+    axis.set_xticks(range(len(columns)), [str(value) for value in columns])
+    axis.set_yticks(range(len(rows)), [str(value) for value in rows])
+    axis.set_xlabel(across)
+    if down:
+        axis.set_ylabel(down)
+    axis.set_title(f"Least median {metric}")
+    figure.tight_layout()
+    return figure
+
+
+def _unit(metric: str) -> str:
+    return "ms" if metric.endswith("_ms") else ""
+
+
 def trajectories(results: Results, world: World, query: int) -> plt.Figure | None:
     """One query of one world: the obstacles from above and from the side, with the
     trajectory of every planner that stored one."""

@@ -315,6 +315,43 @@ def sweep_axes(label: str) -> dict[str, str]:
     return axes
 
 
+def sweep_winners(runs: pd.DataFrame, metric: str = "planning_time_ms") -> pd.DataFrame:
+    """Per sweep value: the planner with the least median `metric` over the cases every planner
+    solved, the runner-up, the ratio of their medians and a paired Wilcoxon test of the two
+    on those cases (Holm-corrected over the sweep values). A planner that failed a case is not
+    compared on it: `cases` says on how many of the sweep value's cases all succeeded."""
+    rows = []
+    for label, in_sweep in runs.groupby(runs["sweep"].fillna(""), sort=False):
+        solved = in_sweep[in_sweep["success"]].set_index(CASE)
+        planners = list(dict.fromkeys(in_sweep["planner"]))
+        per_planner = {name: solved[solved["planner"] == name][metric] for name in planners}
+        shared = None
+        for values in per_planner.values():
+            shared = values.index if shared is None else shared.intersection(values.index)
+        total = in_sweep.set_index(CASE).index.unique()
+        row = {**sweep_axes(label), "cases": len(shared) if shared is not None else 0,
+               "of": len(total)}
+        if len(planners) < 2 or shared is None or len(shared) == 0:
+            rows.append(row)
+            continue
+        medians = {name: float(values.loc[shared].median())
+                   for name, values in per_planner.items()}
+        ranked = sorted(medians, key=medians.get)
+        winner, second = ranked[0], ranked[1]
+        test = stats.wilcoxon(per_planner[second].loc[shared].to_numpy(dtype=float),
+                              per_planner[winner].loc[shared].to_numpy(dtype=float))
+        row.update({"winner": winner, "winner median": medians[winner], "runner-up": second,
+                    "runner-up median": medians[second],
+                    "ratio": medians[second] / medians[winner] if medians[winner] > 0
+                    else math.inf, "p": test.p})
+        rows.append(row)
+    table = pd.DataFrame(rows)
+    if "p" in table:
+        tested = table["p"].notna()
+        table.loc[tested, "p (Holm)"] = stats.holm(table.loc[tested, "p"].tolist())
+    return table
+
+
 def lazy_speedup(runs: pd.DataFrame) -> pd.DataFrame:
     """Eager MP-A*'s planning time over lazy MP-A*'s, per sweep variant, at equal cost: over
     the cases (world, query, repetition) both answered (exact, or approximate at a budget

@@ -8,7 +8,7 @@ import pandas as pd
 import pytest
 from scipy import stats as sps
 
-from kinolab_analysis import paper, stats, tables
+from kinolab_analysis import paper, plots, stats, tables
 
 
 def test_wilson_interval_matches_the_textbook_values():
@@ -225,6 +225,38 @@ def test_lazy_speedup_per_sweep_value_with_equal_cost():
     assert table.loc["2", "equal cost"] == 1.0 and table.loc["3", "equal cost"] == 0.9
     # Without one eager and one lazy planner there is nothing to compare.
     assert tables.lazy_speedup(pd.DataFrame(rows).query("planner == 'eager'")).empty
+
+
+def test_sweep_winners_compare_on_the_cases_every_planner_solved():
+    """At K = 2 "a" is twice as fast as "b" and "c" ten times slower; at K = 80 "c" is fastest
+    but fails one case, which is left out for every planner."""
+    rows = []
+    for k in (2, 80):
+        label = ", ".join(f"planners.{p}.params.edge_samples={k}" for p in "abc")
+        for query in range(12):
+            base = query + 1.0
+            times = ({"a": base, "b": 2 * base, "c": 10 * base} if k == 2 else
+                     {"a": base + (0.01 if query % 2 else -0.01), "b": base, "c": base / 4})
+            for planner, time in times.items():
+                solved = not (k == 80 and planner == "c" and query == 0)
+                rows.append({"planner": planner, "sweep": label, "world": "w", "query": query,
+                             "repetition": 0, "success": solved,
+                             "planning_time_ms": time if solved else math.nan})
+    table = tables.sweep_winners(pd.DataFrame(rows)).set_index("edge_samples")
+    assert list(table.index) == ["2", "80"]
+    low, high = table.loc["2"], table.loc["80"]
+    assert (low["winner"], low["runner-up"], low["cases"], low["of"]) == ("a", "b", 12, 12)
+    assert low["ratio"] == pytest.approx(2.0)
+    assert low["p (Holm)"] < 0.05
+    assert (high["winner"], high["cases"], high["of"]) == ("c", 11, 12)
+    # Medians over queries 1..11 (the case c failed is out): c's is (6 + 1) / 4.
+    assert high["winner median"] == pytest.approx(1.75)
+    assert high["ratio"] == pytest.approx(4.0, rel=0.01)
+    figure = plots.sweep_winners(table.reset_index())
+    assert figure is not None and len(figure.axes[0].patches) == 2
+    # One sweep value or one planner: nothing to draw or compare.
+    assert plots.sweep_winners(table.reset_index().head(1)) is None
+    assert "winner" not in tables.sweep_winners(pd.DataFrame(rows).query("planner == 'a'"))
 
 
 def test_table_one_readings_verdict_counts_the_readings_that_rank_as_the_paper():

@@ -192,9 +192,8 @@ TEST_P(LazyFamilyEquivalence, EveryLookaheadAndSelectorReturnsEagersCostEvaluati
         SCOPED_TRACE("lookahead " + lookahead + ", " + selector);
         Outcome lazy{};
         family_full[lookahead + " " + selector] +=
-            statisticOf("lazy_mp_astar",
-                        with({"lookahead=" + lookahead, "selector=" + selector}), world,
-                        queries[q], "full_evaluations", lazy);
+            statisticOf("lazy_mp_astar", with({"lookahead=" + lookahead, "selector=" + selector}),
+                        world, queries[q], "full_evaluations", lazy);
         ASSERT_EQ(lazy.status, PlanStatus::kExact);
         EXPECT_NEAR(lazy.cost, eager.cost, 1e-9 * std::max(1.0, eager.cost));
         EXPECT_TRUE(lazy.valid);
@@ -282,8 +281,8 @@ TEST(LazyFamilyOnARealMap, EveryLookaheadReturnsEagersCostOnGeb079) {
       auto items = base;
       items.push_back("lookahead=" + lookahead);
       Outcome lazy{};
-      full[lookahead] += statisticOf("lazy_mp_astar", items, world, queries[q],
-                                     "full_evaluations", lazy);
+      full[lookahead] +=
+          statisticOf("lazy_mp_astar", items, world, queries[q], "full_evaluations", lazy);
       ASSERT_EQ(lazy.status, PlanStatus::kExact);
       EXPECT_NEAR(lazy.cost, eager.cost, 1e-9 * std::max(1.0, eager.cost));
       EXPECT_TRUE(lazy.valid);
@@ -292,9 +291,10 @@ TEST(LazyFamilyOnARealMap, EveryLookaheadReturnsEagersCostOnGeb079) {
   EXPECT_GE(exact, 4);
   EXPECT_LE(full["4"], full["1"]);
   EXPECT_LE(full["inf"], full["1"]);
-  std::printf("[ lazy family ] geb079: %d queries; full evaluations lwa %.0f, lra*(4) %.0f, "
-              "lazysp %.0f\n",
-              exact, full["1"], full["4"], full["inf"]);
+  std::printf(
+      "[ lazy family ] geb079: %d queries; full evaluations lwa %.0f, lra*(4) %.0f, "
+      "lazysp %.0f\n",
+      exact, full["1"], full["4"], full["inf"]);
 }
 
 }  // namespace

@@ -379,8 +379,7 @@ TEST(LraStar, ABudgetStopReturnsACheckedStartAndBadLookaheadsAreRefused) {
   const auto world = test::smallWorld("forest");
   const auto query = test::randomQueries(*world, 1, 21, 8.0, 11.0, 0.5).front();
   const auto plan = [&](const std::vector<std::string>& extra) {
-    std::vector<std::string> items = {"sampler.samples_per_axis=3", "time_limit=0",
-                                      "lookahead=4"};
+    std::vector<std::string> items = {"sampler.samples_per_axis=3", "time_limit=0", "lookahead=4"};
     items.insert(items.end(), extra.begin(), extra.end());
     ConfiguredPlanner configured = configurePlanner("lazy_mp_astar", test::assignments(items));
     configured.planner->setup({world, configured.sampler, 1});

@@ -294,9 +294,7 @@ MotionPrimitiveSearch::Outcome LazySpSearch::search(const ChainState& start,
   return outcome;
 }
 
-Trajectory LazySpSearch::trajectory() const {
-  return trajectoryOf(path_, controls_, settings_);
-}
+Trajectory LazySpSearch::trajectory() const { return trajectoryOf(path_, controls_, settings_); }
 
 double LazySpSearch::cost() const { return costOf(path_, solved_); }
 

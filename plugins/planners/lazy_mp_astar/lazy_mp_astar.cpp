@@ -65,9 +65,8 @@ int lookaheadOf(const std::string& text) {
   int value = 0;
   const auto [end, error] = std::from_chars(text.data(), text.data() + text.size(), value);
   if (error != std::errc() || end != text.data() + text.size() || value < 1 || value > 1000000) {
-    throw ParameterConflict("lookahead",
-                            "expected a whole number from 1 to 1000000 or 'inf', got '" + text +
-                                "'");
+    throw ParameterConflict(
+        "lookahead", "expected a whole number from 1 to 1000000 or 'inf', got '" + text + "'");
   }
   return value;
 }

@@ -61,7 +61,8 @@ struct LazyPathStep {
 
 /// The trajectory and cost of a path of `steps`.
 Trajectory trajectoryOf(const std::vector<LazyPathStep>& steps,
-                        const std::vector<Eigen::Vector3d>& controls, const SearchSettings& settings);
+                        const std::vector<Eigen::Vector3d>& controls,
+                        const SearchSettings& settings);
 double costOf(const std::vector<LazyPathStep>& steps, bool solved);
 
 /// Hash of a search-space key.
@@ -186,12 +187,12 @@ class LraStarSearch {
   enum class Queue : std::uint8_t { kNone, kExtend, kFrontier };
   /// One lattice edge from a vertex, as the search knows it: the bound until evaluated.
   struct Arc {
-    int child = -1;            ///< the vertex at its end (-1 when the bound already refused it)
-    float end_clearance = 0;   ///< the bound's clearance at the end (failfast's order)
+    int child = -1;           ///< the vertex at its end (-1 when the bound already refused it)
+    float end_clearance = 0;  ///< the bound's clearance at the end (failfast's order)
     bool evaluated = false;
     bool valid = false;
     double bound_cost = INFINITY;
-    double cost = INFINITY;    ///< the full cost when evaluated, else the bound's
+    double cost = INFINITY;  ///< the full cost when evaluated, else the bound's
   };
   struct Vertex {
     ChainState state;
@@ -199,14 +200,14 @@ class LraStarSearch {
     double h = 0.0;
     int parent = -1;
     int control = -1;
-    int budget = 0;        ///< unevaluated edges on the tree path from the start
-    int first_arc = -1;    ///< its arcs (one per control) in arcs_, once extended
+    int budget = 0;      ///< unevaluated edges on the tree path from the start
+    int first_arc = -1;  ///< its arcs (one per control) in arcs_, once extended
     bool in_tree = false;
     bool goal = false;
     Queue queue = Queue::kNone;
-    std::uint32_t stamp = 0;                          ///< the valid queue entry's
-    std::vector<int> children;                        ///< in the tree
-    std::vector<std::pair<int, int>> predecessors;    ///< (vertex, control) that reached it
+    std::uint32_t stamp = 0;                        ///< the valid queue entry's
+    std::vector<int> children;                      ///< in the tree
+    std::vector<std::pair<int, int>> predecessors;  ///< (vertex, control) that reached it
   };
   struct Entry {
     double f;
