@@ -163,3 +163,69 @@ TEST(EsdfTest, PointsOutsideTheMapTakeTheValueOfTheNearestPointInside) {
 
 }  // namespace
 }  // namespace kinolab
+
+namespace kinolab {
+namespace {
+
+/// The distance from `point` to the nearest occupied cube by definition (metres; 0 in one).
+double pointToCubesBruteForce(const VoxelGrid& grid, const Eigen::Vector3d& point) {
+  double best = std::numeric_limits<double>::infinity();
+  const Eigen::Vector3i& dims = grid.dims();
+  const double r = grid.resolution();
+  for (int x = 0; x < dims.x(); ++x) {
+    for (int y = 0; y < dims.y(); ++y) {
+      for (int z = 0; z < dims.z(); ++z) {
+        if (!grid.occupied(grid.index(x, y, z))) continue;
+        const Eigen::Vector3d low = grid.origin() + Eigen::Vector3d(x, y, z) * r;
+        const Eigen::Vector3d gap =
+            (low - point).cwiseMax(point - low - Eigen::Vector3d::Constant(r)).cwiseMax(0.0);
+        best = std::min(best, gap.norm());
+      }
+    }
+  }
+  return best;
+}
+
+TEST(EsdfTest, ExactDistanceIsTheDistanceToTheNearestCubeBelowTheLimit) {
+  // Random points (inside and a little outside the map) on random grids at three
+  // resolutions: below the limit the exact distance to the cubes, else the limit; and never
+  // below clearance(), the lower bound it refines.
+  for (const double resolution : {0.5, 0.25, 0.1}) {
+    for (const double occupancy : {0.01, 0.05, 0.3}) {
+      const VoxelGrid grid = randomGrid({14, 11, 9}, occupancy, 3, resolution);
+      const Esdf esdf(grid);
+      Rng rng(11);
+      const Eigen::Vector3d size = grid.dims().cast<double>() * resolution;
+      int below = 0;
+      for (int i = 0; i < 300; ++i) {
+        const Eigen::Vector3d point(rng.uniform(-0.1, 1.1) * size.x(),
+                                    rng.uniform(-0.1, 1.1) * size.y(),
+                                    rng.uniform(-0.1, 1.1) * size.z());
+        const double expected = pointToCubesBruteForce(grid, point);
+        for (const double limit : {0.3, 1.0, 100.0}) {
+          SCOPED_TRACE(::testing::Message()
+                       << "resolution " << resolution << " occupancy " << occupancy << " point "
+                       << point.transpose() << " limit " << limit);
+          const double exact = esdf.exactDistance(point, limit);
+          if (expected == 0.0) {
+            EXPECT_EQ(exact, -0.5 * resolution);
+            ++below;
+          } else if (expected < limit) {
+            EXPECT_NEAR(exact, expected, 1e-9);
+            ++below;
+          } else {
+            EXPECT_EQ(exact, limit);
+          }
+          const bool inside = (point.array() >= 0.0).all() && (point.array() <= size.array()).all();
+          if (inside) {
+            EXPECT_GE(exact + 1e-9, std::min(esdf.clearance(point), limit));
+          }
+        }
+      }
+      EXPECT_GT(below, 300);
+    }
+  }
+}
+
+}  // namespace
+}  // namespace kinolab

@@ -23,11 +23,10 @@ std::string positionProblem(const World& world, const Eigen::Vector3d& position,
     return formatPoint(position) + " is outside the map " + formatPoint(b.min) + " .. " +
            formatPoint(b.max);
   }
-  const double clearance = world.clearance(position);
+  const double clearance = world.clearanceFor(position, radius);
   if (clearance < radius) {
-    return formatPoint(position) + " is in collision: clearance " + formatNumber(clearance) +
-           " m (a lower bound of the distance to the occupied voxel cubes) is below the robot "
-           "radius " +
+    return formatPoint(position) + " is in collision: its distance to the occupied voxel cubes, " +
+           formatNumber(clearance) + " m, is below the robot radius " +
            formatNumber(model.robot_radius) + " m less the collision tolerance " +
            formatNumber(model.collision_tolerance) + " m";
   }

@@ -142,7 +142,13 @@ EdgeEvaluation EdgeEvaluator::partial(const ChainState& start,
   const Esdf& esdf = world_->esdf();
   result.esdf_queries = 1;
   result.end_clearance = esdf.clearance(end, &result.end_distance);
-  if (result.end_clearance < settings_.robot_radius) {
+  const double radius = verdictRadius();
+  if (result.end_clearance < radius) {
+    // The bound undershoots near obstacles: decide with the exact distance (full does too).
+    result.end_clearance =
+        std::max(result.end_clearance, esdf.exactDistance(end, radius + esdf.resolution()));
+  }
+  if (result.end_clearance < radius) {
     result.collision_free = false;
     result.collision_time = settings_.duration;
     result.cost = INFINITY;
@@ -203,11 +209,20 @@ bool EdgeEvaluator::traceFree(const ChainState& start, const Eigen::Vector3d& co
                               EdgeEvaluation& result) const {
   const Esdf& esdf = world_->esdf();
   const double tau = settings_.duration;
-  const double radius = settings_.robot_radius;
+  const double radius = verdictRadius();
   const int order = settings_.order;
   traced.time[0] = 0.0;
   traced.distance[0] = start_clearance;
   traced.count = 1;
+  // Where the bound says "collision", the exact distance to the cubes decides (and, when
+  // free, is what the next step covers): an edge is refused only when a traced point is
+  // really closer than the radius.
+  const double exact_limit = radius + esdf.resolution();
+  const auto decided = [&](double clearance, const Eigen::Vector3d& position) {
+    if (clearance >= radius) return clearance;
+    ++result.esdf_queries;
+    return std::max(clearance, esdf.exactDistance(position, exact_limit));
+  };
   const auto trace = [&](double t, const Eigen::Vector3d& position) {
     ++result.esdf_queries;
     double distance = 0.0;
@@ -216,10 +231,10 @@ bool EdgeEvaluator::traceFree(const ChainState& start, const Eigen::Vector3d& co
       traced.time[traced.count] = t;
       traced.distance[traced.count++] = distance;
     }
-    return clearance;
+    return decided(clearance, position);
   };
   double t = 0.0;
-  double clearance = start_clearance;
+  double clearance = decided(start_clearance, start.col(0));
   for (;;) {
     if (clearance < radius) {
       result.collision_time = t;
@@ -284,7 +299,7 @@ bool EdgeEvaluator::certify(const ChainState& start, double start_clearance,
   const double tau = settings_.duration;
   // Full evaluation traces the start and then the end only when one step covers the path
   // (the same arithmetic as full()); the end's clearance was tested by the partial one.
-  if (!(start_clearance >= settings_.robot_radius) ||
+  if (!(start_clearance >= verdictRadius()) ||
       tracingReach(start_clearance) * secondsPerMetre(path_bound) < tau) {
     return false;
   }

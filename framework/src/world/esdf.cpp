@@ -229,4 +229,65 @@ Esdf::Esdf(const VoxelGrid& grid, std::vector<float> values) : values_(std::move
   setGeometry(grid);
 }
 
+double Esdf::exactDistance(const Eigen::Vector3d& point, double limit) const {
+  if (values_.empty()) return limit;
+  // Per axis: the point in voxel units from the grid's low corner, and its nearest centre.
+  double scaled[3];
+  std::int64_t nearest[3];
+  double centre_offset2 = 0.0;
+  for (int axis = 0; axis < 3; ++axis) {
+    scaled[axis] = (point[axis] - origin_[axis]) * inverse_resolution_;
+    if (!std::isfinite(scaled[axis])) return limit;
+    nearest[axis] = std::clamp<std::int64_t>(static_cast<std::int64_t>(std::floor(scaled[axis])), 0,
+                                             dims_[axis] - 1);
+    const double offset = (scaled[axis] - (static_cast<double>(nearest[axis]) + 0.5));
+    centre_offset2 += offset * offset;
+  }
+  const std::size_t centre =
+      nearest[0] * strides_[0] + nearest[1] * strides_[1] + nearest[2] * strides_[2];
+  // In voxel units from here on. An upper bound of the distance (plus float rounding's slack).
+  const double stored = values_[centre] * inverse_resolution_;
+  double reach = limit * inverse_resolution_;
+  if (stored >= 0.0) reach = std::min(reach, stored + std::sqrt(centre_offset2) + 1e-4);
+  // Distance along an axis from the point to the slab of voxel i: [i, i + 1].
+  const auto gap = [&](int axis, std::int64_t i) {
+    const double low = static_cast<double>(i);
+    return scaled[axis] < low ? low - scaled[axis]
+                              : (scaled[axis] > low + 1.0 ? scaled[axis] - low - 1.0 : 0.0);
+  };
+  std::int64_t from[3];
+  std::int64_t to[3];
+  for (int axis = 0; axis < 3; ++axis) {
+    from[axis] =
+        std::max<std::int64_t>(0, static_cast<std::int64_t>(std::floor(scaled[axis] - reach)));
+    to[axis] = std::min<std::int64_t>(dims_[axis] - 1,
+                                      static_cast<std::int64_t>(std::floor(scaled[axis] + reach)));
+  }
+  double best2 = reach * reach;
+  bool found = false;
+  for (std::int64_t x = from[0]; x <= to[0]; ++x) {
+    const double gx = gap(0, x);
+    const double gx2 = gx * gx;
+    if (gx2 >= best2) continue;
+    for (std::int64_t y = from[1]; y <= to[1]; ++y) {
+      const double gy = gap(1, y);
+      const double gxy2 = gx2 + gy * gy;
+      if (gxy2 >= best2) continue;
+      const float* row = values_.data() + x * strides_[0] + y * strides_[1];
+      for (std::int64_t z = from[2]; z <= to[2]; ++z) {
+        if (!(row[z] < 0.0f)) continue;
+        const double gz = gap(2, z);
+        const double d2 = gxy2 + gz * gz;
+        if (d2 < best2 || (!found && d2 <= best2)) {
+          best2 = d2;
+          found = true;
+        }
+      }
+    }
+  }
+  if (found && best2 == 0.0) return -0.5 * resolution_;  // in (or on) a closed cube
+  const double best = std::sqrt(best2) * resolution_;
+  return found && best < limit ? best : limit;
+}
+
 }  // namespace kinolab

@@ -1,6 +1,7 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <algorithm>
 #include <array>
 #include <memory>
 #include <vector>
@@ -69,13 +70,15 @@ struct EdgeEvaluation {
 /// Collision (the same verdict in every evaluation that gives one, whatever the sampling):
 ///  - the map: the primitive's positions stay in the map's box, tested on the convex hull of
 ///    the position polynomial's Bernstein coefficients per axis (exact-conservative);
-///  - obstacles: sphere tracing on the clearance C (Esdf::clearance, a proven lower bound of
-///    the distance to every occupied voxel cube). From the start, each traced point with
-///    C >= R (robot_radius) covers the next (C - R + tol) metres of path (the distance to the
-///    cubes is 1-Lipschitz), converted to time with the primitive's speed bound; the end is
-///    always traced too. The edge collides when a traced point has C < R. So an edge called
-///    free keeps R - tol from every occupied cube, and an edge whose C stays >= R is free.
-///    Far from obstacles that is two ESDF queries (start and end).
+///  - obstacles: sphere tracing on the distance to every occupied voxel cube. At each traced
+///    point the clearance C (Esdf::clearance, a proven lower bound) is looked up; where
+///    C < R (robot_radius, or the tolerance tol when larger) the exact distance decides
+///    instead (Esdf::exactDistance). A point at distance D >= R covers the next (D - R + tol)
+///    metres of path (the distance is 1-Lipschitz), converted to time with the primitive's
+///    speed bound; the end is always traced too. The edge collides when a traced point is
+///    closer than R. So an edge called free keeps R - tol from every occupied cube, and an
+///    edge that keeps R is free: exact both ways, to the tolerance. Far from obstacles that is
+///    two ESDF queries (start and end).
 ///
 /// Cost of an edge = w_T tau + w_L length + w_U |u|^2 tau + w_O sum_k phi(I_k) tau / K, where
 /// I_k is the trilinear ESDF at quadrature sample k and phi(d) = (1 - (d - R) / d_safe)^2 inside
@@ -150,9 +153,15 @@ class EdgeEvaluator {
   double secondsPerMetre(double path_bound) const {
     return path_bound > 0.0 ? settings_.duration / path_bound : INFINITY;
   }
+  /// The radius a traced point must keep from every cube: robot_radius, or the tolerance
+  /// when that is larger (so a step is never shorter than the tolerance, and the body a step
+  /// keeps, this less the tolerance, is never below 0: a point robot never enters a cube).
+  double verdictRadius() const {
+    return std::max(settings_.robot_radius, settings_.collision_tolerance);
+  }
   /// The path length one tracing step from a point of clearance `clearance` covers.
   double tracingReach(double clearance) const {
-    return clearance - settings_.robot_radius + settings_.collision_tolerance;
+    return clearance - verdictRadius() + settings_.collision_tolerance;
   }
   /// Position of sample k (1..samples) of a primitive whose end position is `end`.
   Eigen::Vector3d samplePosition(const ChainState& start, const Eigen::Vector3d& control,

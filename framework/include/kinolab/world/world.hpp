@@ -33,8 +33,19 @@ class World {
   double distance(const Eigen::Vector3d& point) const { return esdf_.distance(point); }
   /// A proven lower bound of the distance to every occupied voxel cube (Esdf::clearance).
   double clearance(const Eigen::Vector3d& point) const { return esdf_.clearance(point); }
+  /// The distance to the occupied cubes as a verdict at `threshold` needs it: clearance()
+  /// where that proven lower bound reaches `threshold`, else the exact distance
+  /// (Esdf::exactDistance, searched up to `threshold` plus one voxel). So
+  /// `clearanceFor(p, t) >= t` exactly when the true distance is at least t, and near
+  /// obstacles the value is exact (up to t plus one voxel): what sphere tracing steps on.
+  double clearanceFor(const Eigen::Vector3d& point, double threshold) const {
+    const double bound = esdf_.clearance(point);
+    return bound >= threshold
+               ? bound
+               : std::max(bound, esdf_.exactDistance(point, threshold + esdf_.resolution()));
+  }
   /// True when `point` is inside the map and provably at least `radius` from every occupied
-  /// cube (clearance() >= radius).
+  /// cube (clearance() >= radius; a conservative test, for sampling queries).
   bool isFree(const Eigen::Vector3d& point, double radius) const {
     return bounds_.contains(point) && esdf_.clearance(point) >= radius;
   }
