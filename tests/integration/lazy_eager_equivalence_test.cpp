@@ -8,6 +8,7 @@
 #include <map>
 #include <ostream>
 
+#include "kinolab/core/yaml_reader.hpp"
 #include "kinolab/experiment/query_sampler.hpp"
 #include "kinolab/planner/planner.hpp"
 #include "kinolab/world/world_cache.hpp"
@@ -295,6 +296,41 @@ TEST(LazyFamilyOnARealMap, EveryLookaheadReturnsEagersCostOnGeb079) {
       "[ lazy family ] geb079: %d queries; full evaluations lwa %.0f, lra*(4) %.0f, "
       "lazysp %.0f\n",
       exact, full["1"], full["4"], full["inf"]);
+}
+
+TEST(ExactVerdict, AOneMetreCorridorOnAHalfMetreGridIsPlannedExact) {
+  // The maze case: a corridor two 0.5 m voxels wide between walls. Along its centre line a
+  // 0.25 m body keeps 0.5 m from the cubes, but the proven clearance bound there is below
+  // 0 (the line runs between voxel centres, where it undershoots by up to sqrt(3) / 2 voxel):
+  // the bound alone refused every edge in it. The exact distance passes it; eager, lazy and
+  // LRA* plan it at one cost, checked.
+  test::loadTestPlugins();
+  const auto world = World::build(WorldSpec::fromYaml(
+      YamlReader::loadString("name: corridor\nresolution: 0.5\n"
+                             "bounds: {min: [0, 0, 0], max: [10, 4, 3]}\n"
+                             "generators: [{type: box_list, boxes: [{min: [3, 0, 0], max: [7, "
+                             "1.5, 3]}, {min: [3, 2.5, 0], max: [7, 4, 3]}]}]\n",
+                             "corridor.yaml"),
+      "."));
+  const Eigen::Vector3d middle(5.0, 2.0, 1.25);
+  ASSERT_LT(world->clearance(middle), 0.25) << "the bound should refuse the corridor";
+  ASSERT_NEAR(world->esdf().exactDistance(middle, 10.0), 0.5, 1e-12);
+  PlanningQuery query;
+  query.start = ChainState::Zero();
+  query.start.col(0) = Eigen::Vector3d(1.0, 2.0, 1.25);
+  query.goal = Eigen::Vector3d(9.0, 2.0, 1.25);
+  const std::vector<std::string> base = {"time_limit=0", "max_expansions=200000"};
+  const Outcome eager = run("eager_mp_astar", base, world, query);
+  ASSERT_EQ(eager.status, PlanStatus::kExact);
+  EXPECT_TRUE(eager.valid);
+  for (const std::string lookahead : {"1", "4"}) {
+    auto items = base;
+    items.push_back("lookahead=" + lookahead);
+    const Outcome lazy = run("lazy_mp_astar", items, world, query);
+    EXPECT_EQ(lazy.status, PlanStatus::kExact) << lookahead;
+    EXPECT_NEAR(lazy.cost, eager.cost, 1e-9 * eager.cost) << lookahead;
+    EXPECT_TRUE(lazy.valid) << lookahead;
+  }
 }
 
 }  // namespace
