@@ -47,9 +47,30 @@ TEST(TrajectoryChecker, AcceptsAFreeLineAndReportsClearance) {
   const CheckResult result = checker.check(over, queryFor(over));
   EXPECT_TRUE(result.valid) << result.check << ": " << result.detail;
   EXPECT_GT(result.samples, 200);
-  // Nearest obstacle: the box top (its face at z = 2), 0.7 below; radius 0.25.
-  EXPECT_NEAR(result.min_clearance, 0.45, 0.02);
+  // Nearest obstacle: the box top (its face at z = 2), 0.7 below; radius 0.25. Exact: the
+  // samples at x in [5, 5.4] are straight above the face.
+  EXPECT_NEAR(result.min_clearance, 0.45, 1e-9);
   EXPECT_DOUBLE_EQ(result.body_radius, 0.24);  // radius less the collision tolerance
+}
+
+TEST(TrajectoryChecker, MinClearanceIsTheExactDistanceToTheCubes) {
+  // Past the box's top edge diagonally, between voxel centres: the closest approach is to the
+  // edge (x = 5.4, z = 2), 0.309 m, where the trilinear ESDF reads 0.304. The checker's
+  // min_clearance is the exact distance: at least the continuous minimum, at most it plus half
+  // the spacing of its samples (0.025 m).
+  const TrajectoryChecker checker(room(), {});
+  const Trajectory past = line({5.0, 2.03, 2.6}, {1.0, 0, -0.6}, 1.0);  // to (6, 2.03, 2.0)
+  const CheckResult result = checker.check(past, queryFor(past));
+  ASSERT_TRUE(result.valid) << result.check << ": " << result.detail;
+  double least = INFINITY;
+  for (int i = 0; i <= 10000; ++i) {
+    const Eigen::Vector3d p = past.evaluate(past.duration() * i / 10000, 0);
+    const Eigen::Vector2d gap((p.x() - 5.4 > 0 ? p.x() - 5.4 : (p.x() < 5.0 ? 5.0 - p.x() : 0.0)),
+                              p.z() - 2.0);
+    least = std::min(least, gap.norm());
+  }
+  EXPECT_GE(result.min_clearance + 0.25, least - 1e-9);
+  EXPECT_LE(result.min_clearance + 0.25, least + 0.0125);
 }
 
 TEST(TrajectoryChecker, FindsTheFirstViolationOfEachKind) {

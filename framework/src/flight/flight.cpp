@@ -456,7 +456,8 @@ const MetricSpecs& flightStatistics() {
           .clock("replan_time_p95_ms", "95th percentile planning time of the replans")
           .clock("replan_time_max_ms", "largest planning time of a replan")
           .real("min_clearance", "m",
-                "smallest ESDF clearance to the ground truth along the flight, less the radius")
+                "least exact distance from the flown positions to the ground truth's occupied "
+                "cubes, less the robot radius")
           .real("plan_distance_median", "m", "median D of the replans' plans to their goals")
           .real("plan_distance_max", "m", "largest D of a replan's plan")
           .real("jerk_integral", "m^2/s^5", "integral of the squared jerk of the flight")

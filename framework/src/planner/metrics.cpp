@@ -27,8 +27,12 @@ const MetricSpecs& resultMetrics() {
           .real("duration", "s", "trajectory duration")
           .real("length", "m", "trajectory length")
           .real("jerk_integral", "m^2/s^5", "integral of the squared jerk")
-          .real("min_clearance", "m", "smallest ESDF clearance along the trajectory")
-          .real("mean_clearance", "m", "mean ESDF clearance along the trajectory")
+          .real("min_clearance", "m",
+                "least exact distance from the trajectory's checked positions to the occupied "
+                "voxel cubes, less the robot radius")
+          .real("mean_clearance", "m",
+                "mean trilinear ESDF distance over the checked positions, less the robot "
+                "radius (can overstate by up to half a voxel near a cube's corner)")
           .boolean("checker_valid", "the independent checker accepts the trajectory")
           .text("checker_check", "the check that failed (collision, limits, start, goal, ...)")
           .text("checker_detail", "what that check found")

@@ -226,7 +226,9 @@ bool TrajectoryChecker::checkCollision(const Trajectory& trajectory, CheckResult
   // Every position sample against the map bounds and the occupied cubes.
   const World& world = *world_;
   double clearance_sum = 0.0;
-  result.min_clearance = INFINITY;
+  // The samples by the proven lower bound of their distance, for the exact minimum below.
+  std::vector<std::pair<double, Eigen::Vector3d>> near;
+  double upper = INFINITY;  // an upper bound of the least distance over the samples
   double segment_start = 0.0;
   std::vector<std::pair<double, double>> times;
   for (const auto& segment : trajectory.segments()) {
@@ -238,13 +240,19 @@ bool TrajectoryChecker::checkCollision(const Trajectory& trajectory, CheckResult
         return violation(result, "bounds", time, position,
                          "position " + formatPoint(position) + " leaves the map");
       }
-      const double clearance = world.distance(position) - settings_.robot_radius;
-      if (!std::isfinite(clearance)) {
+      const double distance = world.distance(position);
+      if (!std::isfinite(distance)) {
         return violation(result, "numeric", time, position,
                          "the ESDF distance at " + formatPoint(position) + " is not finite");
       }
-      result.min_clearance = std::min(result.min_clearance, clearance);
-      clearance_sum += clearance;
+      clearance_sum += distance - settings_.robot_radius;
+      const double bound = world.clearance(position);
+      if (bound < upper) {
+        near.emplace_back(bound, position);
+        // The nearest voxel centre's exact value, plus the way to it, bounds the distance.
+        upper = std::min(upper, std::max(world.esdf().nearestDistance(position), 0.0) +
+                                    0.5 * std::sqrt(3.0) * world.esdf().resolution());
+      }
       if (collides(position)) {
         return violation(result, "collision", time, position,
                          body_radius_ > 0.0
@@ -257,7 +265,22 @@ bool TrajectoryChecker::checkCollision(const Trajectory& trajectory, CheckResult
     segment_start += segment.duration;
   }
   result.mean_clearance = clearance_sum / result.samples;
+  result.min_clearance = leastDistance(near, upper) - settings_.robot_radius;
   return true;
+}
+
+double TrajectoryChecker::leastDistance(std::vector<std::pair<double, Eigen::Vector3d>>& near,
+                                        double upper) const {
+  // Exact distances (Esdf::exactDistance) in the order of the samples' lower bounds, until
+  // the next bound is no lower than the least distance found: that is the least of all.
+  std::sort(near.begin(), near.end(),
+            [](const auto& a, const auto& b) { return a.first < b.first; });
+  double least = upper;
+  for (const auto& [bound, position] : near) {
+    if (bound >= least) break;
+    least = std::min(least, world_->esdf().exactDistance(position, least));
+  }
+  return std::max(least, 0.0);
 }
 
 bool TrajectoryChecker::checkGoal(const Trajectory& trajectory, const CheckQuery& query,

@@ -174,8 +174,9 @@ void exportWorld(const World& world, const std::string& directory, double slice_
        << shape[1] << shape[2] << YAML::EndSeq;
   yaml << YAML::Key << "occupied_voxels" << YAML::Value << grid.occupiedCount();
   yaml << YAML::Key << "esdf" << YAML::Value
-       << "metres; distance from a free voxel centre to the nearest occupied voxel centre, "
-          "minus the distance to the nearest free voxel centre inside obstacles";
+       << "metres, one value per voxel: at a free voxel the distance from its centre to the "
+          "nearest occupied voxel cube (half a voxel next to one), at an occupied voxel minus "
+          "the distance from its centre to the nearest free cube";
   yaml << YAML::Key << "slice_height" << YAML::Value << slice_height;
   yaml << YAML::EndMap;
   std::ofstream out(dir / "world.yaml");

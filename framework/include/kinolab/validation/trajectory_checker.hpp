@@ -3,6 +3,8 @@
 #include <Eigen/Core>
 #include <memory>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include "kinolab/dynamics/integrator_chain.hpp"
 #include "kinolab/trajectory/trajectory.hpp"
@@ -14,7 +16,8 @@ namespace kinolab {
 struct CheckerSettings {
   double robot_radius = MotionDefaults::kRobotRadius;
   /// Per-axis limits on derivatives 1..max_derivative (velocity, acceleration, jerk, ...).
-  DynamicLimits limits = DynamicLimits::uniform(MotionDefaults::kMaxVelocity, MotionDefaults::kMaxAcceleration);
+  DynamicLimits limits =
+      DynamicLimits::uniform(MotionDefaults::kMaxVelocity, MotionDefaults::kMaxAcceleration);
   int max_derivative = 2;
   /// Distance between consecutive position samples; 0 picks a quarter voxel (at most 2.5 cm).
   double spacing = 0.0;
@@ -42,10 +45,14 @@ struct CheckResult {
   std::string detail;  ///< what was violated, in words
   double time = 0.0;   ///< when, seconds from the trajectory's start
   Eigen::Vector3d position = Eigen::Vector3d::Zero();
-  double min_clearance = 0.0;   ///< smallest ESDF distance (trilinear) minus the robot radius
-  double mean_clearance = 0.0;  ///< over the position samples
-  int samples = 0;              ///< position samples checked
-  double body_radius = 0.0;     ///< the sphere tested against the cubes (radius - tolerance)
+  /// The least exact distance from a position sample to the occupied cubes (0 in one), minus
+  /// the robot radius.
+  double min_clearance = 0.0;
+  /// The mean over the position samples of the trilinear ESDF distance minus the robot radius
+  /// (near a cube's corner the trilinear value can exceed the exact distance by half a voxel).
+  double mean_clearance = 0.0;
+  int samples = 0;           ///< position samples checked
+  double body_radius = 0.0;  ///< the sphere tested against the cubes (radius - tolerance)
 };
 
 /// The independent check every planner's output goes through. It shares nothing with the
@@ -77,6 +84,9 @@ class TrajectoryChecker {
   bool checkStart(const Trajectory& trajectory, const CheckQuery& query, CheckResult& result) const;
   bool checkLimits(const Trajectory& trajectory, CheckResult& result) const;
   bool checkCollision(const Trajectory& trajectory, CheckResult& result) const;
+  /// The least exact distance to the cubes over samples (lower bound, position) whose least
+  /// distance is at most `upper`.
+  double leastDistance(std::vector<std::pair<double, Eigen::Vector3d>>& near, double upper) const;
   bool checkGoal(const Trajectory& trajectory, const CheckQuery& query, CheckResult& result) const;
 
   std::shared_ptr<const World> world_;
