@@ -56,6 +56,13 @@ blocked for the planners' body (Wilson 95 %), and the median straight-line lengt
 <p class="note">Every run is counted: failures, crashes and timeouts included. Success =
 exact status and accepted by the independent checker.</p>
 {{ tables['status_counts'] }}
+{% if 'failure_reasons' in tables %}
+<h3>Why runs did not succeed</h3>
+<p class="note">Per planner and status, the runs' messages grouped (numbers read as #), with
+one in full: a planner that never ran on a query says why (an invalid start for its own
+clearance margin, a budget, an exhausted search).</p>
+{{ tables['failure_reasons'] }}
+{% endif %}
 
 {% if 'paper_table1' in tables %}
 <h2>The paper's Table I beside kinolab (sampling study)</h2>
@@ -300,6 +307,8 @@ def _tables(report: Report, results, paths: list[Path], compare: Path | None,
     runs = results.runs
     reproduced = results.reproduces()
     report.tables["status_counts"] = tables.status_counts(runs).reset_index()
+    if not (reasons := tables.failure_reasons(runs)).empty:
+        report.tables["failure_reasons"] = reasons
     if runs["line_blocked"].notna().any():
         report.tables["worlds"] = tables.worlds(runs)
     if runs["planning_time_cold_ms"].notna().any():

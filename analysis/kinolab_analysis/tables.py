@@ -55,6 +55,29 @@ def status_counts(runs: pd.DataFrame, by: str = "planner") -> pd.DataFrame:
     return table
 
 
+def failure_reasons(runs: pd.DataFrame, by: str = "planner") -> pd.DataFrame:
+    """Why runs did not succeed, per planner: each status other than a checked exact one with
+    its messages grouped (numbers and points in them read as #), the count and one message
+    in full. Empty when every run succeeded."""
+    failed = runs[~runs["success"]]
+    if failed.empty:
+        return pd.DataFrame()
+    message = failed["message"].fillna("").astype(str)
+    if "checker_valid" in failed:
+        # An exact plan that the checker refused says so.
+        refused = (failed["status"] == "exact") & (failed["checker_valid"] == 0)
+        message = message.where(~refused, "refused by the checker: " +
+                                failed.get("checker_detail", pd.Series("", failed.index))
+                                .fillna("").astype(str))
+    pattern = message.str.replace(r"-?\d+(\.\d+)?(e-?\d+)?", "#", regex=True)
+    frame = pd.DataFrame({by: failed[by], "status": failed["status"], "reason": pattern,
+                          "example": message})
+    table = (frame.groupby([by, "status", "reason"], sort=False)
+             .agg(runs=("example", "size"), example=("example", "first")).reset_index())
+    table = table.sort_values([by, "runs"], ascending=[True, False], kind="stable")
+    return table.drop(columns="reason")[[by, "status", "runs", "example"]]
+
+
 def summary(runs: pd.DataFrame, by: list[str] | None = None,
             metrics: list[tuple[str, str, str]] | None = None) -> pd.DataFrame:
     """Per group: runs, successes, the success rate (Wilson interval) and, over the

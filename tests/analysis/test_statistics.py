@@ -117,6 +117,28 @@ def test_summary_and_status_counts_never_drop_failures():
     assert summary.loc["slow", "median planning_time_ms"].estimate == pytest.approx(slow.median())
 
 
+def test_failure_reasons_group_messages_per_planner_and_status():
+    runs = pd.DataFrame([
+        {"planner": "tgk", "status": "invalid_start", "success": False, "checker_valid": 0,
+         "message": f"start (1, {y}, 1.5) is in collision: its distance 0.3{y} m is below 0.35"}
+        for y in range(4)] + [
+        {"planner": "tgk", "status": "timeout", "success": False, "checker_valid": 0,
+         "message": "budget spent"},
+        {"planner": "lazy", "status": "exact", "success": False, "checker_valid": 0,
+         "message": "", "checker_detail": "position (1, 2, 3) leaves the map"},
+        {"planner": "lazy", "status": "exact", "success": True, "checker_valid": 1,
+         "message": ""}])
+    table = tables.failure_reasons(runs)
+    assert list(table["planner"]) == ["lazy", "tgk", "tgk"]
+    tgk = table[table["planner"] == "tgk"].set_index("status")
+    assert tgk.loc["invalid_start", "runs"] == 4  # one reason, four points
+    assert tgk.loc["invalid_start", "example"].startswith("start (1, 0, 1.5)")
+    assert tgk.loc["timeout", "runs"] == 1
+    lazy = table[table["planner"] == "lazy"].iloc[0]
+    assert lazy["example"] == "refused by the checker: position (1, 2, 3) leaves the map"
+    assert tables.failure_reasons(runs[runs["success"]]).empty
+
+
 def test_paired_comparisons_find_the_constant_difference():
     table = tables.paired(synthetic_runs())
     row = table[(table["a"] == "slow") & (table["b"] == "fast") &
