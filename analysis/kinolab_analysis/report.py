@@ -30,6 +30,7 @@ th:first-child, td:first-child { text-align: left; }
 th { border-bottom: 2px solid #444; }
 img { max-width: 100%; }
 .note { color: #555; font-size: 0.9em; }
+.warning { background: #fff3cd; border-left: 4px solid #d39e00; padding: 0.5em 0.8em; }
 dl { display: grid; grid-template-columns: max-content auto; gap: 0.2em 1em; font-size: 0.85em; }
 dt { font-weight: bold; }
 </style></head>
@@ -38,6 +39,8 @@ dt { font-weight: bold; }
 <p class="note">{{ databases }} &middot; config {{ meta.get('config_hash', '?') }} &middot;
 written by kinolab {{ meta.get('provenance.kinolab_version', '?') }}</p>
 
+{% for warning in warnings %}<p class="warning">{{ warning }}</p>
+{% endfor %}
 <h2>Experiment and provenance</h2>
 <dl>{% for key, value in provenance %}<dt>{{ key }}</dt><dd>{{ value }}</dd>{% endfor %}</dl>
 
@@ -193,6 +196,7 @@ class Report:
     tables: dict[str, pd.DataFrame] = field(default_factory=dict)
     figures: list[Figure] = field(default_factory=list)
     views: list[View] = field(default_factory=list)
+    warnings: list[str] = field(default_factory=list)
 
 
 def _html(table: pd.DataFrame) -> str:
@@ -360,6 +364,7 @@ def _tables(report: Report, results, paths: list[Path], compare: Path | None,
         other = load(compare)
         compare_name = str(compare)
         report.tables["compare"] = tables.compare(runs, other.runs)
+        report.warnings += machine_differences(results, other)
 
     return sampling_csv, readings, readings_verdict, compare_name
 
@@ -479,6 +484,7 @@ def _write_page(report: Report, results, out: Path, compare_name: str,
                   ("runs stored / planned", f"{len(runs)} / {results.meta.get('runs_planned', '?')}"),
                   ("merged from", results.meta.get("merged_from", "one database")),
                   ("started", results.meta.get("started_at", "?")),
+                  ("machine", results.meta.get("machine", "not recorded")),
                   ("finished", results.meta.get("finished_at", "not finished"))]
     provenance += [(k[len("provenance."):], v) for k, v in sorted(results.meta.items())
                    if k.startswith("provenance.")]
@@ -486,7 +492,8 @@ def _write_page(report: Report, results, out: Path, compare_name: str,
         name=results.meta.get("name", "results"), meta=results.meta,
         databases=", ".join(str(p) for p in results.paths), provenance=provenance,
         tables={k: jinja2.utils.markupsafe.Markup(_html(v)) for k, v in report.tables.items()},
-        figures=report.figures, views=report.views, compare_name=compare_name,
+        figures=report.figures, views=report.views, warnings=report.warnings,
+        compare_name=compare_name,
         timing_protocol=timing_protocol(results.meta), readings_verdict=readings_verdict,
         regime_sources=f": {regime_sources}" if regime_sources else "",
         field_reference=tables.reference_planner(runs) if not runs.empty else "",
@@ -524,6 +531,7 @@ def write(paths: list[Path], out: Path, compare: Path | None = None,
     """Writes the report directory and returns what it holds."""
     results = load(paths)
     report = Report(out)
+    report.warnings += load_warnings(results.runs, results.meta)
     out.mkdir(parents=True, exist_ok=True)
     sampling_csv, readings, readings_verdict, compare_name = _tables(
         report, results, paths, compare, sampling_csv)
@@ -534,6 +542,41 @@ def write(paths: list[Path], out: Path, compare: Path | None = None,
     _progress_figures(report, results)
     _write_page(report, results, out, compare_name, readings_verdict, regime_sources)
     return report
+
+
+def load_warnings(runs: pd.DataFrame, meta: dict[str, str]) -> list[str]:
+    """A warning when runs started with a 1-minute load average above the machine's cores:
+    they waited for a core, and their clock figures are inflated."""
+    if "load_average" not in runs or runs["load_average"].isna().all():
+        return []
+    cores = float(meta.get("cores", "nan"))
+    if not math.isfinite(cores):
+        return []
+    loaded = runs["load_average"] > cores
+    if not loaded.any():
+        return []
+    return [f"{int(loaded.sum()):,} of {len(runs):,} runs started with a load average above "
+            f"the machine's {int(cores)} cores (up to {runs['load_average'].max():.1f}): their "
+            "clock figures (planning_time_ms and the other times) are inflated by waiting for "
+            "a core. Compare timings only between runs taken at a load below the core count."]
+
+
+def machine_differences(a: Results, b: Results) -> list[str]:
+    """Warnings when two results directories' machines or loads differ (their times then do
+    not compare)."""
+    warnings = []
+    machine_a, machine_b = a.meta.get("machine"), b.meta.get("machine")
+    if machine_a != machine_b:
+        first, second = machine_a or "not recorded", machine_b or "not recorded"
+        warnings.append(f"The compared results come from different machines ({first} against "
+                        f"{second}): their clock figures do not compare.")
+    loads = [r.runs["load_average"].median() if "load_average" in r.runs else math.nan
+             for r in (a, b)]
+    if all(math.isfinite(x) for x in loads) and abs(loads[0] - loads[1]) > 1.0:
+        warnings.append(f"The median load average differs ({loads[0]:.1f} against "
+                        f"{loads[1]:.1f}): a timing difference may be the machine's load, not "
+                        "the planners'.")
+    return warnings
 
 
 def timing_protocol(meta: dict[str, str]) -> str:
@@ -564,6 +607,7 @@ def timing_protocol(meta: dict[str, str]) -> str:
 def terminal_summary(report: Report) -> str:
     """What `kinolab report` prints."""
     lines = [f"report: {report.out / 'index.html'}"]
+    lines += [f"warning: {warning}" for warning in report.warnings]
     counts = report.tables["status_counts"]
     lines.append("runs by status:")
     lines += ["  " + line for line in tables.to_markdown(counts).splitlines()]

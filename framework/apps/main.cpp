@@ -1,12 +1,65 @@
 // The `kinolab` command: one binary, one subcommand per job.
+#include <algorithm>
 #include <filesystem>
 #include <iostream>
+#include <string>
+#include <vector>
 
 #include "commands.hpp"
 #include "kinolab/builtin_plugins.hpp"
 #include "kinolab/core/error.hpp"
 #include "kinolab/core/plugin.hpp"
 #include "kinolab/core/version.hpp"
+
+namespace {
+
+/// Edits (insertions, deletions, substitutions) from `a` to `b`.
+std::size_t editDistance(const std::string& a, const std::string& b) {
+  std::vector<std::size_t> row(b.size() + 1);
+  for (std::size_t j = 0; j <= b.size(); ++j) row[j] = j;
+  for (std::size_t i = 1; i <= a.size(); ++i) {
+    std::size_t diagonal = row[0];
+    row[0] = i;
+    for (std::size_t j = 1; j <= b.size(); ++j) {
+      const std::size_t above = row[j];
+      row[j] = std::min({row[j] + 1, row[j - 1] + 1, diagonal + (a[i - 1] == b[j - 1] ? 0 : 1)});
+      diagonal = above;
+    }
+  }
+  return row[b.size()];
+}
+
+/// The first word that is not an option, when it names no command: a message with the
+/// nearest command's name. Empty otherwise.
+std::string unknownCommand(const CLI::App& app, int argc, char** argv) {
+  std::string word;
+  for (int i = 1; i < argc; ++i) {
+    const std::string argument = argv[i];
+    if (argument == "--plugin") {
+      ++i;  // its value
+      continue;
+    }
+    if (argument.rfind('-', 0) == 0) continue;
+    word = argument;
+    break;
+  }
+  if (word.empty()) return "";
+  std::string nearest;
+  std::size_t best = word.size();
+  for (const CLI::App* command : app.get_subcommands([](const CLI::App*) { return true; })) {
+    if (command->get_name() == word) return "";
+    const std::size_t distance = editDistance(word, command->get_name());
+    if (distance < best) {
+      best = distance;
+      nearest = command->get_name();
+    }
+  }
+  std::string message = "unknown command '" + word + "'";
+  if (!nearest.empty() && best <= 2) message += "; did you mean '" + nearest + "'?";
+  return message + " (kinolab --help lists the commands)";
+}
+
+}  // namespace
 
 int main(int argc, char** argv) {
   CLI::App app{"kinolab: kinodynamic UAV motion planning experiments", "kinolab"};
@@ -18,6 +71,11 @@ int main(int argc, char** argv) {
       ->type_name("PATH")
       ->each([](const std::string& path) { kinolab::loadPluginLibrary(path); });
   app.footer("Run 'kinolab COMMAND --help' for the options of one command.");
+  // One prefix for every error, the command line's included.
+  app.failure_message([](const CLI::App*, const CLI::Error& error) {
+    return std::string("kinolab: error: ") + error.what() +
+           "\nRun with --help for more information.\n";
+  });
   kinolab::apps::addExportCommand(app);
   kinolab::apps::addFlyCommand(app);
   kinolab::apps::addListCommand(app);
@@ -34,6 +92,12 @@ int main(int argc, char** argv) {
     return error.get_exit_code();
   } catch (const CLI::ParseError& error) {
     // --help and --version exit 0; a malformed or out-of-range option is bad input: 1.
+    if (error.get_exit_code() != 0) {
+      if (const std::string unknown = unknownCommand(app, argc, argv); !unknown.empty()) {
+        std::cerr << "kinolab: error: " << unknown << '\n';
+        return 1;
+      }
+    }
     return app.exit(error) == 0 ? 0 : 1;
   } catch (const kinolab::Error& error) {
     std::cerr << "kinolab: error: " << error.what() << '\n';

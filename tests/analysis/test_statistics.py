@@ -375,3 +375,25 @@ def test_which_planner_pairs_every_planner_against_the_lazy_one():
     # Holm-adjusted over the table's 10 tests.
     raw = 2 * 0.5 ** 10
     assert raw <= table.loc["flaky", "p success vs fast"] <= 10 * raw
+
+
+def test_load_and_machine_warnings():
+    from kinolab_analysis import report
+    from kinolab_analysis.data import Results
+    runs = pd.DataFrame({"load_average": [0.5, 1.2, 3.4, 9.0]})
+    warnings = report.load_warnings(runs, {"cores": "2"})
+    assert len(warnings) == 1 and warnings[0].startswith("2 of 4 runs") and "9.0" in warnings[0]
+    assert report.load_warnings(runs[runs["load_average"] < 2], {"cores": "2"}) == []
+    assert report.load_warnings(pd.DataFrame({"load_average": [math.nan]}), {"cores": "2"}) == []
+    assert report.load_warnings(runs, {}) == []  # written before the machine was recorded
+    a = Results(paths=[], runs=pd.DataFrame({"load_average": [0.5, 0.7]}),
+                meta={"machine": "CPU A, 2 cores"})
+    same = Results(paths=[], runs=pd.DataFrame({"load_average": [0.6]}),
+                   meta={"machine": "CPU A, 2 cores"})
+    loaded = Results(paths=[], runs=pd.DataFrame({"load_average": [9.0]}),
+                     meta={"machine": "CPU B, 8 cores"})
+    assert report.machine_differences(a, same) == []
+    differences = report.machine_differences(a, loaded)
+    assert len(differences) == 2
+    assert "CPU A, 2 cores against CPU B, 8 cores" in differences[0]
+    assert "0.6 against 9.0" in differences[1]

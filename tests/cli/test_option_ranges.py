@@ -48,3 +48,20 @@ def test_in_range_options_still_work(kinolab):
     assert result.returncode == 0, result.stderr
     assert "seed 18446744073709551615" in result.stdout
     assert kinolab("run", EXPERIMENT, "--dry-run", "--grace", "0", "-j", "4").returncode == 0
+
+
+@pytest.mark.parametrize("arguments, message", [
+    (["rn"], "unknown command 'rn'; did you mean 'run'?"),
+    (["--plugin", "x.so", "lst"], None),  # the plugin fails to load first: a clear error
+    (["repot", "out"], "did you mean 'report'?"),
+    (["frobnicate"], "unknown command 'frobnicate' (kinolab --help lists the commands)"),
+    (["list", "planer"], "planer not in"),
+    (["export", "out", "--format", "csv"], "--format: csv not in {ompl}"),
+    ([], "A subcommand is required"),
+])
+def test_command_line_errors_have_one_prefix_and_suggest_the_command(kinolab, arguments, message):
+    result = kinolab(*arguments)
+    assert result.returncode == 1
+    assert result.stderr.startswith("kinolab: error: "), result.stderr
+    if message:
+        assert message in result.stderr

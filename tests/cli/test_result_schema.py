@@ -64,7 +64,7 @@ def test_list_metrics_prints_the_schema(kinolab):
     assert result["success"]["type"] == "boolean"
     assert {m["name"] for m in schema["runner"]} == {
         "peak_memory_mb", "planning_time_min_ms", "planning_time_cold_ms", "line_blocked",
-        "wall_time_ms", "started_at"}
+        "wall_time_ms", "started_at", "load_average"}
     lazy = {m["name"]: m for m in schema["statistics"]["lazy_mp_astar"]}
     assert lazy["expansions"]["type"] == "integer"
     assert "time_check_ms" in {m["name"] for m in schema["statistics"]["common"]}

@@ -6,7 +6,9 @@
 #include <unistd.h>
 
 #include <chrono>
+#include <cmath>
 #include <csignal>
+#include <cstdlib>
 #include <ctime>
 #include <fstream>
 
@@ -90,6 +92,8 @@ void ProcessPool::start(std::size_t tag, double time_limit, long long memory_mb,
   worker.fd = pipe_fds[0];
   worker.outcome.tag = tag;
   worker.outcome.started_at = utcNow();
+  double load = NAN;
+  if (getloadavg(&load, 1) == 1) worker.outcome.load_average = load;
   worker.started = seconds();
   worker.deadline = worker.started + time_limit;
   workers_.push_back(std::move(worker));

@@ -27,7 +27,10 @@ const MetricSpecs& runnerMetrics() {
                    "the straight line from start to goal collides for the planner's body: the "
                    "query needs a detour")
           .clock("wall_time_ms", "the worker process, from fork to exit")
-          .machine("started_at", MetricType::kText, "", "when the run started, UTC, ISO 8601");
+          .machine("started_at", MetricType::kText, "", "when the run started, UTC, ISO 8601")
+          .machine("load_average", MetricType::kReal, "",
+                   "the machine's 1-minute load average when the run started (above its core "
+                   "count, runs wait for a core and clock figures grow)");
   return specs;
 }
 

@@ -209,7 +209,8 @@ RunRecord recordOf(const Experiment& experiment, const RunSpec& run, const Worke
   };
   record.metrics = {{"peak_memory_mb", static_cast<double>(worker.usage.ru_maxrss) / 1024.0},
                     {"wall_time_ms", wall_time_ms},
-                    {"started_at", worker.started_at}};
+                    {"started_at", worker.started_at},
+                    {"load_average", worker.load_average}};
 
   if (worker.killed_for_time) {
     finish(

@@ -14,6 +14,7 @@
 #include <map>
 #include <nlohmann/json.hpp>
 #include <set>
+#include <thread>
 
 #include "kinolab/core/error.hpp"
 #include "kinolab/core/files.hpp"
@@ -33,6 +34,24 @@
 
 namespace kinolab {
 namespace {
+
+/// The CPU model (the first "model name" of /proc/cpuinfo) and the cores this process may
+/// use: what makes clock figures comparable across results.
+std::string machineDescription() {
+  std::string model = "unknown CPU";
+  std::ifstream cpuinfo("/proc/cpuinfo");
+  for (std::string line; std::getline(cpuinfo, line);) {
+    if (line.rfind("model name", 0) == 0) {
+      const auto start = line.find_first_not_of(" \t", line.find(':') + 1);
+      if (line.find(':') != std::string::npos && start != std::string::npos) {
+        model = line.substr(start);
+      }
+      break;
+    }
+  }
+  return model + ", " + std::to_string(std::max(1u, std::thread::hardware_concurrency())) +
+         " cores";
+}
 
 volatile std::sig_atomic_t g_stop_signal = 0;
 void onStopSignal(int signal) { g_stop_signal = signal; }
@@ -254,7 +273,9 @@ void prepareStore(ResultsStore& store, const Experiment& experiment, const Runne
       {"runs_planned", std::to_string(planned)},
       {"schema_version", std::to_string(kResultsSchemaVersion)},
       {"plugins", join(experiment.plugins, "\n")},
-      {"last_started_at", utcNow()}};
+      {"last_started_at", utcNow()},
+      {"machine", machineDescription()},
+      {"cores", std::to_string(std::max(1u, std::thread::hardware_concurrency()))}};
   if (!store.meta("started_at")) meta["started_at"] = meta["last_started_at"];
   if (!experiment.reproduces_paper.empty()) {
     // What the report shows the paper's tables for: "id=row" lines.

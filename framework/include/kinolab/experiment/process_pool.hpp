@@ -2,6 +2,7 @@
 
 #include <sys/resource.h>
 
+#include <cmath>
 #include <cstddef>
 #include <functional>
 #include <string>
@@ -18,6 +19,7 @@ struct WorkerOutcome {
   bool killed_for_time = false;  ///< killed past its deadline by the pool
   double wall_ms = 0.0;          ///< from fork to exit
   std::string started_at;        ///< UTC, ISO 8601
+  double load_average = NAN;     ///< the machine's 1-minute load average when it started
 };
 
 /// At most `jobs` forked worker processes at once, each running one function whose return

@@ -21,8 +21,9 @@ const MetricSpecs& runnerMetrics();
 
 /// The version of the results database layout this kinolab writes (meta `schema_version`).
 /// Version 2 derives the runs table and the `metrics` table from the declared metrics;
-/// version 6 adds the `progress` table (anytime progress series).
-inline constexpr int kResultsSchemaVersion = 6;
+/// version 6 adds the `progress` table (anytime progress series); version 7 the runs' load
+/// average and the meta table's machine (CPU model, cores).
+inline constexpr int kResultsSchemaVersion = 7;
 
 /// One finished run as stored: what defines it, then the values of resultMetrics() and
 /// runnerMetrics() (by name; a missing or none value is NULL) and the planner's statistics.
