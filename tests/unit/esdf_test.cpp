@@ -207,6 +207,13 @@ TEST(EsdfTest, ExactDistanceIsTheDistanceToTheNearestCubeBelowTheLimit) {
                        << "resolution " << resolution << " occupancy " << occupancy << " point "
                        << point.transpose() << " limit " << limit);
           const double exact = esdf.exactDistance(point, limit);
+          // Stopping at the first cube nearer than 0.3 m decides the same verdict at 0.3.
+          const double early = esdf.exactDistance(point, limit, 0.3);
+          EXPECT_EQ(early < 0.3, exact < 0.3);
+          EXPECT_GE(early, exact);
+          if (exact >= 0.3) {
+            EXPECT_EQ(early, exact);
+          }
           if (expected == 0.0) {
             EXPECT_EQ(exact, -0.5 * resolution);
             ++below;

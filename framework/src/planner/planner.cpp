@@ -25,8 +25,8 @@ std::string positionProblem(const World& world, const Eigen::Vector3d& position,
   }
   const double clearance = world.clearanceFor(position, radius);
   if (clearance < radius) {
-    return formatPoint(position) + " is in collision: its distance to the occupied voxel cubes, " +
-           formatNumber(clearance) + " m, is below the robot radius " +
+    return formatPoint(position) + " is in collision: an occupied voxel cube is " +
+           formatNumber(std::max(clearance, 0.0)) + " m from it, less than the robot radius " +
            formatNumber(model.robot_radius) + " m less the collision tolerance " +
            formatNumber(model.collision_tolerance) + " m";
   }

@@ -146,7 +146,7 @@ EdgeEvaluation EdgeEvaluator::partial(const ChainState& start,
   if (result.end_clearance < radius) {
     // The bound undershoots near obstacles: decide with the exact distance (full does too).
     result.end_clearance =
-        std::max(result.end_clearance, esdf.exactDistance(end, radius + esdf.resolution()));
+        std::max(result.end_clearance, esdf.exactDistance(end, radius + esdf.resolution(), radius));
   }
   if (result.end_clearance < radius) {
     result.collision_free = false;
@@ -221,18 +221,23 @@ bool EdgeEvaluator::traceFree(const ChainState& start, const Eigen::Vector3d& co
   const auto decided = [&](double clearance, const Eigen::Vector3d& position) {
     if (clearance >= radius) return clearance;
     ++result.esdf_queries;
-    return std::max(clearance, esdf.exactDistance(position, exact_limit));
+    return std::max(clearance, esdf.exactDistance(position, exact_limit, radius));
   };
-  const auto trace = [&](double t, const Eigen::Vector3d& position) {
-    ++result.esdf_queries;
-    double distance = 0.0;
-    const double clearance = esdf.clearance(position, &distance);
+  const auto record = [&](double t, double distance) {
     if (traced.count < static_cast<int>(traced.time.size())) {
       traced.time[traced.count] = t;
       traced.distance[traced.count++] = distance;
     }
-    return decided(clearance, position);
   };
+  // The end first: a primitive that ends too close is refused without tracing its way there
+  // (near a surface the steps are short).
+  ++result.esdf_queries;
+  double end_distance = 0.0;
+  const Eigen::Vector3d end = result.end.col(0);
+  if (decided(esdf.clearance(end, &end_distance), end) < radius) {
+    result.collision_time = tau;
+    return false;
+  }
   double t = 0.0;
   double clearance = decided(start_clearance, start.col(0));
   for (;;) {
@@ -242,12 +247,14 @@ bool EdgeEvaluator::traceFree(const ChainState& start, const Eigen::Vector3d& co
     }
     t += tracingReach(clearance) * seconds_per_metre;
     if (!(t < tau)) break;
-    clearance = trace(t, positionFromPowers(start, control, order, powersOver(t, order)));
+    const Eigen::Vector3d position =
+        positionFromPowers(start, control, order, powersOver(t, order));
+    ++result.esdf_queries;
+    double distance = 0.0;
+    clearance = decided(esdf.clearance(position, &distance), position);
+    record(t, distance);
   }
-  if (trace(tau, result.end.col(0)) < radius) {
-    result.collision_time = tau;
-    return false;
-  }
+  record(tau, end_distance);
   return true;
 }
 

@@ -229,24 +229,25 @@ Esdf::Esdf(const VoxelGrid& grid, std::vector<float> values) : values_(std::move
   setGeometry(grid);
 }
 
-double Esdf::exactDistance(const Eigen::Vector3d& point, double limit) const {
+double Esdf::exactDistance(const Eigen::Vector3d& point, double limit, double enough) const {
   if (values_.empty()) return limit;
-  // Per axis: the point in voxel units from the grid's low corner, and its nearest centre.
+  // Per axis: the point in voxel units from the grid's low corner, and its voxel.
   double scaled[3];
-  std::int64_t nearest[3];
+  std::int64_t cell[3];
   double centre_offset2 = 0.0;
   for (int axis = 0; axis < 3; ++axis) {
     scaled[axis] = (point[axis] - origin_[axis]) * inverse_resolution_;
     if (!std::isfinite(scaled[axis])) return limit;
-    nearest[axis] = std::clamp<std::int64_t>(static_cast<std::int64_t>(std::floor(scaled[axis])), 0,
-                                             dims_[axis] - 1);
-    const double offset = (scaled[axis] - (static_cast<double>(nearest[axis]) + 0.5));
+    cell[axis] = std::clamp<std::int64_t>(static_cast<std::int64_t>(std::floor(scaled[axis])), 0,
+                                          dims_[axis] - 1);
+    const double offset = scaled[axis] - (static_cast<double>(cell[axis]) + 0.5);
     centre_offset2 += offset * offset;
   }
-  const std::size_t centre =
-      nearest[0] * strides_[0] + nearest[1] * strides_[1] + nearest[2] * strides_[2];
-  // In voxel units from here on. An upper bound of the distance (plus float rounding's slack).
-  const double stored = values_[centre] * inverse_resolution_;
+  // In voxel units from here on. An upper bound of the distance (plus float rounding's slack):
+  // the voxel's centre value (exact) and the way to it.
+  const double stored =
+      values_[cell[0] * strides_[0] + cell[1] * strides_[1] + cell[2] * strides_[2]] *
+      inverse_resolution_;
   double reach = limit * inverse_resolution_;
   if (stored >= 0.0) reach = std::min(reach, stored + std::sqrt(centre_offset2) + 1e-4);
   // Distance along an axis from the point to the slab of voxel i: [i, i + 1].
@@ -265,26 +266,43 @@ double Esdf::exactDistance(const Eigen::Vector3d& point, double limit) const {
   }
   double best2 = reach * reach;
   bool found = false;
-  for (std::int64_t x = from[0]; x <= to[0]; ++x) {
+  const double enough_voxels = enough * inverse_resolution_;
+  const double enough2 = enough > 0.0 ? enough_voxels * enough_voxels : -1.0;
+  // Beyond the best so far (a cube exactly at the first upper bound still counts).
+  const auto beyond = [&](double d2) { return found ? d2 >= best2 : d2 > best2; };
+  // Each axis from the point's voxel outwards, both ways: the gaps grow, so a sweep stops at
+  // the first voxel beyond the best (and along z at the first occupied one).
+  const auto sweep = [&](int axis, const auto& visit) {
+    for (std::int64_t i = cell[axis]; i >= from[axis]; --i) {
+      if (!visit(i)) break;
+    }
+    for (std::int64_t i = cell[axis] + 1; i <= to[axis]; ++i) {
+      if (!visit(i)) break;
+    }
+  };
+  bool done = false;  // a cube nearer than `enough`
+  sweep(0, [&](std::int64_t x) {
     const double gx = gap(0, x);
-    const double gx2 = gx * gx;
-    if (gx2 >= best2) continue;
-    for (std::int64_t y = from[1]; y <= to[1]; ++y) {
+    if (done || beyond(gx * gx)) return false;
+    sweep(1, [&](std::int64_t y) {
       const double gy = gap(1, y);
-      const double gxy2 = gx2 + gy * gy;
-      if (gxy2 >= best2) continue;
+      const double gxy2 = gx * gx + gy * gy;
+      if (done || beyond(gxy2)) return false;
       const float* row = values_.data() + x * strides_[0] + y * strides_[1];
-      for (std::int64_t z = from[2]; z <= to[2]; ++z) {
-        if (!(row[z] < 0.0f)) continue;
+      sweep(2, [&](std::int64_t z) {
         const double gz = gap(2, z);
         const double d2 = gxy2 + gz * gz;
-        if (d2 < best2 || (!found && d2 <= best2)) {
-          best2 = d2;
-          found = true;
-        }
-      }
-    }
-  }
+        if (beyond(d2)) return false;
+        if (!(row[z] < 0.0f)) return true;
+        best2 = d2;
+        found = true;
+        done = best2 < enough2;
+        return false;
+      });
+      return !done;
+    });
+    return !done;
+  });
   if (found && best2 == 0.0) return -0.5 * resolution_;  // in (or on) a closed cube
   const double best = std::sqrt(best2) * resolution_;
   return found && best < limit ? best : limit;

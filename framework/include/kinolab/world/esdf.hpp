@@ -91,13 +91,16 @@ class Esdf {
 
   /// The exact distance from `point` to the nearest occupied voxel cube when it is below
   /// `limit`, else `limit` (a lower bound of it); in or on a closed occupied cube, a negative
-  /// value (minus half a voxel), so a point robot (radius 0) touching a cube collides. The occupied
-  /// voxels are those with a negative value; the nearest cube lies within D(c) + |point - c| of the
-  /// point (c the nearest voxel centre, where the stored value D is exact; D is 1-Lipschitz), and
-  /// those voxels (at most `limit` away) are searched, nearest rows first. Costs about (2 r /
-  /// voxel)^3 look-ups for a search radius r: meant for points near obstacles, where clearance()
-  /// undershoots (by up to sqrt(3) / 2 voxel) and a verdict must be exact.
-  double exactDistance(const Eigen::Vector3d& point, double limit) const;
+  /// value (minus half a voxel), so a point robot (radius 0) touching a cube collides. The
+  /// occupied voxels are those with a negative value; the nearest cube lies within
+  /// D(c) + |point - c| of the point (c the nearest voxel centre, where the stored value D is
+  /// exact; D is 1-Lipschitz), and those voxels (at most `limit` away) are searched from the
+  /// point's voxel outwards. Costs up to about (2 r / voxel)^3 look-ups for a search radius r:
+  /// meant for points near obstacles, where clearance() undershoots (by up to sqrt(3) / 2
+  /// voxel) and a verdict must be exact. With `enough` > 0 it returns as soon as it finds a
+  /// cube nearer than that (a distance below `enough`, not necessarily the least): a verdict at
+  /// radius `enough` needs no more.
+  double exactDistance(const Eigen::Vector3d& point, double limit, double enough = 0.0) const;
 
  private:
   /// The trilinear value; with `gradient`, its gradient; with `spread`, voxel^2 sum_i
