@@ -202,6 +202,14 @@ TEST(EsdfTest, ExactDistanceIsTheDistanceToTheNearestCubeBelowTheLimit) {
                                     rng.uniform(-0.1, 1.1) * size.y(),
                                     rng.uniform(-0.1, 1.1) * size.z());
         const double expected = pointToCubesBruteForce(grid, point);
+        // The centres' bound never exceeds the distance (anywhere, outside the map too), and
+        // every verdict agrees with the brute force.
+        EXPECT_LE(esdf.centreBound(point), expected + 1e-6);
+        for (const double threshold : {0.05, 0.25, 0.6}) {
+          EXPECT_EQ(esdf.decided(point, esdf.clearance(point), threshold, threshold) >= threshold,
+                    expected >= threshold)
+              << threshold;
+        }
         for (const double limit : {0.3, 1.0, 100.0}) {
           SCOPED_TRACE(::testing::Message()
                        << "resolution " << resolution << " occupancy " << occupancy << " point "

@@ -145,8 +145,7 @@ EdgeEvaluation EdgeEvaluator::partial(const ChainState& start,
   const double radius = verdictRadius();
   if (result.end_clearance < radius) {
     // The bound undershoots near obstacles: decide with the exact distance (full does too).
-    result.end_clearance =
-        std::max(result.end_clearance, esdf.exactDistance(end, radius + esdf.resolution(), radius));
+    result.end_clearance = std::max(result.end_clearance, world_->clearanceFor(end, radius));
   }
   if (result.end_clearance < radius) {
     result.collision_free = false;
@@ -217,11 +216,11 @@ bool EdgeEvaluator::traceFree(const ChainState& start, const Eigen::Vector3d& co
   // Where the bound says "collision", the exact distance to the cubes decides (and, when
   // free, is what the next step covers): an edge is refused only when a traced point is
   // really closer than the radius.
-  const double exact_limit = radius + esdf.resolution();
   const auto decided = [&](double clearance, const Eigen::Vector3d& position) {
     if (clearance >= radius) return clearance;
     ++result.esdf_queries;
-    return std::max(clearance, esdf.exactDistance(position, exact_limit, radius));
+    // Searched one voxel beyond the radius: a longer next step.
+    return esdf.decided(position, clearance, radius, radius + esdf.resolution());
   };
   const auto record = [&](double t, double distance) {
     if (traced.count < static_cast<int>(traced.time.size())) {

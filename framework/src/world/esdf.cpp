@@ -1,6 +1,7 @@
 #include "kinolab/world/esdf.hpp"
 
 #include <algorithm>
+#include <cmath>
 #include <cstdint>
 #include <limits>
 
@@ -227,6 +228,36 @@ Esdf::Esdf(const VoxelGrid& grid, std::vector<float> values) : values_(std::move
                           std::to_string(grid.size()) + " voxels");
   }
   setGeometry(grid);
+}
+
+double Esdf::centreBound(const Eigen::Vector3d& point) const {
+  if (values_.empty()) return -INFINITY;
+  std::size_t base = 0;
+  double low[3];   // offset (voxels) from the lower centre along each axis
+  double high[3];  // and from the upper one
+  for (int axis = 0; axis < 3; ++axis) {
+    const double raw = point[axis] * inverse_resolution_ - shift_[axis];
+    if (!std::isfinite(raw)) return -INFINITY;
+    const auto corner = static_cast<std::size_t>(
+        static_cast<std::int64_t>(std::min(std::max(0.0, std::floor(raw)), lower_corner_[axis])));
+    low[axis] = raw - static_cast<double>(corner);
+    // On a one-voxel axis both "corners" are the one centre.
+    high[axis] = neighbour_step_[axis] != 0 ? low[axis] - 1.0 : low[axis];
+    base += corner * strides_[axis];
+  }
+  double best = -INFINITY;
+  for (int corner = 0; corner < 8; ++corner) {
+    std::size_t index = base;
+    double squared = 0.0;
+    for (int axis = 0; axis < 3; ++axis) {
+      const bool upper = (corner >> axis) & 1;
+      if (upper) index += neighbour_step_[axis];
+      const double offset = upper ? high[axis] : low[axis];
+      squared += offset * offset;
+    }
+    best = std::max(best, values_[index] - resolution_ * std::sqrt(squared));
+  }
+  return best;
 }
 
 double Esdf::exactDistance(const Eigen::Vector3d& point, double limit, double enough) const {

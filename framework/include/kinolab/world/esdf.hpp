@@ -89,6 +89,24 @@ class Esdf {
                                                    : value - std::sqrt(spread);
   }
 
+  /// The distance to the cubes as a verdict at `threshold` needs it, given `bound` =
+  /// clearance(point): `bound` when it reaches the threshold, else centreBound() when that
+  /// does, else exactDistance() (searched up to `limit`, at least the threshold, stopping at
+  /// the first cube nearer than the threshold). So `decided(p, b, t) >= t` exactly when the
+  /// true distance is at least t; at or above t the value is a lower bound of the distance
+  /// (exact up to `limit` where the cheaper bounds fall short): a larger limit costs a wider
+  /// search and gives sphere tracing longer steps.
+  double decided(const Eigen::Vector3d& point, double bound, double threshold, double limit) const {
+    if (bound >= threshold) return bound;
+    if (const double centres = centreBound(point); centres >= threshold) return centres;
+    return std::max(bound, exactDistance(point, std::max(limit, threshold), threshold));
+  }
+  /// Another lower bound of the distance to the cubes, from the same 8 voxel centres c_j as
+  /// the trilinear value: max_j D(c_j) - |point - c_j| (D exact at the centres, 1-Lipschitz).
+  /// Tight near a centre, where clearance() may still undershoot: a cheap test before
+  /// exactDistance().
+  double centreBound(const Eigen::Vector3d& point) const;
+
   /// The exact distance from `point` to the nearest occupied voxel cube when it is below
   /// `limit`, else `limit` (a lower bound of it); in or on a closed occupied cube, a negative
   /// value (minus half a voxel), so a point robot (radius 0) touching a cube collides. The

@@ -33,18 +33,10 @@ class World {
   double distance(const Eigen::Vector3d& point) const { return esdf_.distance(point); }
   /// A proven lower bound of the distance to every occupied voxel cube (Esdf::clearance).
   double clearance(const Eigen::Vector3d& point) const { return esdf_.clearance(point); }
-  /// The distance to the occupied cubes as a verdict at `threshold` needs it: clearance()
-  /// where that proven lower bound reaches `threshold`, else Esdf::exactDistance (searched up
-  /// to `threshold` plus one voxel, stopping at the first cube nearer than `threshold`). So
-  /// `clearanceFor(p, t) >= t` exactly when the true distance is at least t; at or above t
-  /// the value is a lower bound of the distance (exact up to t plus one voxel near
-  /// obstacles): what sphere tracing steps on.
+  /// The distance to the occupied cubes as a verdict at `threshold` needs it (Esdf::decided
+  /// on clearance()): `clearanceFor(p, t) >= t` exactly when the true distance is at least t.
   double clearanceFor(const Eigen::Vector3d& point, double threshold) const {
-    const double bound = esdf_.clearance(point);
-    return bound >= threshold
-               ? bound
-               : std::max(bound,
-                          esdf_.exactDistance(point, threshold + esdf_.resolution(), threshold));
+    return esdf_.decided(point, esdf_.clearance(point), threshold, threshold);
   }
   /// True when `point` is inside the map and provably at least `radius` from every occupied
   /// cube (clearance() >= radius; a conservative test, for sampling queries).
