@@ -4,6 +4,7 @@ figures as PNG and SVG, tables as Markdown and LaTeX, and a summary on the termi
 from __future__ import annotations
 
 import base64
+import html
 import io
 import math
 import sqlite3
@@ -15,7 +16,7 @@ import yaml
 import matplotlib.pyplot as plt
 import pandas as pd
 
-from . import paper, plots, tables, view
+from . import paper, plots, stats, tables, view
 from .data import Results, load
 
 TEMPLATE = """<!DOCTYPE html>
@@ -30,6 +31,8 @@ th:first-child, td:first-child { text-align: left; }
 th { border-bottom: 2px solid #444; }
 img { max-width: 100%; }
 .note { color: #555; font-size: 0.9em; }
+.wide { overflow-x: auto; max-width: 100%; }
+.ci { color: #666; font-size: 0.85em; white-space: nowrap; }
 .warning { background: #fff3cd; border-left: 4px solid #d39e00; padding: 0.5em 0.8em; }
 dl { display: grid; grid-template-columns: max-content auto; gap: 0.2em 1em; font-size: 0.85em; }
 dt { font-weight: bold; }
@@ -200,10 +203,22 @@ class Report:
 
 
 def _html(table: pd.DataFrame) -> str:
+    """A table as HTML: cells as tables.text, an interval's bounds on a second line, and a
+    scrolling box when it is still wider than the page."""
+    def cell(column):
+        def formatted(value):
+            text = html.escape(tables.text(value, column=column))
+            if isinstance(value, stats.Interval) and " [" in text:
+                estimate, bounds = text.split(" [", 1)
+                return f'{estimate}<br><span class="ci">[{bounds}</span>'
+            return text
+        return formatted
     frame = table.copy()
     for column in frame.columns:
-        frame[column] = frame[column].map(tables.text)
-    return frame.to_html(index=False, escape=True, border=0)
+        frame[column] = frame[column].map(cell(column))
+    frame.columns = [tables.header(c) for c in frame.columns]
+    return ('<div class="wide">' + frame.to_html(index=False, escape=False, border=0) +
+            "</div>")
 
 
 def _save(figure: plt.Figure, report: Report, name: str, title: str, caption: str) -> None:

@@ -13,6 +13,26 @@ from scipy import stats as sps
 Z95 = 1.959963984540054
 
 
+def number(value: float, digits: int = 3, noise: float = 1e-9) -> str:
+    """A figure as a reader wants it: "-" when not finite, 0 within `noise` of zero (floating
+    point noise; 0 for a p-value), whole numbers exactly and values from 1,000 up to `digits` significant
+    digits, both without an exponent and with thousands separators, tiny values (p-values) in
+    scientific notation, the rest to `digits` significant digits."""
+    if not math.isfinite(value):
+        return "-"
+    if abs(value) < noise or value == 0:
+        return "0"
+    if value == round(value) and abs(value) < 1e15:  # a count: exact
+        return f"{value:,.0f}"
+    if abs(value) >= 1000:
+        magnitude = math.floor(math.log10(abs(value)))
+        rounded = round(value, min(0, digits - 1 - magnitude))
+        return f"{rounded:,.0f}" if rounded == round(rounded) else f"{rounded:.{digits}g}"
+    if abs(value) < 1e-3:
+        return f"{value:.1e}"
+    return f"{value:.{digits}g}"
+
+
 @dataclass(frozen=True)
 class Interval:
     """An estimate with its 95 % interval."""
@@ -24,7 +44,15 @@ class Interval:
     def format(self, digits: int = 3) -> str:
         if not math.isfinite(self.estimate):
             return "-"
-        return f"{self.estimate:.{digits}g} [{self.low:.{digits}g}, {self.high:.{digits}g}]"
+        return (f"{number(self.estimate, digits)} "
+                f"[{number(self.low, digits)}, {number(self.high, digits)}]")
+
+    def percent(self, digits: int = 3) -> str:
+        """A share (0..1) as a percentage with its interval."""
+        if not math.isfinite(self.estimate):
+            return "-"
+        return (f"{number(100 * self.estimate, digits)} % "
+                f"[{number(100 * self.low, digits)}, {number(100 * self.high, digits)}]")
 
 
 def wilson(successes: int, n: int, z: float = Z95) -> Interval:

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import itertools
 import math
+import re
 
 import numpy as np
 import pandas as pd
@@ -52,6 +53,7 @@ def status_counts(runs: pd.DataFrame, by: str = "planner") -> pd.DataFrame:
     table = runs.pivot_table(index=by, columns="status", values="run_hash", aggfunc="count",
                              fill_value=0)
     table["total"] = table.sum(axis=1)
+    table.columns.name = None  # no empty heading cell in HTML
     return table
 
 
@@ -278,24 +280,39 @@ def timing(runs: pd.DataFrame) -> pd.DataFrame:
     return pd.DataFrame(rows)
 
 
-def text(value: object, digits: int = 3) -> str:
-    """A cell as text: intervals as 'estimate [low, high]', numbers with `digits`."""
+# Columns that hold a share (0..1): shown in percent.
+SHARE_COLUMNS = ("success", "answered", "blocked", "line_blocked", "equal cost")
+
+
+def header(column: object) -> str:
+    """A column's heading: a p-value's without the unit of the metric it tests."""
+    return re.sub(r"^(p .*?) \([^)]*\)$", r"\1", str(column))
+
+
+def text(value: object, digits: int = 3, column: object = None) -> str:
+    """A cell as text: intervals as 'estimate [low, high]', shares (SHARE_COLUMNS) in percent,
+    numbers as stats.number (0 for noise, separators, no exponents on counts)."""
+    share = str(column).split(" ")[0] in SHARE_COLUMNS or str(column) in SHARE_COLUMNS
     if isinstance(value, stats.Interval):
-        return value.format(digits)
+        return value.percent(digits) if share else value.format(digits)
+    if isinstance(value, (bool, np.bool_)):
+        return str(value)
+    if isinstance(value, (int, np.integer)):
+        return f"{int(value):,}"
     if isinstance(value, (float, np.floating)):
-        if not math.isfinite(value):
-            return "-"
-        if abs(value) < 1e-3 and value != 0:
-            return f"{value:.1e}"
-        return f"{value:.{digits}g}"
+        if share and math.isfinite(value) and 0.0 <= value <= 1.0:
+            return f"{stats.number(100 * float(value), digits)} %"
+        p_value = str(column).startswith("p ") or str(column) == "p"
+        return stats.number(float(value), digits, noise=0.0 if p_value else 1e-9)
     return str(value)
 
 
 def to_markdown(table: pd.DataFrame) -> str:
-    header = "| " + " | ".join(str(c) for c in table.columns) + " |"
+    heading = "| " + " | ".join(header(c) for c in table.columns) + " |"
     rule = "|" + "|".join("---" for _ in table.columns) + "|"
-    body = ["| " + " | ".join(text(v) for v in row) + " |" for row in table.itertuples(index=False)]
-    return "\n".join([header, rule, *body]) + "\n"
+    body = ["| " + " | ".join(text(v, column=c) for v, c in zip(row, table.columns)) + " |"
+            for row in table.itertuples(index=False)]
+    return "\n".join([heading, rule, *body]) + "\n"
 
 
 def _latex_escape(value: str) -> str:
@@ -310,9 +327,10 @@ def to_latex(table: pd.DataFrame, caption: str) -> str:
     columns = "l" + "r" * (len(table.columns) - 1)
     lines = [r"\begin{table}[t]", r"\centering", f"\\caption{{{_latex_escape(caption)}}}",
              f"\\begin{{tabular}}{{{columns}}}", r"\toprule",
-             " & ".join(_latex_escape(str(c)) for c in table.columns) + r" \\", r"\midrule"]
+             " & ".join(_latex_escape(header(c)) for c in table.columns) + r" \\", r"\midrule"]
     for row in table.itertuples(index=False):
-        lines.append(" & ".join(_latex_escape(text(v)) for v in row) + r" \\")
+        lines.append(" & ".join(_latex_escape(text(v, column=c)) for v, c in zip(row, table.columns))
+                     + r" \\")
     lines += [r"\bottomrule", r"\end{tabular}", r"\end{table}"]
     return "\n".join(lines) + "\n"
 

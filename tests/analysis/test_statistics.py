@@ -397,3 +397,18 @@ def test_load_and_machine_warnings():
     assert len(differences) == 2
     assert "CPU A, 2 cores against CPU B, 8 cores" in differences[0]
     assert "0.6 against 9.0" in differences[1]
+
+
+def test_figures_read_as_numbers_not_noise():
+    assert stats.number(3.56e-15) == "0" and stats.number(-2e-12) == "0"
+    assert stats.number(1246.5) == "1,250" and stats.number(3390.0) == "3,390"
+    assert stats.number(1000.0) == "1,000" and stats.number(25317) == "25,317"
+    assert stats.number(12.0) == "12" and stats.number(0.337) == "0.337"
+    assert stats.number(3.9e-18, noise=0) == "3.9e-18" and stats.number(math.inf) == "-"
+    assert tables.text(3.9e-18, column="p T (ms)") == "3.9e-18"
+    interval = stats.Interval(3.56e-15, 1.79e-15, 5.02e-15)
+    assert interval.format() == "0 [0, 0]"
+    assert tables.text(stats.Interval(1.0, 0.963, 1.0), column="success") == "100 % [96.3, 100]"
+    assert tables.text(0.25, column="equal cost") == "25 %"
+    assert tables.text(np.int64(3390)) == "3,390"
+    assert tables.header("p T (ms)") == "p T" and tables.header("kinolab T (ms)") == "kinolab T (ms)"
