@@ -281,7 +281,7 @@ def timing(runs: pd.DataFrame) -> pd.DataFrame:
 
 
 # Columns that hold a share (0..1): shown in percent.
-SHARE_COLUMNS = ("success", "answered", "blocked", "line_blocked", "equal cost")
+SHARE_COLUMNS = ("success", "answered", "solved", "blocked", "line_blocked", "equal cost")
 
 
 def header(column: object) -> str:
