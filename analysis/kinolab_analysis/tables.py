@@ -280,7 +280,7 @@ def timing(runs: pd.DataFrame) -> pd.DataFrame:
     return pd.DataFrame(rows)
 
 
-# Columns that hold a share (0..1): shown in percent.
+# Words of the columns that hold a share (0..1): shown in percent.
 SHARE_COLUMNS = ("success", "answered", "solved", "blocked", "line_blocked", "equal cost")
 
 
@@ -292,7 +292,8 @@ def header(column: object) -> str:
 def text(value: object, digits: int = 3, column: object = None) -> str:
     """A cell as text: intervals as 'estimate [low, high]', shares (SHARE_COLUMNS) in percent,
     numbers as stats.number (0 for noise, separators, no exponents on counts)."""
-    share = str(column).split(" ")[0] in SHARE_COLUMNS or str(column) in SHARE_COLUMNS
+    name = str(column)
+    share = not name.startswith("p ") and any(word in name for word in SHARE_COLUMNS)
     if isinstance(value, stats.Interval):
         return value.percent(digits) if share else value.format(digits)
     if isinstance(value, (bool, np.bool_)):
