@@ -7,10 +7,14 @@ import argparse
 import sys
 from pathlib import Path
 
-from . import export, report
+import matplotlib
 
 
 def main(argv: list[str] | None = None) -> int:
+    # The command draws into files only: Agg needs no display. (Importing the package does
+    # not choose a backend, so a notebook keeps its own.)
+    matplotlib.use("Agg")
+    from . import export, report
     parser = argparse.ArgumentParser(prog="kinolab report",
                                      description="Write an HTML report (figures, tables) of "
                                                  "kinolab results databases.")

@@ -1,22 +1,20 @@
-"""Figures, each a matplotlib Figure (Agg backend: no display needed)."""
+"""Figures, each a matplotlib Figure. Importing this module leaves matplotlib's backend as it
+is (a notebook keeps its own); the `kinolab report` command selects Agg, which needs no
+display."""
 
 from __future__ import annotations
 
 import math
 import re
 
-import matplotlib
+import matplotlib.pyplot as plt
+from matplotlib.collections import LineCollection
+import numpy as np
+import pandas as pd
 
-matplotlib.use("Agg")
-
-import matplotlib.pyplot as plt  # noqa: E402
-from matplotlib.collections import LineCollection  # noqa: E402
-import numpy as np  # noqa: E402
-import pandas as pd  # noqa: E402
-
-from . import stats  # noqa: E402
-from .data import EDGE_COLOURS, Results, World  # noqa: E402
-from .tables import SPEEDUP_COLUMNS  # noqa: E402
+from . import stats
+from .data import EDGE_COLOURS, Results, World
+from .tables import SPEEDUP_COLUMNS
 
 COLOURS = plt.rcParams["axes.prop_cycle"].by_key()["color"]
 

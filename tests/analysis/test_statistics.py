@@ -2,6 +2,7 @@
 scipy called directly)."""
 
 import math
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -412,3 +413,14 @@ def test_figures_read_as_numbers_not_noise():
     assert tables.text(0.25, column="equal cost") == "25 %"
     assert tables.text(np.int64(3390)) == "3,390"
     assert tables.header("p T (ms)") == "p T" and tables.header("kinolab T (ms)") == "kinolab T (ms)"
+
+
+def test_importing_the_package_leaves_the_backend_alone():
+    import subprocess
+    import sys
+    code = ("import matplotlib; matplotlib.use('svg'); import kinolab_analysis.report, "
+            "kinolab_analysis.plots; print(matplotlib.get_backend())")
+    result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                            cwd=Path(__file__).resolve().parents[2] / "analysis")
+    assert result.returncode == 0, result.stderr
+    assert result.stdout.strip() == "svg"
