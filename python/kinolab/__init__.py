@@ -28,6 +28,13 @@ from ._core import (ConfigError, Error, FileError, InvalidArgument, ParameterCon
 for _error in (Error, ConfigError, ParameterConflict, FileError, PluginError, InvalidArgument,
                Result):
     _error.__module__ = __name__  # kinolab.ConfigError in tracebacks, not kinolab._core's
+Error.__doc__ = "Every error kinolab raises, with the message the command line prints."
+ConfigError.__doc__ = "A malformed or misspelt configuration, or a value out of its range."
+ParameterConflict.__doc__ = ("A parameter that conflicts with another or with the planner "
+                             "(the message names it).")
+FileError.__doc__ = "A missing, unreadable, corrupt or unwritable file."
+PluginError.__doc__ = "A plugin library that cannot be loaded or registers badly."
+InvalidArgument.__doc__ = "An argument out of its domain (a NaN, a wrong shape, a bad index)."
 
 __version__ = _core.__version__
 __all__ = ["World", "Planner", "Result", "Scene", "plugins", "plugin_kinds", "planners", "samplers", "metrics",
@@ -66,14 +73,20 @@ class World:
         return cls(_core.world_from_text(text, "<dict>", os.fspath(directory), cache,
                                          os.fspath(cache_dir or "")))
 
-    name = property(lambda self: self._core.name)
-    spec_hash = property(lambda self: self._core.spec_hash)
-    resolution = property(lambda self: self._core.resolution)
-    origin = property(lambda self: self._core.origin)
-    shape = property(lambda self: self._core.shape)
-    bounds = property(lambda self: self._core.bounds)
-    occupancy = property(lambda self: self._core.occupancy)
-    esdf = property(lambda self: self._core.esdf)
+    name = property(lambda self: self._core.name, doc="the spec's name")
+    spec_hash = property(lambda self: self._core.spec_hash,
+                         doc="the hash of the expanded spec (the world cache's key), hex")
+    resolution = property(lambda self: self._core.resolution, doc="the voxel size, metres")
+    origin = property(lambda self: self._core.origin,
+                      doc="the grid's low corner (x, y, z), metres")
+    shape = property(lambda self: self._core.shape, doc="voxels per axis (nx, ny, nz)")
+    bounds = property(lambda self: self._core.bounds,
+                      doc="the map's box: ((x, y, z) low, (x, y, z) high), metres")
+    occupancy = property(lambda self: self._core.occupancy,
+                         doc="read-only uint8 NumPy view (nx, ny, nz): 1 = occupied")
+    esdf = property(lambda self: self._core.esdf,
+                    doc="read-only float32 NumPy view (nx, ny, nz): the signed distance from "
+                        "each voxel's centre to the nearest cube of the other kind, metres")
     source = property(lambda self: self._core.source, doc="'built' or 'cache'")
     seconds = property(lambda self: self._core.seconds, doc="time to build or load, s")
 
@@ -150,6 +163,7 @@ class Planner:
                                max_iterations if max_iterations is not None else 2**62, tree)
 
     def reset(self) -> None:
+        """Forgets what the planner kept between plans (a new query starts afresh)."""
         self._core.reset()
 
     def __repr__(self) -> str:
@@ -242,6 +256,8 @@ class Scene:
             self._core.set_world(world._core)
 
     def add_query(self, name: str, start, goal) -> int:
+        """Adds a query (start and goal, (x, y, z) each) named `name`; returns its index, for
+        add_result."""
         return self._core.add_query(name, start, goal)
 
     def add_result(self, query: int, planner: str, result: Result) -> "Scene":
@@ -250,9 +266,11 @@ class Scene:
         return self
 
     def json(self) -> str:
+        """The scene as JSON (viewer/scene.schema.json)."""
         return self._core.json()
 
     def html(self) -> str:
+        """The self-contained viewer page, as text (for IPython.display.HTML)."""
         return self._core.html()
 
     def _repr_html_(self) -> str:
@@ -261,5 +279,6 @@ class Scene:
                 'style="width: 100%; height: 600px; border: 0"></iframe>')
 
     def write(self, path: str | os.PathLike) -> Path:
+        """Writes the self-contained viewer page to `path`; returns the path."""
         self._core.write(os.fspath(path))
         return Path(path)

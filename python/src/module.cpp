@@ -479,22 +479,37 @@ void bindPlanner(py::module_& m) {
 }
 
 void bindResult(py::module_& m) {
-  py::class_<PyResult>(m, "Result")
+  py::class_<PyResult>(m, "Result",
+                       "A plan's result: status, cost, times, the checker's verdict, every "
+                       "metric, the trajectory and (when asked for) the search tree")
       .def_property_readonly(
-          "status", [](const PyResult& r) { return std::string(toString(r.result.status)); })
-      .def_property_readonly("message", [](const PyResult& r) { return r.result.message; })
+          "status", [](const PyResult& r) { return std::string(toString(r.result.status)); },
+          "exact, approximate, no_solution, timeout, invalid_start, invalid_goal or "
+          "invalid_trajectory")
+      .def_property_readonly(
+          "message", [](const PyResult& r) { return r.result.message; },
+          "why the planner stopped where it did, in words")
       .def_property_readonly(
           "success",
-          [](const PyResult& r) { return isSuccess(r.result.status, r.result.check.valid); })
-      .def_property_readonly("cost", [](const PyResult& r) { return r.result.cost; })
-      .def_property_readonly("distance_to_goal",
-                             [](const PyResult& r) { return r.result.distance_to_goal; })
-      .def_property_readonly("planning_time_ms",
-                             [](const PyResult& r) { return r.result.planning_time_ms; })
-      .def_property_readonly("duration",
-                             [](const PyResult& r) { return r.result.trajectory.duration(); })
-      .def_property_readonly("check", [](const PyResult& r) { return checkDict(r.result.check); })
-      .def_property_readonly("metrics", &metricsDict)
+          [](const PyResult& r) { return isSuccess(r.result.status, r.result.check.valid); },
+          "exact and accepted by the independent checker")
+      .def_property_readonly(
+          "cost", [](const PyResult& r) { return r.result.cost; },
+          "the trajectory's cost (the planner's objective; inf without a trajectory)")
+      .def_property_readonly(
+          "distance_to_goal", [](const PyResult& r) { return r.result.distance_to_goal; },
+          "D: the distance from the trajectory's end to the goal, metres")
+      .def_property_readonly(
+          "planning_time_ms", [](const PyResult& r) { return r.result.planning_time_ms; },
+          "the plan's wall-clock time, milliseconds")
+      .def_property_readonly(
+          "duration", [](const PyResult& r) { return r.result.trajectory.duration(); },
+          "the trajectory's duration, seconds")
+      .def_property_readonly(
+          "check", [](const PyResult& r) { return checkDict(r.result.check); },
+          "the independent checker's verdict: valid, check, detail, min_clearance, ...")
+      .def_property_readonly("metrics", &metricsDict,
+                             "every metric of the schema and the planner's statistics, by name")
       .def_property_readonly(
           "progress",
           [](const PyResult& r) {
@@ -505,7 +520,8 @@ void bindResult(py::module_& m) {
           },
           "the anytime progress: (series, time_ms, value) samples of the planner's declared "
           "series, in time order")
-      .def_property_readonly("tree", &treeArrays)
+      .def_property_readonly("tree", &treeArrays,
+                             "the search tree (plan(tree=True)): edges as NumPy arrays, or None")
       .def(
           "trajectory",
           [](const PyResult& r, double step) {
@@ -514,12 +530,14 @@ void bindResult(py::module_& m) {
           py::arg("step") = 0.01,
           "The trajectory sampled every `step` seconds and at its end: t (n,), position, "
           "velocity, acceleration and jerk (n, 3) NumPy arrays")
-      .def("position",
-           [](const PyResult& r, double t) {
-             if (r.result.trajectory.empty()) throw InvalidArgument("position: no trajectory");
-             const Eigen::Vector3d p = r.result.trajectory.evaluate(t);
-             return py::make_tuple(p.x(), p.y(), p.z());
-           })
+      .def(
+          "position",
+          [](const PyResult& r, double t) {
+            if (r.result.trajectory.empty()) throw InvalidArgument("position: no trajectory");
+            const Eigen::Vector3d p = r.result.trajectory.evaluate(t);
+            return py::make_tuple(p.x(), p.y(), p.z());
+          },
+          py::arg("t"), "The trajectory's position (x, y, z) at time `t`, seconds from its start")
       .def("__repr__", [](const PyResult& r) {
         return "Result(status='" + std::string(toString(r.result.status)) +
                "', cost=" + formatNumber(r.result.cost) +

@@ -297,3 +297,31 @@ def test_every_plugin_kind_is_listed_from_its_registry():
     assert {"density", "canopy", "region"} <= {p["name"] for p in forest["parameters"]}
     with pytest.raises(kinolab.InvalidArgument, match="did you mean 'sensors'"):
         kinolab.plugins("sensor_s")
+
+
+def test_every_public_name_has_a_docstring():
+    """Every name in kinolab.__all__, and every public method and property of its classes,
+    says what it is (a pybind signature line alone does not count)."""
+    import inspect
+    import kinolab
+
+    def documented(doc):
+        lines = [line for line in (doc or "").strip().splitlines() if line.strip()]
+        if lines and "(self" in lines[0] and "->" in lines[0]:  # pybind's signature line
+            lines = lines[1:]
+        return bool(lines)
+
+    missing = []
+    for name in kinolab.__all__:
+        item = getattr(kinolab, name)
+        if not documented(item.__doc__) or (inspect.isclass(item) and
+                                             item.__doc__ in (object.__doc__,
+                                                              Exception.__doc__)):
+            missing.append(name)
+        if inspect.isclass(item):
+            for attribute, value in vars(item).items():
+                if attribute.startswith("_"):
+                    continue
+                if not documented(getattr(value, "__doc__", None)):
+                    missing.append(f"{name}.{attribute}")
+    assert missing == []
