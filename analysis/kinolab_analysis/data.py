@@ -78,6 +78,12 @@ class Results:
                     self.meta.get("reproduces.rows", "").splitlines() if "=" in line)
         return paper, rows
 
+    def paper_setting(self) -> set[str]:
+        """The sweep variants (labels; "" without a sweep) the experiment declares to run in
+        the paper's setting; none when it declares none."""
+        text = self.meta.get("reproduces.setting")
+        return set() if text is None else set(text.split("\n"))
+
     def connection(self, run_hash: str) -> sqlite3.Connection:
         path = self.runs.loc[self.runs["run_hash"] == run_hash, "database"].iloc[0]
         return sqlite3.connect(path)

@@ -33,6 +33,8 @@ class Paper:
     rows: dict[str, tuple[float, float, float]]
     speedup: float
     samplers: dict[str, tuple[float, float]]
+    # Table II's setting: the searches' expansion cap (NaN: not stated).
+    max_expansions: float = math.nan
 
 
 def load(key: str) -> Paper:
@@ -47,17 +49,47 @@ def load(key: str) -> Paper:
     ratio = rows[speedup["eager"]][0] / rows[speedup["lazy"]][0] if speedup else math.nan
     samplers = {name: (_number(v["alpha"]), _number(v["L"]))
                 for name, v in (entry.get("samplers") or {}).items()}
-    return Paper(key, " ".join(str(entry.get("title", key)).split()), rows, ratio, samplers)
+    setting = entry.get("setting") or {}
+    return Paper(key, " ".join(str(entry.get("title", key)).split()), rows, ratio, samplers,
+                 _number(setting.get("max_expansions")))
 
 
-def table2(runs: pd.DataFrame, paper: Paper) -> pd.DataFrame:
+def in_setting(runs: pd.DataFrame, paper: Paper, declared: set[str]) -> dict[str, str]:
+    """Per sweep variant, whether its runs are in the paper's setting: "the paper's" when the
+    experiment declares it (`reproduces: {setting: [...]}`) and its searches (the rows with
+    an N) stopped at the paper's expansion cap (median N of the answered runs); otherwise
+    why not."""
+    verdicts = {}
+    for variant, group in runs.groupby(runs["sweep"].fillna(""), sort=False):
+        if variant not in declared:
+            verdicts[variant] = "not the paper's setting (not declared)"
+            continue
+        searches = group[group["paper"].isin([r for r, (_, n, _) in paper.rows.items()
+                                              if math.isfinite(n)])]
+        answered = searches[tables.answered(searches)]
+        medians = (answered.groupby("paper")["expansions"].median()
+                   if "expansions" in answered else pd.Series(dtype=float))
+        cap = paper.max_expansions
+        if math.isfinite(cap) and (medians.empty or (medians != cap).any()):
+            found = ", ".join(f"{row} {value:,.0f}" for row, value in medians.items()) or "none"
+            verdicts[variant] = (f"declared, but not the paper's setting: the searches' median "
+                                 f"N is {found}, the paper's cap {cap:,.0f}")
+        else:
+            verdicts[variant] = "the paper's"
+    return verdicts
+
+
+def table2(runs: pd.DataFrame, paper: Paper, declared: set[str] | None = None) -> pd.DataFrame:
     """The paper's T, N, D beside the medians kinolab measured for the same planner
-    families, per sweep variant and world when there are several: T and N over the runs that returned
-    a checked trajectory (answered: exact, or approximate at the budget), D over all runs,
-    with intervals and the one-sample Wilcoxon p of each difference."""
+    families, per sweep variant and world when there are several: T and N over the runs that
+    returned a checked trajectory (answered: exact, or approximate at the budget), D over all
+    runs, with intervals. Only in a variant run in the paper's setting (in_setting) is each
+    difference tested (one-sample Wilcoxon p); elsewhere the p columns are empty and the
+    setting column says why: such figures are not a reproduction."""
     rows = []
     variants = list(dict.fromkeys(runs["sweep"].fillna("")))
     worlds = list(dict.fromkeys(runs["world"]))
+    setting = in_setting(runs, paper, declared or set())
     for variant, world in itertools.product(variants, worlds):
         for family, (t, n, d) in paper.rows.items():
             group = runs[(runs["paper"] == family) & (runs["sweep"].fillna("") == variant)
@@ -66,7 +98,8 @@ def table2(runs: pd.DataFrame, paper: Paper) -> pd.DataFrame:
             row = {"variant": variant} if len(variants) > 1 else {}
             if len(worlds) > 1:
                 row["world"] = world
-            row.update({"planner": family, "runs": len(group),
+            row.update({"planner": family, "setting": setting.get(variant, ""),
+                        "runs": len(group),
                         "success": stats.wilson(int(group["success"].sum()), len(group)),
                         "answered": stats.wilson(len(ok), len(group))})
             for label, column, paper_value, subset in (("T (ms)", "planning_time_ms", t, ok),
@@ -76,8 +109,10 @@ def table2(runs: pd.DataFrame, paper: Paper) -> pd.DataFrame:
                           else np.array([]))
                 row[f"paper {label}"] = paper_value
                 row[f"kinolab {label}"] = stats.bootstrap(values, np.median)
+                testable = (setting.get(variant) == "the paper's" and math.isfinite(paper_value)
+                            and len(values))
                 row[f"p {label}"] = (stats.one_sample_wilcoxon(values, paper_value)
-                                     if math.isfinite(paper_value) and len(values) else math.nan)
+                                     if testable else math.nan)
             rows.append(row)
     return pd.DataFrame(rows)
 

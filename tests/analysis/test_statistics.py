@@ -154,7 +154,10 @@ def test_paired_comparisons_find_the_constant_difference():
 
 
 def test_paper_table_two_beside_the_measured_medians():
-    table = paper.table2(synthetic_runs(), paper.load("lazy_mp_astar_paper")).set_index("planner")
+    import dataclasses
+    # Declared in the setting (the one variant, ""), with no cap to check: the p are tested.
+    figures = dataclasses.replace(paper.load("lazy_mp_astar_paper"), max_expansions=math.nan)
+    table = paper.table2(synthetic_runs(), figures, {""}).set_index("planner")
     assert table.loc["MP-A*", "paper T (ms)"] == 6.82
     assert table.loc["Lazy", "kinolab N"].estimate == 100.0
     measured = synthetic_runs().query("planner == 'fast'")["planning_time_ms"]
@@ -424,3 +427,24 @@ def test_importing_the_package_leaves_the_backend_alone():
                             cwd=Path(__file__).resolve().parents[2] / "analysis")
     assert result.returncode == 0, result.stderr
     assert result.stdout.strip() == "svg"
+
+
+def test_the_papers_table_tests_only_the_declared_and_matching_setting():
+    figures = paper.load("lazy_mp_astar_paper")
+    rows = []
+    for variant, n in (("full", 1250.0), ("horizon", 1000.0), ("capped_wrong", 800.0)):
+        for family in ("MP-A*", "Lazy", "TGK"):
+            for query in range(8):
+                rows.append({"sweep": variant, "world": "w", "paper": family, "query": query,
+                             "status": "approximate", "checker_valid": 1, "success": False,
+                             "planning_time_ms": 5.0 + query, "distance_to_goal": 2.0,
+                             "expansions": math.nan if family == "TGK" else n})
+    runs = pd.DataFrame(rows)
+    verdicts = paper.in_setting(runs, figures, {"horizon", "capped_wrong"})
+    assert verdicts["full"] == "not the paper's setting (not declared)"
+    assert verdicts["horizon"] == "the paper's"
+    assert "median N is Lazy 800, MP-A* 800, the paper's cap 1,000" in verdicts["capped_wrong"]
+    table = paper.table2(runs, figures, {"horizon", "capped_wrong"})
+    tested = table[table["p T (ms)"].notna()]
+    assert set(tested["variant"]) == {"horizon"} and len(tested) == 3
+    assert table[table["variant"] != "horizon"]["p N"].isna().all()

@@ -211,6 +211,13 @@ TEST_F(ExperimentTest, ReproducesNamesAKnownPaperAndThePlannersOfItsRows) {
   fails("reproduces: {paper: lazy_mp_astar_paper, rows: {eager: Eager}}\n", "not a row");
   fails("reproduces: {paper: lazy_mp_astar_paper, rows: {tgk: TGK}}\n", "no planner has the id");
   fails("reproduces: {paper: lazy_mp_astar_paper, rows: {}, colour: red}\n", "colour");
+  // The paper's setting names variants: `true` is every one (here the one, unswept).
+  const Experiment all = Experiment::fromFile(experiment(
+      "setting.yaml", "reproduces: {paper: lazy_mp_astar_paper, rows: {}, setting: true}\n"));
+  EXPECT_EQ(all.reproduces_setting, std::vector<std::string>{""});
+  EXPECT_TRUE(e.reproduces_setting.empty());
+  fails("reproduces: {paper: lazy_mp_astar_paper, rows: {}, setting: [horizon]}\n",
+        "'horizon' is not a variant of this experiment");
 }
 
 TEST_F(ExperimentTest, NamesAndIdsUseADocumentedCharacterSet) {

@@ -325,7 +325,8 @@ void readHeader(const YamlReader& root, const std::string& directory, Experiment
   }
 }
 
-/// `reproduces: {paper, rows}`: a known paper and rows of it.
+/// `reproduces: {paper, rows, setting}`: a known paper, rows of it, and which variants run in
+/// its setting (checked against the variants once they are read).
 void readReproduces(const YamlReader& reproduces, Experiment& experiment) {
   const YamlReader paper = reproduces["paper"];
   experiment.reproduces_paper = paper.as<std::string>();
@@ -344,6 +345,15 @@ void readReproduces(const YamlReader& reproduces, Experiment& experiment) {
                "; its rows: " + join(known->second, ", "));
     }
     experiment.reproduces_rows.emplace_back(id, name);
+  }
+  if (const auto setting = reproduces.optional("setting")) {
+    if (setting->isSequence()) {
+      for (const YamlReader& label : setting->items()) {
+        experiment.reproduces_setting.push_back(label.as<std::string>());
+      }
+    } else if (setting->as<bool>()) {
+      experiment.reproduces_setting.push_back("*");  // every variant, resolved below
+    }
   }
   reproduces.finish();
 }
@@ -425,6 +435,19 @@ Experiment Experiment::fromFile(const std::string& path) {
       const bool found = std::any_of(variant.planners.begin(), variant.planners.end(),
                                      [&](const ExperimentPlanner& p) { return p.id == id; });
       if (!found) (*reproduces)["rows"][id].fail("no planner has the id '" + id + "'");
+    }
+  }
+  // The declared setting names variants of this experiment.
+  std::vector<std::string> labels;
+  for (const ExperimentVariant& variant : experiment.variants) labels.push_back(variant.label);
+  if (experiment.reproduces_setting == std::vector<std::string>{"*"}) {
+    experiment.reproduces_setting = labels;
+  }
+  for (const std::string& label : experiment.reproduces_setting) {
+    if (std::find(labels.begin(), labels.end(), label) == labels.end()) {
+      (*reproduces)["setting"].fail("'" + label + "' is not a variant of this experiment" +
+                                    didYouMean(label, labels) + "; its variants: " +
+                                    join(labels, ", "));
     }
   }
   return experiment;

@@ -283,6 +283,9 @@ void prepareStore(ResultsStore& store, const Experiment& experiment, const Runne
     std::string rows;
     for (const auto& [id, row] : experiment.reproduces_rows) rows += id + "=" + row + "\n";
     meta["reproduces.rows"] = rows;
+    if (!experiment.reproduces_setting.empty()) {
+      meta["reproduces.setting"] = join(experiment.reproduces_setting, "\n");
+    }
   }
   for (const auto& [key, value] : provenance()) meta["provenance." + key] = value;
   store.setMeta(meta);

@@ -127,6 +127,10 @@ struct Experiment {
   /// and the report shows no paper's tables.
   std::string reproduces_paper;
   std::vector<std::pair<std::string, std::string>> reproduces_rows;  ///< planner id, row
+  /// The sweep variants (labels) the experiment declares to be run in the paper's setting
+  /// (`reproduces: {setting: [LABEL, ...]}`, or `true` for every variant): only beside these
+  /// does the report test kinolab's figures against the paper's.
+  std::vector<std::string> reproduces_setting;
   std::vector<ExperimentVariant> variants;
   /// The configuration as YAML (`extends:` merged, world spec files inlined, no sweep), then
   /// one line per variant with the sweep values it sets.
