@@ -7,6 +7,7 @@ from __future__ import annotations
 import math
 import re
 
+import matplotlib
 import matplotlib.pyplot as plt
 from matplotlib.collections import LineCollection
 import numpy as np
