@@ -1,5 +1,4 @@
 // The `kinolab` command: one binary, one subcommand per job.
-#include <algorithm>
 #include <filesystem>
 #include <iostream>
 #include <string>
@@ -9,25 +8,10 @@
 #include "kinolab/builtin_plugins.hpp"
 #include "kinolab/core/error.hpp"
 #include "kinolab/core/plugin.hpp"
+#include "kinolab/core/text.hpp"
 #include "kinolab/core/version.hpp"
 
 namespace {
-
-/// Edits (insertions, deletions, substitutions) from `a` to `b`.
-std::size_t editDistance(const std::string& a, const std::string& b) {
-  std::vector<std::size_t> row(b.size() + 1);
-  for (std::size_t j = 0; j <= b.size(); ++j) row[j] = j;
-  for (std::size_t i = 1; i <= a.size(); ++i) {
-    std::size_t diagonal = row[0];
-    row[0] = i;
-    for (std::size_t j = 1; j <= b.size(); ++j) {
-      const std::size_t above = row[j];
-      row[j] = std::min({row[j] + 1, row[j - 1] + 1, diagonal + (a[i - 1] == b[j - 1] ? 0 : 1)});
-      diagonal = above;
-    }
-  }
-  return row[b.size()];
-}
 
 /// The first word that is not an option, when it names no command: a message with the
 /// nearest command's name. Empty otherwise.
@@ -44,18 +28,15 @@ std::string unknownCommand(const CLI::App& app, int argc, char** argv) {
     break;
   }
   if (word.empty()) return "";
-  std::string nearest;
-  std::size_t best = word.size();
+  std::vector<std::string> names;
   for (const CLI::App* command : app.get_subcommands([](const CLI::App*) { return true; })) {
     if (command->get_name() == word) return "";
-    const std::size_t distance = editDistance(word, command->get_name());
-    if (distance < best) {
-      best = distance;
-      nearest = command->get_name();
-    }
+    names.push_back(command->get_name());
   }
   std::string message = "unknown command '" + word + "'";
-  if (!nearest.empty() && best <= 2) message += "; did you mean '" + nearest + "'?";
+  if (const std::string nearest = kinolab::closestMatch(word, names); !nearest.empty()) {
+    message += "; did you mean '" + nearest + "'?";
+  }
   return message + " (kinolab --help lists the commands)";
 }
 

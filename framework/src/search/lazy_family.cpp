@@ -75,32 +75,60 @@ void LazyEdgeWork::addStatistics(Statistics& statistics, double total_seconds) c
   statistics.emplace_back("time_search_ms", 1e3 * (total_seconds - evaluation_seconds_));
 }
 
-Trajectory trajectoryOf(const std::vector<LazyPathStep>& steps,
-                        const std::vector<Eigen::Vector3d>& controls,
-                        const SearchSettings& settings) {
+LazyFamilySearch::LazyFamilySearch(const char* name, std::shared_ptr<const World> world,
+                                   std::vector<Eigen::Vector3d> controls, SearchSettings settings,
+                                   SearchPolicies policies, EdgeSelector selector)
+    : world_(std::move(world)),
+      controls_(std::move(controls)),
+      settings_(settings),
+      policies_(std::move(policies)),
+      selector_(selector),
+      work_(world_, settings_, policies_.edges) {
+  const std::string who(name);
+  if (controls_.empty()) throw InvalidArgument(who + ": no controls");
+  if (!policies_.edges || !policies_.heuristic || !policies_.space) {
+    throw InvalidArgument(who + ": an edge policy, a heuristic and a search space are needed");
+  }
+  if (!(settings_.heuristic_weight >= 1.0)) {
+    throw InvalidArgument(who + ": heuristic_weight must be >= 1");
+  }
+}
+
+void LazyFamilySearch::reset(const ChainState& start, const Eigen::Vector3d& goal) {
+  start_ = start;
+  goal_ = goal;
+  path_.clear();
+  solved_ = memory_limited_ = reverse_next_ = false;
+  expansions_ = 0;
+  work_.reset();
+}
+
+Trajectory LazyFamilySearch::trajectory() const {
   Trajectory trajectory;
-  for (const LazyPathStep& step : steps) {
-    trajectory.append(TrajectorySegment::primitive(step.parent, controls[step.control],
-                                                   settings.edges.order, settings.edges.duration));
+  for (const LazyPathStep& step : path_) {
+    trajectory.append(TrajectorySegment::primitive(
+        step.parent, controls_[step.control], settings_.edges.order, settings_.edges.duration));
   }
   return trajectory;
 }
 
-double costOf(const std::vector<LazyPathStep>& steps, bool solved) {
-  if (steps.empty()) return solved ? 0.0 : INFINITY;
+double LazyFamilySearch::cost() const {
+  if (path_.empty()) return solved_ ? 0.0 : INFINITY;
   double total = 0.0;
-  for (const LazyPathStep& step : steps) total += step.cost;
+  for (const LazyPathStep& step : path_) total += step.cost;
   return total;
 }
 
-namespace {
+Statistics LazyFamilySearch::statistics() const {
+  Statistics statistics{{"expansions", static_cast<double>(expansions_)}};
+  for (auto& entry : ownStatistics()) statistics.push_back(std::move(entry));
+  work_.addStatistics(statistics, total_seconds_);
+  return statistics;
+}
 
-/// The order in which `selector` evaluates the unevaluated edges `band` (in path order) of a
-/// lazy path; `reverse_next` carries alternate's turn from one call to the next.
-template <typename Clearance>
-std::vector<int> selectorOrder(EdgeSelector selector, std::vector<int> band,
-                               const Clearance& clearance, bool& reverse_next) {
-  switch (selector) {
+std::vector<int> LazyFamilySearch::selectorOrder(std::vector<int> band,
+                                                 const std::function<double(int)>& clearance) {
+  switch (selector_) {
     case EdgeSelector::kForward:
       break;
     case EdgeSelector::kReverse:
@@ -110,12 +138,12 @@ std::vector<int> selectorOrder(EdgeSelector selector, std::vector<int> band,
       std::vector<int> order;
       order.reserve(band.size());
       std::size_t front = 0, back = band.size();
-      bool from_back = reverse_next;
+      bool from_back = reverse_next_;
       while (front < back) {
         order.push_back(from_back ? band[--back] : band[front++]);
         from_back = !from_back;
       }
-      reverse_next = !reverse_next;
+      reverse_next_ = !reverse_next_;
       return order;
     }
     case EdgeSelector::kFailFast: {
@@ -131,31 +159,11 @@ std::vector<int> selectorOrder(EdgeSelector selector, std::vector<int> band,
   return band;
 }
 
-void checkLazySearch(const char* name, const std::vector<Eigen::Vector3d>& controls,
-                     const SearchSettings& settings, const SearchPolicies& policies) {
-  const std::string who(name);
-  if (controls.empty()) throw InvalidArgument(who + ": no controls");
-  if (!policies.edges || !policies.heuristic || !policies.space) {
-    throw InvalidArgument(who + ": an edge policy, a heuristic and a search space are needed");
-  }
-  if (!(settings.heuristic_weight >= 1.0)) {
-    throw InvalidArgument(who + ": heuristic_weight must be >= 1");
-  }
-}
-
-}  // namespace
-
 LazySpSearch::LazySpSearch(std::shared_ptr<const World> world,
                            std::vector<Eigen::Vector3d> controls, SearchSettings settings,
                            SearchPolicies policies, EdgeSelector selector)
-    : world_(std::move(world)),
-      controls_(std::move(controls)),
-      settings_(settings),
-      policies_(std::move(policies)),
-      selector_(selector),
-      work_(world_, settings_, policies_.edges) {
-  checkLazySearch("LazySP", controls_, settings_, policies_);
-}
+    : LazyFamilySearch("LazySP", std::move(world), std::move(controls), settings,
+                       std::move(policies), selector) {}
 
 LazySpSearch::Edge& LazySpSearch::edgeOf(Slot& slot, const ChainState& parent, double& clearance,
                                          int control) {
@@ -251,7 +259,7 @@ bool LazySpSearch::evaluateOnPath(int goal_node) {
     return std::isfinite(bound.end_clearance) ? bound.end_clearance
                                               : world_->clearance(bound.end.col(0));
   };
-  const int chosen = selectorOrder(selector_, unevaluated, clearance, reverse_next_).front();
+  const int chosen = selectorOrder(unevaluated, clearance).front();
   Edge& edge = *nodes_[chosen].edge;
   edge.full = work_.evaluate(edge.parent, controls_[nodes_[chosen].control]);
   edge.evaluated = true;
@@ -262,16 +270,10 @@ MotionPrimitiveSearch::Outcome LazySpSearch::search(const ChainState& start,
                                                     const Eigen::Vector3d& goal,
                                                     StopCondition& stop) {
   const auto begin = std::chrono::steady_clock::now();
-  start_ = start;
-  goal_ = goal;
+  reset(start, goal);
   edges_.clear();
   edge_records_ = 0;
-  path_.clear();
-  solved_ = false;
-  memory_limited_ = false;
-  reverse_next_ = false;
-  expansions_ = lazy_searches_ = 0;
-  work_.reset();
+  lazy_searches_ = 0;
   auto outcome = MotionPrimitiveSearch::Outcome::kExhausted;
   for (;;) {
     bool stopped = false;
@@ -294,15 +296,8 @@ MotionPrimitiveSearch::Outcome LazySpSearch::search(const ChainState& start,
   return outcome;
 }
 
-Trajectory LazySpSearch::trajectory() const { return trajectoryOf(path_, controls_, settings_); }
-
-double LazySpSearch::cost() const { return costOf(path_, solved_); }
-
-Statistics LazySpSearch::statistics() const {
-  Statistics statistics{{"expansions", static_cast<double>(expansions_)},
-                        {"lazy_searches", static_cast<double>(lazy_searches_)}};
-  work_.addStatistics(statistics, total_seconds_);
-  return statistics;
+Statistics LazySpSearch::ownStatistics() const {
+  return {{"lazy_searches", static_cast<double>(lazy_searches_)}};
 }
 
 bool LraStarSearch::Entry::operator>(const Entry& other) const {
@@ -314,14 +309,9 @@ bool LraStarSearch::Entry::operator>(const Entry& other) const {
 LraStarSearch::LraStarSearch(std::shared_ptr<const World> world,
                              std::vector<Eigen::Vector3d> controls, SearchSettings settings,
                              SearchPolicies policies, int lookahead, EdgeSelector selector)
-    : world_(std::move(world)),
-      controls_(std::move(controls)),
-      settings_(settings),
-      policies_(std::move(policies)),
-      lookahead_(lookahead),
-      selector_(selector),
-      work_(world_, settings_, policies_.edges) {
-  checkLazySearch("LRA*", controls_, settings_, policies_);
+    : LazyFamilySearch("LRA*", std::move(world), std::move(controls), settings, std::move(policies),
+                       selector),
+      lookahead_(lookahead) {
   if (lookahead_ < 1) throw InvalidArgument("LRA*: lookahead must be >= 1");
 }
 
@@ -515,7 +505,7 @@ void LraStarSearch::evaluateBand(int vertex) {
   }
   const auto clearance = [&](int v) { return treeArc(v).end_clearance; };
   const int top = band.front();  // the band's first vertex: every budget changes below it
-  for (const int v : selectorOrder(selector_, band, clearance, reverse_next_)) {
+  for (const int v : selectorOrder(band, clearance)) {
     Arc& arc = treeArc(v);
     const EdgeEvaluation full =
         work_.evaluate(vertices_[vertices_[v].parent].state, controls_[vertices_[v].control]);
@@ -543,17 +533,13 @@ MotionPrimitiveSearch::Outcome LraStarSearch::search(const ChainState& start,
                                                      const Eigen::Vector3d& goal,
                                                      StopCondition& stop) {
   const auto begin = std::chrono::steady_clock::now();
-  start_ = start;
-  goal_ = goal;
+  reset(start, goal);
   vertices_.clear();
   arcs_.clear();
   index_.clear();
   extend_ = Heap();
   frontier_ = Heap();
-  path_.clear();
-  solved_ = memory_limited_ = reverse_next_ = false;
-  expansions_ = rewired_ = 0;
-  work_.reset();
+  rewired_ = 0;
   const int root = vertexOf(start);
   vertices_[root].g = 0.0;
   vertices_[root].in_tree = true;
@@ -606,15 +592,8 @@ MotionPrimitiveSearch::Outcome LraStarSearch::search(const ChainState& start,
   return outcome;
 }
 
-Trajectory LraStarSearch::trajectory() const { return trajectoryOf(path_, controls_, settings_); }
-
-double LraStarSearch::cost() const { return costOf(path_, solved_); }
-
-Statistics LraStarSearch::statistics() const {
-  Statistics statistics{{"expansions", static_cast<double>(expansions_)},
-                        {"rewired_vertices", static_cast<double>(rewired_)}};
-  work_.addStatistics(statistics, total_seconds_);
-  return statistics;
+Statistics LraStarSearch::ownStatistics() const {
+  return {{"rewired_vertices", static_cast<double>(rewired_)}};
 }
 
 }  // namespace kinolab

@@ -4,7 +4,6 @@
 // rule it returns the same cost as eager_mp_astar; `seed` is the paper's Algorithm 1 read
 // literally.
 #include <charconv>
-#include <type_traits>
 
 #include "kinolab/core/plugin.hpp"
 #include "kinolab/search/lazy_family.hpp"
@@ -14,8 +13,7 @@ namespace kinolab {
 namespace {
 
 /// A lookahead above 1 over the same lattice, controls, costs, heuristic and bound: LRA*
-/// (`Search` = LraStarSearch) or, at infinity, LazySP (LazySpSearch).
-template <typename Search>
+/// (finite) or LazySP (infinite, `lookahead` 0).
 class LazyFamilyPlanner final : public MotionPrimitivePlanner {
  public:
   LazyFamilyPlanner(MotionPrimitiveConfig config, EdgeSelector selector, int lookahead)
@@ -24,12 +22,12 @@ class LazyFamilyPlanner final : public MotionPrimitivePlanner {
  protected:
   void doSetup(const PlannerContext& context) override {
     MotionPrimitivePlanner::doSetup(context);
-    if constexpr (std::is_same_v<Search, LazySpSearch>) {
-      lazy_ = std::make_unique<Search>(context.world, search().controls(), config().settings,
-                                       config().policies, selector_);
+    if (lookahead_ == 0) {
+      lazy_ = std::make_unique<LazySpSearch>(context.world, search().controls(), config().settings,
+                                             config().policies, selector_);
     } else {
-      lazy_ = std::make_unique<Search>(context.world, search().controls(), config().settings,
-                                       config().policies, lookahead_, selector_);
+      lazy_ = std::make_unique<LraStarSearch>(context.world, search().controls(), config().settings,
+                                              config().policies, lookahead_, selector_);
     }
   }
 
@@ -49,7 +47,7 @@ class LazyFamilyPlanner final : public MotionPrimitivePlanner {
  private:
   EdgeSelector selector_;
   int lookahead_;
-  std::unique_ptr<Search> lazy_;
+  std::unique_ptr<LazyFamilySearch> lazy_;
 };
 
 EdgeSelector selectorOf(const std::string& name) {
@@ -117,13 +115,8 @@ KINOLAB_REGISTER_PLUGINS(registrar) {
                                   "seed is Algorithm 1's rule for lookahead 1; a larger "
                                   "lookahead keeps the cheapest path to each state");
         }
-        const EdgeSelector selector = selectorOf(parameters.text("selector"));
-        if (lookahead == 0) {
-          return std::unique_ptr<Planner>(std::make_unique<LazyFamilyPlanner<LazySpSearch>>(
-              std::move(config), selector, lookahead));
-        }
-        return std::unique_ptr<Planner>(std::make_unique<LazyFamilyPlanner<LraStarSearch>>(
-            std::move(config), selector, lookahead));
+        return std::unique_ptr<Planner>(std::make_unique<LazyFamilyPlanner>(
+            std::move(config), selectorOf(parameters.text("selector")), lookahead));
       },
       motionPrimitiveStatistics()
           .counter("lazy_searches", "LazySP's shortest-path searches (lookahead inf)")

@@ -1,6 +1,7 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <queue>
 #include <unordered_map>
@@ -59,15 +60,66 @@ struct LazyPathStep {
   double cost = 0.0;
 };
 
-/// The trajectory and cost of a path of `steps`.
-Trajectory trajectoryOf(const std::vector<LazyPathStep>& steps,
-                        const std::vector<Eigen::Vector3d>& controls,
-                        const SearchSettings& settings);
-double costOf(const std::vector<LazyPathStep>& steps, bool solved);
-
 /// Hash of a search-space key.
 struct LatticeKeyHash {
   std::size_t operator()(const SearchSpace::Key& key) const;
+};
+
+/// What the lazy-search family's searches above lookahead 1 share: the lattice's controls,
+/// settings and policies, the edge work, the selector and the path a search returns.
+class LazyFamilySearch {
+ public:
+  virtual ~LazyFamilySearch() = default;
+  LazyFamilySearch(const LazyFamilySearch&) = delete;
+  LazyFamilySearch& operator=(const LazyFamilySearch&) = delete;
+
+  /// One search from `start` to the goal region around `goal`.
+  virtual MotionPrimitiveSearch::Outcome search(const ChainState& start,
+                                                const Eigen::Vector3d& goal,
+                                                StopCondition& stop) = 0;
+  /// After search(): the path (every edge fully evaluated, kGoal) or, on a budget stop, the
+  /// evaluated, valid start of the last path found (empty when exhausted).
+  Trajectory trajectory() const;
+  double cost() const;
+  /// The last search stopped at memory_limit_mb.
+  bool memoryLimited() const { return memory_limited_; }
+  /// expansions, the member's own counters, then LazyEdgeWork's breakdown:
+  /// partial_evaluations (lower bounds), full_evaluations, rejected_edges, esdf_queries,
+  /// time_evaluation_ms (lower bounds and full evaluations, as the core search counts them)
+  /// and time_search_ms (the rest).
+  Statistics statistics() const;
+
+ protected:
+  /// Checks the arguments (`name` heads the messages).
+  LazyFamilySearch(const char* name, std::shared_ptr<const World> world,
+                   std::vector<Eigen::Vector3d> controls, SearchSettings settings,
+                   SearchPolicies policies, EdgeSelector selector);
+  /// Starts a search: forgets the last one's path, flags and counters.
+  void reset(const ChainState& start, const Eigen::Vector3d& goal);
+  /// The member's own counters, after expansions.
+  virtual Statistics ownStatistics() const = 0;
+  /// The order in which the selector evaluates the unevaluated edges `band` (in path order)
+  /// of a lazy path; `clearance(edge)` is failfast's key.
+  std::vector<int> selectorOrder(std::vector<int> band,
+                                 const std::function<double(int)>& clearance);
+
+  std::shared_ptr<const World> world_;
+  std::vector<Eigen::Vector3d> controls_;
+  SearchSettings settings_;
+  SearchPolicies policies_;
+  EdgeSelector selector_;
+  LazyEdgeWork work_;
+
+  ChainState start_;
+  Eigen::Vector3d goal_;
+  std::vector<LazyPathStep> path_;  ///< the final path, or the last one's evaluated valid start
+  bool solved_ = false;
+  bool memory_limited_ = false;
+  long long expansions_ = 0;
+  double total_seconds_ = 0.0;
+
+ private:
+  bool reverse_next_ = false;  ///< alternate's turn
 };
 
 /// LazySP on the motion-primitive lattice: repeatedly the shortest path to the goal region with
@@ -79,23 +131,17 @@ struct LatticeKeyHash {
 /// spends search time to save evaluations: it pays where an evaluation is dear. Lattice search
 /// spaces only (a state is one continuous state per key); evaluations are reused only for the
 /// same continuous parent.
-class LazySpSearch {
+class LazySpSearch final : public LazyFamilySearch {
  public:
   LazySpSearch(std::shared_ptr<const World> world, std::vector<Eigen::Vector3d> controls,
                SearchSettings settings, SearchPolicies policies, EdgeSelector selector);
 
   MotionPrimitiveSearch::Outcome search(const ChainState& start, const Eigen::Vector3d& goal,
-                                        StopCondition& stop);
-  /// After search(): the path (every edge fully evaluated, kGoal) or, on a budget stop, the
-  /// evaluated, valid start of the last lazy path found (empty when exhausted).
-  Trajectory trajectory() const;
-  double cost() const;
-  /// The last search stopped at memory_limit_mb.
-  bool memoryLimited() const { return memory_limited_; }
-  /// expansions (over every lazy search), lazy_searches, partial_evaluations (lower bounds),
-  /// full_evaluations, rejected_edges, esdf_queries, time_evaluation_ms (lower bounds and full
-  /// evaluations, as the core search counts them), time_search_ms (the rest).
-  Statistics statistics() const;
+                                        StopCondition& stop) override;
+
+ protected:
+  /// lazy_searches (expansions count those of every lazy search).
+  Statistics ownStatistics() const override;
 
  private:
   /// One lattice edge: the policy's estimate at first use (a lower bound, or exact when the
@@ -130,26 +176,11 @@ class LazySpSearch {
   /// path was already fully evaluated.
   bool evaluateOnPath(int goal_node);
 
-  std::shared_ptr<const World> world_;
-  std::vector<Eigen::Vector3d> controls_;
-  SearchSettings settings_;
-  SearchPolicies policies_;
-  EdgeSelector selector_;
-  LazyEdgeWork work_;
-
-  ChainState start_;
-  Eigen::Vector3d goal_;
   std::vector<Node> nodes_;
   /// Edge records by parent key, then control.
   std::unordered_map<Key, Slot, LatticeKeyHash> edges_;
-  std::vector<LazyPathStep> path_;  ///< the final path, or the last one's evaluated valid start
   std::size_t edge_records_ = 0;
-  bool solved_ = false;
-  bool memory_limited_ = false;
-  bool reverse_next_ = false;
-  long long expansions_ = 0;
   long long lazy_searches_ = 0;
-  double total_seconds_ = 0.0;
 };
 
 /// LRA* on the motion-primitive lattice (Mandalika, Salzman and Srinivasa, "Lazy Receding
@@ -161,27 +192,24 @@ class LazySpSearch {
 /// while a band vertex is cheaper than the best frontier vertex (`lookahead` unevaluated edges
 /// deep, or at the goal). The best frontier vertex's unevaluated edges are then evaluated in the
 /// selector's order until one is invalid or costs more than its bound; that edge's subtree
-/// leaves the tree and the tree vertices that reached it are extended again (LRA*'s rewiring,
-/// by the same relaxation that grows the tree). The search ends when the best frontier vertex
+/// leaves the tree and returns below its best remaining parents (LRA*'s rewiring). The
+/// search ends when the best frontier vertex
 /// is a fully evaluated goal: with a consistent heuristic, lower bounds and weight 1, eager's
 /// cost. Lookahead 1 evaluates edges as LWA* does; a larger lookahead evaluates fewer edges
 /// (only those on paths that stay best `lookahead` edges ahead) for more search.
-class LraStarSearch {
+class LraStarSearch final : public LazyFamilySearch {
  public:
   LraStarSearch(std::shared_ptr<const World> world, std::vector<Eigen::Vector3d> controls,
                 SearchSettings settings, SearchPolicies policies, int lookahead,
                 EdgeSelector selector);
 
+  /// On a budget stop the path is the evaluated start of the path to the best frontier vertex.
   MotionPrimitiveSearch::Outcome search(const ChainState& start, const Eigen::Vector3d& goal,
-                                        StopCondition& stop);
-  /// After search(): the path (kGoal) or, on a budget stop, the evaluated start of the path to
-  /// the best frontier vertex (empty when exhausted).
-  Trajectory trajectory() const;
-  double cost() const;
-  bool memoryLimited() const { return memory_limited_; }
-  /// expansions (extensions, re-extensions after a rewire included), rewired_vertices, and the
-  /// breakdown of LazyEdgeWork.
-  Statistics statistics() const;
+                                        StopCondition& stop) override;
+
+ protected:
+  /// rewired_vertices (expansions count the extensions again after a rewire too).
+  Statistics ownStatistics() const override;
 
  private:
   enum class Queue : std::uint8_t { kNone, kExtend, kFrontier };
@@ -243,28 +271,13 @@ class LraStarSearch {
   std::vector<int> pathTo(int vertex) const;
   double memoryBytes() const;
 
-  std::shared_ptr<const World> world_;
-  std::vector<Eigen::Vector3d> controls_;
-  SearchSettings settings_;
-  SearchPolicies policies_;
   int lookahead_;
-  EdgeSelector selector_;
-  LazyEdgeWork work_;
-
-  ChainState start_;
-  Eigen::Vector3d goal_;
   std::vector<Vertex> vertices_;
   std::vector<Arc> arcs_;
   std::unordered_map<Key, int, LatticeKeyHash> index_;
   Heap extend_;
   Heap frontier_;
-  std::vector<LazyPathStep> path_;
-  bool solved_ = false;
-  bool memory_limited_ = false;
-  bool reverse_next_ = false;
-  long long expansions_ = 0;
   long long rewired_ = 0;
-  double total_seconds_ = 0.0;
 };
 
 }  // namespace kinolab
