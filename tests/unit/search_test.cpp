@@ -317,6 +317,21 @@ TEST(GoalShot, AShotThroughAnObstacleIsRefusedAndTheSearchGoesOn) {
   EXPECT_TRUE(checker.check(with.search.trajectory(), check).valid);
 }
 
+/// A long query through the walls outgrows 1 MB of nodes (or vertices) and edge records long
+/// before it is solved: the lazy-family search at `lookahead` stops at its memory budget.
+void expectAMemoryBudgetStop(const std::string& lookahead) {
+  const auto walls = test::smallWorld("walls");
+  const auto far = test::randomQueries(*walls, 1, 5, 9.0, 11.0, 0.5).front();
+  ConfiguredPlanner capped = configurePlanner(
+      "lazy_mp_astar", test::assignments({"sampler.samples_per_axis=3", "time_limit=0",
+                                          "lookahead=" + lookahead, "memory_limit_mb=1"}));
+  capped.planner->setup({walls, capped.sampler, 1});
+  const PlanResult result = capped.planner->plan(far, Budget{});
+  EXPECT_TRUE(result.status == PlanStatus::kApproximate || result.status == PlanStatus::kTimeout)
+      << result.message;
+  EXPECT_NE(result.message.find("memory budget"), std::string::npos) << result.message;
+}
+
 TEST(LazySp, ABudgetStopReturnsTheEvaluatedStartOfTheLastLazyPath) {
   // Across the second and later lazy searches the nodes are rebuilt: what a budget stop
   // returns must be the last path's own edges, checked, starting at the start.
@@ -351,20 +366,8 @@ TEST(LazySp, ABudgetStopReturnsTheEvaluatedStartOfTheLastLazyPath) {
     EXPECT_LT((result.trajectory.startPosition() - query.start.col(0)).norm(), 1e-12);
     EXPECT_LE(result.cost, whole.cost);  // a start of a path no cheaper than the answer
   }
-  // The memory budget holds too: a long query through the walls outgrows 1 MB of nodes and
-  // edge records long before it is solved.
-  const auto walls = test::smallWorld("walls");
-  const auto far = test::randomQueries(*walls, 1, 5, 9.0, 11.0, 0.5).front();
-  ConfiguredPlanner capped = configurePlanner(
-      "lazy_mp_astar", test::assignments({"sampler.samples_per_axis=3", "time_limit=0",
-                                          "lookahead=inf", "memory_limit_mb=1"}));
-  capped.planner->setup({walls, capped.sampler, 1});
-  const PlanResult capped_result = capped.planner->plan(far, Budget{});
-  EXPECT_TRUE(capped_result.status == PlanStatus::kApproximate ||
-              capped_result.status == PlanStatus::kTimeout)
-      << capped_result.message;
-  EXPECT_NE(capped_result.message.find("memory budget"), std::string::npos)
-      << capped_result.message;
+  // The memory budget holds too.
+  expectAMemoryBudgetStop("inf");
   // The cells space is refused: its keys do not tell a state's evaluations apart.
   EXPECT_THROW(
       configurePlanner("lazy_mp_astar", test::assignments({"lookahead=inf", "search_space=cells"})),
@@ -404,19 +407,7 @@ TEST(LraStar, ABudgetStopReturnsACheckedStartAndBadLookaheadsAreRefused) {
     EXPECT_TRUE(result.check.valid) << result.check.detail;
     EXPECT_LT((result.trajectory.startPosition() - query.start.col(0)).norm(), 1e-12);
   }
-  // A long query through the walls outgrows 1 MB of vertices and arcs long before it is solved.
-  const auto walls = test::smallWorld("walls");
-  const auto far = test::randomQueries(*walls, 1, 5, 9.0, 11.0, 0.5).front();
-  ConfiguredPlanner capped = configurePlanner(
-      "lazy_mp_astar", test::assignments({"sampler.samples_per_axis=3", "time_limit=0",
-                                          "lookahead=4", "memory_limit_mb=1"}));
-  capped.planner->setup({walls, capped.sampler, 1});
-  const PlanResult capped_result = capped.planner->plan(far, Budget{});
-  EXPECT_TRUE(capped_result.status == PlanStatus::kApproximate ||
-              capped_result.status == PlanStatus::kTimeout)
-      << capped_result.message;
-  EXPECT_NE(capped_result.message.find("memory budget"), std::string::npos)
-      << capped_result.message;
+  expectAMemoryBudgetStop("4");
   for (const char* bad : {"0", "-2", "2.5", "four", "", "1e3", "99999999999"}) {
     SCOPED_TRACE(bad);
     try {
