@@ -25,7 +25,7 @@ TEMPLATE = """<!DOCTYPE html>
 <style>
 body { font-family: sans-serif; max-width: 1100px; margin: 2em auto; color: #222; }
 table { border-collapse: collapse; margin: 1em 0; font-size: 0.85em; }
-iframe.view3d { width: 100%; height: 620px; border: 1px solid #ccc; }
+iframe.view3d { width: 100%; height: 620px; border: 1px solid #ccc; box-sizing: border-box; }
 th, td { border-bottom: 1px solid #ccc; padding: 0.25em 0.6em; text-align: right; }
 th:first-child, td:first-child { text-align: left; }
 th { border-bottom: 2px solid #444; }

@@ -143,3 +143,53 @@ def test_a_python_scene_with_two_results_of_one_name_keeps_both_layers(browser, 
     for layer in ("q0-trajectory-same", "q0-trajectory-same-2"):
         assert click(browser, layer)[1] != everything[1]
         assert click(browser, layer) == everything
+
+
+REPORT_EXPERIMENT = """kind: planning
+name: wide
+seed: 3
+worlds: [{{id: forest, spec: {world}}}]
+queries:
+  random: {{count: 6, min_distance: 3, max_distance: 8}}
+planners:
+  - id: eager
+    type: eager_mp_astar
+  - id: lazy
+    type: lazy_mp_astar
+  - id: tgk
+    type: rrtstar_ceres
+reproduces: {{paper: lazy_mp_astar_paper, rows: {{eager: MP-A*, lazy: Lazy, tgk: TGK}}}}
+budget: {{time: 5, memory_mb: 2048}}
+timing: {{warmup: 0, repeats: 1}}
+sweep:
+  grid:
+    planners.lazy.params.edge_samples: [2, 20]
+"""
+
+
+def test_a_report_fits_a_1100_pixel_window(browser, tmp_path):
+    """The report of a three-planner sweep with the paper's table (its widest tables) read at
+    1,100 px: the page never scrolls sideways; a table still wider than its column scrolls in
+    its own box."""
+    config = tmp_path / "wide.yaml"
+    config.write_text(REPORT_EXPERIMENT.format(world=WORLD))
+    kinolab("run", config, "--out", tmp_path / "out", "-j", "2", tmp_path=tmp_path)
+    kinolab("report", tmp_path / "out", tmp_path=tmp_path)
+    size = browser.get_window_size()
+    try:
+        browser.set_window_size(1100, 900)
+        browser.get((tmp_path / "out" / "report" / "index.html").resolve().as_uri())
+        WebDriverWait(browser, 60).until(
+            lambda b: b.execute_script("return document.readyState") == "complete")
+        state = browser.execute_script(
+            "const page = document.documentElement;"
+            "return {page: page.scrollWidth, view: page.clientWidth,"
+            " tables: document.querySelectorAll('table').length,"
+            " loose: [...document.querySelectorAll('table')]"
+            "   .filter(t => !t.closest('.wide') && t.getBoundingClientRect().right >"
+            "     page.clientWidth).length};")
+    finally:
+        browser.set_window_size(size["width"], size["height"])
+    assert state["tables"] >= 8
+    assert state["page"] <= state["view"], state
+    assert state["loose"] == 0, state
