@@ -203,19 +203,31 @@ def load_plugin(path: str | os.PathLike) -> None:
 
 
 class _Progress:
-    """A progress bar on one line of stdout (a notebook cell or a terminal)."""
+    """The one progress display of run_experiment (the runner's own on stderr is off): a bar
+    redrawn in place on a terminal or in a notebook, otherwise a line at every tenth and at
+    least every 10 s (a log file gets lines, not one line of carriage returns)."""
 
     def __init__(self, stream=None):
         self.stream = stream or sys.stdout
+        isatty = getattr(self.stream, "isatty", None)
+        self.in_place = bool(isatty and isatty()) or "ipykernel" in sys.modules
+        self.last_line = -math.inf
 
     def __call__(self, done: int, total: int, unsolved: int, seconds: float) -> None:
-        width = 30
-        filled = width * done // total if total else width
         rate = done / seconds if seconds > 0 else 0.0
-        self.stream.write(f"\r[{'#' * filled}{'.' * (width - filled)}] {done}/{total} done, "
-                          f"{unsolved} unsolved, {rate:.1f} runs/s")
-        if done == total:
-            self.stream.write("\n")
+        text = f"{done}/{total} done, {unsolved} unsolved, {rate:.1f} runs/s"
+        if self.in_place:
+            width = 30
+            filled = width * done // total if total else width
+            self.stream.write(f"\r[{'#' * filled}{'.' * (width - filled)}] {text}")
+            if done == total:
+                self.stream.write("\n")
+        else:
+            tenth = total > 0 and done * 10 // total != (done - 1) * 10 // total
+            if not (tenth or done == total or seconds - self.last_line >= 10.0):
+                return
+            self.last_line = seconds
+            self.stream.write(f"run: {text}\n")
         self.stream.flush()
 
 

@@ -325,3 +325,14 @@ def test_every_public_name_has_a_docstring():
                 if not documented(getattr(value, "__doc__", None)):
                     missing.append(f"{name}.{attribute}")
     assert missing == []
+
+
+def test_run_experiment_shows_one_progress_display_as_lines_off_a_terminal(tmp_path, capfd):
+    path = tmp_path / "experiment.yaml"
+    path.write_text(EXPERIMENT.format(world=SMALL_FOREST))
+    kinolab.run_experiment(path, tmp_path / "out", jobs=2)  # progress=True, stdout captured
+    out, err = capfd.readouterr()
+    assert "\r" not in out
+    lines = [line for line in out.splitlines() if line.startswith("run: ")]
+    assert lines and lines[-1].startswith("run: 6/6 done") and len(lines) <= 7
+    assert "unsolved" not in err  # the runner's own display is off: one display, not two

@@ -106,16 +106,21 @@ WorldRecord worldRecord(const World& world, const std::string& id) {
 }
 
 /// Progress on stderr: a bar redrawn in place on a terminal, a line every 10 s or 10 %
-/// otherwise.
+/// otherwise; nothing when `shown` is false (the caller shows its own).
 class ProgressBar {
  public:
-  ProgressBar(long long total, long long already)
-      : total_(total), done_(already), tty_(isatty(STDERR_FILENO)), begin_(seconds()) {}
+  ProgressBar(long long total, long long already, bool shown)
+      : total_(total),
+        done_(already),
+        tty_(isatty(STDERR_FILENO)),
+        shown_(shown),
+        begin_(seconds()) {}
 
   void update(bool success) {
     ++done_;
     ++ran_;
     failed_ += success ? 0 : 1;
+    if (!shown_) return;
     const double now = seconds();
     const bool milestone = total_ > 0 && done_ * 10 / total_ != (done_ - 1) * 10 / total_;
     if (tty_ || now - last_line_ >= 10.0 || milestone || done_ == total_) {
@@ -124,7 +129,7 @@ class ProgressBar {
     }
   }
   void finish() {
-    if (tty_) std::fputc('\n', stderr);
+    if (tty_ && shown_) std::fputc('\n', stderr);
   }
   RunnerProgress state() const { return {done_, total_, failed_, seconds() - begin_}; }
 
@@ -155,6 +160,7 @@ class ProgressBar {
   long long ran_ = 0;
   long long failed_ = 0;
   bool tty_;
+  bool shown_;
   double begin_;
   double last_line_ = 0.0;
 };
@@ -401,7 +407,7 @@ RunnerSummary runExperiment(const Experiment& experiment, const RunnerOptions& o
                experiment.name.c_str(), options.shard.text().c_str(), runs.size(), summary.skipped,
                pending.size(), options.jobs);
   const StopSignals signals;
-  ProgressBar progress(summary.planned, summary.skipped);
+  ProgressBar progress(summary.planned, summary.skipped, !options.on_progress);
   std::size_t next = 0;
   while ((next < pending.size() && !g_stop_signal) || !pool.empty()) {
     while (!g_stop_signal && next < pending.size() && !pool.full()) {

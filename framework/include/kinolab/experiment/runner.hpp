@@ -30,8 +30,8 @@ struct RunnerOptions {
   /// and killed, for workers stopped from outside). Every name must be a run status.
   std::set<std::string> retry;
   /// Called in the runner's process after every finished run (done counts stored runs of
-  /// this shard, the resumed ones too), besides the progress on stderr: e.g. the Python
-  /// bindings' progress bar in a notebook.
+  /// this shard, the resumed ones too), instead of the progress on stderr: e.g. the Python
+  /// bindings' progress bar in a notebook (one display, not two).
   std::function<void(const RunnerProgress&)> on_progress;
 };
 
