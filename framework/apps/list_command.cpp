@@ -234,7 +234,15 @@ void addListCommand(CLI::App& app) {
                    "Only this kind of plugin (planners, samplers, heuristics, lower_bounds, "
                    "worlds, sensors, search_spaces), `flight` (the parameters of kinolab fly) "
                    "or `metrics`: every metric and statistic a run or flight can carry")
-      ->check(CLI::IsMember(kind_names));
+      ->check(CLI::Validator(
+          [kind_names](const std::string& kind) -> std::string {
+            if (std::find(kind_names.begin(), kind_names.end(), kind) != kind_names.end()) {
+              return "";
+            }
+            return "unknown kind '" + kind + "'" + didYouMean(kind, kind_names) +
+                   "; kinds: " + join(kind_names, ", ");
+          },
+          "KIND"));
   command->add_flag("--json", options->json, "Print JSON instead of a table");
   command->footer("Set a parameter with --set name=value or under `params:` in a config.");
   command->callback([options] { runList(*options); });

@@ -55,7 +55,7 @@ def test_in_range_options_still_work(kinolab):
     (["--plugin", "x.so", "lst"], None),  # the plugin fails to load first: a clear error
     (["repot", "out"], "did you mean 'report'?"),
     (["frobnicate"], "unknown command 'frobnicate' (kinolab --help lists the commands)"),
-    (["list", "planer"], "planer not in"),
+    (["list", "planer"], "unknown kind 'planer' (did you mean 'planners'?)"),
     (["export", "out", "--format", "csv"], "--format: csv not in {ompl}"),
     ([], "A subcommand is required"),
 ])
