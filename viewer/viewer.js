@@ -164,16 +164,25 @@
     goalMarker.position.fromArray(query.goal);
     markers.add(startMarker, goalMarker);
     layerGroups.push(["q" + index + "-markers", "start and goal", "#2b9348", markers]);
+    // A trajectory identical to an earlier one (lazy's and eager's, at equal cost) lies exactly
+    // under it: the legend says so, since toggling it changes no pixel.
+    const firstWith = {};
     for (const trajectory of query.trajectories) {
       const group = new THREE.Group();
       const points = vectors(trajectory.points);
       if (points.length >= 2) {
         const curve = new THREE.CatmullRomCurve3(points, false, "catmullrom", 0);
-        group.add(new THREE.Mesh(new THREE.TubeBufferGeometry(curve, Math.min(4 * points.length, 2000), 0.06, 8, false),
-                                 new THREE.MeshLambertMaterial({color: colourOf(trajectory.planner)})));
+        // Drawn over the trees and obstacles, so that no tree buries it.
+        const tube = new THREE.Mesh(new THREE.TubeBufferGeometry(curve, Math.min(4 * points.length, 2000), 0.06, 8, false),
+                                    new THREE.MeshLambertMaterial({color: colourOf(trajectory.planner), depthTest: false}));
+        tube.renderOrder = 10;
+        group.add(tube);
       }
-      layerGroups.push(["q" + index + "-trajectory-" + trajectory.planner, trajectory.planner + ": trajectory",
-                        colourOf(trajectory.planner), group]);
+      const key = trajectory.points.join(",");
+      const same = key in firstWith ? " (the same as " + firstWith[key] + "'s)" : "";
+      if (!(key in firstWith)) firstWith[key] = trajectory.planner;
+      layerGroups.push(["q" + index + "-trajectory-" + trajectory.planner,
+                        trajectory.planner + ": trajectory" + same, colourOf(trajectory.planner), group]);
     }
     // One tree shown at first (the first lazy one: with partial edges); the others a click away.
     const shown = query.trees.find((t) => (t.edges.partial || []).length) || query.trees[0];
@@ -211,14 +220,16 @@
           cells.push([k.points[i], k.points[i + 1], k.points[i + 2], k.points[i + 3]]);
         }
         cells.sort((a, b) => a[3] - b[3]);
-        known = boxes(cells.length, colour, 0.6);
+        // The known obstacles in a pale tint of the planner's colour: its path stands out.
+        const tint = new THREE.Color(colour).lerp(new THREE.Color(0xffffff), 0.55).getStyle();
+        known = boxes(cells.length, tint, 0.6);
         cells.forEach((c, i) => placeBox(known, i, [c[0] - half, c[1] - half, c[2] - half],
                                          [c[0] + half, c[1] + half, c[2] + half]));
         known.instanceMatrix.needsUpdate = true;
         const knownGroup = new THREE.Group();
         knownGroup.add(known);
         layerGroups.push(["q" + index + "-known-" + flight.planner, flight.planner + ": known obstacles",
-                          colour, knownGroup]);
+                          tint, knownGroup]);
       }
       const times = flight.t;
       maxFlightTime = Math.max(maxFlightTime, times.length ? times[times.length - 1] : 0);

@@ -161,6 +161,7 @@ planners:
 reproduces: {{paper: lazy_mp_astar_paper, rows: {{eager: MP-A*, lazy: Lazy, tgk: TGK}}}}
 budget: {{time: 5, memory_mb: 2048}}
 timing: {{warmup: 0, repeats: 1}}
+store: {{trajectories: true}}
 sweep:
   grid:
     planners.lazy.params.edge_samples: [2, 20]
@@ -193,3 +194,7 @@ def test_a_report_fits_a_1100_pixel_window(browser, tmp_path):
     assert state["tables"] >= 8
     assert state["page"] <= state["view"], state
     assert state["loose"] == 0, state
+    # Its 3D view: lazy's trajectory is eager's (equal cost), and the legend says so.
+    open_view(browser, tmp_path / "out" / "report" / "view_forest.html")
+    legend = browser.execute_script("return document.body.innerText")
+    assert "lazy: trajectory (the same as eager's)" in legend, legend
