@@ -280,8 +280,9 @@ def timing(runs: pd.DataFrame) -> pd.DataFrame:
     return pd.DataFrame(rows)
 
 
-# Words of the columns that hold a share (0..1): shown in percent.
-SHARE_COLUMNS = ("success", "answered", "solved", "blocked", "line_blocked", "equal cost")
+# Words that mark a column holding a share (0..1), shown in percent ("straight line
+# blocked", "line_blocked"); a word, not a part of one ("unsolved" is a count).
+SHARE_WORDS = {"success", "answered", "solved", "blocked"}
 
 
 def header(column: object) -> str:
@@ -293,7 +294,8 @@ def text(value: object, digits: int = 3, column: object = None) -> str:
     """A cell as text: intervals as 'estimate [low, high]', shares (SHARE_COLUMNS) in percent,
     numbers as stats.number (0 for noise, separators, no exponents on counts)."""
     name = str(column)
-    share = not name.startswith("p ") and any(word in name for word in SHARE_COLUMNS)
+    words = set(re.split(r"[ _]", name))
+    share = not name.startswith("p ") and (bool(words & SHARE_WORDS) or "equal cost" in name)
     if isinstance(value, stats.Interval):
         return value.percent(digits) if share else value.format(digits)
     if isinstance(value, (bool, np.bool_)):

@@ -448,3 +448,9 @@ def test_the_papers_table_tests_only_the_declared_and_matching_setting():
     tested = table[table["p T (ms)"].notna()]
     assert set(tested["variant"]) == {"horizon"} and len(tested) == 3
     assert table[table["variant"] != "horizon"]["p N"].isna().all()
+
+
+def test_a_count_named_like_a_share_stays_a_count():
+    assert tables.text(1.0, column="unsolved") == "1"
+    assert tables.text(0.96, column="straight line blocked") == "96 %"
+    assert tables.text(0.5, column="line_blocked") == "50 %"

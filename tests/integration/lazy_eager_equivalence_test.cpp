@@ -139,10 +139,7 @@ double statisticOf(const std::string& key, const std::vector<std::string>& items
   configured.planner->setup({world, configured.sampler, 1});
   const PlanResult result = configured.planner->plan(query, Budget{});
   outcome = {result.status, result.cost, result.check.valid, 0.0};
-  for (const auto& [key_name, value] : result.statistics) {
-    if (key_name == name) return value;
-  }
-  return NAN;
+  return test::statistic(result.statistics, name);
 }
 
 struct FamilyCase {

@@ -1,5 +1,6 @@
 #pragma once
 
+#include <cmath>
 #include <map>
 #include <memory>
 #include <string>
@@ -59,6 +60,15 @@ inline std::vector<PlanningQuery> randomQueries(const World& world, int count, s
 /// `key=value` items as assignments.
 inline std::vector<ParameterAssignment> assignments(const std::vector<std::string>& items) {
   return parseAssignments(items, "test");
+}
+
+/// The statistic `name` of `statistics` (a planner's or a search's), NaN when absent.
+inline double statistic(const std::vector<std::pair<std::string, double>>& statistics,
+                        const std::string& name) {
+  for (const auto& [key, value] : statistics) {
+    if (key == name) return value;
+  }
+  return NAN;
 }
 
 }  // namespace kinolab::test

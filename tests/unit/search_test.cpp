@@ -270,10 +270,7 @@ struct ShotSearch {
     return p;
   }
   double statistic(const std::string& name) const {
-    for (const auto& [key, value] : search.statistics()) {
-      if (key == name) return value;
-    }
-    return NAN;
+    return test::statistic(search.statistics(), name);
   }
 };
 
@@ -345,11 +342,8 @@ TEST(LazySp, ABudgetStopReturnsTheEvaluatedStartOfTheLastLazyPath) {
     configured.planner->setup({world, configured.sampler, 1});
     return configured.planner->plan(query, Budget{});
   };
-  const auto statistic = [](const PlanResult& result, const std::string& name) -> double {
-    for (const auto& [key, value] : result.statistics) {
-      if (key == name) return value;
-    }
-    return NAN;
+  const auto statistic = [](const PlanResult& result, const std::string& name) {
+    return test::statistic(result.statistics, name);
   };
   // Unbounded first: the budgets below stop half-way, after several lazy searches.
   const PlanResult whole = plan("max_expansions=0");
@@ -388,11 +382,8 @@ TEST(LraStar, ABudgetStopReturnsACheckedStartAndBadLookaheadsAreRefused) {
     configured.planner->setup({world, configured.sampler, 1});
     return configured.planner->plan(query, Budget{});
   };
-  const auto statistic = [](const PlanResult& result, const std::string& name) -> double {
-    for (const auto& [key, value] : result.statistics) {
-      if (key == name) return value;
-    }
-    return NAN;
+  const auto statistic = [](const PlanResult& result, const std::string& name) {
+    return test::statistic(result.statistics, name);
   };
   const PlanResult whole = plan({"max_expansions=0"});
   ASSERT_EQ(whole.status, PlanStatus::kExact) << whole.message;

@@ -145,7 +145,7 @@ EdgeEvaluation EdgeEvaluator::partial(const ChainState& start,
   const double radius = verdictRadius();
   if (result.end_clearance < radius) {
     // The bound undershoots near obstacles: decide with the exact distance (full does too).
-    result.end_clearance = std::max(result.end_clearance, world_->clearanceFor(end, radius));
+    result.end_clearance = esdf.decided(end, result.end_clearance, radius, radius);
   }
   if (result.end_clearance < radius) {
     result.collision_free = false;

@@ -418,6 +418,7 @@ void LraStarSearch::extend(int vertex) {
     if (std::find(v.predecessors.begin(), v.predecessors.end(), predecessor) ==
         v.predecessors.end()) {
       v.predecessors.push_back(predecessor);
+      ++predecessor_entries_;
     }
     const double g = u.g + arc.cost;
     if (v.in_tree && v.g <= g) continue;
@@ -526,7 +527,8 @@ double LraStarSearch::memoryBytes() const {
   return static_cast<double>(vertices_.capacity() * sizeof(Vertex) +
                              arcs_.capacity() * sizeof(Arc) +
                              index_.size() * (sizeof(Key) + 4 * sizeof(void*)) +
-                             (expansions_ + rewired_) * sizeof(std::pair<int, int>));
+                             predecessor_entries_ * sizeof(std::pair<int, int>) +
+                             vertices_.size() * sizeof(int));  // and one child entry each
 }
 
 MotionPrimitiveSearch::Outcome LraStarSearch::search(const ChainState& start,
@@ -539,7 +541,7 @@ MotionPrimitiveSearch::Outcome LraStarSearch::search(const ChainState& start,
   index_.clear();
   extend_ = Heap();
   frontier_ = Heap();
-  rewired_ = 0;
+  rewired_ = predecessor_entries_ = 0;
   const int root = vertexOf(start);
   vertices_[root].g = 0.0;
   vertices_[root].in_tree = true;

@@ -240,13 +240,13 @@ bool TrajectoryChecker::checkCollision(const Trajectory& trajectory, CheckResult
         return violation(result, "bounds", time, position,
                          "position " + formatPoint(position) + " leaves the map");
       }
-      const double distance = world.distance(position);
+      double distance = 0.0;  // the trilinear value, from the same fetch as its lower bound
+      const double bound = world.esdf().clearance(position, &distance);
       if (!std::isfinite(distance)) {
         return violation(result, "numeric", time, position,
                          "the ESDF distance at " + formatPoint(position) + " is not finite");
       }
       clearance_sum += distance - settings_.robot_radius;
-      const double bound = world.clearance(position);
       if (bound < upper) {
         near.emplace_back(bound, position);
         // The nearest voxel centre's exact value, plus the way to it, bounds the distance.
@@ -271,14 +271,15 @@ bool TrajectoryChecker::checkCollision(const Trajectory& trajectory, CheckResult
 
 double TrajectoryChecker::leastDistance(std::vector<std::pair<double, Eigen::Vector3d>>& near,
                                         double upper) const {
-  // Exact distances (Esdf::exactDistance) in the order of the samples' lower bounds, until
-  // the next bound is no lower than the least distance found: that is the least of all.
-  std::sort(near.begin(), near.end(),
-            [](const auto& a, const auto& b) { return a.first < b.first; });
+  // Exact distances (Esdf::exactDistance) in the order of the samples' lower bounds (a heap:
+  // usually only the first few are taken), until the next bound is no lower than the least
+  // distance found: that is the least of all.
+  const auto later = [](const auto& a, const auto& b) { return a.first > b.first; };
+  std::make_heap(near.begin(), near.end(), later);
   double least = upper;
-  for (const auto& [bound, position] : near) {
-    if (bound >= least) break;
-    least = std::min(least, world_->esdf().exactDistance(position, least));
+  for (auto end = near.end(); end != near.begin() && near.front().first < least; --end) {
+    least = std::min(least, world_->esdf().exactDistance(near.front().second, least));
+    std::pop_heap(near.begin(), end, later);
   }
   return std::max(least, 0.0);
 }

@@ -278,6 +278,7 @@ class LraStarSearch final : public LazyFamilySearch {
   Heap extend_;
   Heap frontier_;
   long long rewired_ = 0;
+  long long predecessor_entries_ = 0;  ///< over every vertex, for memoryBytes()
 };
 
 }  // namespace kinolab
