@@ -47,6 +47,7 @@ void addReportCommand(CLI::App& app);
 void addRunCommand(CLI::App& app);
 void addSlurmCommand(CLI::App& app);
 void addSamplingStudyCommand(CLI::App& app);
+void addTestPluginCommand(CLI::App& app);
 void addWorldCommand(CLI::App& app);
 
 }  // namespace kinolab::apps

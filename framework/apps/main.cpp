@@ -65,6 +65,7 @@ int main(int argc, char** argv) {
   kinolab::apps::addRunCommand(app);
   kinolab::apps::addSlurmCommand(app);
   kinolab::apps::addSamplingStudyCommand(app);
+  kinolab::apps::addTestPluginCommand(app);
   kinolab::apps::addWorldCommand(app);
   try {
     kinolab::registerBuiltinPlugins();

@@ -2,8 +2,11 @@
 
 import csv
 import json
+import os
 
 from conftest import SOURCE_DIR
+
+MISBEHAVING = os.environ.get("KINOLAB_MISBEHAVING")
 
 
 def test_list_prints_every_sampler_with_its_parameters(kinolab):
@@ -38,6 +41,25 @@ def test_list_rejects_unknown_kinds_and_plugin_files(kinolab, tmp_path):
     not_elf.write_text("not a library")
     result = kinolab("list", "--plugin", not_elf)
     assert result.returncode == 1 and "cannot be loaded" in result.stderr
+
+
+def test_test_plugin_runs_the_conformance_suites_on_the_library_s_plugins_only(kinolab, tmp_path):
+    # A planner that does nothing fails the planner contract (it never solves); the runner
+    # names each of the library's plugins, runs only theirs, and exits non-zero.
+    result = kinolab("test-plugin", MISBEHAVING, "--", "--gtest_filter=*/test_trivial")
+    assert result.returncode == 1, result.stdout + result.stderr
+    for key in ("test_trivial", "test_throw", "test_metric"):
+        assert f"testing planner '{key}'" in result.stdout
+    assert "SolvesAndSolvesAgainTheSameAfterReset/test_trivial" in result.stdout
+    assert "FAILED" in result.stdout and "/uniform" not in result.stdout
+    assert "Running 4 tests from 1 test suite" in result.stdout
+    # Bad input: a file that is not a library, a missing one; no suite runs.
+    not_elf = tmp_path / "fake.so"
+    not_elf.write_text("not a library")
+    for path, message in ((not_elf, "cannot be loaded"), (tmp_path / "none.so", "no such file")):
+        refused = kinolab("test-plugin", path)
+        assert refused.returncode == 1 and message in refused.stderr, refused.stderr
+        assert refused.stderr.startswith("kinolab: error: ") and "Running" not in refused.stdout
 
 
 def test_paper_table1_study_writes_consistent_csv(kinolab, tmp_path):

@@ -39,9 +39,9 @@ expect_output("\"key\": \"axes\"")
 expect_output("\"origin\": \"[^\"]*libaxes_sampler.so\"")
 expect_output("\"key\": \"uniform\"")
 
-# The plugin passes the sampler conformance suite.
-run_step(OK ${CMAKE_COMMAND} -E env "KINOLAB_TEST_PLUGINS=${build}/libaxes_sampler.so"
-         "${TEST_BINARY}" "--gtest_filter=Registered/SamplerConformance.*/axes")
+# The plugin passes the sampler conformance suite, run by the installed conformance runner.
+run_step(OK "${kinolab}" test-plugin "${build}/libaxes_sampler.so")
+expect_output("testing sampler 'axes'")
 expect_output("PASSED.* 2 tests")
 
 # Broken libraries are refused, naming the library and the reason.
@@ -71,8 +71,7 @@ endforeach()
 # They pass their kinds' conformance suites (tests/conformance/extension_conformance_test.cpp):
 # the heuristic consistent, the bound below the full cost and lazy = eager with it, the
 # sensor's rays, the map's knowledge, the generator's grid.
-run_step(OK ${CMAKE_COMMAND} -E env "KINOLAB_TEST_PLUGINS=${extensions}" "${TEST_BINARY}"
-         "--gtest_filter=Registered/*.*/scaled_time_optimal:Registered/*.*/scaled_endpoint:Registered/*.*/ring:Registered/*.*/obstacles_only:Registered/*.*/pillar_row")
+run_step(OK "${kinolab}" test-plugin "${extensions}")
 expect_output("PASSED.* 6 tests")
 
 # Lazy search with the out-of-tree bound and heuristic returns eager's cost (both stay a lower

@@ -1,0 +1,127 @@
+// `kinolab test-plugin LIB.so`: runs the conformance suites (the program kinolab-conformance,
+// installed beside kinolab) on every plugin a library registers.
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstdlib>
+#include <cstring>
+#include <filesystem>
+#include <iostream>
+#include <map>
+#include <set>
+#include <sstream>
+
+#include "commands.hpp"
+#include "kinolab/core/error.hpp"
+#include "kinolab/core/plugin.hpp"
+#include "kinolab/core/process.hpp"
+
+namespace kinolab::apps {
+namespace {
+
+struct TestPluginOptions {
+  std::string library;
+  std::vector<std::string> gtest_arguments;
+};
+
+/// The conformance program: $KINOLAB_CONFORMANCE, else kinolab-conformance beside this
+/// executable (both in a build tree and in an installation).
+std::string conformanceProgram() {
+  if (const char* set = std::getenv("KINOLAB_CONFORMANCE"); set && *set) return set;
+  std::error_code error;
+  const auto self = std::filesystem::read_symlink("/proc/self/exe", error);
+  const auto program = self.parent_path() / "kinolab-conformance";
+  if (error || !std::filesystem::is_regular_file(program, error)) {
+    throw FileError("no conformance program beside " + self.string() +
+                    " (kinolab-conformance is built with the tests: KINOLAB_BUILD_TESTS=ON; "
+                    "or set KINOLAB_CONFORMANCE to its path)");
+  }
+  return program.string();
+}
+
+/// Every key the library at `origin` registered, as "kind 'key'", by key.
+std::map<std::string, std::string> keysFrom(const std::string& origin) {
+  std::map<std::string, std::string> keys;
+  for (const PluginRegistryBase* registry : pluginRegistries()) {
+    for (const PluginInfo* info : registry->list()) {
+      if (info->origin == origin)
+        keys.emplace(info->key, registry->kind() + " '" + info->key + "'");
+    }
+  }
+  return keys;
+}
+
+/// The tests `program` would run under `filter` (`Suite.Test/param` names).
+std::vector<std::string> listedTests(const std::string& program, const std::string& filter) {
+  const CommandOutput listed =
+      runCommand({program, "--gtest_list_tests", "--gtest_filter=" + filter});
+  if (listed.status != 0) {
+    throw Error(program + " could not list its tests (exit " + std::to_string(listed.status) +
+                "):\n" + listed.output);
+  }
+  std::vector<std::string> tests;
+  std::istringstream lines(listed.output);
+  std::string suite;
+  for (std::string line; std::getline(lines, line);) {
+    if (line.empty()) continue;
+    if (line.front() != ' ') {
+      suite = line.substr(0, line.find(' '));
+    } else {
+      const auto begin = line.find_first_not_of(' ');
+      tests.push_back(suite + line.substr(begin, line.find(' ', begin) - begin));
+    }
+  }
+  return tests;
+}
+
+/// Replaces this process with the conformance program, filtered to the library's keys.
+[[noreturn]] void runTestPlugin(const TestPluginOptions& options) {
+  loadPluginLibrary(options.library);
+  const std::string origin = std::filesystem::canonical(options.library).string();
+  const std::map<std::string, std::string> keys = keysFrom(origin);
+  if (keys.empty()) throw PluginError(origin + " registers no plugin: nothing to test");
+  std::string filter;
+  for (const auto& [key, name] : keys) filter += (filter.empty() ? "" : ":") + ("*/" + key);
+  const std::string program = conformanceProgram();
+  ::setenv("KINOLAB_TEST_PLUGINS", origin.c_str(), 1);
+  // Say which plugins no suite covers: a kind without a conformance suite, or a world
+  // generator that needs a value to build (the generator suite builds at the defaults).
+  std::set<std::string> covered;
+  for (const std::string& test : listedTests(program, filter)) {
+    covered.insert(test.substr(test.rfind('/') + 1));
+  }
+  for (const auto& [key, name] : keys) {
+    std::cout << (covered.count(key) ? "testing " : "no conformance suite covers ") << name << '\n';
+  }
+  if (covered.empty()) throw PluginError("no conformance suite covers a plugin of " + origin);
+  std::cout.flush();
+  std::vector<std::string> arguments{program, "--gtest_filter=" + filter};
+  arguments.insert(arguments.end(), options.gtest_arguments.begin(), options.gtest_arguments.end());
+  std::vector<char*> argv;
+  for (std::string& argument : arguments) argv.push_back(argument.data());
+  argv.push_back(nullptr);
+  ::execv(program.c_str(), argv.data());
+  throw Error("cannot run " + program + ": " + std::strerror(errno));
+}
+
+}  // namespace
+
+void addTestPluginCommand(CLI::App& app) {
+  auto options = std::make_shared<TestPluginOptions>();
+  CLI::App* command = app.add_subcommand(
+      "test-plugin",
+      "Run the conformance suites on every plugin a library registers (planners, samplers, "
+      "heuristics, lower bounds, search spaces, sensors, vehicle maps, world generators); "
+      "exits non-zero when one fails");
+  command->add_option("library", options->library, "The plugin library (.so)")->required();
+  command
+      ->add_option("gtest_arguments", options->gtest_arguments,
+                   "After --: options for the conformance program (e.g. --gtest_repeat=3)")
+      ->type_name("ARG");
+  command->footer(
+      "Example: kinolab test-plugin build/libmy_planner.so -- --gtest_brief=1\n"
+      "The suites and what they assert: docs/extending/README.md.");
+  command->callback([options]() { runTestPlugin(*options); });
+}
+
+}  // namespace kinolab::apps
