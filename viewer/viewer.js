@@ -1,16 +1,28 @@
 // kinolab's 3D viewer: draws a kinolab scene (docs/viewer.md) with three.js: the world's
-// obstacles, per query the planners' trajectories, search trees (edges coloured by their
-// evaluation state) and flights replayed with the known map growing. Orbit, pan, zoom, and a
-// toggle per layer. `window.kinolabViewer` is the page's handle for scripts and tests.
+// obstacles, per query the planners' trajectories, search trees and flights replayed with the
+// known map growing, each planner in one hue (a tree's edge states are shades of it). Orbit,
+// pan, zoom, and a toggle per layer. `window.kinolabViewer` is the page's handle for scripts
+// and tests.
 (function () {
   "use strict";
   const BACKGROUND = 0xf4f6f8;
-  // Planners: none of the tree's edge colours, nor the start's green or the goal's red.
+  // Planners: none is the start's green or the goal's red.
   const PLANNER_COLOURS = ["#1f77b4", "#9467bd", "#8c564b", "#e377c2", "#bcbd22", "#17becf",
                            "#7f7f7f", "#000000"];
-  // As the report's search-tree figure (the paper's Fig. 6).
-  const EDGE_COLOURS = {partial: "#f4a261", full: "#2a9d8f", certified: "#264653",
-                        rejected: "#e63946"};
+  // A tree's edge states as shades of its planner's hue (the report's search-tree figure, the
+  // paper's Fig. 6, uses one colour per state): lazy's cheap partial edges pale and
+  // translucent, full ones lighter than the trajectory, certified ones darker, rejected ones
+  // dashed.
+  const EDGE_STATES = {
+    partial: {towards: 0xffffff, by: 0.6, opacity: 0.4},
+    full: {towards: 0xffffff, by: 0.3, opacity: 0.7},
+    certified: {towards: 0x000000, by: 0.45, opacity: 1},
+    rejected: {towards: 0x000000, by: 0.2, opacity: 1, dashed: true},
+  };
+  function edgeShade(planner, state) {
+    const look = EDGE_STATES[state];
+    return new THREE.Color(colourOf(planner)).lerp(new THREE.Color(look.towards), look.by).getStyle();
+  }
 
   const scene = JSON.parse(document.getElementById("kinolab-scene").textContent);
   document.getElementById("title").textContent = scene.title || "kinolab";
@@ -162,6 +174,12 @@
     const goalMarker = new THREE.Mesh(new THREE.SphereBufferGeometry(0.25, 16, 12),
                                       new THREE.MeshLambertMaterial({color: "#d00000"}));
     goalMarker.position.fromArray(query.goal);
+    for (const marker of [startMarker, goalMarker]) {
+      // Over trees and obstacles, like the trajectories (three.js draws transparent objects
+      // after opaque ones, in renderOrder: "transparent" puts these last).
+      Object.assign(marker.material, {depthTest: false, transparent: true});
+      marker.renderOrder = 11;
+    }
     markers.add(startMarker, goalMarker);
     layerGroups.push(["q" + index + "-markers", "start and goal", "#2b9348", markers]);
     // A trajectory identical to an earlier one (lazy's and eager's, at equal cost) lies exactly
@@ -173,8 +191,8 @@
       if (points.length >= 2) {
         const curve = new THREE.CatmullRomCurve3(points, false, "catmullrom", 0);
         // Drawn over the trees and obstacles, so that no tree buries it.
-        const tube = new THREE.Mesh(new THREE.TubeBufferGeometry(curve, Math.min(4 * points.length, 2000), 0.06, 8, false),
-                                    new THREE.MeshLambertMaterial({color: colourOf(trajectory.planner), depthTest: false}));
+        const tube = new THREE.Mesh(new THREE.TubeBufferGeometry(curve, Math.min(4 * points.length, 2000), 0.08, 8, false),
+                                    new THREE.MeshLambertMaterial({color: colourOf(trajectory.planner), depthTest: false, transparent: true}));
         tube.renderOrder = 10;
         group.add(tube);
       }
@@ -184,20 +202,28 @@
       layerGroups.push(["q" + index + "-trajectory-" + trajectory.planner,
                         trajectory.planner + ": trajectory" + same, colourOf(trajectory.planner), group]);
     }
-    // One tree shown at first (the first lazy one: with partial edges); the others a click away.
-    const shown = query.trees.find((t) => (t.edges.partial || []).length) || query.trees[0];
+    // A tree is shown at first only when one planner has the view to itself: several trees
+    // (tens of thousands of segments each) would bury each other and every trajectory.
+    const planners = new Set([...query.trajectories, ...query.trees, ...query.flights].map((x) => x.planner));
     for (const tree of query.trees) {
-      for (const state of Object.keys(EDGE_COLOURS)) {
+      for (const state of Object.keys(EDGE_STATES)) {
         const flat = tree.edges[state] || [];
         if (!flat.length) continue;
+        const look = EDGE_STATES[state];
+        const colour = edgeShade(tree.planner, state);
         const geometry = new THREE.BufferGeometry();
         geometry.setAttribute("position", new THREE.Float32BufferAttribute(flat, 3));
+        const material = look.dashed
+            ? new THREE.LineDashedMaterial({color: colour, dashSize: 0.08, gapSize: 0.06})
+            : new THREE.LineBasicMaterial({color: colour, transparent: look.opacity < 1, opacity: look.opacity});
+        const lines = new THREE.LineSegments(geometry, material);
+        if (look.dashed) lines.computeLineDistances();
         const group = new THREE.Group();
-        group.add(new THREE.LineSegments(geometry, new THREE.LineBasicMaterial(
-            {color: EDGE_COLOURS[state], transparent: state === "partial", opacity: state === "partial" ? 0.4 : 1})));
+        group.add(lines);
         layerGroups.push(["q" + index + "-tree-" + tree.planner + "-" + state,
-                          tree.planner + ": " + state + " edges (" + flat.length / 6 + " segments)",
-                          EDGE_COLOURS[state], group, tree === shown]);
+                          tree.planner + ": " + state + " edges (" + flat.length / 6 + " segments" +
+                              (look.dashed ? ", dashed" : "") + ")",
+                          colour, group, planners.size === 1]);
       }
     }
     for (const flight of query.flights) {
@@ -259,22 +285,53 @@
     for (const [id, label, colour, group, visible] of groups) {
       addLayer(id, label, colour, group, visible !== false);
     }
+    resize();  // the panel's width changed with its layers: the view offset follows
     frame(scene.queries[index]);
     setTime(maxFlightTime);
   }
 
-  function frame(query) {
-    let centre = worldCentre.clone();
-    let extent = worldSize;
-    if (query) {
-      const a = new THREE.Vector3().fromArray(query.start);
-      const b = new THREE.Vector3().fromArray(query.goal);
-      centre = a.clone().add(b).multiplyScalar(0.5);
-      extent = Math.max(a.distanceTo(b), 4);
+  // The camera frames the query (start, goal, trajectories and flights) in the part of the
+  // canvas right of the panel: the picture is shifted by half the panel's width (a view
+  // offset) and the camera stands back until the query's bounding sphere fits that part.
+  const panel = document.getElementById("panel");
+  function clearWidth() {
+    const width = container.clientWidth || 800;
+    const covered = panel.getBoundingClientRect().right + 8;
+    return width - covered >= 240 ? covered : 0;  // a narrow window: the panel floats over
+  }
+  function queryBounds(query) {
+    const box = new THREE.Box3();
+    if (!query) {
+      box.setFromCenterAndSize(worldCentre, new THREE.Vector3(worldSize, worldSize, worldSize));
+      return box;
     }
-    controls.target.copy(centre);
-    camera.position.set(centre.x - 0.7 * extent, centre.y - 1.2 * extent, centre.z + 1.1 * extent);
+    box.expandByPoint(new THREE.Vector3().fromArray(query.start));
+    box.expandByPoint(new THREE.Vector3().fromArray(query.goal));
+    for (const path of [...query.trajectories, ...query.flights]) {
+      for (const point of vectors(path.points)) box.expandByPoint(point);
+    }
+    return box;
+  }
+  function frame(query) {
+    const sphere = queryBounds(query).getBoundingSphere(new THREE.Sphere());
+    const radius = Math.max(sphere.radius, 2) + 0.5;  // the markers' size, and some air
+    const width = container.clientWidth || 800;
+    const height = container.clientHeight || 600;
+    const visible = width - clearWidth();
+    const halfVertical = camera.fov / 2 * Math.PI / 180;
+    const halfHorizontal = Math.atan(Math.tan(halfVertical) * visible / height);
+    const distance = radius / Math.sin(Math.min(halfVertical, halfHorizontal));
+    controls.target.copy(sphere.center);
+    const direction = new THREE.Vector3(-0.7, -1.2, 1.1).normalize();
+    camera.position.copy(sphere.center).addScaledVector(direction, distance);
     controls.update();
+  }
+  // Where a point lands on the page (CSS pixels from the canvas's top left).
+  function screenOf(point) {
+    const ndc = new THREE.Vector3().fromArray(point).project(camera);
+    const width = container.clientWidth || 800;
+    const height = container.clientHeight || 600;
+    return {x: (ndc.x + 1) / 2 * width, y: (1 - ndc.y) / 2 * height};
   }
 
   // ---- flight replay ------------------------------------------------------------------
@@ -328,6 +385,7 @@
     const height = container.clientHeight || 600;
     renderer.setSize(width, height);
     camera.aspect = width / height;
+    camera.setViewOffset(width, height, -clearWidth() / 2, 0, width, height);
     camera.updateProjectionMatrix();
     render();
   }
@@ -363,6 +421,7 @@
     scene: scene,
     layers: () => Object.keys(layers),
     paintedPixels: paintedPixels,
+    screenOf: screenOf,
     setTime: setTime,
     setCut: (z) => { document.getElementById("cut").value = z; document.getElementById("cut").dispatchEvent(new Event("input")); },
     ready: true,

@@ -78,6 +78,12 @@ def test_a_plans_view_renders_and_every_layer_toggles(browser, tmp_path):
         hidden = click(browser, layer)
         assert hidden[0] <= everything[0] and hidden[1] != everything[1], f"hiding {layer}"
         assert click(browser, layer) == everything, f"showing {layer} again changed the view"
+    # One planner alone: its tree is shown, every state a shade of the trajectory's hue.
+    checked = browser.execute_script(
+        "return [...document.querySelectorAll('#layers input[type=checkbox]')]"
+        ".filter(i => i.id.includes('-tree-')).map(i => i.checked)")
+    assert checked and all(checked)
+    assert same_hue(hues(browser, "q0-tree-lazy_mp_astar-"), hues(browser, "q0-trajectory-")[0])
     # Without obstacles or trees, only the trajectory over the floor remains; then the floor.
     for layer in layers:
         if layer != "q0-trajectory-lazy_mp_astar":
@@ -85,6 +91,52 @@ def test_a_plans_view_renders_and_every_layer_toggles(browser, tmp_path):
     alone = painted(browser)
     assert alone < everything[0]
     assert click(browser, "q0-trajectory-lazy_mp_astar")[0] < alone
+
+
+def hues(browser, prefix):
+    """The hues (0-359) of the legend swatches of the layers whose ids start with `prefix`."""
+    values = browser.execute_script(
+        "return [...document.querySelectorAll('#layers input')].filter(i => i.id.startsWith("
+        "'layer-' + arguments[0])).map(i => getComputedStyle(i.nextSibling).backgroundColor)",
+        prefix)
+    def hue(css):
+        import colorsys
+        r, g, b = (int(v) / 255 for v in css[css.index("(") + 1:css.index(")")].split(",")[:3])
+        return round(colorsys.rgb_to_hsv(r, g, b)[0] * 360) % 360
+    found = [hue(v) for v in values]
+    assert found, f"no layer starts with {prefix}"
+    return found
+
+
+def same_hue(shades, hue):
+    """Every shade within 3 degrees of `hue` (8-bit channels round a shade's hue a little)."""
+    return all(min(abs(h - hue), 360 - abs(h - hue)) <= 3 for h in shades)
+
+
+def test_the_query_is_framed_clear_of_the_panel(browser, tmp_path):
+    """At two window sizes, the start, the goal and every trajectory point land on the canvas
+    right of the layer panel."""
+    kinolab("plan", "--world", WORLD, "--planner", "eager_mp_astar", "--start", "1,1,1.5",
+            "--goal", "9,8,1.5", "--out", tmp_path / "plan", tmp_path=tmp_path)
+    size = browser.get_window_size()
+    try:
+        for width, height in ((1000, 700), (1400, 800)):
+            browser.set_window_size(width, height)
+            open_view(browser, tmp_path / "plan" / "view.html")
+            state = browser.execute_script(
+                "const q = kinolabViewer.scene.queries[0];"
+                "const points = [q.start, q.goal];"
+                "const flat = q.trajectories[0].points;"
+                "for (let i = 0; i < flat.length; i += 3) points.push(flat.slice(i, i + 3));"
+                "return {panel: document.getElementById('panel').getBoundingClientRect().right,"
+                " width: innerWidth, height: innerHeight,"
+                " screen: points.map(p => kinolabViewer.screenOf(p))};")
+            assert len(state["screen"]) > 10
+            for point in state["screen"]:
+                assert state["panel"] < point["x"] < state["width"], (width, point, state["panel"])
+                assert 0 < point["y"] < state["height"], (width, point)
+    finally:
+        browser.set_window_size(size["width"], size["height"])
 
 
 def test_a_flights_view_replays_the_known_map_growing(browser, tmp_path):
@@ -161,7 +213,7 @@ planners:
 reproduces: {{paper: lazy_mp_astar_paper, rows: {{eager: MP-A*, lazy: Lazy, tgk: TGK}}}}
 budget: {{time: 5, memory_mb: 2048}}
 timing: {{warmup: 0, repeats: 1}}
-store: {{trajectories: true}}
+store: {{trajectories: true, trees: 1}}
 sweep:
   grid:
     planners.lazy.params.edge_samples: [2, 20]
@@ -198,3 +250,14 @@ def test_a_report_fits_a_1100_pixel_window(browser, tmp_path):
     open_view(browser, tmp_path / "out" / "report" / "view_forest.html")
     legend = browser.execute_script("return document.body.innerText")
     assert "lazy: trajectory (the same as eager's)" in legend, legend
+    # Three planners share the view: one hue each, their trees' shades included, and no
+    # tree shown until asked for.
+    trajectory_hues = {planner: hues(browser, f"q0-trajectory-{planner}")[0]
+                       for planner in ("eager", "lazy", "tgk")}
+    assert len(set(trajectory_hues.values())) == 3, trajectory_hues
+    for planner in ("eager", "lazy"):
+        assert same_hue(hues(browser, f"q0-tree-{planner}-"), trajectory_hues[planner])
+    trees = browser.execute_script(
+        "return [...document.querySelectorAll('#layers input')].filter(i => i.id.includes("
+        "'-tree-')).map(i => i.checked)")
+    assert trees and not any(trees)
