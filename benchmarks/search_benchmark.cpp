@@ -130,5 +130,37 @@ void BM_MplProblem(benchmark::State& state) { planSideBySide(state, mplProblem()
 BENCHMARK(BM_ForestPaperScale)->Arg(3)->Iterations(1)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_MplProblem)->Arg(3)->Iterations(1)->Unit(benchmark::kMillisecond);
 
+// The independent check of every forest trajectory eager plans (the check every run pays
+// after planning, outside its planning time): time per trajectory, and position samples
+// checked per trajectory (`samples`); items are trajectories.
+void BM_CheckForestTrajectories(benchmark::State& state) {
+  registerBuiltinPlugins();
+  const Problem& problem = forestProblem();
+  ConfiguredPlanner eager =
+      configurePlanner("eager_mp_astar", problem.variants.front().assignments);
+  eager.planner->setup({problem.world, eager.sampler, 1});
+  std::vector<std::pair<Trajectory, CheckQuery>> plans;
+  for (const PlanningQuery& query : problem.queries) {
+    const PlanResult result = eager.planner->plan(query, Budget{});
+    if (result.status == PlanStatus::kExact) {
+      plans.emplace_back(result.trajectory,
+                         CheckQuery{query.start, query.goal, eager.planner->model().goal_radius});
+    }
+  }
+  const TrajectoryChecker checker(problem.world, checkerSettings(eager.planner->model()));
+  double samples = 0.0;
+  for (auto _ : state) {
+    for (const auto& [trajectory, query] : plans) {
+      const CheckResult check = checker.check(trajectory, query);
+      benchmark::DoNotOptimize(check.mean_clearance);
+      samples += check.samples;
+    }
+  }
+  const double checked = static_cast<double>(state.iterations() * plans.size());
+  state.SetItemsProcessed(static_cast<std::int64_t>(checked));
+  state.counters["samples"] = samples / checked;
+}
+BENCHMARK(BM_CheckForestTrajectories)->Unit(benchmark::kMillisecond);
+
 }  // namespace
 }  // namespace kinolab

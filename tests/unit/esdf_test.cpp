@@ -186,6 +186,22 @@ double pointToCubesBruteForce(const VoxelGrid& grid, const Eigen::Vector3d& poin
   return best;
 }
 
+TEST(EsdfTest, ExactDistanceInAMapWithoutObstaclesIsTheLimit) {
+  // Every value is the cap (the diagonal): no cube anywhere, whatever the limit, at once.
+  const Esdf esdf(randomGrid({30, 20, 10}, 0.0, 1, 0.2));
+  for (const Eigen::Vector3d point : {Eigen::Vector3d(0.1, 0.1, 0.1), Eigen::Vector3d(3, 2, 1)}) {
+    EXPECT_EQ(esdf.exactDistance(point, 2.0), 2.0);
+    EXPECT_EQ(esdf.exactDistance(point, esdf.maxDistance()), esdf.maxDistance());
+    EXPECT_EQ(esdf.exactDistance(point, INFINITY), INFINITY);
+  }
+  // One occupied voxel in the far corner: found from the other end of the diagonal.
+  VoxelGrid grid = randomGrid({30, 20, 10}, 0.0, 1, 0.2);
+  grid.setOccupied(VoxelIndex(29, 19, 9), true);
+  const Esdf one(grid);
+  EXPECT_NEAR(one.exactDistance({0.0, 0.0, 0.0}, INFINITY), Eigen::Vector3d(5.8, 3.8, 1.8).norm(),
+              1e-9);
+}
+
 TEST(EsdfTest, ExactDistanceIsTheDistanceToTheNearestCubeBelowTheLimit) {
   // Random points (inside and a little outside the map) on random grids at three
   // resolutions: below the limit the exact distance to the cubes, else the limit; and never

@@ -73,6 +73,30 @@ TEST(TrajectoryChecker, MinClearanceIsTheExactDistanceToTheCubes) {
   EXPECT_LE(result.min_clearance + 0.25, least + 0.0125);
 }
 
+TEST(TrajectoryChecker, MeanClearanceIsTheMeanExactDistanceAtItsSamples) {
+  // The same pass by the box's edge: one segment, sampled evenly in time at `samples` points
+  // (both ends included). The mean of the exact distances to the box at those points, less
+  // the radius; the trilinear ESDF would read up to 5 mm less near the edge.
+  const TrajectoryChecker checker(room(), {});
+  const Trajectory past = line({5.0, 2.03, 2.6}, {1.0, 0, -0.6}, 1.0);
+  const CheckResult result = checker.check(past, queryFor(past));
+  ASSERT_TRUE(result.valid) << result.check << ": " << result.detail;
+  ASSERT_GT(result.samples, 20);
+  const auto box = [](const Eigen::Vector3d& p) {
+    const double dx = p.x() > 5.4 ? p.x() - 5.4 : (p.x() < 5.0 ? 5.0 - p.x() : 0.0);
+    return std::hypot(dx, std::max(p.z() - 2.0, 0.0));
+  };
+  double sum = 0.0;
+  double trilinear = 0.0;
+  for (int i = 0; i < result.samples; ++i) {
+    const Eigen::Vector3d p = past.evaluate(past.duration() * i / (result.samples - 1), 0);
+    sum += box(p);
+    trilinear += room()->esdf().distance(p);
+  }
+  EXPECT_NEAR(result.mean_clearance, sum / result.samples - 0.25, 1e-9);
+  EXPECT_GT(std::abs(trilinear - sum) / result.samples, 1e-4);  // the test can tell them apart
+}
+
 TEST(TrajectoryChecker, FindsTheFirstViolationOfEachKind) {
   const TrajectoryChecker checker(room(), {});
   const Trajectory through = line({1, 2, 1}, {1.5, 0, 0}, 4.0);

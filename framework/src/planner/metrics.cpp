@@ -31,8 +31,8 @@ const MetricSpecs& resultMetrics() {
                 "least exact distance from the trajectory's checked positions to the occupied "
                 "voxel cubes, less the robot radius")
           .real("mean_clearance", "m",
-                "mean trilinear ESDF distance over the checked positions, less the robot "
-                "radius (can overstate by up to half a voxel near a cube's corner)")
+                "mean exact distance from the trajectory's checked positions to the occupied "
+                "voxel cubes, less the robot radius")
           .boolean("checker_valid", "the independent checker accepts the trajectory")
           .text("checker_check", "the check that failed (collision, limits, start, goal, ...)")
           .text("checker_detail", "what that check found")

@@ -223,12 +223,11 @@ bool TrajectoryChecker::checkLimits(const Trajectory& trajectory, CheckResult& r
 }
 
 bool TrajectoryChecker::checkCollision(const Trajectory& trajectory, CheckResult& result) const {
-  // Every position sample against the map bounds and the occupied cubes.
+  // Every position sample against the map bounds and the occupied cubes; the clearance
+  // figures from the exact distance to the cubes at every sample.
   const World& world = *world_;
   double clearance_sum = 0.0;
-  // The samples by the proven lower bound of their distance, for the exact minimum below.
-  std::vector<std::pair<double, Eigen::Vector3d>> near;
-  double upper = INFINITY;  // an upper bound of the least distance over the samples
+  double least = INFINITY;
   double segment_start = 0.0;
   std::vector<std::pair<double, double>> times;
   for (const auto& segment : trajectory.segments()) {
@@ -240,19 +239,14 @@ bool TrajectoryChecker::checkCollision(const Trajectory& trajectory, CheckResult
         return violation(result, "bounds", time, position,
                          "position " + formatPoint(position) + " leaves the map");
       }
-      double distance = 0.0;  // the trilinear value, from the same fetch as its lower bound
-      const double bound = world.esdf().clearance(position, &distance);
+      // Up to the map's diagonal (where the ESDF caps, in a map without obstacles).
+      const double distance = world.esdf().exactDistance(position, world.esdf().maxDistance());
       if (!std::isfinite(distance)) {
         return violation(result, "numeric", time, position,
-                         "the ESDF distance at " + formatPoint(position) + " is not finite");
+                         "the distance at " + formatPoint(position) + " is not finite");
       }
-      clearance_sum += distance - settings_.robot_radius;
-      if (bound < upper) {
-        near.emplace_back(bound, position);
-        // The nearest voxel centre's exact value, plus the way to it, bounds the distance.
-        upper = std::min(upper, std::max(world.esdf().nearestDistance(position), 0.0) +
-                                    0.5 * std::sqrt(3.0) * world.esdf().resolution());
-      }
+      clearance_sum += std::max(distance, 0.0) - settings_.robot_radius;
+      least = std::min(least, std::max(distance, 0.0));
       if (collides(position)) {
         return violation(result, "collision", time, position,
                          body_radius_ > 0.0
@@ -265,23 +259,8 @@ bool TrajectoryChecker::checkCollision(const Trajectory& trajectory, CheckResult
     segment_start += segment.duration;
   }
   result.mean_clearance = clearance_sum / result.samples;
-  result.min_clearance = leastDistance(near, upper) - settings_.robot_radius;
+  result.min_clearance = least - settings_.robot_radius;
   return true;
-}
-
-double TrajectoryChecker::leastDistance(std::vector<std::pair<double, Eigen::Vector3d>>& near,
-                                        double upper) const {
-  // Exact distances (Esdf::exactDistance) in the order of the samples' lower bounds (a heap:
-  // usually only the first few are taken), until the next bound is no lower than the least
-  // distance found: that is the least of all.
-  const auto later = [](const auto& a, const auto& b) { return a.first > b.first; };
-  std::make_heap(near.begin(), near.end(), later);
-  double least = upper;
-  for (auto end = near.end(); end != near.begin() && near.front().first < least; --end) {
-    least = std::min(least, world_->esdf().exactDistance(near.front().second, least));
-    std::pop_heap(near.begin(), end, later);
-  }
-  return std::max(least, 0.0);
 }
 
 bool TrajectoryChecker::checkGoal(const Trajectory& trajectory, const CheckQuery& query,

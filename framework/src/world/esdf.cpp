@@ -184,6 +184,95 @@ std::vector<std::int32_t> squaredDistanceTo(const VoxelGrid& grid, std::uint8_t 
   return squared;
 }
 
+/// The search of Esdf::exactDistance() (voxel units): the occupied voxel (negative value)
+/// whose cube is nearest to the point, among the voxels [from, to] within sqrt(best2) of it,
+/// skipping the ball of radius sqrt(inner2) about the point, known free. From the point's
+/// voxel outwards along x, then y, then z, both ways: the gaps grow, so each way stops at the
+/// first voxel beyond the best (and along z at the first occupied one), and everything stops
+/// at a cube nearer than sqrt(enough2).
+struct NearestCubeSearch {
+  const float* values = nullptr;
+  std::int64_t strides[2] = {0, 0};  // x and y; z is contiguous
+  double scaled[3] = {0, 0, 0};      // the point
+  std::int64_t cell[3] = {0, 0, 0};  // its voxel (clamped into the grid)
+  std::int64_t from[3] = {0, 0, 0};
+  std::int64_t to[3] = {0, 0, 0};
+  double inner2 = 0.0;
+  double best2 = 0.0;
+  double enough2 = -1.0;
+  bool found = false;
+
+  /// Distance along an axis from the point to the slab of voxel i: [i, i + 1].
+  double gap(int axis, std::int64_t i) const {
+    const double low = static_cast<double>(i);
+    const double x = scaled[axis];
+    return x < low ? low - x : (x > low + 1.0 ? x - low - 1.0 : 0.0);
+  }
+  /// Beyond the best so far (a cube exactly at the first upper bound still counts).
+  bool beyond(double d2) const { return found ? d2 >= best2 : d2 > best2; }
+
+  /// One way along z: false at the first voxel beyond the best or the first occupied one.
+  bool visit(const float* row, double gxy2, std::int64_t z) {
+    const double gz = gap(2, z);
+    const double d2 = gxy2 + gz * gz;
+    if (beyond(d2)) return false;
+    if (!(row[z] < 0.0f)) return true;
+    best2 = d2;
+    found = true;
+    return false;
+  }
+
+  /// The column (x, y) from the first voxel outside the free ball, both ways: below, z <= cell
+  /// with a gap scaled - z - 1 of at least free_z; above, z > cell with a gap z - scaled of at
+  /// least free_z. False when the search is done.
+  bool column(std::int64_t x, std::int64_t y, double gxy2) {
+    const float* row = values + x * strides[0] + y * strides[1];
+    const double free_z = gxy2 < inner2 ? std::sqrt(inner2 - gxy2) : 0.0;
+    const std::int64_t below =
+        free_z > 0.0
+            ? std::min(cell[2], static_cast<std::int64_t>(std::floor(scaled[2] - 1.0 - free_z)))
+            : cell[2];
+    for (std::int64_t z = below; z >= from[2] && visit(row, gxy2, z); --z) {
+    }
+    const std::int64_t above =
+        std::max(cell[2] + 1, static_cast<std::int64_t>(std::ceil(scaled[2] + free_z)));
+    for (std::int64_t z = above; z <= to[2] && visit(row, gxy2, z); ++z) {
+    }
+    return !(found && best2 < enough2);
+  }
+
+  /// Along `axis` from the point's voxel, both ways; `step(i)` is 1 to go on, 0 when this way
+  /// is done, -1 when the search is. False when the search is done.
+  template <typename Step>
+  bool sweep(int axis, const Step& step) {
+    for (std::int64_t i = cell[axis]; i >= from[axis]; --i) {
+      const int next = step(i);
+      if (next < 0) return false;
+      if (next == 0) break;
+    }
+    for (std::int64_t i = cell[axis] + 1; i <= to[axis]; ++i) {
+      const int next = step(i);
+      if (next <= 0) return next == 0;
+    }
+    return true;
+  }
+
+  void run() {
+    sweep(0, [&](std::int64_t x) {
+      const double gx2 = gap(0, x) * gap(0, x);
+      if (beyond(gx2)) return 0;
+      return sweep(1,
+                   [&](std::int64_t y) {
+                     const double gxy2 = gx2 + gap(1, y) * gap(1, y);
+                     if (beyond(gxy2)) return 0;
+                     return column(x, y, gxy2) ? 1 : -1;
+                   })
+                 ? 1
+                 : -1;
+    });
+  }
+};
+
 }  // namespace
 
 void Esdf::setGeometry(const VoxelGrid& grid) {
@@ -262,81 +351,46 @@ double Esdf::centreBound(const Eigen::Vector3d& point) const {
 
 double Esdf::exactDistance(const Eigen::Vector3d& point, double limit, double enough) const {
   if (values_.empty()) return limit;
-  // Per axis: the point in voxel units from the grid's low corner, and its voxel.
-  double scaled[3];
-  std::int64_t cell[3];
+  NearestCubeSearch search;
   double centre_offset2 = 0.0;
   for (int axis = 0; axis < 3; ++axis) {
-    scaled[axis] = (point[axis] - origin_[axis]) * inverse_resolution_;
-    if (!std::isfinite(scaled[axis])) return limit;
-    cell[axis] = std::clamp<std::int64_t>(static_cast<std::int64_t>(std::floor(scaled[axis])), 0,
-                                          dims_[axis] - 1);
-    const double offset = scaled[axis] - (static_cast<double>(cell[axis]) + 0.5);
+    search.scaled[axis] = (point[axis] - origin_[axis]) * inverse_resolution_;
+    if (!std::isfinite(search.scaled[axis])) return limit;
+    search.cell[axis] = std::clamp<std::int64_t>(
+        static_cast<std::int64_t>(std::floor(search.scaled[axis])), 0, dims_[axis] - 1);
+    const double offset = search.scaled[axis] - (static_cast<double>(search.cell[axis]) + 0.5);
     centre_offset2 += offset * offset;
   }
-  // In voxel units from here on. An upper bound of the distance (plus float rounding's slack):
-  // the voxel's centre value (exact) and the way to it.
-  const double stored =
-      values_[cell[0] * strides_[0] + cell[1] * strides_[1] + cell[2] * strides_[2]] *
-      inverse_resolution_;
+  // In voxel units from here on. The nearest cube lies in a shell about the point: within a
+  // lower bound of the distance (centreBound()) every voxel is free, and within an upper bound
+  // (the voxel's centre value, exact, and the way to it) there is a cube; both with float
+  // rounding's slack. Only the shell is searched.
+  const float raw = values_[search.cell[0] * strides_[0] + search.cell[1] * strides_[1] +
+                            search.cell[2] * strides_[2]];
+  // At the cap (the grid's diagonal, farther than any cube of the grid is from a voxel
+  // centre): no voxel is occupied.
+  if (raw >= static_cast<float>(max_distance_)) return limit;
+  const double stored = raw * inverse_resolution_;
   double reach = limit * inverse_resolution_;
   if (stored >= 0.0) reach = std::min(reach, stored + std::sqrt(centre_offset2) + 1e-4);
-  // Distance along an axis from the point to the slab of voxel i: [i, i + 1].
-  const auto gap = [&](int axis, std::int64_t i) {
-    const double low = static_cast<double>(i);
-    return scaled[axis] < low ? low - scaled[axis]
-                              : (scaled[axis] > low + 1.0 ? scaled[axis] - low - 1.0 : 0.0);
-  };
-  std::int64_t from[3];
-  std::int64_t to[3];
+  const double inner = std::max(0.0, centreBound(point) * inverse_resolution_ - 1e-4);
   for (int axis = 0; axis < 3; ++axis) {
-    from[axis] =
-        std::max<std::int64_t>(0, static_cast<std::int64_t>(std::floor(scaled[axis] - reach)));
-    to[axis] = std::min<std::int64_t>(dims_[axis] - 1,
-                                      static_cast<std::int64_t>(std::floor(scaled[axis] + reach)));
+    search.from[axis] = std::max<std::int64_t>(
+        0, static_cast<std::int64_t>(std::floor(search.scaled[axis] - reach)));
+    search.to[axis] = std::min<std::int64_t>(
+        dims_[axis] - 1, static_cast<std::int64_t>(std::floor(search.scaled[axis] + reach)));
   }
-  double best2 = reach * reach;
-  bool found = false;
+  search.values = values_.data();
+  search.strides[0] = static_cast<std::int64_t>(strides_[0]);
+  search.strides[1] = static_cast<std::int64_t>(strides_[1]);
+  search.inner2 = inner * inner;
+  search.best2 = reach * reach;
   const double enough_voxels = enough * inverse_resolution_;
-  const double enough2 = enough > 0.0 ? enough_voxels * enough_voxels : -1.0;
-  // Beyond the best so far (a cube exactly at the first upper bound still counts).
-  const auto beyond = [&](double d2) { return found ? d2 >= best2 : d2 > best2; };
-  // Each axis from the point's voxel outwards, both ways: the gaps grow, so a sweep stops at
-  // the first voxel beyond the best (and along z at the first occupied one).
-  const auto sweep = [&](int axis, const auto& visit) {
-    for (std::int64_t i = cell[axis]; i >= from[axis]; --i) {
-      if (!visit(i)) break;
-    }
-    for (std::int64_t i = cell[axis] + 1; i <= to[axis]; ++i) {
-      if (!visit(i)) break;
-    }
-  };
-  bool done = false;  // a cube nearer than `enough`
-  sweep(0, [&](std::int64_t x) {
-    const double gx = gap(0, x);
-    if (done || beyond(gx * gx)) return false;
-    sweep(1, [&](std::int64_t y) {
-      const double gy = gap(1, y);
-      const double gxy2 = gx * gx + gy * gy;
-      if (done || beyond(gxy2)) return false;
-      const float* row = values_.data() + x * strides_[0] + y * strides_[1];
-      sweep(2, [&](std::int64_t z) {
-        const double gz = gap(2, z);
-        const double d2 = gxy2 + gz * gz;
-        if (beyond(d2)) return false;
-        if (!(row[z] < 0.0f)) return true;
-        best2 = d2;
-        found = true;
-        done = best2 < enough2;
-        return false;
-      });
-      return !done;
-    });
-    return !done;
-  });
-  if (found && best2 == 0.0) return -0.5 * resolution_;  // in (or on) a closed cube
-  const double best = std::sqrt(best2) * resolution_;
-  return found && best < limit ? best : limit;
+  search.enough2 = enough > 0.0 ? enough_voxels * enough_voxels : -1.0;
+  search.run();
+  if (search.found && search.best2 == 0.0) return -0.5 * resolution_;  // in (or on) a cube
+  const double best = std::sqrt(search.best2) * resolution_;
+  return search.found && best < limit ? best : limit;
 }
 
 }  // namespace kinolab

@@ -48,8 +48,8 @@ struct CheckResult {
   /// The least exact distance from a position sample to the occupied cubes (0 in one), minus
   /// the robot radius.
   double min_clearance = 0.0;
-  /// The mean over the position samples of the trilinear ESDF distance minus the robot radius
-  /// (near a cube's corner the trilinear value can exceed the exact distance by half a voxel).
+  /// The mean over the position samples of the exact distance to the occupied cubes
+  /// (Esdf::exactDistance), minus the robot radius.
   double mean_clearance = 0.0;
   int samples = 0;           ///< position samples checked
   double body_radius = 0.0;  ///< the sphere tested against the cubes (radius - tolerance)
@@ -84,9 +84,6 @@ class TrajectoryChecker {
   bool checkStart(const Trajectory& trajectory, const CheckQuery& query, CheckResult& result) const;
   bool checkLimits(const Trajectory& trajectory, CheckResult& result) const;
   bool checkCollision(const Trajectory& trajectory, CheckResult& result) const;
-  /// The least exact distance to the cubes over samples (lower bound, position) whose least
-  /// distance is at most `upper`.
-  double leastDistance(std::vector<std::pair<double, Eigen::Vector3d>>& near, double upper) const;
   bool checkGoal(const Trajectory& trajectory, const CheckQuery& query, CheckResult& result) const;
 
   std::shared_ptr<const World> world_;
