@@ -30,11 +30,14 @@ def test_the_schema_version_read_is_the_one_written(schema):
     assert data.SCHEMA_VERSION == schema["schema_version"]
 
 
-def test_edge_states_and_their_colours_are_kinolabs(schema):
+def test_edge_states_are_kinolabs_in_the_report_and_the_viewer(schema):
+    # The report colours each state (data.EDGE_COLOURS); the viewer shades its planner's hue
+    # per state (EDGE_STATES in viewer.js): both know exactly kinolab's states, in order.
     assert list(data.EDGE_STATES) == schema["edge_states"]
+    assert list(data.EDGE_COLOURS) == schema["edge_states"]
     viewer = (SOURCE / "viewer" / "viewer.js").read_text()
-    colours = re.search(r"EDGE_COLOURS = \{([^}]*)\}", viewer).group(1)
-    assert dict(re.findall(r'(\w+): "(#[0-9a-f]{6})"', colours)) == data.EDGE_COLOURS
+    shades = re.search(r"const EDGE_STATES = \{(.*?)\n  \};", viewer, re.S).group(1)
+    assert re.findall(r"^\s+(\w+): \{", shades, re.M) == schema["edge_states"]
 
 
 def test_summarised_metrics_are_declared_and_take_their_units_from_the_declaration(schema):

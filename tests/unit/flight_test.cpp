@@ -13,6 +13,7 @@
 #include "kinolab/core/random.hpp"
 #include "kinolab/core/yaml_reader.hpp"
 #include "kinolab/world/world_spec.hpp"
+#include "support/planning.hpp"
 
 namespace kinolab {
 namespace {
@@ -30,10 +31,10 @@ std::shared_ptr<const World> worldOf(
 /// within the planning window of a vehicle on the line y = 3).
 const char* kWall = "  - type: box_list\n    boxes: [{min: [10, 0, 0], max: [10.4, 5, 3]}]\n";
 
-PlannerFactory lazyPlanner() {
+PlannerFactory lazyPlanner(const std::vector<ParameterAssignment>& assignments = {}) {
   registerBuiltinPlugins();
-  return [](std::shared_ptr<const World> world) {
-    ConfiguredPlanner configured = configurePlanner("lazy_mp_astar", {});
+  return [assignments](std::shared_ptr<const World> world) {
+    ConfiguredPlanner configured = configurePlanner("lazy_mp_astar", assignments);
     configured.planner->setup({std::move(world), configured.sampler, 1});
     return std::move(configured.planner);
   };
@@ -44,11 +45,12 @@ struct Flight {
   explicit Flight(const std::vector<ParameterAssignment>& assignments = {})
       : setup(flightSetup(flightParameters().resolve(assignments, "flight"))) {}
   FlightResult fly(const std::shared_ptr<const World>& world, const Eigen::Vector3d& start,
-                   const Eigen::Vector3d& goal) const {
+                   const Eigen::Vector3d& goal,
+                   const std::vector<ParameterAssignment>& planner = {}) const {
     PlanningQuery query;
     query.start.col(0) = start;
     query.goal = goal;
-    return kinolab::fly(world, lazyPlanner(), query, setup);
+    return kinolab::fly(world, lazyPlanner(planner), query, setup);
   }
 };
 
@@ -252,6 +254,47 @@ TEST(FlightTest, AnEmptyWorldIsFlownToTheGoal) {
   EXPECT_NEAR((result.flown.endPosition() - Eigen::Vector3d(18, 5, 1.5)).norm(), 0.0, 0.5);
   EXPECT_GE(result.replans.size(), 4u);  // 16 m at a 3.5 m horizon
   EXPECT_GT(result.time_to_goal, 16.0 / 2.0);
+}
+
+TEST(FlightTest, EveryLimitFliesOutOfACorridorOrIsRefusedWithAFixThatFlies) {
+  // Velocity and acceleration limits from 0.5 to 10 (m/s, m/s^2), at the lattice's defaults
+  // (3 controls per axis, tau 0.6 s). A lattice whose gentlest control breaks a limit from
+  // rest could never move: setting the planner up refuses it, naming tau and the longest tau
+  // that fits; with that tau the vehicle flies out of the corridor.
+  const auto corridor = worldOf(
+      "  - type: box_list\n    boxes: [{min: [0, 0, 0], max: [8, 1, 3]}, "
+      "{min: [0, 3, 0], max: [8, 4, 3]}]\n",
+      "{min: [0, 0, 0], max: [8, 4, 3]}");
+  int refused = 0;
+  for (const double velocity : {0.5, 1.0, 2.0, 4.0, 10.0}) {
+    for (const double acceleration : {0.5, 1.0, 2.0, 4.0, 10.0}) {
+      SCOPED_TRACE(::testing::Message()
+                   << "max_velocity " << velocity << " max_acceleration " << acceleration);
+      std::vector<ParameterAssignment> limits =
+          test::assignments({"max_velocity=" + formatNumber(velocity),
+                             "max_acceleration=" + formatNumber(acceleration)});
+      try {
+        lazyPlanner(limits)(corridor);
+      } catch (const ParameterConflict& error) {
+        ++refused;
+        const std::string message = error.what();
+        EXPECT_EQ(error.parameter(), "tau");
+        const auto at = message.find("Set tau <= ");
+        ASSERT_NE(at, std::string::npos) << message;
+        const std::string tau = message.substr(at + 11, message.find(',', at) - at - 11);
+        // Refused exactly when the gentlest control, a for 0.6 s from rest, breaks the
+        // velocity limit; the fix is that limit's duration, rounded down.
+        EXPECT_GT(acceleration * 0.6, velocity);
+        EXPECT_NEAR(std::stod(tau), velocity / acceleration, 1e-3);
+        limits.push_back({"tau", tau, "test"});
+      }
+      const FlightResult result = Flight().fly(corridor, {0.6, 2, 1.5}, {7.4, 2, 1.5}, limits);
+      EXPECT_EQ(result.status, "reached") << result.message;
+      EXPECT_GT(result.min_clearance, -0.011);
+    }
+  }
+  EXPECT_EQ(refused,
+            10);  // a * 0.6 > v: (v 0.5: a 1, 2, 4, 10), (1: 2, 4, 10), (2: 4, 10), (4: 10)
 }
 
 TEST(FlightTest, CautiousUnknownSpaceEndsInAStatusNeverACrash) {

@@ -1,10 +1,66 @@
 #include "kinolab/search/motion_primitive_planner.hpp"
 
+#include <algorithm>
+#include <cmath>
+#include <utility>
+
 #include "kinolab/core/error.hpp"
 #include "kinolab/core/text.hpp"
+#include "kinolab/dynamics/integrator_chain.hpp"
 #include "kinolab/primitives/control_sampler.hpp"
 
 namespace kinolab {
+namespace {
+
+/// The limit parameters by derivative (1 = velocity ... 4 = snap).
+constexpr const char* kLimitNames[] = {"", "max_velocity", "max_acceleration", "max_jerk",
+                                       "max_snap"};
+constexpr const char* kDerivativeNames[] = {"", "velocity", "acceleration", "jerk", "snap"};
+
+/// Refuses a control set none of whose controls moves the vehicle from rest within the limits
+/// over one primitive: such a lattice can never leave its start, and every query would end
+/// `no_solution`. The message names the gentlest control, the limit it breaks and the fixes,
+/// the first being the longest primitive duration at which that control fits.
+void requireAMovingControl(const std::vector<Eigen::Vector3d>& controls,
+                           const EdgeEvaluatorSettings& edges) {
+  const IntegratorChain chain(edges.order);
+  const ChainState rest = ChainState::Zero();
+  const Eigen::Vector3d* gentlest = nullptr;
+  for (const Eigen::Vector3d& control : controls) {
+    if (control.cwiseAbs().maxCoeff() == 0.0) continue;
+    if (chain.withinLimits(rest, control, edges.duration, edges.limits)) return;
+    // The smallest by its largest component, then by its length: (0, 0, 3) before (3, 3, 3).
+    const auto size = [](const Eigen::Vector3d& u) {
+      return std::pair(u.cwiseAbs().maxCoeff(), u.norm());
+    };
+    if (!gentlest || size(control) < size(*gentlest)) gentlest = &control;
+  }
+  if (!gentlest) return;  // only the zero control: a sampler's choice, not a mismatch
+  const auto broken = chain.checkLimits(rest, *gentlest, edges.duration, edges.limits);
+  // The longest duration at which the gentlest control stays within the limits (bisection;
+  // the limits of a primitive from rest only tighten with its duration).
+  double fits = 0.0;
+  double breaks = edges.duration;
+  for (int i = 0; i < 60; ++i) {
+    const double middle = 0.5 * (fits + breaks);
+    (chain.withinLimits(rest, *gentlest, middle, edges.limits) ? fits : breaks) = middle;
+  }
+  const double shown = std::floor(fits * 1000.0) / 1000.0;  // rounded down: it still fits
+  const int k = broken ? broken->derivative : 1;
+  const char axis = broken ? "xyz"[broken->axis] : 'x';
+  throw ParameterConflict(
+      "tau", "no control of the " + std::to_string(controls.size()) +
+                 " moves the vehicle from rest within the limits, so the lattice can never "
+                 "leave its start: the gentlest, " +
+                 formatPoint(*gentlest) + " for tau = " + formatNumber(edges.duration) +
+                 " s, reaches a " + kDerivativeNames[k] + " of " +
+                 formatNumber(std::round(std::abs(broken ? broken->value : 0.0) * 1e6) / 1e6) +
+                 " along " + axis + ", above " + kLimitNames[k] + " = " +
+                 formatNumber(edges.limits.bound[k][0]) + ". Set tau <= " + formatNumber(shown) +
+                 ", a finer control set (sampler.samples_per_axis), or a larger " + kLimitNames[k]);
+}
+
+}  // namespace
 
 ParameterSpecs motionPrimitiveParameters() {
   return ParameterSpecs()
@@ -123,6 +179,7 @@ void MotionPrimitivePlanner::doSetup(const PlannerContext& context) {
   auto controls = config_.controls.empty()
                       ? context.sampler->sample(edges.limits.bound[edges.order], context.seed)
                       : config_.controls;
+  requireAMovingControl(controls, edges);
   search_ = std::make_unique<MotionPrimitiveSearch>(context.world, std::move(controls),
                                                     config_.settings, config_.policies);
 }
