@@ -297,6 +297,67 @@ TEST(FlightTest, EveryLimitFliesOutOfACorridorOrIsRefusedWithAFixThatFlies) {
             10);  // a * 0.6 > v: (v 0.5: a 1, 2, 4, 10), (1: 2, 4, 10), (2: 4, 10), (4: 10)
 }
 
+/// lazy_mp_astar that also refuses starts within `margin` of the window's obstacles (as the
+/// TGK analogue's start margin does), to test the flight's recovery.
+class MarginPlanner : public Planner {
+ public:
+  explicit MarginPlanner(double margin) : margin_(margin) {}
+
+ protected:
+  void doSetup(const PlannerContext& context) override {
+    registerBuiltinPlugins();
+    ConfiguredPlanner configured = configurePlanner("lazy_mp_astar", {});
+    inner_ = std::move(configured.planner);
+    inner_->setup({context.world, configured.sampler, context.seed});
+  }
+  PlanResult doPlan(const PlanningQuery& query, StopCondition&) override {
+    if (inner_->world().clearance(query.start.col(0)) < margin_) {
+      PlanResult refused;
+      refused.status = PlanStatus::kInvalidStart;
+      refused.message = "the start is within the planner's margin";
+      return refused;
+    }
+    return inner_->plan(query, Budget{});
+  }
+  PlanningModel planningModel() const override { return inner_->model(); }
+
+ private:
+  double margin_;
+  std::unique_ptr<Planner> inner_;
+};
+
+TEST(FlightTest, APlannerThatRefusesTheStartIsBackedOffFromTheWall) {
+  // At rest 0.32 m in front of a wall (the body keeps its 0.25 m), a planner with a 0.45 m
+  // start margin refuses every replan: without recovery the flight ends stuck. The vehicle
+  // backs off from the wall, the planner takes over, round the wall's end to the goal.
+  registerBuiltinPlugins();
+  const auto world =
+      worldOf("  - type: box_list\n    boxes: [{min: [4, 0, 0], max: [4.4, 3, 3]}]\n",
+              "{min: [0, 0, 0], max: [9, 5, 3]}");
+  PlanningQuery query;
+  query.start.col(0) = Eigen::Vector3d(3.68, 2.0, 1.5);
+  query.goal = Eigen::Vector3d(7.5, 2.0, 1.5);
+  const FlightSetup setup = flightSetup(flightParameters().resolve({}, "flight"));
+  const FlightResult result = fly(
+      world,
+      [](std::shared_ptr<const World> window) -> std::unique_ptr<Planner> {
+        auto planner = std::make_unique<MarginPlanner>(0.45);
+        planner->setup({std::move(window), nullptr, 1});
+        return planner;
+      },
+      query, setup);
+  EXPECT_EQ(result.status, "reached") << result.message;
+  ASSERT_FALSE(result.replans.empty());
+  EXPECT_EQ(result.replans.front().status, "invalid_start");
+  EXPECT_EQ(result.replans.front().why, "the start is within the planner's margin");
+  int backed_off = 0;
+  for (const FlightReplan& replan : result.replans) backed_off += replan.recovery == "back_off";
+  EXPECT_GE(backed_off, 1);
+  EXPECT_GT(result.min_clearance, -0.011);
+  EXPECT_NE(replansCsv(result).find(",back_off,the start is within the planner's margin\n"),
+            std::string::npos);
+}
+
 TEST(FlightTest, CautiousUnknownSpaceEndsInAStatusNeverACrash) {
   // Unknown space occupied (or occupied within 2 m): a forward camera's frustum is too
   // narrow near the vehicle for its body, so it may not get going (documented); the flight

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <map>
 #include <unordered_map>
 
 #include "kinolab/core/fields.hpp"
@@ -90,6 +91,28 @@ bool freeFrom(const Trajectory& trajectory, double t, const World& window,
     if (window.bounds().contains(p) && window.clearance(p) < radius) return false;
   }
   return true;
+}
+
+/// A straight move at rest at both ends from `from` by `offset`: accelerate, then decelerate,
+/// at most `acceleration` and `speed` along it (two segments).
+std::vector<TrajectorySegment> straightMove(const Eigen::Vector3d& from,
+                                            const Eigen::Vector3d& offset, double acceleration,
+                                            double speed) {
+  const double length = offset.norm();
+  const Eigen::Vector3d unit = offset / length;
+  // Half the way each: a t^2 / 2 = length / 2, with the peak speed a t within `speed`.
+  const double a = std::min(acceleration, speed * speed / length);
+  const double half = std::sqrt(length / a);
+  TrajectorySegment speeding_up;
+  speeding_up.duration = half;
+  speeding_up.coefficients = Eigen::Matrix<double, 3, Eigen::Dynamic>::Zero(3, 3);
+  speeding_up.coefficients.col(0) = from;
+  speeding_up.coefficients.col(2) = 0.5 * a * unit;
+  TrajectorySegment slowing_down = speeding_up;
+  slowing_down.coefficients.col(0) = from + 0.5 * offset;
+  slowing_down.coefficients.col(1) = a * half * unit;
+  slowing_down.coefficients.col(2) = -0.5 * a * unit;
+  return {speeding_up, slowing_down};
 }
 
 /// The point `s` metres along the polyline `way` (its end when it is shorter).
@@ -297,18 +320,42 @@ class FlightLoop {
     }
     if (t_ - best_time_ > settings_.stuck_time) {
       result_.status = "stuck";
-      result_.message =
-          "no progress towards the goal for " + formatNumber(settings_.stuck_time) + " s";
+      result_.message = "no progress towards the goal for " + formatNumber(settings_.stuck_time) +
+                        " s" + failuresSince(best_time_);
       return true;
     }
     return false;
   }
 
+  /// The failed replans since `since`, by status with the first reason of each, and the
+  /// recoveries tried ("" when none failed).
+  std::string failuresSince(double since) const {
+    std::map<std::string, std::pair<int, std::string>> failures;  // status -> (count, why)
+    std::map<std::string, int> recoveries;
+    int total = 0;
+    for (const FlightReplan& replan : result_.replans) {
+      if (replan.time < since || replan.accepted) continue;
+      ++total;
+      auto& [count, why] = failures[replan.status];
+      if (count++ == 0) why = replan.why;
+      if (!replan.recovery.empty()) ++recoveries[replan.recovery];
+    }
+    if (total == 0) return "";
+    std::string text = "; " + std::to_string(total) + " replans failed meanwhile:";
+    for (const auto& [status, failure] : failures) {
+      text += " " + std::to_string(failure.first) + " " + status + " (" + failure.second + ")";
+    }
+    for (const auto& [recovery, count] : recoveries) {
+      text += "; " + recovery + " tried " + std::to_string(count) + " times";
+    }
+    return text;
+  }
+
   /// A frame of the sensor into the known map; the planning window around the vehicle.
   std::shared_ptr<const World> sense(const ChainState& now) {
     auto begin = std::chrono::steady_clock::now();
-    const SensorFrame sensed =
-        senseFrame(truth_->grid(), sensor_, now.col(0), headingOf(committed_, t_, query_.goal));
+    const SensorFrame sensed = senseFrame(truth_->grid(), sensor_, now.col(0),
+                                          headingOf(committed_, t_, query_.goal) + look_offset_);
     result_.time_sense_ms += millisecondsSince(begin);
     begin = std::chrono::steady_clock::now();
     map_->insert(sensed, sensor_.maxRange());
@@ -354,15 +401,29 @@ class FlightLoop {
           settings_.enforce_latency && plan.planning_time_ms > 1000.0 * settings_.replanLatency();
       accepted = !late && !plan.trajectory.empty() && plan.check.valid &&
                  (plan.status == PlanStatus::kExact || plan.status == PlanStatus::kApproximate);
-      if (late) replan.status = "late";
+      if (late) {
+        replan.status = "late";
+        replan.why = "planning took " + formatNumber(plan.planning_time_ms) + " ms, past the " +
+                     formatNumber(1000.0 * settings_.replanLatency()) + " ms latency";
+      } else if (!accepted) {
+        replan.why = !plan.trajectory.empty() && !plan.check.valid
+                         ? "the checker: " + plan.check.check + ": " + plan.check.detail
+                         : (plan.message.empty() ? "no trajectory" : plan.message);
+      }
       if (accepted) {
         replan.trajectory = plan.trajectory;
         committed_ = splice(committed_, t_start, plan.trajectory, brake_rate_);
       }
     } else {
       replan.status = "no_local_goal";
+      replan.why = "no free point on the way to the goal within the window";
     }
     replan.accepted = accepted;
+    if (!accepted) recover(replan, window);
+    if (accepted) {
+      failed_in_a_row_ = 0;
+      look_offset_ = 0.0;
+    }
     result_.replans.push_back(std::move(replan));
     if (!accepted && !freeFrom(committed_, t_, window, model_)) {
       // Nothing safe to fly on: stop now.
@@ -374,7 +435,45 @@ class FlightLoop {
       committed_ = std::move(stop);
     }
     reason_ = accepted ? "period" : "retry";
-    next_replan_ = t_ + (accepted ? settings_.replan_period : dt_);
+    next_replan_ = std::max(next_replan_, t_ + (accepted ? settings_.replan_period : dt_));
+  }
+
+  /// After a failed replan with the vehicle at rest (or about to be): back off from the
+  /// nearest known obstacle when the planner refused the start (a planner's margin, such as
+  /// the TGK analogue's, can exceed the body's), else, from the second failure in a row, turn
+  /// the camera 90 degrees to look for a way.
+  void recover(FlightReplan& replan, const World& window) {
+    ++failed_in_a_row_;
+    const ChainState here = stateAt(committed_, t_);
+    const bool at_rest =
+        here.col(1).norm() < 0.05 && (committed_.endPosition() - here.col(0)).norm() < 0.05;
+    if (!at_rest) return;
+    if (replan.status == "invalid_start" && backOff(here.col(0), window)) {
+      replan.recovery = "back_off";
+      return;
+    }
+    if (failed_in_a_row_ >= 2) {
+      look_offset_ = std::fmod(look_offset_ + 90.0 * kDegree, 2.0 * M_PI);
+      replan.recovery = "look";
+    }
+  }
+
+  /// A straight 0.3 m move from `position` away from the nearest known obstacle (the window
+  /// ESDF's gradient, horizontal), committed when it stays free in the window; the next
+  /// replan waits for its end.
+  bool backOff(const Eigen::Vector3d& position, const World& window) {
+    Eigen::Vector3d gradient = Eigen::Vector3d::Zero();
+    window.esdf().distanceWithGradient(position, &gradient);
+    gradient.z() = 0.0;
+    if (gradient.norm() < 1e-6) return false;
+    const auto move = straightMove(position, 0.3 * gradient.normalized(), 0.5 * brake_rate_,
+                                   0.5 * model_.limits.bound[1].minCoeff());
+    Trajectory moved = slice(committed_, t_);
+    for (const TrajectorySegment& segment : move) moved.append(segment);
+    if (!freeFrom(moved, t_, window, model_)) return false;
+    committed_ = std::move(moved);
+    next_replan_ = committed_.duration();
+    return true;
   }
 
   /// The map from above, and when each voxel was first known occupied.
@@ -434,6 +533,8 @@ class FlightLoop {
   double best_time_ = 0.0;
   std::string reason_ = "start";
   bool collided_ = false;
+  int failed_in_a_row_ = 0;   // failed replans since the last taken one
+  double look_offset_ = 0.0;  // rad: the camera's turn from its heading, to look for a way
   std::unordered_map<std::size_t, double> first_occupied_;  // lattice index -> time
 };
 
@@ -488,18 +589,31 @@ std::string knownVoxelsCsv(const FlightResult& result) {
   return csv;
 }
 
+namespace {
+
+/// A CSV field: quoted (inner quotes doubled) when it holds a comma, a quote or a line break.
+std::string csvField(const std::string& text) {
+  if (text.find_first_of(",\"\n\r") == std::string::npos) return text;
+  std::string quoted = "\"";
+  for (const char c : text) quoted += c == '"' ? std::string("\"\"") : std::string(1, c);
+  return quoted + "\"";
+}
+
+}  // namespace
+
 std::string replansCsv(const FlightResult& result) {
   const auto point = [](const Eigen::Vector3d& p) {
     return formatNumber(p.x()) + "," + formatNumber(p.y()) + "," + formatNumber(p.z());
   };
   std::string csv =
       "replan,time,reason,start_x,start_y,start_z,goal_x,goal_y,goal_z,status,planning_time_ms,"
-      "distance_to_goal,accepted\n";
+      "distance_to_goal,accepted,recovery,why\n";
   for (std::size_t i = 0; i < result.replans.size(); ++i) {
     const FlightReplan& r = result.replans[i];
     csv += std::to_string(i) + "," + formatNumber(r.time) + "," + r.reason + "," + point(r.start) +
            "," + point(r.local_goal) + "," + r.status + "," + formatNumber(r.planning_time_ms) +
-           "," + formatNumber(r.distance_to_goal) + "," + (r.accepted ? "1" : "0") + "\n";
+           "," + formatNumber(r.distance_to_goal) + "," + (r.accepted ? "1" : "0") + "," +
+           r.recovery + "," + csvField(r.why) + "\n";
   }
   return csv;
 }

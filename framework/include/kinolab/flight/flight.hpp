@@ -92,7 +92,13 @@ struct FlightReplan {
   double planning_time_ms = 0.0;
   double distance_to_goal = 0.0;  ///< the plan's D to its local goal
   bool accepted = false;          ///< it became the committed trajectory
-  Trajectory trajectory;          ///< the plan (planner's time, from 0)
+  /// Why it was not taken (empty when it was): the planner's message, the checker's verdict,
+  /// a late plan, or no local goal.
+  std::string why;
+  /// What the loop did about a failure at rest ("" none, "look": the camera turned 90
+  /// degrees, "back_off": the vehicle moved away from the nearest known obstacle).
+  std::string recovery;
+  Trajectory trajectory;  ///< the plan (planner's time, from 0)
 };
 
 struct FlightResult {
@@ -131,6 +137,10 @@ using PlannerFactory = std::function<std::unique_ptr<Planner>(std::shared_ptr<co
 /// braking tail) or, if that collides in the known map, brakes at once. The vehicle tracks
 /// the committed trajectory exactly. The flown trajectory goes through the independent
 /// checker against `truth` at the end: a collision ends the flight there, as `collision`.
+/// Recovery at rest (docs/flights.md): after a planner refuses the start, the vehicle backs
+/// off 0.3 m from the nearest known obstacle; after two failed replans in a row, the camera
+/// turns 90 degrees per failed replan to look for a way. A `stuck` flight's message counts
+/// the failed replans since its last progress by status, with the first reason of each.
 FlightResult fly(const std::shared_ptr<const World>& truth, const PlannerFactory& planner,
                  const PlanningQuery& query, const FlightSetup& setup);
 
