@@ -375,10 +375,13 @@ TEST(FlightTest, CautiousUnknownSpaceEndsInAStatusNeverACrash) {
 
 TEST(FlightTest, AWallBeyondTheSensorsRangeIsSeenAndFlownAround) {
   const auto world = worldOf(kWall);
-  const FlightResult result = Flight().fly(world, {2, 3, 1.5}, {18, 3, 1.5});
+  // A 3 m sensor: the committed trajectory (3.5 m ahead, and its braking tail) reaches past
+  // what the camera sees.
+  const FlightResult result =
+      Flight({{"sensor.range", "3", "test"}}).fly(world, {2, 3, 1.5}, {18, 3, 1.5});
   EXPECT_EQ(result.status, "reached") << result.message;
-  // The first plans went straight (the wall 8 m away, the sensor's range 5 m); once seen,
-  // the committed trajectory collided in the map and was replanned, round the wall.
+  // The first plans went straight (the wall 8 m away); once seen, the committed trajectory
+  // collided in the map and was replanned, round the wall.
   bool replanned_on_collision = false;
   for (const FlightReplan& replan : result.replans) {
     replanned_on_collision |= replan.reason == "collision";
@@ -430,7 +433,9 @@ TEST(FlightTest, AWallBehindACornerIsSeenAfterTheTurnAndFlownAround) {
       "  - type: box_list\n    boxes: [{min: [0, 4, 0], max: [12, 4.4, 3]},\n"
       "            {min: [12.4, 8, 0], max: [17, 8.4, 3]}]\n",
       "{min: [0, 0, 0], max: [20, 20, 3]}");
-  const FlightResult result = Flight().fly(world, {2, 2, 1.5}, {15, 12, 1.5});
+  // A 3 m sensor, as above: the committed trajectory reaches past what the camera sees.
+  const FlightResult result =
+      Flight({{"sensor.range", "3", "test"}}).fly(world, {2, 2, 1.5}, {15, 12, 1.5});
   EXPECT_EQ(result.status, "reached") << result.message;
   // Replanned on a collision in the map after the turn (north of the first wall).
   bool after_the_turn = false;

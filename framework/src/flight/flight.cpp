@@ -93,6 +93,17 @@ bool freeFrom(const Trajectory& trajectory, double t, const World& window,
   return true;
 }
 
+/// True when the trajectory from t on stays inside `box` (samples as freeFrom()).
+bool insideFrom(const Trajectory& trajectory, double t, const Box& box,
+                const PlanningModel& model) {
+  const double step = std::max(0.02 / std::max(0.1, model.limits.bound[1].norm()),
+                               (trajectory.duration() - t) / 1e5);
+  for (double s = std::max(0.0, t); s <= trajectory.duration(); s += step) {
+    if (!box.contains(trajectory.evaluate(s))) return false;
+  }
+  return box.contains(trajectory.endPosition());
+}
+
 /// A straight move at rest at both ends from `from` by `offset`: accelerate, then decelerate,
 /// at most `acceleration` and `speed` along it (two segments).
 std::vector<TrajectorySegment> straightMove(const Eigen::Vector3d& from,
@@ -411,8 +422,25 @@ class FlightLoop {
                          : (plan.message.empty() ? "no trajectory" : plan.message);
       }
       if (accepted) {
-        replan.trajectory = plan.trajectory;
-        committed_ = splice(committed_, t_start, plan.trajectory, brake_rate_);
+        // Every committed trajectory ends at rest: the plan gets a braking tail, which the
+        // planner never saw. The plan is cut where its tail stays in the map and clear of
+        // what is known (the latest such point, in 0.1 s steps).
+        Trajectory spliced;
+        for (double cut = plan.trajectory.duration(); cut > 0.0; cut -= 0.1) {
+          spliced = splice(committed_, t_start, slice(plan.trajectory, cut), brake_rate_);
+          if (insideFrom(spliced, t_start, truth_->bounds(), model_) &&
+              freeFrom(spliced, t_start, window, model_)) {
+            break;
+          }
+          spliced = Trajectory();
+        }
+        if (spliced.empty()) {
+          accepted = false;
+          replan.why = "every braking tail after the plan leaves the map or meets a known obstacle";
+        } else {
+          replan.trajectory = plan.trajectory;
+          committed_ = std::move(spliced);
+        }
       }
     } else {
       replan.status = "no_local_goal";
