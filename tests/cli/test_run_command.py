@@ -60,6 +60,25 @@ repetitions: 2
     assert ": 16 runs" in kinolab("run", path, "--dry-run", "--shard", "2/3").stdout
 
 
+def test_a_lattice_that_cannot_move_is_refused_before_any_run(kinolab, tmp_path):
+    # 27 controls at tau 0.6 s: the gentlest (3 m/s^2) reaches 1.8 m/s, above the limit.
+    # Refused by the dry run and the run alike, at the limit's line, with the fix; nothing
+    # is written.
+    slow = LAZY.replace("params: {heuristic_weight: 2}", "params: {max_velocity: 1.41}")
+    path = experiment(tmp_path, slow, plugins=False)
+    for args in (("--dry-run",), ("--out", tmp_path / "out")):
+        result = kinolab("run", path, *args)
+        assert result.returncode == 1, result.stdout + result.stderr
+        assert re.search(r"test\.yaml:\d+:\d+: planners\[0\]\.params\.max_velocity: planner "
+                         r"'lazy_mp_astar': parameter 'tau': no control of the 27", result.stderr)
+        assert "Set tau <= 0.47," in result.stderr
+    assert not (tmp_path / "out" / "results.sqlite").exists()
+    # With that tau it runs.
+    fixed = experiment(tmp_path, slow.replace("{max_velocity: 1.41}", "{max_velocity: 1.41, tau: 0.47}"),
+                       plugins=False, name="fixed")
+    assert kinolab("run", fixed, "--dry-run").returncode == 0
+
+
 def test_misbehaving_plugins_get_their_status_and_the_rest_completes(kinolab, tmp_path):
     planners = LAZY + "".join(f"""
   - id: {kind}

@@ -227,12 +227,20 @@ ConfiguredPlanner configurePlanner(std::string_view key,
   }
   try {
     configured.planner = planners.createResolved(key, configured.parameters);
+    configured.planner->doCheck(configured.sampler.get());
   } catch (const ParameterConflict& conflict) {
-    // Where the blamed parameter was set (the last assignment wins), or its default.
-    std::string where = "the default of '" + conflict.parameter() + "'";
+    // Where the blamed parameter was set (the last assignment wins), else where the first of
+    // the others taking part was, else the blamed one's default.
+    std::string where;
     for (const auto& assignment : assignments) {
       if (assignment.name == conflict.parameter()) where = assignment.where;
     }
+    for (const std::string& other : conflict.others()) {
+      for (const auto& assignment : assignments) {
+        if (where.empty() && assignment.name == other) where = assignment.where;
+      }
+    }
+    if (where.empty()) where = "the default of '" + conflict.parameter() + "'";
     throw ConfigError(where + ": planner '" + std::string(key) + "': " + conflict.what());
   }
   configured.info = &planners.info(key);

@@ -49,15 +49,17 @@ void requireAMovingControl(const std::vector<Eigen::Vector3d>& controls,
   const int k = broken ? broken->derivative : 1;
   const char axis = broken ? "xyz"[broken->axis] : 'x';
   throw ParameterConflict(
-      "tau", "no control of the " + std::to_string(controls.size()) +
-                 " moves the vehicle from rest within the limits, so the lattice can never "
-                 "leave its start: the gentlest, " +
-                 formatPoint(*gentlest) + " for tau = " + formatNumber(edges.duration) +
-                 " s, reaches a " + kDerivativeNames[k] + " of " +
-                 formatNumber(std::round(std::abs(broken ? broken->value : 0.0) * 1e6) / 1e6) +
-                 " along " + axis + ", above " + kLimitNames[k] + " = " +
-                 formatNumber(edges.limits.bound[k][0]) + ". Set tau <= " + formatNumber(shown) +
-                 ", a finer control set (sampler.samples_per_axis), or a larger " + kLimitNames[k]);
+      "tau",
+      "no control of the " + std::to_string(controls.size()) +
+          " moves the vehicle from rest within the limits, so the lattice can never "
+          "leave its start: the gentlest, " +
+          formatPoint(*gentlest) + " for tau = " + formatNumber(edges.duration) + " s, reaches a " +
+          kDerivativeNames[k] + " of " +
+          formatNumber(std::round(std::abs(broken ? broken->value : 0.0) * 1e6) / 1e6) + " along " +
+          axis + ", above " + kLimitNames[k] + " = " + formatNumber(edges.limits.bound[k][0]) +
+          ". Set tau <= " + formatNumber(shown) +
+          ", a finer control set (sampler.samples_per_axis), or a larger " + kLimitNames[k],
+      {kLimitNames[k], "max_acceleration", "sampler.samples_per_axis"});
 }
 
 }  // namespace
@@ -182,6 +184,15 @@ void MotionPrimitivePlanner::doSetup(const PlannerContext& context) {
   requireAMovingControl(controls, edges);
   search_ = std::make_unique<MotionPrimitiveSearch>(context.world, std::move(controls),
                                                     config_.settings, config_.policies);
+}
+
+void MotionPrimitivePlanner::doCheck(const ControlSampler* sampler) const {
+  const EdgeEvaluatorSettings& edges = config_.settings.edges;
+  if (!config_.controls.empty()) {
+    requireAMovingControl(config_.controls, edges);
+  } else if (sampler) {
+    requireAMovingControl(sampler->sample(edges.limits.bound[edges.order], 1), edges);
+  }
 }
 
 void MotionPrimitivePlanner::doReset() {

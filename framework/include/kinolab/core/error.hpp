@@ -3,6 +3,7 @@
 #include <stdexcept>
 #include <string>
 #include <utility>
+#include <vector>
 
 namespace kinolab {
 
@@ -21,16 +22,21 @@ class ConfigError : public Error {
 };
 
 /// A plugin's factory refuses a combination of parameter values (each valid alone), naming the
-/// parameter it blames; configurePlanner() adds where that parameter was set.
+/// parameter it blames and any others that take part; configurePlanner() adds where the
+/// blamed one was set, else where the first of the others was.
 class ParameterConflict : public ConfigError {
  public:
-  ParameterConflict(std::string parameter, const std::string& message)
+  ParameterConflict(std::string parameter, const std::string& message,
+                    std::vector<std::string> others = {})
       : ConfigError("parameter '" + parameter + "': " + message),
-        parameter_(std::move(parameter)) {}
+        parameter_(std::move(parameter)),
+        others_(std::move(others)) {}
   const std::string& parameter() const { return parameter_; }
+  const std::vector<std::string>& others() const { return others_; }
 
  private:
   std::string parameter_;
+  std::vector<std::string> others_;
 };
 
 /// A file is missing, unreadable, corrupt or cannot be written.

@@ -140,6 +140,10 @@ class Planner {
   /// The planner's own budget (from its parameters); plan() uses the tighter of this and
   /// the caller's.
   virtual Budget ownBudget() const { return {}; }
+  /// Refuses, when configured (before any world: `run --dry-run` and an experiment's
+  /// validation see it), a configuration that cannot work with its control sampler, as a
+  /// ParameterConflict naming the parameter to change; nothing by default.
+  virtual void doCheck(const ControlSampler* /*sampler*/) const {}
 
  private:
   friend ConfiguredPlanner configurePlanner(std::string_view,
