@@ -407,41 +407,7 @@ class FlightLoop {
       replan.status = std::string(toString(plan.status));
       replan.planning_time_ms = plan.planning_time_ms;
       replan.distance_to_goal = plan.distance_to_goal;
-      // In real time a plan that took longer than the latency arrives after its start.
-      const bool late =
-          settings_.enforce_latency && plan.planning_time_ms > 1000.0 * settings_.replanLatency();
-      accepted = !late && !plan.trajectory.empty() && plan.check.valid &&
-                 (plan.status == PlanStatus::kExact || plan.status == PlanStatus::kApproximate);
-      if (late) {
-        replan.status = "late";
-        replan.why = "planning took " + formatNumber(plan.planning_time_ms) + " ms, past the " +
-                     formatNumber(1000.0 * settings_.replanLatency()) + " ms latency";
-      } else if (!accepted) {
-        replan.why = !plan.trajectory.empty() && !plan.check.valid
-                         ? "the checker: " + plan.check.check + ": " + plan.check.detail
-                         : (plan.message.empty() ? "no trajectory" : plan.message);
-      }
-      if (accepted) {
-        // Every committed trajectory ends at rest: the plan gets a braking tail, which the
-        // planner never saw. The plan is cut where its tail stays in the map and clear of
-        // what is known (the latest such point, in 0.1 s steps).
-        Trajectory spliced;
-        for (double cut = plan.trajectory.duration(); cut > 0.0; cut -= 0.1) {
-          spliced = splice(committed_, t_start, slice(plan.trajectory, cut), brake_rate_);
-          if (insideFrom(spliced, t_start, truth_->bounds(), model_) &&
-              freeFrom(spliced, t_start, window, model_)) {
-            break;
-          }
-          spliced = Trajectory();
-        }
-        if (spliced.empty()) {
-          accepted = false;
-          replan.why = "every braking tail after the plan leaves the map or meets a known obstacle";
-        } else {
-          replan.trajectory = plan.trajectory;
-          committed_ = std::move(spliced);
-        }
-      }
+      accepted = take(plan, t_start, window, replan);
     } else {
       replan.status = "no_local_goal";
       replan.why = "no free point on the way to the goal within the window";
@@ -464,6 +430,39 @@ class FlightLoop {
     }
     reason_ = accepted ? "period" : "retry";
     next_replan_ = std::max(next_replan_, t_ + (accepted ? settings_.replan_period : dt_));
+  }
+
+  /// Whether a replan's plan becomes the committed trajectory (then spliced in from
+  /// `t_start`), with why not in `replan.why`: too late (in real time a plan that took longer
+  /// than the latency arrives after its start), no valid trajectory, or no braking tail that
+  /// fits. Every committed trajectory ends at rest: the plan gets a braking tail, which the
+  /// planner never saw, so the plan is cut where its tail stays in the map and clear of what
+  /// is known (the latest such point, in 0.1 s steps).
+  bool take(const PlanResult& plan, double t_start, const World& window, FlightReplan& replan) {
+    if (settings_.enforce_latency && plan.planning_time_ms > 1000.0 * settings_.replanLatency()) {
+      replan.status = "late";
+      replan.why = "planning took " + formatNumber(plan.planning_time_ms) + " ms, past the " +
+                   formatNumber(1000.0 * settings_.replanLatency()) + " ms latency";
+      return false;
+    }
+    if (plan.trajectory.empty() || !plan.check.valid ||
+        (plan.status != PlanStatus::kExact && plan.status != PlanStatus::kApproximate)) {
+      replan.why = !plan.trajectory.empty() && !plan.check.valid
+                       ? "the checker: " + plan.check.check + ": " + plan.check.detail
+                       : (plan.message.empty() ? "no trajectory" : plan.message);
+      return false;
+    }
+    for (double cut = plan.trajectory.duration(); cut > 0.0; cut -= 0.1) {
+      Trajectory spliced = splice(committed_, t_start, slice(plan.trajectory, cut), brake_rate_);
+      if (insideFrom(spliced, t_start, truth_->bounds(), model_) &&
+          freeFrom(spliced, t_start, window, model_)) {
+        replan.trajectory = plan.trajectory;
+        committed_ = std::move(spliced);
+        return true;
+      }
+    }
+    replan.why = "every braking tail after the plan leaves the map or meets a known obstacle";
+    return false;
   }
 
   /// After a failed replan with the vehicle at rest (or about to be): back off from the
