@@ -294,8 +294,12 @@
   // canvas right of the panel: the picture is shifted by half the panel's width (a view
   // offset) and the camera stands back until the query's bounding sphere fits that part.
   const panel = document.getElementById("panel");
+  // The canvas's size in CSS pixels (a hidden container reports 0: a default then).
+  function viewSize() {
+    return {width: container.clientWidth || 800, height: container.clientHeight || 600};
+  }
   function clearWidth() {
-    const width = container.clientWidth || 800;
+    const {width} = viewSize();
     const covered = panel.getBoundingClientRect().right + 8;
     return width - covered >= 240 ? covered : 0;  // a narrow window: the panel floats over
   }
@@ -315,8 +319,7 @@
   function frame(query) {
     const sphere = queryBounds(query).getBoundingSphere(new THREE.Sphere());
     const radius = Math.max(sphere.radius, 2) + 0.5;  // the markers' size, and some air
-    const width = container.clientWidth || 800;
-    const height = container.clientHeight || 600;
+    const {width, height} = viewSize();
     const visible = width - clearWidth();
     const halfVertical = camera.fov / 2 * Math.PI / 180;
     const halfHorizontal = Math.atan(Math.tan(halfVertical) * visible / height);
@@ -329,8 +332,7 @@
   // Where a point lands on the page (CSS pixels from the canvas's top left).
   function screenOf(point) {
     const ndc = new THREE.Vector3().fromArray(point).project(camera);
-    const width = container.clientWidth || 800;
-    const height = container.clientHeight || 600;
+    const {width, height} = viewSize();
     return {x: (ndc.x + 1) / 2 * width, y: (1 - ndc.y) / 2 * height};
   }
 
@@ -381,8 +383,7 @@
 
   // ---- rendering ------------------------------------------------------------------------
   function resize() {
-    const width = container.clientWidth || 800;
-    const height = container.clientHeight || 600;
+    const {width, height} = viewSize();
     renderer.setSize(width, height);
     camera.aspect = width / height;
     camera.setViewOffset(width, height, -clearWidth() / 2, 0, width, height);

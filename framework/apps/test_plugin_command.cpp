@@ -7,9 +7,10 @@
 #include <cstring>
 #include <filesystem>
 #include <iostream>
-#include <map>
 #include <set>
 #include <sstream>
+#include <utility>
+#include <vector>
 
 #include "commands.hpp"
 #include "kinolab/core/error.hpp"
@@ -39,13 +40,15 @@ std::string conformanceProgram() {
   return program.string();
 }
 
-/// Every key the library at `origin` registered, as "kind 'key'", by key.
-std::map<std::string, std::string> keysFrom(const std::string& origin) {
-  std::map<std::string, std::string> keys;
+/// Every plugin the library at `origin` registered: its key and "kind 'key'" (one key may
+/// name plugins of several kinds).
+std::vector<std::pair<std::string, std::string>> keysFrom(const std::string& origin) {
+  std::vector<std::pair<std::string, std::string>> keys;
   for (const PluginRegistryBase* registry : pluginRegistries()) {
     for (const PluginInfo* info : registry->list()) {
-      if (info->origin == origin)
-        keys.emplace(info->key, registry->kind() + " '" + info->key + "'");
+      if (info->origin == origin) {
+        keys.emplace_back(info->key, registry->kind() + " '" + info->key + "'");
+      }
     }
   }
   return keys;
@@ -78,7 +81,7 @@ std::vector<std::string> listedTests(const std::string& program, const std::stri
 [[noreturn]] void runTestPlugin(const TestPluginOptions& options) {
   loadPluginLibrary(options.library);
   const std::string origin = std::filesystem::canonical(options.library).string();
-  const std::map<std::string, std::string> keys = keysFrom(origin);
+  const auto keys = keysFrom(origin);
   if (keys.empty()) throw PluginError(origin + " registers no plugin: nothing to test");
   std::string filter;
   for (const auto& [key, name] : keys) filter += (filter.empty() ? "" : ":") + ("*/" + key);

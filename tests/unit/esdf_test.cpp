@@ -189,7 +189,7 @@ double pointToCubesBruteForce(const VoxelGrid& grid, const Eigen::Vector3d& poin
 TEST(EsdfTest, ExactDistanceInAMapWithoutObstaclesIsTheLimit) {
   // Every value is the cap (the diagonal): no cube anywhere, whatever the limit, at once.
   const Esdf esdf(randomGrid({30, 20, 10}, 0.0, 1, 0.2));
-  for (const Eigen::Vector3d point : {Eigen::Vector3d(0.1, 0.1, 0.1), Eigen::Vector3d(3, 2, 1)}) {
+  for (const Eigen::Vector3d& point : {Eigen::Vector3d(0.1, 0.1, 0.1), Eigen::Vector3d(3, 2, 1)}) {
     EXPECT_EQ(esdf.exactDistance(point, 2.0), 2.0);
     EXPECT_EQ(esdf.exactDistance(point, esdf.maxDistance()), esdf.maxDistance());
     EXPECT_EQ(esdf.exactDistance(point, INFINITY), INFINITY);

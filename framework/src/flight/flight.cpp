@@ -78,52 +78,40 @@ Trajectory splice(const Trajectory& committed, double t, const Trajectory& plan,
   return out;
 }
 
-/// True when the body keeps its radius (less the tolerance) from the window's known
-/// obstacles along the trajectory from t on (samples every 2 cm of path at most).
-bool freeFrom(const Trajectory& trajectory, double t, const World& window,
+/// True when the trajectory from t on stays inside the map's box and the body keeps its
+/// radius (less the tolerance) from the window's known obstacles (samples every 2 cm of path
+/// at most, and the end).
+bool freeFrom(const Trajectory& trajectory, double t, const Box& map, const World& window,
               const PlanningModel& model) {
   const double radius = model.robot_radius - model.collision_tolerance;
+  const auto free = [&](const Eigen::Vector3d& p) {
+    return map.contains(p) && !(window.bounds().contains(p) && window.clearance(p) < radius);
+  };
   // 2 cm of path at the speed limit, at most 100,000 samples.
   const double step = std::max(0.02 / std::max(0.1, model.limits.bound[1].norm()),
                                (trajectory.duration() - t) / 1e5);
   for (double s = std::max(0.0, t); s <= trajectory.duration(); s += step) {
-    const Eigen::Vector3d p = trajectory.evaluate(s);
-    if (window.bounds().contains(p) && window.clearance(p) < radius) return false;
+    if (!free(trajectory.evaluate(s))) return false;
   }
-  return true;
+  return free(trajectory.endPosition());
 }
 
-/// True when the trajectory from t on stays inside `box` (samples as freeFrom()).
-bool insideFrom(const Trajectory& trajectory, double t, const Box& box,
-                const PlanningModel& model) {
-  const double step = std::max(0.02 / std::max(0.1, model.limits.bound[1].norm()),
-                               (trajectory.duration() - t) / 1e5);
-  for (double s = std::max(0.0, t); s <= trajectory.duration(); s += step) {
-    if (!box.contains(trajectory.evaluate(s))) return false;
-  }
-  return box.contains(trajectory.endPosition());
-}
-
-/// A straight move at rest at both ends from `from` by `offset`: accelerate, then decelerate,
-/// at most `acceleration` and `speed` along it (two segments).
+/// A straight move at rest at both ends from `from` by `offset`: two primitives (order 2),
+/// accelerating then decelerating along it, at most `acceleration` and `speed`.
 std::vector<TrajectorySegment> straightMove(const Eigen::Vector3d& from,
                                             const Eigen::Vector3d& offset, double acceleration,
                                             double speed) {
   const double length = offset.norm();
-  const Eigen::Vector3d unit = offset / length;
   // Half the way each: a t^2 / 2 = length / 2, with the peak speed a t within `speed`.
   const double a = std::min(acceleration, speed * speed / length);
   const double half = std::sqrt(length / a);
-  TrajectorySegment speeding_up;
-  speeding_up.duration = half;
-  speeding_up.coefficients = Eigen::Matrix<double, 3, Eigen::Dynamic>::Zero(3, 3);
-  speeding_up.coefficients.col(0) = from;
-  speeding_up.coefficients.col(2) = 0.5 * a * unit;
-  TrajectorySegment slowing_down = speeding_up;
-  slowing_down.coefficients.col(0) = from + 0.5 * offset;
-  slowing_down.coefficients.col(1) = a * half * unit;
-  slowing_down.coefficients.col(2) = -0.5 * a * unit;
-  return {speeding_up, slowing_down};
+  const Eigen::Vector3d push = a * offset / length;
+  ChainState state = ChainState::Zero();
+  state.col(0) = from;
+  const TrajectorySegment speeding_up = TrajectorySegment::primitive(state, push, 2, half);
+  state.col(0) = speeding_up.evaluate(half);
+  state.col(1) = speeding_up.evaluate(half, 1);
+  return {speeding_up, TrajectorySegment::primitive(state, -push, 2, half)};
 }
 
 /// The point `s` metres along the polyline `way` (its end when it is shorter).
@@ -303,7 +291,7 @@ class FlightLoop {
       snapshot();
     }
     const std::shared_ptr<const World> window = sense(now);
-    if (!freeFrom(committed_, t_, *window, model_)) {
+    if (!freeFrom(committed_, t_, truth_->bounds(), *window, model_)) {
       reason_ = "collision";
       next_replan_ = t_;
     }
@@ -413,13 +401,14 @@ class FlightLoop {
       replan.why = "no free point on the way to the goal within the window";
     }
     replan.accepted = accepted;
-    if (!accepted) recover(replan, window);
     if (accepted) {
       failed_in_a_row_ = 0;
       look_offset_ = 0.0;
+    } else {
+      recover(replan, window);
     }
     result_.replans.push_back(std::move(replan));
-    if (!accepted && !freeFrom(committed_, t_, window, model_)) {
+    if (!accepted && !freeFrom(committed_, t_, truth_->bounds(), window, model_)) {
       // Nothing safe to fly on: stop now.
       const ChainState here = stateAt(committed_, t_);
       Trajectory stop = slice(committed_, t_);
@@ -454,8 +443,7 @@ class FlightLoop {
     }
     for (double cut = plan.trajectory.duration(); cut > 0.0; cut -= 0.1) {
       Trajectory spliced = splice(committed_, t_start, slice(plan.trajectory, cut), brake_rate_);
-      if (insideFrom(spliced, t_start, truth_->bounds(), model_) &&
-          freeFrom(spliced, t_start, window, model_)) {
+      if (freeFrom(spliced, t_start, truth_->bounds(), window, model_)) {
         replan.trajectory = plan.trajectory;
         committed_ = std::move(spliced);
         return true;
@@ -497,7 +485,7 @@ class FlightLoop {
                                    0.5 * model_.limits.bound[1].minCoeff());
     Trajectory moved = slice(committed_, t_);
     for (const TrajectorySegment& segment : move) moved.append(segment);
-    if (!freeFrom(moved, t_, window, model_)) return false;
+    if (!freeFrom(moved, t_, truth_->bounds(), window, model_)) return false;
     committed_ = std::move(moved);
     next_replan_ = committed_.duration();
     return true;

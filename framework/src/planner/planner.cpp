@@ -231,14 +231,16 @@ ConfiguredPlanner configurePlanner(std::string_view key,
   } catch (const ParameterConflict& conflict) {
     // Where the blamed parameter was set (the last assignment wins), else where the first of
     // the others taking part was, else the blamed one's default.
-    std::string where;
-    for (const auto& assignment : assignments) {
-      if (assignment.name == conflict.parameter()) where = assignment.where;
-    }
-    for (const std::string& other : conflict.others()) {
+    const auto setAt = [&](const std::string& name) {
+      std::string at;
       for (const auto& assignment : assignments) {
-        if (where.empty() && assignment.name == other) where = assignment.where;
+        if (assignment.name == name) at = assignment.where;
       }
+      return at;
+    };
+    std::string where = setAt(conflict.parameter());
+    for (const std::string& other : conflict.others()) {
+      if (where.empty()) where = setAt(other);
     }
     if (where.empty()) where = "the default of '" + conflict.parameter() + "'";
     throw ConfigError(where + ": planner '" + std::string(key) + "': " + conflict.what());

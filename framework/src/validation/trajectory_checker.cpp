@@ -239,12 +239,9 @@ bool TrajectoryChecker::checkCollision(const Trajectory& trajectory, CheckResult
         return violation(result, "bounds", time, position,
                          "position " + formatPoint(position) + " leaves the map");
       }
-      // Up to the map's diagonal (where the ESDF caps, in a map without obstacles).
+      // Up to the map's diagonal (where the ESDF caps, in a map without obstacles); always
+      // finite (a position inside the map is).
       const double distance = world.esdf().exactDistance(position, world.esdf().maxDistance());
-      if (!std::isfinite(distance)) {
-        return violation(result, "numeric", time, position,
-                         "the distance at " + formatPoint(position) + " is not finite");
-      }
       clearance_sum += std::max(distance, 0.0) - settings_.robot_radius;
       least = std::min(least, std::max(distance, 0.0));
       if (collides(position)) {

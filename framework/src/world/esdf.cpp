@@ -349,7 +349,8 @@ double Esdf::centreBound(const Eigen::Vector3d& point) const {
   return best;
 }
 
-double Esdf::exactDistance(const Eigen::Vector3d& point, double limit, double enough) const {
+double Esdf::exactDistanceAbove(const Eigen::Vector3d& point, double limit, double enough,
+                                double lower) const {
   if (values_.empty()) return limit;
   NearestCubeSearch search;
   double centre_offset2 = 0.0;
@@ -362,7 +363,7 @@ double Esdf::exactDistance(const Eigen::Vector3d& point, double limit, double en
     centre_offset2 += offset * offset;
   }
   // In voxel units from here on. The nearest cube lies in a shell about the point: within a
-  // lower bound of the distance (centreBound()) every voxel is free, and within an upper bound
+  // lower bound of the distance (`lower`) every voxel is free, and within an upper bound
   // (the voxel's centre value, exact, and the way to it) there is a cube; both with float
   // rounding's slack. Only the shell is searched.
   const float raw = values_[search.cell[0] * strides_[0] + search.cell[1] * strides_[1] +
@@ -373,7 +374,7 @@ double Esdf::exactDistance(const Eigen::Vector3d& point, double limit, double en
   const double stored = raw * inverse_resolution_;
   double reach = limit * inverse_resolution_;
   if (stored >= 0.0) reach = std::min(reach, stored + std::sqrt(centre_offset2) + 1e-4);
-  const double inner = std::max(0.0, centreBound(point) * inverse_resolution_ - 1e-4);
+  const double inner = std::max(0.0, lower * inverse_resolution_ - 1e-4);
   for (int axis = 0; axis < 3; ++axis) {
     search.from[axis] = std::max<std::int64_t>(
         0, static_cast<std::int64_t>(std::floor(search.scaled[axis] - reach)));

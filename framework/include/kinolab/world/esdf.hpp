@@ -98,8 +98,11 @@ class Esdf {
   /// search and gives sphere tracing longer steps.
   double decided(const Eigen::Vector3d& point, double bound, double threshold, double limit) const {
     if (bound >= threshold) return bound;
-    if (const double centres = centreBound(point); centres >= threshold) return centres;
-    return std::max(bound, exactDistance(point, std::max(limit, threshold), threshold));
+    const double centres = centreBound(point);
+    if (centres >= threshold) return centres;
+    // Both bounds are proven: the search skips what the larger shows free.
+    return std::max(bound, exactDistanceAbove(point, std::max(limit, threshold), threshold,
+                                              std::max(bound, centres)));
   }
   /// Another lower bound of the distance to the cubes, from the same 8 voxel centres c_j as
   /// the trilinear value: max_j D(c_j) - |point - c_j| (D exact at the centres, 1-Lipschitz).
@@ -113,14 +116,20 @@ class Esdf {
   /// occupied voxels are those with a negative value; the nearest cube lies within
   /// D(c) + |point - c| of the point (c the nearest voxel centre, where the stored value D is
   /// exact; D is 1-Lipschitz), and those voxels (at most `limit` away) are searched from the
-  /// point's voxel outwards. Costs up to about (2 r / voxel)^3 look-ups for a search radius r:
-  /// meant for points near obstacles, where clearance() undershoots (by up to sqrt(3) / 2
-  /// voxel) and a verdict must be exact. With `enough` > 0 it returns as soon as it finds a
-  /// cube nearer than that (a distance below `enough`, not necessarily the least): a verdict at
-  /// radius `enough` needs no more.
-  double exactDistance(const Eigen::Vector3d& point, double limit, double enough = 0.0) const;
+  /// point's voxel outwards, skipping the ball within centreBound(), known free: the shell
+  /// between the two bounds: for a distance r, about pi (r / voxel)^2 columns of a few
+  /// look-ups each (the whole ball took (r / voxel)^3).
+  /// With `enough` > 0 it returns as soon as it finds a cube nearer than that (a distance below
+  /// `enough`, not necessarily the least): a verdict at radius `enough` needs no more.
+  double exactDistance(const Eigen::Vector3d& point, double limit, double enough = 0.0) const {
+    return exactDistanceAbove(point, limit, enough, centreBound(point));
+  }
 
  private:
+  /// exactDistance() given `lower`, a proven lower bound of the distance (the search skips
+  /// the ball it shows free).
+  double exactDistanceAbove(const Eigen::Vector3d& point, double limit, double enough,
+                            double lower) const;
   /// The trilinear value; with `gradient`, its gradient; with `spread`, voxel^2 sum_i
   /// t_i (1 - t_i) for clearance().
   template <bool kWithGradient>
