@@ -75,6 +75,68 @@ INSTANTIATE_TEST_SUITE_P(RandomGrids, EsdfBruteForceTest,
                                            EsdfCase{{24, 24, 24}, 0.9},
                                            EsdfCase{{40, 3, 19}, 0.002}));
 
+/// Random edits of a grid's occupancy, as a vehicle's window sees them: a few voxels
+/// appearing or vanishing, a box of them at once, everything cleared and filled again.
+TEST(IncrementalEsdfTest, EveryUpdateEqualsAFullBuildBitForBit) {
+  for (const auto& [dims, density] :
+       {std::pair{Eigen::Vector3i(23, 17, 9), 0.05}, std::pair{Eigen::Vector3i(1, 40, 6), 0.2},
+        std::pair{Eigen::Vector3i(30, 30, 30), 0.002}}) {
+    VoxelGrid grid = randomGrid(dims, density, 7, 0.1);
+    IncrementalEsdf incremental(grid);
+    Rng rng(11);
+    for (int step = 0; step < 40; ++step) {
+      std::vector<std::uint8_t> occupancy = grid.occupancy();
+      if (step == 20) {
+        std::fill(occupancy.begin(), occupancy.end(), 0);  // all free: the cap everywhere
+      } else if (step == 21) {
+        std::fill(occupancy.begin(), occupancy.end(), 1);  // all occupied
+      } else if (step % 5 == 4) {
+        const VoxelIndex low(static_cast<int>(rng.uniformInt(0, dims.x() - 1)),
+                             static_cast<int>(rng.uniformInt(0, dims.y() - 1)),
+                             static_cast<int>(rng.uniformInt(0, dims.z() - 1)));
+        const std::uint8_t value = rng.uniform01() < 0.5 ? 1 : 0;
+        for (int x = low.x(); x < std::min(dims.x(), low.x() + 4); ++x) {
+          for (int y = low.y(); y < std::min(dims.y(), low.y() + 3); ++y) {
+            for (int z = low.z(); z < std::min(dims.z(), low.z() + 2); ++z) {
+              occupancy[grid.index(x, y, z)] = value;
+            }
+          }
+        }
+      } else {
+        for (int k = 0; k < 1 + step % 3; ++k) {
+          const auto i = static_cast<std::size_t>(
+              rng.uniformInt(0, static_cast<std::int64_t>(grid.size()) - 1));
+          occupancy[i] = occupancy[i] ? 0 : 1;
+        }
+      }
+      grid.occupancy() = occupancy;
+      incremental.update(occupancy);
+      const Esdf full(grid);
+      ASSERT_EQ(incremental.esdf().values(), full.values())
+          << "dims " << dims.transpose() << " step " << step;
+      ASSERT_EQ(incremental.grid().occupancy(), grid.occupancy());
+    }
+  }
+}
+
+TEST(IncrementalEsdfTest, AnUpdateRecomputesOnlyTheLinesItReaches) {
+  VoxelGrid grid = randomGrid({60, 60, 20}, 0.01, 3, 0.1);
+  IncrementalEsdf incremental(grid);
+  const std::size_t full = incremental.linesRecomputed();
+  EXPECT_EQ(full, 2u * (60 * 60 + 60 * 20 + 60 * 20));
+  EXPECT_EQ(incremental.update(grid.occupancy()), 0u);  // nothing changed: no work
+  EXPECT_EQ(incremental.linesRecomputed(), full);
+  std::vector<std::uint8_t> occupancy = grid.occupancy();
+  const std::size_t voxel = grid.index(30, 30, 10);
+  occupancy[voxel] = occupancy[voxel] ? 0 : 1;
+  EXPECT_EQ(incremental.update(occupancy), 1u);
+  const std::size_t work = incremental.linesRecomputed() - full;
+  EXPECT_GT(work, 0u);
+  EXPECT_LT(work, full / 4) << "one voxel in a 1 % grid should reach a few lines";
+  grid.occupancy() = occupancy;
+  EXPECT_EQ(incremental.esdf().values(), Esdf(grid).values());
+}
+
 TEST(EsdfTest, SingleObstacleGivesTheEuclideanDistanceToItsCubeInMetres) {
   const double resolution = 0.25;
   VoxelGrid grid(Box{Eigen::Vector3d::Zero(), Eigen::Vector3d(5.0, 4.0, 3.0)}, resolution);

@@ -53,30 +53,31 @@ void VehicleMap::markFree(const Eigen::Vector3d& center, double radius) {
   });
 }
 
-std::shared_ptr<const World> VehicleMap::window(const Eigen::Vector3d& center) const {
+Box VehicleMap::latticeBox(const Eigen::Vector3d& center, const Eigen::Vector3d& half) const {
   const double r = model_.resolution;
-  const Box& bounds = bounds_;
-  // The window's box on the map's lattice, within the map.
   Box box;
   for (int axis = 0; axis < 3; ++axis) {
-    const double half = 0.5 * (axis < 2 ? model_.window : model_.window_height);
-    const double low = std::max(bounds.min[axis], center[axis] - half);
-    const double high = std::min(bounds.max[axis], center[axis] + half);
-    box.min[axis] = bounds.min[axis] + std::floor((low - bounds.min[axis]) / r + 1e-9) * r;
-    box.max[axis] = bounds.min[axis] + std::ceil((high - bounds.min[axis]) / r - 1e-9) * r;
+    const double low = std::max(bounds_.min[axis], center[axis] - half[axis]);
+    const double high = std::min(bounds_.max[axis], center[axis] + half[axis]);
+    box.min[axis] = bounds_.min[axis] + std::floor((low - bounds_.min[axis]) / r + 1e-9) * r;
+    box.max[axis] = bounds_.min[axis] + std::ceil((high - bounds_.min[axis]) / r - 1e-9) * r;
     box.max[axis] = std::max(box.max[axis], box.min[axis] + r);
   }
-  VoxelGrid grid(box, r);
+  return box;
+}
+
+void VehicleMap::windowOccupancy(const VoxelGrid& grid, const Eigen::Vector3d& center,
+                                 std::vector<std::uint8_t>& occupancy) const {
   const Eigen::Vector3i& n = grid.dims();
   const VoxelGrid& lattice = lattice_;
-  // The window's first voxel in the mirror (both on the map's lattice).
+  // The window's first voxel in the map (both on the map's lattice).
   const Eigen::Vector3i first =
-      ((grid.origin() - lattice.origin()) / r).array().round().cast<int>();
+      ((grid.origin() - lattice.origin()) / model_.resolution).array().round().cast<int>();
   const double near2 = model_.free_beyond * model_.free_beyond;
-  std::vector<std::uint8_t>& occupancy = grid.occupancy();
+  occupancy.resize(grid.size());
   for (int x = 0; x < n.x(); ++x) {
     for (int y = 0; y < n.y(); ++y) {
-      // One z column of the window is a run of the mirror's column (both z fastest).
+      // One z column of the window is a run of the map's column (both z fastest).
       const VoxelIndex column(first.x() + x, first.y() + y, first.z());
       const bool inside = lattice.inside(column);
       const std::uint8_t* states = inside ? &state_[lattice.index(column)] : nullptr;
@@ -101,8 +102,37 @@ std::shared_ptr<const World> VehicleMap::window(const Eigen::Vector3d& center) c
       }
     }
   }
-  Esdf esdf(grid);
-  return std::make_shared<const World>("known_window", 0, std::move(grid), std::move(esdf));
+}
+
+std::shared_ptr<const World> VehicleMap::window(const Eigen::Vector3d& center) {
+  if (!isSetup()) throw InvalidArgument("VehicleMap::window before setup()");
+  const double half_side = 0.5 * model_.window;
+  const double half_height = 0.5 * model_.window_height;
+  const auto contains = [](const Box& outer, const Box& inner) {
+    return (outer.min.array() <= inner.min.array() + 1e-9).all() &&
+           (inner.max.array() <= outer.max.array() + 1e-9).all();
+  };
+  const bool kept =
+      window_field_ &&
+      contains(window_field_->grid().bounds(),
+               latticeBox(center, Eigen::Vector3d(half_side, half_side, 0.0))) &&
+      std::abs(center.z() - window_middle_.z()) <= 0.5 * half_height;
+  std::vector<std::uint8_t> occupancy;
+  if (!kept) {
+    const double half = half_side + model_.window_margin;
+    VoxelGrid grid(latticeBox(center, Eigen::Vector3d(half, half, half_height)),
+                   model_.resolution);
+    windowOccupancy(grid, center, occupancy);
+    grid.occupancy() = std::move(occupancy);
+    window_field_ = std::make_unique<IncrementalEsdf>(std::move(grid));
+    window_middle_ = center;
+  } else {
+    windowOccupancy(window_field_->grid(), center, occupancy);
+    if (window_field_->update(occupancy) == 0) return window_world_;
+  }
+  window_world_ = std::make_shared<const World>("known_window", 0, window_field_->grid(),
+                                                window_field_->esdf());
+  return window_world_;
 }
 
 namespace {

@@ -141,47 +141,95 @@ void transformStrided(std::int32_t* data, std::size_t first, std::size_t inner_c
   }
 }
 
+/// Pass 1 of the cube distance transform, along z (contiguous): per voxel of the column
+/// `cells` (n long), the distance to the nearest voxel of the column whose occupancy equals
+/// `target`, by two sweeps, k voxels away giving (2 k - 1)^2 (0 in such a voxel; kNoSite
+/// when the column has none).
+void transformColumn(const std::uint8_t* cells, int n, std::uint8_t target, std::int32_t* out) {
+  std::int32_t distance = kNoSite;
+  for (int iz = 0; iz < n; ++iz) {
+    distance = cells[iz] == target ? 0 : (distance == kNoSite ? kNoSite : distance + 1);
+    out[iz] = distance;
+  }
+  distance = kNoSite;
+  for (int iz = n - 1; iz >= 0; --iz) {
+    distance = cells[iz] == target ? 0 : (distance == kNoSite ? kNoSite : distance + 1);
+    const std::int32_t best = std::min(out[iz], distance);
+    out[iz] = best == kNoSite ? kNoSite : (best == 0 ? 0 : (2 * best - 1) * (2 * best - 1));
+  }
+}
+
+/// The three passes over a grid of `dims` (x slowest, z fastest): pass 1 along z from the
+/// occupancy, then in place pass 2 along y (within each x-slab, lines over iy for every iz)
+/// and pass 3 along x (lines over ix for every (iy, iz)).
+struct CubeTransform {
+  explicit CubeTransform(const Eigen::Vector3i& grid_dims)
+      : dims(grid_dims),
+        slab(static_cast<std::size_t>(dims.y()) * dims.z()),
+        scratch(std::max(dims.x(), dims.y())),
+        in(static_cast<std::size_t>(kBlock) * std::max(dims.x(), dims.y())),
+        out(in.size()) {}
+
+  void columns(const std::uint8_t* occupancy, std::uint8_t target, std::int32_t* squared) const {
+    const std::size_t nz = static_cast<std::size_t>(dims.z());
+    for (std::size_t column = 0; column < static_cast<std::size_t>(dims.x()) * dims.y();
+         ++column) {
+      transformColumn(occupancy + column * nz, dims.z(), target, squared + column * nz);
+    }
+  }
+  void alongY(std::int32_t* squared) {
+    for (int ix = 0; ix < dims.x(); ++ix) {
+      transformStrided(squared, ix * slab, static_cast<std::size_t>(dims.z()), dims.y(),
+                       static_cast<std::size_t>(dims.z()), scratch, in, out);
+    }
+  }
+  void alongX(std::int32_t* squared) {
+    transformStrided(squared, 0, slab, dims.x(), slab, scratch, in, out);
+  }
+  /// One line of pass 2 or 3 alone: `length` entries of `from`, `stride` apart from `first`,
+  /// transformed into `to` at the same places; calls changed(index) for every entry of `to`
+  /// that this alters.
+  template <typename Changed>
+  void line(const std::int32_t* from, std::int32_t* to, std::size_t first, int length,
+            std::size_t stride, Changed&& changed) {
+    for (int q = 0; q < length; ++q) in[q] = from[first + q * stride];
+    transformLine(in.data(), out.data(), length, scratch);
+    for (int q = 0; q < length; ++q) {
+      const std::size_t index = first + q * stride;
+      if (to[index] != out[q]) {
+        to[index] = out[q];
+        changed(index);
+      }
+    }
+  }
+
+  Eigen::Vector3i dims;
+  std::size_t slab;
+  EnvelopeScratch scratch;
+  std::vector<std::int32_t> in;
+  std::vector<std::int32_t> out;
+};
+
 /// Squared Euclidean distance, in quarter voxels squared ((2 d / voxel)^2), from every voxel's
 /// centre to the nearest cube of a voxel whose occupancy equals `target` (0 in such a voxel).
 /// Exact: per axis the offset to a cube k voxels away is max(|k| - 1/2, 0), a separable sum.
 std::vector<std::int32_t> squaredDistanceTo(const VoxelGrid& grid, std::uint8_t target) {
-  const int nx = grid.dims().x();
-  const int ny = grid.dims().y();
-  const int nz = grid.dims().z();
-  const std::uint8_t* occupancy = grid.occupancy().data();
   std::vector<std::int32_t> squared(grid.size());
-
-  // Pass 1, along z (contiguous): nearest target in the column by two sweeps, k voxels away
-  // giving (2 k - 1)^2.
-  for (std::size_t column = 0; column < static_cast<std::size_t>(nx) * ny; ++column) {
-    const std::uint8_t* cells = occupancy + column * nz;
-    std::int32_t* out = squared.data() + column * nz;
-    std::int32_t distance = kNoSite;
-    for (int iz = 0; iz < nz; ++iz) {
-      distance = cells[iz] == target ? 0 : (distance == kNoSite ? kNoSite : distance + 1);
-      out[iz] = distance;
-    }
-    distance = kNoSite;
-    for (int iz = nz - 1; iz >= 0; --iz) {
-      distance = cells[iz] == target ? 0 : (distance == kNoSite ? kNoSite : distance + 1);
-      const std::int32_t best = std::min(out[iz], distance);
-      out[iz] = best == kNoSite ? kNoSite : (best == 0 ? 0 : (2 * best - 1) * (2 * best - 1));
-    }
-  }
-
-  const int longest = std::max(nx, ny);
-  EnvelopeScratch scratch(longest);
-  std::vector<std::int32_t> in(static_cast<std::size_t>(kBlock) * longest);
-  std::vector<std::int32_t> out(in.size());
-  // Pass 2, along y: within each x-slab, lines over iy for every iz.
-  const std::size_t slab = static_cast<std::size_t>(ny) * nz;
-  for (int ix = 0; ix < nx; ++ix) {
-    transformStrided(squared.data(), ix * slab, static_cast<std::size_t>(nz), ny,
-                     static_cast<std::size_t>(nz), scratch, in, out);
-  }
-  // Pass 3, along x: lines over ix for every (iy, iz).
-  transformStrided(squared.data(), 0, slab, nx, slab, scratch, in, out);
+  CubeTransform transform(grid.dims());
+  transform.columns(grid.occupancy().data(), target, squared.data());
+  transform.alongY(squared.data());
+  transform.alongX(squared.data());
   return squared;
+}
+
+/// A voxel's signed distance, m, from its squared distances to the nearest occupied and the
+/// nearest free cube (quarter voxels squared): kNoSite's root exceeds any real distance and
+/// is capped at `cap`. Branch-free, so that loops over it vectorise.
+inline float signedDistance(std::int32_t to_occupied, std::int32_t to_free, bool occupied,
+                            float half_voxel, float cap) {
+  const float outside = std::min(std::sqrt(static_cast<float>(to_occupied)) * half_voxel, cap);
+  const float inside = std::min(std::sqrt(static_cast<float>(to_free)) * half_voxel, cap);
+  return occupied ? -inside : outside;
 }
 
 /// The search of Esdf::exactDistance() (voxel units): the occupied voxel (negative value)
@@ -300,14 +348,10 @@ Esdf::Esdf(const VoxelGrid& grid) {
   const std::vector<std::int32_t> to_free = squaredDistanceTo(grid, 0);
   values_.resize(grid.size());
   const auto cap = static_cast<float>(max_distance_);
-  const auto resolution = static_cast<float>(0.5 * resolution_);  // the fields are in half voxels
+  const auto half_voxel = static_cast<float>(0.5 * resolution_);  // the fields are in half voxels
   const std::uint8_t* occupancy = grid.occupancy().data();
-  // Branch-free so that the compiler vectorises it; kNoSite's root exceeds any real
-  // distance and is capped to the diagonal.
   for (std::size_t i = 0; i < values_.size(); ++i) {
-    const float outside = std::min(std::sqrt(static_cast<float>(to_occupied[i])) * resolution, cap);
-    const float inside = std::min(std::sqrt(static_cast<float>(to_free[i])) * resolution, cap);
-    values_[i] = occupancy[i] ? -inside : outside;
+    values_[i] = signedDistance(to_occupied[i], to_free[i], occupancy[i] != 0, half_voxel, cap);
   }
 }
 
@@ -392,6 +436,95 @@ double Esdf::exactDistanceAbove(const Eigen::Vector3d& point, double limit, doub
   if (search.found && search.best2 == 0.0) return -0.5 * resolution_;  // in (or on) a cube
   const double best = std::sqrt(search.best2) * resolution_;
   return search.found && best < limit ? best : limit;
+}
+
+IncrementalEsdf::IncrementalEsdf(VoxelGrid grid) : grid_(std::move(grid)) {
+  if (grid_.size() == 0) throw InvalidArgument("IncrementalEsdf: empty grid");
+  CubeTransform transform(grid_.dims());
+  for (int sign = 0; sign < 2; ++sign) {
+    std::vector<std::int32_t>* pass = pass_[sign];
+    pass[0].resize(grid_.size());
+    transform.columns(grid_.occupancy().data(), sign == 0 ? 1 : 0, pass[0].data());
+    pass[1] = pass[0];
+    transform.alongY(pass[1].data());
+    pass[2] = pass[1];
+    transform.alongX(pass[2].data());
+  }
+  const Eigen::Vector3i& n = grid_.dims();
+  lines_ = 2 * (static_cast<std::size_t>(n.x()) * n.y() + static_cast<std::size_t>(n.x()) * n.z() +
+                static_cast<std::size_t>(n.y()) * n.z());
+  values_.resize(grid_.size());
+  const auto cap = static_cast<float>((n.cast<double>() * grid_.resolution()).norm());
+  const auto half_voxel = static_cast<float>(0.5 * grid_.resolution());
+  const std::uint8_t* occupancy = grid_.occupancy().data();
+  for (std::size_t i = 0; i < values_.size(); ++i) {
+    values_[i] = signedDistance(pass_[0][2][i], pass_[1][2][i], occupancy[i] != 0, half_voxel, cap);
+  }
+}
+
+std::size_t IncrementalEsdf::update(const std::vector<std::uint8_t>& occupancy) {
+  if (occupancy.size() != grid_.size()) {
+    throw InvalidArgument("IncrementalEsdf::update: " + std::to_string(occupancy.size()) +
+                          " voxels for a grid of " + std::to_string(grid_.size()));
+  }
+  std::vector<std::uint8_t>& current = grid_.occupancy();
+  std::vector<std::size_t> changed;
+  for (std::size_t i = 0; i < current.size(); ++i) {
+    if ((current[i] != 0) != (occupancy[i] != 0)) {
+      changed.push_back(i);
+      current[i] = occupancy[i] != 0 ? 1 : 0;
+    }
+  }
+  if (changed.empty()) return 0;
+  const Eigen::Vector3i& n = grid_.dims();
+  const auto nz = static_cast<std::size_t>(n.z());
+  const std::size_t slab = static_cast<std::size_t>(n.y()) * nz;
+  CubeTransform transform(n);
+  std::vector<std::int32_t> column(nz);
+  // The voxels whose value may change: the changed ones and those whose pass 3 changed.
+  std::vector<std::size_t> touched = changed;
+  for (int sign = 0; sign < 2; ++sign) {
+    const std::uint8_t target = sign == 0 ? 1 : 0;
+    std::vector<std::int32_t>* pass = pass_[sign];
+    // Pass 1: the columns holding a changed voxel; mark the y-lines (x, z) they alter.
+    std::vector<std::uint8_t> y_dirty(static_cast<std::size_t>(n.x()) * nz, 0);
+    std::vector<std::uint8_t> x_dirty(slab, 0);
+    std::size_t last_column = grid_.size();
+    for (const std::size_t voxel : changed) {
+      const std::size_t c = voxel / nz;
+      if (c == last_column) continue;  // changed is in grid order: a column's voxels adjoin
+      last_column = c;
+      ++lines_;
+      transformColumn(current.data() + c * nz, n.z(), target, column.data());
+      for (std::size_t z = 0; z < nz; ++z) {
+        if (pass[0][c * nz + z] == column[z]) continue;
+        pass[0][c * nz + z] = column[z];
+        y_dirty[c / n.y() * nz + z] = 1;
+      }
+    }
+    // Pass 2: those y-lines; mark the x-lines (y, z) they alter.
+    for (std::size_t line = 0; line < y_dirty.size(); ++line) {
+      if (!y_dirty[line]) continue;
+      ++lines_;
+      const std::size_t x = line / nz;
+      const std::size_t z = line % nz;
+      transform.line(pass[0].data(), pass[1].data(), x * slab + z, n.y(), nz,
+                     [&](std::size_t index) { x_dirty[index % slab] = 1; });
+    }
+    // Pass 3: those x-lines; their altered entries are values to recompute.
+    for (std::size_t line = 0; line < slab; ++line) {
+      if (!x_dirty[line]) continue;
+      ++lines_;
+      transform.line(pass[1].data(), pass[2].data(), line, n.x(), slab,
+                     [&](std::size_t index) { touched.push_back(index); });
+    }
+  }
+  const auto cap = static_cast<float>((n.cast<double>() * grid_.resolution()).norm());
+  const auto half_voxel = static_cast<float>(0.5 * grid_.resolution());
+  for (const std::size_t i : touched) {
+    values_[i] = signedDistance(pass_[0][2][i], pass_[1][2][i], current[i] != 0, half_voxel, cap);
+  }
+  return changed.size();
 }
 
 }  // namespace kinolab

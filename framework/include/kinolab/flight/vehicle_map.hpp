@@ -9,6 +9,7 @@
 
 #include "kinolab/core/plugin_registry.hpp"
 #include "kinolab/flight/sensor.hpp"
+#include "kinolab/world/esdf.hpp"
 #include "kinolab/world/voxel_grid.hpp"
 #include "kinolab/world/world.hpp"
 
@@ -22,6 +23,7 @@ struct MapModel {
   double resolution = 0.1;     ///< m; the map's voxels align with the ground truth's lattice
   double window = 8.0;         ///< m: the planning window's side in x and y
   double window_height = 2.0;  ///< m: its height (centred on the vehicle, within the map)
+  double window_margin = 1.0;  ///< m: the kept window's extra side in x and y (window())
   UnknownSpace unknown = UnknownSpace::kFree;
   double free_beyond = 2.0;  ///< m (kFreeBeyond): unknown is occupied closer than this
 
@@ -35,6 +37,10 @@ struct MapModel {
            "planning window height, m (centred on the vehicle, within the map; a camera looking "
            "ahead does not see far above or below, so a tall window lets a planner climb into "
            "unseen space)");
+    f.real("window_margin", window_margin, 0.0, 1000.0,
+           "the planning window is kept, and its ESDF updated only where the known map "
+           "changed, while the vehicle stays within this of its centre in x and y (and a "
+           "quarter of window_height in z); then it is built anew around the vehicle, m");
     f.choice("unknown", unknown,
              {{"free", UnknownSpace::kFree},
               {"occupied", UnknownSpace::kOccupied},
@@ -70,10 +76,14 @@ class VehicleMap {
   /// Marks the unseen voxels within `radius` of `center` known (where the vehicle is, nothing
   /// can be: free); voxels the sensor has seen keep their state.
   void markFree(const Eigen::Vector3d& center, double radius);
-  /// The planning world: the window of side `window` around `center` (clamped to the map),
-  /// known occupied voxels and unknown ones as `unknown` says (kFreeBeyond: measured from
-  /// `center`), with its exact ESDF.
-  std::shared_ptr<const World> window(const Eigen::Vector3d& center) const;
+  /// The planning world around `center`: known occupied voxels and unknown ones as `unknown`
+  /// says (kFreeBeyond: measured from `center`), with its exact ESDF. The window is kept
+  /// between calls: a box of side window + 2 window_margin in x and y and window_height in z
+  /// (clamped to the map), built around the vehicle and kept while it holds the square of
+  /// side `window` around `center` and `center` is within a quarter of its height of its
+  /// middle; meanwhile only the voxels whose occupancy changed are updated
+  /// (IncrementalEsdf), and the same World is returned while none did.
+  std::shared_ptr<const World> window(const Eigen::Vector3d& center);
   /// A shortest 8-connected path over the map's x-y cells from `from` to `to`, through cells
   /// with no known occupied voxel within `radius` in the heights [z_low, z_high] (unknown is
   /// free): the global guide a local goal is taken from. Cell centres at heights
@@ -117,8 +127,18 @@ class VehicleMap {
  private:
   MapModel model_;
   Box bounds_;
+  /// The box on the map's lattice of half-sides `half` around `center`, clamped to the map.
+  Box latticeBox(const Eigen::Vector3d& center, const Eigen::Vector3d& half) const;
+  /// The window's occupancy on `grid` (a box of the lattice) seen from `center`.
+  void windowOccupancy(const VoxelGrid& grid, const Eigen::Vector3d& center,
+                       std::vector<std::uint8_t>& occupancy) const;
+
   VoxelGrid lattice_;  // the map's geometry (its occupancy unused)
   std::vector<std::uint8_t> state_;
+  // The kept planning window (window()): its field, the World last made of it, its middle.
+  std::unique_ptr<IncrementalEsdf> window_field_;
+  std::shared_ptr<const World> window_world_;
+  Eigen::Vector3d window_middle_ = Eigen::Vector3d::Zero();
 };
 
 template <>

@@ -201,4 +201,34 @@ class Esdf {
   std::vector<float> values_;
 };
 
+/// An Esdf kept up to date while its grid's occupancy changes (a moving vehicle's planning
+/// window): update() recomputes only the lines of the three separable passes that the change
+/// reaches (the columns holding a changed voxel, then the y-lines whose pass-1 values changed,
+/// then the x-lines whose pass-2 values changed), with the same exact integer arithmetic, so
+/// that after every update esdf() equals Esdf(grid()) bit for bit. Keeps every pass's result
+/// for both signs: 24 bytes a voxel besides the grid and the values.
+class IncrementalEsdf {
+ public:
+  /// The field of `grid`, built in full.
+  explicit IncrementalEsdf(VoxelGrid grid);
+
+  /// Makes `occupancy` (one byte a voxel, 0 free, else occupied, in grid order) the grid's,
+  /// updating the field where it changes; returns how many voxels changed occupancy.
+  std::size_t update(const std::vector<std::uint8_t>& occupancy);
+
+  const VoxelGrid& grid() const { return grid_; }
+  /// The current field (a copy).
+  Esdf esdf() const { return Esdf(grid_, values_); }
+  /// Lines of the passes recomputed since construction (a count of work, for tests and
+  /// benchmarks); a full build is columns + y-lines + x-lines, twice.
+  std::size_t linesRecomputed() const { return lines_; }
+
+ private:
+  VoxelGrid grid_;
+  // Per sign (0: to the occupied cubes, 1: to the free ones) the result of each pass.
+  std::vector<std::int32_t> pass_[2][3];
+  std::vector<float> values_;
+  std::size_t lines_ = 0;
+};
+
 }  // namespace kinolab
