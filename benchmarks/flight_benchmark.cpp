@@ -5,6 +5,7 @@
 
 #include <cmath>
 
+#include "kinolab/core/random.hpp"
 #include "kinolab/flight/flight.hpp"
 #include "kinolab/world/world_cache.hpp"
 #include "kinolab/world/world_spec.hpp"
@@ -20,31 +21,57 @@ std::shared_ptr<const World> denseForest() {
   return world;
 }
 
-/// Poses 0.2 m apart along a diagonal of the forest at 1.5 m, heading along it: a flight's
-/// frames at 2 m/s and 10 Hz, each seeing mostly what the last one saw.
-Eigen::Vector3d pose(int frame) {
-  const double s = 3.0 + 0.2 * (frame % 150);
+/// The frame's pose: along a diagonal of the forest at 1.5 m, heading along it, at 2 m/s
+/// (each frame sees mostly what the last one saw), restarting after 30 m.
+Eigen::Vector3d pose(int frame, double rate) {
+  const double s = 3.0 + std::fmod(2.0 / M_SQRT2 * frame / rate, 30.0 / M_SQRT2);
   return {s, s, 1.5};
 }
 
+/// Args: the camera's pixel_skip (0: the toy camera of the first flights, 32 x 24 at 10 Hz to
+/// 5 m, noise-free) and the map kind (0 octomap, 1 probabilistic); otherwise the defaults of
+/// `kinolab fly` (flightParameters()).
 void BM_FlightFrame(benchmark::State& state) {
   const auto world = denseForest();
-  // The defaults of `kinolab fly` (flightParameters()).
-  const FlightSetup setup = flightSetup(flightParameters().resolve({}, "flight"));
+  std::vector<ParameterAssignment> assignments;
+  const auto set = [&](const std::string& name, const std::string& value) {
+    assignments.push_back(ParameterAssignment{name, value, "benchmark", false});
+  };
+  set("map", state.range(1) == 0 ? "octomap" : "probabilistic");
+  if (state.range(0) == 0) {
+    for (const auto& [name, value] : {std::pair{"width", "32"},
+                                      {"height", "24"},
+                                      {"pixel_skip", "1"},
+                                      {"range", "5"},
+                                      {"rate", "10"},
+                                      {"fov_horizontal", "90"},
+                                      {"fov_vertical", "60"},
+                                      {"min_range", "0"},
+                                      {"sigma_base", "0"},
+                                      {"sigma_quadratic", "0"},
+                                      {"dropout", "0"}}) {
+      set(std::string("sensor.") + name, value);
+    }
+  } else {
+    set("sensor.pixel_skip", std::to_string(state.range(0)));
+  }
+  const FlightSetup setup = flightSetup(flightParameters().resolve(assignments, "flight"));
   const Sensor& sensor = *setup.sensor;
   const std::unique_ptr<VehicleMap> known = setup.make_map();
   known->setup(world->bounds(), setup.map);
   VehicleMap& map = *known;
   int frame = 0;
+  Rng noise(1);
   double sense_ms = 0.0;
   double map_ms = 0.0;
   double window_ms = 0.0;
+  double worst_ms = 0.0;
   using Clock = std::chrono::steady_clock;
   for (auto _ : state) {
-    const Eigen::Vector3d p = pose(frame++);
+    const Eigen::Vector3d p = pose(frame++, sensor.frameRate());
     if (!world->isFree(p, 0.25)) continue;
     auto t0 = Clock::now();
-    const SensorFrame sensed = senseFrame(world->grid(), sensor, p, M_PI / 4);
+    const SensorFrame sensed = senseFrame(*world, sensor, p, M_PI / 4, noise);
     auto t1 = Clock::now();
     map.insert(sensed, sensor.maxRange());
     auto t2 = Clock::now();
@@ -53,13 +80,25 @@ void BM_FlightFrame(benchmark::State& state) {
     sense_ms += std::chrono::duration<double, std::milli>(t1 - t0).count();
     map_ms += std::chrono::duration<double, std::milli>(t2 - t1).count();
     window_ms += std::chrono::duration<double, std::milli>(t3 - t2).count();
+    worst_ms = std::max(worst_ms, std::chrono::duration<double, std::milli>(t3 - t0).count());
   }
   const double n = static_cast<double>(state.iterations());
+  state.counters["rays"] = static_cast<double>(sensor.rayDirections().size());
   state.counters["sensor_ms"] = sense_ms / n;
   state.counters["map_ms"] = map_ms / n;
   state.counters["window_esdf_ms"] = window_ms / n;
+  state.counters["worst_frame_ms"] = worst_ms;
 }
-BENCHMARK(BM_FlightFrame)->Unit(benchmark::kMillisecond)->Iterations(150);
+BENCHMARK(BM_FlightFrame)
+    ->ArgNames({"pixel_skip", "probabilistic"})
+    ->Args({0, 0})
+    ->Args({0, 1})
+    ->Args({4, 0})
+    ->Args({4, 1})
+    ->Args({2, 1})
+    ->Args({1, 1})
+    ->Unit(benchmark::kMillisecond)
+    ->Iterations(300);
 
 }  // namespace
 }  // namespace kinolab

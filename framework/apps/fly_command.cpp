@@ -77,6 +77,7 @@ void runFly(const FlyOptions& options) {
     return std::move(configured.planner);
   };
   // The 3D view replays the known map growing: a snapshot every half second.
+  setup.settings.seed = options.seed;
   if (!options.out_dir.empty() && setup.settings.snapshot_period <= 0.0) {
     setup.settings.snapshot_period = 0.5;
   }

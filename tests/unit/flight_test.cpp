@@ -74,18 +74,83 @@ TEST(Sensor, RaysHitAWallAtItsDistance) {
   // Inside an obstacle: 0.
   EXPECT_EQ(castRay(world->grid(), {10.2, 3.0, 1.5}, Eigen::Vector3d(1, 0, 0), 1.0), 0.0);
 
-  // A frame: every camera hit lies on the wall's face (nudged a hundredth of a voxel in,
-  // along its ray).
+  // A frame of a noise-free camera: every hit lies on the wall's face (nudged a hundredth of
+  // a voxel in, along its ray), and every used pixel is a hit or a miss.
   DepthCamera camera;
-  camera.range = 10.0;
-  const SensorFrame frame = senseFrame(world->grid(), camera, origin, 0.0);
+  camera.errors = SensorNoise{};
+  camera.width = 33;
+  camera.height = 24;
+  camera.pixel_skip = 2;
+  Rng noise(1);
+  const SensorFrame frame = senseFrame(*world, camera, origin, 0.0, noise);
   ASSERT_FALSE(frame.hits.empty());
   for (const Eigen::Vector3d& p : frame.hits) {
     EXPECT_GE(p.x(), 10.0);
     EXPECT_LE(p.x(), 10.001 + 1e-9);
   }
-  EXPECT_EQ(frame.hits.size() + frame.misses.size(),
-            static_cast<std::size_t>(camera.width * camera.height));
+  EXPECT_EQ(frame.hits.size() + frame.misses.size(), 17u * 12u);
+}
+
+TEST(Sensor, NoiseDropoutsAndTheNearestRangeFollowTheirParameters) {
+  const auto world = worldOf(kWall);
+  DepthCamera camera;  // 640 x 480, every fourth pixel
+  EXPECT_EQ(camera.rayDirections().size(), 160u * 120u);
+  camera.fov_horizontal = 0.4;  // every ray strikes the wall's face
+  camera.fov_vertical = 0.3;
+  camera.errors = SensorNoise{.sigma_base = 0.05, .dropout = 0.1};
+  const Eigen::Vector3d origin(2.05, 2.5, 1.5);
+  Rng noise(5);
+  const SensorFrame frame = senseFrame(*world, camera, origin, 0.0, noise);
+  const double rays = 160.0 * 120.0;
+  // Dropouts: binomial(19200, 0.1) kept within five standard deviations.
+  const double kept = static_cast<double>(frame.hits.size() + frame.misses.size());
+  EXPECT_NEAR(rays - kept, 0.1 * rays, 5.0 * std::sqrt(rays * 0.1 * 0.9));
+  EXPECT_TRUE(frame.misses.empty());
+  // The range error along each ray: mean the nudge, standard deviation sigma_base.
+  double sum = 0.0;
+  double squares = 0.0;
+  for (const Eigen::Vector3d& p : frame.hits) {
+    const Eigen::Vector3d ray = (p - origin).normalized();
+    const double error = (p - origin).norm() - (10.0 - origin.x()) / ray.x();
+    sum += error;
+    squares += error * error;
+  }
+  const double n = static_cast<double>(frame.hits.size());
+  const double mean = sum / n;
+  EXPECT_NEAR(mean, 0.001, 5.0 * 0.05 / std::sqrt(n));
+  EXPECT_NEAR(std::sqrt(squares / n - mean * mean), 0.05, 0.05 * 0.05);
+  // The same seed gives the same frame; another seed another.
+  Rng again(5);
+  EXPECT_EQ(senseFrame(*world, camera, origin, 0.0, again).hits, frame.hits);
+  Rng other(6);
+  EXPECT_NE(senseFrame(*world, camera, origin, 0.0, other).hits, frame.hits);
+  // Nearer than min_range the camera sees nothing.
+  camera.errors = SensorNoise{.min_range = 0.2};
+  EXPECT_TRUE(senseFrame(*world, camera, {9.85, 2.5, 1.5}, 0.0, noise).hits.empty());
+  EXPECT_FALSE(senseFrame(*world, camera, {9.75, 2.5, 1.5}, 0.0, noise).hits.empty());
+}
+
+TEST(Sensor, CastingIntoAWorldLeapsThroughFreeSpaceToTheSameHit) {
+  const auto world = test::smallWorld("forest");
+  Rng rng(9);
+  const Box& box = world->bounds();
+  int hits = 0;
+  for (int i = 0; i < 5000; ++i) {
+    Eigen::Vector3d origin;
+    for (int axis = 0; axis < 3; ++axis) origin[axis] = rng.uniform(box.min[axis], box.max[axis]);
+    const Eigen::Vector3d direction =
+        Eigen::Vector3d(rng.normal(), rng.normal(), 0.3 * rng.normal()).normalized();
+    const double range = rng.uniform(0.5, 15.0);
+    const double traversed = castRay(world->grid(), origin, direction, range);
+    const double leapt = castRay(*world, origin, direction, range);
+    if (std::isinf(traversed)) {
+      ASSERT_TRUE(std::isinf(leapt)) << i;
+    } else {
+      ++hits;
+      ASSERT_NEAR(leapt, traversed, 1e-9) << i;
+    }
+  }
+  EXPECT_GT(hits, 1000);
 }
 
 TEST(Sensor, RaysHitASphereAndMatchADenseMarch) {
@@ -101,7 +166,9 @@ TEST(Sensor, RaysHitASphereAndMatchADenseMarch) {
   Lidar lidar;
   lidar.range = 20.0;
   const Eigen::Vector3d origin(5.05, 5.05, 1.55);
-  const SensorFrame frame = senseFrame(grid, lidar, origin, 0.0);
+  const World sphere("sphere", 0, grid, Esdf(grid));
+  Rng noise(1);
+  const SensorFrame frame = senseFrame(sphere, lidar, origin, 0.0, noise);
   int on_sphere = 0;
   for (const Eigen::Vector3d& p : frame.hits) {
     // On the union of cubes: within half a voxel diagonal of the sphere's surface.
@@ -153,9 +220,10 @@ void checkWindow(const std::string& key) {
   std::unique_ptr<VehicleMap> known = mapOf(key, world->bounds(), model);
   VehicleMap& map = *known;
   Lidar lidar;
+  Rng noise(1);
   lidar.range = 5.0;
   const Eigen::Vector3d origin(7.55, 3.05, 1.55);
-  map.insert(senseFrame(world->grid(), lidar, origin, 0.0), lidar.range);
+  map.insert(senseFrame(*world, lidar, origin, 0.0, noise), lidar.range);
   const auto window = map.window(origin);
   const VoxelGrid& grid = window->grid();
   // Known occupied voxels are the ground truth's; some of the wall was seen.
@@ -199,7 +267,7 @@ void checkWindow(const std::string& key) {
   // Unknown space as occupied: the unseen side of the window is blocked.
   model.unknown = UnknownSpace::kOccupied;
   std::unique_ptr<VehicleMap> cautious = mapOf(key, world->bounds(), model);
-  cautious->insert(senseFrame(world->grid(), lidar, origin, 0.0), lidar.range);
+  cautious->insert(senseFrame(*world, lidar, origin, 0.0, noise), lidar.range);
   EXPECT_GT(cautious->window(origin)->grid().occupiedCount(), grid.occupiedCount());
   // A second setup starts over: nothing known.
   map.setup(world->bounds(), model);
@@ -213,14 +281,99 @@ TEST(VehicleMapTest, TheWindowHoldsWhatWasSeenAndItsExactEsdf) {
   }
 }
 
+TEST(VehicleMapTest, TheKeptWindowIsUpdatedWhereTheMapChangedAndMovedWithTheVehicle) {
+  const auto world = worldOf(kWall);
+  MapModel model;
+  model.window = 8.0;
+  model.window_margin = 1.0;
+  std::unique_ptr<VehicleMap> map = mapOf("probabilistic", world->bounds(), model);
+  Lidar lidar;
+  lidar.range = 5.0;
+  Rng noise(1);
+  const auto sees = [&](const Eigen::Vector3d& at) {
+    map->insert(senseFrame(*world, lidar, at, 0.0, noise), lidar.range);
+    return map->window(at);
+  };
+  const Eigen::Vector3d origin(5.45, 3.05, 1.55);
+  lidar.range = 4.0;
+  const auto first = sees(origin);
+  // 10 m by 10 m around the vehicle (window + 2 margins; on the lattice, within the map), the
+  // heights of window_height.
+  EXPECT_NEAR(first->bounds().max.x() - first->bounds().min.x(), 10.0, 0.11);
+  EXPECT_NEAR(first->bounds().max.z() - first->bounds().min.z(), 2.0, 0.11);
+  // Nothing new: the same world.
+  EXPECT_EQ(sees(origin), first);
+  // 0.9 m on, the wall (x = 10) comes within range: the kept window (same box) is updated,
+  // and its ESDF is the exact field of its occupancy.
+  const Eigen::Vector3d on = origin + Eigen::Vector3d(0.9, 0.0, 0.0);
+  const auto updated = sees(on);
+  EXPECT_NE(updated, first);
+  EXPECT_EQ(updated->bounds().min, first->bounds().min);
+  EXPECT_GT(updated->grid().occupiedCount(), first->grid().occupiedCount());
+  EXPECT_EQ(updated->esdf().values(), Esdf(updated->grid()).values());
+  // Beyond the margin the window is built anew around the vehicle.
+  const Eigen::Vector3d beyond = origin + Eigen::Vector3d(1.2, 0.0, 0.0);
+  const auto moved = sees(beyond);
+  EXPECT_NEAR(moved->bounds().min.x(), beyond.x() - 5.0, 0.1);
+  EXPECT_EQ(moved->esdf().values(), Esdf(moved->grid()).values());
+  // So is a window whose middle the vehicle left by more than a quarter of its height.
+  const Eigen::Vector3d climbed = beyond + Eigen::Vector3d(0.0, 0.0, 0.6);
+  EXPECT_NEAR(sees(climbed)->bounds().min.z(), climbed.z() - 1.0, 0.1);
+}
+
+/// A frame of rays from `origin` ending at `hits` (and passing on to `misses`).
+SensorFrame frameOf(const Eigen::Vector3d& origin, std::vector<Eigen::Vector3d> hits,
+                    std::vector<Eigen::Vector3d> misses = {}) {
+  SensorFrame frame;
+  frame.origin = origin;
+  frame.hits = std::move(hits);
+  frame.misses = std::move(misses);
+  return frame;
+}
+
+TEST(VehicleMapTest, TheProbabilisticMapVotesOnceAFrameAndClampsItsBelief) {
+  const Box box{Eigen::Vector3d::Zero(), Eigen::Vector3d(10, 10, 3)};
+  std::unique_ptr<VehicleMap> map = mapOf("probabilistic", box);
+  const VoxelGrid& lattice = map->lattice();
+  const auto stateAt = [&](const Eigen::Vector3d& p) {
+    return map->state(
+        lattice.index(VoxelIndex(((p - lattice.origin()) / 0.1).array().floor().cast<int>())));
+  };
+  using Voxel = VehicleMap::Voxel;
+  const Eigen::Vector3d origin(1.05, 5.05, 1.55);
+  const Eigen::Vector3d phantom(4.05, 5.05, 1.55);
+  // One ray ends in the phantom's voxel; two reach it from beyond by different faces (one
+  // along x, one entering through its +y face): one hit, two passes, a miss by majority.
+  const Eigen::Vector3d along(9.05, 5.05, 1.55);
+  const Eigen::Vector3d slanted(9.05, 5.05 + 8.0 * 0.0167, 1.55);
+  map->insert(frameOf(origin, {phantom, along, slanted}, {{1.05, 5.05, 1.55 + 20.0}}), 10.0);
+  EXPECT_EQ(stateAt(phantom), Voxel::kFree);
+  EXPECT_EQ(stateAt(along), Voxel::kOccupied);
+  EXPECT_EQ(stateAt(slanted), Voxel::kOccupied);
+  EXPECT_EQ(stateAt({2.05, 5.05, 1.55}), Voxel::kFree);
+  EXPECT_EQ(stateAt({1.05, 5.05, 2.95}), Voxel::kFree);     // the miss's free space, in the map
+  EXPECT_EQ(stateAt({6.05, 7.05, 1.55}), Voxel::kUnknown);  // off every ray
+  // Log-odds -0.41 now; a frame that only hits it makes it 0.44: occupied.
+  map->insert(frameOf(origin, {phantom}), 10.0);
+  EXPECT_EQ(stateAt(phantom), Voxel::kOccupied);
+  for (int frame = 0; frame < 40; ++frame) map->insert(frameOf(origin, {phantom}), 10.0);
+  // Clamped at 0.97 (log-odds 3.48): nine passing frames (0.405 each) free it, not 100.
+  const Eigen::Vector3d beyond(6.05, 5.05, 1.55);
+  for (int frame = 0; frame < 8; ++frame) map->insert(frameOf(origin, {beyond}), 10.0);
+  EXPECT_EQ(stateAt(phantom), Voxel::kOccupied);
+  map->insert(frameOf(origin, {beyond}), 10.0);
+  EXPECT_EQ(stateAt(phantom), Voxel::kFree);
+}
+
 TEST(VehicleMapTest, TheGuideGoesRoundKnownObstaclesAndThroughUnknownSpace) {
   const auto world = worldOf(kWall);
   std::unique_ptr<VehicleMap> known = mapOf("octomap", world->bounds());
   VehicleMap& map = *known;
   Lidar lidar;
+  Rng noise(1);
   lidar.range = 6.0;
   const Eigen::Vector3d from(7.05, 3.05, 1.5);
-  map.insert(senseFrame(world->grid(), lidar, from, 0.0), lidar.range);
+  map.insert(senseFrame(*world, lidar, from, 0.0, noise), lidar.range);
   const Eigen::Vector3d to(15.0, 3.0, 1.5);
   const std::vector<Eigen::Vector3d> way = map.guide(from, to, 0.25, 1.0, 2.0);
   ASSERT_GE(way.size(), 2u);
@@ -239,11 +392,11 @@ TEST(VehicleMapTest, TheGuideGoesRoundKnownObstaclesAndThroughUnknownSpace) {
   const auto closed =
       worldOf("  - type: box_list\n    boxes: [{min: [9, 0, 0], max: [9.4, 10, 3]}]\n");
   std::unique_ptr<VehicleMap> walled = mapOf("octomap", closed->bounds());
-  walled->insert(senseFrame(closed->grid(), lidar, from, 0.0), lidar.range);
+  walled->insert(senseFrame(*closed, lidar, from, 0.0, noise), lidar.range);
   // Seen to 6 m, the wall's far end (y > 8.7) is unknown, so free: the guide goes there.
   EXPECT_FALSE(walled->guide(from, to, 0.25, 1.0, 2.0).empty());
   lidar.range = 12.0;  // seen whole
-  walled->insert(senseFrame(closed->grid(), lidar, from, 0.0), lidar.range);
+  walled->insert(senseFrame(*closed, lidar, from, 0.0, noise), lidar.range);
   EXPECT_TRUE(walled->guide(from, to, 0.25, 1.0, 2.0).empty());
 }
 
@@ -507,8 +660,9 @@ TEST(FlightTest, TheDeclaredDefaultsAreTheModelsDefaults) {
     Flight({{"map.probability_hit", "1.5", "test"}});
     ADD_FAILURE() << "accepted a probability of 1.5";
   } catch (const ConfigError& error) {
-    EXPECT_NE(std::string(error.what()).find("vehicle_map 'octomap': parameter 'probability_hit'"),
-              std::string::npos)
+    EXPECT_NE(
+        std::string(error.what()).find("vehicle_map 'probabilistic': parameter 'probability_hit'"),
+        std::string::npos)
         << error.what();
   }
 }

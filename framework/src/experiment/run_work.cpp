@@ -113,6 +113,7 @@ std::string flyRun(const Experiment& experiment, const RunSpec& run,
     const ExperimentPlanner& spec = variant.planners[run.planner];
     FlightSetup setup = flightSetup(variant.flight);
     FlightSettings& settings = setup.settings;
+    settings.seed = run.seed;
     // The known map's growth for the queries whose trees a planning experiment would store.
     const bool keep_map =
         experiment.store_tree_queries < 0 || run.query < experiment.store_tree_queries;

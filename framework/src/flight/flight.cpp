@@ -7,6 +7,7 @@
 #include <unordered_map>
 
 #include "kinolab/core/fields.hpp"
+#include "kinolab/core/random.hpp"
 #include "kinolab/core/text.hpp"
 #include "kinolab/validation/trajectory_checker.hpp"
 
@@ -193,7 +194,7 @@ const ParameterSpecs& flightParameters() {
       ParameterSpecs()
           .plugin("sensor", "sensor", "depth_camera",
                   "the range sensor (kinolab list sensors); set its parameters as sensor.NAME")
-          .plugin("vehicle_map", "map", "octomap",
+          .plugin("vehicle_map", "map", "probabilistic",
                   "the vehicle's map, its sensor model (kinolab list vehicle_maps); set its "
                   "parameters as map.NAME")
           .include(declareFields<MapModel>())
@@ -240,7 +241,9 @@ class FlightLoop {
         dt_(1.0 / sensor_.frameRate()),
         // Snapshots: the map from above over the query's heights, widened by 0.5 m.
         z_band_low_(std::min(query.start(2, 0), query.goal.z()) - 0.5),
-        z_band_high_(std::max(query.start(2, 0), query.goal.z()) + 0.5) {
+        z_band_high_(std::max(query.start(2, 0), query.goal.z()) + 0.5),
+        sensor_errors_(sensor_.noise()),
+        noise_(Rng::derive(settings_.seed, "sensor")) {
     map_->setup(truth->bounds(), map_model_);
     result_.map = map_;
     result_.model = model_;
@@ -353,8 +356,15 @@ class FlightLoop {
   /// A frame of the sensor into the known map; the planning window around the vehicle.
   std::shared_ptr<const World> sense(const ChainState& now) {
     auto begin = std::chrono::steady_clock::now();
-    const SensorFrame sensed = senseFrame(truth_->grid(), sensor_, now.col(0),
-                                          headingOf(committed_, t_, query_.goal) + look_offset_);
+    // The newest frame the map has was taken the sensor's latency (with its jitter) ago.
+    const SensorNoise& errors = sensor_errors_;
+    const double age =
+        errors.latency +
+        (errors.latency_jitter > 0.0 ? errors.latency_jitter * noise_.uniform(-1.0, 1.0) : 0.0);
+    const double taken = std::clamp(t_ - age, 0.0, t_);
+    const SensorFrame sensed =
+        senseFrame(*truth_, sensor_, stateAt(committed_, taken).col(0),
+                   headingOf(committed_, taken, query_.goal) + look_offset_, noise_);
     result_.time_sense_ms += millisecondsSince(begin);
     begin = std::chrono::steady_clock::now();
     map_->insert(sensed, sensor_.maxRange());
@@ -550,6 +560,8 @@ class FlightLoop {
   bool collided_ = false;
   int failed_in_a_row_ = 0;   // failed replans since the last taken one
   double look_offset_ = 0.0;  // rad: the camera's turn from its heading, to look for a way
+  SensorNoise sensor_errors_;
+  Rng noise_;  // the sensor's noise, dropouts and latency
   std::unordered_map<std::size_t, double> first_occupied_;  // lattice index -> time
 };
 

@@ -5,6 +5,8 @@
 
 #include "kinolab/core/fields.hpp"
 #include "kinolab/core/plugin.hpp"
+#include "kinolab/core/random.hpp"
+#include "kinolab/world/world.hpp"
 
 namespace kinolab {
 
@@ -30,14 +32,17 @@ void registerBuiltins() {
 }  // namespace
 
 std::vector<Eigen::Vector3d> DepthCamera::rayDirections() const {
-  // A pinhole: pixel centres on the image plane at x = 1.
+  // A pinhole: pixel centres on the image plane at x = 1, every pixel_skip-th one.
   std::vector<Eigen::Vector3d> directions;
   const double half_w = std::tan(0.5 * fov_horizontal);
   const double half_h = std::tan(0.5 * fov_vertical);
-  directions.reserve(static_cast<std::size_t>(width) * height);
-  for (int row = 0; row < height; ++row) {
+  const auto used = [&](int pixels) {
+    return static_cast<std::size_t>((pixels + pixel_skip - 1) / pixel_skip);
+  };
+  directions.reserve(used(width) * used(height));
+  for (int row = 0; row < height; row += pixel_skip) {
     const double v = half_h * (1.0 - 2.0 * (row + 0.5) / height);
-    for (int column = 0; column < width; ++column) {
+    for (int column = 0; column < width; column += pixel_skip) {
       const double u = half_w * (1.0 - 2.0 * (column + 0.5) / width);
       directions.push_back(Eigen::Vector3d(1.0, u, v).normalized());
     }
@@ -61,62 +66,73 @@ std::vector<Eigen::Vector3d> Lidar::rayDirections() const {
 
 double castRay(const VoxelGrid& grid, const Eigen::Vector3d& origin,
                const Eigen::Vector3d& direction, double max_range) {
-  const double r = grid.resolution();
-  const Eigen::Vector3d local = (origin - grid.origin()) / r;  // in voxels
-  const Eigen::Vector3i& dims = grid.dims();
-  VoxelIndex voxel;
-  Eigen::Vector3i step;
-  Eigen::Vector3d next;   // ray parameter (m) at the next face crossing per axis
-  Eigen::Vector3d delta;  // ray parameter between faces per axis
-  for (int axis = 0; axis < 3; ++axis) {
-    voxel[axis] = static_cast<int>(std::floor(local[axis]));
-    const double d = direction[axis];
-    if (d > 0.0) {
-      step[axis] = 1;
-      next[axis] = (voxel[axis] + 1 - local[axis]) * r / d;
-      delta[axis] = r / d;
-    } else if (d < 0.0) {
-      step[axis] = -1;
-      next[axis] = (local[axis] - voxel[axis]) * r / -d;
-      delta[axis] = r / -d;
-    } else {
-      step[axis] = 0;
-      next[axis] = INFINITY;
-      delta[axis] = INFINITY;
-    }
-  }
-  if (!grid.inside(voxel)) return INFINITY;
-  double t = 0.0;  // where the ray entered the current voxel
+  double hit = INFINITY;
+  grid.walkRay(origin, direction, max_range, [&](const VoxelIndex& voxel, double t) {
+    if (!grid.occupied(voxel)) return true;
+    hit = t;
+    return false;
+  });
+  return hit;
+}
+
+double castRay(const World& world, const Eigen::Vector3d& origin, const Eigen::Vector3d& direction,
+               double max_range) {
+  // Sphere tracing on the ESDF: inside the map the nearest voxel centre c is at most half a
+  // voxel's diagonal from p, and the stored distance is exact at c and 1-Lipschitz, so
+  // D(c) - sqrt(3) / 2 voxel is a proven lower bound of the distance from p to the cubes: a
+  // leap never passes a cube. Where the leaps get short (beside a surface), the exact
+  // traversal takes over for a few voxels (it checks every voxel it enters, the one holding
+  // its end too), then the leaps resume.
+  const double r = world.grid().resolution();
+  const double half_diagonal = (0.5 * std::sqrt(3.0) + 1e-3) * r;  // and float rounding
+  const double stretch = 4.0 * r;
+  const Box& box = world.bounds();
+  double t = 0.0;
   while (t <= max_range) {
-    if (grid.occupied(voxel)) return t;
-    int axis = 0;
-    if (next[1] < next[axis]) axis = 1;
-    if (next[2] < next[axis]) axis = 2;
-    t = next[axis];
-    next[axis] += delta[axis];
-    voxel[axis] += step[axis];
-    if (voxel[axis] < 0 || voxel[axis] >= dims[axis]) return INFINITY;
+    const Eigen::Vector3d p = origin + t * direction;
+    if ((p.array() < box.min.array()).any() || (p.array() >= box.max.array()).any()) break;
+    const double leap = world.esdf().nearestDistance(p) - half_diagonal;
+    if (leap >= r) {
+      t += leap;
+      continue;
+    }
+    const double reach = std::min(stretch, max_range - t);
+    const double hit = castRay(world.grid(), p, direction, reach);
+    if (hit <= reach) return t + hit;
+    if (reach < stretch) return INFINITY;  // the range ends within the stretch
+    t += stretch;
   }
   return INFINITY;
 }
 
-SensorFrame senseFrame(const VoxelGrid& truth, const Sensor& sensor, const Eigen::Vector3d& origin,
-                       double yaw) {
+SensorFrame senseFrame(const World& truth, const Sensor& sensor, const Eigen::Vector3d& origin,
+                       double yaw, Rng& noise) {
   const double range = sensor.maxRange();
+  const SensorNoise errors = sensor.noise();
+  const double voxel = truth.grid().resolution();
   SensorFrame frame;
   frame.origin = origin;
   const double c = std::cos(yaw);
   const double s = std::sin(yaw);
   // Hits are nudged a hundredth of a voxel into the struck cube so that the map marks that
-  // voxel; misses end a voxel beyond the range, so that the map inserts free space only.
-  const double nudge = 0.01 * truth.resolution();
+  // voxel (before the noise moves them); misses end a voxel beyond the range, so that the map
+  // inserts free space only.
+  const double nudge = 0.01 * voxel;
   for (const Eigen::Vector3d& ray : sensor.rayDirections()) {
+    if (errors.dropout > 0.0 && noise.uniform01() < errors.dropout) continue;
     const Eigen::Vector3d direction(c * ray.x() - s * ray.y(), s * ray.x() + c * ray.y(), ray.z());
     const double distance = castRay(truth, origin, direction, range);
-    if (distance <= range) {
-      frame.hits.push_back(origin + (distance + nudge) * direction);
+    if (distance > range) {
+      frame.misses.push_back(origin + (range + voxel) * direction);
+      continue;
+    }
+    const double sigma = errors.sigma(distance);
+    const double measured = distance + nudge + (sigma > 0.0 ? sigma * noise.normal() : 0.0);
+    if (distance < errors.min_range || measured < errors.min_range) continue;
+    if (measured > range) {
+      frame.misses.push_back(origin + (range + voxel) * direction);
     } else {
-      frame.misses.push_back(origin + (range + truth.resolution()) * direction);
+      frame.hits.push_back(origin + measured * direction);
     }
   }
   return frame;

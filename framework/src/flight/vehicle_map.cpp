@@ -32,6 +32,8 @@ void VehicleMap::setup(const Box& bounds, const MapModel& model) {
   bounds_ = bounds;
   lattice_ = VoxelGrid(bounds, model.resolution);
   state_.assign(lattice_.size(), 0);
+  window_field_.reset();
+  window_world_.reset();
   doSetup();
 }
 
@@ -112,16 +114,14 @@ std::shared_ptr<const World> VehicleMap::window(const Eigen::Vector3d& center) {
     return (outer.min.array() <= inner.min.array() + 1e-9).all() &&
            (inner.max.array() <= outer.max.array() + 1e-9).all();
   };
-  const bool kept =
-      window_field_ &&
-      contains(window_field_->grid().bounds(),
-               latticeBox(center, Eigen::Vector3d(half_side, half_side, 0.0))) &&
-      std::abs(center.z() - window_middle_.z()) <= 0.5 * half_height;
+  const bool kept = window_field_ &&
+                    contains(window_field_->grid().bounds(),
+                             latticeBox(center, Eigen::Vector3d(half_side, half_side, 0.0))) &&
+                    std::abs(center.z() - window_middle_.z()) <= 0.5 * half_height;
   std::vector<std::uint8_t> occupancy;
   if (!kept) {
     const double half = half_side + model_.window_margin;
-    VoxelGrid grid(latticeBox(center, Eigen::Vector3d(half, half, half_height)),
-                   model_.resolution);
+    VoxelGrid grid(latticeBox(center, Eigen::Vector3d(half, half, half_height)), model_.resolution);
     windowOccupancy(grid, center, occupancy);
     grid.occupancy() = std::move(occupancy);
     window_field_ = std::make_unique<IncrementalEsdf>(std::move(grid));

@@ -172,8 +172,7 @@ struct CubeTransform {
 
   void columns(const std::uint8_t* occupancy, std::uint8_t target, std::int32_t* squared) const {
     const std::size_t nz = static_cast<std::size_t>(dims.z());
-    for (std::size_t column = 0; column < static_cast<std::size_t>(dims.x()) * dims.y();
-         ++column) {
+    for (std::size_t column = 0; column < static_cast<std::size_t>(dims.x()) * dims.y(); ++column) {
       transformColumn(occupancy + column * nz, dims.z(), target, squared + column * nz);
     }
   }

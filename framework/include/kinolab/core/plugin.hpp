@@ -24,7 +24,7 @@
 
 /// Bumped whenever a change to the plugin-facing headers breaks binary compatibility; a
 /// library built against another version is refused when loaded.
-#define KINOLAB_PLUGIN_ABI_VERSION 4
+#define KINOLAB_PLUGIN_ABI_VERSION 5
 
 namespace kinolab {
 

@@ -2,6 +2,7 @@
 
 #include <Eigen/Core>
 #include <cmath>
+#include <cstdint>
 #include <functional>
 #include <memory>
 #include <string>
@@ -37,6 +38,9 @@ struct FlightSettings {
   /// > 0: keep the known map from above (VehicleMap::topView over the query's heights) every
   /// this many seconds of flight, for animations; 0: none. Not a parameter: the caller's.
   double snapshot_period = 0.0;
+  /// The seed of the sensor's noise, dropouts and latency (the run's seed). Not a parameter:
+  /// the caller's.
+  std::uint64_t seed = 0;
 
   /// The latency a replan starts after (latency, or the replan budget when negative).
   double replanLatency() const { return latency < 0.0 ? replan_budget : latency; }

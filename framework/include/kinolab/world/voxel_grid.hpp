@@ -1,6 +1,7 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <cmath>
 #include <cstddef>
 #include <cstdint>
 #include <vector>
@@ -79,6 +80,41 @@ class VoxelGrid {
     Eigen::Vector3i high;
     if (overlapRange(min, max, low, high)) forEachVoxelOf(low, high, visit);
   }
+  /// Walks the voxels a ray passes through (Amanatides and Woo's traversal), from the voxel
+  /// holding `origin` along the unit `direction`: visit(voxel, t) with t the ray parameter (m)
+  /// where the ray enters the voxel (0 for the first), in order, until visit returns false,
+  /// the ray leaves the grid or t exceeds `max_range`. Nothing is visited when `origin` lies
+  /// outside the grid.
+  template <typename Visit>
+  void walkRay(const Eigen::Vector3d& origin, const Eigen::Vector3d& direction, double max_range,
+               Visit&& visit) const {
+    const Eigen::Vector3d local = (origin - origin_) / resolution_;  // in voxels
+    VoxelIndex voxel;
+    Eigen::Vector3i step;
+    Eigen::Vector3d next;   // ray parameter (m) at the next face crossing per axis
+    Eigen::Vector3d delta;  // ray parameter between faces per axis
+    for (int axis = 0; axis < 3; ++axis) {
+      voxel[axis] = static_cast<int>(std::floor(local[axis]));
+      const double d = direction[axis];
+      step[axis] = d > 0.0 ? 1 : (d < 0.0 ? -1 : 0);
+      const double to_face = d > 0.0 ? voxel[axis] + 1 - local[axis] : local[axis] - voxel[axis];
+      next[axis] = d != 0.0 ? to_face * resolution_ / std::abs(d) : INFINITY;
+      delta[axis] = d != 0.0 ? resolution_ / std::abs(d) : INFINITY;
+    }
+    if (!inside(voxel)) return;
+    double t = 0.0;  // where the ray entered the current voxel
+    while (t <= max_range) {
+      if (!visit(voxel, t)) return;
+      int axis = 0;
+      if (next[1] < next[axis]) axis = 1;
+      if (next[2] < next[axis]) axis = 2;
+      t = next[axis];
+      next[axis] += delta[axis];
+      voxel[axis] += step[axis];
+      if (voxel[axis] < 0 || voxel[axis] >= dims_[axis]) return;
+    }
+  }
+
   /// Marks every voxel whose centre lies in the closed box [min, max] as occupied.
   void fillBox(const Eigen::Vector3d& min, const Eigen::Vector3d& max);
 
