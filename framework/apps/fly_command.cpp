@@ -121,8 +121,9 @@ void addFlyCommand(CLI::App& app) {
   command->add_option("--flight", options->flight,
                       "Set a flight parameter, NAME=VALUE (repeatable): sensor (and its own as "
                       "sensor.NAME: sensor.range, sensor.width, ...; kinolab list sensors), "
-                      "map_resolution, window, unknown, free_beyond, replan_period, "
-                      "replan_budget, latency, enforce_latency, horizon, max_time, stuck_time, "
+                      "map, map_resolution, window, window_margin, unknown, free_beyond, "
+                      "replan_period, "
+                      "replan_budget, latency, timing, horizon, max_time, stuck_time, "
                       "goal_tolerance, brake_acceleration (kinolab list flight)");
   command->add_option("--start", options->start, "Start position x,y,z in metres (at rest)")
       ->required();

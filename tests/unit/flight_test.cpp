@@ -615,15 +615,43 @@ TEST(FlightTest, ACollisionWithTheGroundTruthEndsTheFlight) {
 }
 
 TEST(FlightTest, AFlightRepeatsBitForBit) {
+  // Deterministic timing: the same seed, the same flight (sensor noise, dropouts and frame
+  // latencies drawn from it).
   const auto world = worldOf(kWall);
-  const FlightResult a = Flight().fly(world, {2, 3, 1.5}, {18, 3, 1.5});
-  const FlightResult b = Flight().fly(world, {2, 3, 1.5}, {18, 3, 1.5});
+  const Flight deterministic({{"timing", "deterministic", "test"}});
+  const FlightResult a = deterministic.fly(world, {2, 3, 1.5}, {18, 3, 1.5});
+  const FlightResult b = deterministic.fly(world, {2, 3, 1.5}, {18, 3, 1.5});
   ASSERT_EQ(a.flown.segments().size(), b.flown.segments().size());
   for (std::size_t i = 0; i < a.flown.segments().size(); ++i) {
     EXPECT_EQ(a.flown.segments()[i].duration, b.flown.segments()[i].duration);
     EXPECT_TRUE(a.flown.segments()[i].coefficients == b.flown.segments()[i].coefficients);
   }
   EXPECT_EQ(a.replans.size(), b.replans.size());
+  EXPECT_EQ(a.map->occupiedVoxels(), b.map->occupiedVoxels());
+  // Another seed, another noise: another known map.
+  Flight reseeded({{"timing", "deterministic", "test"}});
+  reseeded.setup.settings.seed = 1;
+  const FlightResult c = reseeded.fly(world, {2, 3, 1.5}, {18, 3, 1.5});
+  EXPECT_NE(a.map->occupiedVoxels(), c.map->occupiedVoxels());
+}
+
+TEST(FlightTest, InRealTimeAPlanLaterThanTheLatencyIsDiscarded) {
+  // No plan is computed in no time: with a latency of 0 every plan is late in real time and
+  // the vehicle never leaves the start; deterministic timing takes them all.
+  const auto world = worldOf("  - type: empty\n");
+  const FlightResult late = Flight({{"latency", "0", "test"}, {"stuck_time", "2", "test"}})
+                                .fly(world, {2, 3, 1.5}, {8, 3, 1.5});
+  EXPECT_EQ(late.status, "stuck");
+  ASSERT_FALSE(late.replans.empty());
+  for (const FlightReplan& replan : late.replans) {
+    EXPECT_EQ(replan.status, "late");
+    EXPECT_FALSE(replan.accepted);
+    EXPECT_NE(replan.why.find("past the 0 ms latency"), std::string::npos) << replan.why;
+  }
+  const FlightResult on_time =
+      Flight({{"latency", "0", "test"}, {"timing", "deterministic", "test"}})
+          .fly(world, {2, 3, 1.5}, {8, 3, 1.5});
+  EXPECT_EQ(on_time.status, "reached") << on_time.message;
 }
 
 TEST(FlightTest, TheDeclaredDefaultsAreTheModelsDefaults) {

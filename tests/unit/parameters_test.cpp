@@ -214,12 +214,13 @@ TEST(Fields, EveryFieldListDeclaresReadsAndWritesBackTheSameValues) {
   checkFieldsRoundTrip(map);
   FlightSettings flight;
   flight.latency = 0.25;
-  flight.enforce_latency = true;
+  flight.timing = FlightTiming::kDeterministic;
   checkFieldsRoundTrip(flight);
-  // Declared in degrees, kept in radians: the default camera's 90 degrees, not 89.999...
+  // Declared in degrees, kept in radians: the default camera's 87 degrees, not 86.999...
   const ParameterSpecs specs = declareFields<DepthCamera>();
-  EXPECT_EQ(std::get<double>(specs.find("fov_horizontal")->default_value), 90.0);
-  EXPECT_DOUBLE_EQ(readFields<DepthCamera>(specs.resolve({}, "t")).fov_horizontal, M_PI / 2);
+  EXPECT_EQ(std::get<double>(specs.find("fov_horizontal")->default_value), 87.0);
+  EXPECT_DOUBLE_EQ(readFields<DepthCamera>(specs.resolve({}, "t")).fov_horizontal,
+                   87.0 * M_PI / 180.0);
 }
 
 }  // namespace

@@ -34,6 +34,7 @@ struct SmootherSettings {
   int obstacle_samples = 4;          ///< ESDF samples per span
   int max_solver_iterations = 100;   ///< per Ceres solve
   int max_rounds = 4;                ///< re-solves after a collision (denser, heavier)
+  double budget_share = 0.25;  ///< of a time budget kept for smoothing (the path gets the rest)
 
   /// Its parameters (core/fields.hpp); the radius and limits are the planner's.
   template <typename Fields>
@@ -55,6 +56,9 @@ struct SmootherSettings {
               "Ceres iterations per solve");
     f.integer("max_rounds", max_rounds, 1, 20,
               "solves: after a collision, again with half the knot spacing, 4x obstacle weight");
+    f.real("budget_share", budget_share, 0.0, 0.9,
+           "share of the time budget kept for smoothing: the path search stops at the rest, so "
+           "that path and smoothing together end at the budget");
   }
 };
 

@@ -171,8 +171,16 @@ class RrtStarPlanner final : public Planner {
     // The run's seed and the query decide OMPL's random streams: the same case repeats.
     std::uint64_t seed = hashBytes(query.goal.data(), 3 * sizeof(double), seed_);
     seed = hashBytes(query.start.data(), sizeof(ChainState), seed);
+    // With a smoother, the path search stops where the smoothing's share of the time budget
+    // begins.
+    Budget search = stop.budget();
+    if (smoother_ && std::isfinite(search.time_limit)) {
+      search.time_limit = std::max(
+          0.0, (1.0 - smoother_settings_->budget_share) * search.time_limit - stop.elapsed());
+    }
+    StopCondition search_stop(search);
     FrontEndResult path =
-        front_end_->plan(start, query.goal, static_cast<std::uint32_t>(seed), stop);
+        front_end_->plan(start, query.goal, static_cast<std::uint32_t>(seed), search_stop);
     result.statistics = std::move(path.statistics);
     result.progress = std::move(path.progress);
     if (path.outcome == FrontEndResult::Outcome::kNone) {

@@ -20,16 +20,25 @@ namespace kinolab {
 
 // ---- the flight ------------------------------------------------------------------------------
 
+/// How a flight treats the planners' measured time.
+enum class FlightTiming {
+  /// A plan takes effect at its start, `latency` after its frame, only when its measured
+  /// planning time is within the latency (else it is late and discarded): real time, so a
+  /// flight whose plans come close to the latency need not repeat.
+  kRealTime,
+  /// Every plan is taken as if it arrived within the latency, whatever it measured: the
+  /// flight repeats bit for bit (with searches bounded by max_expansions, not by time).
+  kDeterministic,
+};
+
 /// When the loop replans and how it treats time.
 struct FlightSettings {
   double replan_period = 0.5;  ///< s between planned replans (and on every collision found)
   double replan_budget = 0.1;  ///< s: each replan's time budget
   /// A replan plans from the committed state this long after its frame (the vehicle flies
-  /// the committed trajectory meanwhile); negative: the replan budget, so that simulated time
-  /// does not depend on the measured planning time and a flight repeats bit for bit.
+  /// the committed trajectory meanwhile); negative: the replan budget.
   double latency = -1.0;
-  /// Reject a plan whose measured planning time exceeds the latency (real time).
-  bool enforce_latency = false;
+  FlightTiming timing = FlightTiming::kRealTime;
   double horizon = 3.5;             ///< m: the local goal's distance when the goal is farther
   double max_time = 120.0;          ///< s of flight
   double stuck_time = 15.0;         ///< s without 0.5 m of progress towards the goal
@@ -52,10 +61,13 @@ struct FlightSettings {
     f.real("replan_budget", replan_budget, 0.001, 100.0, "each replan's planning time budget, s");
     f.real("latency", latency, -1.0, 100.0,
            "the plan starts from the committed state this long after its frame, s; -1: the "
-           "replan budget (a flight repeats bit for bit)");
-    f.boolean("enforce_latency", enforce_latency,
-              "reject a plan whose measured planning time exceeds the latency (it would arrive "
-              "after its start; real time, so not repeatable)");
+           "replan budget");
+    f.choice(
+        "timing", timing,
+        {{"real_time", FlightTiming::kRealTime}, {"deterministic", FlightTiming::kDeterministic}},
+        "real_time: a plan whose measured planning time exceeds the latency is late and "
+        "discarded; deterministic: every plan is taken as if on time, so a flight repeats "
+        "bit for bit");
     f.real("horizon", horizon, 0.5, 1000.0,
            "local goal distance when the goal is farther, m (kept 0.5 m inside the window)");
     f.real("max_time", max_time, 0.1, 1e5, "flight time limit, s (status timeout)");
