@@ -400,6 +400,108 @@ TEST(VehicleMapTest, TheGuideGoesRoundKnownObstaclesAndThroughUnknownSpace) {
   EXPECT_TRUE(walled->guide(from, to, 0.25, 1.0, 2.0).empty());
 }
 
+/// A rest-to-rest move along x: `a` m/s^2 for `t` s, then as much braking.
+Trajectory accelerateAndBrake(double a, double t) {
+  Trajectory reference;
+  ChainState start = ChainState::Zero();
+  start.col(0) = Eigen::Vector3d(1.0, 2.0, 1.5);
+  reference.append(TrajectorySegment::primitive(start, Eigen::Vector3d(a, 0, 0), 2, t));
+  ChainState middle = ChainState::Zero();
+  for (int k = 0; k < 2; ++k) middle.col(k) = reference.evaluate(t, k);
+  reference.append(TrajectorySegment::primitive(middle, Eigen::Vector3d(-a, 0, 0), 2, t));
+  return reference;
+}
+
+TEST(TrackerTest, WithoutWindItFollowsAGentleReferenceAndSettles) {
+  TrackingModel model;
+  model.wind_sigma = 0.0;
+  const Trajectory reference = accelerateAndBrake(1.0, 2.0);  // 4 m, 2 m/s at most
+  QuadrotorTracker tracker(model, reference.startPosition(), 1);
+  tracker.advance(reference, 6.0);  // 2 s at rest after the 4 s move
+  EXPECT_NEAR(tracker.time(), 6.0, 1e-12);
+  double worst = 0.0;
+  for (double t = 0.0; t <= 4.0; t += 0.01) {
+    worst = std::max(worst, (tracker.flown().evaluate(t) - reference.evaluate(t)).norm());
+  }
+  EXPECT_GT(worst, 0.005) << "a lagging attitude cannot follow a jump in acceleration exactly";
+  EXPECT_LT(worst, 0.06);
+  EXPECT_LT((tracker.state().col(0) - reference.endPosition()).norm(), 0.005);
+  EXPECT_LT(tracker.state().col(1).norm(), 0.01);
+  // Exact polynomial pieces, one per control step, continuous to the acceleration.
+  EXPECT_EQ(tracker.flown().segments().size(), 600u);
+  EXPECT_NEAR(tracker.flown().duration(), 6.0, 1e-9);
+}
+
+TEST(TrackerTest, TheThrustConeAndTheBodyRateBoundWhatItFlies) {
+  TrackingModel model;
+  model.wind_sigma = 0.0;
+  model.thrust_to_weight = 1.5;
+  model.max_tilt = 30.0 * M_PI / 180.0;
+  model.max_body_rate = M_PI / 2.0;
+  // A reference 5 m away at once: the PD command is far outside the cone.
+  Trajectory reference;
+  ChainState far = ChainState::Zero();
+  far.col(0) = Eigen::Vector3d(6.0, 2.0, 4.0);
+  reference.append(TrajectorySegment::primitive(far, Eigen::Vector3d::Zero(), 2, 10.0));
+  QuadrotorTracker tracker(model, {1.0, 2.0, 1.5}, 1);
+  const double g = QuadrotorTracker::kGravity;
+  const Eigen::Vector3d up(0.0, 0.0, g);
+  for (int step = 1; step <= 500; ++step) {
+    const Eigen::Vector3d before = tracker.thrust();
+    tracker.advance(reference, 0.01 * step);
+    const Eigen::Vector3d thrust = tracker.thrust() + up;
+    ASSERT_LE(thrust.norm(), 1.5 * g * (1.0 + 1e-9)) << step;
+    ASSERT_LE(std::atan2(thrust.head<2>().norm(), thrust.z()), model.max_tilt + 1e-9) << step;
+    // The thrust vector turned at most max_body_rate times its length.
+    ASSERT_LE((tracker.thrust() - before).norm(),
+              0.01 * model.max_body_rate * (before + up).norm() * (1.0 + 1e-9))
+        << step;
+  }
+  // It still gets there, later (climbing first: vertical thrust has priority).
+  EXPECT_GT((tracker.state().col(0) - far.col(0)).norm(), 1.0);
+  tracker.advance(reference, 8.0);
+  EXPECT_LT((tracker.state().col(0) - far.col(0)).norm(), 0.01);
+  // A command inside the cone is kept; one outside is clipped to it.
+  EXPECT_EQ(tracker.feasible({1.0, 0.0, 0.5}), Eigen::Vector3d(1.0, 0.0, 0.5));
+  const Eigen::Vector3d clipped = tracker.feasible({100.0, 0.0, -100.0});
+  EXPECT_NEAR(clipped.z(), -g, 1e-12);  // never pulling down: no thrust at all
+  EXPECT_NEAR(clipped.x(), 0.0, 1e-12);
+}
+
+TEST(TrackerTest, TheWindIsSeededWithTheDeclaredDeviation) {
+  TrackingModel model;
+  model.wind_sigma = 1.0;
+  model.wind_time = 0.5;
+  Trajectory hover;
+  ChainState at = ChainState::Zero();
+  at.col(0) = Eigen::Vector3d(5.0, 5.0, 1.5);
+  hover.append(TrajectorySegment::primitive(at, Eigen::Vector3d::Zero(), 2, 300.0));
+  QuadrotorTracker tracker(model, at.col(0), 3);
+  double squares = 0.0;
+  int samples = 0;
+  double worst = 0.0;
+  for (int step = 1; step <= 30000; ++step) {
+    tracker.advance(hover, 0.01 * step);
+    if (step % 50 == 0) {  // 0.5 s apart: nearly independent
+      squares += tracker.wind().squaredNorm();
+      samples += 3;
+    }
+    worst = std::max(worst, (tracker.state().col(0) - at.col(0)).norm());
+  }
+  // 1800 samples of a unit Gaussian: the deviation within 10 %.
+  EXPECT_NEAR(std::sqrt(squares / samples), 1.0, 0.1);
+  EXPECT_GT(worst, 0.01);
+  EXPECT_LT(worst, 0.5);
+  QuadrotorTracker again(model, at.col(0), 3);
+  QuadrotorTracker other(model, at.col(0), 4);
+  for (int step = 1; step <= 30000; ++step) {
+    again.advance(hover, 0.01 * step);
+    other.advance(hover, 0.01 * step);
+  }
+  EXPECT_EQ(again.state(), tracker.state());
+  EXPECT_NE(other.state(), tracker.state());
+}
+
 TEST(FlightTest, AnEmptyWorldIsFlownToTheGoal) {
   const auto world = worldOf("  - type: empty\n");
   const FlightResult result = Flight().fly(world, {2, 5, 1.5}, {18, 5, 1.5});

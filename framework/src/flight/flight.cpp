@@ -4,6 +4,7 @@
 #include <chrono>
 #include <cmath>
 #include <map>
+#include <optional>
 #include <unordered_map>
 
 #include "kinolab/core/fields.hpp"
@@ -187,6 +188,17 @@ double headingOf(const Trajectory& committed, double t, const Eigen::Vector3d& g
 
 constexpr double kDegree = M_PI / 180.0;
 
+/// The flown trajectory's checker: the planner's body; its limits only when tracking is
+/// perfect (a tracking vehicle's excursions are its controller's, not the planner's).
+CheckerSettings flownCheckerSettings(const PlanningModel& model, const TrackingModel& tracking) {
+  CheckerSettings settings = checkerSettings(model);
+  if (tracking.kind != TrackingKind::kPerfect) {
+    settings.limits = DynamicLimits::uniform(INFINITY, INFINITY);
+    settings.max_derivative = 1;
+  }
+  return settings;
+}
+
 }  // namespace
 
 const ParameterSpecs& flightParameters() {
@@ -198,7 +210,8 @@ const ParameterSpecs& flightParameters() {
                   "the vehicle's map, its sensor model (kinolab list vehicle_maps); set its "
                   "parameters as map.NAME")
           .include(declareFields<MapModel>())
-          .include(declareFields<FlightSettings>());
+          .include(declareFields<FlightSettings>())
+          .include(declareFields<TrackingModel>());
   return specs;
 }
 
@@ -217,6 +230,7 @@ FlightSetup flightSetup(const ParameterSet& p) {
   setup.make_map();
   setup.map = readFields<MapModel>(p);
   setup.settings = readFields<FlightSettings>(p);
+  setup.tracking = readFields<TrackingModel>(p);
   return setup;
 }
 
@@ -236,7 +250,7 @@ class FlightLoop {
         map_(setup.make_map()),
         // The body and limits every replan plans for (the planner's model on any world).
         model_(make_planner(truth)->model()),
-        checker_(truth, checkerSettings(model_)),
+        checker_(truth, flownCheckerSettings(model_, setup.tracking)),
         brake_rate_(std::min(settings_.brake_acceleration, model_.limits.bound[2].minCoeff())),
         dt_(1.0 / sensor_.frameRate()),
         // Snapshots: the map from above over the query's heights, widened by 0.5 m.
@@ -244,6 +258,9 @@ class FlightLoop {
         z_band_high_(std::max(query.start(2, 0), query.goal.z()) + 0.5),
         sensor_errors_(sensor_.noise()),
         noise_(Rng::derive(settings_.seed, "sensor")) {
+    if (setup.tracking.kind == TrackingKind::kQuadrotor) {
+      tracker_.emplace(setup.tracking, query.start.col(0), settings_.seed);
+    }
     map_->setup(truth->bounds(), map_model_);
     result_.map = map_;
     result_.model = model_;
@@ -278,14 +295,16 @@ class FlightLoop {
     // The ground truth: the stretch flown since the last frame, every centimetre of time.
     const double from = t_;
     t_ = frame * dt_;
+    if (tracker_) tracker_->advance(committed_, t_);
+    const Trajectory& path = flownPath();
     for (double s = from; frame > 0 && s <= t_; s += 0.01) {
-      if (checker_.collides(committed_.evaluate(std::min(s, committed_.duration())))) {
+      if (checker_.collides(path.evaluate(std::min(s, path.duration())))) {
         t_ = s;
         collided_ = true;
         return false;
       }
     }
-    const ChainState now = stateAt(committed_, t_);
+    const ChainState now = stateAt(path, t_);
     if (ended(now)) return false;
     ++result_.frames;
     if (settings_.snapshot_period > 0.0 &&
@@ -363,7 +382,7 @@ class FlightLoop {
         (errors.latency_jitter > 0.0 ? errors.latency_jitter * noise_.uniform(-1.0, 1.0) : 0.0);
     const double taken = std::clamp(t_ - age, 0.0, t_);
     const SensorFrame sensed =
-        senseFrame(*truth_, sensor_, stateAt(committed_, taken).col(0),
+        senseFrame(*truth_, sensor_, stateAt(flownPath(), taken).col(0),
                    headingOf(committed_, taken, query_.goal) + look_offset_, noise_);
     result_.time_sense_ms += millisecondsSince(begin);
     begin = std::chrono::steady_clock::now();
@@ -509,8 +528,23 @@ class FlightLoop {
   }
 
   /// What was flown, checked against the ground truth.
+  /// Where the vehicle has been: the committed trajectory (perfect tracking) or what the
+  /// tracker flew (before its first step, at t = 0, both are the start at rest).
+  const Trajectory& flownPath() const {
+    return tracker_ && !tracker_->flown().empty() ? tracker_->flown() : committed_;
+  }
+
   void finish() {
-    result_.flown = slice(committed_, std::max(t_, dt_));
+    result_.flown = slice(flownPath(), std::max(t_, dt_));
+    // The tracking error: flown against committed, every centisecond.
+    double squares = 0.0;
+    int samples = 0;
+    for (double s = 0.0; s <= result_.flown.duration(); s += 0.01, ++samples) {
+      const double error = (result_.flown.evaluate(s) - committed_.evaluate(s)).norm();
+      result_.tracking_error_max = std::max(result_.tracking_error_max, error);
+      squares += error * error;
+    }
+    result_.tracking_error_rms = samples > 0 ? std::sqrt(squares / samples) : 0.0;
     if (settings_.snapshot_period > 0.0) {
       snapshot();
       for (const std::size_t voxel : map_->occupiedVoxels()) {
@@ -562,7 +596,8 @@ class FlightLoop {
   int failed_in_a_row_ = 0;   // failed replans since the last taken one
   double look_offset_ = 0.0;  // rad: the camera's turn from its heading, to look for a way
   SensorNoise sensor_errors_;
-  Rng noise_;  // the sensor's noise, dropouts and latency
+  Rng noise_;                                // the sensor's noise, dropouts and latency
+  std::optional<QuadrotorTracker> tracker_;  // unless tracking is perfect
   std::unordered_map<std::size_t, double> first_occupied_;  // lattice index -> time
 };
 
@@ -590,6 +625,11 @@ const MetricSpecs& flightStatistics() {
           .real("plan_distance_median", "m", "median D of the replans' plans to their goals")
           .real("plan_distance_max", "m", "largest D of a replan's plan")
           .real("jerk_integral", "m^2/s^5", "integral of the squared jerk of the flight")
+          .real("tracking_error_max", "m",
+                "largest distance between the flown and the committed position (0: perfect "
+                "tracking)")
+          .real("tracking_error_rms", "m", "its root mean square over the flight")
+          .counter("late_replans", "replans whose plan came past the latency (real time)")
           .counter("frames", "sensor frames")
           .clock("frame_time_ms", "mean per frame: sensing, map insertion, window and ESDF")
           .clock("guide_time_ms", "mean per replan: the global guide on the known map");
@@ -685,6 +725,11 @@ MetricValues flightValues(const FlightResult& result) {
       {"plan_distance_median", quantile(distances, 0.5)},
       {"plan_distance_max", quantile(distances, 1.0)},
       {"jerk_integral", numberOrNone(result.flown.jerkIntegral())},
+      {"tracking_error_max", numberOrNone(result.tracking_error_max)},
+      {"tracking_error_rms", numberOrNone(result.tracking_error_rms)},
+      {"late_replans", static_cast<double>(std::count_if(
+                           result.replans.begin(), result.replans.end(),
+                           [](const FlightReplan& replan) { return replan.status == "late"; }))},
       {"frames", static_cast<double>(result.frames)},
       {"frame_time_ms", numberOrNone(per_frame)},
       {"guide_time_ms",

@@ -11,6 +11,7 @@
 #include "kinolab/core/metric_specs.hpp"
 #include "kinolab/core/parameters.hpp"
 #include "kinolab/flight/sensor.hpp"
+#include "kinolab/flight/tracking.hpp"
 #include "kinolab/flight/vehicle_map.hpp"
 #include "kinolab/planner/planner.hpp"
 #include "kinolab/trajectory/trajectory.hpp"
@@ -36,7 +37,9 @@ struct FlightSettings {
   double replan_period = 0.5;  ///< s between planned replans (and on every collision found)
   double replan_budget = 0.1;  ///< s: each replan's time budget
   /// A replan plans from the committed state this long after its frame (the vehicle flies
-  /// the committed trajectory meanwhile); negative: the replan budget.
+  /// the committed trajectory meanwhile); negative: 1.25 times the replan budget, so that a
+  /// planner stopped at its budget has a quarter of it left for what a plan costs besides its
+  /// search (setting up on the window, building the result).
   double latency = -1.0;
   FlightTiming timing = FlightTiming::kRealTime;
   double horizon = 3.5;             ///< m: the local goal's distance when the goal is farther
@@ -51,8 +54,9 @@ struct FlightSettings {
   /// the caller's.
   std::uint64_t seed = 0;
 
-  /// The latency a replan starts after (latency, or the replan budget when negative).
-  double replanLatency() const { return latency < 0.0 ? replan_budget : latency; }
+  /// The latency a replan starts after (latency, or 1.25 times the replan budget when
+  /// negative).
+  double replanLatency() const { return latency < 0.0 ? 1.25 * replan_budget : latency; }
 
   /// Its parameters (core/fields.hpp).
   template <typename Fields>
@@ -60,8 +64,8 @@ struct FlightSettings {
     f.real("replan_period", replan_period, 0.01, 100.0, "s between replans (and on collision)");
     f.real("replan_budget", replan_budget, 0.001, 100.0, "each replan's planning time budget, s");
     f.real("latency", latency, -1.0, 100.0,
-           "the plan starts from the committed state this long after its frame, s; -1: the "
-           "replan budget");
+           "the plan starts from the committed state this long after its frame, s; -1: 1.25 "
+           "times the replan budget (a planner stopped at its budget is still on time)");
     f.choice(
         "timing", timing,
         {{"real_time", FlightTiming::kRealTime}, {"deterministic", FlightTiming::kDeterministic}},
@@ -80,20 +84,21 @@ struct FlightSettings {
   }
 };
 
-/// Every parameter of a flight (sensor, map, loop), declared, typed and ranged like a
-/// planner's: the fields of MapModel and FlightSettings; the sensor and the map are plugin
-/// parameters with their own (`kinolab fly --flight NAME=VALUE --flight sensor.NAME=VALUE`, an
-/// experiment's `flight:`).
+/// Every parameter of a flight (sensor, map, loop, tracking), declared, typed and ranged like
+/// a planner's: the fields of MapModel, FlightSettings and TrackingModel; the sensor and the map
+/// are plugin parameters with their own (`kinolab fly --flight NAME=VALUE --flight
+/// sensor.NAME=VALUE`, an experiment's `flight:`).
 const ParameterSpecs& flightParameters();
 
 /// What a flight is flown with: the sensor, the vehicle's map (its kind, lattice and planning
-/// window) and the loop's settings.
+/// window), the loop's settings and how the vehicle tracks its committed trajectory.
 struct FlightSetup {
   std::shared_ptr<const Sensor> sensor;
   /// A new vehicle map of the chosen kind (the `map` parameter), not yet set up.
   std::function<std::unique_ptr<VehicleMap>()> make_map;
   MapModel map;
   FlightSettings settings;
+  TrackingModel tracking;
 };
 /// The setup of resolved flight parameters.
 FlightSetup flightSetup(const ParameterSet& parameters);
@@ -126,6 +131,10 @@ struct FlightResult {
   std::vector<FlightReplan> replans;
   double time_to_goal = 0.0;   ///< s (NaN unless reached)
   double min_clearance = 0.0;  ///< m: to the ground truth's cubes, less the body radius
+  /// m: the flown position's distance from the committed one, largest and root mean square
+  /// (every 0.01 s; 0 with perfect tracking).
+  double tracking_error_max = 0.0;
+  double tracking_error_rms = 0.0;
   int frames = 0;
   double time_sense_ms = 0.0;  ///< summed wall time: sensor, map insertion, window + ESDF
   double time_map_ms = 0.0;
@@ -151,8 +160,10 @@ using PlannerFactory = std::function<std::unique_ptr<Planner>(std::shared_ptr<co
 /// map; a replan starts from the committed state `latency` after its frame; a failed replan
 /// keeps the committed trajectory (every committed trajectory ends at rest: plans get a
 /// braking tail) or, if that collides in the known map, brakes at once. The vehicle tracks
-/// the committed trajectory exactly. The flown trajectory goes through the independent
-/// checker against `truth` at the end: a collision ends the flight there, as `collision`.
+/// the committed trajectory exactly or as the tracking model flies it (its position is what
+/// the sensor sees from and what is judged). The flown trajectory goes through the
+/// independent checker against `truth` (collisions; the limits too when tracking is
+/// perfect): a collision ends the flight there, as `collision`.
 /// Recovery at rest (docs/flights.md): after a planner refuses the start, the vehicle backs
 /// off 0.3 m from the nearest known obstacle; after two failed replans in a row, the camera
 /// turns 90 degrees per failed replan to look for a way. A `stuck` flight's message counts

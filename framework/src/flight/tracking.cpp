@@ -1,0 +1,67 @@
+#include "kinolab/flight/tracking.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+namespace kinolab {
+
+QuadrotorTracker::QuadrotorTracker(const TrackingModel& model, const Eigen::Vector3d& start,
+                                   std::uint64_t seed)
+    : model_(model), wind_rng_(Rng::derive(seed, "wind")) {
+  state_.col(0) = start;
+}
+
+Eigen::Vector3d QuadrotorTracker::feasible(const Eigen::Vector3d& command) const {
+  // Vertical thrust first (as flight stacks prioritise it), then what the tilt and the
+  // total thrust leave for the horizontal.
+  const double most = model_.thrust_to_weight * kGravity;
+  Eigen::Vector3d thrust = command + Eigen::Vector3d(0.0, 0.0, kGravity);
+  thrust.z() = std::clamp(thrust.z(), 0.0, most);
+  const double horizontal = thrust.head<2>().norm();
+  const double allowed = std::min(thrust.z() * std::tan(model_.max_tilt),
+                                  std::sqrt(std::max(0.0, most * most - thrust.z() * thrust.z())));
+  if (horizontal > allowed) thrust.head<2>() *= allowed / horizontal;
+  return thrust - Eigen::Vector3d(0.0, 0.0, kGravity);
+}
+
+void QuadrotorTracker::advance(const Trajectory& reference, double t) {
+  const double period = 1.0 / model_.control_rate;
+  // A remainder under a nanosecond is no step (its wind's jerk would be unbounded).
+  while (t - time_ > 1e-9) {
+    const double h = std::min(period, t - time_);
+    // Past its end the reference rests where it ended.
+    const bool after = time_ >= reference.duration();
+    const double at = std::clamp(time_, 0.0, reference.duration());
+    const Eigen::Vector3d command = feasible(
+        (after ? Eigen::Vector3d::Zero() : reference.evaluate(at, 2)) +
+        model_.position_gain * (reference.evaluate(at, 0) - state_.col(0)) +
+        model_.velocity_gain *
+            ((after ? Eigen::Vector3d::Zero() : reference.evaluate(at, 1)) - state_.col(1)));
+    // The attitude's lag, the thrust vector turning at most max_body_rate.
+    Eigen::Vector3d turn = (command - thrust_) / std::max(model_.attitude_time, h);
+    const double fastest =
+        model_.max_body_rate * (thrust_ + Eigen::Vector3d(0.0, 0.0, kGravity)).norm();
+    if (turn.norm() > fastest) turn *= fastest / turn.norm();
+    // The wind: an Ornstein-Uhlenbeck step per axis, stationary deviation wind_sigma; linear
+    // within the step, so that the acceleration stays continuous.
+    Eigen::Vector3d wind = wind_;
+    if (model_.wind_sigma > 0.0) {
+      const double decay = std::exp(-h / model_.wind_time);
+      const double spread = model_.wind_sigma * std::sqrt(1.0 - decay * decay);
+      for (int axis = 0; axis < 3; ++axis) {
+        wind[axis] = decay * wind_[axis] + spread * wind_rng_.normal();
+      }
+    }
+    const Eigen::Vector3d jerk = turn + (wind - wind_) / h;
+    const TrajectorySegment step = TrajectorySegment::primitive(state_, jerk, 3, h);
+    flown_.append(step);
+    for (int k = 0; k < 3; ++k) state_.col(k) = step.evaluate(h, k);
+    state_.col(3) = jerk;
+    thrust_ += turn * h;
+    wind_ = wind;
+    time_ += h;
+  }
+  time_ = std::max(time_, t);
+}
+
+}  // namespace kinolab
