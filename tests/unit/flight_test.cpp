@@ -502,6 +502,43 @@ TEST(TrackerTest, TheWindIsSeededWithTheDeclaredDeviation) {
   EXPECT_NE(other.state(), tracker.state());
 }
 
+TEST(DifficultyTest, FlightBenchMetricsGrowWithWhatStandsInTheWay) {
+  PlanningQuery query;
+  query.start.col(0) = Eigen::Vector3d(2, 3, 1.5);
+  query.goal = Eigen::Vector3d(18, 3, 1.5);
+  // Nothing in the way: a straight guide, no turn, nothing in sight, every sphere at R = 4 m
+  // (TO = R / (2 N) * N / R = 0.5).
+  const ScenarioDifficulty open = scenarioDifficulty(*worldOf("  - type: empty\n"), query, 0.25);
+  ASSERT_EQ(open.guide.size(), 2u);
+  EXPECT_NEAR(open.guide_length, 16.0, 1e-9);
+  EXPECT_EQ(open.angle_over_length, 0.0);
+  EXPECT_EQ(open.view_occlusion, 0.0);
+  EXPECT_NEAR(open.traversability_obstruction, 0.5, 1e-9);
+  EXPECT_EQ(open.obstacles_per_hectare, 0.0);
+  // The wall across the way (x 10 .. 10.4, y < 5): round its end, turning, with the wall in
+  // sight and passages narrower; one obstacle in 0.02 ha.
+  const auto walled = worldOf(kWall);
+  const ScenarioDifficulty wall = scenarioDifficulty(*walled, query, 0.25);
+  ASSERT_GE(wall.guide.size(), 3u);
+  EXPECT_GT(wall.guide_length, 16.0);
+  // Between cell centres kept the radius from every obstacle column, a leg passes at most
+  // half a cell's diagonal closer.
+  for (std::size_t i = 1; i < wall.guide.size(); ++i) {
+    EXPECT_TRUE(walled->segmentFree(wall.guide[i - 1], wall.guide[i], 0.25 - 0.0708)) << i;
+  }
+  EXPECT_GT(wall.angle_over_length, 0.0);
+  EXPECT_GT(wall.view_occlusion, 0.0);
+  EXPECT_GT(wall.traversability_obstruction, 0.5);
+  EXPECT_NEAR(wall.obstacles_per_hectare, 50.0, 1e-9);
+  // No way at all: no guide, no path metrics.
+  const ScenarioDifficulty closed = scenarioDifficulty(
+      *worldOf("  - type: box_list\n    boxes: [{min: [9, 0, 0], max: [9.4, 10, 3]}]\n"), query,
+      0.25);
+  EXPECT_TRUE(closed.guide.empty());
+  EXPECT_TRUE(std::isnan(closed.traversability_obstruction));
+  EXPECT_TRUE(std::isnan(closed.view_occlusion));
+}
+
 TEST(FlightTest, AnEmptyWorldIsFlownToTheGoal) {
   const auto world = worldOf("  - type: empty\n");
   const FlightResult result = Flight().fly(world, {2, 5, 1.5}, {18, 5, 1.5});

@@ -274,6 +274,7 @@ class FlightLoop {
     if (!truth_->isFree(query_.goal, model_.robot_radius)) {
       return end("invalid_goal", "the goal is outside the map or in collision");
     }
+    result_.difficulty = scenarioDifficulty(*truth_, query_, model_.robot_radius);
     // The committed trajectory from t = 0; at rest at its end (a hover at the start at first).
     committed_.append(hold(start, dt_));
     best_distance_ = (start - query_.goal).norm();
@@ -630,6 +631,16 @@ const MetricSpecs& flightStatistics() {
                 "tracking)")
           .real("tracking_error_rms", "m", "its root mean square over the flight")
           .counter("late_replans", "replans whose plan came past the latency (real time)")
+          .real("guide_length", "m",
+                "the query's difficulty, on the ground truth: the shortened guide's length")
+          .real("traversability_obstruction", "",
+                "FlightBench's TO along the guide: narrow passages make it large")
+          .real("view_occlusion", "", "FlightBench's VO: obstacles close ahead along the guide")
+          .real("angle_over_length", "1/m",
+                "FlightBench's AOL: the guide's turns, sum exp(2 theta / pi) - 1, over its length")
+          .real("obstacles_per_hectare", "1/ha",
+                "obstacles cut by the horizontal slice at the start's height per hectare (trees "
+                "in a forest)")
           .counter("frames", "sensor frames")
           .clock("frame_time_ms", "mean per frame: sensing, map insertion, window and ESDF")
           .clock("guide_time_ms", "mean per replan: the global guide on the known map");
@@ -727,6 +738,11 @@ MetricValues flightValues(const FlightResult& result) {
       {"jerk_integral", numberOrNone(result.flown.jerkIntegral())},
       {"tracking_error_max", numberOrNone(result.tracking_error_max)},
       {"tracking_error_rms", numberOrNone(result.tracking_error_rms)},
+      {"guide_length", numberOrNone(result.difficulty.guide_length)},
+      {"traversability_obstruction", numberOrNone(result.difficulty.traversability_obstruction)},
+      {"view_occlusion", numberOrNone(result.difficulty.view_occlusion)},
+      {"angle_over_length", numberOrNone(result.difficulty.angle_over_length)},
+      {"obstacles_per_hectare", numberOrNone(result.difficulty.obstacles_per_hectare)},
       {"late_replans", static_cast<double>(std::count_if(
                            result.replans.begin(), result.replans.end(),
                            [](const FlightReplan& replan) { return replan.status == "late"; }))},

@@ -10,6 +10,7 @@
 
 #include "kinolab/core/metric_specs.hpp"
 #include "kinolab/core/parameters.hpp"
+#include "kinolab/flight/difficulty.hpp"
 #include "kinolab/flight/sensor.hpp"
 #include "kinolab/flight/tracking.hpp"
 #include "kinolab/flight/vehicle_map.hpp"
@@ -135,6 +136,8 @@ struct FlightResult {
   /// (every 0.01 s; 0 with perfect tracking).
   double tracking_error_max = 0.0;
   double tracking_error_rms = 0.0;
+  /// How hard the query is on the ground truth, before the flight (FlightBench's metrics).
+  ScenarioDifficulty difficulty;
   int frames = 0;
   double time_sense_ms = 0.0;  ///< summed wall time: sensor, map insertion, window + ESDF
   double time_map_ms = 0.0;

@@ -144,4 +144,16 @@ class VehicleMap {
 template <>
 PluginRegistry<VehicleMap>& pluginRegistry<VehicleMap>();
 
+/// A shortest 8-connected path over the x-y cells of `lattice` from `from` to `to`, through
+/// cells with no voxel whose value in `cells` (one per lattice voxel) is `occupied` within
+/// `radius` in the heights [z_low, z_high] (VehicleMap::guide on a map's states; on a ground
+/// truth's occupancy, the way a flight could take knowing everything). Cell centres at
+/// heights interpolated from `from` to `to`, the first and last at `from` and `to`; empty
+/// when there is none.
+std::vector<Eigen::Vector3d> columnGuide(const VoxelGrid& lattice,
+                                         const std::vector<std::uint8_t>& cells,
+                                         std::uint8_t occupied, const Eigen::Vector3d& from,
+                                         const Eigen::Vector3d& to, double radius, double z_low,
+                                         double z_high);
+
 }  // namespace kinolab
