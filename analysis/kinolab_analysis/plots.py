@@ -124,6 +124,38 @@ def sweep(runs: pd.DataFrame, metric: str = "planning_time_ms",
     return figure
 
 
+def sweep_success(runs: pd.DataFrame, by: str = "planner") -> plt.Figure | None:
+    """Success rate (Wilson 95 %) against the sweep value, per planner (for flights: over
+    density, speed, sensor, ...); None without a sweep."""
+    labels = list(dict.fromkeys(runs["sweep"].fillna("")))
+    if len(labels) < 2:
+        return None
+    figure, axis = plt.subplots(figsize=(7, 4))
+    for index, (name, group) in enumerate(runs.groupby(by, sort=False)):
+        rates, low, high, xs = [], [], [], []
+        for position, label in enumerate(labels):
+            outcomes = group.loc[group["sweep"].fillna("") == label, "success"]
+            if outcomes.empty:
+                continue
+            interval = stats.wilson(int(outcomes.sum()), len(outcomes))
+            xs.append(position)
+            rates.append(interval.estimate)
+            low.append(max(0.0, interval.estimate - interval.low))
+            high.append(max(0.0, interval.high - interval.estimate))
+        if xs:
+            axis.errorbar(xs, rates, yerr=[low, high], marker="o", capsize=3, label=name,
+                          color=_colour(index))
+    short = [re.sub(r"[^,=]*\.", "", label) for label in labels]
+    axis.set_xticks(range(len(labels)), short, rotation=30, ha="right", fontsize=8)
+    axis.set_ylabel("success rate")
+    axis.set_ylim(-0.02, 1.02)
+    axis.grid(alpha=0.3)
+    axis.legend(fontsize=8)
+    axis.set_title("Success over the sweep")
+    figure.tight_layout()
+    return figure
+
+
 def sweep_winners(table: pd.DataFrame, metric: str = "planning_time_ms") -> plt.Figure | None:
     """Where each planner wins: one cell per sweep value (the first two axes with more than one
     value as columns and rows), coloured by the planner with the least median `metric` on the

@@ -7,6 +7,7 @@ import base64
 import html
 import io
 import math
+import re
 import sqlite3
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -411,6 +412,9 @@ def _summary_figures(report: Report, results, sampling_csv: Path | None,
     if (figure := plots.sweep(runs)) is not None:
         _save(figure, report, "sweep", "Sweep", "Median planning time (bootstrap 95 %) "
               "against the swept value.")
+    if (figure := plots.sweep_success(runs)) is not None:
+        _save(figure, report, "sweep_success", "Success over the sweep",
+              "Success rate (Wilson 95 %) per planner against the swept value.")
     if "sweep_winners" in report.tables and (
             figure := plots.sweep_winners(report.tables["sweep_winners"])) is not None:
         _save(figure, report, "sweep_winners", "Where each wins",
@@ -605,11 +609,22 @@ def timing_protocol(meta: dict[str, str]) -> str:
         return ("Cold: each run's planning time is its one plan in a fresh worker process "
                 "(written before the timing protocol was recorded).")
     if config.get("kind") == "flight":
-        return ("Flights: each replan is timed once inside its flight, around the planner's own "
-                "call; planning_time_ms (T) is a flight's median replan time, and the flight "
-                "metrics give its 95th percentile and maximum. Simulated time does not depend "
-                "on the measured times (a replan starts its budget after its frame), so a "
-                "flight repeats bit for bit.")
+        timings = {((config.get("flight") or {}).get("timing") or "real_time")}
+        # The sweep's variants are listed by label ("- flight.timing=deterministic, ...").
+        variants = meta.get("config", "").partition("\n--- # variants")[2]
+        timings |= set(re.findall(r"timing=(real_time|deterministic)", variants))
+        modes = {
+            "real_time": "real time (a plan measured past its latency is discarded as late, "
+                         "so a flight whose plans come near the latency need not repeat)",
+            "deterministic": "deterministic (every plan is taken as if on time, so a flight "
+                             "repeats bit for bit)"}
+        return ("Flights: each replan is timed once inside its flight, around the planner's "
+                "own call; planning_time_ms (T) is a flight's median replan time, and the "
+                "flight metrics give its 95th percentile and maximum. A plan starts from the "
+                "committed state its latency after its frame; timing: "
+                + "; ".join(modes.get(mode, mode) for mode in sorted(timings))
+                + (". The sweep runs both: its variants are reported apart."
+                   if len(timings) > 1 else "."))
     protocol = config.get("timing") or {}
     warmup, repeats = int(protocol.get("warmup", 1)), int(protocol.get("repeats", 3))
     return (f"Warm: in each run's worker, {warmup} discarded plan(s) of the run's query, then "

@@ -110,8 +110,8 @@ void addFlyCommand(CLI::App& app) {
   CLI::App* command = app.add_subcommand(
       "fly",
       "Fly one query closed-loop: the vehicle sees the world only through its sensor, maps it "
-      "(OctoMap) and replans in a window around it; the flight is judged against the ground "
-      "truth; a JSON summary as the last line");
+      "and replans in a window around it in real time, and a quadrotor model tracks the plan; "
+      "the flight is judged against the ground truth; a JSON summary as the last line");
   command->add_option("--world", options->world_path, "World spec YAML (the ground truth)")
       ->required();
   command->add_option("--planner", options->planner, "Planner key (kinolab list planners)")

@@ -454,3 +454,34 @@ def test_a_count_named_like_a_share_stays_a_count():
     assert tables.text(1.0, column="unsolved") == "1"
     assert tables.text(0.96, column="straight line blocked") == "96 %"
     assert tables.text(0.5, column="line_blocked") == "50 %"
+
+
+def test_success_over_the_sweep_plots_a_wilson_interval_per_planner_and_value():
+    runs = pd.DataFrame({
+        "planner": ["lazy"] * 6 + ["tgk"] * 6,
+        "sweep": (["v=2"] * 3 + ["v=4"] * 3) * 2,
+        "success": [True, True, True, True, False, False, True, False, False, False, False,
+                    False],
+    })
+    figure = plots.sweep_success(runs)
+    axis = figure.axes[0]
+    # One error-bar line per planner, at the success rates of its two sweep values.
+    lines = [line for line in axis.get_lines() if line.get_marker() == "o"]
+    rates = sorted(tuple(round(y, 6) for y in line.get_ydata()) for line in lines)
+    assert rates == [(round(1 / 3, 6), 0.0), (1.0, round(1 / 3, 6))]
+    assert plots.sweep_success(runs[runs["sweep"] == "v=2"]) is None  # no sweep, no figure
+
+
+def test_the_flight_timing_protocol_names_the_timing_each_variant_ran_with():
+    from kinolab_analysis.report import timing_protocol
+    config = "kind: flight\nflight: {replan_budget: 0.1}\n"
+    meta = {"schema_version": "6", "config": config + "\n--- # variants\n- (no sweep)\n"}
+    assert "real time (a plan measured past its latency" in timing_protocol(meta)
+    assert "deterministic" not in timing_protocol(meta)
+    meta["config"] = (config.replace("{replan_budget: 0.1}", "{timing: deterministic}")
+                      + "\n--- # variants\n- (no sweep)\n")
+    assert "deterministic (every plan" in timing_protocol(meta)
+    meta["config"] = (config + "\n--- # variants\n- flight.timing=real_time\n"
+                      "- flight.timing=deterministic\n")
+    both = timing_protocol(meta)
+    assert "real time" in both and "deterministic" in both and "reported apart" in both
