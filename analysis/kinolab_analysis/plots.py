@@ -92,67 +92,56 @@ def per_world(runs: pd.DataFrame, by: str = "planner") -> plt.Figure:
     return figure
 
 
-def sweep(runs: pd.DataFrame, metric: str = "planning_time_ms",
-          by: str = "planner") -> plt.Figure | None:
-    """A metric's median (bootstrap interval) over successful runs against the sweep
-    value, per planner; None without a sweep."""
+def _over_sweep(runs: pd.DataFrame, by: str, interval_of, ylabel: str,
+                title: str) -> plt.Figure | None:
+    """Per planner (`by`), interval_of(its runs of a sweep value) (an Interval, or None to
+    skip) against the sweep values; None without a sweep."""
     labels = list(dict.fromkeys(runs["sweep"].fillna("")))
     if len(labels) < 2:
         return None
     figure, axis = plt.subplots(figsize=(7, 4))
     for index, (name, group) in enumerate(runs.groupby(by, sort=False)):
-        medians, low, high, xs = [], [], [], []
+        estimates, low, high, xs = [], [], [], []
         for position, label in enumerate(labels):
-            values = group.loc[(group["sweep"] == label) & group["success"], metric]
-            if values.empty:
+            interval = interval_of(group[group["sweep"].fillna("") == label])
+            if interval is None:
                 continue
-            interval = stats.bootstrap(values.to_numpy(dtype=float))
             xs.append(position)
-            medians.append(interval.estimate)
+            estimates.append(interval.estimate)
             low.append(max(0.0, interval.estimate - interval.low))
             high.append(max(0.0, interval.high - interval.estimate))
         if xs:
-            axis.errorbar(xs, medians, yerr=[low, high], marker="o", capsize=3, label=name,
+            axis.errorbar(xs, estimates, yerr=[low, high], marker="o", capsize=3, label=name,
                           color=_colour(index))
     short = [re.sub(r"[^,=]*\.", "", label) for label in labels]
     axis.set_xticks(range(len(labels)), short, rotation=30, ha="right", fontsize=8)
-    axis.set_ylabel(f"median {metric}")
+    axis.set_ylabel(ylabel)
     axis.grid(alpha=0.3)
     axis.legend(fontsize=8)
-    axis.set_title("Sweep")
+    axis.set_title(title)
     figure.tight_layout()
     return figure
+
+
+def sweep(runs: pd.DataFrame, metric: str = "planning_time_ms",
+          by: str = "planner") -> plt.Figure | None:
+    """A metric's median (bootstrap interval) over successful runs against the sweep
+    value, per planner; None without a sweep."""
+    def median(variant: pd.DataFrame):
+        values = variant.loc[variant["success"].astype(bool), metric]
+        return None if values.empty else stats.bootstrap(values.to_numpy(dtype=float))
+    return _over_sweep(runs, by, median, f"median {metric}", "Sweep")
 
 
 def sweep_success(runs: pd.DataFrame, by: str = "planner") -> plt.Figure | None:
     """Success rate (Wilson 95 %) against the sweep value, per planner (for flights: over
     density, speed, sensor, ...); None without a sweep."""
-    labels = list(dict.fromkeys(runs["sweep"].fillna("")))
-    if len(labels) < 2:
-        return None
-    figure, axis = plt.subplots(figsize=(7, 4))
-    for index, (name, group) in enumerate(runs.groupby(by, sort=False)):
-        rates, low, high, xs = [], [], [], []
-        for position, label in enumerate(labels):
-            outcomes = group.loc[group["sweep"].fillna("") == label, "success"]
-            if outcomes.empty:
-                continue
-            interval = stats.wilson(int(outcomes.sum()), len(outcomes))
-            xs.append(position)
-            rates.append(interval.estimate)
-            low.append(max(0.0, interval.estimate - interval.low))
-            high.append(max(0.0, interval.high - interval.estimate))
-        if xs:
-            axis.errorbar(xs, rates, yerr=[low, high], marker="o", capsize=3, label=name,
-                          color=_colour(index))
-    short = [re.sub(r"[^,=]*\.", "", label) for label in labels]
-    axis.set_xticks(range(len(labels)), short, rotation=30, ha="right", fontsize=8)
-    axis.set_ylabel("success rate")
-    axis.set_ylim(-0.02, 1.02)
-    axis.grid(alpha=0.3)
-    axis.legend(fontsize=8)
-    axis.set_title("Success over the sweep")
-    figure.tight_layout()
+    def rate(variant: pd.DataFrame):
+        outcomes = variant["success"]
+        return None if outcomes.empty else stats.wilson(int(outcomes.sum()), len(outcomes))
+    figure = _over_sweep(runs, by, rate, "success rate", "Success over the sweep")
+    if figure is not None:
+        figure.axes[0].set_ylim(-0.02, 1.02)
     return figure
 
 

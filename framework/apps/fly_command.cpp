@@ -71,11 +71,7 @@ void runFly(const FlyOptions& options) {
       flightParameters().resolve(parseAssignments(options.flight, "--flight"), "flight"));
   const WorldSpec spec = WorldSpec::fromFile(options.world_path);
   const WorldLoad load = WorldCache(options.cache_dir).loadOrBuild(spec);
-  const PlannerFactory factory = [&](std::shared_ptr<const World> world) {
-    ConfiguredPlanner configured = configurePlanner(options.planner, assignments);
-    configured.planner->setup({std::move(world), configured.sampler, options.seed});
-    return std::move(configured.planner);
-  };
+  const PlannerFactory factory = plannerFactory(options.planner, assignments, options.seed);
   // The 3D view replays the known map growing: a snapshot every half second.
   setup.settings.seed = options.seed;
   if (!options.out_dir.empty() && setup.settings.snapshot_period <= 0.0) {

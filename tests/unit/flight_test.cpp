@@ -33,11 +33,7 @@ const char* kWall = "  - type: box_list\n    boxes: [{min: [10, 0, 0], max: [10.
 
 PlannerFactory lazyPlanner(const std::vector<ParameterAssignment>& assignments = {}) {
   registerBuiltinPlugins();
-  return [assignments](std::shared_ptr<const World> world) {
-    ConfiguredPlanner configured = configurePlanner("lazy_mp_astar", assignments);
-    configured.planner->setup({std::move(world), configured.sampler, 1});
-    return std::move(configured.planner);
-  };
+  return plannerFactory("lazy_mp_astar", assignments, 1);
 }
 
 struct Flight {
@@ -566,7 +562,7 @@ TEST(FlightTest, EveryLimitFliesOutOfACorridorOrIsRefusedWithAFixThatFlies) {
           test::assignments({"max_velocity=" + formatNumber(velocity),
                              "max_acceleration=" + formatNumber(acceleration)});
       try {
-        lazyPlanner(limits)(corridor);
+        lazyPlanner(limits)(corridor, 0.0);
       } catch (const ConfigError& error) {
         // Refused when configured (no world is needed to know it), blaming tau, located at
         // the limit's assignment.
@@ -632,10 +628,14 @@ TEST(FlightTest, APlannerThatRefusesTheStartIsBackedOffFromTheWall) {
   PlanningQuery query;
   query.start.col(0) = Eigen::Vector3d(3.68, 2.0, 1.5);
   query.goal = Eigen::Vector3d(7.5, 2.0, 1.5);
-  const FlightSetup setup = flightSetup(flightParameters().resolve({}, "flight"));
+  // Perfect tracking: this planner keeps its own margin, not the flight's planning margin,
+  // and only the recovery is under test.
+  const FlightSetup setup =
+      flightSetup(flightParameters().resolve({{"tracking", "perfect", "test"}}, "flight"));
   const FlightResult result = fly(
       world,
-      [](std::shared_ptr<const World> window) -> std::unique_ptr<Planner> {
+      [](std::shared_ptr<const World> window,
+         double /*margin: this test's own*/) -> std::unique_ptr<Planner> {
         auto planner = std::make_unique<MarginPlanner>(0.45);
         planner->setup({std::move(window), nullptr, 1});
         return planner;
@@ -751,6 +751,18 @@ TEST(FlightTest, ACollisionWithTheGroundTruthEndsTheFlight) {
   // The flight ends at the wall.
   EXPECT_NEAR(result.flown.endPosition().x(), 10.0 - 0.25, 0.1);
   EXPECT_TRUE(std::isnan(result.time_to_goal));
+}
+
+TEST(FlightTest, AStuckFlightSaysWhy) {
+  // A wall across the whole map: the vehicle flies up to it and no way is left. Its message
+  // records what happened since its last progress: plans taken, replans failed, or both.
+  const auto closed =
+      worldOf("  - type: box_list\n    boxes: [{min: [9, 0, 0], max: [9.4, 10, 3]}]\n");
+  const FlightResult result =
+      Flight({{"stuck_time", "4", "test"}}).fly(closed, {2, 5, 1.5}, {18, 5, 1.5});
+  EXPECT_EQ(result.status, "stuck");
+  EXPECT_NE(result.message.find("meanwhile"), std::string::npos) << result.message;
+  EXPECT_NE(result.message.find("replans failed meanwhile"), std::string::npos) << result.message;
 }
 
 TEST(FlightTest, AFlightRepeatsBitForBit) {

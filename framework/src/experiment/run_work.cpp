@@ -118,11 +118,7 @@ std::string flyRun(const Experiment& experiment, const RunSpec& run,
     const bool keep_map =
         experiment.store_tree_queries < 0 || run.query < experiment.store_tree_queries;
     if (keep_map) settings.snapshot_period = 2.0;
-    const PlannerFactory factory = [&](std::shared_ptr<const World> window) {
-      ConfiguredPlanner configured = configurePlanner(spec.type, spec.assignments);
-      configured.planner->setup({std::move(window), configured.sampler, run.seed});
-      return std::move(configured.planner);
-    };
+    const PlannerFactory factory = plannerFactory(spec.type, spec.assignments, run.seed);
     const FlightResult flight = fly(world, factory, query, setup);
     const MetricValues values = flightValues(flight);
     const auto value = [&](std::string_view name) -> MetricValue {

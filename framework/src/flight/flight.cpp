@@ -188,6 +188,12 @@ double headingOf(const Trajectory& committed, double t, const Eigen::Vector3d& g
 
 constexpr double kDegree = M_PI / 180.0;
 
+/// `model` with its robot radius grown by `margin`.
+PlanningModel withMargin(PlanningModel model, double margin) {
+  model.robot_radius += margin;
+  return model;
+}
+
 /// The flown trajectory's checker: the planner's body; its limits only when tracking is
 /// perfect (a tracking vehicle's excursions are its controller's, not the planner's).
 CheckerSettings flownCheckerSettings(const PlanningModel& model, const TrackingModel& tracking) {
@@ -200,6 +206,22 @@ CheckerSettings flownCheckerSettings(const PlanningModel& model, const TrackingM
 }
 
 }  // namespace
+
+PlannerFactory plannerFactory(const std::string& type, std::vector<ParameterAssignment> assignments,
+                              std::uint64_t seed) {
+  // The body's radius as configured, read once; a margin adds to it.
+  const double body = configurePlanner(type, assignments).planner->model().robot_radius;
+  return [type, assignments = std::move(assignments), seed, body](
+             std::shared_ptr<const World> world, double margin) {
+    std::vector<ParameterAssignment> grown = assignments;
+    if (margin > 0.0) {
+      grown.push_back({"robot_radius", formatNumber(body + margin), "flight: planning_margin"});
+    }
+    ConfiguredPlanner configured = configurePlanner(type, grown);
+    configured.planner->setup({std::move(world), configured.sampler, seed});
+    return std::move(configured.planner);
+  };
+}
 
 const ParameterSpecs& flightParameters() {
   static const ParameterSpecs specs =
@@ -249,7 +271,8 @@ class FlightLoop {
         settings_(setup.settings),
         map_(setup.make_map()),
         // The body and limits every replan plans for (the planner's model on any world).
-        model_(make_planner(truth)->model()),
+        model_(make_planner(truth, 0.0)->model()),
+        planning_model_(withMargin(model_, setup.settings.planning_margin)),
         checker_(truth, flownCheckerSettings(model_, setup.tracking)),
         brake_rate_(std::min(settings_.brake_acceleration, model_.limits.bound[2].minCoeff())),
         dt_(1.0 / sensor_.frameRate()),
@@ -314,7 +337,7 @@ class FlightLoop {
       snapshot();
     }
     const std::shared_ptr<const World> window = sense(now);
-    if (!freeFrom(committed_, t_, truth_->bounds(), *window, model_)) {
+    if (!freeFrom(committed_, t_, truth_->bounds(), *window, planning_model_)) {
       reason_ = "collision";
       next_replan_ = t_;
     }
@@ -343,10 +366,31 @@ class FlightLoop {
     if (t_ - best_time_ > settings_.stuck_time) {
       result_.status = "stuck";
       result_.message = "no progress towards the goal for " + formatNumber(settings_.stuck_time) +
-                        " s" + failuresSince(best_time_);
+                        " s" + takenSince(best_time_) + failuresSince(best_time_);
       return true;
     }
     return false;
+  }
+
+  /// The plans taken since `since` (a flight without progress whose plans are taken dithers
+  /// between local goals): how many, the extent of their local goals and how near the goal
+  /// the nearest came ("" when none was taken).
+  std::string takenSince(double since) const {
+    int taken = 0;
+    Eigen::Vector3d low = Eigen::Vector3d::Constant(INFINITY);
+    Eigen::Vector3d high = -low;
+    double nearest = INFINITY;
+    for (const FlightReplan& replan : result_.replans) {
+      if (replan.time < since || !replan.accepted) continue;
+      ++taken;
+      low = low.cwiseMin(replan.local_goal);
+      high = high.cwiseMax(replan.local_goal);
+      nearest = std::min(nearest, (replan.local_goal - query_.goal).norm());
+    }
+    if (taken == 0) return "";
+    return "; " + std::to_string(taken) + " plans taken meanwhile, their local goals within " +
+           formatNumber((high - low).norm()) + " m of one another, the nearest " +
+           formatNumber(nearest) + " m from the goal";
   }
 
   /// The failed replans since `since`, by status with the first reason of each, and the
@@ -413,13 +457,13 @@ class FlightLoop {
     const double z_low = std::min(local.start(2, 0), query_.goal.z()) - 0.5;
     const double z_high = std::max(local.start(2, 0), query_.goal.z()) + 0.5;
     const std::vector<Eigen::Vector3d> guide =
-        map_->guide(local.start.col(0), query_.goal, model_.robot_radius, z_low, z_high);
+        map_->guide(local.start.col(0), query_.goal, planning_model_.robot_radius, z_low, z_high);
     result_.time_guide_ms += millisecondsSince(begin);
     bool accepted = false;
     if (localGoal(local.start.col(0), query_.goal, guide, settings_.horizon, window,
-                  model_.robot_radius, &local.goal)) {
+                  planning_model_.robot_radius, &local.goal)) {
       replan.local_goal = local.goal;
-      std::unique_ptr<Planner> planner = make_planner_(shared_window);
+      std::unique_ptr<Planner> planner = make_planner_(shared_window, settings_.planning_margin);
       const PlanResult plan = planner->plan(
           local, Budget{settings_.replan_budget, std::numeric_limits<long long>::max()});
       replan.status = std::string(toString(plan.status));
@@ -439,7 +483,8 @@ class FlightLoop {
     }
     result_.replans.push_back(std::move(replan));
     if (!accepted && !freeFrom(committed_, t_, truth_->bounds(), window, model_)) {
-      // Nothing safe to fly on: stop now.
+      // Nothing safe to fly on (for the body: inside the planning margin it goes on): stop
+      // now.
       const ChainState here = stateAt(committed_, t_);
       Trajectory stop = slice(committed_, t_);
       const TrajectorySegment braking = brake(here, brake_rate_);
@@ -474,7 +519,7 @@ class FlightLoop {
     }
     for (double cut = plan.trajectory.duration(); cut > 0.0; cut -= 0.1) {
       Trajectory spliced = splice(committed_, t_start, slice(plan.trajectory, cut), brake_rate_);
-      if (freeFrom(spliced, t_start, truth_->bounds(), window, model_)) {
+      if (freeFrom(spliced, t_start, truth_->bounds(), window, planning_model_)) {
         replan.trajectory = plan.trajectory;
         committed_ = std::move(spliced);
         return true;
@@ -516,6 +561,7 @@ class FlightLoop {
                                    0.5 * model_.limits.bound[1].minCoeff());
     Trajectory moved = slice(committed_, t_);
     for (const TrajectorySegment& segment : move) moved.append(segment);
+    // The body alone: a vehicle inside its planning margin must be able to back out of it.
     if (!freeFrom(moved, t_, truth_->bounds(), window, model_)) return false;
     committed_ = std::move(moved);
     next_replan_ = committed_.duration();
@@ -581,7 +627,8 @@ class FlightLoop {
   const FlightSettings& settings_;
   FlightResult result_;
   std::shared_ptr<VehicleMap> map_;
-  PlanningModel model_;
+  PlanningModel model_;           // the vehicle's body and limits: what is judged
+  PlanningModel planning_model_;  // the body grown by the planning margin: what is planned
   TrajectoryChecker checker_;
   double brake_rate_;
   double dt_;

@@ -48,6 +48,9 @@ struct FlightSettings {
   double stuck_time = 15.0;         ///< s without 0.5 m of progress towards the goal
   double goal_tolerance = 0.5;      ///< m: reached when this close to the goal
   double brake_acceleration = 3.0;  ///< m/s^2 per axis for braking to a stop
+  /// m: the planners keep the body's radius plus this from what the vehicle knows, room for
+  /// tracking error, map noise and latency (the flight judges the body).
+  double planning_margin = 0.1;
   /// > 0: keep the known map from above (VehicleMap::topView over the query's heights) every
   /// this many seconds of flight, for animations; 0: none. Not a parameter: the caller's.
   double snapshot_period = 0.0;
@@ -79,6 +82,10 @@ struct FlightSettings {
     f.real("stuck_time", stuck_time, 0.1, 1e5,
            "s without 0.5 m of progress towards the goal (status stuck)");
     f.real("goal_tolerance", goal_tolerance, 0.01, 100.0, "reached: this close to the goal, m");
+    f.real("planning_margin", planning_margin, 0.0, 10.0,
+           "the planners keep the body's radius plus this from known obstacles (their "
+           "robot_radius raised by it; the ground truth judges the body): room for tracking "
+           "error, map noise and latency, m");
     f.real("brake_acceleration", brake_acceleration, 0.01, 1000.0,
            "deceleration of the stops that end every committed trajectory, m/s^2 (at most the "
            "planner's max_acceleration is used)");
@@ -154,8 +161,15 @@ struct FlightResult {
 /// FlightResult::known_voxels as CSV `t,x,y,z` (the runner's flights table).
 std::string knownVoxelsCsv(const FlightResult& result);
 
-/// Makes a planner set up on a world (one per replan window).
-using PlannerFactory = std::function<std::unique_ptr<Planner>(std::shared_ptr<const World>)>;
+/// Makes a planner set up on a world (one per replan window) that keeps `margin` metres more
+/// than the vehicle's body from the obstacles (its robot_radius raised by it; 0: the body).
+using PlannerFactory =
+    std::function<std::unique_ptr<Planner>(std::shared_ptr<const World>, double margin)>;
+
+/// The factory of a registered planner: `type` configured with `assignments` (a ConfigError
+/// names a bad one), a margin added to its robot_radius, set up with `seed`.
+PlannerFactory plannerFactory(const std::string& type, std::vector<ParameterAssignment> assignments,
+                              std::uint64_t seed);
 
 /// Flies `query` through `truth`, seeing it only through the setup's sensor into a new map of
 /// its kind: simulated time, a replan
@@ -169,8 +183,9 @@ using PlannerFactory = std::function<std::unique_ptr<Planner>(std::shared_ptr<co
 /// perfect): a collision ends the flight there, as `collision`.
 /// Recovery at rest (docs/flights.md): after a planner refuses the start, the vehicle backs
 /// off 0.3 m from the nearest known obstacle; after two failed replans in a row, the camera
-/// turns 90 degrees per failed replan to look for a way. A `stuck` flight's message counts
-/// the failed replans since its last progress by status, with the first reason of each.
+/// turns 90 degrees per failed replan to look for a way. A `stuck` flight's message says why:
+/// the plans taken since its last progress (how far apart their local goals lie, how near the
+/// goal the nearest) and the failed replans by status, with the first reason of each.
 FlightResult fly(const std::shared_ptr<const World>& truth, const PlannerFactory& planner,
                  const PlanningQuery& query, const FlightSetup& setup);
 
