@@ -456,8 +456,13 @@ class FlightLoop {
     const auto begin = std::chrono::steady_clock::now();
     const double z_low = std::min(local.start(2, 0), query_.goal.z()) - 0.5;
     const double z_high = std::max(local.start(2, 0), query_.goal.z()) + 0.5;
+    // The guide starts at the vehicle but at a height within the query's, so that local goals
+    // do not follow a vehicle that sank or rose away from the heights it was asked to fly.
+    Eigen::Vector3d from = local.start.col(0);
+    from.z() = std::clamp(from.z(), std::min(query_.start(2, 0), query_.goal.z()),
+                          std::max(query_.start(2, 0), query_.goal.z()));
     const std::vector<Eigen::Vector3d> guide =
-        map_->guide(local.start.col(0), query_.goal, planning_model_.robot_radius, z_low, z_high);
+        map_->guide(from, query_.goal, planning_model_.robot_radius, z_low, z_high);
     result_.time_guide_ms += millisecondsSince(begin);
     bool accepted = false;
     if (localGoal(local.start.col(0), query_.goal, guide, settings_.horizon, window,
