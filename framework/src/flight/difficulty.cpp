@@ -87,8 +87,9 @@ double traversabilityObstruction(const World& truth, const std::vector<Eigen::Ve
 
 double viewOcclusion(const World& truth, const std::vector<Eigen::Vector3d>& guide) {
   const VoxelGrid& grid = truth.grid();
-  // The cones' half-angles, widest first, and their weights.
-  const double limits[4] = {M_PI / 5, M_PI / 6, M_PI / 8, M_PI / 12};
+  // The cones' half-angles' cosines, widest first, and their weights.
+  const double cosines[4] = {std::cos(M_PI / 5), std::cos(M_PI / 6), std::cos(M_PI / 8),
+                             std::cos(M_PI / 12)};
   const double weights[4] = {0.05, 0.1, 0.3, 0.55};
   double total = 0.0;
   int samples = 0;
@@ -104,11 +105,11 @@ double viewOcclusion(const World& truth, const std::vector<Eigen::Vector3d>& gui
             const Eigen::Vector3d offset = grid.center(VoxelIndex(x, y, z)) - point;
             const double distance = offset.norm();
             if (distance > kSensingRange || distance <= 0.0) continue;
-            const double angle = std::acos(std::clamp(offset.dot(direction) / distance, -1.0, 1.0));
+            const double cosine = offset.dot(direction) / distance;
             // The narrowest cone that holds it (FlightBench's bins).
             int bin = -1;
             for (int k = 0; k < 4; ++k) {
-              if (angle <= limits[k]) bin = k;
+              if (cosine >= cosines[k]) bin = k;
             }
             if (bin >= 0) nearest[bin] = std::min(nearest[bin], distance);
           }

@@ -107,6 +107,12 @@ double castRay(const World& world, const Eigen::Vector3d& origin, const Eigen::V
 
 SensorFrame senseFrame(const World& truth, const Sensor& sensor, const Eigen::Vector3d& origin,
                        double yaw, Rng& noise) {
+  return senseFrame(truth, sensor, sensor.rayDirections(), origin, yaw, noise);
+}
+
+SensorFrame senseFrame(const World& truth, const Sensor& sensor,
+                       const std::vector<Eigen::Vector3d>& rays, const Eigen::Vector3d& origin,
+                       double yaw, Rng& noise) {
   const double range = sensor.maxRange();
   const SensorNoise errors = sensor.noise();
   const double voxel = truth.grid().resolution();
@@ -118,7 +124,7 @@ SensorFrame senseFrame(const World& truth, const Sensor& sensor, const Eigen::Ve
   // voxel (before the noise moves them); misses end a voxel beyond the range, so that the map
   // inserts free space only.
   const double nudge = 0.01 * voxel;
-  for (const Eigen::Vector3d& ray : sensor.rayDirections()) {
+  for (const Eigen::Vector3d& ray : rays) {
     if (errors.dropout > 0.0 && noise.uniform01() < errors.dropout) continue;
     const Eigen::Vector3d direction(c * ray.x() - s * ray.y(), s * ray.x() + c * ray.y(), ray.z());
     const double distance = castRay(truth, origin, direction, range);

@@ -153,5 +153,10 @@ double castRay(const World& world, const Eigen::Vector3d& origin, const Eigen::V
 /// with the sensor's range noise and dropouts drawn from `noise`.
 SensorFrame senseFrame(const World& truth, const Sensor& sensor, const Eigen::Vector3d& origin,
                        double yaw, Rng& noise);
+/// The same with the sensor's rayDirections() computed once by the caller (a flight's every
+/// frame casts the same rays).
+SensorFrame senseFrame(const World& truth, const Sensor& sensor,
+                       const std::vector<Eigen::Vector3d>& rays, const Eigen::Vector3d& origin,
+                       double yaw, Rng& noise);
 
 }  // namespace kinolab
