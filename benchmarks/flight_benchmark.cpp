@@ -59,7 +59,10 @@ void BM_FlightFrame(benchmark::State& state) {
   const FlightSetup setup = flightSetup(flightParameters().resolve(assignments, "flight"));
   const Sensor& sensor = *setup.sensor;
   const std::unique_ptr<VehicleMap> known = setup.make_map();
-  known->setup(world->bounds(), setup.map);
+  MapModel model = setup.map;
+  // As a flight sets it: the window sees as far as a default planner's body and margin reach.
+  model.reach = MotionDefaults::kRobotRadius + setup.settings.planning_margin;
+  known->setup(world->bounds(), model);
   VehicleMap& map = *known;
   int frame = 0;
   Rng noise(1);

@@ -327,6 +327,54 @@ SensorFrame frameOf(const Eigen::Vector3d& origin, std::vector<Eigen::Vector3d> 
   return frame;
 }
 
+TEST(VehicleMapTest, TheWindowSeesTheGroundBelowItsDomainAsFarAsTheBodyReaches) {
+  // The ground (z below 0.1) seen under a vehicle at 1.55 m: the planning domain of a 2 m
+  // window ends at 0.55 m, above it, and the body reaches 0.6 m beyond its centre.
+  const Box box{Eigen::Vector3d::Zero(), Eigen::Vector3d(10, 10, 5)};
+  const Eigen::Vector3d origin(5.05, 5.05, 1.55);
+  std::vector<Eigen::Vector3d> ground;
+  for (double x = 3.05; x < 7.0; x += 0.1) ground.emplace_back(x, 5.05, 0.05);
+  for (const double reach : {0.0, 0.6}) {
+    SCOPED_TRACE(reach);
+    MapModel model;
+    model.window = 6.0;
+    model.window_height = 2.0;
+    model.reach = reach;
+    std::unique_ptr<VehicleMap> map = mapOf("probabilistic", box, model);
+    map->insert(frameOf(origin, ground), 10.0);
+    const auto window = map->window(origin);
+    // The domain is the window's; the field reaches on to the map's floor.
+    EXPECT_NEAR(window->bounds().min.z(), 0.5, 1e-9);
+    EXPECT_NEAR(window->grid().bounds().min.z(), reach > 0 ? 0.0 : 0.5, 1e-9);
+    EXPECT_NEAR(window->bounds().min.x(), window->grid().bounds().min.x() + reach, 1e-9);
+    const Eigen::Vector3d low(5.05, 5.05, 0.55);
+    if (reach > 0) {
+      // The body at the domain's floor is 0.45 m from the ground: seen, not free at 0.6.
+      EXPECT_NEAR(window->distance(low), 0.45, 1e-6);
+      EXPECT_FALSE(window->isFree(low, 0.6));
+      // Below the domain nothing is free, though the grid holds it.
+      EXPECT_FALSE(window->isFree(Eigen::Vector3d(5.05, 5.05, 0.35), 0.0));
+    } else {
+      EXPECT_TRUE(window->isFree(low, 0.6));  // blind to the ground: the dive of a flight
+    }
+  }
+}
+
+TEST(WorldTest, ADomainMustLieInsideTheGrid) {
+  VoxelGrid grid(Box{Eigen::Vector3d::Zero(), Eigen::Vector3d(2, 2, 2)}, 0.1);
+  const Esdf esdf(grid);
+  const Box inside{Eigen::Vector3d(0.5, 0.5, 0.5), Eigen::Vector3d(1.5, 1.5, 1.5)};
+  const World world("w", 0, grid, esdf, inside);
+  EXPECT_EQ(world.bounds().min, inside.min);
+  EXPECT_FALSE(world.isFree(Eigen::Vector3d(0.2, 1.0, 1.0), 0.0));
+  EXPECT_TRUE(world.isFree(Eigen::Vector3d(1.0, 1.0, 1.0), 0.0));
+  for (const Box& bad : {Box{Eigen::Vector3d(-0.5, 0.5, 0.5), Eigen::Vector3d(1.5, 1.5, 1.5)},
+                         Box{Eigen::Vector3d(0.5, 0.5, 0.5), Eigen::Vector3d(1.5, 2.5, 1.5)},
+                         Box{Eigen::Vector3d(1.5, 0.5, 0.5), Eigen::Vector3d(0.5, 1.5, 1.5)}}) {
+    EXPECT_THROW(World("w", 0, grid, esdf, bad), InvalidArgument);
+  }
+}
+
 TEST(VehicleMapTest, TheProbabilisticMapVotesOnceAFrameAndClampsItsBelief) {
   const Box box{Eigen::Vector3d::Zero(), Eigen::Vector3d(10, 10, 3)};
   std::unique_ptr<VehicleMap> map = mapOf("probabilistic", box);

@@ -285,6 +285,7 @@ class FlightLoop {
     if (setup.tracking.kind == TrackingKind::kQuadrotor) {
       tracker_.emplace(setup.tracking, query.start.col(0), settings_.seed);
     }
+    map_model_.reach = planning_model_.robot_radius;  // the window sees what the body reaches
     map_->setup(truth->bounds(), map_model_);
     result_.map = map_;
     result_.model = model_;
@@ -629,7 +630,7 @@ class FlightLoop {
   const PlannerFactory& make_planner_;
   const PlanningQuery& query_;
   const Sensor& sensor_;
-  const MapModel& map_model_;
+  MapModel map_model_;  // the flight's, its reach set to the planning radius
   const FlightSettings& settings_;
   FlightResult result_;
   std::shared_ptr<VehicleMap> map_;

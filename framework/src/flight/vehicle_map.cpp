@@ -115,23 +115,25 @@ std::shared_ptr<const World> VehicleMap::window(const Eigen::Vector3d& center) {
            (inner.max.array() <= outer.max.array() + 1e-9).all();
   };
   const bool kept = window_field_ &&
-                    contains(window_field_->grid().bounds(),
+                    contains(window_world_->bounds(),
                              latticeBox(center, Eigen::Vector3d(half_side, half_side, 0.0))) &&
                     std::abs(center.z() - window_middle_.z()) <= 0.5 * half_height;
+  const Eigen::Vector3d half(half_side + model_.window_margin, half_side + model_.window_margin,
+                             half_height);
   std::vector<std::uint8_t> occupancy;
   if (!kept) {
-    const double half = half_side + model_.window_margin;
-    VoxelGrid grid(latticeBox(center, Eigen::Vector3d(half, half, half_height)), model_.resolution);
+    window_middle_ = center;
+    VoxelGrid grid(latticeBox(center, half.array() + model_.reach), model_.resolution);
     windowOccupancy(grid, center, occupancy);
     grid.occupancy() = std::move(occupancy);
     window_field_ = std::make_unique<IncrementalEsdf>(std::move(grid));
-    window_middle_ = center;
   } else {
     windowOccupancy(window_field_->grid(), center, occupancy);
     if (window_field_->update(occupancy) == 0) return window_world_;
   }
-  window_world_ = std::make_shared<const World>("known_window", 0, window_field_->grid(),
-                                                window_field_->esdf());
+  window_world_ =
+      std::make_shared<const World>("known_window", 0, window_field_->grid(), window_field_->esdf(),
+                                    latticeBox(window_middle_, half));
   return window_world_;
 }
 

@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 
+#include "kinolab/core/error.hpp"
+#include "kinolab/core/text.hpp"
 #include "kinolab/world/world_spec.hpp"
 
 namespace kinolab {
@@ -13,6 +15,21 @@ World::World(std::string name, std::uint64_t spec_hash, VoxelGrid grid, Esdf esd
       grid_(std::move(grid)),
       esdf_(std::move(esdf)),
       bounds_(grid_.bounds()) {}
+
+World::World(std::string name, std::uint64_t spec_hash, VoxelGrid grid, Esdf esdf,
+             const Box& bounds)
+    : World(std::move(name), spec_hash, std::move(grid), std::move(esdf)) {
+  const Box& box = grid_.bounds();
+  const double slack = 1e-9;
+  if (!((bounds.min.array() >= box.min.array() - slack).all() &&
+        (bounds.max.array() <= box.max.array() + slack).all() &&
+        (bounds.min.array() < bounds.max.array()).all())) {
+    throw InvalidArgument("World " + name_ + ": the domain " + formatPoint(bounds.min) + " to " +
+                          formatPoint(bounds.max) + " is not a box inside the grid's " +
+                          formatPoint(box.min) + " to " + formatPoint(box.max));
+  }
+  bounds_ = bounds;
+}
 
 VoxelGrid World::buildGrid(const WorldSpec& spec) {
   VoxelGrid grid(spec.bounds, spec.resolution);

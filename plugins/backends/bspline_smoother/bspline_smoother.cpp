@@ -5,6 +5,8 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <optional>
+#include <tuple>
 
 #include "kinolab/core/text.hpp"
 
@@ -121,22 +123,36 @@ Eigen::Vector3d pointAt(const std::vector<Eigen::Vector3d>& path, double s) {
   return path.back();
 }
 
-/// Arc length travelled at time t by a rest-to-rest trapezoidal speed profile over `length`
-/// (cruise speed v, acceleration a), and that profile's duration.
+/// Arc length travelled at time t by a trapezoidal speed profile over `length` from speed
+/// `initial` to rest (cruise speed v, acceleration a; a start too fast to stop within the
+/// length brakes harder), and that profile's duration.
 struct SpeedProfile {
-  double length, speed, acceleration, ramp, duration;
-  SpeedProfile(double length_, double v, double a) : length(length_), acceleration(a) {
-    speed = std::min(v, std::sqrt(length * a));
-    ramp = speed / a;
-    duration = length / speed + ramp;
+  double length, initial, speed, up, down, rise, fall, duration;
+  SpeedProfile(double length_, double v, double a, double initial_)
+      : length(length_), initial(std::min(initial_, v)), up(a), down(a) {
+    if (initial * initial > 2.0 * a * length) {
+      // Only braking, as hard as the length needs.
+      speed = initial;
+      down = initial * initial / (2.0 * length);
+      rise = 0.0;
+      fall = initial / down;
+      duration = fall;
+      return;
+    }
+    // The peak where speeding up from `initial` and braking to rest meet, at most v.
+    speed = std::min(v, std::sqrt(a * length + 0.5 * initial * initial));
+    rise = (speed - initial) / a;
+    fall = speed / a;
+    const double ramps = (speed * speed - initial * initial + speed * speed) / (2.0 * a);
+    duration = rise + fall + std::max(0.0, length - ramps) / speed;
   }
   double at(double t) const {
-    if (t <= ramp) return 0.5 * acceleration * t * t;
-    if (t >= duration - ramp) {
-      const double left = duration - t;
-      return length - 0.5 * acceleration * left * left;
+    if (t <= rise) return initial * t + 0.5 * up * t * t;
+    if (t >= duration - fall) {
+      const double left = std::max(0.0, duration - t);
+      return length - 0.5 * down * left * left;
     }
-    return 0.5 * acceleration * ramp * ramp + speed * (t - ramp);
+    return initial * rise + 0.5 * up * rise * rise + speed * (t - rise);
   }
 };
 
@@ -257,19 +273,34 @@ bool BsplineSmoother::reallocateTime(const ChainState& start, Eigen::Matrix3Xd& 
   // Scale the knot interval until the tightest velocity or acceleration control point is at
   // its limit (stretching when a limit is broken, compressing when all are slack). At rest
   // the leading points do not depend on the interval, so one scaling suffices; otherwise
-  // they move with it and the loop repeats.
+  // they move with it and the scaling can circle the limit without settling: then the last
+  // interval within the limits is kept, or, when none was, the interval is only stretched.
   const bool at_rest = start.col(1).isZero() && start.col(2).isZero();
   const double first_interval = interval;
-  for (int attempt = 0; attempt < 20; ++attempt) {
-    const double factor = limitFactor(UniformBspline(control, interval), settings_.limits);
-    if (!(factor > 0.0) || (factor <= 1.0 && factor > 1.0 - 1e-6)) break;
+  const auto rescale = [&](double factor) {
     interval *= factor * (1.0 + 1e-9);
     ++reallocations;
+    if (!at_rest) control.leftCols<3>() = UniformBspline::startControlPoints(start, interval);
     // From a moving start on a path too short to stop on, the scaling collapses or inflates
     // the interval without end: no spline within the limits fits, a failure, not an error.
-    if (!(interval > 1e-9 && interval < 100.0 * first_interval)) return false;
-    if (!at_rest) control.leftCols<3>() = UniformBspline::startControlPoints(start, interval);
+    return interval > 1e-9 && interval < 100.0 * first_interval;
+  };
+  std::optional<std::pair<double, Eigen::Matrix3Xd>> within;  // the last fit within the limits
+  for (int attempt = 0; attempt < 40; ++attempt) {
+    const double factor = limitFactor(UniformBspline(control, interval), settings_.limits);
+    if (!(factor > 0.0)) return true;  // no motion: nothing to scale
+    // After 20 attempts aiming at the limit, a fit within it is taken as it is.
+    const bool settling = attempt >= 20;
+    if (factor <= 1.0) {
+      if (factor > 1.0 - 1e-6 || settling) return true;
+      within.emplace(interval, control);
+    } else if (settling && within) {
+      break;
+    }
+    if (!rescale(factor)) return false;
   }
+  if (!within) return false;
+  std::tie(interval, control) = std::move(*within);
   return true;
 }
 
@@ -278,9 +309,13 @@ SmootherResult BsplineSmoother::smooth(const ChainState& start,
                                        StopCondition& stop) const {
   const auto begin = std::chrono::steady_clock::now();
   SmootherResult result;
+  // The profile starts at the start's speed along the path's first leg (none backwards).
+  const Eigen::Vector3d lead =
+      path.size() > 1 ? Eigen::Vector3d(path[1] - path[0]).normalized() : Eigen::Vector3d::Zero();
   const SpeedProfile profile(polylineLength(path),
                              settings_.initial_speed * settings_.limits.bound[1].minCoeff(),
-                             settings_.initial_speed * settings_.limits.bound[2].minCoeff());
+                             settings_.initial_speed * settings_.limits.bound[2].minCoeff(),
+                             std::max(0.0, start.col(1).dot(lead)));
   double spacing = settings_.knot_spacing;
   double weight_obstacle = settings_.weight_obstacle;
   Tally tally;

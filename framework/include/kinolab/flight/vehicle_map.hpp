@@ -26,6 +26,10 @@ struct MapModel {
   double window_margin = 1.0;  ///< m: the kept window's extra side in x and y (window())
   UnknownSpace unknown = UnknownSpace::kFree;
   double free_beyond = 2.0;  ///< m (kFreeBeyond): unknown is occupied closer than this
+  /// m: how far the window's distance field reaches beyond the planning domain on every side
+  /// (not a parameter: the flight sets the planner's collision radius), so that an obstacle
+  /// just outside the domain, the ground below its floor, is seen by a body inside it.
+  double reach = 0.0;
 
   /// Its parameters, a flight's (core/fields.hpp).
   template <typename Fields>
@@ -78,11 +82,12 @@ class VehicleMap {
   void markFree(const Eigen::Vector3d& center, double radius);
   /// The planning world around `center`: known occupied voxels and unknown ones as `unknown`
   /// says (kFreeBeyond: measured from `center`), with its exact ESDF. The window is kept
-  /// between calls: a box of side window + 2 window_margin in x and y and window_height in z
-  /// (clamped to the map), built around the vehicle and kept while it holds the square of
-  /// side `window` around `center` and `center` is within a quarter of its height of its
-  /// middle; meanwhile only the voxels whose occupancy changed are updated
-  /// (IncrementalEsdf), and the same World is returned while none did.
+  /// between calls: its domain (World::bounds()) is a box of side window + 2 window_margin in
+  /// x and y and window_height in z (clamped to the map), built around the vehicle and kept
+  /// while it holds the square of side `window` around `center` and `center` is within a
+  /// quarter of its height of its middle; its grid and ESDF reach `reach` farther on every
+  /// side. Meanwhile only the voxels whose occupancy changed are updated (IncrementalEsdf),
+  /// and the same World is returned while none did.
   std::shared_ptr<const World> window(const Eigen::Vector3d& center);
   /// A shortest 8-connected path over the map's x-y cells from `from` to `to`, through cells
   /// with no known occupied voxel within `radius` in the heights [z_low, z_high] (unknown is

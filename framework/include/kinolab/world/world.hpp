@@ -17,6 +17,10 @@ struct WorldSpec;
 class World {
  public:
   World(std::string name, std::uint64_t spec_hash, VoxelGrid grid, Esdf esdf);
+  /// A world whose planning domain `bounds` (where a state may be: bounds()) is a box inside
+  /// the grid: the distances also see the obstacles of the grid around it (a flight's window
+  /// sees the ground just below its floor). Throws InvalidArgument when it is not inside.
+  World(std::string name, std::uint64_t spec_hash, VoxelGrid grid, Esdf esdf, const Box& bounds);
 
   /// Builds the grid from the spec's generators and computes the ESDF.
   static std::shared_ptr<const World> build(const WorldSpec& spec);
@@ -27,6 +31,7 @@ class World {
   std::uint64_t specHash() const { return spec_hash_; }
   const VoxelGrid& grid() const { return grid_; }
   const Esdf& esdf() const { return esdf_; }
+  /// Where a state may be: the grid's box, or the smaller domain it was built with.
   const Box& bounds() const { return bounds_; }
 
   /// Trilinear signed distance in metres (see Esdf for the rule outside the map).
@@ -54,7 +59,7 @@ class World {
   std::uint64_t spec_hash_;
   VoxelGrid grid_;
   Esdf esdf_;
-  Box bounds_;  // grid_.bounds(), kept for the per-query isFree()
+  Box bounds_;  // the domain (by default grid_.bounds()), kept for the per-query isFree()
 };
 
 }  // namespace kinolab
