@@ -177,9 +177,17 @@ def _upgrade_v1(runs: pd.DataFrame) -> pd.DataFrame:
     return runs
 
 
-def load(paths: str | Path | list[str | Path]) -> Results:
+def experiment_label(meta: dict[str, str]) -> str:
+    """An experiment's name and config hash, as a mixed report labels its runs."""
+    return f"{meta.get('name', '?')}@{meta.get('config_hash', '?')[:8]}"
+
+
+def load(paths: str | Path | list[str | Path], allow_mixed: bool = False) -> Results:
     """Loads results databases (directories or files) into one Results. Columns are read by
-    name; what they mean comes from the database's `metrics` table."""
+    name; what they mean comes from the database's `metrics` table. The databases must hold
+    one experiment (one config hash: its shards or resumed runs) unless `allow_mixed`; then
+    every planner is labelled with its experiment ("eager (name@hash)"), so that runs of
+    different experiments are never pooled. Databases without a run ended are refused."""
     if isinstance(paths, (str, Path)):
         paths = [paths]
     files = [database_path(p) for p in paths]
@@ -213,6 +221,14 @@ def load(paths: str | Path | list[str | Path]) -> Results:
             runs = _upgrade_v1(runs)
         if index == 0:
             meta = this_meta
+        elif this_meta.get("config_hash") != meta.get("config_hash") and not allow_mixed:
+            raise ValueError(
+                f"{file} holds experiment {experiment_label(this_meta)}, {files[0]} holds "
+                f"{experiment_label(meta)}: one report pools one experiment's runs (its shards "
+                "and resumed runs); --allow-mixed reports them side by side, each planner "
+                "labelled with its experiment")
+        if allow_mixed:
+            runs["experiment"] = experiment_label(this_meta)
         if not statistics.empty:
             wide = statistics.pivot_table(index="run_hash", columns="name", values="value",
                                           aggfunc="first")
@@ -230,11 +246,16 @@ def load(paths: str | Path | list[str | Path]) -> Results:
                 (np.frombuffer(row["boxes"], dtype="<i4").reshape(-1, 6)
                  if row.get("boxes") is not None else None),
                 int(row["box_stride"]) if pd.notna(row.get("box_stride")) else 1)
-    runs = pd.concat(frames, ignore_index=True) if frames else pd.DataFrame()
+    if all(frame.empty for frame in frames):
+        raise ValueError(f"{', '.join(map(str, files))}: no run has ended yet (an experiment "
+                         "stopped before its first run ended): nothing to report")
+    runs = pd.concat([frame for frame in frames if not frame.empty], ignore_index=True)
     for column in ("planning_time_min_ms", "planning_time_cold_ms", "line_blocked"):
         if column not in runs.columns:
             runs[column] = np.nan
     runs = runs.drop_duplicates("run_hash")
+    if allow_mixed and runs["experiment"].nunique() > 1:
+        runs["planner"] = runs["planner"] + " (" + runs["experiment"] + ")"
     runs["success"] = runs["success"].fillna(0).astype(bool)
     results = Results(files, runs, meta, worlds,
                       pd.concat(metrics, ignore_index=True).drop_duplicates(["name", "planner_type"])

@@ -117,15 +117,35 @@ def table2(runs: pd.DataFrame, paper: Paper, declared: set[str] | None = None) -
     return pd.DataFrame(rows)
 
 
+def _study_csv(path: Path, columns: tuple[str, ...]) -> pd.DataFrame:
+    """A sampling study's CSV (kinolab sampling-study writes them) with at least `columns`
+    of numbers (but the sampler's name); a clear error naming the file otherwise."""
+    try:
+        frame = pd.read_csv(path)
+    except (UnicodeDecodeError, pd.errors.ParserError, pd.errors.EmptyDataError) as error:
+        raise ValueError(f"{path}: not a sampling study's CSV ({type(error).__name__}: "
+                         f"{str(error).splitlines()[0] if str(error) else 'unreadable'})") from error
+    missing = [c for c in columns if c not in frame.columns]
+    if missing or frame.empty:
+        raise ValueError(f"{path}: not a sampling study's CSV: expected the columns "
+                         f"{', '.join(columns)} (kinolab sampling-study writes them) and a row "
+                         f"per sampler; {'missing ' + ', '.join(missing) if missing else 'no row'}")
+    for column in columns[1:]:
+        if not pd.api.types.is_numeric_dtype(frame[column]):
+            raise ValueError(f"{path}: column {column} holds text where numbers belong")
+    return frame
+
+
 def table1(summary_csv: Path, paper: Paper | None) -> pd.DataFrame:
     """The sampling study's summary (kinolab sampling-study's summary.csv) beside the
     paper's Table I: alpha and L (mean nearest-neighbour distance of endpoints), with the
     one-sample Wilcoxon p of each difference over the study's initial states (from the
     sampling_study.csv beside it, when present). The paper's figures are the summary's own
     (the study's `paper_alpha`, `paper_mean_nearest`) or else `paper`'s."""
-    study = pd.read_csv(summary_csv)
+    study = _study_csv(summary_csv, ("sampler", "alpha", "mean_nearest"))
     per_state_csv = summary_csv.parent / "sampling_study.csv"
-    per_state = pd.read_csv(per_state_csv) if per_state_csv.is_file() else None
+    per_state = (_study_csv(per_state_csv, ("sampler", "alpha", "mean_nearest"))
+                 if per_state_csv.is_file() else None)
     rows = []
     for _, row in study.iterrows():
         name = str(row["sampler"])

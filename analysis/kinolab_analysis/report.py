@@ -550,14 +550,22 @@ def _progress_figures(report: Report, results: Results) -> None:
 
 
 def write(paths: list[Path], out: Path, compare: Path | None = None,
-          sampling_csv: Path | None = None) -> Report:
-    """Writes the report directory and returns what it holds."""
-    results = load(paths)
+          sampling_csv: Path | None = None, allow_mixed: bool = False) -> Report:
+    """Writes the report directory and returns what it holds (databases of different
+    experiments only with `allow_mixed`: data.load)."""
+    results = load(paths, allow_mixed)
     report = Report(out)
     report.warnings += load_warnings(results.runs, results.meta)
-    out.mkdir(parents=True, exist_ok=True)
+    if "experiment" in results.runs and results.runs["experiment"].nunique() > 1:
+        counts = results.runs["experiment"].value_counts().sort_index()
+        report.warnings.append(
+            f"{len(counts)} experiments side by side (--allow-mixed): "
+            + ", ".join(f"{name} ({count} runs)" for name, count in counts.items())
+            + "; each planner is labelled with its experiment and never pooled across them")
+    # The inputs are read (and refused) before anything is written.
     sampling_csv, readings, readings_verdict, compare_name = _tables(
         report, results, paths, compare, sampling_csv)
+    out.mkdir(parents=True, exist_ok=True)
     _summary_figures(report, results, sampling_csv, readings, readings_verdict)
     _case_figures(report, results, out)
     regime_sources = _lazy_regime(report, results,

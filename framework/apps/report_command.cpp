@@ -22,6 +22,9 @@ struct ReportOptions {
   std::string out;
   std::string compare;
   std::string sampling_study;
+  bool allow_mixed = false;
+  // Which of the valued options were given (an empty value is passed on, and refused there).
+  std::vector<std::pair<std::string, const std::string*>> given;
 };
 
 /// Runs `python3 -m kinolab_analysis ARGUMENTS...` in place of this process.
@@ -50,14 +53,11 @@ struct ReportOptions {
 [[noreturn]] void runReport(const ReportOptions& options) {
   std::vector<std::string> arguments = {"report"};
   arguments.insert(arguments.end(), options.results.begin(), options.results.end());
-  for (const auto& [flag, value] :
-       {std::pair{"--out", options.out}, std::pair{"--compare", options.compare},
-        std::pair{"--sampling-study", options.sampling_study}}) {
-    if (!value.empty()) {
-      arguments.emplace_back(flag);
-      arguments.push_back(value);
-    }
+  for (const auto& [flag, value] : options.given) {
+    arguments.push_back(flag);
+    arguments.push_back(*value);
   }
+  if (options.allow_mixed) arguments.emplace_back("--allow-mixed");
   runAnalysis(std::move(arguments));
 }
 
@@ -79,19 +79,32 @@ void addReportCommand(CLI::App& app) {
       ->add_option("results", options->results,
                    "Results directories (or results.sqlite files) of one experiment")
       ->required();
-  command->add_option("--out", options->out, "Report directory (default: RESULTS/report)");
-  command->add_option("--compare", options->compare,
-                      "A second result set to report side by side (e.g. before a change)");
-  command->add_option("--sampling-study", options->sampling_study,
-                      "A sampling study's summary.csv for Table I (default: "
-                      "RESULTS/sampling_study/*/summary.csv when present)");
+  const std::vector<std::pair<CLI::Option*, const std::string*>> valued = {
+      {command->add_option("--out", options->out, "Report directory (default: RESULTS/report)"),
+       &options->out},
+      {command->add_option("--compare", options->compare,
+                           "A second result set to report side by side (e.g. before a change)"),
+       &options->compare},
+      {command->add_option("--sampling-study", options->sampling_study,
+                           "A sampling study's summary.csv for Table I (default: "
+                           "RESULTS/sampling_study/*/summary.csv when present)"),
+       &options->sampling_study}};
+  command->add_flag("--allow-mixed", options->allow_mixed,
+                    "Report databases of different experiments (config hashes) side by side, "
+                    "each planner labelled with its experiment (refused otherwise: one report "
+                    "pools one experiment's runs)");
   command->footer(
       "Statistics: Wilson intervals for success rates, bootstrap intervals for "
       "medians, Wilcoxon signed-rank and McNemar for paired comparisons, "
       "Holm-corrected. A 3D view per world (view_<world>.html, also inline): the obstacles, "
       "the stored trajectories, search trees and flights. Runs with the interpreter " +
       std::string(kPythonExecutable) + ".");
-  command->callback([options] { runReport(*options); });
+  command->callback([options, valued] {
+    for (const auto& [option, value] : valued) {
+      if (option->count() > 0) options->given.emplace_back(option->get_name(), value);
+    }
+    runReport(*options);
+  });
 }
 
 void addExportCommand(CLI::App& app) {

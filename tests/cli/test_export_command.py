@@ -117,5 +117,5 @@ def test_exporting_what_is_not_a_planning_database_is_a_clear_error(kinolab, tmp
 def test_an_out_that_is_a_file_is_refused_and_left_alone(kinolab, results, tmp_path):
     (tmp_path / "logs").write_text("mine")
     export = kinolab("export", results, "--format", "ompl", tmp_path / "logs")
-    assert export.returncode == 1 and "kinolab export: error:" in export.stderr
+    assert export.returncode == 1 and "kinolab: error:" in export.stderr
     assert "Traceback" not in export.stderr and (tmp_path / "logs").read_text() == "mine"
