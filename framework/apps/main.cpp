@@ -48,8 +48,11 @@ int main(int argc, char** argv) {
   app.require_subcommand(1);
   // Options of the main command may also follow the subcommand (`kinolab list --plugin X`).
   app.fallthrough();
-  app.add_option("--plugin", "Load a plugin library (repeatable); see `kinolab list`")
+  app.add_option("--plugin",
+                 "Load a plugin library (repeatable, before or after the command; a library "
+                 "is loaded once however its path is spelt); see `kinolab list`")
       ->type_name("PATH")
+      ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll)
       ->each([](const std::string& path) { kinolab::loadPluginLibrary(path); });
   app.footer("Run 'kinolab COMMAND --help' for the options of one command.");
   // One prefix for every error, the command line's included.
@@ -90,6 +93,10 @@ int main(int argc, char** argv) {
     return 1;
   } catch (const std::exception& error) {
     std::cerr << "kinolab: unexpected error: " << error.what() << '\n';
+    return 3;
+  } catch (...) {
+    // Plugin code is guarded where it is called (rethrowFromPlugin); this is the last net.
+    std::cerr << "kinolab: unexpected error: an exception that is not a std::exception\n";
     return 3;
   }
   return 0;

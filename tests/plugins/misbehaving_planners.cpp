@@ -1,5 +1,6 @@
 // Test-only planners for the experiment runner (a plugin library, never built into kinolab):
-// each misbehaves in one way, so the runner's isolation can be tested. `test_trivial` does
+// each misbehaves in one way, so the runner's isolation and the guards around plugin code can
+// be tested. `test_trivial` does
 // nothing at all (after an optional sleep): the runner's overhead per run. `test_metric`
 // reports one statistic of its own, declared in one line, to show that it reaches every
 // output without other edits (and, when told to, one it does not declare).
@@ -16,7 +17,7 @@ namespace {
 
 using namespace kinolab;
 
-enum class Misbehaviour { kNone, kCrash, kHang, kAllocate, kThrow };
+enum class Misbehaviour { kNone, kCrash, kHang, kAllocate, kThrow, kThrowInt };
 
 class MisbehavingPlanner final : public Planner {
  public:
@@ -41,6 +42,8 @@ class MisbehavingPlanner final : public Planner {
       }
       case Misbehaviour::kThrow:
         throw std::runtime_error("test_throw always throws");
+      case Misbehaviour::kThrowInt:
+        throw 42;  // not a std::exception
       case Misbehaviour::kNone:
         break;
     }
@@ -94,6 +97,14 @@ KINOLAB_REGISTER_PLUGINS(registrar) {
   add("test_hang", "never returns, ignoring its budget", Misbehaviour::kHang);
   add("test_oom", "allocates without bound", Misbehaviour::kAllocate);
   add("test_throw", "throws an exception", Misbehaviour::kThrow);
+  add("test_throw_int", "throws an int (not a std::exception)", Misbehaviour::kThrowInt);
+  // Factories that throw: a std::exception, and something that is not one.
+  registrar.add<Planner>("test_factory_throws", "its factory throws an exception", ParameterSpecs(),
+                         [](const ParameterSet&) -> std::unique_ptr<Planner> {
+                           throw std::logic_error("test_factory_throws's factory always throws");
+                         });
+  registrar.add<Planner>("test_factory_throws_int", "its factory throws an int", ParameterSpecs(),
+                         [](const ParameterSet&) -> std::unique_ptr<Planner> { throw 7; });
   registrar.add<Planner>(
       "test_metric", "reports a statistic of its own (and, if told, an undeclared one)",
       ParameterSpecs().boolean("undeclared", false, "also report an undeclared statistic"),

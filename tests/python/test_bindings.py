@@ -5,6 +5,7 @@ experiment runner with its progress."""
 import json
 import math
 import os
+from pathlib import Path
 import subprocess
 import threading
 import time
@@ -95,6 +96,42 @@ def test_an_out_of_tree_plugin_library_loads():
     assert "test_metric" in {p["key"] for p in kinolab.planners()}
     with pytest.raises(kinolab.PluginError, match="libplugin.so.: no such file"):
         kinolab.load_plugin("/nonexistent/libplugin.so")
+
+
+def hostile_library(name):
+    """A test-only library beside the misbehaving one (tests/plugins/hostile_libraries.cpp)."""
+    return str(Path(os.environ["KINOLAB_MISBEHAVING"]).with_name(f"libkinolab_test_{name}.so"))
+
+
+@pytest.mark.parametrize("library, message", [
+    ("abi_mismatch", r"built for plugin ABI \d+, this kinolab has ABI \d+"),
+    ("entry_throws", r"its entry point \(kinolab_register_plugins\) threw: hostile entry point"),
+    ("entry_throws_int", r"threw something that is not a std::exception"),
+])
+def test_a_hostile_library_is_a_plugin_error_and_registers_nothing(library, message):
+    with pytest.raises(kinolab.PluginError, match=message):
+        kinolab.load_plugin(hostile_library(library))
+    assert "test_half_registered" not in {p["key"] for p in kinolab.planners()}
+
+
+@pytest.mark.parametrize("key, message", [
+    ("test_factory_throws", r"\(planner 'test_factory_throws'\): its factory threw: "),
+    ("test_factory_throws_int", r"its factory threw something that is not a std::exception"),
+])
+def test_a_throwing_factory_is_a_plugin_error_naming_it(forest, key, message):
+    kinolab.load_plugin(os.environ["KINOLAB_MISBEHAVING"])
+    with pytest.raises(kinolab.PluginError, match=message):
+        kinolab.Planner(key, forest)
+
+
+@pytest.mark.parametrize("key, message", [
+    ("test_throw", r"\(planner 'test_throw'\): plan\(\) threw: test_throw always throws"),
+    ("test_throw_int", r"\(planner 'test_throw_int'\): plan\(\) threw something that is not"),
+])
+def test_a_planner_that_throws_is_a_plugin_error_naming_it(forest, key, message):
+    kinolab.load_plugin(os.environ["KINOLAB_MISBEHAVING"])
+    with pytest.raises(kinolab.PluginError, match=message):
+        kinolab.Planner(key, forest).plan(START, GOAL)
 
 
 def test_keyword_parameters_configure_the_planner_and_its_sampler(forest):

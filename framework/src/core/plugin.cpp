@@ -57,24 +57,52 @@ void loadPluginLibrary(const std::string& path) {
     throw PluginError("plugin library '" + path +
                       "': cannot be loaded: " + (reason ? reason : "unknown reason"));
   }
-  using AbiFunction = int (*)();
+  const std::string name = "plugin library '" + path + "'";
+  // Plain data, read before any of the library's functions is called.
+  const auto* record =
+      static_cast<const KinolabPluginAbiRecord*>(dlsym(handle, "kinolab_plugin_abi_record"));
   using EntryFunction = void (*)(PluginRegistrar&);
-  const auto abi = reinterpret_cast<AbiFunction>(dlsym(handle, "kinolab_plugin_abi_version"));
   const auto entry = reinterpret_cast<EntryFunction>(dlsym(handle, "kinolab_register_plugins"));
-  if (!abi || !entry) {
+  if (!record || !entry) {
+    const bool older = dlsym(handle, "kinolab_plugin_abi_version") != nullptr;
     dlclose(handle);
-    throw PluginError("plugin library '" + path +
-                      "': no kinolab entry point (kinolab_register_plugins); define one with "
+    if (older) {
+      throw PluginError(name +
+                        ": built for plugin ABI 5 or older (it has no ABI record), this "
+                        "kinolab has ABI " +
+                        std::to_string(KINOLAB_PLUGIN_ABI_VERSION) +
+                        "; rebuild it against this kinolab");
+    }
+    throw PluginError(name +
+                      ": no kinolab entry point (kinolab_register_plugins and "
+                      "kinolab_plugin_abi_record); define them with "
                       "KINOLAB_REGISTER_PLUGINS(registrar) from kinolab/core/plugin.hpp");
   }
-  if (abi() != KINOLAB_PLUGIN_ABI_VERSION) {
-    dlclose(handle);
-    throw PluginError("plugin library '" + path + "': built for plugin ABI " +
-                      std::to_string(abi()) + ", this kinolab has ABI " +
-                      std::to_string(KINOLAB_PLUGIN_ABI_VERSION) + "; rebuild it");
+  const KinolabPluginAbiRecord built = *record;  // copied: the library may be closed below
+  const KinolabPluginAbiRecord here = KINOLAB_PLUGIN_ABI_RECORD;
+  std::string mismatch;
+  if (built.magic != here.magic) {
+    mismatch = "its ABI record is not kinolab's";
+  } else if (built.abi != here.abi) {
+    mismatch = "built for plugin ABI " + std::to_string(built.abi) + ", this kinolab has ABI " +
+               std::to_string(here.abi);
+  } else if (built.cxx11_abi != here.cxx11_abi || built.string_size != here.string_size) {
+    mismatch = "built with another C++ standard library layout (_GLIBCXX_USE_CXX11_ABI " +
+               std::to_string(built.cxx11_abi) + ", std::string of " +
+               std::to_string(built.string_size) + " bytes; here " +
+               std::to_string(here.cxx11_abi) + " and " + std::to_string(here.string_size) + ")";
   }
+  if (!mismatch.empty()) {
+    dlclose(handle);
+    throw PluginError(name + ": " + mismatch + "; rebuild it against this kinolab");
+  }
+  // On a throw the library stays open: what it registered so far points into it.
   PluginRegistrar registrar(canonical);
-  entry(registrar);
+  try {
+    entry(registrar);
+  } catch (...) {
+    rethrowFromPlugin("plugin " + path, "its entry point (kinolab_register_plugins)");
+  }
   registrar.commit();
   loaded.insert(canonical);
 }

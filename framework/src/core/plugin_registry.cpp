@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <mutex>
+#include <new>
 
 namespace kinolab {
 namespace {
@@ -109,4 +110,25 @@ void listPluginRegistry(const PluginRegistryBase& registry, int order) {
 }
 
 }  // namespace detail
+std::string describePlugin(std::string_view kind, const PluginInfo& info) {
+  const std::string name = std::string(kind) + " '" + info.key + "'";
+  if (info.origin.rfind("built-in", 0) == 0) return name + " (" + info.origin + ")";
+  return "plugin " + info.origin + " (" + name + ")";
+}
+
+void rethrowFromPlugin(std::string_view who, std::string_view call) {
+  const std::string prefix = std::string(who) + ": " + std::string(call) + " threw";
+  try {
+    throw;
+  } catch (const Error&) {
+    throw;
+  } catch (const std::bad_alloc&) {
+    throw;  // out of memory is the run's status, not the plugin's fault
+  } catch (const std::exception& error) {
+    throw PluginCodeError(prefix + ": " + error.what());
+  } catch (...) {
+    throw PluginCodeError(prefix + " something that is not a std::exception");
+  }
+}
+
 }  // namespace kinolab

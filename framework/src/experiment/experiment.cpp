@@ -108,6 +108,14 @@ ExperimentPlanner readPlanner(const YamlReader& node) {
     ConfiguredPlanner configured = configurePlanner(planner.type, planner.assignments);
     planner.parameters = std::move(configured.parameters);
     planner.sampler = configured.sampler_key;
+  } catch (const PluginCodeError&) {
+    // The planner's own code threw (its factory or its check): each of its runs records that
+    // as its error when it makes the planner, and the experiment's other planners go on.
+    planner.parameters = pluginRegistry<Planner>().resolve(planner.type, planner.assignments);
+    if (const ParameterSpec* sampler =
+            pluginRegistry<Planner>().info(planner.type).parameters.samplerParameter()) {
+      planner.sampler = planner.parameters.text(sampler->name);
+    }
   } catch (const PluginError& error) {
     // An unknown planner or sampler key: the registry cannot know where it was written.
     // (Errors about assignments are ConfigErrors that carry their own position.)
@@ -446,8 +454,8 @@ Experiment Experiment::fromFile(const std::string& path) {
   for (const std::string& label : experiment.reproduces_setting) {
     if (std::find(labels.begin(), labels.end(), label) == labels.end()) {
       (*reproduces)["setting"].fail("'" + label + "' is not a variant of this experiment" +
-                                    didYouMean(label, labels) + "; its variants: " +
-                                    join(labels, ", "));
+                                    didYouMean(label, labels) +
+                                    "; its variants: " + join(labels, ", "));
     }
   }
   return experiment;

@@ -45,6 +45,10 @@ std::string workerOutput(const ExperimentVariant& variant, Work&& work) {
                              std::to_string(variant.budget.memory_mb) + " MB"}}}};
   } catch (const std::exception& error) {
     out = {{"metrics", {{"status", "error"}, {"message", error.what()}}}};
+  } catch (...) {
+    out = {{"metrics",
+            {{"status", "error"},
+             {"message", "an exception that is not a std::exception (plugin code?)"}}}};
   }
   return out.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
 }

@@ -79,7 +79,11 @@ const World& Planner::world() const {
 
 void Planner::setup(const PlannerContext& context) {
   if (!context.world) throw InvalidArgument("planner: setup without a world");
-  doSetup(context);
+  try {
+    doSetup(context);
+  } catch (...) {
+    rethrowFromPlugin(plugin_name_, "setup()");
+  }
   checker_ = std::make_unique<TrajectoryChecker>(context.world, checkerSettings(planningModel()));
   world_ = context.world;
 }
@@ -119,10 +123,20 @@ PlanResult Planner::plan(const PlanningQuery& query, const Budget& budget, Searc
 
   StopCondition stop(budgetFor(budget));
   const auto begin = std::chrono::steady_clock::now();
-  result = doPlan(query, stop);
+  try {
+    result = doPlan(query, stop);
+  } catch (...) {
+    rethrowFromPlugin(plugin_name_, "plan()");
+  }
   result.planning_time_ms =
       std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - begin).count();
-  if (tree) *tree = doTree(kMaxTreeEdges);
+  if (tree) {
+    try {
+      *tree = doTree(kMaxTreeEdges);
+    } catch (...) {
+      rethrowFromPlugin(plugin_name_, "its search tree");
+    }
+  }
   if (declared_statistics_) checkStatisticsDeclared(result, *declared_statistics_, key_);
   if (std::isnan(result.cost)) {
     // A NaN passes every comparison downstream: it is a failure, never a result.

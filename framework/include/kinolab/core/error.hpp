@@ -52,6 +52,13 @@ class PluginError : public Error {
   using Error::Error;
 };
 
+/// A plugin's own code (its entry point, factory, plan, ...) threw something that is not a
+/// kinolab error; the message names the plugin and the call (rethrowFromPlugin()).
+class PluginCodeError : public PluginError {
+ public:
+  using PluginError::PluginError;
+};
+
 /// A function was called with arguments that break its documented contract.
 class InvalidArgument : public Error {
  public:

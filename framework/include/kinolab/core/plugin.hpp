@@ -14,6 +14,7 @@
 // out-of-tree (a shared library built against an installed kinolab and loaded with
 // `--plugin PATH`); `kinolab_add_plugin()` in CMake chooses which.
 
+#include <cstdint>
 #include <functional>
 #include <map>
 #include <string>
@@ -24,7 +25,21 @@
 
 /// Bumped whenever a change to the plugin-facing headers breaks binary compatibility; a
 /// library built against another version is refused when loaded.
-#define KINOLAB_PLUGIN_ABI_VERSION 5
+#define KINOLAB_PLUGIN_ABI_VERSION 6
+
+/// What a plugin library was built for, exported as plain data with C linkage
+/// (`kinolab_plugin_abi_record`), so that loadPluginLibrary() reads it before any of the
+/// library's functions is called and refuses a library built for another plugin ABI or
+/// another C++ standard library layout.
+struct KinolabPluginAbiRecord {
+  std::uint32_t magic;        ///< kinolab's mark, 0x6b6e6c62 ("knlb")
+  std::uint32_t abi;          ///< KINOLAB_PLUGIN_ABI_VERSION
+  std::uint32_t cxx11_abi;    ///< _GLIBCXX_USE_CXX11_ABI: std::string's layout
+  std::uint32_t string_size;  ///< sizeof(std::string)
+};
+
+#define KINOLAB_PLUGIN_ABI_RECORD \
+  { 0x6b6e6c62u, KINOLAB_PLUGIN_ABI_VERSION, _GLIBCXX_USE_CXX11_ABI, sizeof(std::string) }
 
 namespace kinolab {
 
@@ -75,10 +90,11 @@ class PluginRegistrar {
 /// name (a name declared twice keeps its first version).
 const std::map<std::string, std::string>& pluginLibraryVersions();
 
-/// Loads a plugin library (once per path): checks its ABI version, calls its
-/// `kinolab_register_plugins` entry point and commits what it registered. A missing file, a
-/// file that is not a loadable library, a missing entry point, an ABI mismatch or a clashing
-/// key is a PluginError naming the path.
+/// Loads a plugin library (once per file, however its path is spelt): reads its ABI record,
+/// calls its `kinolab_register_plugins` entry point and commits what it registered. A missing
+/// file, a file that is not a loadable library, a missing entry point or record, an ABI
+/// mismatch, an entry point that throws (anything) or a clashing key is a PluginError naming
+/// the path, and the library registers nothing.
 void loadPluginLibrary(const std::string& path);
 
 }  // namespace kinolab
@@ -88,11 +104,11 @@ void loadPluginLibrary(const std::string& path);
 #define KINOLAB_REGISTER_PLUGINS(registrar) \
   void KINOLAB_BUILTIN_PLUGIN_ENTRY(::kinolab::PluginRegistrar& registrar)
 #else
-// Out-of-tree: the exported C entry points loadPluginLibrary() looks up.
-#define KINOLAB_REGISTER_PLUGINS(registrar)                                            \
-  extern "C" __attribute__((visibility("default"))) int kinolab_plugin_abi_version() { \
-    return KINOLAB_PLUGIN_ABI_VERSION;                                                 \
-  }                                                                                    \
-  extern "C" __attribute__((visibility("default"))) void kinolab_register_plugins(     \
+// Out-of-tree: the exported C symbols loadPluginLibrary() looks up: the ABI record (data)
+// and the entry point.
+#define KINOLAB_REGISTER_PLUGINS(registrar)                                           \
+  extern "C" __attribute__((visibility("default")))                                   \
+  const KinolabPluginAbiRecord kinolab_plugin_abi_record = KINOLAB_PLUGIN_ABI_RECORD; \
+  extern "C" __attribute__((visibility("default"))) void kinolab_register_plugins(    \
       ::kinolab::PluginRegistrar& registrar)
 #endif

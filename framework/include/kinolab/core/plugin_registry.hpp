@@ -27,6 +27,16 @@ struct PluginInfo {
 template <typename Interface>
 using PluginFactory = std::function<std::unique_ptr<Interface>(const ParameterSet&)>;
 
+/// "plugin LIB (kind 'key')" for a plugin from a library, "kind 'key' (built-in (folder))"
+/// otherwise: how errors from plugin code name it.
+std::string describePlugin(std::string_view kind, const PluginInfo& info);
+
+/// Called inside a catch block around a call into plugin code: a kinolab Error passes as it
+/// is (it already says what was wrong), and so does std::bad_alloc (out of memory); any other
+/// exception, standard or not (`throw 42`), becomes a PluginCodeError "WHO: CALL threw: what
+/// it said".
+[[noreturn]] void rethrowFromPlugin(std::string_view who, std::string_view call);
+
 /// What every registry has, whatever its interface: its kind and its plugins' declarations.
 /// `kinolab list` and plugin-valued parameters (ParameterSpecs::plugin()) reach every kind
 /// through this, by name (findPluginRegistry()).
@@ -92,9 +102,18 @@ class PluginRegistry : public PluginRegistryBase {
   /// A new instance from parameters that resolve() returned.
   std::unique_ptr<Interface> createResolved(std::string_view key,
                                             const ParameterSet& parameters) const {
-    info(key);  // an unknown key is an error listing the known ones
-    auto instance = factories_.find(key)->second(parameters);
-    if (!instance) throw PluginError(kind() + " '" + std::string(key) + "': factory returned null");
+    const PluginInfo& plugin = info(key);  // an unknown key is an error listing the known ones
+    std::unique_ptr<Interface> instance;
+    try {
+      instance = factories_.find(key)->second(parameters);
+    } catch (...) {
+      rethrowFromPlugin(describePlugin(kind(), plugin), "its factory");
+    }
+    if (!instance) throw PluginError(describePlugin(kind(), plugin) + ": factory returned null");
+    // An interface that names itself in errors from its code (Planner) learns its name.
+    if constexpr (requires(Interface & i) { i.setPluginName(std::string()); }) {
+      instance->setPluginName(describePlugin(kind(), plugin));
+    }
     return instance;
   }
 
