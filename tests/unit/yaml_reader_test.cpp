@@ -75,6 +75,26 @@ TEST(YamlReaderTest, DuplicateKeysAreRefusedAtTheSecondOneAtEveryDepth) {
   EXPECT_NO_THROW(YamlReader::loadString("a: {x: 1}\nb: {x: 2}\n", "ok.yaml"));
 }
 
+TEST(YamlReaderTest, AliasesMayRepeatABlockButNotExpandWithoutBound) {
+  // Shared blocks read as written out.
+  const YamlReader shared = YamlReader::loadString(
+      "base: &base {a: 1, b: [1, 2]}\none: *base\ntwo: *base\n", "shared.yaml");
+  EXPECT_EQ(shared["two"]["b"].items().size(), 2u);
+  // Nested aliases ("billion laughs", here 10^9 nodes) are refused at once, where the
+  // expansion passes the bound, not walked.
+  std::string laughs = "a: &a [x, x, x, x, x, x, x, x, x, x]\n";
+  for (char level = 'b'; level <= 'i'; ++level) {
+    const char below = static_cast<char>(level - 1);
+    laughs += std::string(1, level) + ": &" + level + " [";
+    for (int k = 0; k < 10; ++k) laughs += std::string(k ? ", *" : "*") + below;
+    laughs += "]\n";
+  }
+  const std::string message = errorOf([&] { YamlReader::loadString(laughs, "laughs.yaml"); });
+  EXPECT_NE(message.find("laughs.yaml:1:"), std::string::npos) << message;
+  EXPECT_NE(message.find("expands to more than 1000000 YAML nodes"), std::string::npos)
+      << message;
+}
+
 TEST(YamlReaderTest, OnlyUtf8TextWithoutControlCharactersIsRead) {
   EXPECT_NE(errorOf([] {
               YamlReader::loadString(std::string("name: a\0b\n", 10), "n.yaml");

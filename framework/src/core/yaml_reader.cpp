@@ -30,12 +30,25 @@ YamlReader::YamlReader(YAML::Node node, std::shared_ptr<const std::string> sourc
 
 namespace {
 
+/// At most this many nodes in a file, every alias expanded: aliases may share a block
+/// (experiments/mpl_benchmark.yaml does), but nested ones ("billion laughs") would make every
+/// reader of the file walk an exponential tree.
+constexpr std::size_t kMaxExpandedNodes = 1000000;
+
 /// Every mapping key is a plain value, and no mapping has the same key twice (an error at
 /// the second one: YAML readers disagree on which value wins, yaml-cpp the first, PyYAML
-/// the last).
-void checkKeys(const YAML::Node& node, const std::string& source) {
+/// the last); the file expands to at most kMaxExpandedNodes nodes (`budget` counts down).
+void checkKeys(const YAML::Node& node, const std::string& source, std::size_t& budget) {
+  if (budget-- == 0) {
+    const YAML::Mark mark = node.Mark();
+    throw ConfigError(source + ":" + std::to_string(mark.line + 1) + ":" +
+                      std::to_string(mark.column + 1) + ": the file expands to more than " +
+                      std::to_string(kMaxExpandedNodes) +
+                      " YAML nodes through its aliases (*name): expected aliases that are not "
+                      "nested in what they repeat; write the repeated parts out");
+  }
   if (node.IsSequence()) {
-    for (const YAML::Node& item : node) checkKeys(item, source);
+    for (const YAML::Node& item : node) checkKeys(item, source, budget);
   } else if (node.IsMap()) {
     std::map<std::string, YAML::Mark> seen;
     for (const auto& entry : node) {
@@ -50,7 +63,7 @@ void checkKeys(const YAML::Node& node, const std::string& source) {
         throw ConfigError(at + ": duplicate key '" + entry.first.Scalar() + "' (first at line " +
                           std::to_string(found->second.line + 1) + ")");
       }
-      checkKeys(entry.second, source);
+      checkKeys(entry.second, source, budget);
     }
   }
 }
@@ -106,7 +119,8 @@ YamlReader YamlReader::loadString(const std::string& text, const std::string& so
     throw ConfigError(source + ":" + std::to_string(error.mark.line + 1) + ":" +
                       std::to_string(error.mark.column + 1) + ": malformed YAML: " + error.msg);
   }
-  checkKeys(root, source);
+  std::size_t budget = kMaxExpandedNodes;
+  checkKeys(root, source, budget);
   return YamlReader(root, std::make_shared<const std::string>(source), "");
 }
 
