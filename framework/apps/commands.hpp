@@ -4,6 +4,7 @@
 #include <Eigen/Core>
 #include <charconv>
 #include <cmath>
+#include <cstdint>
 #include <string>
 
 #include "kinolab/core/text.hpp"
@@ -29,6 +30,22 @@ inline CLI::Validator within(double low, double high) {
         return "";
       },
       "NUMBER in " + range);
+}
+
+/// A whole number in [0, 2^64 - 1], exactly (a seed): nothing beyond it is clamped, and a
+/// sign, a fraction or an exponent is refused.
+inline CLI::Validator unsigned64() {
+  const std::string range = "[0, 18446744073709551615]";
+  return CLI::Validator(
+      [range](std::string& text) -> std::string {
+        std::uint64_t value = 0;
+        const auto [end, error] = std::from_chars(text.data(), text.data() + text.size(), value);
+        if (text.empty() || error != std::errc() || end != text.data() + text.size()) {
+          return "'" + text + "' is not a whole number in " + range;
+        }
+        return "";
+      },
+      "INTEGER in " + range);
 }
 
 /// Exactly three finite numbers "x,y,z" (metres) from `option`, or a ConfigError naming it.

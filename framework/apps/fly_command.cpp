@@ -129,7 +129,7 @@ void addFlyCommand(CLI::App& app) {
       "Write flown.csv, replans.csv, plans.csv, known_map.bt, summary.json and view.html (the "
       "flight in 3D, the known map growing)");
   command->add_option("--seed", options->seed, "Seed of the planner's random streams")
-      ->check(within(0.0, 18446744073709551615.0))
+      ->check(unsigned64())
       ->capture_default_str();
   command->add_option("--cache-dir", options->cache_dir, "World cache directory")
       ->capture_default_str();

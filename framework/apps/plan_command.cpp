@@ -154,7 +154,7 @@ void addPlanCommand(CLI::App& app) {
                       "Write trajectory.csv, tree.csv (the search tree), result.json and view.html "
                       "(the world, trajectory and tree in 3D) here");
   command->add_option("--seed", options->seed, "Seed of the planner's random streams")
-      ->check(within(0.0, 18446744073709551615.0))
+      ->check(unsigned64())
       ->capture_default_str();
   command->add_option("--sample-step", options->sample_step, "Time step of trajectory.csv, s")
       ->check(within(1e-4, 10.0))

@@ -21,6 +21,12 @@ START_GOAL = ["--start", "1,1,1.5", "--goal", "8.5,8,1.5"]
     (["run", EXPERIMENT, "--dry-run", "--shard", "4/3"], "--shard"),
     (["run", EXPERIMENT, "--dry-run", "--shard", "1/2/3"], "--shard"),
     (PLAN + START_GOAL + ["--seed", "-1"], "--seed"),
+    # 2^64: the help's bound is 2^64 - 1, and nothing past it is clamped to it.
+    (PLAN + START_GOAL + ["--seed", "18446744073709551616"], "not a whole number"),
+    (PLAN + START_GOAL + ["--seed", "1.5"], "not a whole number"),
+    (PLAN + START_GOAL + ["--seed", "1e3"], "not a whole number"),
+    (["fly", "--world", WORLD, "--planner", "lazy_mp_astar", "--start", "1,1,1.5", "--goal",
+      "8.5,8,1.5", "--seed", "18446744073709551616"], "not a whole number"),
     (PLAN + START_GOAL + ["--sample-step", "0"], "--sample-step"),
     (PLAN + START_GOAL + ["--sample-step", "1e-9"], "--sample-step"),
     (PLAN + START_GOAL + ["--sample-step", "nan"], "--sample-step"),
