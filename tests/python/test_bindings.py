@@ -57,6 +57,15 @@ def test_a_spec_dict_builds_the_same_world_as_its_file_and_the_cache_serves_it_a
     assert uncached.source == "built" and uncached.spec_hash != from_file.spec_hash
 
 
+def test_nan_and_negative_inputs_never_give_a_distance_or_a_verdict(forest):
+    distances = forest.distance(np.array([[1.0, math.nan, 1.0], [1.0, 1.0, math.inf]]))
+    assert np.isnan(distances).all()
+    for radius in (math.nan, -1.0, math.inf):
+        with pytest.raises(kinolab.InvalidArgument, match="radius"):
+            forest.segment_free((1, 1, 1), (8, 8, 1), radius)
+    assert forest.segment_free((1, 1, 1.5), (1.2, 1, 1.5), 0.1) in (True, False)
+
+
 def test_distances_are_vectorised_and_their_gradient_is_the_fields_slope(forest):
     rng = np.random.default_rng(3)
     points = rng.uniform([0.5, 0.5, 0.5], [9.5, 9.5, 2.5], size=(500, 3))

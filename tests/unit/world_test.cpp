@@ -310,6 +310,19 @@ TEST(WorldTest, SegmentFreeSaysWhetherAStraightLineIsOpenToTheBody) {
   EXPECT_FALSE(world->segmentFree({0.5, 3.5, 1.0}, {4.5, 3.5, 1.0}, 0.0));
   EXPECT_FALSE(world->segmentFree({0.5, 3.5, 1.0}, {NAN, 3.5, 1.0}, 0.0));
   EXPECT_TRUE(world->segmentFree({0.5, 3.5, 1.0}, {0.5, 3.5, 1.0}, 0.25));
+  // A radius or tolerance that is NaN, negative or infinite is a caller's error, never "free".
+  for (const double radius : {double(NAN), -1.0, double(INFINITY)}) {
+    EXPECT_THROW(world->segmentFree({0.5, 1.0, 1.0}, {3.5, 1.0, 1.0}, radius), InvalidArgument);
+  }
+  EXPECT_THROW(world->segmentFree({0.5, 1.0, 1.0}, {3.5, 1.0, 1.0}, 0.2, NAN), InvalidArgument);
+  // A coordinate that is not finite has no distance: NaN, not the clamped field's value.
+  for (const double bad : {double(NAN), double(INFINITY), -double(INFINITY)}) {
+    const Eigen::Vector3d p(1.0, bad, 1.0);
+    EXPECT_TRUE(std::isnan(world->distance(p))) << bad;
+    EXPECT_TRUE(std::isnan(world->clearance(p))) << bad;
+    EXPECT_FALSE(world->isFree(p, 0.0)) << bad;
+  }
+  EXPECT_FALSE(std::isnan(world->distance({-5.0, 1.0, 1.0})));  // outside, finite: clamped
   // Against the exact distance to the wall's box along a dense walk.
   const auto exact = [](const Eigen::Vector3d& p) {
     const Eigen::Vector3d low(2.0, 0.0, 0.0), high(2.4, 3.0, 2.0);

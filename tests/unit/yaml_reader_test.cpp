@@ -91,8 +91,7 @@ TEST(YamlReaderTest, AliasesMayRepeatABlockButNotExpandWithoutBound) {
   }
   const std::string message = errorOf([&] { YamlReader::loadString(laughs, "laughs.yaml"); });
   EXPECT_NE(message.find("laughs.yaml:1:"), std::string::npos) << message;
-  EXPECT_NE(message.find("expands to more than 1000000 YAML nodes"), std::string::npos)
-      << message;
+  EXPECT_NE(message.find("expands to more than 1000000 YAML nodes"), std::string::npos) << message;
 }
 
 TEST(YamlReaderTest, OnlyUtf8TextWithoutControlCharactersIsRead) {

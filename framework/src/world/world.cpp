@@ -48,6 +48,11 @@ std::shared_ptr<const World> World::build(const WorldSpec& spec) {
 
 bool World::segmentFree(const Eigen::Vector3d& a, const Eigen::Vector3d& b, double radius,
                         double tolerance) const {
+  if (!(radius >= 0.0 && radius < INFINITY && tolerance > 0.0 && tolerance < INFINITY)) {
+    throw InvalidArgument("World::segmentFree: radius " + formatNumber(radius) + " and tolerance " +
+                          formatNumber(tolerance) +
+                          " must be finite, the radius >= 0 and the tolerance > 0");
+  }
   const double length = (b - a).norm();
   if (!(length < INFINITY) || !bounds_.contains(a) || !bounds_.contains(b)) return false;
   // The box is convex: both ends inside keep the segment inside. A traced point with

@@ -47,7 +47,8 @@ class Esdf {
   /// The stored value of one voxel.
   float voxelDistance(std::size_t index) const { return values_[index]; }
 
-  /// The value of the voxel nearest to `point` (after clamping).
+  /// The value of the voxel nearest to `point` (after clamping): a lookup for callers with
+  /// finite points (a NaN coordinate reads an in-range voxel; distance() is the checked query).
   double nearestDistance(const Eigen::Vector3d& point) const {
     std::size_t index = 0;
     for (int axis = 0; axis < 3; ++axis) {
@@ -60,7 +61,8 @@ class Esdf {
     return values_[index];
   }
 
-  /// Trilinear interpolation of the voxel-centre values.
+  /// Trilinear interpolation of the voxel-centre values; NaN when a coordinate is not finite
+  /// (the index is clamped in range first, so nothing out of range is read).
   double distance(const Eigen::Vector3d& point) const {
     return interpolate<false>(point, nullptr, nullptr);
   }
@@ -182,7 +184,10 @@ class Esdf {
       (*gradient)[1] = ((c01 - c00) + ((c11 - c10) - (c01 - c00)) * tx) * scale[1];
       (*gradient)[2] = (dz0 + (dz1 - dz0) * tx) * scale[2];
     }
-    return c0 + (c1 - c0) * tx;
+    // x * 0 is 0 for a finite coordinate and NaN otherwise: added last, off the loads' path,
+    // so that a point with no position has no distance (the gradient is not poisoned).
+    const double poison = point.x() * 0.0 + point.y() * 0.0 + point.z() * 0.0;
+    return c0 + (c1 - c0) * tx + poison;
   }
 
   void setGeometry(const VoxelGrid& grid);
