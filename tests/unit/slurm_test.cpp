@@ -123,6 +123,11 @@ TEST_F(SlurmTest, BadRequestsAreRefusedNamingTheOption) {
   SlurmRequest no_shards;
   no_shards.shards = 0;
   refused(no_shards, "--shards");
+  // More shards than runs (a billion: once written without end) is refused with the count.
+  SlurmRequest too_many;
+  too_many.shards = 1000000000;
+  refused(too_many,
+          "--shards 1000000000: expected at most " + std::to_string(experiment.runs().size()));
   SlurmRequest no_cpus;
   no_cpus.cpus_per_task = 0;
   refused(no_cpus, "--cpus-per-task");

@@ -76,6 +76,16 @@ SlurmScripts slurmScripts(const Experiment& experiment, const std::string& exper
                           const SlurmLayout& layout, const SlurmRequest& request,
                           const std::string& kinolab_path, const std::string& cache_dir) {
   request.validate();
+  // A shard without a run is an empty array task, and the merge script names every shard's
+  // database: at most one shard per run, and Slurm's array sizes are bounded.
+  const std::size_t runs = experiment.runs().size();
+  constexpr int kMaxShards = 100000;
+  if (static_cast<std::size_t>(request.shards) > runs || request.shards > kMaxShards) {
+    throw ConfigError("--shards " + std::to_string(request.shards) + ": expected at most " +
+                      std::to_string(std::min<std::size_t>(runs, kMaxShards)) +
+                      " (the experiment has " + std::to_string(runs) + " runs, and at most " +
+                      std::to_string(kMaxShards) + " array tasks are written)");
+  }
   // The output directory appears in #SBATCH --output lines too.
   if (!onlyOf(layout.out, "/_-.,+@%~=:")) {
     throw ConfigError("--out '" + printable(layout.out) +
