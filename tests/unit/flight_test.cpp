@@ -915,5 +915,29 @@ TEST(FlightTest, BadFlightParametersNameTheParameter) {
   EXPECT_THROW(Flight({{"rnage", "5", "--flight"}}), ConfigError);
 }
 
+TEST(FlightTest, ASensorOfMoreRaysAFrameThanTheCapIsRefusedWithTheEstimate) {
+  // Both within their parameters' ranges: 4096^2 pixels, 100,000 beams x 1,024 channels.
+  for (const auto& assignments :
+       {std::vector<ParameterAssignment>{{"sensor.width", "4096", "t"},
+                                         {"sensor.height", "4096", "t"},
+                                         {"sensor.pixel_skip", "1", "t"}},
+        std::vector<ParameterAssignment>{{"sensor", "lidar", "t"},
+                                         {"sensor.beams", "100000", "t"},
+                                         {"sensor.channels", "1024", "t"}}}) {
+    try {
+      flightSetup(flightParameters().resolve(assignments, "flight"));
+      ADD_FAILURE() << "accepted";
+    } catch (const ConfigError& error) {
+      EXPECT_NE(std::string(error.what()).find("rays a frame, about"), std::string::npos)
+          << error.what();
+    }
+  }
+  // The sensor's count is its directions' (the flight relies on it), and the default fits.
+  const FlightSetup setup = flightSetup(flightParameters().resolve({}, "flight"));
+  EXPECT_EQ(setup.sensor->rayCount(), setup.sensor->rayDirections().size());
+  Lidar lidar;
+  EXPECT_EQ(lidar.rayCount(), lidar.rayDirections().size());
+}
+
 }  // namespace
 }  // namespace kinolab

@@ -247,6 +247,13 @@ FlightSetup flightSetup(const ParameterSet& p) {
                       formatNumber(range) + " m and a rate of " + formatNumber(rate) +
                       " Hz; both must be finite and positive");
   }
+  if (const std::size_t rays = setup.sensor->rayCount(); rays > kMaxRaysPerFrame) {
+    // About 0.23 us a ray (the every-pixel camera's 70 ms for 307,200 rays, docs/flights.md).
+    throw ConfigError("flight: sensor '" + p.text("sensor") + "' casts " + std::to_string(rays) +
+                      " rays a frame, about " + formatNumber(std::round(rays * 0.23e-3)) +
+                      " ms a frame to simulate; at most " + std::to_string(kMaxRaysPerFrame) +
+                      " (raise pixel_skip, or lower the resolution, beams or channels)");
+  }
   // A new map for each flight, made as the parameters say (checked now, once).
   setup.make_map = [p] { return pluginRegistry<VehicleMap>().createChosen(p, "map"); };
   setup.make_map();

@@ -36,10 +36,7 @@ std::vector<Eigen::Vector3d> DepthCamera::rayDirections() const {
   std::vector<Eigen::Vector3d> directions;
   const double half_w = std::tan(0.5 * fov_horizontal);
   const double half_h = std::tan(0.5 * fov_vertical);
-  const auto used = [&](int pixels) {
-    return static_cast<std::size_t>((pixels + pixel_skip - 1) / pixel_skip);
-  };
-  directions.reserve(used(width) * used(height));
+  directions.reserve(rayCount());
   for (int row = 0; row < height; row += pixel_skip) {
     const double v = half_h * (1.0 - 2.0 * (row + 0.5) / height);
     for (int column = 0; column < width; column += pixel_skip) {
@@ -49,6 +46,15 @@ std::vector<Eigen::Vector3d> DepthCamera::rayDirections() const {
   }
   return directions;
 }
+
+std::size_t DepthCamera::rayCount() const {
+  const auto used = [&](int pixels) {
+    return static_cast<std::size_t>((pixels + pixel_skip - 1) / pixel_skip);
+  };
+  return used(width) * used(height);
+}
+
+std::size_t Lidar::rayCount() const { return static_cast<std::size_t>(beams) * channels; }
 
 std::vector<Eigen::Vector3d> Lidar::rayDirections() const {
   std::vector<Eigen::Vector3d> directions;

@@ -52,12 +52,20 @@ class Sensor {
   virtual double frameRate() const = 0;
   /// Every ray's direction in the vehicle frame (x ahead, z up), unit length.
   virtual std::vector<Eigen::Vector3d> rayDirections() const = 0;
+  /// How many rays rayDirections() gives, without making them (a flight refuses more than
+  /// kMaxRaysPerFrame before it starts); by default it makes them and counts.
+  virtual std::size_t rayCount() const { return rayDirections().size(); }
   /// Its errors and delay (senseFrame(), the flight loop); none by default.
   virtual SensorNoise noise() const { return {}; }
 };
 
 template <>
 PluginRegistry<Sensor>& pluginRegistry<Sensor>();
+
+/// The most rays a flight's sensor may cast a frame: 3.3 x a 640 x 480 camera at every pixel
+/// (which simulates at about 70 ms a frame here, docs/flights.md); beyond it a frame would take
+/// a quarter of a second or more, so the flight is refused with the estimate.
+inline constexpr std::size_t kMaxRaysPerFrame = 1000000;
 
 /// A pinhole depth camera looking along the vehicle's heading. The defaults are a common
 /// stereo depth camera's (Intel RealSense D435: 640 x 480 at 30 Hz, 87 x 58 degrees, depth from
@@ -98,6 +106,7 @@ struct DepthCamera final : Sensor {
   double maxRange() const override { return range; }
   double frameRate() const override { return rate; }
   std::vector<Eigen::Vector3d> rayDirections() const override;
+  std::size_t rayCount() const override;
   SensorNoise noise() const override { return errors; }
 };
 
@@ -125,6 +134,7 @@ struct Lidar final : Sensor {
   double maxRange() const override { return range; }
   double frameRate() const override { return rate; }
   std::vector<Eigen::Vector3d> rayDirections() const override;
+  std::size_t rayCount() const override;
   SensorNoise noise() const override { return errors; }
 };
 
