@@ -4,7 +4,10 @@
 
 #include <cmath>
 #include <filesystem>
+#include <functional>
+#include <set>
 #include <string_view>
+#include <vector>
 
 #include "kinolab/core/error.hpp"
 #include "kinolab/core/files.hpp"
@@ -56,6 +59,12 @@ constexpr const char* kIdentityColumns =
     "query INTEGER, planner TEXT, planner_type TEXT, sampler TEXT, repetition INTEGER, seed TEXT, "
     "start_x REAL, start_y REAL, start_z REAL, goal_x REAL, goal_y REAL, goal_z REAL";
 constexpr int kIdentityCount = 17;
+
+/// The tables of a results database (kTables and the runs table); older schema versions had
+/// a subset.
+const std::set<std::string> kResultsTables = {"meta",   "statistics", "metrics",
+                                              "worlds", "progress",   "trajectories",
+                                              "trees",  "flights",    "runs"};
 
 constexpr const char* kTables = R"sql(
 CREATE TABLE IF NOT EXISTS meta (key TEXT PRIMARY KEY, value TEXT NOT NULL);
@@ -178,9 +187,81 @@ class Statement {
   int next_ = 0;
 };
 
+/// Refuses, before a byte is written, an existing file at `path` that is not a kinolab results
+/// database kinolab may add to: not SQLite, tables of something else, or runs without the
+/// experiment they belong to (an empty meta table). An empty file or a database without tables
+/// (kinolab's own, interrupted before its first write) is fine.
+void refuseForeignDatabase(const std::string& path) {
+  std::error_code error;
+  if (!std::filesystem::is_regular_file(path, error) ||
+      std::filesystem::file_size(path, error) == 0) {
+    return;
+  }
+  sqlite3* db = nullptr;
+  // Without a -wal file beside it the file is the whole database: read it immutable (no
+  // lock, no -wal or -shm file made); with one, the log holds pages that count.
+  const bool logged = std::filesystem::exists(path + "-wal", error);
+  std::string uri = "file:";
+  for (const char c : path) {  // a URI's own characters in the path are escaped
+    uri += c == '?' ? "%3f" : c == '#' ? "%23" : c == '%' ? "%25" : std::string(1, c);
+  }
+  uri += logged ? "?mode=ro" : "?immutable=1";
+  const int opened =
+      sqlite3_open_v2(uri.c_str(), &db, SQLITE_OPEN_READONLY | SQLITE_OPEN_URI, nullptr);
+  std::set<std::string> tables;
+  std::string problem;
+  bool has_hash = false;
+  long long runs = 0;
+  const auto query = [&](const char* sql, const std::function<void(sqlite3_stmt*)>& row) {
+    sqlite3_stmt* statement = nullptr;
+    int code = sqlite3_prepare_v2(db, sql, -1, &statement, nullptr);
+    if (code == SQLITE_OK) {
+      while ((code = sqlite3_step(statement)) == SQLITE_ROW) row(statement);
+    }
+    sqlite3_finalize(statement);
+    if (code != SQLITE_DONE && problem.empty()) problem = sqlite3_errmsg(db);
+  };
+  if (opened != SQLITE_OK) {
+    problem = db ? sqlite3_errmsg(db) : "out of memory";
+  } else {
+    query("SELECT name FROM sqlite_master WHERE type = 'table'", [&](sqlite3_stmt* statement) {
+      tables.insert(reinterpret_cast<const char*>(sqlite3_column_text(statement, 0)));
+    });
+    if (problem.empty() && tables.count("meta")) {
+      query("SELECT 1 FROM meta WHERE key = 'config_hash'",
+            [&](sqlite3_stmt*) { has_hash = true; });
+    }
+    if (problem.empty() && tables.count("runs")) {
+      query("SELECT COUNT(*) FROM runs",
+            [&](sqlite3_stmt* statement) { runs = sqlite3_column_int64(statement, 0); });
+    }
+  }
+  sqlite3_close(db);
+  if (!problem.empty()) {
+    throw FileError(path + ": not a readable SQLite database (" + problem +
+                    "): kinolab writes nothing into it; choose another --out directory");
+  }
+  if (tables.empty()) return;
+  std::vector<std::string> foreign;
+  for (const std::string& table : tables) {
+    if (!kResultsTables.count(table) && table.rfind("sqlite_", 0) != 0) foreign.push_back(table);
+  }
+  if (!foreign.empty() || !tables.count("meta") || !tables.count("runs")) {
+    throw FileError(path + ": not a kinolab results database (its tables: " +
+                    join(std::vector<std::string>(tables.begin(), tables.end()), ", ") +
+                    "): kinolab writes nothing into it; choose another --out directory");
+  }
+  if (!has_hash && runs > 0) {
+    throw FileError(path + " holds " + std::to_string(runs) +
+                    " runs but no experiment (its meta table has no config_hash): kinolab cannot "
+                    "tell whose they are and adds nothing; choose another --out directory");
+  }
+}
+
 }  // namespace
 
 ResultsStore::ResultsStore(const std::string& path) : path_(path) {
+  refuseForeignDatabase(path);
   if (sqlite3_open_v2(path.c_str(), &db_, SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE, nullptr) !=
       SQLITE_OK) {
     const std::string message = db_ ? sqlite3_errmsg(db_) : "out of memory";
