@@ -221,9 +221,26 @@ TEST(WorldSpecTest, CorruptOrMissingMapFilesAreClearErrors) {
     std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
     std::ofstream(directory / "truncated.bt", std::ios::binary) << bytes.substr(0, 100);
     std::ofstream(directory / "garbage.bt", std::ios::binary) << "not an octree\n";
+    // Inside the node data: cut in half, a flag byte set to "inner" everywhere (deeper than
+    // OctoMap's 16 levels or past the end, where OctoMap read uninitialised flags), a header
+    // that promises more nodes than the bytes can hold.
+    const std::size_t data = bytes.find("data\n") + 5;
+    std::ofstream(directory / "half.bt", std::ios::binary) << bytes.substr(0, bytes.size() / 2);
+    std::string inner = bytes;
+    for (std::size_t i = data + 1000; i < inner.size(); i += 2) inner[i] = '\xff';
+    std::ofstream(directory / "inner.bt", std::ios::binary) << inner;
+    std::string chain;  // 20 nodes, each the one inner child of the one before, then a leaf
+    for (int level = 0; level < 20; ++level) chain += std::string("\x03\x00", 2);
+    std::ofstream(directory / "deep.bt", std::ios::binary)
+        << "# Octomap OcTree binary file\nid OcTree\nsize 21\nres 0.1\ndata\n"
+        << chain << std::string("\x00\x00", 2);
+    std::ofstream(directory / "promise.bt", std::ios::binary)
+        << "# Octomap OcTree binary file\nid OcTree\nsize 710980\nres 0.1\ndata\n"
+        << std::string("\xff\xff", 2);
   }
   std::ofstream(directory / "map.txt") << "not a map\n";
-  for (const char* file : {"truncated.bt", "garbage.bt", "missing.bt", "map.txt"}) {
+  for (const char* file : {"truncated.bt", "garbage.bt", "missing.bt", "map.txt", "half.bt",
+                           "inner.bt", "deep.bt", "promise.bt"}) {
     try {
       specFromText(
           std::string("resolution: 0.1\ngenerators:\n  - {type: octomap, file: ") + file + "}\n",

@@ -5,8 +5,11 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <functional>
+#include <iterator>
 #include <map>
 #include <mutex>
+#include <optional>
 #include <sstream>
 #include <tuple>
 
@@ -19,6 +22,81 @@
 
 namespace kinolab {
 namespace {
+
+/// Checks a .bt file's bytes before OctoMap parses them, whose reader trusts them: the header
+/// (the first line OctoMap writes, then `id OcTree`, `size N`, `res R`, `data`, comment lines
+/// anywhere) and the node stream it would read, walked as OctoMap walks it (two bytes of child
+/// flags a node, an inner child's flags after its parent's): every flag from the file, at most
+/// OctoMap's 16 levels, and as many nodes as the header says. Throws FileError naming the
+/// file and the first problem.
+void validateBinaryOcTree(const std::string& path) {
+  std::ifstream file(path, std::ios::binary);
+  const std::string bytes((std::istreambuf_iterator<char>(file)), std::istreambuf_iterator<char>());
+  const auto refuse = [&](const std::string& problem) {
+    throw FileError(path + ": not a readable OctoMap OcTree (" + problem + ")");
+  };
+  std::size_t at = 0;
+  const auto line = [&]() -> std::optional<std::string> {
+    if (at >= bytes.size()) return std::nullopt;
+    const std::size_t end = std::min(bytes.find('\n', at), bytes.size());
+    std::string text = bytes.substr(at, end - at);
+    at = end + 1;
+    if (!text.empty() && text.back() == '\r') text.pop_back();
+    return text;
+  };
+  const auto first = line();
+  if (!first || first->rfind("# Octomap OcTree binary file", 0) != 0) {
+    refuse("its first line is not '# Octomap OcTree binary file'");
+  }
+  std::string id;
+  long long size = -1;
+  for (bool data = false; !data;) {
+    const auto text = line();
+    if (!text) refuse("the header ends before its 'data' line");
+    if (text->empty() || (*text)[0] == '#') continue;
+    std::istringstream words(*text);
+    std::string key;
+    words >> key;
+    if (key == "data") {
+      data = true;
+    } else if (key == "id") {
+      words >> id;
+    } else if (key == "size") {
+      if (!(words >> size) || size < 1) refuse("its size is not a positive count");
+    } else if (key != "res") {
+      refuse("unknown header line '" + text->substr(0, 40) + "'");
+    }
+  }
+  if (id != "OcTree") refuse("its id is '" + id + "', expected OcTree");
+  if (size < 1) refuse("its header has no size");
+  // Each node two bytes, so no more than the bytes left allow; then the walk.
+  const std::size_t left = bytes.size() - std::min(at, bytes.size());
+  if (static_cast<unsigned long long>(size) > 8ULL * (left / 2) + 1) {
+    refuse("its header's " + std::to_string(size) + " nodes cannot fit in the " +
+           std::to_string(left) + " bytes after it");
+  }
+  long long nodes = 1;  // the root
+  const std::function<void(int)> walk = [&](int depth) {
+    if (at + 2 > bytes.size()) refuse("the node data ends inside a node");
+    const auto low = static_cast<unsigned char>(bytes[at]);
+    const auto high = static_cast<unsigned char>(bytes[at + 1]);
+    at += 2;
+    int count = 0;  // inner children: their flags follow, in child order
+    for (int child = 0; child < 8; ++child) {
+      const unsigned flags = ((child < 4 ? low : high) >> (2 * (child % 4))) & 3u;
+      if (flags != 0) ++nodes;
+      if (flags == 3) ++count;
+    }
+    if (nodes > size) refuse("more nodes than its header's " + std::to_string(size));
+    if (count > 0 && depth >= 16) refuse("a node deeper than OctoMap's 16 levels");
+    for (int k = 0; k < count; ++k) walk(depth + 1);
+  };
+  walk(0);
+  if (nodes != size) {
+    refuse("its header says " + std::to_string(size) + " nodes, the data holds " +
+           std::to_string(nodes));
+  }
+}
 
 /// Reads a .bt (binary, occupancy bits) or .ot (full, log-odds) OcTree; throws FileError
 /// naming the file when it is missing, of another tree type, or corrupt.
@@ -36,6 +114,7 @@ std::shared_ptr<const octomap::OcTree> readOcTree(const std::string& path) {
       std::cerr.rdbuf(chatter.rdbuf()), [](std::streambuf* saved) { std::cerr.rdbuf(saved); });
   std::shared_ptr<octomap::OcTree> tree;
   if (extension == ".bt") {
+    validateBinaryOcTree(path);
     auto binary = std::make_shared<octomap::OcTree>(0.1);
     std::ifstream in(path, std::ios::binary);
     if (binary->readBinary(in) && in) tree = binary;
