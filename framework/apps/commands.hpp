@@ -5,6 +5,7 @@
 #include <charconv>
 #include <cmath>
 #include <cstdint>
+#include <memory>
 #include <string>
 
 #include "kinolab/core/text.hpp"
@@ -47,6 +48,22 @@ inline CLI::Validator unsigned64() {
       },
       "INTEGER in " + range);
 }
+
+/// A hard stop for plugin code that ignores its budget: unless cancelled (destroyed) within
+/// `seconds`, it prints `message` (to stderr, and `json` as the last stdout line when given)
+/// and ends the process with status 1. A planner that never returns cannot be stopped any
+/// other way inside one process; `kinolab run` kills its worker instead.
+class Watchdog {
+ public:
+  Watchdog(double seconds, std::string message, std::string json);
+  ~Watchdog();
+  Watchdog(const Watchdog&) = delete;
+  Watchdog& operator=(const Watchdog&) = delete;
+
+ private:
+  struct State;
+  std::shared_ptr<State> state_;
+};
 
 /// Exactly three finite numbers "x,y,z" (metres) from `option`, or a ConfigError naming it.
 Eigen::Vector3d parsePoint(const std::string& text, const std::string& option);

@@ -1,10 +1,15 @@
 // `kinolab plan`: one query, one planner, one world; a JSON summary on the last line.
 #include <charconv>
+#include <chrono>
+#include <condition_variable>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <iostream>
+#include <mutex>
 #include <nlohmann/json.hpp>
 #include <sstream>
+#include <thread>
 
 #include "commands.hpp"
 #include "kinolab/core/error.hpp"
@@ -28,6 +33,8 @@ struct PlanOptions {
   std::string out_dir;
   std::uint64_t seed = 1;
   double sample_step = 0.01;
+  double time_limit = 60.0;
+  double grace = 5.0;
   std::string cache_dir = WorldCache::defaultDirectory();
 };
 
@@ -45,8 +52,23 @@ void runPlan(const PlanOptions& options) {
   query.start.col(0) = start;
   query.goal = goal;
   SearchTree tree;
-  const PlanResult result =
-      planner.plan(query, Budget{}, options.out_dir.empty() ? nullptr : &tree);
+  const Budget budget{options.time_limit};
+  const double limit = planner.budgetFor(budget).time_limit;
+  PlanResult result;
+  {
+    // A planner stops at its budget; one that does not is stopped `grace` seconds later.
+    const std::string message = "planner " + options.planner + " did not return within its " +
+                                formatNumber(limit) + " s budget and " +
+                                formatNumber(options.grace) + " s of grace: stopped (killed)";
+    const Watchdog watchdog(limit + options.grace, message,
+                            nlohmann::ordered_json{{"planner", options.planner},
+                                                   {"world", load.world->name()},
+                                                   {"seed", options.seed},
+                                                   {"status", "killed"},
+                                                   {"message", "timeout: " + message}}
+                                .dump());
+    result = planner.plan(query, budget, options.out_dir.empty() ? nullptr : &tree);
+  }
 
   std::printf("planner %s on world %s (%s), seed %llu\n", options.planner.c_str(),
               load.world->name().c_str(), toHex(load.world->specHash()).c_str(),
@@ -114,6 +136,41 @@ bool writeView(const std::string& path, const view::Scene& scene) {
   return true;
 }
 
+struct Watchdog::State {
+  std::mutex mutex;
+  std::condition_variable wake;
+  bool cancelled = false;
+  std::thread thread;
+};
+
+Watchdog::Watchdog(double seconds, std::string message, std::string json)
+    : state_(std::make_shared<State>()) {
+  if (!(seconds < 1e9)) return;  // no budget, nothing to enforce
+  state_->thread =
+      std::thread([state = state_, seconds, message = std::move(message), json = std::move(json)] {
+        std::unique_lock lock(state->mutex);
+        if (state->wake.wait_for(lock, std::chrono::duration<double>(seconds),
+                                 [&] { return state->cancelled; })) {
+          return;
+        }
+        std::fflush(stdout);
+        if (!json.empty()) std::printf("%s\n", json.c_str());
+        std::fprintf(stderr, "kinolab: error: %s\n", message.c_str());
+        std::fflush(nullptr);
+        std::_Exit(1);  // the planner's thread cannot be stopped; nothing of it is written
+      });
+}
+
+Watchdog::~Watchdog() {
+  if (!state_->thread.joinable()) return;
+  {
+    const std::lock_guard lock(state_->mutex);
+    state_->cancelled = true;
+  }
+  state_->wake.notify_all();
+  state_->thread.join();
+}
+
 Eigen::Vector3d parsePoint(const std::string& text, const std::string& option) {
   std::vector<std::string> items;
   std::stringstream stream(text);
@@ -158,6 +215,18 @@ void addPlanCommand(CLI::App& app) {
       ->capture_default_str();
   command->add_option("--sample-step", options->sample_step, "Time step of trajectory.csv, s")
       ->check(within(1e-4, 10.0))
+      ->capture_default_str();
+  command
+      ->add_option("--time-limit", options->time_limit,
+                   "Time budget of the plan, s (the tighter of this and the planner's own "
+                   "time_limit)")
+      ->check(within(1e-3, 1e6))
+      ->capture_default_str();
+  command
+      ->add_option("--grace", options->grace,
+                   "Seconds past the budget before a planner that has not returned is stopped "
+                   "(exit 1, status killed in the JSON line), as `kinolab run` kills its workers")
+      ->check(within(0.0, 86400.0))
       ->capture_default_str();
   command->add_option("--cache-dir", options->cache_dir, "World cache directory")
       ->capture_default_str();

@@ -4,6 +4,7 @@ that throws an int. Each is one `kinolab: error:` line naming the library and th
 non-zero exit, never a crash; in `kinolab run` a throwing planner is its runs' error and the
 other planners go on. `--plugin` is repeatable and loads a library once."""
 
+import json
 import os
 import sqlite3
 from contextlib import closing
@@ -111,3 +112,15 @@ def test_plugin_is_repeatable_and_loads_a_library_once(kinolab, tmp_path):
         result = kinolab(*args)
         assert result.returncode == 0, result.stderr
         assert result.stdout.count("test_trivial ") == 1, result.stdout
+
+
+def test_plan_stops_a_planner_that_never_returns(kinolab, world):
+    # test_hang ignores its budget: the watchdog ends the process at budget + grace (the
+    # subprocess's own 300 s timeout would fail the test long before "forever").
+    result = kinolab("--plugin", MISBEHAVING, "plan", "--world", world, "--planner", "test_hang",
+                     "--start", "1,1,1", "--goal", "8,8,1", "--time-limit", "0.5",
+                     "--grace", "0.5")
+    assert result.returncode == 1, result.stderr
+    assert "did not return within its 0.5 s budget" in result.stderr
+    last = json.loads(result.stdout.strip().splitlines()[-1])
+    assert last["status"] == "killed" and last["message"].startswith("timeout: ")
