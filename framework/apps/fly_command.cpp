@@ -26,6 +26,7 @@ struct FlyOptions {
   std::string goal;
   std::string out_dir;
   std::uint64_t seed = 1;
+  double grace = 5.0;
   std::string cache_dir = WorldCache::defaultDirectory();
 };
 
@@ -74,6 +75,20 @@ void runFly(const FlyOptions& options) {
   const PlannerFactory factory = plannerFactory(options.planner, assignments, options.seed);
   // The 3D view replays the known map growing: a snapshot every half second.
   setup.settings.seed = options.seed;
+  // A replan that does not return within its budget and the grace stops the flight.
+  setup.guard_replan = [&options, &load](double budget) -> std::shared_ptr<void> {
+    const std::string message = "planner " + options.planner +
+                                " did not return from a replan within its " + formatNumber(budget) +
+                                " s budget and " + formatNumber(options.grace) +
+                                " s of grace: flight stopped";
+    return std::make_shared<Watchdog>(budget + options.grace, message,
+                                      nlohmann::ordered_json{{"planner", options.planner},
+                                                             {"world", load.world->name()},
+                                                             {"seed", options.seed},
+                                                             {"status", "killed"},
+                                                             {"message", "timeout: " + message}}
+                                          .dump());
+  };
   if (!options.out_dir.empty() && setup.settings.snapshot_period <= 0.0) {
     setup.settings.snapshot_period = 0.5;
   }
@@ -130,6 +145,12 @@ void addFlyCommand(CLI::App& app) {
       "flight in 3D, the known map growing)");
   command->add_option("--seed", options->seed, "Seed of the planner's random streams")
       ->check(unsigned64())
+      ->capture_default_str();
+  command
+      ->add_option("--grace", options->grace,
+                   "Seconds past a replan's budget before a planner that has not returned stops "
+                   "the flight (exit 1, status killed in the JSON line)")
+      ->check(within(0.0, 86400.0))
       ->capture_default_str();
   command->add_option("--cache-dir", options->cache_dir, "World cache directory")
       ->capture_default_str();

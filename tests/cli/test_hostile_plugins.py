@@ -124,3 +124,13 @@ def test_plan_stops_a_planner_that_never_returns(kinolab, world):
     assert "did not return within its 0.5 s budget" in result.stderr
     last = json.loads(result.stdout.strip().splitlines()[-1])
     assert last["status"] == "killed" and last["message"].startswith("timeout: ")
+
+
+def test_fly_stops_a_planner_that_never_returns_from_a_replan(kinolab, world):
+    result = kinolab("--plugin", MISBEHAVING, "fly", "--world", world, "--planner", "test_hang",
+                     "--start", "1,1,1.5", "--goal", "8.5,8,1.5", "--grace", "0.5",
+                     "--flight", "planning_margin=0")
+    assert result.returncode == 1, result.stderr
+    assert "did not return from a replan within its 0.1 s budget" in result.stderr
+    last = json.loads(result.stdout.strip().splitlines()[-1])
+    assert last["status"] == "killed" and last["message"].startswith("timeout: ")

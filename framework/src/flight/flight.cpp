@@ -276,6 +276,7 @@ class FlightLoop {
         sensor_(*setup.sensor),
         map_model_(setup.map),
         settings_(setup.settings),
+        guard_replan_(setup.guard_replan),
         map_(setup.make_map()),
         // The body and limits every replan plans for (the planner's model on any world).
         model_(make_planner(truth, 0.0)->model()),
@@ -478,6 +479,8 @@ class FlightLoop {
                   planning_model_.robot_radius, &local.goal)) {
       replan.local_goal = local.goal;
       std::unique_ptr<Planner> planner = make_planner_(shared_window, settings_.planning_margin);
+      const std::shared_ptr<void> guard =
+          guard_replan_ ? guard_replan_(settings_.replan_budget) : nullptr;
       const PlanResult plan = planner->plan(
           local, Budget{settings_.replan_budget, std::numeric_limits<long long>::max()});
       replan.status = std::string(toString(plan.status));
@@ -639,6 +642,7 @@ class FlightLoop {
   const Sensor& sensor_;
   MapModel map_model_;  // the flight's, its reach set to the planning radius
   const FlightSettings& settings_;
+  const std::function<std::shared_ptr<void>(double)>& guard_replan_;
   FlightResult result_;
   std::shared_ptr<VehicleMap> map_;
   PlanningModel model_;           // the vehicle's body and limits: what is judged

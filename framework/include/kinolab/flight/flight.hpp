@@ -107,6 +107,10 @@ struct FlightSetup {
   MapModel map;
   FlightSettings settings;
   TrackingModel tracking;
+  /// Optional: made before each replan's plan() with its budget, dropped after it returns; a
+  /// watchdog that stops a planner ignoring its budget (`kinolab fly`; `kinolab run` kills
+  /// its worker instead).
+  std::function<std::shared_ptr<void>(double budget)> guard_replan;
 };
 /// The setup of resolved flight parameters.
 FlightSetup flightSetup(const ParameterSet& parameters);
