@@ -145,6 +145,100 @@ def sweep_success(runs: pd.DataFrame, by: str = "planner") -> plt.Figure | None:
     return figure
 
 
+def sweep_axes(labels: list[str]) -> tuple[list[str], pd.DataFrame]:
+    """The sweep's dimensions and each label's value on them (a frame indexed by label).
+    A sweep label is "key=value, key=value, ...". Keys that vary together (a `zip:` of one
+    value per planner) are one dimension, named by the last key's last part
+    (`planners.lazy.params.max_velocity` -> `max_velocity`). Dimensions are in first-key
+    order; only keys with two values or more count."""
+    parsed = []
+    for label in labels:
+        pairs = [part.split("=", 1) for part in label.split(", ") if "=" in part]
+        parsed.append({key.strip(): value.strip() for key, value in pairs})
+    frame = pd.DataFrame(parsed, index=labels).fillna("")
+    varying = [key for key in frame.columns if frame[key].nunique() > 1]
+    dimensions, columns = [], {}
+    for key in varying:
+        partner = next((d for d in dimensions
+                        if frame.groupby(columns[d])[key].nunique().max() == 1
+                        and frame.groupby(key)[columns[d]].nunique().max() == 1), None)
+        if partner is None:
+            name = key.rsplit(".", 1)[-1]
+            while name in columns:
+                name += "'"
+            dimensions.append(name)
+            columns[name] = key
+    return dimensions, pd.DataFrame({name: frame[key] for name, key in columns.items()},
+                                    index=labels)
+
+
+def _numeric(value: str) -> float | str:
+    try:
+        return float(value)
+    except ValueError:
+        return value
+
+
+def success_grid(runs: pd.DataFrame, by: str = "planner") -> plt.Figure | None:
+    """Success (Wilson 95 %) against the sweep's first dimension with more than two values
+    (the first otherwise), a line per planner and value of the last other dimension, a panel
+    per value of the first other one: for flight_benchmark.yaml, success over density, per
+    planner and speed, a panel per camera range. None unless the sweep has two dimensions or
+    more."""
+    labels = list(dict.fromkeys(runs["sweep"].fillna("")))
+    dimensions, values = sweep_axes(labels)
+    if len(dimensions) < 2:
+        return None
+    x_name = next((d for d in dimensions if values[d].nunique() > 2), dimensions[0])
+    rest = [d for d in dimensions if d != x_name]
+    # A zip (per-planner speeds) comes last in a label: lines; the grid's outer key: panels.
+    line_name = rest[-1]
+    panel_name = rest[0] if len(rest) > 1 else None
+    # In the sweep's own order (flight_benchmark.yaml lists the default camera first).
+    panels = list(dict.fromkeys(values[panel_name])) if panel_name else [""]
+    lines = list(dict.fromkeys(values[line_name]))
+    styles = [("-", "o"), ("--", "s"), (":", "^"), ("-.", "D")]
+    figure, axes = plt.subplots(1, len(panels), figsize=(4.2 * len(panels) + 0.6, 3.8),
+                                sharey=True, squeeze=False)
+    planners = list(dict.fromkeys(runs[by]))
+    for column, panel in enumerate(panels):
+        axis = axes[0][column]
+        for index, planner in enumerate(planners):
+            for (style, marker), line in zip(styles * len(lines), lines):
+                xs, estimates, low, high = [], [], [], []
+                for label in labels:
+                    if values.at[label, line_name] != line or (
+                            panel_name and values.at[label, panel_name] != panel):
+                        continue
+                    outcomes = runs.loc[(runs["sweep"].fillna("") == label)
+                                        & (runs[by] == planner), "success"]
+                    if outcomes.empty:
+                        continue
+                    interval = stats.wilson(int(outcomes.sum()), len(outcomes))
+                    xs.append(_numeric(values.at[label, x_name]))
+                    estimates.append(interval.estimate)
+                    low.append(max(0.0, interval.estimate - interval.low))
+                    high.append(max(0.0, interval.high - interval.estimate))
+                if not xs:
+                    continue
+                order = np.argsort(np.array(xs, dtype=object).astype(str)) if any(
+                    isinstance(x, str) for x in xs) else np.argsort(xs)
+                axis.errorbar([xs[i] for i in order], [estimates[i] for i in order],
+                              yerr=[[low[i] for i in order], [high[i] for i in order]],
+                              marker=marker, capsize=3, linestyle=style, color=_colour(index),
+                              label=f"{planner}, {line_name} {line}")
+        axis.set_xlabel(x_name)
+        axis.set_ylim(-0.02, 1.02)
+        axis.grid(alpha=0.3)
+        if panel_name:
+            axis.set_title(f"{panel_name} {panel}", fontsize=9)
+    axes[0][0].set_ylabel("success rate (Wilson 95 %)")
+    axes[0][-1].legend(fontsize=7)
+    figure.suptitle(f"Success over {x_name}, per planner and {line_name}", fontsize=10)
+    figure.tight_layout()
+    return figure
+
+
 def sweep_winners(table: pd.DataFrame, metric: str = "planning_time_ms") -> plt.Figure | None:
     """Where each planner wins: one cell per sweep value (the first two axes with more than one
     value as columns and rows), coloured by the planner with the least median `metric` on the

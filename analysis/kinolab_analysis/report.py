@@ -415,6 +415,11 @@ def _summary_figures(report: Report, results, sampling_csv: Path | None,
     if (figure := plots.sweep_success(runs)) is not None:
         _save(figure, report, "sweep_success", "Success over the sweep",
               "Success rate (Wilson 95 %) per planner against the swept value.")
+    if (figure := plots.success_grid(runs)) is not None:
+        _save(figure, report, "success_grid", "Success over the sweep's dimensions",
+              "Success rate (Wilson 95 %) against the sweep's first dimension of three values or "
+              "more, a line per planner and value of the next, a panel per value of the third "
+              "(flights: over density, per planner and speed, a panel per camera range).")
     if "sweep_winners" in report.tables and (
             figure := plots.sweep_winners(report.tables["sweep_winners"])) is not None:
         _save(figure, report, "sweep_winners", "Where each wins",

@@ -472,6 +472,35 @@ def test_success_over_the_sweep_plots_a_wilson_interval_per_planner_and_value():
     assert plots.sweep_success(runs[runs["sweep"] == "v=2"]) is None  # no sweep, no figure
 
 
+def test_a_flight_sweep_is_plotted_over_density_per_planner_and_speed_per_camera():
+    # density x camera (grid) x one speed per planner (zip): three dimensions, the zipped
+    # keys one.
+    labels = [f"flight.sensor.range={r}, worlds.forest.spec.generators.0.density={d}, "
+              f"planners.a.params.max_velocity={v}, planners.b.params.max_velocity={v}"
+              for r in (10, 5) for d in (0.2, 0.1, 0.05) for v in (2, 4)]
+    dimensions, values = plots.sweep_axes(labels)
+    assert dimensions == ["range", "density", "max_velocity"]
+    assert values.loc[labels[3], "density"] == "0.1"
+    rows = []
+    for label in labels:
+        for planner, successes in (("a", 3), ("b", 1)):
+            rows += [{"planner": planner, "sweep": label, "success": k < successes}
+                     for k in range(4)]
+    figure = plots.success_grid(pd.DataFrame(rows))
+    # A panel per camera range, a line per planner and speed, over the three densities.
+    assert len(figure.axes) == 2
+    lines = [line for line in figure.axes[0].get_lines() if line.get_marker() in "os"]
+    assert len(lines) == 4
+    assert all(sorted(line.get_xdata()) == [0.05, 0.1, 0.2] for line in lines)
+    assert sorted({round(y, 6) for line in lines for y in line.get_ydata()}) == [0.25, 0.75]
+    assert figure.axes[0].get_xlabel() == "density"
+    assert figure.axes[0].get_title() == "range 10" and figure.axes[1].get_title() == "range 5"
+    assert "max_velocity 4" in lines[-1].get_label() or any(
+        "max_velocity 4" in text.get_text() for text in figure.axes[-1].get_legend().get_texts())
+    one = pd.DataFrame(rows)
+    assert plots.success_grid(one[one["sweep"].isin(labels[:2])]) is None  # one dimension
+
+
 def test_the_flight_timing_protocol_names_the_timing_each_variant_ran_with():
     from kinolab_analysis.report import timing_protocol
     config = "kind: flight\nflight: {replan_budget: 0.1}\n"

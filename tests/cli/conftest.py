@@ -39,3 +39,26 @@ def world(tmp_path):
 def last_json(result):
     """The JSON summary a command prints as its last line."""
     return json.loads(result.stdout.strip().splitlines()[-1])
+
+
+def tiny_experiment(directory, name, seed, queries=3):
+    """A planning experiment of `queries` eager runs in the small forest, written into
+    `directory` (beside its world file); its seed sets its config hash. Returns its path."""
+    world = directory / "world.yaml"
+    world.write_text(SMALL_FOREST)
+    path = directory / f"{name}_{seed}.yaml"
+    path.write_text(f"""kind: planning
+name: {name}
+seed: {seed}
+worlds:
+  - id: small
+    spec: {world}
+queries:
+  random: {{count: {queries}, min_distance: 4, max_distance: 9}}
+planners:
+  - id: eager
+    type: eager_mp_astar
+    sampler: {{type: uniform, params: {{samples_per_axis: 3}}}}
+budget: {{time: 5}}
+""")
+    return path

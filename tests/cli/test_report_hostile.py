@@ -9,22 +9,8 @@ from pathlib import Path
 
 import pytest
 
-from conftest import SMALL_FOREST
+from conftest import tiny_experiment
 
-EXPERIMENT = """kind: planning
-name: hostile_report
-seed: SEED
-worlds:
-  - id: small
-    spec: WORLD
-queries:
-  random: {count: 3, min_distance: 4, max_distance: 9}
-planners:
-  - id: eager
-    type: eager_mp_astar
-    sampler: {type: uniform, params: {samples_per_axis: 3}}
-budget: {time: 5}
-"""
 
 
 @pytest.fixture(scope="module")
@@ -36,14 +22,11 @@ def two_experiments(tmp_path_factory):
     from conftest import BINARY
 
     base = tmp_path_factory.mktemp("hostile_report")
-    world = base / "world.yaml"
-    world.write_text(SMALL_FOREST)
     out = []
     for seed in (5, 6):
-        spec = base / f"seed{seed}.yaml"
-        spec.write_text(EXPERIMENT.replace("SEED", str(seed)).replace("WORLD", str(world)))
         directory = base / f"seed{seed}"
-        run = subprocess.run([BINARY, "run", str(spec), "--out", str(directory)],
+        run = subprocess.run([BINARY, "run", str(tiny_experiment(base, "hostile_report", seed)),
+                              "--out", str(directory)],
                              capture_output=True, text=True, timeout=300,
                              env=dict(os.environ, KINOLAB_CACHE_DIR=str(base / "cache")))
         assert run.returncode == 0, run.stderr

@@ -8,34 +8,13 @@ from contextlib import closing
 
 import pytest
 
-from conftest import SMALL_FOREST
+from conftest import tiny_experiment
 
-EXPERIMENT = """kind: planning
-name: resume_foreign
-seed: SEED
-worlds:
-  - id: small
-    spec: WORLD
-queries:
-  random: {count: 2, min_distance: 4, max_distance: 9}
-planners:
-  - id: eager
-    type: eager_mp_astar
-    sampler: {type: uniform, params: {samples_per_axis: 3}}
-budget: {time: 5}
-"""
 
 
 @pytest.fixture
 def experiments(tmp_path):
-    world = tmp_path / "world.yaml"
-    world.write_text(SMALL_FOREST)
-    paths = []
-    for seed in (5, 6):
-        path = tmp_path / f"seed{seed}.yaml"
-        path.write_text(EXPERIMENT.replace("SEED", str(seed)).replace("WORLD", str(world)))
-        paths.append(path)
-    return paths
+    return [tiny_experiment(tmp_path, "resume_foreign", seed, queries=2) for seed in (5, 6)]
 
 
 def sql(path, *statements):
