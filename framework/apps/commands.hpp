@@ -65,6 +65,11 @@ class Watchdog {
   std::shared_ptr<State> state_;
 };
 
+/// The JSON summary line of a planner the watchdog stopped (`plan` and `fly`): status
+/// `killed`, message "timeout: `message`".
+std::string killedSummary(const std::string& planner, const std::string& world, std::uint64_t seed,
+                          const std::string& message);
+
 /// Exactly three finite numbers "x,y,z" (metres) from `option`, or a ConfigError naming it.
 Eigen::Vector3d parsePoint(const std::string& text, const std::string& option);
 

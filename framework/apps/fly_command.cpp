@@ -81,13 +81,9 @@ void runFly(const FlyOptions& options) {
                                 " did not return from a replan within its " + formatNumber(budget) +
                                 " s budget and " + formatNumber(options.grace) +
                                 " s of grace: flight stopped";
-    return std::make_shared<Watchdog>(budget + options.grace, message,
-                                      nlohmann::ordered_json{{"planner", options.planner},
-                                                             {"world", load.world->name()},
-                                                             {"seed", options.seed},
-                                                             {"status", "killed"},
-                                                             {"message", "timeout: " + message}}
-                                          .dump());
+    return std::make_shared<Watchdog>(
+        budget + options.grace, message,
+        killedSummary(options.planner, load.world->name(), options.seed, message));
   };
   if (!options.out_dir.empty() && setup.settings.snapshot_period <= 0.0) {
     setup.settings.snapshot_period = 0.5;

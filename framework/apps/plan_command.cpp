@@ -60,13 +60,9 @@ void runPlan(const PlanOptions& options) {
     const std::string message = "planner " + options.planner + " did not return within its " +
                                 formatNumber(limit) + " s budget and " +
                                 formatNumber(options.grace) + " s of grace: stopped (killed)";
-    const Watchdog watchdog(limit + options.grace, message,
-                            nlohmann::ordered_json{{"planner", options.planner},
-                                                   {"world", load.world->name()},
-                                                   {"seed", options.seed},
-                                                   {"status", "killed"},
-                                                   {"message", "timeout: " + message}}
-                                .dump());
+    const Watchdog watchdog(
+        limit + options.grace, message,
+        killedSummary(options.planner, load.world->name(), options.seed, message));
     result = planner.plan(query, budget, options.out_dir.empty() ? nullptr : &tree);
   }
 
@@ -169,6 +165,16 @@ Watchdog::~Watchdog() {
   }
   state_->wake.notify_all();
   state_->thread.join();
+}
+
+std::string killedSummary(const std::string& planner, const std::string& world, std::uint64_t seed,
+                          const std::string& message) {
+  return nlohmann::ordered_json{{"planner", planner},
+                                {"world", world},
+                                {"seed", seed},
+                                {"status", "killed"},
+                                {"message", "timeout: " + message}}
+      .dump();
 }
 
 Eigen::Vector3d parsePoint(const std::string& text, const std::string& option) {
