@@ -63,7 +63,7 @@ def test_nan_and_negative_inputs_never_give_a_distance_or_a_verdict(forest):
     for radius in (math.nan, -1.0, math.inf):
         with pytest.raises(kinolab.InvalidArgument, match="radius"):
             forest.segment_free((1, 1, 1), (8, 8, 1), radius)
-    assert forest.segment_free((1, 1, 1.5), (1.2, 1, 1.5), 0.1) in (True, False)
+    assert forest.segment_free(START, START, 0.0)  # a valid radius still answers
 
 
 def test_distances_are_vectorised_and_their_gradient_is_the_fields_slope(forest):
@@ -126,18 +126,10 @@ def test_a_hostile_library_is_a_plugin_error_and_registers_nothing(library, mess
 @pytest.mark.parametrize("key, message", [
     ("test_factory_throws", r"\(planner 'test_factory_throws'\): its factory threw: "),
     ("test_factory_throws_int", r"its factory threw something that is not a std::exception"),
-])
-def test_a_throwing_factory_is_a_plugin_error_naming_it(forest, key, message):
-    kinolab.load_plugin(os.environ["KINOLAB_MISBEHAVING"])
-    with pytest.raises(kinolab.PluginError, match=message):
-        kinolab.Planner(key, forest)
-
-
-@pytest.mark.parametrize("key, message", [
     ("test_throw", r"\(planner 'test_throw'\): plan\(\) threw: test_throw always throws"),
     ("test_throw_int", r"\(planner 'test_throw_int'\): plan\(\) threw something that is not"),
 ])
-def test_a_planner_that_throws_is_a_plugin_error_naming_it(forest, key, message):
+def test_plugin_code_that_throws_is_a_plugin_error_naming_it(forest, key, message):
     kinolab.load_plugin(os.environ["KINOLAB_MISBEHAVING"])
     with pytest.raises(kinolab.PluginError, match=message):
         kinolab.Planner(key, forest).plan(START, GOAL)

@@ -77,12 +77,17 @@ const World& Planner::world() const {
   return *world_;
 }
 
+std::string Planner::pluginName() const {
+  // key_ is set by configurePlanner(), the way every caller makes a planner.
+  return key_.empty() ? "planner" : describePlugin("planner", pluginRegistry<Planner>().info(key_));
+}
+
 void Planner::setup(const PlannerContext& context) {
   if (!context.world) throw InvalidArgument("planner: setup without a world");
   try {
     doSetup(context);
   } catch (...) {
-    rethrowFromPlugin(plugin_name_, "setup()");
+    rethrowFromPlugin(pluginName(), "setup()");
   }
   checker_ = std::make_unique<TrajectoryChecker>(context.world, checkerSettings(planningModel()));
   world_ = context.world;
@@ -126,7 +131,7 @@ PlanResult Planner::plan(const PlanningQuery& query, const Budget& budget, Searc
   try {
     result = doPlan(query, stop);
   } catch (...) {
-    rethrowFromPlugin(plugin_name_, "plan()");
+    rethrowFromPlugin(pluginName(), "plan()");
   }
   result.planning_time_ms =
       std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - begin).count();
@@ -134,7 +139,7 @@ PlanResult Planner::plan(const PlanningQuery& query, const Budget& budget, Searc
     try {
       *tree = doTree(kMaxTreeEdges);
     } catch (...) {
-      rethrowFromPlugin(plugin_name_, "its search tree");
+      rethrowFromPlugin(pluginName(), "its search tree");
     }
   }
   if (declared_statistics_) checkStatisticsDeclared(result, *declared_statistics_, key_);

@@ -110,10 +110,6 @@ class PluginRegistry : public PluginRegistryBase {
       rethrowFromPlugin(describePlugin(kind(), plugin), "its factory");
     }
     if (!instance) throw PluginError(describePlugin(kind(), plugin) + ": factory returned null");
-    // An interface that names itself in errors from its code (Planner) learns its name.
-    if constexpr (requires(Interface & i) { i.setPluginName(std::string()); }) {
-      instance->setPluginName(describePlugin(kind(), plugin));
-    }
     return instance;
   }
 

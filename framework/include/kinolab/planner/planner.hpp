@@ -123,10 +123,6 @@ class Planner {
   /// (its `time_limit` and expansion parameters). The one rule every caller times against.
   Budget budgetFor(const Budget& budget) const;
 
-  /// How errors from this planner's code name it ("plugin LIB (planner 'key')"); the
-  /// registry sets it when it creates the planner.
-  void setPluginName(std::string name) { plugin_name_ = std::move(name); }
-
   bool isSetup() const { return world_ != nullptr; }
   const World& world() const;
   PlanningModel model() const { return planningModel(); }
@@ -153,11 +149,13 @@ class Planner {
   friend ConfiguredPlanner configurePlanner(std::string_view,
                                             const std::vector<ParameterAssignment>&);
 
+  /// How errors from its own code name it: "plugin LIB (planner 'KEY')" (from key_).
+  std::string pluginName() const;
+
   std::shared_ptr<const World> world_;
-  std::string plugin_name_ = "planner";
   std::unique_ptr<TrajectoryChecker> checker_;
   /// Set for planners made by configurePlanner(): plan() holds their statistics to the
-  /// registration's declaration (declaredStatistics()).
+  /// registration's declaration (declaredStatistics()), and errors name the plugin.
   std::string key_;
   std::optional<MetricSpecs> declared_statistics_;
 };
