@@ -129,8 +129,12 @@ Eigen::Vector3d pointAlong(const std::vector<Eigen::Vector3d>& way, double s) {
 
 /// The local goal: the goal when it is within `horizon` and the window, else the point
 /// `horizon` metres along the guide (the known map's shortest way; the straight line when it
-/// is empty), stopping where the guide would leave the window (0.5 m inside its sides); then
-/// moved off the window's known obstacles. False when no free point is found.
+/// is empty), stopping where the guide would leave the window in x and y (0.5 m inside its
+/// sides; the guide's heights are only interpolated, so they are brought into the window's,
+/// 0.5 m inside its floor and ceiling); then moved off the window's known obstacles (the goal
+/// itself is taken where it is, brought into the window's domain when it lies less than
+/// 0.5 m outside). False when no free point is
+/// found.
 bool localGoal(const Eigen::Vector3d& from, const Eigen::Vector3d& goal,
                const std::vector<Eigen::Vector3d>& guide, double horizon, const World& window,
                double radius, Eigen::Vector3d* out) {
@@ -143,6 +147,8 @@ bool localGoal(const Eigen::Vector3d& from, const Eigen::Vector3d& goal,
   };
   std::vector<Eigen::Vector3d> way = guide;
   if (way.size() < 2) way = {from, goal};
+  for (Eigen::Vector3d& point : way)
+    point.z() = std::clamp(point.z(), inner_min.z(), inner_max.z());
   // Along the way to the horizon, stopping before the first point outside the window.
   Eigen::Vector3d target = way.front();
   double travelled = 0.0;
@@ -157,15 +163,22 @@ bool localGoal(const Eigen::Vector3d& from, const Eigen::Vector3d& goal,
     // it, clamped into the window.
     target = pointAlong(way, horizon).cwiseMax(inner_min).cwiseMin(inner_max);
   }
-  if ((goal - from).norm() <= horizon && box.contains(goal)) target = goal;
+  // The goal within the horizon is taken as it is (no margin: nothing lies beyond it), brought
+  // into the window's domain when it lies less than 0.5 m outside (at the map's end).
+  const Eigen::Vector3d goal_inside = goal.cwiseMax(box.min).cwiseMin(box.max);
+  const bool at_goal = (goal - from).norm() <= horizon && (goal_inside - goal).norm() < 0.5;
+  if (at_goal) target = goal_inside;
   // Back along the way, then around, in 0.25 m steps, until a free point.
   const Eigen::Vector3d back = (from - target).normalized();
   for (int k = 0; k <= 12; ++k) {
     for (int around = 0; around < (k == 0 ? 1 : 8); ++around) {
       const double angle = 2.0 * M_PI * around / 8.0;
       const Eigen::Vector3d side(std::cos(angle), std::sin(angle), 0.0);
-      const Eigen::Vector3d candidate =
-          (target + 0.25 * k * (around == 0 ? back : side)).cwiseMax(inner_min).cwiseMin(inner_max);
+      const Eigen::Vector3d candidate = k == 0 && at_goal
+                                            ? target
+                                            : (target + 0.25 * k * (around == 0 ? back : side))
+                                                  .cwiseMax(inner_min)
+                                                  .cwiseMin(inner_max);
       if (window.isFree(candidate, radius)) {
         *out = candidate;
         return true;
@@ -175,12 +188,13 @@ bool localGoal(const Eigen::Vector3d& from, const Eigen::Vector3d& goal,
   return false;
 }
 
-/// Where the camera looks at time t: towards where the committed trajectory will be a
-/// second later (so that a turn is seen before it is flown), else towards the goal.
-double headingOf(const Trajectory& committed, double t, const Eigen::Vector3d& goal) {
-  const Eigen::Vector3d here = committed.evaluate(std::min(t, committed.duration()));
+/// Where the camera looks at time t: towards where the intended trajectory (the last plan
+/// taken, whole, not cut where the vehicle would have to stop) will be a second later, so that
+/// a turn is seen before it is flown, else towards the goal.
+double headingOf(const Trajectory& intended, double t, const Eigen::Vector3d& goal) {
+  const Eigen::Vector3d here = intended.evaluate(std::min(t, intended.duration()));
   const Eigen::Vector2d ahead =
-      (committed.evaluate(std::min(t + 1.0, committed.duration())) - here).head<2>();
+      (intended.evaluate(std::min(t + 1.0, intended.duration())) - here).head<2>();
   const Eigen::Vector2d towards = (goal - here).head<2>();
   if (ahead.norm() > 0.3) return std::atan2(ahead.y(), ahead.x());
   return towards.norm() > 1e-9 ? std::atan2(towards.y(), towards.x()) : 0.0;
@@ -294,6 +308,7 @@ class FlightLoop {
       tracker_.emplace(setup.tracking, query.start.col(0), settings_.seed);
     }
     map_model_.reach = planning_model_.robot_radius;  // the window sees what the body reaches
+    map_model_.inset = settings_.planning_margin;     // room for tracking error at the map's end
     map_->setup(truth->bounds(), map_model_);
     result_.map = map_;
     result_.model = model_;
@@ -310,6 +325,7 @@ class FlightLoop {
     result_.difficulty = scenarioDifficulty(*truth_, query_, model_.robot_radius);
     // The committed trajectory from t = 0; at rest at its end (a hover at the start at first).
     committed_.append(hold(start, dt_));
+    intended_ = committed_;
     best_distance_ = (start - query_.goal).norm();
     for (int frame = 0; step(frame); ++frame) {
     }
@@ -438,7 +454,7 @@ class FlightLoop {
     const double taken = std::clamp(t_ - age, 0.0, t_);
     const SensorFrame sensed =
         senseFrame(*truth_, sensor_, rays_, stateAt(flownPath(), taken).col(0),
-                   headingOf(committed_, taken, query_.goal) + look_offset_, noise_);
+                   headingOf(intended_, taken, query_.goal) + look_offset_, noise_);
     result_.time_sense_ms += millisecondsSince(begin);
     begin = std::chrono::steady_clock::now();
     map_->insert(sensed, sensor_.maxRange());
@@ -508,6 +524,7 @@ class FlightLoop {
       if (braking.duration > 0.0) stop.append(braking);
       if (stop.empty()) stop.append(hold(here.col(0), dt_));  // at rest at the very start
       committed_ = std::move(stop);
+      intended_ = committed_;
     }
     reason_ = accepted ? "period" : "retry";
     next_replan_ = std::max(next_replan_, t_ + (accepted ? settings_.replan_period : dt_));
@@ -534,16 +551,43 @@ class FlightLoop {
                        : (plan.message.empty() ? "no trajectory" : plan.message);
       return false;
     }
-    for (double cut = plan.trajectory.duration(); cut > 0.0; cut -= 0.1) {
+    const double seen = seenUntil(plan.trajectory);
+    for (double cut = std::min(plan.trajectory.duration(), seen); cut > 0.0; cut -= 0.1) {
       Trajectory spliced = splice(committed_, t_start, slice(plan.trajectory, cut), brake_rate_);
-      if (freeFrom(spliced, t_start, truth_->bounds(), window, planning_model_)) {
+      if (freeFrom(spliced, t_start, truth_->bounds(), window, planning_model_) &&
+          seenUntil(spliced, t_start + cut) >= spliced.duration()) {
         replan.trajectory = plan.trajectory;
+        intended_ = splice(committed_, t_start, plan.trajectory, brake_rate_);
         committed_ = std::move(spliced);
         return true;
       }
     }
-    replan.why = "every braking tail after the plan leaves the map or meets a known obstacle";
+    replan.why = settings_.commit == CommitSpace::kPlanned
+                     ? "every braking tail after the plan leaves the map or meets a known obstacle"
+                 : seen < 0.1 ? "the plan enters unseen space at once (commit: seen)"
+                              : "every braking tail after the plan leaves the map, meets a known "
+                                "obstacle or enters unseen space (commit: seen)";
     return false;
+  }
+
+  /// How long `trajectory`, from `from` on, keeps the vehicle's centre in space the sensor
+  /// has seen: its duration when it does throughout (and always with commit: planned), else
+  /// the last sample before it leaves it. Samples every half voxel of path at the speed limit,
+  /// each checking the ball of half that spacing, so that the path between samples is
+  /// covered. The centre, not the body: a body-sized ball fits neither the camera's frustum
+  /// near the camera nor the gaps the map's shared ray walks leave (tried: the vehicles stall).
+  double seenUntil(const Trajectory& trajectory, double from = 0.0) const {
+    if (settings_.commit == CommitSpace::kPlanned) return trajectory.duration();
+    const double spacing = 0.5 * map_model_.resolution;
+    const double step = std::max(spacing / std::max(0.1, model_.limits.bound[1].norm()),
+                                 (trajectory.duration() - from) / 1e5);
+    const double radius = 0.5 * spacing;
+    double last = from;
+    for (double s = from; s <= trajectory.duration(); s += step) {
+      if (!map_->seenAround(trajectory.evaluate(s), radius)) return last;
+      last = s;
+    }
+    return map_->seenAround(trajectory.endPosition(), radius) ? trajectory.duration() : last;
   }
 
   /// After a failed replan with the vehicle at rest (or about to be): back off from the
@@ -567,8 +611,8 @@ class FlightLoop {
   }
 
   /// A straight 0.3 m move from `position` away from the nearest known obstacle (the window
-  /// ESDF's gradient, horizontal), committed when it stays free in the window; the next
-  /// replan waits for its end.
+  /// ESDF's gradient, horizontal), committed when it stays free in the window (and, with
+  /// commit: seen, keeps the centre in seen space); the next replan waits for its end.
   bool backOff(const Eigen::Vector3d& position, const World& window) {
     Eigen::Vector3d gradient = Eigen::Vector3d::Zero();
     window.esdf().distanceWithGradient(position, &gradient);
@@ -579,8 +623,12 @@ class FlightLoop {
     Trajectory moved = slice(committed_, t_);
     for (const TrajectorySegment& segment : move) moved.append(segment);
     // The body alone: a vehicle inside its planning margin must be able to back out of it.
-    if (!freeFrom(moved, t_, truth_->bounds(), window, model_)) return false;
+    if (!freeFrom(moved, t_, truth_->bounds(), window, model_) ||
+        seenUntil(moved, t_) < moved.duration()) {
+      return false;
+    }
     committed_ = std::move(moved);
+    intended_ = committed_;
     next_replan_ = committed_.duration();
     return true;
   }
@@ -653,6 +701,7 @@ class FlightLoop {
   double z_band_low_;
   double z_band_high_;
   Trajectory committed_;
+  Trajectory intended_;  // the last plan taken, whole: where the camera looks (headingOf())
   double t_ = 0.0;
   double next_replan_ = 0.0;
   double best_distance_ = INFINITY;

@@ -55,6 +55,39 @@ void VehicleMap::markFree(const Eigen::Vector3d& center, double radius) {
   });
 }
 
+bool VehicleMap::seenAround(const Eigen::Vector3d& p, double radius) const {
+  if (!isSetup()) throw InvalidArgument("VehicleMap::seenAround before setup()");
+  const double r = model_.resolution;
+  const Eigen::Vector3d local = (p - lattice_.origin()) / r;  // in voxels
+  const Eigen::Vector3i& n = lattice_.dims();
+  Eigen::Vector3i low;
+  Eigen::Vector3i high;
+  for (int axis = 0; axis < 3; ++axis) {
+    low[axis] = std::max(0, static_cast<int>(std::floor(local[axis] - radius / r)));
+    high[axis] = std::min(n[axis] - 1, static_cast<int>(std::floor(local[axis] + radius / r)));
+    if (low[axis] > high[axis]) return true;  // the ball lies outside the map on this axis
+  }
+  const double radius2 = radius * radius;
+  // The squared distance from p to a voxel's cube along one axis.
+  const auto gap2 = [&](int axis, int i) {
+    const double lo = lattice_.origin()[axis] + i * r;
+    const double d = std::max({lo - p[axis], 0.0, p[axis] - (lo + r)});
+    return d * d;
+  };
+  for (int x = low.x(); x <= high.x(); ++x) {
+    const double dx = gap2(0, x);
+    for (int y = low.y(); y <= high.y(); ++y) {
+      const double dxy = dx + gap2(1, y);
+      if (dxy >= radius2) continue;
+      const std::uint8_t* column = &state_[lattice_.index(x, y, 0)];
+      for (int z = low.z(); z <= high.z(); ++z) {
+        if (column[z] == 0 && dxy + gap2(2, z) < radius2) return false;
+      }
+    }
+  }
+  return true;
+}
+
 Box VehicleMap::latticeBox(const Eigen::Vector3d& center, const Eigen::Vector3d& half) const {
   const double r = model_.resolution;
   Box box;
@@ -114,9 +147,19 @@ std::shared_ptr<const World> VehicleMap::window(const Eigen::Vector3d& center) {
     return (outer.min.array() <= inner.min.array() + 1e-9).all() &&
            (inner.max.array() <= outer.max.array() + 1e-9).all();
   };
+  // The planning domain keeps model_.inset inside the map's box (the grid reaches the box).
+  const Eigen::Vector3d inset = Eigen::Vector3d::Constant(model_.inset);
+  const Box domain_limit{(bounds_.min + inset).cwiseMin(bounds_.max),
+                         (bounds_.max - inset).cwiseMax(bounds_.min)};
+  const auto domainBox = [&](const Eigen::Vector3d& middle, const Eigen::Vector3d& half) {
+    Box box = latticeBox(middle, half);
+    box.min = box.min.cwiseMax(domain_limit.min);
+    box.max = box.max.cwiseMin(domain_limit.max).cwiseMax(box.min);
+    return box;
+  };
   const bool kept = window_field_ &&
                     contains(window_world_->bounds(),
-                             latticeBox(center, Eigen::Vector3d(half_side, half_side, 0.0))) &&
+                             domainBox(center, Eigen::Vector3d(half_side, half_side, 0.0))) &&
                     std::abs(center.z() - window_middle_.z()) <= 0.5 * half_height;
   const Eigen::Vector3d half(half_side + model_.window_margin, half_side + model_.window_margin,
                              half_height);
@@ -133,7 +176,7 @@ std::shared_ptr<const World> VehicleMap::window(const Eigen::Vector3d& center) {
   }
   window_world_ =
       std::make_shared<const World>("known_window", 0, window_field_->grid(), window_field_->esdf(),
-                                    latticeBox(window_middle_, half));
+                                    domainBox(window_middle_, half));
   return window_world_;
 }
 

@@ -33,6 +33,20 @@ enum class FlightTiming {
   kDeterministic,
 };
 
+/// Where a committed trajectory may take the vehicle.
+enum class CommitSpace {
+  /// Every committed trajectory, its stop included, keeps the vehicle's centre in space the
+  /// sensor has seen: a planner may plan through unseen space (the window's `unknown`), but
+  /// the vehicle does not fly into it (after FASTER's rule, commit only in known space). A plan
+  /// is cut where it leaves seen space; the camera looks along the whole plan, so that the
+  /// next frame sees on. The centre, not the body: a body-sized ball fits neither the camera's
+  /// frustum near the camera nor the gaps the map's shared ray walks leave.
+  kSeen,
+  /// Wherever the planning window allows: with `unknown: free` the vehicle may fly into space
+  /// it has never seen (the optimistic loop of Fast-Planner and EGO-Planner).
+  kPlanned,
+};
+
 /// When the loop replans and how it treats time.
 struct FlightSettings {
   double replan_period = 0.5;  ///< s between planned replans (and on every collision found)
@@ -48,6 +62,7 @@ struct FlightSettings {
   double stuck_time = 15.0;         ///< s without 0.5 m of progress towards the goal
   double goal_tolerance = 0.5;      ///< m: reached when this close to the goal
   double brake_acceleration = 3.0;  ///< m/s^2 per axis for braking to a stop
+  CommitSpace commit = CommitSpace::kSeen;
   /// m: the planners keep the body's radius plus this from what the vehicle knows, room for
   /// tracking error, map noise and latency (the flight judges the body).
   double planning_margin = 0.1;
@@ -89,6 +104,12 @@ struct FlightSettings {
     f.real("brake_acceleration", brake_acceleration, 0.01, 1000.0,
            "deceleration of the stops that end every committed trajectory, m/s^2 (at most the "
            "planner's max_acceleration is used)");
+    f.choice("commit", commit, {{"seen", CommitSpace::kSeen}, {"planned", CommitSpace::kPlanned}},
+             "seen: every committed trajectory, its stop included, keeps the vehicle's centre "
+             "in space the sensor has seen, so unseen space is planned through but not flown "
+             "into; planned: "
+             "wherever the planning window allows (with unknown free, into "
+             "unseen space)");
   }
 };
 

@@ -30,6 +30,9 @@ struct MapModel {
   /// (not a parameter: the flight sets the planner's collision radius), so that an obstacle
   /// just outside the domain, the ground below its floor, is seen by a body inside it.
   double reach = 0.0;
+  /// m: how far the planning domain keeps inside the map's box (not a parameter: the flight
+  /// sets its planning margin), room for the tracking error where the map ends.
+  double inset = 0.0;
 
   /// Its parameters, a flight's (core/fields.hpp).
   template <typename Fields>
@@ -80,12 +83,16 @@ class VehicleMap {
   /// Marks the unseen voxels within `radius` of `center` known (where the vehicle is, nothing
   /// can be: free); voxels the sensor has seen keep their state.
   void markFree(const Eigen::Vector3d& center, double radius);
+  /// True when every voxel of the map's lattice whose cube comes within `radius` of `p` has
+  /// been seen (is known free or occupied): a body of that radius at `p` is in space the
+  /// sensor has seen. Voxels outside the map do not count (nothing is there).
+  bool seenAround(const Eigen::Vector3d& p, double radius) const;
   /// The planning world around `center`: known occupied voxels and unknown ones as `unknown`
   /// says (kFreeBeyond: measured from `center`), with its exact ESDF. The window is kept
   /// between calls: its domain (World::bounds()) is a box of side window + 2 window_margin in
-  /// x and y and window_height in z (clamped to the map), built around the vehicle and kept
-  /// while it holds the square of side `window` around `center` and `center` is within a
-  /// quarter of its height of its middle; its grid and ESDF reach `reach` farther on every
+  /// x and y and window_height in z (clamped to the map's box less `inset`), built around the
+  /// vehicle and kept while it holds the square of side `window` around `center` and `center` is
+  /// within a quarter of its height of its middle; its grid and ESDF reach `reach` farther on every
   /// side. Meanwhile only the voxels whose occupancy changed are updated (IncrementalEsdf),
   /// and the same World is returned while none did.
   std::shared_ptr<const World> window(const Eigen::Vector3d& center);
