@@ -318,6 +318,9 @@ TEST(VehicleMapTest, SeenAroundMatchesEveryUnseenVoxelsCubeAndTheDomainKeepsItsI
   const auto window = map->window(Eigen::Vector3d(0.5, 0.5, 1.5));
   EXPECT_NEAR(window->bounds().min.x(), world->bounds().min.x() + 0.1, 1e-9);
   EXPECT_NEAR(window->bounds().min.y(), world->bounds().min.y() + 0.1, 1e-9);
+  // A vehicle within the inset is still inside its domain.
+  const Eigen::Vector3d edge(0.5, 0.04, 1.5);
+  EXPECT_TRUE(map->window(edge)->bounds().contains(edge));
 }
 
 TEST(VehicleMapTest, TheKeptWindowIsUpdatedWhereTheMapChangedAndMovedWithTheVehicle) {

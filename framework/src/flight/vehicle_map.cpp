@@ -147,10 +147,12 @@ std::shared_ptr<const World> VehicleMap::window(const Eigen::Vector3d& center) {
     return (outer.min.array() <= inner.min.array() + 1e-9).all() &&
            (inner.max.array() <= outer.max.array() + 1e-9).all();
   };
-  // The planning domain keeps model_.inset inside the map's box (the grid reaches the box).
+  // The planning domain keeps model_.inset inside the map's box (the grid reaches the box),
+  // but always holds the vehicle (a start within the inset is still a start).
   const Eigen::Vector3d inset = Eigen::Vector3d::Constant(model_.inset);
-  const Box domain_limit{(bounds_.min + inset).cwiseMin(bounds_.max),
-                         (bounds_.max - inset).cwiseMax(bounds_.min)};
+  const Eigen::Vector3d inside = center.cwiseMax(bounds_.min).cwiseMin(bounds_.max);
+  const Box domain_limit{(bounds_.min + inset).cwiseMin(bounds_.max).cwiseMin(inside),
+                         (bounds_.max - inset).cwiseMax(bounds_.min).cwiseMax(inside)};
   const auto domainBox = [&](const Eigen::Vector3d& middle, const Eigen::Vector3d& half) {
     Box box = latticeBox(middle, half);
     box.min = box.min.cwiseMax(domain_limit.min);

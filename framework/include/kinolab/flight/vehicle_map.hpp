@@ -31,7 +31,8 @@ struct MapModel {
   /// just outside the domain, the ground below its floor, is seen by a body inside it.
   double reach = 0.0;
   /// m: how far the planning domain keeps inside the map's box (not a parameter: the flight
-  /// sets its planning margin), room for the tracking error where the map ends.
+  /// sets its planning margin), room for the tracking error where the map ends; the domain
+  /// still holds the vehicle when it is closer to the map's end.
   double inset = 0.0;
 
   /// Its parameters, a flight's (core/fields.hpp).
