@@ -133,8 +133,7 @@ Eigen::Vector3d pointAlong(const std::vector<Eigen::Vector3d>& way, double s) {
 /// sides; the guide's heights are only interpolated, so they are brought into the window's,
 /// 0.5 m inside its floor and ceiling); then moved off the window's known obstacles (the goal
 /// itself is taken where it is, brought into the window's domain when it lies less than
-/// 0.5 m outside). False when no free point is
-/// found.
+/// 0.5 m outside). False when no free point is found.
 bool localGoal(const Eigen::Vector3d& from, const Eigen::Vector3d& goal,
                const std::vector<Eigen::Vector3d>& guide, double horizon, const World& window,
                double radius, Eigen::Vector3d* out) {
@@ -147,8 +146,9 @@ bool localGoal(const Eigen::Vector3d& from, const Eigen::Vector3d& goal,
   };
   std::vector<Eigen::Vector3d> way = guide;
   if (way.size() < 2) way = {from, goal};
-  for (Eigen::Vector3d& point : way)
+  for (Eigen::Vector3d& point : way) {
     point.z() = std::clamp(point.z(), inner_min.z(), inner_max.z());
+  }
   // Along the way to the horizon, stopping before the first point outside the window.
   Eigen::Vector3d target = way.front();
   double travelled = 0.0;
