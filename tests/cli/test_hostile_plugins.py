@@ -21,6 +21,23 @@ def hostile(name):
     return str(Path(MISBEHAVING).with_name(f"libkinolab_test_{name}.so"))
 
 
+def planning_experiment(tmp_path, world, plugin, count, planners):
+    """A planning experiment in tmp_path loading `plugin`: `count` random queries in `world`,
+    the `planners` list given as YAML text."""
+    experiment = tmp_path / "experiment.yaml"
+    experiment.write_text(f"""kind: planning
+name: hostile
+plugins: [{plugin}]
+worlds:
+  - id: small
+    spec: {world}
+queries:
+  random: {{count: {count}, min_distance: 4, max_distance: 9}}
+planners:
+""" + planners)
+    return experiment
+
+
 def one_error_line(result, *needles):
     assert result.returncode == 1, (result.returncode, result.stderr)
     lines = [line for line in result.stderr.splitlines() if line.strip()]
@@ -40,17 +57,7 @@ def test_a_hostile_library_is_refused_by_every_command(kinolab, world, tmp_path,
     one_error_line(kinolab("--plugin", path, "list", "planners"), path, message)
     one_error_line(kinolab("plan", "--plugin", path, "--world", world, "--planner",
                            "lazy_mp_astar", "--start", "1,1,1", "--goal", "8,8,1"), message)
-    experiment = tmp_path / "experiment.yaml"
-    experiment.write_text(f"""kind: planning
-name: hostile
-plugins: [{path}]
-worlds:
-  - id: small
-    spec: {world}
-queries:
-  random: {{count: 1, min_distance: 4, max_distance: 9}}
-planners:
-  - id: lazy
+    experiment = planning_experiment(tmp_path, world, path, 1, """  - id: lazy
     type: lazy_mp_astar
 """)
     result = kinolab("run", experiment, "--out", tmp_path / "out")
@@ -71,19 +78,9 @@ def test_plan_names_the_plugin_whose_code_threw(kinolab, world, planner, message
 
 
 def test_a_throwing_planner_is_its_runs_error_and_the_others_go_on(kinolab, world, tmp_path):
-    experiment = tmp_path / "experiment.yaml"
-    experiment.write_text(f"""kind: planning
-name: throwing
-plugins: [{MISBEHAVING}]
-worlds:
-  - id: small
-    spec: {world}
-queries:
-  random: {{count: 2, min_distance: 4, max_distance: 9}}
-planners:
-  - id: lazy
+    experiment = planning_experiment(tmp_path, world, MISBEHAVING, 2, """  - id: lazy
     type: lazy_mp_astar
-    sampler: {{type: uniform, params: {{samples_per_axis: 3}}}}
+    sampler: {type: uniform, params: {samples_per_axis: 3}}
   - id: factory
     type: test_factory_throws_int
   - id: plans
