@@ -41,7 +41,13 @@ int runCommand(RunOptions& options) {
   const Experiment experiment = Experiment::fromFile(options.experiment);
   if (options.dry_run) {
     const auto runs = options.runner.shard.select(experiment.runs());
+    // The worlds are built (or loaded) and every query placed as the run will place them.
+    std::vector<const RunSpec*> pointers;
+    for (const RunSpec& run : runs) pointers.push_back(&run);
+    const PlacedInputs placed = placeInputs(experiment, pointers, options.runner.cache_dir);
     std::cout << describeRuns(experiment, runs);
+    std::cout << "\nevery query placed in its world (" << placed.worlds.size()
+              << " world(s) built or loaded)\n";
     return 0;
   }
   if (options.runner.out_dir.empty()) throw ConfigError("--out DIR is required (or --dry-run)");
@@ -86,8 +92,10 @@ void addRunCommand(CLI::App& app) {
                       "crash,killed (workers stopped from outside)");
   command->add_option("--shard", options->shard,
                       "Run the deterministic i-th of N parts (i/N), for array jobs");
-  command->add_flag("--dry-run", options->dry_run,
-                    "Validate and print the expanded runs (count and table); run nothing");
+  command->add_flag(
+      "--dry-run", options->dry_run,
+      "Validate, build (or load) the worlds and place every query as the run will, and "
+      "print the expanded runs (count and table); run nothing");
   command->add_option("--cache-dir", options->runner.cache_dir, "World cache directory")
       ->capture_default_str();
   command

@@ -7,7 +7,6 @@
 #include <filesystem>
 #include <fstream>
 #include <iostream>
-#include <set>
 #include <sstream>
 
 #include "commands.hpp"
@@ -17,6 +16,7 @@
 #include "kinolab/core/text.hpp"
 #include "kinolab/experiment/experiment.hpp"
 #include "kinolab/experiment/results_store.hpp"
+#include "kinolab/experiment/runner.hpp"
 #include "kinolab/experiment/slurm.hpp"
 #include "kinolab/world/world_cache.hpp"
 
@@ -43,6 +43,15 @@ void runSlurm(const SlurmOptions& o) {
   const Experiment experiment = Experiment::fromFile(o.experiment);
   const SlurmLayout layout{fs::absolute(o.out_dir).string()};
   const std::string cache = fs::absolute(o.cache_dir).string();
+  // Worlds are built once here, into the cache every shard reads, and every query is placed
+  // as the shards will place it, before anything is written or submitted.
+  const std::vector<RunSpec> runs = experiment.runs();
+  std::vector<const RunSpec*> pointers;
+  for (const RunSpec& run : runs) pointers.push_back(&run);
+  placeInputs(experiment, pointers, cache,
+              [](const ExperimentWorld& world, const std::shared_ptr<const World>&, bool cached) {
+                std::printf("world %s: %s\n", world.id.c_str(), cached ? "cached" : "built");
+              });
   const SlurmScripts scripts =
       slurmScripts(experiment, fs::absolute(o.experiment).string(), layout, o.request,
                    fs::read_symlink("/proc/self/exe").string(), cache);
@@ -55,18 +64,6 @@ void runSlurm(const SlurmOptions& o) {
               << scripts.array << "\n# " << layout.mergeScript() << "\n"
               << scripts.merge << "\n(dry run: nothing submitted)\n";
     return;
-  }
-  // Worlds are built once here, into the cache every shard reads.
-  std::set<std::uint64_t> built;
-  const WorldCache world_cache(cache);
-  for (const ExperimentVariant& variant : experiment.variants) {
-    for (const ExperimentWorld& world : variant.worlds) {
-      if (built.insert(world.spec.hash()).second) {
-        const WorldLoad load = world_cache.loadOrBuild(world.spec);
-        std::printf("world %s: %s\n", world.id.c_str(),
-                    load.source == WorldSource::kCache ? "cached" : "built");
-      }
-    }
   }
   const auto [array_status, array_id] = client({"sbatch", "--parsable", layout.arrayScript()});
   if (array_status != 0) throw Error("slurm: sbatch failed: " + array_id);

@@ -60,6 +60,28 @@ repetitions: 2
     assert ": 16 runs" in kinolab("run", path, "--dry-run", "--shard", "2/3").stdout
 
 
+@pytest.mark.parametrize("queries", [
+    "random: {count: 2, min_distance: 1000, max_distance: 2000}",  # farther than the world
+    "random: {count: 2, min_distance: 3, max_distance: 8, clearance: 100}",
+])
+def test_queries_that_cannot_be_placed_are_refused_by_the_dry_run_as_by_the_run(kinolab, tmp_path,
+                                                                                queries):
+    # The dry run builds the world and places the queries as the run does: the same error,
+    # and nothing written by either.
+    path = experiment(tmp_path, LAZY, queries=queries, plugins=False)
+    errors = []
+    for args in (("--dry-run",), ("--out", tmp_path / "out")):
+        result = kinolab("run", path, *args)
+        assert result.returncode == 1, result.stdout + result.stderr
+        assert "queries: could not place " in result.stderr, result.stderr
+        errors.append(result.stderr.strip().splitlines()[-1])
+    assert errors[0] == errors[1]
+    assert not (tmp_path / "out" / "results.sqlite").exists()
+    placed = experiment(tmp_path, LAZY, plugins=False, name="placed")
+    result = kinolab("run", placed, "--dry-run")
+    assert result.returncode == 0 and "every query placed in its world (1 world(s)" in result.stdout
+
+
 def test_a_lattice_that_cannot_move_is_refused_before_any_run(kinolab, tmp_path):
     # 27 controls at tau 0.6 s: the gentlest (3 m/s^2) reaches 1.8 m/s, above the limit.
     # Refused by the dry run and the run alike, at the limit's line, with the fix; nothing

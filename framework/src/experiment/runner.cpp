@@ -15,6 +15,7 @@
 #include <nlohmann/json.hpp>
 #include <set>
 #include <thread>
+#include <utility>
 
 #include "kinolab/core/error.hpp"
 #include "kinolab/core/files.hpp"
@@ -214,6 +215,28 @@ std::vector<std::string> runStatuses() {
   return statuses;
 }
 
+PlacedInputs placeInputs(
+    const Experiment& experiment, const std::vector<const RunSpec*>& runs,
+    const std::string& cache_dir,
+    const std::function<void(const ExperimentWorld&, const std::shared_ptr<const World>&, bool)>&
+        on_world) {
+  const WorldCache cache(cache_dir.empty() ? WorldCache::defaultDirectory() : cache_dir);
+  PlacedInputs inputs;
+  for (const RunSpec* run : runs) {
+    const ExperimentVariant& variant = experiment.variants[run->variant];
+    const ExperimentWorld& world = variant.worlds[run->world];
+    auto& built = inputs.worlds[world.spec.hash()];
+    if (!built) {
+      const WorldLoad load = cache.loadOrBuild(world.spec);
+      built = load.world;
+      if (on_world) on_world(world, built, load.source == WorldSource::kCache);
+    }
+    auto& list = inputs.queries[{run->variant, run->world}];
+    if (list.empty()) list = variant.queries.make(*built, world.id, experiment.seed);
+  }
+  return inputs;
+}
+
 std::string describeRuns(const Experiment& experiment, const std::vector<RunSpec>& runs) {
   std::string text = "experiment " + experiment.name + " (" + experiment.source + "), config " +
                      experiment.config_hash + ": " + std::to_string(runs.size()) + " runs\n";
@@ -312,12 +335,10 @@ void prepareStore(ResultsStore& store, const Experiment& experiment, const Runne
 
 /// The worlds and queries of the pending runs, built before the first worker so that every
 /// worker shares them (copy-on-write), with one collision model per world.
-struct SharedInputs {
-  std::map<std::uint64_t, std::shared_ptr<const World>> worlds;
+struct SharedInputs : PlacedInputs {
   /// Kept while workers run: their collision models are built here once and inherited by
   /// every worker (the body radius is irrelevant to the shared model).
   std::vector<TrajectoryChecker> checkers;
-  std::map<std::pair<std::size_t, std::size_t>, std::vector<PlanningQuery>> queries;
 
   const std::shared_ptr<const World>& world(const Experiment& experiment,
                                             const RunSpec& run) const {
@@ -328,25 +349,23 @@ struct SharedInputs {
   }
 };
 
-SharedInputs prepareInputs(const Experiment& experiment, const std::vector<const RunSpec*>& pending,
-                           const std::string& cache_dir, ResultsStore& store) {
-  const WorldCache cache(cache_dir.empty() ? WorldCache::defaultDirectory() : cache_dir);
+/// The placed worlds and queries, shared with the workers; each world recorded in the store
+/// and given its collision model.
+SharedInputs shareInputs(const Experiment& experiment, PlacedInputs placed, ResultsStore& store) {
   SharedInputs inputs;
-  for (const RunSpec* run : pending) {
-    const ExperimentVariant& variant = experiment.variants[run->variant];
-    const ExperimentWorld& world = variant.worlds[run->world];
-    auto& built = inputs.worlds[world.spec.hash()];
-    if (!built) {
+  static_cast<PlacedInputs&>(inputs) = std::move(placed);
+  std::set<std::uint64_t> shared;
+  for (const ExperimentVariant& variant : experiment.variants) {
+    for (const ExperimentWorld& world : variant.worlds) {
+      const auto built = inputs.worlds.find(world.spec.hash());
+      if (built == inputs.worlds.end() || !shared.insert(world.spec.hash()).second) continue;
       std::fprintf(stderr, "run: world %s (%s)\n", world.id.c_str(),
                    toHex(world.spec.hash()).c_str());
-      built = cache.loadOrBuild(world.spec).world;
-      store.insertWorld(worldRecord(*built, world.id));
+      store.insertWorld(worldRecord(*built->second, world.id));
       CheckerSettings settings;
       settings.robot_radius = 1e3;
-      inputs.checkers.emplace_back(built, settings);
+      inputs.checkers.emplace_back(built->second, settings);
     }
-    auto& list = inputs.queries[{run->variant, run->world}];
-    if (list.empty()) list = variant.queries.make(*built, world.id, experiment.seed);
   }
   return inputs;
 }
@@ -382,6 +401,11 @@ RunnerSummary runExperiment(const Experiment& experiment, const RunnerOptions& o
   ProcessPool pool(options.jobs);
   const std::vector<RunSpec> runs = options.shard.select(experiment.runs());
   summary.planned = static_cast<long long>(runs.size());
+  // The worlds built and every query placed before the results directory is touched: a
+  // query that cannot be placed leaves nothing behind.
+  std::vector<const RunSpec*> all;
+  for (const RunSpec& run : runs) all.push_back(&run);
+  PlacedInputs placed = placeInputs(experiment, all, options.cache_dir);
   // One writer per results directory: a second runner stops here, before any work.
   const DirectoryLock lock(options.out_dir, "kinolab run " + experiment.source);
   ResultsStore store((std::filesystem::path(options.out_dir) / "results.sqlite").string());
@@ -401,7 +425,7 @@ RunnerSummary runExperiment(const Experiment& experiment, const RunnerOptions& o
       pending.push_back(&run);
     }
   }
-  const SharedInputs inputs = prepareInputs(experiment, pending, options.cache_dir, store);
+  const SharedInputs inputs = shareInputs(experiment, std::move(placed), store);
 
   std::fprintf(stderr, "run: %s, shard %s: %zu runs, %lld already done, %zu to run, -j %d\n",
                experiment.name.c_str(), options.shard.text().c_str(), runs.size(), summary.skipped,

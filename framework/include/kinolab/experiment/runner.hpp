@@ -2,8 +2,10 @@
 
 #include <functional>
 #include <map>
+#include <memory>
 #include <set>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "kinolab/experiment/experiment.hpp"
@@ -59,6 +61,23 @@ RunnerSummary runExperiment(const Experiment& experiment, const RunnerOptions& o
 /// Every status a stored run can have: the planner's and the runner's (crash, killed, oom,
 /// error).
 std::vector<std::string> runStatuses();
+
+/// The worlds and queries of some runs, as an experiment runs them.
+struct PlacedInputs {
+  std::map<std::uint64_t, std::shared_ptr<const World>> worlds;  ///< by world spec hash
+  /// By (variant, world): every query, random ones placed from the experiment's seed.
+  std::map<std::pair<std::size_t, std::size_t>, std::vector<PlanningQuery>> queries;
+};
+
+/// Builds (or loads from the cache in `cache_dir`, the default cache when empty) the worlds of
+/// `runs` and places their queries exactly as runExperiment() does, so that a dry run or a
+/// Slurm submission refuses what the run would refuse (a random query that cannot be placed:
+/// a ConfigError naming the world). `on_world(world, built, cached)` is called once per world.
+PlacedInputs placeInputs(
+    const Experiment& experiment, const std::vector<const RunSpec*>& runs,
+    const std::string& cache_dir,
+    const std::function<void(const ExperimentWorld&, const std::shared_ptr<const World>&, bool)>&
+        on_world = {});
 
 /// What `kinolab run --dry-run` prints: the run count and a table of variants, worlds,
 /// queries and planners.
