@@ -2,11 +2,14 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <vector>
 
 #include "kinolab/builtin_plugins.hpp"
 #include "kinolab/core/error.hpp"
+#include "kinolab/core/random.hpp"
 
 namespace kinolab {
 namespace {
@@ -24,6 +27,36 @@ const char* kStudy =
     "samplers:\n"
     "  - {id: coarse, type: uniform, params: {samples_per_axis: 5}}\n"
     "  - {id: fine, type: uniform, params: {samples_per_axis: 7}}\n";
+
+TEST(SamplingStudy, NearestDistancesMatchAScanWithDuplicatesAndEveryDimension) {
+  // The k-d tree against every pair: random clouds, lattices (ties on every axis) and
+  // duplicates (distance 0), in 3 and 6 dimensions, from a single point to a few thousand.
+  Rng rng(11);
+  for (const int dims : {3, 6}) {
+    for (const std::size_t n :
+         {std::size_t{1}, std::size_t{2}, std::size_t{9}, std::size_t{40}, std::size_t{2000}}) {
+      for (int shape = 0; shape < 3; ++shape) {
+        std::vector<Eigen::Matrix<double, 6, 1>> points(n);
+        for (std::size_t i = 0; i < n; ++i) {
+          for (int k = 0; k < 6; ++k) {
+            const double u = rng.uniform(-1.0, 1.0);
+            points[i][k] = shape == 0 ? u : std::round(2.0 * u);  // shape 1, 2: a lattice
+          }
+          if (shape == 2 && i % 3 == 1) points[i] = points[i - 1];  // exact duplicates
+        }
+        const std::vector<double> nearest = nearestDistances(points, dims);
+        ASSERT_EQ(nearest.size(), n);
+        for (std::size_t i = 0; i < n; ++i) {
+          double expected = INFINITY;
+          for (std::size_t j = 0; j < n; ++j) {
+            if (j != i) expected = std::min(expected, (points[i] - points[j]).head(dims).norm());
+          }
+          ASSERT_EQ(nearest[i], expected) << "dims " << dims << " n " << n << " shape " << shape;
+        }
+      }
+    }
+  }
+}
 
 TEST(SamplingStudy, EndpointSpreadByHand) {
   // Three points on a line at 0, 0.05 and 0.3: the first two are within 0.1 of each other.
