@@ -4,6 +4,7 @@
 // budget: 10 ms for all three at 640 x 480.
 #include <benchmark/benchmark.h>
 
+#include <chrono>
 #include <cmath>
 
 #include "kinolab/core/random.hpp"

@@ -130,8 +130,9 @@ void addFlyCommand(CLI::App& app) {
                       "sensor.NAME: sensor.range, sensor.width, ...; kinolab list sensors), "
                       "map, map_resolution, window, window_margin, unknown, free_beyond, "
                       "replan_period, "
-                      "replan_budget, latency, timing, horizon, max_time, stuck_time, "
-                      "goal_tolerance, brake_acceleration (kinolab list flight)");
+                      "replan_budget, latency, timing, clock, horizon, max_time, stuck_time, "
+                      "goal_tolerance, brake_acceleration, commit, planning_margin, tracking "
+                      "(kinolab list flight)");
   command->add_option("--start", options->start, "Start position x,y,z in metres (at rest)")
       ->required();
   command->add_option("--goal", options->goal, "Goal position x,y,z in metres")->required();

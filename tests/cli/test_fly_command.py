@@ -2,6 +2,7 @@
 
 import csv
 import json
+import os
 
 import pytest
 
@@ -45,3 +46,26 @@ def test_fly_refuses_bad_input_naming_it(kinolab, world):
     blocked = kinolab("fly", "--world", world, "--planner", "lazy_mp_astar",
                       "--start", "-5,1,1.5", "--goal", "8.5,8,1.5")
     assert blocked.returncode == 0 and last_json(blocked)["status"] == "invalid_start"
+
+
+@pytest.mark.skipif(not os.environ.get("KINOLAB_MISBEHAVING"),
+                    reason="needs the test plugin library (CTest)")
+def test_a_replan_is_timed_on_the_cpu_unless_the_wall_clock_is_asked_for(kinolab, world,
+                                                                         tmp_path):
+    # test_trivial sleeps 200 ms and plans nothing: a wait, not work. On the CPU clock (the
+    # default) its replans are on time and fail as no_solution; on the wall clock every one is
+    # later than the 125 ms latency. Its planning model has no speed limit: the flight still
+    # samples its stops finitely (it looped forever on a zero time step).
+    for clock, status in (("cpu", "no_solution"), ("wall", "late")):
+        out = tmp_path / clock
+        result = kinolab("--plugin", os.environ["KINOLAB_MISBEHAVING"], "fly", "--world", world,
+                         "--planner", "test_trivial", "--set", "sleep_ms=200", "--flight",
+                         "planning_margin=0", "--flight", "stuck_time=0.5", "--flight",
+                         f"clock={clock}", "--start", "1,1,1.5", "--goal", "8.5,8,1.5",
+                         "--out", out)
+        assert result.returncode == 0, result.stderr
+        assert last_json(result)["status"] == "stuck"
+        replans = list(csv.DictReader((out / "replans.csv").open()))
+        assert replans and {row["status"] for row in replans} == {status}, (clock, replans)
+        times = [float(row["planning_time_ms"]) for row in replans]
+        assert (max(times) < 125.0) if clock == "cpu" else (min(times) >= 200.0), times

@@ -520,6 +520,22 @@ TEST(Planner, BuildingTheTreeForFiguresIsNotPlanningTime) {
   EXPECT_LT(result.planning_time_ms, 150.0);  // the 300 ms of doTree are not in it
 }
 
+TEST(Planner, ABudgetOnTheCpuClockIsNotSpentByWaiting) {
+  // 100 ms of sleep spend a 50 ms budget on the wall clock, not on the CPU's; a planner's
+  // budget keeps the caller's clock.
+  for (const BudgetClock clock : {BudgetClock::kWall, BudgetClock::kCpu}) {
+    StopCondition stop(Budget{0.05, std::numeric_limits<long long>::max(), clock});
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    bool expired = false;
+    for (long long i = 0; i < 64; ++i) expired = stop.expired(i) || expired;  // past the stride
+    EXPECT_EQ(expired, clock == BudgetClock::kWall);
+    EXPECT_EQ(stop.elapsed() >= 0.1, clock == BudgetClock::kWall) << stop.elapsed();
+  }
+  SlowTreePlanner planner;
+  planner.setup({test::smallWorld("forest"), nullptr, 1});
+  EXPECT_EQ(planner.budgetFor(Budget{1.0, 5, BudgetClock::kCpu}).clock, BudgetClock::kCpu);
+}
+
 TEST(MotionPrimitiveSearch, NoSearchOutgrowsItsMemoryBudgetEvenWithoutATimeLimit) {
   test::loadTestPlugins();
   ConfiguredPlanner configured = configurePlanner(

@@ -80,6 +80,22 @@ Trajectory splice(const Trajectory& committed, double t, const Trajectory& plan,
   return out;
 }
 
+/// Calls `visit(s)` at times s from `begin` (at least 0) to `end` (excluded), a sample every
+/// `spacing` metres of path at `speed` (at least 0.1 m/s; 10,000 samples when the speed is
+/// unlimited), at most 100,000, until it returns false; whether every call returned true.
+template <typename Visit>
+bool everySample(double begin, double end, double spacing, double speed, Visit&& visit) {
+  begin = std::max(0.0, begin);
+  const double span = end - begin;
+  if (!(span > 0.0)) return true;
+  const double wanted = std::isfinite(speed) ? span * std::max(0.1, speed) / spacing : 1e4;
+  const long long samples = std::clamp(std::llround(std::ceil(wanted)), 1LL, 100000LL);
+  for (long long i = 0; i < samples; ++i) {
+    if (!visit(begin + span * static_cast<double>(i) / static_cast<double>(samples))) return false;
+  }
+  return true;
+}
+
 /// True when the trajectory from t on stays inside the map's box and the body keeps its
 /// radius (less the tolerance) from the window's known obstacles (samples every 2 cm of path
 /// at most, and the end).
@@ -89,13 +105,10 @@ bool freeFrom(const Trajectory& trajectory, double t, const Box& map, const Worl
   const auto free = [&](const Eigen::Vector3d& p) {
     return map.contains(p) && !(window.bounds().contains(p) && window.clearance(p) < radius);
   };
-  // 2 cm of path at the speed limit, at most 100,000 samples.
-  const double step = std::max(0.02 / std::max(0.1, model.limits.bound[1].norm()),
-                               (trajectory.duration() - t) / 1e5);
-  for (double s = std::max(0.0, t); s <= trajectory.duration(); s += step) {
-    if (!free(trajectory.evaluate(s))) return false;
-  }
-  return free(trajectory.endPosition());
+  // A sample every 2 cm of path at the speed limit.
+  return everySample(t, trajectory.duration(), 0.02, model.limits.bound[1].norm(),
+                     [&](double s) { return free(trajectory.evaluate(s)); }) &&
+         free(trajectory.endPosition());
 }
 
 /// A straight move at rest at both ends from `from` by `offset`: two primitives (order 2),
@@ -498,7 +511,8 @@ class FlightLoop {
       const std::shared_ptr<void> guard =
           guard_replan_ ? guard_replan_(settings_.replan_budget) : nullptr;
       const PlanResult plan = planner->plan(
-          local, Budget{settings_.replan_budget, std::numeric_limits<long long>::max()});
+          local,
+          Budget{settings_.replan_budget, std::numeric_limits<long long>::max(), settings_.clock});
       replan.status = std::string(toString(plan.status));
       replan.planning_time_ms = plan.planning_time_ms;
       replan.distance_to_goal = plan.distance_to_goal;
@@ -579,14 +593,17 @@ class FlightLoop {
   double seenUntil(const Trajectory& trajectory, double from = 0.0) const {
     if (settings_.commit == CommitSpace::kPlanned) return trajectory.duration();
     const double spacing = 0.5 * map_model_.resolution;
-    const double step = std::max(spacing / std::max(0.1, model_.limits.bound[1].norm()),
-                                 (trajectory.duration() - from) / 1e5);
     const double radius = 0.5 * spacing;
     double last = from;
-    for (double s = from; s <= trajectory.duration(); s += step) {
-      if (!map_->seenAround(trajectory.evaluate(s), radius)) return last;
-      last = s;
-    }
+    const bool seen = everySample(from, trajectory.duration(), spacing,
+                                  model_.limits.bound[1].norm(), [&](double s) {
+                                    if (!map_->seenAround(trajectory.evaluate(s), radius)) {
+                                      return false;
+                                    }
+                                    last = s;
+                                    return true;
+                                  });
+    if (!seen) return last;
     return map_->seenAround(trajectory.endPosition(), radius) ? trajectory.duration() : last;
   }
 

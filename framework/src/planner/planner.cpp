@@ -96,7 +96,7 @@ void Planner::setup(const PlannerContext& context) {
 Budget Planner::budgetFor(const Budget& budget) const {
   const Budget own = ownBudget();
   return {std::min(budget.time_limit, own.time_limit),
-          std::min(budget.max_iterations, own.max_iterations)};
+          std::min(budget.max_iterations, own.max_iterations), budget.clock};
 }
 
 PlanResult Planner::plan(const PlanningQuery& query, const Budget& budget, SearchTree* tree) {
@@ -127,14 +127,12 @@ PlanResult Planner::plan(const PlanningQuery& query, const Budget& budget, Searc
   }
 
   StopCondition stop(budgetFor(budget));
-  const auto begin = std::chrono::steady_clock::now();
   try {
     result = doPlan(query, stop);
   } catch (...) {
     rethrowFromPlugin(pluginName(), "plan()");
   }
-  result.planning_time_ms =
-      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - begin).count();
+  result.planning_time_ms = 1e3 * stop.elapsed();
   if (tree) {
     try {
       *tree = doTree(kMaxTreeEdges);

@@ -175,6 +175,19 @@ double limitFactor(const UniformBspline& spline, const DynamicLimits& limits) {
   return factor;
 }
 
+/// Ends a solve once the planning budget is spent (on its clock), keeping the last iterate.
+class BudgetCallback final : public ceres::IterationCallback {
+ public:
+  explicit BudgetCallback(const StopCondition& stop) : stop_(stop) {}
+  ceres::CallbackReturnType operator()(const ceres::IterationSummary&) override {
+    return stop_.elapsed() >= stop_.budget().time_limit ? ceres::SOLVER_TERMINATE_SUCCESSFULLY
+                                                        : ceres::SOLVER_CONTINUE;
+  }
+
+ private:
+  const StopCondition& stop_;
+};
+
 CheckerSettings clearanceCheck(const SmootherSettings& settings) {
   CheckerSettings check;
   check.robot_radius = settings.robot_radius;
@@ -258,9 +271,10 @@ void BsplineSmoother::solve(Eigen::Matrix3Xd& control, double interval, double w
   options.max_num_iterations = settings_.max_solver_iterations;
   options.logging_type = ceres::SILENT;
   options.num_threads = 1;
-  if (std::isfinite(stop.budget().time_limit)) {
-    options.max_solver_time_in_seconds = std::max(stop.budget().time_limit - stop.elapsed(), 1e-3);
-  }
+  // Ceres' own time limit reads the wall clock; the budget may be on the CPU's, so the budget
+  // is checked after every iteration instead.
+  BudgetCallback budget_callback(stop);
+  if (std::isfinite(stop.budget().time_limit)) options.callbacks.push_back(&budget_callback);
   ceres::Solver::Summary summary;
   ceres::Solve(options, &problem, &summary);
   tally.ceres_iterations += static_cast<int>(summary.iterations.size());

@@ -357,20 +357,20 @@ PlanResult OmplControlPlanner::doPlan(const PlanningQuery& query, StopCondition&
   p.last_planner = planner;
 
   const auto* sst = dynamic_cast<const Seeded<oc::SST>*>(planner.get());
-  const auto begin = std::chrono::steady_clock::now();
+  const Stopwatch watch(stop.budget().clock);
   long long calls = 0;
   const ob::PlannerStatus status = planner->solve(ob::PlannerTerminationCondition([&] {
     ++calls;
     if (sst) {
       const double cost = sst->bestCost();
       if (std::isfinite(cost) && (result.progress.empty() || cost < result.progress.back().value))
-        result.progress.push_back({"anytime_cost", millisecondsSince(begin), cost});
+        result.progress.push_back({"anytime_cost", watch.milliseconds(), cost});
     }
     if (settings_.stop_at_first && (!result.progress.empty() || definition->hasExactSolution()))
       return true;
     return stop.expired(calls);
   }));
-  const double planning_ms = millisecondsSince(begin);
+  const double planning_ms = watch.milliseconds();
   if (status == ob::PlannerStatus::EXACT_SOLUTION ||
       status == ob::PlannerStatus::APPROXIMATE_SOLUTION) {
     auto& path = static_cast<oc::PathControl&>(*definition->getSolutionPath());

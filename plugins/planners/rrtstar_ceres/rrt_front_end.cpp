@@ -149,12 +149,12 @@ namespace {
 class Monitor {
  public:
   Monitor(const SeededRrtStar& planner, const FrontEndSettings& settings, StopCondition& stop)
-      : planner_(planner), settings_(settings), stop_(stop) {}
+      : planner_(planner), settings_(settings), stop_(stop), watch_(stop.budget().clock) {}
 
   bool operator()() {
     const long long iterations = planner_.numIterations();
     const double cost = planner_.bestCost().value();
-    const double now_ms = millisecondsSince(begin_);
+    const double now_ms = watch_.milliseconds();
     if (std::isfinite(cost) && (progress.empty() || cost < progress.back().value)) {
       progress.push_back({"anytime_cost", now_ms, cost});
     }
@@ -170,7 +170,7 @@ class Monitor {
     return stop_.expired(iterations);
   }
 
-  double elapsedMs() const { return millisecondsSince(begin_); }
+  double elapsedMs() const { return watch_.milliseconds(); }
 
   Progress progress;
   long long first_iteration = -1;
@@ -181,7 +181,7 @@ class Monitor {
   const SeededRrtStar& planner_;
   const FrontEndSettings& settings_;
   StopCondition& stop_;
-  std::chrono::steady_clock::time_point begin_ = std::chrono::steady_clock::now();
+  Stopwatch watch_;  // the budget's clock, from the search's start
 };
 
 }  // namespace
@@ -284,7 +284,7 @@ class AnyPlannerMonitor {
  public:
   AnyPlannerMonitor(const ob::Planner& planner, const ob::ProblemDefinition& problem,
                     bool stop_at_first, StopCondition& stop)
-      : problem_(problem), stop_at_first_(stop_at_first), stop_(stop) {
+      : problem_(problem), stop_at_first_(stop_at_first), stop_(stop), watch_(stop.budget().clock) {
     // OMPL names it "best cost REAL" or "best cost DOUBLE" (BIT*, ABIT*, AIT*).
     for (const auto& [name, read] : planner.getPlannerProgressProperties()) {
       if (name.rfind("best cost ", 0) == 0) best_cost_ = read;
@@ -293,7 +293,7 @@ class AnyPlannerMonitor {
 
   bool operator()() {
     ++calls;
-    const double now_ms = millisecondsSince(begin_);
+    const double now_ms = watch_.milliseconds();
     double cost = INFINITY;
     if (best_cost_) cost = std::strtod(best_cost_().c_str(), nullptr);
     if (std::isfinite(cost) && (progress.empty() || cost < progress.back().value)) {
@@ -305,7 +305,7 @@ class AnyPlannerMonitor {
     return stop_.expired(calls);
   }
 
-  double elapsedMs() const { return millisecondsSince(begin_); }
+  double elapsedMs() const { return watch_.milliseconds(); }
 
   Progress progress;
   long long calls = 0;
@@ -315,7 +315,7 @@ class AnyPlannerMonitor {
   bool stop_at_first_;
   StopCondition& stop_;
   std::function<std::string()> best_cost_;
-  std::chrono::steady_clock::time_point begin_ = std::chrono::steady_clock::now();
+  Stopwatch watch_;  // the budget's clock, from the search's start
 };
 
 }  // namespace

@@ -57,6 +57,10 @@ struct FlightSettings {
   /// search (setting up on the window, building the result).
   double latency = -1.0;
   FlightTiming timing = FlightTiming::kRealTime;
+  /// The clock a replan's budget and measured planning time are read on: by default the CPU
+  /// time it takes (as on the vehicle's own core), so that what else the machine runs does not
+  /// make plans late or cut their search.
+  BudgetClock clock = BudgetClock::kCpu;
   double horizon = 3.5;             ///< m: the local goal's distance when the goal is farther
   double max_time = 120.0;          ///< s of flight
   double stuck_time = 15.0;         ///< s without 0.5 m of progress towards the goal
@@ -91,6 +95,11 @@ struct FlightSettings {
         "real_time: a plan whose measured planning time exceeds the latency is late and "
         "discarded; deterministic: every plan is taken as if on time, so a flight repeats "
         "bit for bit");
+    f.choice("clock", clock, {{"cpu", BudgetClock::kCpu}, {"wall", BudgetClock::kWall}},
+             "the clock of each replan's budget and planning time (real_time's latency): cpu: "
+             "the process's CPU time while planning, what it takes on a core of its own, so "
+             "parallel runs and other load do not change a flight (a planner that waits, for a "
+             "GPU or a lock, is not charged for the wait); wall: the wall clock, load included");
     f.real("horizon", horizon, 0.5, 1000.0,
            "local goal distance when the goal is farther, m (kept 0.5 m inside the window)");
     f.real("max_time", max_time, 0.1, 1e5, "flight time limit, s (status timeout)");

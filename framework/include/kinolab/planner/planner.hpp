@@ -85,7 +85,7 @@ struct PlanResult {
   Trajectory trajectory;               ///< empty when there is none
   double cost = INFINITY;              ///< the planner's own cost of the trajectory
   double distance_to_goal = INFINITY;  ///< D: from the trajectory's closest point (or start)
-  double planning_time_ms = 0.0;       ///< around the planner's work only (no checking)
+  double planning_time_ms = 0.0;  ///< the planner's work only (no checking), on the budget's clock
   Statistics statistics;
   /// Anytime progress: samples of the planner's declared series (MetricSpecs::series), each
   /// series in time order from the start of its work.
@@ -120,7 +120,8 @@ class Planner {
 
   /// The budget plan(query, budget) works within: per limit, the tighter of `budget` (the
   /// caller's: an experiment's `budget:`, `kinolab plan --time-limit`) and the planner's own
-  /// (its `time_limit` and expansion parameters). The one rule every caller times against.
+  /// (its `time_limit` and expansion parameters), on the caller's clock. The one rule every
+  /// caller times against.
   Budget budgetFor(const Budget& budget) const;
 
   bool isSetup() const { return world_ != nullptr; }
