@@ -100,6 +100,40 @@ def test_a_throwing_planner_is_its_runs_error_and_the_others_go_on(kinolab, worl
             assert status == "error" and needle in message and MISBEHAVING in message
 
 
+def test_a_throwing_sensor_or_vehicle_map_is_named_by_fly_and_is_its_runs_error(kinolab, world,
+                                                                               tmp_path):
+    fly = ["fly", "--world", world, "--planner", "lazy_mp_astar", "--start", "1,1,1.5",
+           "--goal", "8.5,8,1.5"]
+    one_error_line(kinolab("--plugin", MISBEHAVING, *fly, "--flight", "sensor=test_sensor_throws"),
+                   MISBEHAVING, "(sensor 'test_sensor_throws'): rayCount() threw: "
+                   "test_sensor_throws has no rays")
+    map_message = ("(vehicle_map 'test_map_throws_int'): insert() threw something that is not "
+                   "a std::exception")
+    one_error_line(kinolab("--plugin", MISBEHAVING, *fly, "--flight", "map=test_map_throws_int"),
+                   MISBEHAVING, map_message)
+    experiment = tmp_path / "flights.yaml"
+    experiment.write_text(f"""kind: flight
+name: hostile_flights
+plugins: [{MISBEHAVING}]
+worlds:
+  - id: small
+    spec: {world}
+queries:
+  random: {{count: 2, min_distance: 4, max_distance: 9, height: [1.5, 1.5]}}
+planners:
+  - id: lazy
+    type: lazy_mp_astar
+flight: {{map: test_map_throws_int}}
+""")
+    result = kinolab("run", experiment, "--out", tmp_path / "out")
+    assert result.returncode == 0, result.stderr
+    with closing(sqlite3.connect(tmp_path / "out" / "results.sqlite")) as db:
+        rows = db.execute("SELECT status, message FROM runs").fetchall()
+    assert len(rows) == 2
+    for status, message in rows:
+        assert status == "error" and map_message in message and MISBEHAVING in message
+
+
 def test_plugin_is_repeatable_and_loads_a_library_once(kinolab, tmp_path):
     link = tmp_path / "same.so"
     link.symlink_to(MISBEHAVING)

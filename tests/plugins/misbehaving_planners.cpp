@@ -1,6 +1,6 @@
 // Test-only planners for the experiment runner (a plugin library, never built into kinolab):
 // each misbehaves in one way, so the runner's isolation and the guards around plugin code can
-// be tested. `test_trivial` does
+// be tested (and a sensor and a vehicle map that throw). `test_trivial` does
 // nothing at all (after an optional sleep): the runner's overhead per run. `test_metric`
 // reports one statistic of its own, declared in one line, to show that it reaches every
 // output without other edits (and, when told to, one it does not declare).
@@ -11,6 +11,8 @@
 #include <vector>
 
 #include "kinolab/core/plugin.hpp"
+#include "kinolab/flight/sensor.hpp"
+#include "kinolab/flight/vehicle_map.hpp"
 #include "kinolab/planner/planner.hpp"
 
 namespace {
@@ -81,6 +83,22 @@ class MetricPlanner final : public Planner {
   bool undeclared_;
 };
 
+/// A camera whose rays cannot be had: rayDirections() throws a std::exception.
+class ThrowingSensor final : public Sensor {
+ public:
+  double maxRange() const override { return 5.0; }
+  double frameRate() const override { return 10.0; }
+  std::vector<Eigen::Vector3d> rayDirections() const override {
+    throw std::runtime_error("test_sensor_throws has no rays");
+  }
+};
+
+/// A map whose sensor model throws an int on the first frame.
+class ThrowingMap final : public VehicleMap {
+ protected:
+  void doInsert(const SensorFrame&, double) override { throw 13; }
+};
+
 }  // namespace
 
 KINOLAB_REGISTER_PLUGINS(registrar) {
@@ -105,6 +123,11 @@ KINOLAB_REGISTER_PLUGINS(registrar) {
                          });
   registrar.add<Planner>("test_factory_throws_int", "its factory throws an int", ParameterSpecs(),
                          [](const ParameterSet&) -> std::unique_ptr<Planner> { throw 7; });
+  registrar.add<Sensor>("test_sensor_throws", "its rays throw an exception", ParameterSpecs(),
+                        [](const ParameterSet&) { return std::make_unique<ThrowingSensor>(); });
+  registrar.add<VehicleMap>("test_map_throws_int", "inserting a frame throws an int",
+                            ParameterSpecs(),
+                            [](const ParameterSet&) { return std::make_unique<ThrowingMap>(); });
   registrar.add<Planner>(
       "test_metric", "reports a statistic of its own (and, if told, an undeclared one)",
       ParameterSpecs().boolean("undeclared", false, "also report an undeclared statistic"),

@@ -264,9 +264,48 @@ const ParameterSpecs& flightParameters() {
   return specs;
 }
 
+namespace {
+
+/// A sensor whose every call is guarded (guardPluginCall): an exception from its code is a
+/// PluginCodeError naming it, whatever it threw.
+class GuardedSensor final : public Sensor {
+ public:
+  GuardedSensor(std::unique_ptr<Sensor> sensor, std::string name)
+      : sensor_(std::move(sensor)), name_(std::move(name)) {}
+  double maxRange() const override {
+    return guardPluginCall(name_, "maxRange()", [&] { return sensor_->maxRange(); });
+  }
+  double frameRate() const override {
+    return guardPluginCall(name_, "frameRate()", [&] { return sensor_->frameRate(); });
+  }
+  std::vector<Eigen::Vector3d> rayDirections() const override {
+    return guardPluginCall(name_, "rayDirections()", [&] { return sensor_->rayDirections(); });
+  }
+  std::size_t rayCount() const override {
+    return guardPluginCall(name_, "rayCount()", [&] { return sensor_->rayCount(); });
+  }
+  SensorNoise noise() const override {
+    return guardPluginCall(name_, "noise()", [&] { return sensor_->noise(); });
+  }
+
+ private:
+  std::unique_ptr<Sensor> sensor_;
+  std::string name_;
+};
+
+/// How errors from the code of the `kind` plugin a flight parameter `name` chose name it.
+template <typename Interface>
+std::string chosenPluginName(const ParameterSet& p, const std::string& name) {
+  const PluginRegistry<Interface>& registry = pluginRegistry<Interface>();
+  return describePlugin(registry.kind(), registry.info(p.text(name)));
+}
+
+}  // namespace
+
 FlightSetup flightSetup(const ParameterSet& p) {
   FlightSetup setup;
-  setup.sensor = pluginRegistry<Sensor>().createChosen(p, "sensor");
+  setup.sensor = std::make_shared<GuardedSensor>(pluginRegistry<Sensor>().createChosen(p, "sensor"),
+                                                 chosenPluginName<Sensor>(p, "sensor"));
   const double range = setup.sensor->maxRange();
   const double rate = setup.sensor->frameRate();
   if (!(std::isfinite(range) && range > 0.0 && std::isfinite(rate) && rate > 0.0)) {
@@ -282,7 +321,11 @@ FlightSetup flightSetup(const ParameterSet& p) {
                       " (raise pixel_skip, or lower the resolution, beams or channels)");
   }
   // A new map for each flight, made as the parameters say (checked now, once).
-  setup.make_map = [p] { return pluginRegistry<VehicleMap>().createChosen(p, "map"); };
+  setup.make_map = [p, name = chosenPluginName<VehicleMap>(p, "map")] {
+    std::unique_ptr<VehicleMap> map = pluginRegistry<VehicleMap>().createChosen(p, "map");
+    map->nameAs(name);
+    return map;
+  };
   setup.make_map();
   setup.map = readFields<MapModel>(p);
   setup.settings = readFields<FlightSettings>(p);

@@ -34,12 +34,12 @@ void VehicleMap::setup(const Box& bounds, const MapModel& model) {
   state_.assign(lattice_.size(), 0);
   window_field_.reset();
   window_world_.reset();
-  doSetup();
+  guardPluginCall(plugin_name_, "setup()", [&] { doSetup(); });
 }
 
 void VehicleMap::insert(const SensorFrame& frame, double max_range) {
   if (!isSetup()) throw InvalidArgument("VehicleMap::insert before setup()");
-  doInsert(frame, max_range);
+  guardPluginCall(plugin_name_, "insert()", [&] { doInsert(frame, max_range); });
 }
 
 void VehicleMap::doMarkFree(std::size_t index, const Eigen::Vector3d& /*center*/) {
@@ -48,10 +48,12 @@ void VehicleMap::doMarkFree(std::size_t index, const Eigen::Vector3d& /*center*/
 
 void VehicleMap::markFree(const Eigen::Vector3d& center, double radius) {
   if (!isSetup()) throw InvalidArgument("VehicleMap::markFree before setup()");
-  lattice_.forEachVoxelIn(center.array() - radius, center.array() + radius, [&](std::size_t i) {
-    const Eigen::Vector3d c = voxelCenter(i);
-    // Only unseen voxels: what the sensor saw (an obstacle beside the body) stays as seen.
-    if ((c - center).norm() <= radius && state_[i] == 0) doMarkFree(i, c);
+  guardPluginCall(plugin_name_, "markFree()", [&] {
+    lattice_.forEachVoxelIn(center.array() - radius, center.array() + radius, [&](std::size_t i) {
+      const Eigen::Vector3d c = voxelCenter(i);
+      // Only unseen voxels: what the sensor saw (an obstacle beside the body) stays as seen.
+      if ((c - center).norm() <= radius && state_[i] == 0) doMarkFree(i, c);
+    });
   });
 }
 

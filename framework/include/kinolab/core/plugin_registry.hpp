@@ -37,6 +37,16 @@ std::string describePlugin(std::string_view kind, const PluginInfo& info);
 /// it said".
 [[noreturn]] void rethrowFromPlugin(std::string_view who, std::string_view call);
 
+/// `call_plugin()`, its exceptions passed through rethrowFromPlugin(who, call).
+template <typename Call>
+auto guardPluginCall(std::string_view who, std::string_view call, Call&& call_plugin) {
+  try {
+    return call_plugin();
+  } catch (...) {
+    rethrowFromPlugin(who, call);
+  }
+}
+
 /// What every registry has, whatever its interface: its kind and its plugins' declarations.
 /// `kinolab list` and plugin-valued parameters (ParameterSpecs::plugin()) reach every kind
 /// through this, by name (findPluginRegistry()).

@@ -77,6 +77,9 @@ class VehicleMap {
   /// everything unknown. A ConfigError when the lattice is too large to keep.
   void setup(const Box& bounds, const MapModel& model);
   bool isSetup() const { return !state_.empty(); }
+  /// How errors from the kind's code (doSetup, doInsert, doMarkFree) name it, e.g. "plugin
+  /// LIB (vehicle_map 'KEY')" (flightSetup() names the maps it makes; "vehicle_map" if unset).
+  void nameAs(std::string plugin_name) { plugin_name_ = std::move(plugin_name); }
 
   /// Inserts a frame seen from frame.origin, rays cut at `max_range`: free space along every
   /// ray, an obstacle at every hit, as the map kind's sensor model decides.
@@ -140,6 +143,7 @@ class VehicleMap {
  private:
   MapModel model_;
   Box bounds_;
+  std::string plugin_name_ = "vehicle_map";
   /// The box on the map's lattice of half-sides `half` around `center`, clamped to the map.
   Box latticeBox(const Eigen::Vector3d& center, const Eigen::Vector3d& half) const;
   /// The window's occupancy on `grid` (a box of the lattice) seen from `center`.
