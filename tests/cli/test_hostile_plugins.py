@@ -1,6 +1,7 @@
 """Plugin libraries and plugins that misbehave where kinolab calls them: a library built for
-another ABI, an entry point or factory that throws (a std::exception or an int), a planner
-that throws an int. Each is one `kinolab: error:` line naming the library and the plugin, a
+another ABI, one whose ABI record or entry point is not what it should be (a one-byte record,
+data for a function), an entry point or factory that throws (a std::exception or an int), a
+planner that throws an int, a sensor and a vehicle map that throw. Each is one `kinolab: error:` line naming the library and the plugin, a
 non-zero exit, never a crash; in `kinolab run` a throwing planner is its runs' error and the
 other planners go on. `--plugin` is repeatable and loads a library once."""
 
@@ -50,6 +51,8 @@ def one_error_line(result, *needles):
     ("abi_mismatch", "this kinolab has ABI"),
     ("entry_throws", "its entry point (kinolab_register_plugins) threw: hostile entry point"),
     ("entry_throws_int", "threw something that is not a std::exception"),
+    ("small_record", "its kinolab_plugin_abi_record is 1 bytes, not 16"),
+    ("data_entry", "its kinolab_register_plugins is not a function"),
 ])
 def test_a_hostile_library_is_refused_by_every_command(kinolab, world, tmp_path, library,
                                                        message):

@@ -1,7 +1,8 @@
 // Test-only plugin libraries that are refused when loaded, one per KINOLAB_HOSTILE value
 // (tests/CMakeLists.txt builds each): 1 a library built for another plugin ABI (its record
 // says ABI - 1; its entry point would crash if called), 2 an entry point that throws a
-// std::exception after registering a planner, 3 one that throws an int.
+// std::exception after registering a planner, 3 one that throws an int, 4 an ABI record of
+// one byte (reading kinolab's 16 would run past it), 5 an entry point that is data.
 #include <stdexcept>
 #include <string>
 
@@ -18,6 +19,19 @@ extern "C" __attribute__((visibility("default"))) void kinolab_register_plugins(
   __builtin_trap();
   (void)registrar;
 }
+#elif KINOLAB_HOSTILE == 4
+extern "C" __attribute__((visibility("default"))) const char kinolab_plugin_abi_record = 'k';
+extern "C" __attribute__((visibility("default"))) void kinolab_register_plugins(
+    kinolab::PluginRegistrar& registrar) {
+  __builtin_trap();  // never called: the record is not kinolab's
+  (void)registrar;
+}
+#elif KINOLAB_HOSTILE == 5
+extern "C" __attribute__((visibility("default")))
+const KinolabPluginAbiRecord kinolab_plugin_abi_record = KINOLAB_PLUGIN_ABI_RECORD;
+// Data where the entry point should be: calling it would jump into these bytes.
+extern "C" __attribute__((visibility("default")))
+const unsigned char kinolab_register_plugins[] = {0x0f, 0x0b};
 #else
 KINOLAB_REGISTER_PLUGINS(registrar) {
   registrar.add<kinolab::Planner>(

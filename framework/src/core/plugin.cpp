@@ -1,6 +1,7 @@
 #include "kinolab/core/plugin.hpp"
 
 #include <dlfcn.h>
+#include <link.h>
 
 #include <filesystem>
 #include <mutex>
@@ -12,6 +13,25 @@ namespace {
 std::map<std::string, std::string>& libraryVersions() {
   static std::map<std::string, std::string> versions;
   return versions;
+}
+
+/// What the library's symbol table says `address` (from dlsym) is: "" when it is an object
+/// of `size` bytes (size 0: a function), else what it is instead. A record smaller than
+/// kinolab's would be read past its end, and data called as the entry point would crash.
+std::string symbolProblem(void* address, std::size_t size) {
+  Dl_info info{};
+  ElfW(Sym)* symbol = nullptr;
+  if (dladdr1(address, &info, reinterpret_cast<void**>(&symbol), RTLD_DL_SYMENT) == 0 ||
+      symbol == nullptr) {
+    return "is not in the library's symbol table";
+  }
+  const int type = ELF64_ST_TYPE(symbol->st_info);
+  if (size == 0) return type == STT_FUNC ? "" : "is not a function";
+  if (type != STT_OBJECT) return "is not data";
+  if (symbol->st_size != size) {
+    return "is " + std::to_string(symbol->st_size) + " bytes, not " + std::to_string(size);
+  }
+  return "";
 }
 
 }  // namespace
@@ -77,6 +97,17 @@ void loadPluginLibrary(const std::string& path) {
                       ": no kinolab entry point (kinolab_register_plugins and "
                       "kinolab_plugin_abi_record); define them with "
                       "KINOLAB_REGISTER_PLUGINS(registrar) from kinolab/core/plugin.hpp");
+  }
+  for (const auto& [symbol, problem] :
+       {std::pair{"kinolab_plugin_abi_record",
+                  symbolProblem(const_cast<KinolabPluginAbiRecord*>(record),
+                                sizeof(KinolabPluginAbiRecord))},
+        std::pair{"kinolab_register_plugins", symbolProblem(reinterpret_cast<void*>(entry), 0)}}) {
+    if (!problem.empty()) {
+      dlclose(handle);
+      throw PluginError(name + ": its " + symbol + " " + problem +
+                        ": not a kinolab plugin library built by KINOLAB_REGISTER_PLUGINS");
+    }
   }
   const KinolabPluginAbiRecord built = *record;  // copied: the library may be closed below
   const KinolabPluginAbiRecord here = KINOLAB_PLUGIN_ABI_RECORD;
