@@ -969,23 +969,35 @@ TEST(FlightTest, BadFlightParametersNameTheParameter) {
   EXPECT_THROW(Flight({{"rnage", "5", "--flight"}}), ConfigError);
 }
 
-TEST(FlightTest, ASensorOfMoreRaysAFrameThanTheCapIsRefusedWithTheEstimate) {
-  // Both within their parameters' ranges: 4096^2 pixels, 100,000 beams x 1,024 channels.
-  for (const auto& assignments :
-       {std::vector<ParameterAssignment>{{"sensor.width", "4096", "t"},
-                                         {"sensor.height", "4096", "t"},
-                                         {"sensor.pixel_skip", "1", "t"}},
-        std::vector<ParameterAssignment>{{"sensor", "lidar", "t"},
-                                         {"sensor.beams", "100000", "t"},
-                                         {"sensor.channels", "1024", "t"}}}) {
+TEST(FlightTest, ASensorOfMoreWorkAFrameThanTheCapsIsRefusedWithTheEstimate) {
+  // All within their parameters' ranges: 4096^2 pixels, 100,000 beams x 1,024 channels (too
+  // many rays); 3,900 x 256 beams at 100 m (under the rays' cap, 1e9 voxel steps at 0.1 m:
+  // seconds a frame), which fits a 0.5 m map.
+  const std::vector<ParameterAssignment> far_lidar{{"sensor", "lidar", "t"},
+                                                   {"sensor.beams", "3900", "t"},
+                                                   {"sensor.channels", "256", "t"},
+                                                   {"sensor.range", "100", "t"}};
+  for (const auto& [assignments, needle] :
+       {std::pair{std::vector<ParameterAssignment>{{"sensor.width", "4096", "t"},
+                                                   {"sensor.height", "4096", "t"},
+                                                   {"sensor.pixel_skip", "1", "t"}},
+                  "casts 16777216 rays a frame of up to 10 m"},
+        std::pair{std::vector<ParameterAssignment>{{"sensor", "lidar", "t"},
+                                                   {"sensor.beams", "100000", "t"},
+                                                   {"sensor.channels", "1024", "t"}},
+                  "casts 102400000 rays a frame"},
+        std::pair{far_lidar, "casts 998400 rays a frame of up to 100 m, up to 998400000 voxel"}}) {
     try {
       flightSetup(flightParameters().resolve(assignments, "flight"));
       ADD_FAILURE() << "accepted";
     } catch (const ConfigError& error) {
-      EXPECT_NE(std::string(error.what()).find("rays a frame, about"), std::string::npos)
-          << error.what();
+      EXPECT_NE(std::string(error.what()).find(needle), std::string::npos) << error.what();
+      EXPECT_NE(std::string(error.what()).find("ms a frame to simulate"), std::string::npos);
     }
   }
+  std::vector<ParameterAssignment> coarse = far_lidar;
+  coarse.push_back({"map_resolution", "0.5", "t"});
+  EXPECT_NO_THROW(flightSetup(flightParameters().resolve(coarse, "flight")));
   // The sensor's count is its directions' (the flight relies on it), and the default fits.
   const FlightSetup setup = flightSetup(flightParameters().resolve({}, "flight"));
   EXPECT_EQ(setup.sensor->rayCount(), setup.sensor->rayDirections().size());

@@ -313,12 +313,18 @@ FlightSetup flightSetup(const ParameterSet& p) {
                       formatNumber(range) + " m and a rate of " + formatNumber(rate) +
                       " Hz; both must be finite and positive");
   }
-  if (const std::size_t rays = setup.sensor->rayCount(); rays > kMaxRaysPerFrame) {
-    // About 0.23 us a ray (the every-pixel camera's 70 ms for 307,200 rays, docs/flights.md).
-    throw ConfigError("flight: sensor '" + p.text("sensor") + "' casts " + std::to_string(rays) +
-                      " rays a frame, about " + formatNumber(std::round(rays * 0.23e-3)) +
-                      " ms a frame to simulate; at most " + std::to_string(kMaxRaysPerFrame) +
-                      " (raise pixel_skip, or lower the resolution, beams or channels)");
+  setup.map = readFields<MapModel>(p);
+  const std::size_t rays = setup.sensor->rayCount();
+  const double steps = static_cast<double>(rays) * range / setup.map.resolution;
+  if (rays > kMaxRaysPerFrame || steps > kMaxVoxelStepsPerFrame) {
+    throw ConfigError(
+        "flight: sensor '" + p.text("sensor") + "' casts " + std::to_string(rays) +
+        " rays a frame of up to " + formatNumber(range) + " m, up to " + formatNumber(steps) +
+        " voxel steps at map_resolution " + formatNumber(setup.map.resolution) + " m: about " +
+        formatNumber(std::round(steps * 2.3e-6)) + " ms a frame to simulate; at most " +
+        std::to_string(kMaxRaysPerFrame) + " rays and " + formatNumber(kMaxVoxelStepsPerFrame) +
+        " steps (raise pixel_skip, lower the resolution, beams, channels or range, or coarsen "
+        "map_resolution)");
   }
   // A new map for each flight, made as the parameters say (checked now, once).
   setup.make_map = [p, name = chosenPluginName<VehicleMap>(p, "map")] {
@@ -327,7 +333,6 @@ FlightSetup flightSetup(const ParameterSet& p) {
     return map;
   };
   setup.make_map();
-  setup.map = readFields<MapModel>(p);
   setup.settings = readFields<FlightSettings>(p);
   setup.tracking = readFields<TrackingModel>(p);
   return setup;

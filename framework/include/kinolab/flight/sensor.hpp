@@ -63,9 +63,14 @@ template <>
 PluginRegistry<Sensor>& pluginRegistry<Sensor>();
 
 /// The most rays a flight's sensor may cast a frame: 3.3 x a 640 x 480 camera at every pixel
-/// (which simulates at about 70 ms a frame here, docs/flights.md); beyond it a frame would take
-/// a quarter of a second or more, so the flight is refused with the estimate.
+/// (which simulates at about 70 ms a frame here, docs/flights.md).
 inline constexpr std::size_t kMaxRaysPerFrame = 1000000;
+/// The most voxels a frame's rays may walk, rays x range / map_resolution (the map inserts
+/// every ray up to its hit or its range): about 2.3 ns a voxel here (the every-pixel camera's
+/// 3e7 in 70 ms; a 1e6-ray lidar at 100 m in an open field took 4.5 s a frame on a loaded
+/// machine), so about a second a frame. A 128-channel lidar of 1,024 beams at 100 m on a 0.1 m
+/// map is 1.3e8. Beyond either cap a flight is refused with the estimate, before it starts.
+inline constexpr double kMaxVoxelStepsPerFrame = 4e8;
 
 /// A pinhole depth camera looking along the vehicle's heading. The defaults are a common
 /// stereo depth camera's (Intel RealSense D435: 640 x 480 at 30 Hz, 87 x 58 degrees, depth from
