@@ -22,18 +22,19 @@ def hostile(name):
     return str(Path(MISBEHAVING).with_name(f"libkinolab_test_{name}.so"))
 
 
-def planning_experiment(tmp_path, world, plugin, count, planners):
-    """A planning experiment in tmp_path loading `plugin`: `count` random queries in `world`,
-    the `planners` list given as YAML text."""
+def hostile_experiment(tmp_path, world, plugin, count, planners, kind="planning"):
+    """An experiment of `kind` in tmp_path loading `plugin`: `count` random queries in `world`
+    (at 1.5 m for flights), the `planners` list and anything after it given as YAML text."""
     experiment = tmp_path / "experiment.yaml"
-    experiment.write_text(f"""kind: planning
+    height = ", height: [1.5, 1.5]" if kind == "flight" else ""
+    experiment.write_text(f"""kind: {kind}
 name: hostile
 plugins: [{plugin}]
 worlds:
   - id: small
     spec: {world}
 queries:
-  random: {{count: {count}, min_distance: 4, max_distance: 9}}
+  random: {{count: {count}, min_distance: 4, max_distance: 9{height}}}
 planners:
 """ + planners)
     return experiment
@@ -60,7 +61,7 @@ def test_a_hostile_library_is_refused_by_every_command(kinolab, world, tmp_path,
     one_error_line(kinolab("--plugin", path, "list", "planners"), path, message)
     one_error_line(kinolab("plan", "--plugin", path, "--world", world, "--planner",
                            "lazy_mp_astar", "--start", "1,1,1", "--goal", "8,8,1"), message)
-    experiment = planning_experiment(tmp_path, world, path, 1, """  - id: lazy
+    experiment = hostile_experiment(tmp_path, world, path, 1, """  - id: lazy
     type: lazy_mp_astar
 """)
     result = kinolab("run", experiment, "--out", tmp_path / "out")
@@ -81,7 +82,7 @@ def test_plan_names_the_plugin_whose_code_threw(kinolab, world, planner, message
 
 
 def test_a_throwing_planner_is_its_runs_error_and_the_others_go_on(kinolab, world, tmp_path):
-    experiment = planning_experiment(tmp_path, world, MISBEHAVING, 2, """  - id: lazy
+    experiment = hostile_experiment(tmp_path, world, MISBEHAVING, 2, """  - id: lazy
     type: lazy_mp_astar
     sampler: {type: uniform, params: {samples_per_axis: 3}}
   - id: factory
@@ -114,20 +115,10 @@ def test_a_throwing_sensor_or_vehicle_map_is_named_by_fly_and_is_its_runs_error(
                    "a std::exception")
     one_error_line(kinolab("--plugin", MISBEHAVING, *fly, "--flight", "map=test_map_throws_int"),
                    MISBEHAVING, map_message)
-    experiment = tmp_path / "flights.yaml"
-    experiment.write_text(f"""kind: flight
-name: hostile_flights
-plugins: [{MISBEHAVING}]
-worlds:
-  - id: small
-    spec: {world}
-queries:
-  random: {{count: 2, min_distance: 4, max_distance: 9, height: [1.5, 1.5]}}
-planners:
-  - id: lazy
+    experiment = hostile_experiment(tmp_path, world, MISBEHAVING, 2, """  - id: lazy
     type: lazy_mp_astar
-flight: {{map: test_map_throws_int}}
-""")
+flight: {map: test_map_throws_int}
+""", kind="flight")
     result = kinolab("run", experiment, "--out", tmp_path / "out")
     assert result.returncode == 0, result.stderr
     with closing(sqlite3.connect(tmp_path / "out" / "results.sqlite")) as db:
