@@ -8,6 +8,7 @@
 
 #include <chrono>
 #include <csignal>
+#include <cstdint>
 #include <map>
 #include <set>
 #include <thread>
@@ -38,8 +39,8 @@ std::vector<WorkerOutcome> drain(ProcessPool& pool) {
 TEST(ProcessPool, OutputsComeBackTaggedAndLargeOnesWhole) {
   ProcessPool pool(2);
   const std::string large(300000, 'x');  // more than a pipe buffer
-  pool.start(7, 10.0, 256, [] { return std::string("seven"); });
-  pool.start(8, 10.0, 256, [&] { return large; });
+  pool.start(7, 10.0, BudgetClock::kWall, 256, [] { return std::string("seven"); });
+  pool.start(8, 10.0, BudgetClock::kWall, 256, [&] { return large; });
   EXPECT_TRUE(pool.full());
   std::map<std::size_t, std::string> outputs;
   for (const WorkerOutcome& outcome : drain(pool)) {
@@ -56,11 +57,11 @@ TEST(ProcessPool, OutputsComeBackTaggedAndLargeOnesWhole) {
 TEST(ProcessPool, ACrashIsASignalAndAnOverrunIsKilled) {
   if (kAddressSanitizer) GTEST_SKIP() << "AddressSanitizer handles SIGSEGV itself";
   ProcessPool pool(2);
-  pool.start(1, 10.0, 256, []() -> std::string {
+  pool.start(1, 10.0, BudgetClock::kWall, 256, []() -> std::string {
     std::raise(SIGSEGV);
     return "unreachable";
   });
-  pool.start(2, 0.2, 256, [] {
+  pool.start(2, 0.2, BudgetClock::kWall, 256, [] {
     std::this_thread::sleep_for(std::chrono::seconds(30));
     return std::string("too late");
   });
@@ -80,6 +81,43 @@ TEST(ProcessPool, ACrashIsASignalAndAnOverrunIsKilled) {
   EXPECT_LT(std::chrono::steady_clock::now() - begin, std::chrono::seconds(20));
 }
 
+TEST(ProcessPool, ACpuTimeLimitCountsWorkNotWaiting) {
+  ProcessPool pool(2);
+  // Waits 1 s and works not at all: within a 0.5 s CPU-time limit however long the wait.
+  pool.start(1, 0.5, BudgetClock::kCpu, 256, [] {
+    std::this_thread::sleep_for(std::chrono::seconds(1));
+    return std::string("slept");
+  });
+  // Works without end: killed once it has used 0.5 s of CPU time, however loaded the machine.
+  pool.start(2, 0.5, BudgetClock::kCpu, 256, [] {
+    volatile std::uint64_t spin = 0;
+    for (;;) spin = spin + 1;
+    return std::string("unreachable");
+  });
+  for (const WorkerOutcome& outcome : drain(pool)) {
+    EXPECT_EQ(outcome.clock, BudgetClock::kCpu);
+    if (outcome.tag == 1) {
+      EXPECT_FALSE(outcome.killed_for_time);
+      EXPECT_EQ(outcome.output, "slept");
+    } else {
+      EXPECT_TRUE(outcome.killed_for_time);
+      const double cpu = static_cast<double>(outcome.usage.ru_utime.tv_sec) +
+                         1e-6 * static_cast<double>(outcome.usage.ru_utime.tv_usec);
+      EXPECT_GE(cpu, 0.5);
+    }
+  }
+  // A worker that only waits is still killed, at kWaitingFactor times its limit of wall time.
+  pool.start(3, 0.1, BudgetClock::kCpu, 256, [] {
+    std::this_thread::sleep_for(std::chrono::seconds(60));
+    return std::string("too late");
+  });
+  const auto begin = std::chrono::steady_clock::now();
+  const std::vector<WorkerOutcome> waited = drain(pool);
+  ASSERT_EQ(waited.size(), 1u);
+  EXPECT_TRUE(waited.front().killed_for_time);
+  EXPECT_LT(std::chrono::steady_clock::now() - begin, std::chrono::seconds(30));
+}
+
 TEST(ProcessPool, NeverRunsMoreThanItsJobsAtOnce) {
   ProcessPool pool(2);
   std::set<std::size_t> finished;
@@ -88,7 +126,7 @@ TEST(ProcessPool, NeverRunsMoreThanItsJobsAtOnce) {
   int running = 0;
   while (finished.size() < 6) {
     while (started < 6 && !pool.full()) {
-      pool.start(started++, 10.0, 256, [] {
+      pool.start(started++, 10.0, BudgetClock::kWall, 256, [] {
         std::this_thread::sleep_for(std::chrono::milliseconds(50));
         return std::to_string(getpid());
       });
@@ -106,7 +144,7 @@ TEST(ProcessPool, NeverRunsMoreThanItsJobsAtOnce) {
 TEST(ProcessPool, AWorkerAllocatingPastItsBudgetFailsInsideItself) {
   if (kAddressSanitizer) GTEST_SKIP() << "AddressSanitizer ignores address-space limits";
   ProcessPool pool(1);
-  pool.start(0, 10.0, 64, [] {
+  pool.start(0, 10.0, BudgetClock::kWall, 64, [] {
     try {
       std::vector<std::vector<char>> blocks;
       for (int i = 0; i < 64; ++i) blocks.emplace_back(std::size_t{16} << 20, 'x');
@@ -123,7 +161,7 @@ TEST(ProcessPool, AWorkerAllocatingPastItsBudgetFailsInsideItself) {
 TEST(ProcessPool, KillAllLeavesNothingRunning) {
   ProcessPool pool(2);
   for (std::size_t i = 0; i < 2; ++i) {
-    pool.start(i, 60.0, 256, [] {
+    pool.start(i, 60.0, BudgetClock::kWall, 256, [] {
       std::this_thread::sleep_for(std::chrono::seconds(60));
       return std::string();
     });

@@ -71,7 +71,7 @@ ProcessPool::ProcessPool(int jobs) : jobs_(jobs) {
 
 ProcessPool::~ProcessPool() { killAll(); }
 
-void ProcessPool::start(std::size_t tag, double time_limit, long long memory_mb,
+void ProcessPool::start(std::size_t tag, double time_limit, BudgetClock clock, long long memory_mb,
                         const std::function<std::string()>& work) {
   int pipe_fds[2];
   if (pipe(pipe_fds) != 0) throw Error("process pool: cannot create a pipe");
@@ -91,12 +91,30 @@ void ProcessPool::start(std::size_t tag, double time_limit, long long memory_mb,
   worker.pid = pid;
   worker.fd = pipe_fds[0];
   worker.outcome.tag = tag;
+  worker.outcome.clock = clock;
+  if (clock == BudgetClock::kCpu && clock_getcpuclockid(pid, &worker.cpu_clock) != 0) {
+    kill(pid, SIGKILL);
+    waitpid(pid, nullptr, 0);
+    close(pipe_fds[0]);
+    throw Error("process pool: cannot read a worker's CPU-time clock");
+  }
   worker.outcome.started_at = utcNow();
   double load = NAN;
   if (getloadavg(&load, 1) == 1) worker.outcome.load_average = load;
   worker.started = seconds();
-  worker.deadline = worker.started + time_limit;
+  worker.time_limit = time_limit;
   workers_.push_back(std::move(worker));
+}
+
+bool ProcessPool::pastDeadline(const Worker& worker, double now) {
+  const double wall = now - worker.started;
+  if (worker.outcome.clock == BudgetClock::kWall) return wall > worker.time_limit;
+  timespec cpu{};
+  // The clock is gone once the worker has exited (its pipe closes next): not past it then.
+  if (clock_gettime(worker.cpu_clock, &cpu) != 0) return false;
+  return static_cast<double>(cpu.tv_sec) + 1e-9 * static_cast<double>(cpu.tv_nsec) >
+             worker.time_limit ||
+         wall > kWaitingFactor * worker.time_limit;
 }
 
 std::vector<WorkerOutcome> ProcessPool::poll(int timeout_ms) {
@@ -118,7 +136,7 @@ std::vector<WorkerOutcome> ProcessPool::poll(int timeout_ms) {
         closed = true;
       }
     }
-    if (!closed && now > worker.deadline && !worker.outcome.killed_for_time) {
+    if (!closed && !worker.outcome.killed_for_time && pastDeadline(worker, now)) {
       worker.outcome.killed_for_time = true;
       kill(worker.pid, SIGKILL);
     }

@@ -214,9 +214,15 @@ RunRecord recordOf(const Experiment& experiment, const RunSpec& run, const Worke
                     {"load_average", worker.load_average}};
 
   if (worker.killed_for_time) {
+    const auto seconds = [](const timeval& t) {
+      return static_cast<double>(t.tv_sec) + 1e-6 * static_cast<double>(t.tv_usec);
+    };
+    const double cpu_s = seconds(worker.usage.ru_utime) + seconds(worker.usage.ru_stime);
     finish(
         "killed",
-        "killed after " + formatNumber(wall_time_ms / 1000.0) + " s: " +
+        "killed after " + formatNumber(wall_time_ms / 1000.0) + " s (" + formatNumber(cpu_s) +
+            " s of CPU time; its limit is on the " +
+            (worker.clock == BudgetClock::kCpu ? "CPU" : "wall") + " clock): " +
             (experiment.flights
                  ? "the flight ran past its budget of " + formatNumber(variant.budget.time) + " s"
                  : "the planner ignored its time budget of " + formatNumber(variant.budget.time) +

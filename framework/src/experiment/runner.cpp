@@ -440,7 +440,12 @@ RunnerSummary runExperiment(const Experiment& experiment, const RunnerOptions& o
       // Every plan of the timing protocol has the time budget.
       const TimingProtocol& timing = experiment.variants[run.variant].timing;
       const double plans = experiment.flights ? 1.0 : timing.warmup + timing.repeats;
-      pool.start(next++, plans * budget.time + options.grace_seconds, budget.memory_mb, [&] {
+      // A flight's limit is on its replans' clock (CPU time by default: load does not end it).
+      const BudgetClock clock =
+          experiment.flights && experiment.variants[run.variant].flight.text("clock") == "cpu"
+              ? BudgetClock::kCpu
+              : BudgetClock::kWall;
+      pool.start(next++, plans * budget.time + options.grace_seconds, clock, budget.memory_mb, [&] {
         return (experiment.flights ? flyRun : planRun)(
             experiment, run, inputs.world(experiment, run), inputs.query(run));
       });

@@ -113,7 +113,8 @@ struct RunSpec {
 struct Experiment {
   /// `kind: planning` (a run is one plan) or `kind: flight` (a run is one closed-loop flight:
   /// the planner replans through a world seen by its sensor, `flight:` sets the sensor, map
-  /// and loop; budget.time is the flight's wall-clock limit and `timing:` does not apply).
+  /// and loop; budget.time is the flight's limit on its replans' clock, CPU time by default, and
+  /// `timing:` does not apply).
   bool flights = false;
   std::string name;
   std::string source;  ///< the file
