@@ -31,8 +31,9 @@ Eigen::Vector3d pose(int frame, double rate) {
 }
 
 /// Args: the camera's pixel_skip (0: the toy camera of the first flights, 32 x 24 at 10 Hz to
-/// 5 m, noise-free) and the map kind (0 octomap, 1 probabilistic); otherwise the defaults of
-/// `kinolab fly` (flightParameters()).
+/// 5 m, noise-free) and the map kind (0 octomap, 1 probabilistic, 2 probabilistic with
+/// exact_range 0: its ray walks' shortcut alone, as before exact_range); otherwise the
+/// defaults of `kinolab fly` (flightParameters()).
 void BM_FlightFrame(benchmark::State& state) {
   const auto world = denseForest();
   std::vector<ParameterAssignment> assignments;
@@ -40,6 +41,7 @@ void BM_FlightFrame(benchmark::State& state) {
     assignments.push_back(ParameterAssignment{name, value, "benchmark", false});
   };
   set("map", state.range(1) == 0 ? "octomap" : "probabilistic");
+  if (state.range(1) == 2) set("map.exact_range", "0");
   if (state.range(0) == 0) {
     for (const auto& [name, value] : {std::pair{"width", "32"},
                                       {"height", "24"},
@@ -72,6 +74,12 @@ void BM_FlightFrame(benchmark::State& state) {
   double map_ms = 0.0;
   double window_ms = 0.0;
   double worst_ms = 0.0;
+  // Frames that built the window anew (its domain moved) apart: their count, their window +
+  // ESDF time and the worst frame among the others.
+  double rebuilds = 0.0;
+  double rebuild_ms = 0.0;
+  double worst_kept_ms = 0.0;
+  Box last_domain;
   using Clock = std::chrono::steady_clock;
   for (auto _ : state) {
     const Eigen::Vector3d p = pose(frame++, sensor.frameRate());
@@ -81,12 +89,23 @@ void BM_FlightFrame(benchmark::State& state) {
     auto t1 = Clock::now();
     map.insert(sensed, sensor.maxRange());
     auto t2 = Clock::now();
-    benchmark::DoNotOptimize(map.window(p));
+    const std::shared_ptr<const World> window = map.window(p);
     auto t3 = Clock::now();
+    const double frame_ms = std::chrono::duration<double, std::milli>(t3 - t0).count();
+    const double this_window_ms = std::chrono::duration<double, std::milli>(t3 - t2).count();
     sense_ms += std::chrono::duration<double, std::milli>(t1 - t0).count();
     map_ms += std::chrono::duration<double, std::milli>(t2 - t1).count();
-    window_ms += std::chrono::duration<double, std::milli>(t3 - t2).count();
-    worst_ms = std::max(worst_ms, std::chrono::duration<double, std::milli>(t3 - t0).count());
+    window_ms += this_window_ms;
+    worst_ms = std::max(worst_ms, frame_ms);
+    const bool rebuilt =
+        window->bounds().min != last_domain.min || window->bounds().max != last_domain.max;
+    last_domain = window->bounds();
+    if (rebuilt) {
+      rebuilds += 1.0;
+      rebuild_ms += this_window_ms;
+    } else {
+      worst_kept_ms = std::max(worst_kept_ms, frame_ms);
+    }
   }
   const double n = static_cast<double>(state.iterations());
   state.counters["rays"] = static_cast<double>(sensor.rayDirections().size());
@@ -94,6 +113,9 @@ void BM_FlightFrame(benchmark::State& state) {
   state.counters["map_ms"] = map_ms / n;
   state.counters["window_esdf_ms"] = window_ms / n;
   state.counters["worst_frame_ms"] = worst_ms;
+  state.counters["rebuilds"] = rebuilds;
+  state.counters["rebuild_window_ms"] = rebuilds > 0.0 ? rebuild_ms / rebuilds : 0.0;
+  state.counters["worst_kept_frame_ms"] = worst_kept_ms;
 }
 // The same frames for every variant, fewer for the slow ones (the smoke test runs them all).
 BENCHMARK(BM_FlightFrame)
@@ -101,6 +123,7 @@ BENCHMARK(BM_FlightFrame)
     ->Args({0, 0})
     ->Args({0, 1})
     ->Args({4, 1})
+    ->Args({4, 2})
     ->Unit(benchmark::kMillisecond)
     ->Iterations(300);
 BENCHMARK(BM_FlightFrame)

@@ -90,6 +90,7 @@ planners:
   - {id: lazy, type: lazy_mp_astar}
   - {id: eager, type: eager_mp_astar}
 store: {trajectories: true, trees: 1}
+budget: {time: 120}
 """
 
 

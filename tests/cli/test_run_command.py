@@ -500,7 +500,7 @@ def test_a_flight_experiment_flies_every_query_and_stores_the_flight_metrics(kin
     path = experiment(tmp_path, FLIGHT, plugins=False, name="flights",
                       queries="random: {count: 2, min_distance: 6, max_distance: 9}",
                       extra="\nflight: {sensor: {type: depth_camera, range: 4}, max_time: 40}\n"
-                            "store: {trajectories: true, trees: 1}\n")
+                            "store: {trajectories: true, trees: 1}\nbudget: {time: 120}\n")
     path.write_text(path.read_text().replace("kind: planning", "kind: flight"))
     result = kinolab("run", path, "--out", tmp_path / "out")
     assert result.returncode == 0, result.stderr

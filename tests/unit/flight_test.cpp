@@ -201,8 +201,9 @@ TEST(Sensor, RaysHitASphereAndMatchADenseMarch) {
 
 /// A vehicle map of the kind `key` at its defaults, set up over `bounds`.
 std::unique_ptr<VehicleMap> mapOf(const std::string& key, const Box& bounds,
-                                  const MapModel& model = {}) {
-  auto map = pluginRegistry<VehicleMap>().create(key, {});
+                                  const MapModel& model = {},
+                                  const std::vector<ParameterAssignment>& parameters = {}) {
+  auto map = pluginRegistry<VehicleMap>().create(key, parameters);
   map->setup(bounds, model);
   return map;
 }
@@ -453,6 +454,52 @@ TEST(VehicleMapTest, TheProbabilisticMapVotesOnceAFrameAndClampsItsBelief) {
   EXPECT_EQ(stateAt(phantom), Voxel::kOccupied);
   map->insert(frameOf(origin, {beyond}), 10.0);
   EXPECT_EQ(stateAt(phantom), Voxel::kFree);
+}
+
+TEST(VehicleMapTest, WithinItsExactRangeTheProbabilisticMapCountsEveryRayThatCrossesAVoxel) {
+  // The default camera's frames in a forest, from a vehicle on the lattice's corners and off
+  // them: within exact_range every voxel is as the map of full walks has it; the walks'
+  // shortcut alone leaves voxels there unseen, which stopped flights that commit only into
+  // seen space.
+  const auto world = worldOf(
+      "  - {type: forest, density: 0.2, trunk_radius: [0.1, 0.3], trunk_height: [2.5, 3],\n"
+      "     min_spacing: 0.8, ground_plane: true}\n");
+  const DepthCamera camera;
+  const double exact = 3.0;
+  const auto withRange = [&](double range) {
+    return mapOf("probabilistic", world->bounds(), {},
+                 {{"exact_range", formatNumber(range), "test"}});
+  };
+  Rng noise(5);
+  std::size_t compared = 0;
+  std::size_t unseen_by_shortcut = 0;
+  for (const Eigen::Vector3d& origin :
+       {Eigen::Vector3d(1.0, 1.0, 1.5), Eigen::Vector3d(5.03, 4.07, 1.52)}) {
+    ASSERT_TRUE(world->isFree(origin, 0.2)) << origin.transpose();
+    // Frames from one place, each map new: every voxel compared was always within range.
+    std::unique_ptr<VehicleMap> shortcut = withRange(0.0);
+    std::unique_ptr<VehicleMap> near_exact = withRange(exact);
+    std::unique_ptr<VehicleMap> full = withRange(1000.0);
+    for (const double yaw : {0.0, M_PI / 4, 2.0}) {
+      const SensorFrame frame = senseFrame(*world, camera, origin, yaw, noise);
+      for (VehicleMap* map : {shortcut.get(), near_exact.get(), full.get()}) {
+        map->insert(frame, camera.maxRange());
+      }
+      const VoxelGrid& lattice = full->lattice();
+      for (std::size_t i = 0; i < lattice.size(); ++i) {
+        // Voxels whose cube lies within exact_range of the camera (its farthest corner).
+        const Eigen::Vector3d gap =
+            (full->voxelCenter(i) - origin).cwiseAbs().array() + 0.5 * lattice.resolution();
+        if (gap.norm() >= exact) continue;
+        ++compared;
+        ASSERT_EQ(near_exact->state(i), full->state(i)) << full->voxelCenter(i).transpose();
+        unseen_by_shortcut += shortcut->state(i) == VehicleMap::Voxel::kUnknown &&
+                              full->state(i) != VehicleMap::Voxel::kUnknown;
+      }
+    }
+  }
+  EXPECT_GT(compared, 10000u);
+  EXPECT_GT(unseen_by_shortcut, 0u) << "the shortcut left nothing unseen: the test shows nothing";
 }
 
 TEST(VehicleMapTest, TheGuideGoesRoundKnownObstaclesAndThroughUnknownSpace) {
@@ -908,17 +955,21 @@ TEST(FlightTest, InRealTimeAPlanLaterThanTheLatencyIsDiscarded) {
 }
 
 TEST(FlightTest, TheDeclaredDefaultsAreTheModelsDefaults) {
+  // The flight's sensor is the chosen plugin behind a guard (GuardedSensor), so it is compared
+  // by what it does: the same rays, range and rate as the model's defaults.
   const Flight declared;
   const DepthCamera camera;
   const MapModel map;
   const FlightSettings settings;
-  const auto* sensor = dynamic_cast<const DepthCamera*>(declared.setup.sensor.get());
-  ASSERT_NE(sensor, nullptr) << "the default sensor is the depth camera";
-  EXPECT_EQ(sensor->width, camera.width);
-  EXPECT_EQ(sensor->height, camera.height);
-  EXPECT_NEAR(sensor->fov_horizontal, camera.fov_horizontal, 1e-4);
-  EXPECT_NEAR(sensor->fov_vertical, camera.fov_vertical, 1e-4);
-  EXPECT_EQ(sensor->range, camera.range);
+  const Sensor& sensor = *declared.setup.sensor;
+  const std::vector<Eigen::Vector3d> rays = sensor.rayDirections();
+  const std::vector<Eigen::Vector3d> expected = camera.rayDirections();
+  ASSERT_EQ(rays.size(), expected.size()) << "the default sensor is the depth camera";
+  for (std::size_t i = 0; i < rays.size(); ++i) {
+    ASSERT_LT((rays[i] - expected[i]).norm(), 1e-9) << "ray " << i;
+  }
+  EXPECT_EQ(sensor.maxRange(), camera.maxRange());
+  EXPECT_EQ(sensor.frameRate(), camera.frameRate());
   EXPECT_EQ(declared.setup.map.window, map.window);
   EXPECT_EQ(declared.setup.map.window_height, map.window_height);
   EXPECT_EQ(declared.setup.map.resolution, map.resolution);
@@ -927,10 +978,9 @@ TEST(FlightTest, TheDeclaredDefaultsAreTheModelsDefaults) {
   EXPECT_EQ(declared.setup.settings.horizon, settings.horizon);
 
   const Flight lidar({{"sensor", "lidar", "test"}, {"sensor.beams", "720", "test"}});
-  const auto* chosen = dynamic_cast<const Lidar*>(lidar.setup.sensor.get());
-  ASSERT_NE(chosen, nullptr) << "sensor=lidar chooses the registered lidar";
-  EXPECT_EQ(chosen->beams, 720);
-  EXPECT_EQ(chosen->rayDirections().size(), 720u * static_cast<std::size_t>(chosen->channels));
+  EXPECT_EQ(lidar.setup.sensor->rayDirections().size(),
+            720u * static_cast<std::size_t>(Lidar().channels))
+      << "sensor=lidar chooses the registered lidar with its beams";
   // The map kind is a plugin parameter too, with its own parameters nested; each flight gets
   // a new map.
   const Flight octomap({{"map", "octomap", "test"}, {"map.probability_hit", "0.9", "test"}});

@@ -20,6 +20,7 @@ struct ProbabilisticModel {
   double clamp_min = 0.12;
   double clamp_max = 0.97;
   double threshold = 0.5;
+  double exact_range = 3.0;
 
   template <typename Fields>
   void fields(Fields& f) {
@@ -30,6 +31,10 @@ struct ProbabilisticModel {
     f.real("clamp_min", clamp_min, 0.001, 0.499, "a voxel's probability is kept at least this");
     f.real("clamp_max", clamp_max, 0.501, 0.999, "and at most this");
     f.real("threshold", threshold, 0.01, 0.99, "a voxel is occupied above this probability");
+    f.real("exact_range", exact_range, 0.0, 1000.0,
+           "within this distance of the sensor every voxel a ray crosses is counted; beyond it a "
+           "ray's walk stops at the first voxel an earlier ray of the frame walked (fast, but it "
+           "leaves voxels between converging rays unseen), m");
   }
 };
 
@@ -57,7 +62,8 @@ class ProbabilisticVehicleMap final : public VehicleMap {
         miss_(static_cast<float>(logit(model.probability_miss))),
         low_(static_cast<float>(logit(model.clamp_min))),
         high_(static_cast<float>(logit(model.clamp_max))),
-        threshold_(static_cast<float>(logit(model.threshold))) {}
+        threshold_(static_cast<float>(logit(model.threshold))),
+        exact_range_(model.exact_range) {}
 
  protected:
   void doSetup() override {
@@ -68,9 +74,14 @@ class ProbabilisticVehicleMap final : public VehicleMap {
 
   /// Every voxel a frame reaches is updated once: as a hit when at least as many of the
   /// frame's rays ended in it as passed through it, else as a miss (Fast-Planner's rule).
-  /// Free space is walked from each ray's end back towards the origin and a walk stops at
-  /// the first voxel an earlier ray of the frame walked (counting it): rays converge at the
-  /// sensor, so most of each walk is shared (Fast-Planner's raycasting shortcut).
+  /// Free space is walked from each ray's end back towards the origin. Beyond exact_range of
+  /// the origin a walk stops at the first voxel an earlier ray of the frame walked (counting
+  /// it): rays converge at the sensor, so most of each walk is shared (Fast-Planner's
+  /// raycasting shortcut). But the rest of a stopped ray is not the rest of the ray it met,
+  /// and the voxels only it crosses stay unseen: with the shortcut alone, gaps a few voxels
+  /// wide within a metre of the camera stopped a flight that commits only into seen space.
+  /// So within exact_range every ray is walked in full, and a voxel there is counted by
+  /// every ray that crosses it.
   void doInsert(const SensorFrame& frame, double max_range) override {
     const VoxelGrid& grid = lattice();
     const double voxel = grid.resolution();
@@ -86,16 +97,29 @@ class ProbabilisticVehicleMap final : public VehicleMap {
       const Eigen::Vector3d start = clipToBox(frame.origin, end, box, voxel);
       const double length = (start - frame.origin).norm();
       if (!(length > 0.0)) return;
+      const Eigen::Vector3d inwards = (frame.origin - start) / length;
       bool first = skip_first && start == end;
-      grid.walkRay(start, (frame.origin - start) / length, length,
-                   [&](const VoxelIndex& v, double /*t*/) {
-                     if (first) {
-                       first = false;
-                       return true;
-                     }
-                     // Counted, then the walk ends if an earlier ray walked on from here.
-                     return countPass(entry(grid.index(v)));
-                   });
+      std::size_t stopped = lattice().size();  // the voxel where the shared walk stopped
+      grid.walkRay(start, inwards, length, [&](const VoxelIndex& v, double t) {
+        if (first) {
+          first = false;
+          return true;
+        }
+        // Counted; beyond exact_range the walk ends if an earlier ray walked on from here.
+        const std::size_t index = grid.index(v);
+        if (countPass(entry(index)) || length - t < exact_range_) return true;
+        stopped = index;
+        return false;
+      });
+      if (stopped == lattice().size() || !(exact_range_ > 0.0)) return;
+      // The part within exact_range, in full (the voxel it starts in may be where the walk
+      // stopped, already counted).
+      const Eigen::Vector3d near = frame.origin - exact_range_ * inwards;
+      grid.walkRay(near, inwards, exact_range_, [&](const VoxelIndex& v, double /*t*/) {
+        const std::size_t index = grid.index(v);
+        if (index != stopped) countPass(entry(index));
+        return true;
+      });
     };
     for (const Eigen::Vector3d& p : frame.hits) walk(p, true);
     for (const Eigen::Vector3d& p : frame.misses) {
@@ -149,6 +173,7 @@ class ProbabilisticVehicleMap final : public VehicleMap {
   float low_;
   float high_;
   float threshold_;
+  double exact_range_;
   std::vector<float> log_odds_;
   std::vector<std::uint32_t> slot_;  // 1 + the voxel's place in touched_, 0 when not touched
   std::vector<Touched> touched_;     // the frame's voxels
