@@ -140,6 +140,20 @@ TEST_F(ExperimentTest, ExtendsMergesMappingsAndTheChildWins) {
   EXPECT_EQ(e.variants.front().budget.time, 9.0);
   EXPECT_EQ(e.variants.front().budget.memory_mb, 512);  // kept from the base
   EXPECT_EQ(e.runs().size(), 2u);
+  // A base in another folder: its relative paths are its own folder's, the child's its own.
+  fs::create_directories(directory_ / "bases");
+  write("bases/shared.yaml",
+        "kind: planning\nname: shared\nworlds:\n  - {id: small, spec: ../small_forest.yaml}\n"
+        "queries:\n  random: {count: 2, min_distance: 3, max_distance: 8}\n"
+        "planners:\n  - {id: eager, type: eager_mp_astar}\n");
+  const Experiment elsewhere =
+      Experiment::fromFile(write("from_elsewhere.yaml", "extends: bases/shared.yaml\n"));
+  EXPECT_EQ(elsewhere.variants.front().worlds.front().spec.name, "small_forest");
+  const Experiment overriding =
+      Experiment::fromFile(write("overriding.yaml",
+                                 "extends: bases/shared.yaml\nname: overriding\n"
+                                 "worlds:\n  - {id: mine, spec: small_forest.yaml}\n"));
+  EXPECT_EQ(overriding.variants.front().worlds.front().id, "mine");
   write("loop_a.yaml", "extends: loop_b.yaml\n");
   write("loop_b.yaml", "extends: loop_a.yaml\n");
   EXPECT_THROW(Experiment::fromFile((directory_ / "loop_a.yaml").string()), ConfigError);

@@ -240,18 +240,29 @@ std::string ExperimentPlanner::canonicalText() const {
 
 namespace {
 
+/// The folder the relative paths of top-level `key` are in: its file's (loadDocument), else
+/// the experiment file's.
+std::string directoryOf(const std::map<std::string, std::string>& directories,
+                        const std::string& key, const std::string& path) {
+  const auto found = directories.find(key);
+  return found != directories.end() ? found->second : fs::path(path).parent_path().string();
+}
+
 /// The experiment file with its `extends:` chain merged, and world specs given as files read
-/// in (so that a sweep can reach into them); `spec_directories` gets each such world's folder.
+/// in (so that a sweep can reach into them); `spec_directories` gets each such world's folder
+/// and `directories` the folder each top-level key's relative paths are in (the file of the
+/// chain it came from).
 YAML::Node loadDocument(const std::string& path, std::string& source,
-                        std::map<std::string, std::string>& spec_directories) {
+                        std::map<std::string, std::string>& spec_directories,
+                        std::map<std::string, std::string>& directories) {
   std::vector<std::string> chain;
-  YAML::Node document = loadWithBase(path, chain);
+  YAML::Node document = loadWithBase(path, chain, directories);
   source = path;
   if (chain.size() > 1) {
     source +=
         " (extends " + join(std::vector<std::string>(chain.begin() + 1, chain.end()), ", ") + ")";
   }
-  const std::string directory = fs::path(path).parent_path().string();
+  const std::string directory = directoryOf(directories, "worlds", path);
   const YamlReader root = YamlReader::fromNode(document, source);
   if (const auto worlds = root.optional("worlds")) {
     for (const YamlReader& item : worlds->items()) {
@@ -372,10 +383,9 @@ void readReproduces(const YamlReader& reproduces, Experiment& experiment) {
 /// sweep. Also the experiment's canonical text: the document without its sweep, then each
 /// variant's values (dumping every variant would cost far more).
 void readVariants(YAML::Node document, const std::vector<SweepPoint>& points,
-                  const std::string& path, const std::string& source,
+                  const std::string& directory, const std::string& source,
                   const std::map<std::string, std::string>& spec_directories,
                   Experiment& experiment) {
-  const std::string directory = fs::path(path).parent_path().string();
   YAML::Node variant_node = document;
   variant_node.remove("sweep");
   experiment.canonical = YAML::Dump(variant_node) + "\n--- # variants\n";
@@ -398,7 +408,7 @@ void readVariants(YAML::Node document, const std::vector<SweepPoint>& points,
     total_runs += variant.worlds.size() * static_cast<std::size_t>(variant.queries.count()) *
                   variant.planners.size() * static_cast<std::size_t>(variant.repetitions);
     if (total_runs > kMaxRuns) {
-      throw ConfigError(path + ": more than " + std::to_string(kMaxRuns) +
+      throw ConfigError(source + ": more than " + std::to_string(kMaxRuns) +
                         " runs (worlds x queries x planners x repetitions over " +
                         std::to_string(points.size()) +
                         " variants); split the experiment or shrink it");
@@ -414,12 +424,13 @@ void readVariants(YAML::Node document, const std::vector<SweepPoint>& points,
 Experiment Experiment::fromFile(const std::string& path) {
   std::string source;
   std::map<std::string, std::string> spec_directories;
-  const YAML::Node document = loadDocument(path, source, spec_directories);
+  std::map<std::string, std::string> directories;
+  const YAML::Node document = loadDocument(path, source, spec_directories, directories);
   Experiment experiment;
   experiment.source = path;
 
   const YamlReader root = YamlReader::fromNode(document, source);
-  readHeader(root, fs::path(path).parent_path().string(), experiment);
+  readHeader(root, directoryOf(directories, "plugins", path), experiment);
   const std::optional<YamlReader> reproduces = root.optional("reproduces");
   if (reproduces) readReproduces(*reproduces, experiment);
   std::vector<SweepPoint> points(1);
@@ -431,7 +442,8 @@ Experiment Experiment::fromFile(const std::string& path) {
   }
   root.finish();
 
-  readVariants(document, points, path, source, spec_directories, experiment);
+  readVariants(document, points, directoryOf(directories, "worlds", path), source, spec_directories,
+               experiment);
   // The run-hash format is part of the experiment's identity: a database whose runs were
   // hashed another way (before plugin parameters nested) is another experiment, never
   // resumed into or merged with this one.

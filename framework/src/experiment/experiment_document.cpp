@@ -31,7 +31,8 @@ YAML::Node merge(YAML::Node base, const YAML::Node& child) {
 }  // namespace
 
 /// The file with its `extends:` chain merged in (the key itself removed).
-YAML::Node loadWithBase(const std::string& path, std::vector<std::string>& chain) {
+YAML::Node loadWithBase(const std::string& path, std::vector<std::string>& chain,
+                        std::map<std::string, std::string>& directories) {
   std::error_code error;
   const std::string canonical = fs::weakly_canonical(path, error).string();
   if (error) throw FileError(path + ": " + error.message());
@@ -42,13 +43,22 @@ YAML::Node loadWithBase(const std::string& path, std::vector<std::string>& chain
   const YamlReader file = YamlReader::loadFile(path);
   YAML::Node node = file.node();
   if (!node.IsMap()) file.fail("expected a mapping (an experiment), got something else");
+  const std::string directory = fs::path(path).parent_path().string();
+  // This file's keys are its folder's (after its base's: the child wins). Nodes are
+  // references: assigning one node to another would change the first's content.
+  const auto own = [&] {
+    for (const auto& entry : node) directories[entry.first.Scalar()] = directory;
+  };
   if (const auto base = file.optional("extends")) {
     const std::string base_path =
-        (fs::path(path).parent_path() / base->as<std::string>()).lexically_normal().string();
+        (fs::path(directory) / base->as<std::string>()).lexically_normal().string();
     if (!isRegularFile(base_path)) base->fail("no such file: " + base_path);
     node.remove("extends");
-    return merge(loadWithBase(base_path, chain), node);
+    const YAML::Node merged = merge(loadWithBase(base_path, chain, directories), node);
+    own();
+    return merged;
   }
+  own();
   return node;
 }
 

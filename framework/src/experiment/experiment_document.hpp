@@ -5,6 +5,7 @@
 #include <yaml-cpp/yaml.h>
 
 #include <cstddef>
+#include <map>
 #include <optional>
 #include <string>
 #include <utility>
@@ -36,8 +37,11 @@ struct SweepPoint {
 };
 
 /// The file with its `extends:` chain merged in (the key itself removed); `chain` holds the
-/// files seen, to refuse a cycle.
-YAML::Node loadWithBase(const std::string& path, std::vector<std::string>& chain);
+/// files seen, to refuse a cycle. `directories` gets, per top-level key, the folder of the
+/// file that set it last (the one whose value stands, for a list or a scalar): the relative
+/// paths in a key's value are that file's.
+YAML::Node loadWithBase(const std::string& path, std::vector<std::string>& chain,
+                        std::map<std::string, std::string>& directories);
 /// Sets `value` at a dotted path: mapping keys by name (a missing last key is added), list
 /// items by their `id` or their index. Every change is appended to `changes`.
 void setPath(YAML::Node root, const std::string& path, const YAML::Node& value,
