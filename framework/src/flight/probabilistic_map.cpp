@@ -78,10 +78,10 @@ class ProbabilisticVehicleMap final : public VehicleMap {
   /// the origin a walk stops at the first voxel an earlier ray of the frame walked (counting
   /// it): rays converge at the sensor, so most of each walk is shared (Fast-Planner's
   /// raycasting shortcut). But the rest of a stopped ray is not the rest of the ray it met,
-  /// and the voxels only it crosses stay unseen: with the shortcut alone, gaps a few voxels
-  /// wide within a metre of the camera stopped a flight that commits only into seen space.
-  /// So within exact_range every ray is walked in full, and a voxel there is counted by
-  /// every ray that crosses it.
+  /// and the voxels only it crosses stay unseen: with the shortcut alone, about half the
+  /// voxels a camera frame's rays cross (at every distance), and a flight that commits only
+  /// into seen space crept. So within exact_range every ray is walked in full, and a voxel
+  /// there is counted by every ray that crosses it.
   void doInsert(const SensorFrame& frame, double max_range) override {
     const VoxelGrid& grid = lattice();
     const double voxel = grid.resolution();
