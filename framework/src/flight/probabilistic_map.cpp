@@ -34,7 +34,8 @@ struct ProbabilisticModel {
     f.real("exact_range", exact_range, 0.0, 1000.0,
            "within this distance of the sensor every voxel a ray crosses is counted; beyond it a "
            "ray's walk stops at the first voxel an earlier ray of the frame walked (fast, but it "
-           "leaves voxels between converging rays unseen), m");
+           "leaves voxels between converging rays unseen); keep it where the rays are dense: "
+           "where they are sparse, a ray grazing an obstacle's voxel outvotes its hits, m");
   }
 };
 
