@@ -112,9 +112,7 @@ bool ProcessPool::pastDeadline(const Worker& worker, double now) {
   timespec cpu{};
   // The clock is gone once the worker has exited (its pipe closes next): not past it then.
   if (clock_gettime(worker.cpu_clock, &cpu) != 0) return false;
-  return static_cast<double>(cpu.tv_sec) + 1e-9 * static_cast<double>(cpu.tv_nsec) >
-             worker.time_limit ||
-         wall > kWaitingFactor * worker.time_limit;
+  return toSeconds(cpu) > worker.time_limit || wall > kWaitingFactor * worker.time_limit;
 }
 
 std::vector<WorkerOutcome> ProcessPool::poll(int timeout_ms) {

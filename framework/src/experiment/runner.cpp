@@ -18,6 +18,7 @@
 #include <utility>
 
 #include "kinolab/core/error.hpp"
+#include "kinolab/core/fields.hpp"
 #include "kinolab/core/files.hpp"
 #include "kinolab/core/hash.hpp"
 #include "kinolab/core/plugin.hpp"
@@ -442,8 +443,8 @@ RunnerSummary runExperiment(const Experiment& experiment, const RunnerOptions& o
       const double plans = experiment.flights ? 1.0 : timing.warmup + timing.repeats;
       // A flight's limit is on its replans' clock (CPU time by default: load does not end it).
       const BudgetClock clock =
-          experiment.flights && experiment.variants[run.variant].flight.text("clock") == "cpu"
-              ? BudgetClock::kCpu
+          experiment.flights
+              ? readFields<FlightSettings>(experiment.variants[run.variant].flight).clock
               : BudgetClock::kWall;
       pool.start(next++, plans * budget.time + options.grace_seconds, clock, budget.memory_mb, [&] {
         return (experiment.flights ? flyRun : planRun)(

@@ -18,11 +18,16 @@ enum class BudgetClock {
   kCpu,
 };
 
+/// A clock reading in seconds.
+inline double toSeconds(const timespec& time) {
+  return static_cast<double>(time.tv_sec) + 1e-9 * static_cast<double>(time.tv_nsec);
+}
+
 /// Seconds on `clock` since an arbitrary origin.
 inline double clockSeconds(BudgetClock clock) {
   timespec now{};
   clock_gettime(clock == BudgetClock::kCpu ? CLOCK_PROCESS_CPUTIME_ID : CLOCK_MONOTONIC, &now);
-  return static_cast<double>(now.tv_sec) + 1e-9 * static_cast<double>(now.tv_nsec);
+  return toSeconds(now);
 }
 
 /// Milliseconds on a clock since construction: a part of a planning call timed on its
