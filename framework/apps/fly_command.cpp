@@ -125,14 +125,15 @@ void addFlyCommand(CLI::App& app) {
       ->required();
   command->add_option("--set", options->assignments,
                       "Set a planner parameter, NAME=VALUE (repeatable)");
-  command->add_option("--flight", options->flight,
-                      "Set a flight parameter, NAME=VALUE (repeatable): sensor (and its own as "
-                      "sensor.NAME: sensor.range, sensor.width, ...; kinolab list sensors), "
-                      "map, map_resolution, window, window_margin, unknown, free_beyond, "
-                      "replan_period, "
-                      "replan_budget, latency, timing, clock, horizon, max_time, stuck_time, "
-                      "goal_tolerance, brake_acceleration, commit, planning_margin, tracking "
-                      "(kinolab list flight)");
+  command->add_option(
+      "--flight", options->flight,
+      "Set a flight parameter, NAME=VALUE (repeatable): sensor (and its own as "
+      "sensor.NAME: sensor.range, sensor.width, ...; kinolab list sensors), "
+      "map, map_resolution, window, window_margin, unknown, free_beyond, "
+      "replan_period, "
+      "replan_budget, latency, timing, clock, horizon, max_time, stuck_time, "
+      "goal_tolerance, brake_acceleration, commit, keep_faster, planning_margin, tracking "
+      "(kinolab list flight)");
   command->add_option("--start", options->start, "Start position x,y,z in metres (at rest)")
       ->required();
   command->add_option("--goal", options->goal, "Goal position x,y,z in metres")->required();

@@ -914,6 +914,54 @@ TEST(FlightTest, AStuckFlightSaysWhy) {
       << result.message;
 }
 
+TEST(FlightTest, APlanSlowerThanTheCommittedTrajectoryIsSetAsideNotFailed) {
+  // A lattice search from a state between its primitives' ends need not find the rest of the
+  // plan it is on: through a forest, later plans are now and then slower than the committed
+  // trajectory's way to the same local goal. Those are set aside (kept), are neither failures
+  // nor retries, and the next replan comes a period later.
+  const auto world = worldOf(
+      "  - {type: forest, density: 0.1, trunk_radius: [0.15, 0.25], "
+      "trunk_height: [2.5, 3], min_spacing: 1.0, ground_plane: true}\n",
+      "{min: [0, 0, 0], max: [10, 10, 3]}");
+  const std::vector<ParameterAssignment> base = {{"timing", "deterministic", "test"},
+                                                 {"tracking", "perfect", "test"}};
+  std::vector<ParameterAssignment> off = base;
+  off.push_back({"keep_faster", "false", "test"});
+  const FlightResult kept = Flight(base).fly(world, {1, 1, 1.5}, {8.5, 8, 1.5});
+  const FlightResult taken = Flight(off).fly(world, {1, 1, 1.5}, {8.5, 8, 1.5});
+  EXPECT_EQ(kept.status, "reached") << kept.message;
+  EXPECT_EQ(taken.status, "reached") << taken.message;
+  const MetricValues values = flightValues(kept);
+  int set_aside = 0;
+  int failed = 0;
+  for (std::size_t i = 0; i < kept.replans.size(); ++i) {
+    const FlightReplan& replan = kept.replans[i];
+    failed += replan.accepted || replan.kept ? 0 : 1;
+    if (!replan.kept) continue;
+    ++set_aside;
+    EXPECT_FALSE(replan.accepted);
+    EXPECT_FALSE(replan.trajectory.empty());
+    EXPECT_TRUE(replan.recovery.empty());
+    EXPECT_NE(replan.why.find("committed trajectory"), std::string::npos) << replan.why;
+    if (i + 1 < kept.replans.size() && kept.replans[i + 1].reason != "collision") {
+      EXPECT_EQ(kept.replans[i + 1].reason, "period");
+      EXPECT_GE(kept.replans[i + 1].time, replan.time + 0.5 - 1e-9);
+    }
+  }
+  EXPECT_GE(set_aside, 1);
+  const auto value = [&](const std::string& name) -> double {
+    for (const auto& [key, number] : values) {
+      if (key == name) return std::get<double>(number);
+    }
+    return NAN;
+  };
+  EXPECT_EQ(value("kept_replans"), set_aside);
+  EXPECT_EQ(value("failed_replans"), failed);
+  for (const FlightReplan& replan : taken.replans) EXPECT_FALSE(replan.kept);
+  std::printf("kept %d of %zu replans; time to goal %.2f s kept, %.2f s every plan taken\n",
+              set_aside, kept.replans.size(), kept.time_to_goal, taken.time_to_goal);
+}
+
 TEST(FlightTest, AFlightRepeatsBitForBit) {
   // Deterministic timing: the same seed, the same flight (sensor noise, dropouts and frame
   // latencies drawn from it).

@@ -201,18 +201,6 @@ bool localGoal(const Eigen::Vector3d& from, const Eigen::Vector3d& goal,
   return false;
 }
 
-/// Where the camera looks at time t: towards where the intended trajectory (the last plan
-/// taken, whole, not cut where the vehicle would have to stop) will be a second later, so that
-/// a turn is seen before it is flown, else towards the goal.
-double headingOf(const Trajectory& intended, double t, const Eigen::Vector3d& goal) {
-  const Eigen::Vector3d here = intended.evaluate(std::min(t, intended.duration()));
-  const Eigen::Vector2d ahead =
-      (intended.evaluate(std::min(t + 1.0, intended.duration())) - here).head<2>();
-  const Eigen::Vector2d towards = (goal - here).head<2>();
-  if (ahead.norm() > 0.3) return std::atan2(ahead.y(), ahead.x());
-  return towards.norm() > 1e-9 ? std::atan2(towards.y(), towards.x()) : 0.0;
-}
-
 constexpr double kDegree = M_PI / 180.0;
 
 /// `model` with its robot radius grown by `margin`.
@@ -487,7 +475,7 @@ class FlightLoop {
     std::map<std::string, int> recoveries;
     int total = 0;
     for (const FlightReplan& replan : result_.replans) {
-      if (replan.time < since || replan.accepted) continue;
+      if (replan.time < since || replan.accepted || replan.kept) continue;
       ++total;
       auto& [count, why] = failures[replan.status];
       if (count++ == 0) why = replan.why;
@@ -515,7 +503,7 @@ class FlightLoop {
     const double taken = std::clamp(t_ - age, 0.0, t_);
     const SensorFrame sensed =
         senseFrame(*truth_, sensor_, rays_, stateAt(flownPath(), taken).col(0),
-                   headingOf(intended_, taken, query_.goal) + look_offset_, noise_);
+                   heading(taken) + look_offset_, noise_);
     result_.time_sense_ms += millisecondsSince(begin);
     begin = std::chrono::steady_clock::now();
     map_->insert(sensed, sensor_.maxRange());
@@ -564,13 +552,14 @@ class FlightLoop {
       replan.status = std::string(toString(plan.status));
       replan.planning_time_ms = plan.planning_time_ms;
       replan.distance_to_goal = plan.distance_to_goal;
-      accepted = take(plan, t_start, window, replan);
+      accepted = take(plan, t_start, local.goal, window, replan);
     } else {
       replan.status = "no_local_goal";
       replan.why = "no free point on the way to the goal within the window";
     }
     replan.accepted = accepted;
-    if (accepted) {
+    const bool settled = accepted || replan.kept;
+    if (settled) {
       failed_in_a_row_ = 0;
       look_offset_ = 0.0;
     } else {
@@ -588,17 +577,19 @@ class FlightLoop {
       committed_ = std::move(stop);
       intended_ = committed_;
     }
-    reason_ = accepted ? "period" : "retry";
-    next_replan_ = std::max(next_replan_, t_ + (accepted ? settings_.replan_period : dt_));
+    reason_ = settled ? "period" : "retry";
+    next_replan_ = std::max(next_replan_, t_ + (settled ? settings_.replan_period : dt_));
   }
 
   /// Whether a replan's plan becomes the committed trajectory (then spliced in from
   /// `t_start`), with why not in `replan.why`: too late (in real time a plan that took longer
-  /// than the latency arrives after its start), no valid trajectory, or no braking tail that
-  /// fits. Every committed trajectory ends at rest: the plan gets a braking tail, which the
-  /// planner never saw, so the plan is cut where its tail stays in the map and clear of what
-  /// is known (the latest such point, in 0.1 s steps).
-  bool take(const PlanResult& plan, double t_start, const World& window, FlightReplan& replan) {
+  /// than the latency arrives after its start), no valid trajectory, the committed trajectory
+  /// gets there first (`replan.kept`, arrivesFirst()), or no braking tail that fits. Every
+  /// committed trajectory ends at rest: the plan gets a braking tail, which the planner never saw,
+  /// so the plan is cut where its tail stays in the map and clear of what is known (the latest such
+  /// point, in 0.1 s steps).
+  bool take(const PlanResult& plan, double t_start, const Eigen::Vector3d& goal,
+            const World& window, FlightReplan& replan) {
     if (settings_.timing == FlightTiming::kRealTime &&
         plan.planning_time_ms > 1000.0 * settings_.replanLatency()) {
       replan.status = "late";
@@ -611,6 +602,12 @@ class FlightLoop {
       replan.why = !plan.trajectory.empty() && !plan.check.valid
                        ? "the checker: " + plan.check.check + ": " + plan.check.detail
                        : (plan.message.empty() ? "no trajectory" : plan.message);
+      return false;
+    }
+    if (settings_.keep_faster && arrivesFirst(plan.trajectory, t_start, goal, window)) {
+      replan.kept = true;
+      replan.trajectory = plan.trajectory;
+      replan.why = "the committed trajectory comes as near the local goal no later";
       return false;
     }
     const double seen = seenUntil(plan.trajectory);
@@ -630,6 +627,24 @@ class FlightLoop {
                               : "every braking tail after the plan leaves the map, meets a known "
                                 "obstacle or enters unseen space (commit: seen)";
     return false;
+  }
+
+  /// Whether the committed trajectory, from `t_start` on and still clear of what is known,
+  /// comes as near `goal` as `plan` ends no later than the plan does: then the plan would
+  /// trade a way for a slower one. A lattice search from a state between its primitives'
+  /// ends need not find the rest of the plan it is on, so plans from one replan to the next
+  /// disagreed, and a vehicle in the dense forest cycled through the same four plans (2.4,
+  /// 3.0, 4.2 and 10.8 s long, two of them turning back) until it was stuck.
+  bool arrivesFirst(const Trajectory& plan, double t_start, const Eigen::Vector3d& goal,
+                    const World& window) const {
+    if (plan.empty() || committed_.duration() <= t_start) return false;
+    const double reach = (plan.endPosition() - goal).norm() + 1e-9;
+    const double by = std::min(committed_.duration(), t_start + plan.duration());
+    const auto far = [&](double s) { return (committed_.evaluate(s) - goal).norm() > reach; };
+    const bool arrives = !everySample(t_start, by, 0.5 * map_model_.resolution,
+                                      model_.limits.bound[1].norm(), far) ||
+                         !far(by);
+    return arrives && freeFrom(committed_, t_, truth_->bounds(), window, planning_model_);
   }
 
   /// How long `trajectory`, from `from` on, keeps the vehicle's centre in space the sensor
@@ -653,6 +668,42 @@ class FlightLoop {
                                   });
     if (!seen) return last;
     return map_->seenAround(trajectory.endPosition(), radius) ? trajectory.duration() : last;
+  }
+
+  /// Where the camera looks for a frame taken at t: towards where the intended trajectory (the
+  /// last plan taken, whole, not cut where the vehicle would have to stop) will be a second
+  /// later, so that a turn is seen before it is flown. When that second barely moves the
+  /// vehicle (a plan that starts slowly, or at rest), towards the first point of the intended
+  /// trajectory at least kNearestLook away horizontally (nearer, the frustum is too narrow to
+  /// hold it) that the sensor has not seen (with commit: seen: what keeps the plan from being
+  /// committed), else the first such point seen or not, else the goal. Looking at the goal
+  /// there left a plan that started slowly and turned back outside the frustum: the vehicle
+  /// crept on the few centimetres it could commit, replan after replan, 2 m from its goal.
+  double heading(double t) const {
+    constexpr double kNearestLook = 0.5;  // m
+    const auto towards = [](const Eigen::Vector2d& v) { return std::atan2(v.y(), v.x()); };
+    const Eigen::Vector3d here = intended_.evaluate(std::min(t, intended_.duration()));
+    const Eigen::Vector2d ahead =
+        (intended_.evaluate(std::min(t + 1.0, intended_.duration())) - here).head<2>();
+    if (ahead.norm() > 0.3) return towards(ahead);
+    const double spacing = 0.5 * map_model_.resolution;
+    std::optional<Eigen::Vector2d> first;
+    std::optional<Eigen::Vector2d> unseen;
+    everySample(t, intended_.duration(), spacing, model_.limits.bound[1].norm(), [&](double s) {
+      const Eigen::Vector3d p = intended_.evaluate(s);
+      const Eigen::Vector2d away = (p - here).head<2>();
+      if (away.norm() < kNearestLook) return true;
+      if (!first) first = away;
+      if (settings_.commit == CommitSpace::kSeen && !map_->seenAround(p, 0.5 * spacing)) {
+        unseen = away;
+        return false;
+      }
+      return settings_.commit == CommitSpace::kSeen;
+    });
+    if (unseen) return towards(*unseen);
+    if (first) return towards(*first);
+    const Eigen::Vector2d goal = (query_.goal - here).head<2>();
+    return goal.norm() > 1e-9 ? towards(goal) : 0.0;
   }
 
   /// After a failed replan with the vehicle at rest (or about to be): back off from the
@@ -766,7 +817,7 @@ class FlightLoop {
   double z_band_low_;
   double z_band_high_;
   Trajectory committed_;
-  Trajectory intended_;  // the last plan taken, whole: where the camera looks (headingOf())
+  Trajectory intended_;  // the last plan taken, whole: where the camera looks (heading())
   double t_ = 0.0;
   double next_replan_ = 0.0;
   double best_distance_ = INFINITY;
@@ -796,7 +847,11 @@ const MetricSpecs& flightStatistics() {
           .real("flown_length", "m", "length of the flown trajectory")
           .real("mean_speed", "m/s", "flown length over flight time")
           .counter("replans", "replans made (planned, on collision, retries)")
-          .counter("failed_replans", "replans whose plan was not taken")
+          .counter("failed_replans",
+                   "replans whose plan was not taken (kept replans are not failures)")
+          .counter("kept_replans",
+                   "replans whose plan was set aside for the committed trajectory, which comes "
+                   "as near the local goal no later")
           .clock("replan_time_median_ms", "median planning time of the replans")
           .clock("replan_time_p95_ms", "95th percentile planning time of the replans")
           .clock("replan_time_max_ms", "largest planning time of a replan")
@@ -866,13 +921,13 @@ std::string replansCsv(const FlightResult& result) {
   };
   std::string csv =
       "replan,time,reason,start_x,start_y,start_z,goal_x,goal_y,goal_z,status,planning_time_ms,"
-      "distance_to_goal,accepted,recovery,why\n";
+      "distance_to_goal,accepted,kept,recovery,why\n";
   for (std::size_t i = 0; i < result.replans.size(); ++i) {
     const FlightReplan& r = result.replans[i];
     csv += std::to_string(i) + "," + formatNumber(r.time) + "," + r.reason + "," + point(r.start) +
            "," + point(r.local_goal) + "," + r.status + "," + formatNumber(r.planning_time_ms) +
            "," + formatNumber(r.distance_to_goal) + "," + (r.accepted ? "1" : "0") + "," +
-           r.recovery + "," + csvField(r.why) + "\n";
+           (r.kept ? "1" : "0") + "," + r.recovery + "," + csvField(r.why) + "\n";
   }
   return csv;
 }
@@ -884,7 +939,7 @@ MetricValues flightValues(const FlightResult& result) {
   for (const FlightReplan& replan : result.replans) {
     if (replan.status != "no_local_goal") times.push_back(replan.planning_time_ms);
     if (std::isfinite(replan.distance_to_goal)) distances.push_back(replan.distance_to_goal);
-    failed += replan.accepted ? 0 : 1;
+    failed += replan.accepted || replan.kept ? 0 : 1;
   }
   const auto quantile = [](std::vector<double> values, double q) -> MetricValue {
     if (values.empty()) return std::monostate{};
@@ -909,6 +964,9 @@ MetricValues flightValues(const FlightResult& result) {
       {"mean_speed", numberOrNone(duration > 0.0 ? length / duration : NAN)},
       {"replans", static_cast<double>(result.replans.size())},
       {"failed_replans", static_cast<double>(failed)},
+      {"kept_replans",
+       static_cast<double>(std::count_if(result.replans.begin(), result.replans.end(),
+                                         [](const FlightReplan& r) { return r.kept; }))},
       {"replan_time_median_ms", quantile(times, 0.5)},
       {"replan_time_p95_ms", quantile(times, 0.95)},
       {"replan_time_max_ms", quantile(times, 1.0)},

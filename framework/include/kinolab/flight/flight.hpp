@@ -67,6 +67,9 @@ struct FlightSettings {
   double goal_tolerance = 0.5;      ///< m: reached when this close to the goal
   double brake_acceleration = 3.0;  ///< m/s^2 per axis for braking to a stop
   CommitSpace commit = CommitSpace::kSeen;
+  /// A replan's plan is set aside when the committed trajectory comes as near the plan's local
+  /// goal no later (the replan is `kept`, not a failure).
+  bool keep_faster = true;
   /// m: the planners keep the body's radius plus this from what the vehicle knows, room for
   /// tracking error, map noise and latency (the flight judges the body).
   double planning_margin = 0.1;
@@ -119,6 +122,10 @@ struct FlightSettings {
              "into; planned: "
              "wherever the planning window allows (with unknown free, into "
              "unseen space)");
+    f.boolean("keep_faster", keep_faster,
+              "true: a replan's plan is set aside when the committed trajectory comes as near "
+              "its local goal no later (a lattice search from a state between primitives need "
+              "not find the rest of the plan it is on); false: every valid plan is taken");
   }
 };
 
@@ -155,6 +162,9 @@ struct FlightReplan {
   double planning_time_ms = 0.0;
   double distance_to_goal = 0.0;  ///< the plan's D to its local goal
   bool accepted = false;          ///< it became the committed trajectory
+  /// Not taken because the committed trajectory comes as near the local goal no later; not
+  /// a failure.
+  bool kept = false;
   /// Why it was not taken (empty when it was): the planner's message, the checker's verdict,
   /// a late plan, or no local goal.
   std::string why;
