@@ -5,6 +5,7 @@
 #include <cmath>
 #include <limits>
 
+#include "kinolab/core/error.hpp"
 #include "kinolab/core/random.hpp"
 
 namespace kinolab {
@@ -117,6 +118,31 @@ TEST(IncrementalEsdfTest, EveryUpdateEqualsAFullBuildBitForBit) {
       ASSERT_EQ(incremental.grid().occupancy(), grid.occupancy());
     }
   }
+}
+
+TEST(EsdfTest, AnyNumberOfThreadsBuildsTheSameFieldBitForBit) {
+  // Shapes whose lines do not split evenly (pass 3's blocks of 16 lines end mid-slab), more
+  // threads than x-slabs, and the brute force on the small one.
+  for (const auto& [dims, density] :
+       {std::pair{Eigen::Vector3i(37, 29, 11), 0.03}, std::pair{Eigen::Vector3i(3, 50, 7), 0.1},
+        std::pair{Eigen::Vector3i(9, 8, 5), 0.2}}) {
+    const VoxelGrid grid = randomGrid(dims, density, 5, 0.1);
+    const Esdf one(grid, 1);
+    for (const int threads : {2, 3, 4, 7}) {
+      EXPECT_EQ(Esdf(grid, threads).values(), one.values())
+          << "dims " << dims.transpose() << ", " << threads << " threads";
+    }
+    if (grid.size() < 1000) {
+      const Esdf three(grid, 3);
+      for (std::size_t i = 0; i < grid.size(); ++i) {
+        const VoxelIndex voxel(static_cast<int>(i / (dims.y() * dims.z())),
+                               static_cast<int>(i / dims.z() % dims.y()),
+                               static_cast<int>(i % dims.z()));
+        EXPECT_NEAR(three.voxelDistance(i), 0.1 * bruteForce(grid, voxel), 1e-5);
+      }
+    }
+  }
+  EXPECT_THROW(Esdf(randomGrid({4, 4, 4}, 0.1, 1), -1), InvalidArgument);
 }
 
 TEST(IncrementalEsdfTest, AnUpdateRecomputesOnlyTheLinesItReaches) {

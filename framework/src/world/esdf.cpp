@@ -3,7 +3,10 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <exception>
 #include <limits>
+#include <mutex>
+#include <thread>
 
 #include "kinolab/core/error.hpp"
 
@@ -170,21 +173,30 @@ struct CubeTransform {
         in(static_cast<std::size_t>(kBlock) * std::max(dims.x(), dims.y())),
         out(in.size()) {}
 
-  void columns(const std::uint8_t* occupancy, std::uint8_t target, std::int32_t* squared) const {
+  /// Pass 1 over the columns [begin, end) (x-y cells; all by default).
+  void columns(const std::uint8_t* occupancy, std::uint8_t target, std::int32_t* squared,
+               std::size_t begin = 0, std::size_t end = kAll) const {
     const std::size_t nz = static_cast<std::size_t>(dims.z());
-    for (std::size_t column = 0; column < static_cast<std::size_t>(dims.x()) * dims.y(); ++column) {
+    end = std::min(end, static_cast<std::size_t>(dims.x()) * dims.y());
+    for (std::size_t column = begin; column < end; ++column) {
       transformColumn(occupancy + column * nz, dims.z(), target, squared + column * nz);
     }
   }
-  void alongY(std::int32_t* squared) {
-    for (int ix = 0; ix < dims.x(); ++ix) {
+  /// Pass 2 over the x-slabs [begin, end).
+  void alongY(std::int32_t* squared, std::size_t begin = 0, std::size_t end = kAll) {
+    end = std::min(end, static_cast<std::size_t>(dims.x()));
+    for (std::size_t ix = begin; ix < end; ++ix) {
       transformStrided(squared, ix * slab, static_cast<std::size_t>(dims.z()), dims.y(),
                        static_cast<std::size_t>(dims.z()), scratch, in, out);
     }
   }
-  void alongX(std::int32_t* squared) {
-    transformStrided(squared, 0, slab, dims.x(), slab, scratch, in, out);
+  /// Pass 3 over the x-lines of the (y, z) cells [begin, end) (in storage order).
+  void alongX(std::int32_t* squared, std::size_t begin = 0, std::size_t end = kAll) {
+    end = std::min(end, slab);
+    if (end > begin)
+      transformStrided(squared, begin, end - begin, dims.x(), slab, scratch, in, out);
   }
+  static constexpr std::size_t kAll = std::numeric_limits<std::size_t>::max();
   /// One line of pass 2 or 3 alone: `length` entries of `from`, `stride` apart from `first`,
   /// transformed into `to` at the same places; calls changed(index) for every entry of `to`
   /// that this alters.
@@ -209,15 +221,56 @@ struct CubeTransform {
   std::vector<std::int32_t> out;
 };
 
+/// Calls work(begin, end) on `parts` contiguous ranges splitting [0, count), each on a thread
+/// of its own (the caller's thread takes the first); rethrows the first exception.
+template <typename Work>
+void inParallel(std::size_t count, int parts, const Work& work) {
+  const std::size_t n = std::min<std::size_t>(static_cast<std::size_t>(std::max(parts, 1)), count);
+  if (n <= 1) {
+    work(std::size_t{0}, count);
+    return;
+  }
+  std::exception_ptr error;
+  std::mutex error_mutex;
+  const auto part = [&](std::size_t k) {
+    try {
+      work(k * count / n, (k + 1) * count / n);
+    } catch (...) {
+      const std::lock_guard<std::mutex> lock(error_mutex);
+      if (!error) error = std::current_exception();
+    }
+  };
+  std::vector<std::thread> threads;
+  threads.reserve(n - 1);
+  for (std::size_t k = 1; k < n; ++k) threads.emplace_back(part, k);
+  part(0);
+  for (std::thread& thread : threads) thread.join();
+  if (error) std::rethrow_exception(error);
+}
+
 /// Squared Euclidean distance, in quarter voxels squared ((2 d / voxel)^2), from every voxel's
 /// centre to the nearest cube of a voxel whose occupancy equals `target` (0 in such a voxel).
 /// Exact: per axis the offset to a cube k voxels away is max(|k| - 1/2, 0), a separable sum.
-std::vector<std::int32_t> squaredDistanceTo(const VoxelGrid& grid, std::uint8_t target) {
+/// Each pass's lines are independent: `threads` threads take a share each, every line computed
+/// as by one thread, so the result is the same bit for bit.
+std::vector<std::int32_t> squaredDistanceTo(const VoxelGrid& grid, std::uint8_t target,
+                                            int threads) {
   std::vector<std::int32_t> squared(grid.size());
-  CubeTransform transform(grid.dims());
-  transform.columns(grid.occupancy().data(), target, squared.data());
-  transform.alongY(squared.data());
-  transform.alongX(squared.data());
+  const Eigen::Vector3i& n = grid.dims();
+  const auto nx = static_cast<std::size_t>(n.x());
+  const auto ny = static_cast<std::size_t>(n.y());
+  const auto nz = static_cast<std::size_t>(n.z());
+  inParallel(nx * ny, threads, [&](std::size_t begin, std::size_t end) {
+    CubeTransform(n).columns(grid.occupancy().data(), target, squared.data(), begin, end);
+  });
+  inParallel(nx, threads, [&](std::size_t begin, std::size_t end) {
+    CubeTransform(n).alongY(squared.data(), begin, end);
+  });
+  // Pass 3's share: whole blocks of kBlock adjacent lines, as one thread gathers them.
+  const std::size_t blocks = (ny * nz + kBlock - 1) / kBlock;
+  inParallel(blocks, threads, [&](std::size_t begin, std::size_t end) {
+    CubeTransform(n).alongX(squared.data(), begin * kBlock, end * kBlock);
+  });
   return squared;
 }
 
@@ -340,18 +393,26 @@ void Esdf::setGeometry(const VoxelGrid& grid) {
   }
 }
 
-Esdf::Esdf(const VoxelGrid& grid) {
+Esdf::Esdf(const VoxelGrid& grid, int threads) {
   if (grid.size() == 0) throw InvalidArgument("Esdf: empty grid");
+  if (threads < 0) throw InvalidArgument("Esdf: threads must be >= 0");
+  if (threads == 0) {
+    threads = grid.size() < kParallelVoxels
+                  ? 1
+                  : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+  }
   setGeometry(grid);
-  const std::vector<std::int32_t> to_occupied = squaredDistanceTo(grid, 1);
-  const std::vector<std::int32_t> to_free = squaredDistanceTo(grid, 0);
+  const std::vector<std::int32_t> to_occupied = squaredDistanceTo(grid, 1, threads);
+  const std::vector<std::int32_t> to_free = squaredDistanceTo(grid, 0, threads);
   values_.resize(grid.size());
   const auto cap = static_cast<float>(max_distance_);
   const auto half_voxel = static_cast<float>(0.5 * resolution_);  // the fields are in half voxels
   const std::uint8_t* occupancy = grid.occupancy().data();
-  for (std::size_t i = 0; i < values_.size(); ++i) {
-    values_[i] = signedDistance(to_occupied[i], to_free[i], occupancy[i] != 0, half_voxel, cap);
-  }
+  inParallel(grid.size(), threads, [&](std::size_t begin, std::size_t end) {
+    for (std::size_t i = begin; i < end; ++i) {
+      values_[i] = signedDistance(to_occupied[i], to_free[i], occupancy[i] != 0, half_voxel, cap);
+    }
+  });
 }
 
 Esdf::Esdf(const VoxelGrid& grid, std::vector<float> values) : values_(std::move(values)) {

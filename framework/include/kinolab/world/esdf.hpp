@@ -33,8 +33,12 @@ namespace kinolab {
 class Esdf {
  public:
   Esdf() = default;
-  /// Builds the field of `grid`.
-  explicit Esdf(const VoxelGrid& grid);
+  /// Builds the field of `grid` on `threads` threads (0: one below kParallelVoxels voxels,
+  /// else one per core); the field is the same bit for bit on any number.
+  explicit Esdf(const VoxelGrid& grid, int threads = 0);
+  /// Grids of fewer voxels are built on one thread by default (starting threads would cost
+  /// more than it saves).
+  static constexpr std::size_t kParallelVoxels = std::size_t{1} << 20;
   /// Adopts precomputed values (e.g. from the world cache), one per voxel in grid order.
   Esdf(const VoxelGrid& grid, std::vector<float> values);
 
