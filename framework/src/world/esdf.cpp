@@ -252,10 +252,10 @@ void inParallel(std::size_t count, int parts, const Work& work) {
 /// centre to the nearest cube of a voxel whose occupancy equals `target` (0 in such a voxel).
 /// Exact: per axis the offset to a cube k voxels away is max(|k| - 1/2, 0), a separable sum.
 /// Each pass's lines are independent: `threads` threads take a share each, every line computed
-/// as by one thread, so the result is the same bit for bit.
-std::vector<std::int32_t> squaredDistanceTo(const VoxelGrid& grid, std::uint8_t target,
-                                            int threads) {
-  std::vector<std::int32_t> squared(grid.size());
+/// as by one thread, so the result is the same bit for bit. Into `squared` (one per voxel).
+void squaredDistanceTo(const VoxelGrid& grid, std::uint8_t target, int threads,
+                       std::vector<std::int32_t>& squared) {
+  squared.resize(grid.size());
   const Eigen::Vector3i& n = grid.dims();
   const auto nx = static_cast<std::size_t>(n.x());
   const auto ny = static_cast<std::size_t>(n.y());
@@ -271,7 +271,6 @@ std::vector<std::int32_t> squaredDistanceTo(const VoxelGrid& grid, std::uint8_t 
   inParallel(blocks, threads, [&](std::size_t begin, std::size_t end) {
     CubeTransform(n).alongX(squared.data(), begin * kBlock, end * kBlock);
   });
-  return squared;
 }
 
 /// A voxel's signed distance, m, from its squared distances to the nearest occupied and the
@@ -402,17 +401,23 @@ Esdf::Esdf(const VoxelGrid& grid, int threads) {
                   : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
   }
   setGeometry(grid);
-  const std::vector<std::int32_t> to_occupied = squaredDistanceTo(grid, 1, threads);
-  const std::vector<std::int32_t> to_free = squaredDistanceTo(grid, 0, threads);
   values_.resize(grid.size());
   const auto cap = static_cast<float>(max_distance_);
   const auto half_voxel = static_cast<float>(0.5 * resolution_);  // the fields are in half voxels
   const std::uint8_t* occupancy = grid.occupancy().data();
-  inParallel(grid.size(), threads, [&](std::size_t begin, std::size_t end) {
-    for (std::size_t i = begin; i < end; ++i) {
-      values_[i] = signedDistance(to_occupied[i], to_free[i], occupancy[i] != 0, half_voxel, cap);
-    }
-  });
+  // One squared-distance field at a time, in one buffer (the build holds 9 bytes a voxel: the
+  // occupancy, the values and the field): a free voxel's value is its distance to the
+  // occupied cubes, an occupied one's minus its distance to the free cubes.
+  std::vector<std::int32_t> squared;
+  for (const bool occupied : {false, true}) {
+    squaredDistanceTo(grid, occupied ? 0 : 1, threads, squared);
+    inParallel(grid.size(), threads, [&](std::size_t begin, std::size_t end) {
+      for (std::size_t i = begin; i < end; ++i) {
+        if ((occupancy[i] != 0) != occupied) continue;
+        values_[i] = signedDistance(squared[i], squared[i], occupied, half_voxel, cap);
+      }
+    });
+  }
 }
 
 Esdf::Esdf(const VoxelGrid& grid, std::vector<float> values) : values_(std::move(values)) {

@@ -113,10 +113,11 @@ void checkGridSize(const WorldSpec& spec, const YamlReader& node) {
                             "; the exact ESDF handles at most 23170 voxels of diagonal: use a "
                             "coarser resolution or a smaller world");
   }
-  // Building holds the occupancy (1 byte), the ESDF (4) and two squared-distance fields (8)
-  // per voxel at once, and the cache file's buffer another 5: 24 bytes a voxel leaves room
-  // for the rest, and at most 60 % of the machine's memory for one world.
-  const double bytes = voxels * 24.0;
+  // Building holds the occupancy (1 byte), the ESDF (4) and one squared-distance field (4) per
+  // voxel at once, and writing or reading the cache file the world and its buffer (5 + 5):
+  // 14 bytes a voxel leaves room for the rest, and at most 60 % of the machine's memory for
+  // one world.
+  const double bytes = voxels * 14.0;
   const double memory = static_cast<double>(sysconf(_SC_PHYS_PAGES)) * sysconf(_SC_PAGESIZE);
   if (memory > 0.0 && bytes > 0.6 * memory) {
     node["resolution"].fail(
