@@ -48,20 +48,22 @@ void runEsdfBuild(benchmark::State& state, const VoxelGrid& grid, int threads = 
       benchmark::Counter::kIsIterationInvariantRate | benchmark::Counter::kInvert);
 }
 
+/// The build benchmarks' arguments: occupancy 5 and 20 %, on 1 and 2 threads, wall time.
+void buildArguments(benchmark::internal::Benchmark* b) {
+  b->ArgNames({"occupancy", "threads"});
+  for (const int threads : {1, 2}) {
+    for (const int occupancy : {5, 20}) b->Args({occupancy, threads});
+  }
+  b->UseRealTime()->Unit(benchmark::kMillisecond);
+}
+
 /// Signed exact ESDF of a 200 x 200 x 60 grid with independent random occupancy (percent in
 /// the first argument) on threads (the second): both the outside and the inside transform.
 void BM_EsdfBuild(benchmark::State& state) {
   const VoxelGrid grid = randomGrid({200, 200, 60}, state.range(0) / 100.0);
   runEsdfBuild(state, grid, static_cast<int>(state.range(1)));
 }
-BENCHMARK(BM_EsdfBuild)
-    ->ArgNames({"occupancy", "threads"})
-    ->Args({5, 1})
-    ->Args({20, 1})
-    ->Args({5, 2})
-    ->Args({20, 2})
-    ->UseRealTime()
-    ->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_EsdfBuild)->Apply(buildArguments);
 
 /// The same build on a world-like 200 x 200 x 60 grid: random boxes standing on the floor
 /// until the occupancy (percent in the argument) is reached.
@@ -76,14 +78,7 @@ void BM_EsdfBuildBoxesWorld(benchmark::State& state) {
   }
   runEsdfBuild(state, grid, static_cast<int>(state.range(1)));
 }
-BENCHMARK(BM_EsdfBuildBoxesWorld)
-    ->ArgNames({"occupancy", "threads"})
-    ->Args({5, 1})
-    ->Args({20, 1})
-    ->Args({5, 2})
-    ->Args({20, 2})
-    ->UseRealTime()
-    ->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_EsdfBuildBoxesWorld)->Apply(buildArguments);
 
 /// Trilinear distance + gradient at random points; argument = voxels per axis in x and y
 /// (16 x 16 x 16 floats = 16 KiB fits in L1/L2; 512 x 512 x 64 floats = 64 MiB does not).
