@@ -155,7 +155,8 @@ void addFlyCommand(CLI::App& app) {
   command->footer(
       "flown.csv: the flown trajectory as kinolab plan's trajectory.csv, every 0.01 s.\n"
       "replans.csv: per replan its frame time, reason, start, local goal, status, planning "
-      "time, D and whether it was taken; plans.csv: every plan's positions every 0.05 s.\n"
+      "time, D, whether it was taken or kept (set aside for a committed trajectory that gets "
+      "there first), the recovery and why not; plans.csv: every plan's positions every 0.05 s.\n"
       "known_map.bt: the vehicle's final OctoMap. Exit status 0 whenever the flight ran.");
   command->callback([options] { runFly(*options); });
 }
