@@ -416,7 +416,8 @@ class FlightLoop {
       snapshot();
     }
     const std::shared_ptr<const World> window = sense(now);
-    if (!freeFrom(committed_, t_, truth_->bounds(), *window, planning_model_)) {
+    committed_free_ = freeFrom(committed_, t_, truth_->bounds(), *window, planning_model_);
+    if (!committed_free_) {
       reason_ = "collision";
       next_replan_ = t_;
     }
@@ -570,7 +571,8 @@ class FlightLoop {
       recover(replan, window);
     }
     result_.replans.push_back(std::move(replan));
-    if (!accepted && !freeFrom(committed_, t_, truth_->bounds(), window, model_)) {
+    // (A kept plan's committed trajectory is clear for the planning margin, so for the body.)
+    if (!settled && !freeFrom(committed_, t_, truth_->bounds(), window, model_)) {
       // Nothing safe to fly on (for the body: inside the planning margin it goes on): stop
       // now.
       const ChainState here = stateAt(committed_, t_);
@@ -608,7 +610,7 @@ class FlightLoop {
                        : (plan.message.empty() ? "no trajectory" : plan.message);
       return false;
     }
-    if (settings_.keep_faster && arrivesFirst(plan.trajectory, t_start, goal, window)) {
+    if (settings_.keep_faster && arrivesFirst(plan.trajectory, t_start, goal)) {
       replan.kept = true;
       replan.trajectory = plan.trajectory;
       replan.why = "the committed trajectory comes as near the local goal no later";
@@ -633,22 +635,20 @@ class FlightLoop {
     return false;
   }
 
-  /// Whether the committed trajectory, from `t_start` on and still clear of what is known,
-  /// comes as near `goal` as `plan` ends no later than the plan does: then the plan would
-  /// trade a way for a slower one. A lattice search from a state between its primitives'
+  /// Whether the committed trajectory, from `t_start` on and still clear of what is known (this
+  /// frame's verdict), comes as near `goal` as `plan` ends no later than the plan does: then the
+  /// plan would trade a way for a slower one. A lattice search from a state between its primitives'
   /// ends need not find the rest of the plan it is on, so plans from one replan to the next
   /// disagreed, and a vehicle in the dense forest cycled through the same four plans (2.4,
   /// 3.0, 4.2 and 10.8 s long, two of them turning back) until it was stuck.
-  bool arrivesFirst(const Trajectory& plan, double t_start, const Eigen::Vector3d& goal,
-                    const World& window) const {
-    if (plan.empty() || committed_.duration() <= t_start) return false;
+  bool arrivesFirst(const Trajectory& plan, double t_start, const Eigen::Vector3d& goal) const {
+    if (!committed_free_ || plan.empty() || committed_.duration() <= t_start) return false;
     const double reach = (plan.endPosition() - goal).norm() + 1e-9;
     const double by = std::min(committed_.duration(), t_start + plan.duration());
     const auto far = [&](double s) { return (committed_.evaluate(s) - goal).norm() > reach; };
-    const bool arrives = !everySample(t_start, by, 0.5 * map_model_.resolution,
-                                      model_.limits.bound[1].norm(), far) ||
-                         !far(by);
-    return arrives && freeFrom(committed_, t_, truth_->bounds(), window, planning_model_);
+    return !everySample(t_start, by, 0.5 * map_model_.resolution, model_.limits.bound[1].norm(),
+                        far) ||
+           !far(by);
   }
 
   /// How long `trajectory`, from `from` on, keeps the vehicle's centre in space the sensor
@@ -691,6 +691,7 @@ class FlightLoop {
         (intended_.evaluate(std::min(t + 1.0, intended_.duration())) - here).head<2>();
     if (ahead.norm() > 0.3) return towards(ahead);
     const double spacing = 0.5 * map_model_.resolution;
+    const bool seen_only = settings_.commit == CommitSpace::kSeen;
     std::optional<Eigen::Vector2d> first;
     std::optional<Eigen::Vector2d> unseen;
     everySample(t, intended_.duration(), spacing, model_.limits.bound[1].norm(), [&](double s) {
@@ -698,11 +699,10 @@ class FlightLoop {
       const Eigen::Vector2d away = (p - here).head<2>();
       if (away.norm() < kNearestLook) return true;
       if (!first) first = away;
-      if (settings_.commit == CommitSpace::kSeen && !map_->seenAround(p, 0.5 * spacing)) {
-        unseen = away;
-        return false;
-      }
-      return settings_.commit == CommitSpace::kSeen;
+      if (!seen_only) return false;  // the first point that far is all it looks for
+      if (map_->seenAround(p, 0.5 * spacing)) return true;
+      unseen = away;
+      return false;
     });
     if (unseen) return towards(*unseen);
     if (first) return towards(*first);
@@ -828,6 +828,9 @@ class FlightLoop {
   double best_time_ = 0.0;
   std::string reason_ = "start";
   bool collided_ = false;
+  // This frame's verdict: the committed trajectory is clear of the window's known obstacles
+  // for the planning margin (freeFrom; a replan on collision when not).
+  bool committed_free_ = true;
   int failed_in_a_row_ = 0;   // failed replans since the last taken one
   double look_offset_ = 0.0;  // rad: the camera's turn from its heading, to look for a way
   SensorNoise sensor_errors_;

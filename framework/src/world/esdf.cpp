@@ -193,8 +193,9 @@ struct CubeTransform {
   /// Pass 3 over the x-lines of the (y, z) cells [begin, end) (in storage order).
   void alongX(std::int32_t* squared, std::size_t begin = 0, std::size_t end = kAll) {
     end = std::min(end, slab);
-    if (end > begin)
+    if (end > begin) {
       transformStrided(squared, begin, end - begin, dims.x(), slab, scratch, in, out);
+    }
   }
   static constexpr std::size_t kAll = std::numeric_limits<std::size_t>::max();
   /// One line of pass 2 or 3 alone: `length` entries of `from`, `stride` apart from `first`,
@@ -273,13 +274,18 @@ void squaredDistanceTo(const VoxelGrid& grid, std::uint8_t target, int threads,
   });
 }
 
+/// A distance, m, from its square in quarter voxels squared: kNoSite's root exceeds any real
+/// distance and is capped at `cap`.
+inline float cappedDistance(std::int32_t squared, float half_voxel, float cap) {
+  return std::min(std::sqrt(static_cast<float>(squared)) * half_voxel, cap);
+}
+
 /// A voxel's signed distance, m, from its squared distances to the nearest occupied and the
-/// nearest free cube (quarter voxels squared): kNoSite's root exceeds any real distance and
-/// is capped at `cap`. Branch-free, so that loops over it vectorise.
+/// nearest free cube (quarter voxels squared). Branch-free, so that loops over it vectorise.
 inline float signedDistance(std::int32_t to_occupied, std::int32_t to_free, bool occupied,
                             float half_voxel, float cap) {
-  const float outside = std::min(std::sqrt(static_cast<float>(to_occupied)) * half_voxel, cap);
-  const float inside = std::min(std::sqrt(static_cast<float>(to_free)) * half_voxel, cap);
+  const float outside = cappedDistance(to_occupied, half_voxel, cap);
+  const float inside = cappedDistance(to_free, half_voxel, cap);
   return occupied ? -inside : outside;
 }
 
@@ -414,7 +420,8 @@ Esdf::Esdf(const VoxelGrid& grid, int threads) {
     inParallel(grid.size(), threads, [&](std::size_t begin, std::size_t end) {
       for (std::size_t i = begin; i < end; ++i) {
         if ((occupancy[i] != 0) != occupied) continue;
-        values_[i] = signedDistance(squared[i], squared[i], occupied, half_voxel, cap);
+        const float distance = cappedDistance(squared[i], half_voxel, cap);
+        values_[i] = occupied ? -distance : distance;
       }
     });
   }
