@@ -16,6 +16,7 @@
 #include "forest_queries.hpp"
 #include "kinolab/builtin_plugins.hpp"
 #include "kinolab/experiment/experiment.hpp"
+#include "kinolab/search/motion_primitive_planner.hpp"
 
 namespace kinolab {
 namespace {
@@ -129,6 +130,25 @@ void BM_MplProblem(benchmark::State& state) { planSideBySide(state, mplProblem()
 // The argument is the number of rounds (the fastest of them is kept per query).
 BENCHMARK(BM_ForestPaperScale)->Arg(3)->Iterations(1)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_MplProblem)->Arg(3)->Iterations(1)->Unit(benchmark::kMillisecond);
+
+// The geodesic heuristic's work per query (its search over the map's free space, which counts
+// as planning time) on the MPL problem's world (2.4 million voxels), towards each query's goal.
+void BM_GeodesicHeuristicPerQuery(benchmark::State& state) {
+  const Problem& problem = mplProblem();
+  EdgeEvaluatorSettings edges;
+  edges.duration = 1.0;
+  edges.limits = DynamicLimits::uniform(2.0, 1.0);
+  edges.robot_radius = 0.0;
+  const auto heuristic = heuristicFor("geodesic", edges, 0.01);
+  std::size_t query = 0;
+  for (auto _ : state) {
+    StopCondition never(Budget{});
+    const Eigen::Vector3d& goal = problem.queries[query++ % problem.queries.size()].goal;
+    benchmark::DoNotOptimize(heuristicForQuery(heuristic, *problem.world, goal, never));
+  }
+  state.counters["voxels"] = static_cast<double>(problem.world->grid().size());
+}
+BENCHMARK(BM_GeodesicHeuristicPerQuery)->Unit(benchmark::kMillisecond);
 
 // The independent check of every forest trajectory eager plans (the check every run pays
 // after planning, outside its planning time): time per trajectory, and position samples

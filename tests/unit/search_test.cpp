@@ -44,6 +44,7 @@ class InflatedHeuristic final : public SearchHeuristic {
 
 struct ConsistencyCount {
   int edges = 0;       ///< valid primitives checked
+  int finite = 0;      ///< of them, those from a state with a finite estimate
   int violations = 0;  ///< h(s) > c_lower(s, s') + h(s')
 };
 
@@ -63,7 +64,11 @@ ConsistencyCount checkConsistency(const std::string& heuristic_name, int order, 
   const EdgeEvaluator evaluator(world, settings);
   std::shared_ptr<const SearchHeuristic> heuristic =
       heuristic_name == "inflated" ? std::make_shared<InflatedHeuristic>(settings, goal_radius)
-                                   : heuristicFor(heuristic_name, settings, goal_radius);
+      : heuristic_name == "time_optimal_whole"
+          ? pluginRegistry<HeuristicBuilder>()
+                .create("time_optimal", test::assignments({"whole_primitives=true"}))
+                ->build({settings, goal_radius})
+          : heuristicFor(heuristic_name, settings, goal_radius);
   const auto controls = controlGrid({-1.0, -0.4, 0.0, 0.6, 1.0}, settings.limits.bound[order]);
   ConsistencyCount count;
   while (count.edges < primitives) {
@@ -79,13 +84,22 @@ ConsistencyCount checkConsistency(const std::string& heuristic_name, int order, 
     const Eigen::Vector3d goal =
         state.col(0) + Eigen::Vector3d(rng.uniform(-6, 6), rng.uniform(-6, 6), rng.uniform(-2, 2)) *
                            (rng.uniform01() < 0.3 ? 0.1 : 1.0);
-    const double h = heuristic->estimate(state, goal);
+    // The query's heuristic (a map-reading one searches the free space towards this goal).
+    StopCondition never(Budget{});
+    const auto prepared = heuristicForQuery(heuristic, *world, goal, never);
+    const double h = prepared->estimate(state, goal);
     for (const auto& control : controls) {
       const EdgeEvaluation bound = evaluator.controlOnly(state, control);
-      if (!bound.valid()) continue;
+      // Consistency is owed to valid edges (a map-reading heuristic may say "unreachable",
+      // infinity, where the body cannot be).
+      if (!bound.valid() ||
+          !evaluator.full(state, control, world->clearance(state.col(0))).valid()) {
+        continue;
+      }
       ++count.edges;
-      const double after = heuristic->estimate(bound.end, goal);
-      EXPECT_TRUE(std::isfinite(h) && std::isfinite(after) && h >= 0.0 && after >= 0.0);
+      const double after = prepared->estimate(bound.end, goal);
+      EXPECT_TRUE(h >= 0.0 && after >= 0.0) << h << " " << after;  // NaN fails too
+      count.finite += std::isfinite(h);
       count.violations += h > bound.cost + after + 1e-9 * (1.0 + h);
     }
   }
@@ -94,11 +108,13 @@ ConsistencyCount checkConsistency(const std::string& heuristic_name, int order, 
 
 TEST(SearchHeuristic, EveryBuiltInHeuristicIsConsistentWithTheWeakestLowerBound) {
   for (const int order : {2, 3, 4}) {
-    for (const std::string name : {"euclidean", "min_time", "time_optimal", "obvp", "max"}) {
+    for (const std::string name : {"euclidean", "min_time", "time_optimal", "time_optimal_whole",
+                                   "obvp", "max", "geodesic"}) {
       if (name == "obvp" && order != 2) continue;
       for (const double goal_radius : {0.5, 0.01}) {
         const ConsistencyCount count = checkConsistency(name, order, goal_radius, 10000);
         EXPECT_GE(count.edges, 10000);
+        EXPECT_GT(count.finite, count.edges / 2) << name;  // mostly goals it can reach
         EXPECT_EQ(count.violations, 0)
             << name << " at order " << order << ", goal radius " << goal_radius << ": "
             << count.violations << " of " << count.edges << " edges";
@@ -573,6 +589,169 @@ TEST(MotionPrimitiveSearch, AnEnclosedGoalExhaustsTheSearch) {
   const PlanResult result = configured.planner->plan(query, Budget{});
   EXPECT_EQ(result.status, PlanStatus::kNoSolution) << result.message;
   EXPECT_GT(test::statistic(result.statistics, "expansions"), 1000.0);  // it went somewhere
+}
+
+/// The geodesic heuristic alone with one voxel step a primitive (v tau < voxel) and w_T = 1:
+/// its estimate is tau times the voxel steps H.
+std::shared_ptr<const SearchHeuristic> geodesicSteps(double tau, double robot_radius,
+                                                     double goal_radius) {
+  EdgeEvaluatorSettings edges;
+  edges.duration = tau;
+  edges.limits = DynamicLimits::uniform(2.0, 3.0);
+  edges.weights = {1.0, 0.0, 0.0, 0.0};
+  edges.robot_radius = robot_radius;
+  return pluginRegistry<HeuristicBuilder>()
+      .create("geodesic", test::assignments({"time_optimal=off"}))
+      ->build({edges, goal_radius});
+}
+
+TEST(GeodesicHeuristic, CountsTheStepsABreadthFirstSearchFinds) {
+  // Random grids, some with columns taller than a 64-bit word (the search packs z into words),
+  // against a plain breadth-first search over 26-neighbours from the goal ball's voxels, through
+  // the voxels whose centre's distance plus half a voxel's diagonal reaches the body's radius
+  // less the collision tolerance.
+  Rng rng(31);
+  const double tau = 0.04;  // 2 m/s x 0.04 s < 0.1 m: one step a primitive
+  for (const Eigen::Vector3i& dims :
+       {Eigen::Vector3i(9, 7, 70), Eigen::Vector3i(12, 11, 20), Eigen::Vector3i(4, 5, 130)}) {
+    for (const double robot_radius : {0.0, 0.12}) {
+      VoxelGrid grid(Box{Eigen::Vector3d::Zero(), dims.cast<double>() * 0.1}, 0.1);
+      for (std::size_t i = 0; i < grid.size(); ++i) grid.setOccupied(i, rng.uniform01() < 0.08);
+      const auto world = std::make_shared<World>("random", 0, grid, Esdf(grid));
+      const double goal_radius = 0.15;
+      const Eigen::Vector3d goal =
+          (dims.cast<double>() * 0.1)
+              .cwiseProduct(Eigen::Vector3d(rng.uniform01(), rng.uniform01(), rng.uniform01()));
+      const double threshold = std::max(robot_radius, MotionDefaults::kCollisionTolerance) -
+                               MotionDefaults::kCollisionTolerance -
+                               (0.5 * std::sqrt(3.0) + 1e-4) * 0.1;
+      constexpr int kUnreached = -1;
+      std::vector<int> steps(grid.size(), kUnreached);
+      std::vector<VoxelIndex> queue;
+      const auto open = [&](const VoxelIndex& v) {
+        return grid.inside(v) && steps[grid.index(v)] == kUnreached &&
+               world->esdf().voxelDistance(grid.index(v)) >= threshold;
+      };
+      for (int x = 0; x < dims.x(); ++x) {
+        for (int y = 0; y < dims.y(); ++y) {
+          for (int z = 0; z < dims.z(); ++z) {
+            const VoxelIndex v(x, y, z);
+            const Eigen::Vector3d low = v.cast<double>() * 0.1;
+            const Eigen::Vector3d gap =
+                (low - goal).cwiseMax(goal - low - Eigen::Vector3d::Constant(0.1)).cwiseMax(0.0);
+            if (gap.norm() <= goal_radius && open(v)) {
+              steps[grid.index(v)] = 0;
+              queue.push_back(v);
+            }
+          }
+        }
+      }
+      for (std::size_t next = 0; next < queue.size(); ++next) {
+        const VoxelIndex v = queue[next];
+        for (int dx = -1; dx <= 1; ++dx) {
+          for (int dy = -1; dy <= 1; ++dy) {
+            for (int dz = -1; dz <= 1; ++dz) {
+              const VoxelIndex n = v + VoxelIndex(dx, dy, dz);
+              if (!open(n)) continue;
+              steps[grid.index(n)] = steps[grid.index(v)] + 1;
+              queue.push_back(n);
+            }
+          }
+        }
+      }
+      StopCondition never(Budget{});
+      const auto heuristic =
+          heuristicForQuery(geodesicSteps(tau, robot_radius, goal_radius), *world, goal, never);
+      int reached = 0;
+      int mismatches = 0;
+      for (int x = 0; x < dims.x(); ++x) {
+        for (int y = 0; y < dims.y(); ++y) {
+          for (int z = 0; z < dims.z(); ++z) {
+            ChainState state = ChainState::Zero();
+            state.col(0) = grid.center(VoxelIndex(x, y, z));
+            const double h = heuristic->estimate(state, goal);
+            const int expected = steps[grid.index(x, y, z)];
+            reached += expected > 0;
+            mismatches +=
+                expected == kUnreached ? h != INFINITY : std::abs(h - tau * expected) > 1e-9;
+          }
+        }
+      }
+      EXPECT_EQ(mismatches, 0) << dims.transpose() << ", radius " << robot_radius;
+      EXPECT_GT(reached, 50) << "the goal's component is not trivial";
+    }
+  }
+}
+
+TEST(GeodesicHeuristic, AnEnclosedGoalEndsTheSearchAtItsStart) {
+  test::loadTestPlugins();
+  // As AnEnclosedGoalExhaustsTheSearch, with the geodesic heuristic: the start's estimate is
+  // infinite (no chain of free voxels reaches the goal), so no edge is queued.
+  const auto world = World::build(WorldSpec::fromYaml(
+      YamlReader::loadString(
+          "resolution: 0.1\nbounds: {min: [0, 0, 0], max: [4, 4, 2]}\n"
+          "generators: [{type: box_list, boxes: [{min: [2, 2, 0], max: [4, 2.2, 2]}, "
+          "{min: [2, 2, 0], max: [2.2, 4, 2]}]}]\n",
+          "enclosed.yaml"),
+      "."));
+  // Eager, LWA* and LazySP (LRA* keeps such states, at the end of its queue).
+  for (const auto& [planner, lookahead] :
+       {std::pair("eager_mp_astar", ""), std::pair("lazy_mp_astar", "1"),
+        std::pair("lazy_mp_astar", "inf")}) {
+    std::vector<std::string> items = {"sampler.samples_per_axis=3", "time_limit=0",
+                                      "max_velocity=1", "tau=0.3", "heuristic=geodesic"};
+    if (*lookahead) items.push_back(std::string("lookahead=") + lookahead);
+    ConfiguredPlanner configured = configurePlanner(planner, test::assignments(items));
+    configured.planner->setup({world, configured.sampler, 1});
+    PlanningQuery query;
+    query.start.col(0) = Eigen::Vector3d(0.8, 0.8, 1.0);
+    query.goal = Eigen::Vector3d(3.2, 3.2, 1.0);
+    const PlanResult result = configured.planner->plan(query, Budget{});
+    EXPECT_EQ(result.status, PlanStatus::kNoSolution) << planner << lookahead << result.message;
+    EXPECT_LE(test::statistic(result.statistics, "expansions"), 1.0) << planner << lookahead;
+  }
+}
+
+TEST(GeodesicHeuristic, LazyAndEagerReturnTimeOptimalsCostsWithFewerExpansions) {
+  // The same optimal costs as the default heuristic on every query (lazy = eager), and fewer
+  // expansions in all: the estimate is at least time_optimal's everywhere (so only ties can
+  // make one query expand more).
+  test::loadTestPlugins();
+  for (const std::string kind : {"walls", "forest"}) {
+    const auto world = test::smallWorld(kind);
+    const auto queries = test::randomQueries(*world, 6, 8, 3.0, 9.0, 0.6);
+    const auto planner = [&](const std::string& type, const std::string& heuristic) {
+      ConfiguredPlanner configured = configurePlanner(
+          type, test::assignments({"sampler.samples_per_axis=3", "time_limit=0",
+                                   "max_expansions=200000", "heuristic=" + heuristic}));
+      configured.planner->setup({world, configured.sampler, 1});
+      return configured;
+    };
+    ConfiguredPlanner reference = planner("eager_mp_astar", "time_optimal");
+    ConfiguredPlanner eager = planner("eager_mp_astar", "geodesic");
+    ConfiguredPlanner lazy = planner("lazy_mp_astar", "geodesic");
+    double before = 0.0;
+    double after = 0.0;
+    int solved = 0;
+    for (const PlanningQuery& query : queries) {
+      const PlanResult expected = reference.planner->plan(query, Budget{});
+      const PlanResult e = eager.planner->plan(query, Budget{});
+      const PlanResult l = lazy.planner->plan(query, Budget{});
+      EXPECT_EQ(e.status, expected.status) << kind;
+      EXPECT_EQ(l.status, expected.status) << kind;
+      if (expected.status != PlanStatus::kExact) continue;  // a lattice that cannot reach it
+      ++solved;
+      ASSERT_EQ(e.status, PlanStatus::kExact) << kind;
+      ASSERT_EQ(l.status, PlanStatus::kExact) << kind;
+      EXPECT_NEAR(e.cost, expected.cost, 1e-9 * expected.cost) << kind;
+      EXPECT_NEAR(l.cost, expected.cost, 1e-9 * expected.cost) << kind;
+      EXPECT_TRUE(e.check.valid && l.check.valid) << kind;
+      before += test::statistic(expected.statistics, "expansions");
+      after += test::statistic(e.statistics, "expansions");
+    }
+    EXPECT_GE(solved, 4) << kind;
+    EXPECT_LT(after, before) << kind;
+  }
 }
 
 }  // namespace

@@ -56,7 +56,15 @@ void registerBuiltins() {
   registrar.add<HeuristicBuilder>(
       "time_optimal",
       "per-axis minimum time from the current velocity under v_max and a_max (the default)",
-      ParameterSpecs(), plainHeuristic<TimeOptimalHeuristic>());
+      ParameterSpecs().boolean("whole_primitives", false,
+                               "round the time up to whole primitives (tau ceil(T / tau)): "
+                               "tighter, for searches whose paths are whole primitives"),
+      [](const ParameterSet& p) {
+        const bool whole = p.boolean("whole_primitives");
+        return std::make_unique<HeuristicBuilder>([whole](const HeuristicContext& context) {
+          return std::make_shared<TimeOptimalHeuristic>(context.edges, context.goal_radius, whole);
+        });
+      });
   registrar.add<HeuristicBuilder>(
       "obvp",
       "least duration + control effort of the unconstrained chain (Fast-Planner's; order 2)",

@@ -94,9 +94,11 @@ LazyFamilySearch::LazyFamilySearch(const char* name, std::shared_ptr<const World
   }
 }
 
-void LazyFamilySearch::reset(const ChainState& start, const Eigen::Vector3d& goal) {
+void LazyFamilySearch::reset(const ChainState& start, const Eigen::Vector3d& goal,
+                             StopCondition& stop) {
   start_ = start;
   goal_ = goal;
+  heuristic_ = heuristicForQuery(policies_.heuristic, *world_, goal, stop);
   path_.clear();
   solved_ = memory_limited_ = reverse_next_ = false;
   expansions_ = 0;
@@ -198,7 +200,7 @@ int LazySpSearch::lazySearch(StopCondition& stop, bool& stopped) {
   using Entry = std::tuple<double, double, int>;  // f, -g (deeper first among equal f), node
   std::priority_queue<Entry, std::vector<Entry>, std::greater<>> open;
   const auto h = [&](const ChainState& state) {
-    return settings_.heuristic_weight * policies_.heuristic->estimate(state, goal_);
+    return settings_.heuristic_weight * heuristic_->estimate(state, goal_);
   };
   open.emplace(h(start_), 0.0, 0);
   const int order = settings_.edges.order;
@@ -229,9 +231,11 @@ int LazySpSearch::lazySearch(StopCondition& stop, bool& stopped) {
       const auto [best, inserted] = best_g.emplace(child_key, g);
       if (!inserted && g >= best->second) continue;
       best->second = g;
+      const double estimate = h(known.end);
+      if (estimate == INFINITY) continue;  // the goal is out of its reach
       nodes_.push_back({known.end, g, node, control, &edge});
       const int child = static_cast<int>(nodes_.size()) - 1;
-      open.emplace(settings_.cost_weight * g + h(known.end), -g, child);
+      open.emplace(settings_.cost_weight * g + estimate, -g, child);
     }
   }
   return -1;
@@ -270,7 +274,7 @@ MotionPrimitiveSearch::Outcome LazySpSearch::search(const ChainState& start,
                                                     const Eigen::Vector3d& goal,
                                                     StopCondition& stop) {
   const auto begin = std::chrono::steady_clock::now();
-  reset(start, goal);
+  reset(start, goal, stop);
   edges_.clear();
   edge_records_ = 0;
   lazy_searches_ = 0;
@@ -323,7 +327,7 @@ int LraStarSearch::vertexOf(const ChainState& state) {
     // rounding), so its edge records hold for every later parent.
     Vertex vertex;
     vertex.state = state;
-    vertex.h = settings_.heuristic_weight * policies_.heuristic->estimate(state, goal_);
+    vertex.h = settings_.heuristic_weight * heuristic_->estimate(state, goal_);
     vertex.goal = (state.col(0) - goal_).norm() <= settings_.goal_radius;
     vertices_.push_back(std::move(vertex));
   }
@@ -535,7 +539,7 @@ MotionPrimitiveSearch::Outcome LraStarSearch::search(const ChainState& start,
                                                      const Eigen::Vector3d& goal,
                                                      StopCondition& stop) {
   const auto begin = std::chrono::steady_clock::now();
-  reset(start, goal);
+  reset(start, goal, stop);
   vertices_.clear();
   arcs_.clear();
   index_.clear();

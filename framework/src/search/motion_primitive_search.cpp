@@ -126,6 +126,7 @@ void MotionPrimitiveSearch::push(const HeapEntry& entry) {
 }
 
 bool MotionPrimitiveSearch::queueCandidate(const Candidate& candidate, double h) {
+  if (h == INFINITY) return false;  // the goal is out of reach from this state
   const double f = priority(candidate.g, h);
   Slot& slot = slots_[candidate.slot];
   if (settings_.duplicate_rule == DuplicateRule::kLwa) {
@@ -196,7 +197,7 @@ void MotionPrimitiveSearch::evaluatePopped(const HeapEntry& entry) {
     candidate.g = parent_g + full.cost;
     candidate.evaluation = Evaluation::kFull;
   }
-  queueCandidate(candidate, policies_.heuristic->estimate(candidate.state, goal_));
+  queueCandidate(candidate, heuristic_->estimate(candidate.state, goal_));
 }
 
 void MotionPrimitiveSearch::expand(int node) {
@@ -208,7 +209,7 @@ void MotionPrimitiveSearch::expand(int node) {
   candidates_[node].clearance = parent_clearance;  // for its lazy edges, when popped
   ++counters_.esdf_queries;
   const EdgeEvaluationPolicy& policy = *policies_.edges;
-  const SearchHeuristic& heuristic = *policies_.heuristic;
+  const SearchHeuristic& heuristic = *heuristic_;
   const bool seed_rule = settings_.duplicate_rule == DuplicateRule::kSeed;
   // Evaluate every primitive first (timed as evaluation), then queue them.
   const auto begin = Clock::now();
@@ -257,9 +258,10 @@ void MotionPrimitiveSearch::expand(int node) {
     }
     // A lower bound (or a certified cost): queue the parent and control; the end state's key
     // and table probe wait until the edge is popped.
+    const double h = heuristic.estimate(evaluation.end, goal_);
+    if (h == INFINITY) continue;  // the goal is out of reach from its end
     ++counters_.candidates;
-    push({priority(g, heuristic.estimate(evaluation.end, goal_)), g, node,
-          static_cast<std::uint32_t>(i),
+    push({priority(g, h), g, node, static_cast<std::uint32_t>(i),
           estimate == EdgeEstimate::kCertified ? kCertified : kLowerBound});
   }
 }
@@ -271,11 +273,12 @@ MotionPrimitiveSearch::Outcome MotionPrimitiveSearch::search(const ChainState& s
   prepare();
   start_ = start;
   goal_ = goal;
+  heuristic_ = heuristicForQuery(policies_.heuristic, *world_, goal, stop);
   Candidate root;
   root.state = start;
   root.slot = slotOf(start);
   candidates_.push_back(root);
-  const double root_f = priority(0.0, policies_.heuristic->estimate(start, goal_));
+  const double root_f = priority(0.0, heuristic_->estimate(start, goal_));
   slots_[root.slot].best_f = root_f;
   slots_[root.slot].seen = true;
   push({root_f, 0.0, 0, 0, kCandidate});

@@ -173,8 +173,11 @@ double MinTimeHeuristic::estimate(const ChainState& state, const Eigen::Vector3d
   return weight_duration_ * time + weight_length_ * distance;
 }
 
-TimeOptimalHeuristic::TimeOptimalHeuristic(const EdgeEvaluatorSettings& edges, double goal_radius)
-    : weight_duration_(edges.weights.duration),
+TimeOptimalHeuristic::TimeOptimalHeuristic(const EdgeEvaluatorSettings& edges, double goal_radius,
+                                           bool whole_primitives)
+    : whole_primitives_(whole_primitives),
+      tau_(edges.duration),
+      weight_duration_(edges.weights.duration),
       weight_length_(edges.weights.length),
       goal_radius_(goal_radius),
       v_max_(edges.limits.bound[1]),
@@ -195,8 +198,10 @@ double TimeOptimalHeuristic::minimumTime(const ChainState& state,
 }
 
 double TimeOptimalHeuristic::estimate(const ChainState& state, const Eigen::Vector3d& goal) const {
-  return weight_duration_ * minimumTime(state, goal) +
-         weight_length_ * ballDistance(state.col(0), goal, goal_radius_);
+  double time = minimumTime(state, goal);
+  // ceil(T / tau) primitives; a hair above a whole number counts as it (rounding).
+  if (whole_primitives_) time = tau_ * std::ceil(time / tau_ - 1e-9);
+  return weight_duration_ * time + weight_length_ * ballDistance(state.col(0), goal, goal_radius_);
 }
 
 ObvpHeuristic::ObvpHeuristic(const EdgeEvaluatorSettings& edges, double goal_radius)
@@ -457,6 +462,31 @@ double MaxHeuristic::estimate(const ChainState& state, const Eigen::Vector3d& go
   double best = 0.0;
   for (const auto& part : parts_) best = std::max(best, part->estimate(state, goal));
   return best;
+}
+
+std::shared_ptr<const SearchHeuristic> MaxHeuristic::forQuery(const World& world,
+                                                              const Eigen::Vector3d& goal,
+                                                              StopCondition& stop) const {
+  std::vector<std::shared_ptr<const SearchHeuristic>> parts;
+  bool changed = false;
+  for (const auto& part : parts_) {
+    parts.push_back(heuristicForQuery(part, world, goal, stop));
+    changed = changed || parts.back() != part;
+  }
+  return changed ? std::make_shared<MaxHeuristic>(std::move(parts)) : nullptr;
+}
+
+std::shared_ptr<const SearchHeuristic> SearchHeuristic::forQuery(const World& /*world*/,
+                                                                 const Eigen::Vector3d& /*goal*/,
+                                                                 StopCondition& /*stop*/) const {
+  return nullptr;
+}
+
+std::shared_ptr<const SearchHeuristic> heuristicForQuery(
+    const std::shared_ptr<const SearchHeuristic>& heuristic, const World& world,
+    const Eigen::Vector3d& goal, StopCondition& stop) {
+  auto prepared = heuristic->forQuery(world, goal, stop);
+  return prepared ? prepared : heuristic;
 }
 
 }  // namespace kinolab

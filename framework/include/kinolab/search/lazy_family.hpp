@@ -95,7 +95,8 @@ class LazyFamilySearch {
                    std::vector<Eigen::Vector3d> controls, SearchSettings settings,
                    SearchPolicies policies, EdgeSelector selector);
   /// Starts a search: forgets the last one's path, flags and counters.
-  void reset(const ChainState& start, const Eigen::Vector3d& goal);
+  /// Starts a query (the query's heuristic made here).
+  void reset(const ChainState& start, const Eigen::Vector3d& goal, StopCondition& stop);
   /// The member's own counters, after expansions.
   virtual Statistics ownStatistics() const = 0;
   /// The order in which the selector evaluates the unevaluated edges `band` (in path order)
@@ -112,6 +113,7 @@ class LazyFamilySearch {
 
   ChainState start_;
   Eigen::Vector3d goal_;
+  std::shared_ptr<const SearchHeuristic> heuristic_;  ///< the query's (SearchHeuristic::forQuery)
   std::vector<LazyPathStep> path_;  ///< the final path, or the last one's evaluated valid start
   bool solved_ = false;
   bool memory_limited_ = false;

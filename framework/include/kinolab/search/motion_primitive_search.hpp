@@ -162,7 +162,8 @@ class MotionPrimitiveSearch {
   void prepare();
   void push(const HeapEntry& entry);
   /// Appends an evaluated candidate and queues it unless the lwa rule drops it (a queued
-  /// candidate of its state is at least as good). Returns false when dropped.
+  /// candidate of its state is at least as good) or `h` is infinite (the goal is out of its
+  /// reach). Returns false when dropped.
   bool queueCandidate(const Candidate& candidate, double h);
   void expand(int node);
   /// Tries the shot policy from the closed candidate `node`; true when a shot was accepted.
@@ -180,6 +181,7 @@ class MotionPrimitiveSearch {
   // The last search.
   ChainState start_;
   Eigen::Vector3d goal_;
+  std::shared_ptr<const SearchHeuristic> heuristic_;  ///< the query's (SearchHeuristic::forQuery)
   std::vector<Candidate> candidates_;
   std::vector<Slot> slots_;
   /// Open addressing over slots_ (linear probing, power-of-two size, at most half full):

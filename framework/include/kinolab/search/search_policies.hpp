@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "kinolab/core/plugin_registry.hpp"
+#include "kinolab/core/stop_condition.hpp"
 #include "kinolab/primitives/edge_evaluator.hpp"
 #include "kinolab/trajectory/trajectory.hpp"
 
@@ -101,12 +102,28 @@ PluginRegistry<EdgeEvaluationPolicy>& pluginRegistry<EdgeEvaluationPolicy>();
 /// is at most that of the candidate it becomes, so the first candidate of a state popped is
 /// its cheapest (up to ties). The built-in heuristics are consistent even with the weakest
 /// bound (control_only); tests/conformance checks every registered one against full costs.
+///
+/// +infinity is a valid estimate: it says that no path from the state reaches the goal region
+/// (the search does not queue such a state). A heuristic that reads the map (its free space)
+/// prepares for each query in forQuery().
 class SearchHeuristic {
  public:
   virtual ~SearchHeuristic() = default;
   /// The estimate from `state` to the goal region around `goal`.
   virtual double estimate(const ChainState& state, const Eigen::Vector3d& goal) const = 0;
+  /// The heuristic for one query on `world` towards `goal`, or nullptr (the default) when it
+  /// is this one as it is. The search calls it before its first estimate of a query, so what
+  /// it computes (e.g. a distance field over the free space) counts as planning time; past
+  /// `stop` it may return a weaker (still consistent) heuristic at once.
+  virtual std::shared_ptr<const SearchHeuristic> forQuery(const World& world,
+                                                          const Eigen::Vector3d& goal,
+                                                          StopCondition& stop) const;
 };
+
+/// `heuristic`'s forQuery(), or `heuristic` itself when that returns nullptr.
+std::shared_ptr<const SearchHeuristic> heuristicForQuery(
+    const std::shared_ptr<const SearchHeuristic>& heuristic, const World& world,
+    const Eigen::Vector3d& goal, StopCondition& stop);
 
 /// w_T |d| / |v_max| + w_L |d|, d the distance to the goal ball.
 class EuclideanHeuristic final : public SearchHeuristic {
@@ -141,15 +158,21 @@ class MinTimeHeuristic final : public SearchHeuristic {
 /// profile with a free end velocity). For order 3 and 4 the state's acceleration counts too:
 /// the acceleration bound ramps from it at the jerk limit (the snap limit relaxed). Each is
 /// the exact optimum of a relaxation in which every edge is feasible, so T(s) <= tau + T(s'):
-/// consistent.
+/// consistent. With `whole_primitives`, T is rounded up to whole primitives, tau ceil(T / tau):
+/// a path of primitives that ends in the goal region has at least that many (its duration is
+/// at least T), and the rounded value still grows by at most tau an edge. Not for searches
+/// that end with a goal shot shorter than a primitive (hybrid A*).
 class TimeOptimalHeuristic final : public SearchHeuristic {
  public:
-  TimeOptimalHeuristic(const EdgeEvaluatorSettings& edges, double goal_radius);
+  TimeOptimalHeuristic(const EdgeEvaluatorSettings& edges, double goal_radius,
+                       bool whole_primitives = false);
   double estimate(const ChainState& state, const Eigen::Vector3d& goal) const override;
-  /// max_i T_i alone, seconds.
+  /// max_i T_i alone (never rounded), seconds.
   double minimumTime(const ChainState& state, const Eigen::Vector3d& goal) const;
 
  private:
+  bool whole_primitives_;
+  double tau_;
   double weight_duration_;
   double weight_length_;
   double goal_radius_;
@@ -319,6 +342,9 @@ class MaxHeuristic final : public SearchHeuristic {
  public:
   explicit MaxHeuristic(std::vector<std::shared_ptr<const SearchHeuristic>> parts);
   double estimate(const ChainState& state, const Eigen::Vector3d& goal) const override;
+  /// The largest of the parts' heuristics for the query (nullptr when none changes).
+  std::shared_ptr<const SearchHeuristic> forQuery(const World& world, const Eigen::Vector3d& goal,
+                                                  StopCondition& stop) const override;
 
  private:
   std::vector<std::shared_ptr<const SearchHeuristic>> parts_;
