@@ -80,13 +80,17 @@ void BM_EsdfBuildBoxesWorld(benchmark::State& state) {
 }
 BENCHMARK(BM_EsdfBuildBoxesWorld)->Apply(buildArguments);
 
-/// Trilinear distance + gradient at random points; argument = voxels per axis in x and y
-/// (16 x 16 x 16 floats = 16 KiB fits in L1/L2; 512 x 512 x 64 floats = 64 MiB does not).
+/// Trilinear distance + gradient at random points; `side` = voxels per axis in x and y
+/// (16 x 16 x 16 floats = 16 KiB fits in L1/L2; 512 x 512 x 64 floats = 64 MiB does not);
+/// `huge_pages` 0: the same values in a copy on ordinary pages (Esdf itself advises huge
+/// pages), side by side in one run.
 void BM_DistanceWithGradient(benchmark::State& state) {
   const int side = static_cast<int>(state.range(0));
   const int height = side >= 256 ? 64 : side;
   const VoxelGrid grid = randomGrid({side, side, height}, 0.02);
-  const Esdf esdf(grid);
+  const Esdf built(grid);
+  const Esdf plain = state.range(1) ? Esdf() : Esdf(grid, std::vector<float>(built.values()));
+  const Esdf& esdf = state.range(1) ? built : plain;
   Rng rng(2);
   std::vector<Eigen::Vector3d> points(1 << 16);
   const Eigen::Vector3d extent = grid.bounds().size();
@@ -96,7 +100,11 @@ void BM_DistanceWithGradient(benchmark::State& state) {
   runGradientQueries(state, esdf, points);
   state.counters["grid_MiB"] = static_cast<double>(grid.size() * sizeof(float)) / (1 << 20);
 }
-BENCHMARK(BM_DistanceWithGradient)->Arg(16)->Arg(512);
+BENCHMARK(BM_DistanceWithGradient)
+    ->ArgNames({"side", "huge_pages"})
+    ->Args({16, 1})
+    ->Args({512, 0})
+    ->Args({512, 1});
 
 /// The same query on the 64 MiB grid, but at points 5 cm apart along random 4 m segments:
 /// the access pattern of edge evaluation, where consecutive queries share cache lines.

@@ -9,6 +9,7 @@
 #include <thread>
 
 #include "kinolab/core/error.hpp"
+#include "kinolab/core/huge_pages.hpp"
 
 namespace kinolab {
 namespace {
@@ -407,6 +408,7 @@ Esdf::Esdf(const VoxelGrid& grid, int threads) {
                   : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
   }
   setGeometry(grid);
+  reserveOnHugePages(values_, grid.size());
   values_.resize(grid.size());
   const auto cap = static_cast<float>(max_distance_);
   const auto half_voxel = static_cast<float>(0.5 * resolution_);  // the fields are in half voxels
