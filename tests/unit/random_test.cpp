@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <array>
 #include <cmath>
 
 namespace kinolab {
@@ -48,6 +49,18 @@ TEST(RngTest, DistributionsHaveTheirRangesAndMoments) {
   EXPECT_NEAR(sum / n, 0.0, 0.01);
   EXPECT_NEAR(sum_squares / n, 1.0, 0.02);
   for (int count : histogram) EXPECT_NEAR(count, n / 5, n / 100);
+}
+
+TEST(RngTest, DrawsIntoAVectorGoLastCoordinateFirst) {
+  Rng a(7);
+  Rng b(7);
+  const auto v = drawLastFirst<std::array<double, 3>>([&](int) { return a.uniform01(); });
+  const double z = b.uniform01();
+  const double y = b.uniform01();
+  const double x = b.uniform01();
+  EXPECT_EQ(v[0], x);
+  EXPECT_EQ(v[1], y);
+  EXPECT_EQ(v[2], z);
 }
 
 }  // namespace

@@ -19,9 +19,8 @@ Eigen::Vector3d sampleFreePosition(const World& world, const Box& region, double
                                    Rng& rng, const std::string& what, const std::string& world_id,
                                    int max_draws) {
   for (int draw = 0; draw < max_draws; ++draw) {
-    const Eigen::Vector3d p(rng.uniform(region.min.x(), region.max.x()),
-                            rng.uniform(region.min.y(), region.max.y()),
-                            rng.uniform(region.min.z(), region.max.z()));
+    const auto p = drawLastFirst<Eigen::Vector3d>(
+        [&](int i) { return rng.uniform(region.min[i], region.max[i]); });
     if (world.isFree(p, clearance)) return p;
   }
   cannotPlace(what, world_id, max_draws);

@@ -188,7 +188,7 @@ std::vector<ChainState> samplingStudyStates(const SamplingStudyConfig& config) {
   for (int i = 0; i < config.moving_states; ++i) {
     ChainState state = ChainState::Zero();
     // A uniformly random direction (normalised Gaussian) at a uniformly random speed.
-    Eigen::Vector3d direction(rng.normal(), rng.normal(), rng.normal());
+    auto direction = drawLastFirst<Eigen::Vector3d>([&](int) { return rng.normal(); });
     direction.normalize();
     state.col(1) = direction * rng.uniform(config.min_speed, config.max_speed);
     // Derivatives between velocity and the control: within half their limit.

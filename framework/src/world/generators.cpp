@@ -142,7 +142,8 @@ class ForestGenerator final : public WorldGenerator {
     // depends only on the seed.
     const std::size_t attempts = 30 * target + 100;
     for (std::size_t attempt = 0; attempt < attempts && trunks.size() < target; ++attempt) {
-      const Eigen::Vector2d center(rng.uniform(low.x(), high.x()), rng.uniform(low.y(), high.y()));
+      const auto center = drawLastFirst<Eigen::Vector2d>(
+          [&, &low = low, &high = high](int i) { return rng.uniform(low[i], high[i]); });
       const double radius = rng.uniform(trunk_radius_[0], trunk_radius_[1]);
       const bool clear = std::all_of(trunks.begin(), trunks.end(), [&](const Trunk& other) {
         const double gap = radius + other.radius + min_spacing_;
@@ -202,10 +203,12 @@ class BoxesGenerator final : public WorldGenerator {
     const Box bounds = grid.bounds();
     const auto [low, high] = region_.within(bounds);
     for (long long i = 0; i < count_; ++i) {
-      const Eigen::Vector3d size(rng.uniform(size_x_[0], size_x_[1]),
-                                 rng.uniform(size_y_[0], size_y_[1]),
-                                 rng.uniform(size_z_[0], size_z_[1]));
-      const Eigen::Vector2d center(rng.uniform(low.x(), high.x()), rng.uniform(low.y(), high.y()));
+      const auto size = drawLastFirst<Eigen::Vector3d>([&](int axis) {
+        const auto& range = axis == 0 ? size_x_ : (axis == 1 ? size_y_ : size_z_);
+        return rng.uniform(range[0], range[1]);
+      });
+      const auto center = drawLastFirst<Eigen::Vector2d>(
+          [&, &low = low, &high = high](int axis) { return rng.uniform(low[axis], high[axis]); });
       const double z_low =
           on_ground_ ? bounds.min.z() : rng.uniform(bounds.min.z(), bounds.max.z() - size.z());
       const Eigen::Vector3d min(center.x() - 0.5 * size.x(), center.y() - 0.5 * size.y(), z_low);

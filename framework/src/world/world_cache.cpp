@@ -16,7 +16,9 @@ namespace kinolab {
 namespace {
 
 constexpr char kMagic[8] = {'K', 'I', 'N', 'O', 'W', 'R', 'L', 'D'};
-constexpr std::uint32_t kFormatVersion = 2;  // 2: the ESDF measures to voxel cubes
+// 2: the ESDF measures to voxel cubes; 3: generated worlds are the same on every compiler (a
+// clang build drew other worlds from the same seeds, and may have cached them)
+constexpr std::uint32_t kFormatVersion = 3;
 
 struct Header {
   char magic[8];
