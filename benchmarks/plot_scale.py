@@ -1,0 +1,58 @@
+#!/usr/bin/python3
+"""Plot the scale benchmark (BM_WorldScale): cost against world size, log-log.
+
+    ./build/benchmarks/kinolab_benchmarks --benchmark_filter=WorldScale \\
+        --benchmark_out=out/scale.json --benchmark_out_format=json
+    /usr/bin/python3 benchmarks/plot_scale.py out/scale.json docs/images/world_scale.png
+"""
+import argparse
+import json
+import sys
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("json", help="the benchmark's --benchmark_out JSON")
+    parser.add_argument("png", help="the figure to write")
+    args = parser.parse_args()
+    try:
+        with open(args.json, encoding="utf-8") as handle:
+            runs = [b for b in json.load(handle)["benchmarks"] if b["name"].startswith("BM_WorldScale/")]
+    except (OSError, ValueError, KeyError) as error:
+        print(f"plot_scale: error: {args.json}: {error}", file=sys.stderr)
+        return 1
+    if not runs:
+        print(f"plot_scale: error: {args.json}: no BM_WorldScale results", file=sys.stderr)
+        return 1
+    runs.sort(key=lambda b: b["voxels"])
+    voxels = [b["voxels"] for b in runs]
+    figure, (times, memory) = plt.subplots(1, 2, figsize=(10, 4))
+    for key, label in (("build_s", "world build (generators)"), ("esdf_s", "exact ESDF (every core)"),
+                       ("plan_median_ms", "lazy MP-A*, 20 m query (median of 10)")):
+        scale = 1e-3 if key.endswith("_ms") else 1.0
+        times.loglog(voxels, [b[key] * scale for b in runs], "o-", label=label)
+    times.set_xlabel("voxels")
+    times.set_ylabel("seconds")
+    times.set_title("time")
+    times.grid(True, which="both", alpha=0.3)
+    times.legend(fontsize=8)
+    memory.loglog(voxels, [b["peak_bytes_per_voxel"] * b["voxels"] / 2**30 for b in runs], "o-",
+                  label="peak while building")
+    memory.loglog(voxels, [5 * v / 2**30 for v in voxels], "--", label="at rest: 5 bytes a voxel")
+    memory.set_xlabel("voxels")
+    memory.set_ylabel("GiB")
+    memory.set_title("memory (dense world)")
+    memory.grid(True, which="both", alpha=0.3)
+    memory.legend(fontsize=8)
+    figure.tight_layout()
+    figure.savefig(args.png, dpi=110)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
