@@ -568,17 +568,22 @@ TEST(MotionPrimitiveSearch, NoSearchOutgrowsItsMemoryBudgetEvenWithoutATimeLimit
   EXPECT_LE(planner.search().memoryBytes(), 2.0 * 2.0 * 1024 * 1024);
 }
 
-TEST(MotionPrimitiveSearch, AnEnclosedGoalExhaustsTheSearch) {
-  test::loadTestPlugins();
-  // The goal sits in a closed box: no path exists. (tau 0.3 s: the gentlest control, 3 m/s^2,
-  // keeps max_velocity from rest, so the lattice moves and the search exhausts a real space.)
-  const auto world = World::build(WorldSpec::fromYaml(
+/// A 4 m x 4 m x 2 m room whose corner (2-4 m, 2-4 m) is walled off from floor to ceiling.
+std::shared_ptr<const World> enclosedCornerWorld() {
+  return World::build(WorldSpec::fromYaml(
       YamlReader::loadString(
           "resolution: 0.1\nbounds: {min: [0, 0, 0], max: [4, 4, 2]}\n"
           "generators: [{type: box_list, boxes: [{min: [2, 2, 0], max: [4, 2.2, 2]}, "
           "{min: [2, 2, 0], max: [2.2, 4, 2]}]}]\n",
           "enclosed.yaml"),
       "."));
+}
+
+TEST(MotionPrimitiveSearch, AnEnclosedGoalExhaustsTheSearch) {
+  test::loadTestPlugins();
+  // The goal sits in a closed box: no path exists. (tau 0.3 s: the gentlest control, 3 m/s^2,
+  // keeps max_velocity from rest, so the lattice moves and the search exhausts a real space.)
+  const auto world = enclosedCornerWorld();
   ConfiguredPlanner configured = configurePlanner(
       "lazy_mp_astar", test::assignments({"sampler.samples_per_axis=3", "time_limit=0",
                                           "max_velocity=1", "tau=0.3"}));
@@ -687,13 +692,7 @@ TEST(GeodesicHeuristic, AnEnclosedGoalEndsTheSearchAtItsStart) {
   test::loadTestPlugins();
   // As AnEnclosedGoalExhaustsTheSearch, with the geodesic heuristic: the start's estimate is
   // infinite (no chain of free voxels reaches the goal), so no edge is queued.
-  const auto world = World::build(WorldSpec::fromYaml(
-      YamlReader::loadString(
-          "resolution: 0.1\nbounds: {min: [0, 0, 0], max: [4, 4, 2]}\n"
-          "generators: [{type: box_list, boxes: [{min: [2, 2, 0], max: [4, 2.2, 2]}, "
-          "{min: [2, 2, 0], max: [2.2, 4, 2]}]}]\n",
-          "enclosed.yaml"),
-      "."));
+  const auto world = enclosedCornerWorld();
   // Eager, LWA* and LazySP (LRA* keeps such states, at the end of its queue).
   for (const auto& [planner, lookahead] :
        {std::pair("eager_mp_astar", ""), std::pair("lazy_mp_astar", "1"),

@@ -45,11 +45,14 @@ TEST(WorldSpecTest, EveryShippedWorldLoadsAndBuilds) {
   }
 }
 
+/// A world of every random generator (seed 4, 20 m x 20 m x 4 m at 0.2 m).
+const std::string kEveryRandomGenerator =
+    "seed: 4\nresolution: 0.2\nbounds: {min: [0, 0, 0], max: [20, 20, 4]}\n"
+    "generators:\n  - {type: forest, density: 0.1, canopy: {probability: 0.5}}\n"
+    "  - {type: boxes, count: 10, on_ground: false}\n  - {type: walls, cell_size: 5}\n";
+
 TEST(WorldSpecTest, SameSpecSameGridBitForBitAndSeedMatters) {
-  const std::string text =
-      "seed: 4\nresolution: 0.2\nbounds: {min: [0, 0, 0], max: [20, 20, 4]}\n"
-      "generators:\n  - {type: forest, density: 0.1, canopy: {probability: 0.5}}\n"
-      "  - {type: boxes, count: 10, on_ground: false}\n  - {type: walls, cell_size: 5}\n";
+  const std::string text = kEveryRandomGenerator;
   const WorldSpec a = specFromText(text);
   const WorldSpec b = specFromText(text);
   EXPECT_EQ(a.hash(), b.hash());
@@ -71,11 +74,7 @@ TEST(WorldSpecTest, TheSameSeedMakesTheSameWorldAndQueriesOnEveryCompiler) {
   // them. Draws that were the arguments of one call came out in another order under clang
   // (C++ leaves it open), so clang made other worlds and queries from the same seeds; a build
   // by any compiler must make these.
-  const WorldSpec spec = specFromText(
-      "seed: 4\nresolution: 0.2\nbounds: {min: [0, 0, 0], max: [20, 20, 4]}\n"
-      "generators:\n  - {type: forest, density: 0.1, canopy: {probability: 0.5}}\n"
-      "  - {type: boxes, count: 10, on_ground: false}\n  - {type: walls, cell_size: 5}\n");
-  const auto world = World::build(spec);
+  const auto world = World::build(specFromText(kEveryRandomGenerator));
   std::uint64_t hash = 1469598103934665603ull;  // FNV-1a over the occupancy
   for (const std::uint8_t value : world->grid().occupancy())
     hash = (hash ^ value) * 1099511628211ull;
