@@ -233,10 +233,14 @@ TEST(EdgeEvaluator, TheVerdictIsExactBothWays) {
     int clear = 0;
     int rescued = 0;  // clear edges on which the proven bound fell below the radius
     for (int trial = 0; trial < 3000; ++trial) {
-      const ChainState start = stateAt(
-          Eigen::Vector3d(rng.uniform(0.5, 9.5), rng.uniform(0.5, 9.5), rng.uniform(0.5, 2.5)),
-          Eigen::Vector3d(rng.uniform(-1.5, 1.5), rng.uniform(-1.5, 1.5), rng.uniform(-1, 1)));
-      const Eigen::Vector3d control(rng.uniform(-3, 3), rng.uniform(-3, 3), rng.uniform(-3, 3));
+      // The velocity, then the position, each last coordinate first: the same draws on every
+      // compiler (drawLastFirst).
+      const auto velocity = drawLastFirst<Eigen::Vector3d>(
+          [&](int axis) { return axis < 2 ? rng.uniform(-1.5, 1.5) : rng.uniform(-1, 1); });
+      const auto position = drawLastFirst<Eigen::Vector3d>(
+          [&](int axis) { return axis < 2 ? rng.uniform(0.5, 9.5) : rng.uniform(0.5, 2.5); });
+      const ChainState start = stateAt(position, velocity);
+      const auto control = drawLastFirst<Eigen::Vector3d>([&](int) { return rng.uniform(-3, 3); });
       if (!evaluator.controlOnly(start, control).collision_free) continue;  // limits or map
       const EdgeEvaluation full = evaluator.full(start, control);
       std::vector<Eigen::Vector3d> points;

