@@ -1,10 +1,12 @@
 // How a dense world scales: the time and memory of its build (the generators), its ESDF (on
 // every core) and a fixed set of lazy MP-A* queries, as the world grows from 10^6 to 10^9
-// voxels. The world is a forest (0.05 trees per square metre, trunks 0.15-0.3 m, 6-8 m tall)
-// 8 m high at 0.1 m, its square side grown with the voxel count (11 m to 354 m). The 10^8 and
-// 10^9 cases take minutes and about 10 GB; the tests' smoke run leaves them out.
+// voxels (a dense world holds at most 10^9). The world is a forest (0.05 trees per square
+// metre, trunks 0.15-0.3 m, 6-8 m tall) 8 m high at 0.1 m, its square side grown with the
+// voxel count (11 m to 353 m). The 10^8 and 10^9 cases take a minute and about 8 GB; the
+// tests' smoke run leaves them out.
 //   ./build/benchmarks/kinolab_benchmarks --benchmark_filter=WorldScale
-//   python3 scripts/plot_scale.py  (the README's figure, from that run's JSON)
+//       --benchmark_out=out/scale.json --benchmark_out_format=json    (one command line)
+//   /usr/bin/python3 benchmarks/plot_scale.py out/scale.json docs/images/world_scale.png
 #include <benchmark/benchmark.h>
 
 #include <algorithm>
@@ -47,7 +49,7 @@ void BM_WorldScale(benchmark::State& state) {
   const double voxels = static_cast<double>(state.range(0));
   const double resolution = 0.1;
   const double height = 8.0;
-  const double side = std::round(std::sqrt(voxels / (height / resolution)) * resolution);
+  const double side = std::floor(std::sqrt(voxels / (height / resolution)) * resolution);
   const std::string text =
       "name: scale\nseed: 3\nresolution: 0.1\nbounds: {min: [0, 0, 0], max: [" +
       std::to_string(side) + ", " + std::to_string(side) +
