@@ -964,11 +964,15 @@ TEST(FlightTest, APlanSlowerThanTheCommittedTrajectoryIsSetAsideNotFailed) {
 
 TEST(FlightTest, AFlightRepeatsBitForBit) {
   // Deterministic timing: the same seed, the same flight (sensor noise, dropouts and frame
-  // latencies drawn from it).
+  // latencies drawn from it). Each replan is bounded by its expansions, not by its time (a
+  // search stopped by the clock stops where the machine's speed puts it: a sanitizer build's
+  // replans reached their 0.1 s and the two flights parted).
   const auto world = worldOf(kWall);
-  const Flight deterministic({{"timing", "deterministic", "test"}});
-  const FlightResult a = deterministic.fly(world, {2, 3, 1.5}, {18, 3, 1.5});
-  const FlightResult b = deterministic.fly(world, {2, 3, 1.5}, {18, 3, 1.5});
+  const Flight deterministic(
+      {{"timing", "deterministic", "test"}, {"replan_budget", "100", "test"}});
+  const auto bounded = test::assignments({"time_limit=0", "max_expansions=20000"});
+  const FlightResult a = deterministic.fly(world, {2, 3, 1.5}, {18, 3, 1.5}, bounded);
+  const FlightResult b = deterministic.fly(world, {2, 3, 1.5}, {18, 3, 1.5}, bounded);
   ASSERT_EQ(a.flown.segments().size(), b.flown.segments().size());
   for (std::size_t i = 0; i < a.flown.segments().size(); ++i) {
     EXPECT_EQ(a.flown.segments()[i].duration, b.flown.segments()[i].duration);
@@ -977,9 +981,9 @@ TEST(FlightTest, AFlightRepeatsBitForBit) {
   EXPECT_EQ(a.replans.size(), b.replans.size());
   EXPECT_EQ(a.map->occupiedVoxels(), b.map->occupiedVoxels());
   // Another seed, another noise: another known map.
-  Flight reseeded({{"timing", "deterministic", "test"}});
+  Flight reseeded({{"timing", "deterministic", "test"}, {"replan_budget", "100", "test"}});
   reseeded.setup.settings.seed = 1;
-  const FlightResult c = reseeded.fly(world, {2, 3, 1.5}, {18, 3, 1.5});
+  const FlightResult c = reseeded.fly(world, {2, 3, 1.5}, {18, 3, 1.5}, bounded);
   EXPECT_NE(a.map->occupiedVoxels(), c.map->occupiedVoxels());
 }
 
