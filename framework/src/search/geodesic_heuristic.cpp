@@ -139,9 +139,9 @@ class HopField {
       for (const std::size_t column : frontier_columns) {
         const int x = static_cast<int>(column / ny);
         const int y = static_cast<int>(column % ny);
-        for (int nx_ = std::max(x - 1, 0); nx_ <= std::min(x + 1, nx - 1); ++nx_) {
-          for (int ny_ = std::max(y - 1, 0); ny_ <= std::min(y + 1, ny - 1); ++ny_) {
-            const std::size_t neighbour = static_cast<std::size_t>(nx_) * ny + ny_;
+        for (int cx = std::max(x - 1, 0); cx <= std::min(x + 1, nx - 1); ++cx) {
+          for (int cy = std::max(y - 1, 0); cy <= std::min(y + 1, ny - 1); ++cy) {
+            const std::size_t neighbour = static_cast<std::size_t>(cx) * ny + cy;
             if (stamp[neighbour] == level) continue;
             stamp[neighbour] = level;
             touched.push_back(neighbour);
@@ -154,9 +154,9 @@ class HopField {
         const int y = static_cast<int>(column % ny);
         std::array<const std::uint64_t*, 9> neighbours{};
         int count = 0;
-        for (int nx_ = std::max(x - 1, 0); nx_ <= std::min(x + 1, nx - 1); ++nx_) {
-          for (int ny_ = std::max(y - 1, 0); ny_ <= std::min(y + 1, ny - 1); ++ny_) {
-            neighbours[count++] = &frontier_[(static_cast<std::size_t>(nx_) * ny + ny_) * words_];
+        for (int cx = std::max(x - 1, 0); cx <= std::min(x + 1, nx - 1); ++cx) {
+          for (int cy = std::max(y - 1, 0); cy <= std::min(y + 1, ny - 1); ++cy) {
+            neighbours[count++] = &frontier_[(static_cast<std::size_t>(cx) * ny + cy) * words_];
           }
         }
         for (int k = 0; k < words_; ++k) {

@@ -408,8 +408,7 @@ Esdf::Esdf(const VoxelGrid& grid, int threads) {
                   : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
   }
   setGeometry(grid);
-  reserveOnHugePages(values_, grid.size());
-  values_.resize(grid.size());
+  values_ = vectorOnHugePages<float>(grid.size());
   const auto cap = static_cast<float>(max_distance_);
   const auto half_voxel = static_cast<float>(0.5 * resolution_);  // the fields are in half voxels
   const std::uint8_t* occupancy = grid.occupancy().data();

@@ -11,6 +11,7 @@
 #include "kinolab/core/error.hpp"
 #include "kinolab/core/files.hpp"
 #include "kinolab/core/hash.hpp"
+#include "kinolab/core/huge_pages.hpp"
 
 namespace kinolab {
 namespace {
@@ -144,7 +145,7 @@ std::shared_ptr<const World> WorldCache::read(const std::string& path, std::uint
   }
   const char* payload = buffer.data() + sizeof(Header);
   std::memcpy(grid.occupancy().data(), payload, voxels);
-  std::vector<float> values(voxels);
+  std::vector<float> values = vectorOnHugePages<float>(voxels);
   std::memcpy(values.data(), payload + voxels, voxels * sizeof(float));
   Esdf esdf(grid, std::move(values));
   return std::make_shared<const World>(name, expected_hash, std::move(grid), std::move(esdf));

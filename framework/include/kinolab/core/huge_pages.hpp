@@ -11,13 +11,16 @@ namespace kinolab {
 /// later). Regions under 4 MiB are left alone.
 void adviseHugePages(const void* data, std::size_t bytes);
 
-/// Reserves room for `count` elements in the empty `vector` and advises huge pages for it
-/// before anything is written: random reads of a large grid (a world's ESDF) then miss the TLB
-/// far less (docs/benchmarks.md).
+/// A vector of `count` value-initialised elements whose memory was advised onto huge pages
+/// before anything was written: random reads of a large grid (a world's ESDF) then miss the
+/// TLB far less (docs/benchmarks.md).
 template <typename T>
-void reserveOnHugePages(std::vector<T>& vector, std::size_t count) {
+std::vector<T> vectorOnHugePages(std::size_t count) {
+  std::vector<T> vector;
   vector.reserve(count);
   adviseHugePages(vector.data(), vector.capacity() * sizeof(T));
+  vector.resize(count);
+  return vector;
 }
 
 }  // namespace kinolab

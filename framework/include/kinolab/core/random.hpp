@@ -8,19 +8,6 @@ namespace kinolab {
 /// A seeded random stream with a fully specified algorithm (xoshiro256**, seeded through
 /// SplitMix64) and its own distributions, so the same seed gives the same numbers bit for bit
 /// on every compiler and standard library (std::uniform_real_distribution does not).
-/// One draw per coordinate into a fixed-size vector (an Eigen vector), the last coordinate
-/// first: `vector[i] = draw(i)` for i = size - 1 down to 0. That is the order in which g++
-/// evaluated such draws when they were the arguments of one constructor call, as they once
-/// were in kinolab; C++ leaves that order to the compiler (clang takes them the other way), so
-/// the same seed made other worlds and queries there. Spelt out, every world, query and figure
-/// made with g++ before is made again, by any compiler.
-template <typename Vector, typename Draw>
-Vector drawLastFirst(Draw&& draw) {
-  Vector vector;
-  for (int i = static_cast<int>(vector.size()) - 1; i >= 0; --i) vector[i] = draw(i);
-  return vector;
-}
-
 class Rng {
  public:
   explicit Rng(std::uint64_t seed);
@@ -42,5 +29,18 @@ class Rng {
  private:
   std::uint64_t state_[4];
 };
+
+/// One draw per coordinate into a fixed-size vector (an Eigen vector), the last coordinate
+/// first: `vector[i] = draw(i)` for i = size - 1 down to 0. That is the order in which g++
+/// evaluated such draws when they were the arguments of one constructor call, as they once
+/// were in kinolab; C++ leaves that order to the compiler (clang takes them the other way), so
+/// the same seed made other worlds and queries there. Spelt out, every world, query and figure
+/// made with g++ before is made again, by any compiler.
+template <typename Vector, typename Draw>
+Vector drawLastFirst(Draw&& draw) {
+  Vector vector;
+  for (int i = static_cast<int>(vector.size()) - 1; i >= 0; --i) vector[i] = draw(i);
+  return vector;
+}
 
 }  // namespace kinolab
