@@ -1,6 +1,7 @@
 // The vehicle map kind `probabilistic`: a dense grid of log-odds updated by ray casting, as
 // the local maps of Fast-Planner (SDFMap) and FIESTA are, a frame at a time.
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdint>
 #include <vector>
@@ -75,51 +76,49 @@ class ProbabilisticVehicleMap final : public VehicleMap {
 
   /// Every voxel a frame reaches is updated once: as a hit when at least as many of the
   /// frame's rays ended in it as passed through it, else as a miss (Fast-Planner's rule).
-  /// Free space is walked from each ray's end back towards the origin. Beyond exact_range of
-  /// the origin a walk stops at the first voxel an earlier ray of the frame walked (counting
-  /// it): rays converge at the sensor, so most of each walk is shared (Fast-Planner's
-  /// raycasting shortcut). But the rest of a stopped ray is not the rest of the ray it met,
-  /// and the voxels only it crosses stay unseen: with the shortcut alone, about half the
-  /// voxels a camera frame's rays cross (at every distance), and a flight that commits only
-  /// into seen space crept. So within exact_range every ray is walked in full, and a voxel
-  /// there is counted by every ray that crosses it.
+  /// Beyond exact_range of the origin, free space is walked from each ray's end back towards
+  /// the origin, and a walk stops at the first voxel an earlier ray of the frame walked
+  /// (counting it): rays converge at the sensor, so most of each walk is shared
+  /// (Fast-Planner's raycasting shortcut). But the rest of a stopped ray is not the rest of the
+  /// ray it met, and the voxels only it crosses stay unseen: with the shortcut alone, about
+  /// half the voxels a camera frame's rays cross (at every distance), and a flight that
+  /// commits only into seen space crept. So within exact_range every ray is walked in full,
+  /// and a voxel there is counted by every ray that crosses it: by a dedicated traversal from
+  /// the origin counting into a dense block of the voxels around it (a ray's voxels in
+  /// sequence; most of a frame's voxel visits are there, and the block's counters are
+  /// neighbours in memory where the frame's touched list is not).
   void doInsert(const SensorFrame& frame, double max_range) override {
     const VoxelGrid& grid = lattice();
     const double voxel = grid.resolution();
     const Box box = grid.bounds();
+    // The near part: voxels that rays cross in full within exact_range of the origin.
+    const bool origin_inside = grid.inside(voxelOf(frame.origin));
+    const double near = origin_inside ? exact_range_ : 0.0;
+    if (near > 0.0) startBlock(frame.origin, std::min(near, max_range));
     for (const Eigen::Vector3d& p : frame.hits) {
       const VoxelIndex v = voxelOf(p);
-      if (grid.inside(v)) {
-        Touched& touched = entry(grid.index(v));
-        if (touched.hits < UINT16_MAX) ++touched.hits;
-      }
+      if (!grid.inside(v)) continue;
+      Counts* counts = near > 0.0 ? inBlock(v) : nullptr;
+      std::uint16_t& hits = counts != nullptr ? counts->hits : entry(grid.index(v)).counts.hits;
+      if (hits < UINT16_MAX) ++hits;
     }
-    const auto walk = [&](const Eigen::Vector3d& end, bool skip_first) {
+    const auto walk = [&](const Eigen::Vector3d& end, bool hit) {
       const Eigen::Vector3d start = clipToBox(frame.origin, end, box, voxel);
       const double length = (start - frame.origin).norm();
       if (!(length > 0.0)) return;
-      const Eigen::Vector3d inwards = (frame.origin - start) / length;
-      bool first = skip_first && start == end;
-      std::size_t stopped = lattice().size();  // the voxel where the shared walk stopped
-      grid.walkRay(start, inwards, length, [&](const VoxelIndex& v, double t) {
+      const Eigen::Vector3d outwards = (start - frame.origin) / length;
+      const bool skip_end = hit && start == end;  // a hit's own voxel is not passed
+      if (near > 0.0) walkNear(frame.origin, outwards, std::min(length, near), !skip_end);
+      if (length <= near) return;
+      // The far part, inwards from the end: a voxel entered (on its far side) within
+      // exact_range of the origin is the near walk's.
+      bool first = skip_end;
+      grid.walkRay(start, -outwards, length, [&](const VoxelIndex& v, double t) {
         if (first) {
           first = false;
           return true;
         }
-        // Counted; beyond exact_range the walk ends if an earlier ray walked on from here.
-        const std::size_t index = grid.index(v);
-        if (countPass(entry(index)) || length - t < exact_range_) return true;
-        stopped = index;
-        return false;
-      });
-      if (stopped == lattice().size() || !(exact_range_ > 0.0)) return;
-      // The part within exact_range, in full (the voxel it starts in may be where the walk
-      // stopped, already counted).
-      const Eigen::Vector3d near = frame.origin - exact_range_ * inwards;
-      grid.walkRay(near, inwards, exact_range_, [&](const VoxelIndex& v, double /*t*/) {
-        const std::size_t index = grid.index(v);
-        if (index != stopped) countPass(entry(index));
-        return true;
+        return length - t > near && countPass(entry(grid.index(v)));
       });
     };
     for (const Eigen::Vector3d& p : frame.hits) walk(p, true);
@@ -128,10 +127,9 @@ class ProbabilisticVehicleMap final : public VehicleMap {
       const Eigen::Vector3d d = p - frame.origin;
       walk(frame.origin + std::min(1.0, max_range / d.norm()) * d, false);
     }
+    if (near > 0.0) mergeBlock();
     for (const Touched& touched : touched_) {
-      float& value = log_odds_[touched.index];
-      value = std::clamp(value + (touched.hits >= touched.passes ? hit_ : miss_), low_, high_);
-      setState(touched.index, value > threshold_ ? Voxel::kOccupied : Voxel::kFree);
+      update(touched.index, touched.counts);
       slot_[touched.index] = 0;
     }
     touched_.clear();
@@ -143,10 +141,14 @@ class ProbabilisticVehicleMap final : public VehicleMap {
   }
 
  private:
+  /// A frame's counts of the rays that ended in a voxel and of those that passed through it.
+  struct Counts {
+    std::uint16_t hits = 0;
+    std::uint16_t passes = 0;
+  };
   struct Touched {
     std::size_t index;
-    std::uint16_t hits;
-    std::uint16_t passes;
+    Counts counts;
   };
 
   VoxelIndex voxelOf(const Eigen::Vector3d& p) const {
@@ -155,15 +157,126 @@ class ProbabilisticVehicleMap final : public VehicleMap {
 
   /// Counts a ray passing through; false when an earlier ray of the frame passed too.
   static bool countPass(Touched& touched) {
-    if (touched.passes < UINT16_MAX) ++touched.passes;
-    return touched.passes == 1;
+    std::uint16_t& passes = touched.counts.passes;
+    if (passes < UINT16_MAX) ++passes;
+    return passes == 1;
+  }
+
+  /// Applies a frame's counts to voxel `index`.
+  void update(std::size_t index, const Counts& counts) {
+    float& value = log_odds_[index];
+    value = std::clamp(value + (counts.hits >= counts.passes ? hit_ : miss_), low_, high_);
+    setState(index, value > threshold_ ? Voxel::kOccupied : Voxel::kFree);
+  }
+
+  /// Makes the block the voxels of the lattice's indices within `reach` of `origin` and two
+  /// voxels more (so that a traversal's rounding never leaves it), all counts zero. It may
+  /// reach beyond the lattice: those cells are never counted.
+  void startBlock(const Eigen::Vector3d& origin, double reach) {
+    const double r = lattice().resolution();
+    const Eigen::Vector3d local = (origin - lattice().origin()) / r;
+    const int half = static_cast<int>(std::ceil(reach / r)) + 2;
+    block_first_ = local.array().floor().cast<int>() - half;
+    block_dims_ = Eigen::Vector3i::Constant(2 * half + 1);
+    block_origin_ = lattice().origin() + r * block_first_.cast<double>();
+    block_.assign(static_cast<std::size_t>(block_dims_.prod()), Counts{});
+  }
+
+  /// The block's counts of the lattice voxel `v`, or null when the block does not hold it.
+  Counts* inBlock(const VoxelIndex& v) {
+    const Eigen::Vector3i cell = v - block_first_;
+    if ((cell.array() < 0).any() || (cell.array() >= block_dims_.array()).any()) return nullptr;
+    return &block_[(static_cast<std::size_t>(cell.x()) * block_dims_.y() + cell.y()) *
+                       block_dims_.z() +
+                   cell.z()];
+  }
+
+  /// Counts a pass in every voxel the ray origin + t direction (unit) crosses over a positive
+  /// length and leaves at t <= limit, and in the voxel it is in at `limit` when `count_end`:
+  /// Amanatides and Woo's traversal in the block's cells, on fixed-point ray parameters and without
+  /// branches on the axis (a ray's next axis is unpredictable; this loop is most of a frame's voxel
+  /// visits).
+  void walkNear(const Eigen::Vector3d& origin, const Eigen::Vector3d& direction, double limit,
+                bool count_end) {
+    constexpr double kScale = 16777216.0;                   // fixed-point units a voxel (2^24)
+    constexpr std::int64_t kNever = std::int64_t{1} << 60;  // beyond every limit
+    const auto fixed = [&](double voxels) {
+      return voxels < 1e9 ? static_cast<std::int64_t>(voxels * kScale) : kNever;
+    };
+    const double r = lattice().resolution();
+    const Eigen::Vector3d local = (origin - block_origin_) / r;  // in voxels
+    const std::array<std::ptrdiff_t, 3> strides{
+        static_cast<std::ptrdiff_t>(block_dims_.y()) * block_dims_.z(), block_dims_.z(), 1};
+    std::array<std::int64_t, 3> next{};   // where the ray leaves the current cell, per axis
+    std::array<std::int64_t, 3> delta{};  // the ray's length across a cell, per axis
+    std::array<std::ptrdiff_t, 3> step{};
+    std::ptrdiff_t index = 0;
+    for (int axis = 0; axis < 3; ++axis) {
+      const double cell = std::floor(local[axis]);
+      index += static_cast<std::ptrdiff_t>(cell) * strides[axis];
+      const double d = direction[axis];
+      const double across = d != 0.0 ? 1.0 / std::abs(d) : INFINITY;
+      delta[axis] = fixed(across);
+      next[axis] = d > 0.0   ? fixed((cell + 1.0 - local[axis]) * across)
+                   : d < 0.0 ? fixed((local[axis] - cell) * across)
+                             : kNever;
+      step[axis] = d > 0.0 ? strides[axis] : (d < 0.0 ? -strides[axis] : 0);
+    }
+    const std::int64_t end = fixed(limit / r);
+    auto [next_x, next_y, next_z] = next;
+    Counts* counts = block_.data();
+    const auto pass = [&] {
+      std::uint16_t& passes = counts[index].passes;
+      passes += passes < UINT16_MAX ? 1 : 0;
+    };
+    std::int64_t entered = -1;  // a cell left where it was entered was only touched
+    while (true) {
+      const std::int64_t leave = std::min(next_x, std::min(next_y, next_z));
+      if (leave > end) break;
+      if (leave > entered) pass();
+      entered = leave;
+      const bool along_x = next_x == leave;
+      const bool along_y = !along_x && next_y == leave;
+      const bool along_z = !along_x && !along_y;
+      index += (along_x ? step[0] : 0) + (along_y ? step[1] : 0) + (along_z ? step[2] : 0);
+      next_x += along_x ? delta[0] : 0;
+      next_y += along_y ? delta[1] : 0;
+      next_z += along_z ? delta[2] : 0;
+    }
+    if (count_end) pass();
+  }
+
+  /// Applies the block's counts (with a voxel's far-walk counts when it has both) and clears
+  /// them.
+  void mergeBlock() {
+    const VoxelGrid& grid = lattice();
+    std::size_t cell = 0;
+    for (int x = 0; x < block_dims_.x(); ++x) {
+      for (int y = 0; y < block_dims_.y(); ++y) {
+        for (int z = 0; z < block_dims_.z(); ++z, ++cell) {
+          const Counts counts = block_[cell];
+          if (counts.hits == 0 && counts.passes == 0) continue;
+          const VoxelIndex v = block_first_ + VoxelIndex(x, y, z);
+          if (!grid.inside(v)) continue;
+          const std::size_t index = grid.index(v);
+          if (slot_[index] == 0) {
+            update(index, counts);
+            continue;
+          }
+          Counts& far = touched_[slot_[index] - 1].counts;
+          far.hits = static_cast<std::uint16_t>(std::min(far.hits + counts.hits, UINT16_MAX + 0));
+          far.passes =
+              static_cast<std::uint16_t>(std::min(far.passes + counts.passes, UINT16_MAX + 0));
+        }
+      }
+    }
   }
 
   /// This frame's counts of voxel `index`, made on first use.
   Touched& entry(std::size_t index) {
     std::uint32_t& slot = slot_[index];
     if (slot == 0) {
-      touched_.push_back({index, 0, 0});
+      touched_.push_back({index, {}});
       slot = static_cast<std::uint32_t>(touched_.size());
     }
     return touched_[slot - 1];
@@ -178,6 +291,12 @@ class ProbabilisticVehicleMap final : public VehicleMap {
   std::vector<float> log_odds_;
   std::vector<std::uint32_t> slot_;  // 1 + the voxel's place in touched_, 0 when not touched
   std::vector<Touched> touched_;     // the frame's voxels
+  // The frame's dense block around its origin (walkNear()): its first voxel's lattice index,
+  // its size, its corner and one cell's counts a voxel (x slowest, z fastest).
+  VoxelIndex block_first_ = VoxelIndex::Zero();
+  Eigen::Vector3i block_dims_ = Eigen::Vector3i::Zero();
+  Eigen::Vector3d block_origin_ = Eigen::Vector3d::Zero();
+  std::vector<Counts> block_;
 };
 
 void registerBuiltins() {
