@@ -356,6 +356,7 @@ class FlightLoop {
         z_band_high_(std::max(query.start(2, 0), query.goal.z()) + 0.5),
         sensor_errors_(sensor_.noise()),
         rays_(sensor_.rayDirections()),
+        caster_(*truth),
         noise_(Rng::derive(settings_.seed, "sensor")) {
     if (setup.tracking.kind == TrackingKind::kQuadrotor) {
       tracker_.emplace(setup.tracking, query.start.col(0), settings_.seed);
@@ -507,7 +508,7 @@ class FlightLoop {
         (errors.latency_jitter > 0.0 ? errors.latency_jitter * noise_.uniform(-1.0, 1.0) : 0.0);
     const double taken = std::clamp(t_ - age, 0.0, t_);
     const SensorFrame sensed =
-        senseFrame(*truth_, sensor_, rays_, stateAt(flownPath(), taken).col(0),
+        senseFrame(caster_, sensor_, rays_, stateAt(flownPath(), taken).col(0),
                    heading(taken) + look_offset_, noise_);
     result_.time_sense_ms += millisecondsSince(begin);
     begin = std::chrono::steady_clock::now();
@@ -835,6 +836,7 @@ class FlightLoop {
   double look_offset_ = 0.0;  // rad: the camera's turn from its heading, to look for a way
   SensorNoise sensor_errors_;
   std::vector<Eigen::Vector3d> rays_;        // the sensor's, once
+  RayCaster caster_;                         // the ground truth's, once
   Rng noise_;                                // the sensor's noise, dropouts and latency
   std::optional<QuadrotorTracker> tracker_;  // unless tracking is perfect
   std::unordered_map<std::size_t, double> first_occupied_;  // lattice index -> time

@@ -1,5 +1,6 @@
 #include "kinolab/flight/sensor.hpp"
 
+#include <array>
 #include <cmath>
 #include <limits>
 
@@ -81,47 +82,153 @@ double castRay(const VoxelGrid& grid, const Eigen::Vector3d& origin,
   return hit;
 }
 
-double castRay(const World& world, const Eigen::Vector3d& origin, const Eigen::Vector3d& direction,
-               double max_range) {
-  // Sphere tracing on the ESDF: inside the map the nearest voxel centre c is at most half a
-  // voxel's diagonal from p, and the stored distance is exact at c and 1-Lipschitz, so
-  // D(c) - sqrt(3) / 2 voxel is a proven lower bound of the distance from p to the cubes: a
-  // leap never passes a cube. Where the leaps get short (beside a surface), the exact
-  // traversal takes over for a few voxels (it checks every voxel it enters, the one holding
-  // its end too), then the leaps resume.
-  const double r = world.grid().resolution();
-  const double half_diagonal = (0.5 * std::sqrt(3.0) + 1e-3) * r;  // and float rounding
-  const double stretch = 4.0 * r;
-  const Box& box = world.bounds();
-  double t = 0.0;
-  while (t <= max_range) {
-    const Eigen::Vector3d p = origin + t * direction;
-    if ((p.array() < box.min.array()).any() || (p.array() >= box.max.array()).any()) break;
-    const double leap = world.esdf().nearestDistance(p) - half_diagonal;
-    if (leap >= r) {
-      t += leap;
-      continue;
+namespace {
+
+/// castRay() on the grid, without branches on the axis: the distance along the unit
+/// `direction` from `origin` (inside the grid, or on its face) to the first occupied voxel
+/// cube entered within `reach`, INFINITY when there is none or the ray leaves the grid.
+/// `across` is the ray's length across a voxel along each axis (resolution / |direction|).
+double firstOccupied(const VoxelGrid& grid, const Eigen::Vector3d& origin,
+                     const Eigen::Vector3d& direction, const Eigen::Vector3d& across,
+                     double reach) {
+  const Eigen::Vector3d local = (origin - grid.origin()) / grid.resolution();  // in voxels
+  const Eigen::Vector3i& n = grid.dims();
+  const std::array<std::ptrdiff_t, 3> strides{static_cast<std::ptrdiff_t>(n.y()) * n.z(), n.z(), 1};
+  std::array<int, 3> voxel{};
+  std::array<int, 3> step{};
+  std::array<double, 3> next{};   // ray parameter (m) where it leaves the voxel along each axis
+  std::array<double, 3> delta{};  // ray parameter across a voxel along each axis
+  std::ptrdiff_t index = 0;
+  for (int axis = 0; axis < 3; ++axis) {
+    voxel[axis] = static_cast<int>(std::floor(local[axis]));
+    if (voxel[axis] < 0 || voxel[axis] >= n[axis]) return INFINITY;
+    index += voxel[axis] * strides[axis];
+    const double d = direction[axis];
+    step[axis] = d > 0.0 ? 1 : (d < 0.0 ? -1 : 0);
+    const double to_face = d > 0.0 ? voxel[axis] + 1 - local[axis] : local[axis] - voxel[axis];
+    next[axis] = d != 0.0 ? to_face * across[axis] : INFINITY;
+    delta[axis] = across[axis];
+  }
+  const std::uint8_t* occupancy = grid.occupancy().data();
+  double t = 0.0;  // where the ray entered the voxel
+  while (t <= reach) {
+    if (occupancy[index] != 0) return t;
+    const double out = std::min(next[0], std::min(next[1], next[2]));
+    t = out;
+    const bool along_x = next[0] == out;
+    const bool along_y = !along_x && next[1] == out;
+    const bool along_z = !along_x && !along_y;
+    voxel[0] += along_x ? step[0] : 0;
+    voxel[1] += along_y ? step[1] : 0;
+    voxel[2] += along_z ? step[2] : 0;
+    index += (along_x ? step[0] * strides[0] : 0) + (along_y ? step[1] * strides[1] : 0) +
+             (along_z ? step[2] : 0);
+    next[0] += along_x ? delta[0] : 0.0;
+    next[1] += along_y ? delta[1] : 0.0;
+    next[2] += along_z ? delta[2] : 0.0;
+    if (static_cast<unsigned>(voxel[0]) >= static_cast<unsigned>(n.x()) ||
+        static_cast<unsigned>(voxel[1]) >= static_cast<unsigned>(n.y()) ||
+        static_cast<unsigned>(voxel[2]) >= static_cast<unsigned>(n.z())) {
+      return INFINITY;
     }
-    const double reach = std::min(stretch, max_range - t);
-    const double hit = castRay(world.grid(), p, direction, reach);
-    if (hit <= reach) return t + hit;
-    if (reach < stretch) return INFINITY;  // the range ends within the stretch
-    t += stretch;
+  }
+  return INFINITY;
+}
+
+}  // namespace
+
+RayCaster::RayCaster(const World& world) : world_(&world) {
+  const VoxelGrid& grid = world.grid();
+  const Eigen::Vector3i& n = grid.dims();
+  bricks_ = (n.array() + kBrick - 1) / kBrick;
+  occupied_.assign(static_cast<std::size_t>(bricks_.prod()), 0);
+  const std::uint8_t* occupancy = grid.occupancy().data();
+  std::size_t i = 0;
+  for (int x = 0; x < n.x(); ++x) {
+    for (int y = 0; y < n.y(); ++y) {
+      const std::size_t row =
+          (static_cast<std::size_t>(x / kBrick) * bricks_.y() + y / kBrick) * bricks_.z();
+      for (int z = 0; z < n.z(); ++z, ++i) {
+        if (occupancy[i] != 0) occupied_[row + z / kBrick] = 1;
+      }
+    }
+  }
+}
+
+double RayCaster::cast(const Eigen::Vector3d& origin, const Eigen::Vector3d& direction,
+                       double max_range) const {
+  // Amanatides and Woo's traversal over the bricks, without branches on the axis (a ray's
+  // next axis is unpredictable); through a brick that holds an obstacle, the voxels' own
+  // traversal from where the ray enters it to where it leaves (from a point on the brick's
+  // face rounding may start it in the empty brick before: a free voxel).
+  const VoxelGrid& grid = world_->grid();
+  if (!grid.inside(
+          ((origin - grid.origin()) / grid.resolution()).array().floor().cast<int>().matrix())) {
+    return INFINITY;  // as the voxels' traversal: nothing from outside the grid
+  }
+  const double side = kBrick * grid.resolution();
+  const Eigen::Vector3d local = (origin - grid.origin()) / side;  // in bricks
+  Eigen::Vector3d across;  // the ray's length across a voxel along each axis
+  for (int axis = 0; axis < 3; ++axis) {
+    across[axis] =
+        direction[axis] != 0.0 ? grid.resolution() / std::abs(direction[axis]) : INFINITY;
+  }
+  const std::array<std::ptrdiff_t, 3> strides{
+      static_cast<std::ptrdiff_t>(bricks_.y()) * bricks_.z(), bricks_.z(), 1};
+  std::array<int, 3> brick{};     // the brick's coordinates
+  std::array<int, 3> step{};      // +-1 or 0 along each axis
+  std::array<double, 3> next{};   // ray parameter (m) where it leaves the brick along each axis
+  std::array<double, 3> delta{};  // ray parameter across a brick along each axis
+  std::ptrdiff_t index = 0;
+  for (int axis = 0; axis < 3; ++axis) {
+    brick[axis] = std::min(static_cast<int>(std::floor(local[axis])), bricks_[axis] - 1);
+    index += brick[axis] * strides[axis];
+    const double d = direction[axis];
+    step[axis] = d > 0.0 ? 1 : (d < 0.0 ? -1 : 0);
+    const double to_face = d > 0.0 ? brick[axis] + 1 - local[axis] : local[axis] - brick[axis];
+    next[axis] = d != 0.0 ? to_face * kBrick * across[axis] : INFINITY;
+    delta[axis] = kBrick * across[axis];
+  }
+  double t = 0.0;  // where the ray entered the brick
+  while (t <= max_range) {
+    const double out = std::min(next[0], std::min(next[1], next[2]));
+    if (occupied_[static_cast<std::size_t>(index)] != 0) {
+      const double reach = std::min(out, max_range) - t;
+      const double hit = firstOccupied(grid, origin + t * direction, direction, across, reach);
+      if (hit <= reach) return t + hit;
+    }
+    t = out;
+    const bool along_x = next[0] == out;
+    const bool along_y = !along_x && next[1] == out;
+    const bool along_z = !along_x && !along_y;
+    brick[0] += along_x ? step[0] : 0;
+    brick[1] += along_y ? step[1] : 0;
+    brick[2] += along_z ? step[2] : 0;
+    index += (along_x ? step[0] * strides[0] : 0) + (along_y ? step[1] * strides[1] : 0) +
+             (along_z ? step[2] : 0);
+    next[0] += along_x ? delta[0] : 0.0;
+    next[1] += along_y ? delta[1] : 0.0;
+    next[2] += along_z ? delta[2] : 0.0;
+    if (static_cast<unsigned>(brick[0]) >= static_cast<unsigned>(bricks_.x()) ||
+        static_cast<unsigned>(brick[1]) >= static_cast<unsigned>(bricks_.y()) ||
+        static_cast<unsigned>(brick[2]) >= static_cast<unsigned>(bricks_.z())) {
+      return INFINITY;
+    }
   }
   return INFINITY;
 }
 
 SensorFrame senseFrame(const World& truth, const Sensor& sensor, const Eigen::Vector3d& origin,
                        double yaw, Rng& noise) {
-  return senseFrame(truth, sensor, sensor.rayDirections(), origin, yaw, noise);
+  return senseFrame(RayCaster(truth), sensor, sensor.rayDirections(), origin, yaw, noise);
 }
 
-SensorFrame senseFrame(const World& truth, const Sensor& sensor,
+SensorFrame senseFrame(const RayCaster& truth, const Sensor& sensor,
                        const std::vector<Eigen::Vector3d>& rays, const Eigen::Vector3d& origin,
                        double yaw, Rng& noise) {
   const double range = sensor.maxRange();
   const SensorNoise errors = sensor.noise();
-  const double voxel = truth.grid().resolution();
+  const double voxel = truth.world().grid().resolution();
   SensorFrame frame;
   frame.origin = origin;
   const double c = std::cos(yaw);
@@ -133,7 +240,7 @@ SensorFrame senseFrame(const World& truth, const Sensor& sensor,
   for (const Eigen::Vector3d& ray : rays) {
     if (errors.dropout > 0.0 && noise.uniform01() < errors.dropout) continue;
     const Eigen::Vector3d direction(c * ray.x() - s * ray.y(), s * ray.x() + c * ray.y(), ray.z());
-    const double distance = castRay(truth, origin, direction, range);
+    const double distance = truth.cast(origin, direction, range);
     if (distance > range) {
       frame.misses.push_back(origin + (range + voxel) * direction);
       continue;

@@ -2,6 +2,7 @@
 
 #include <Eigen/Core>
 #include <cmath>
+#include <cstdint>
 #include <vector>
 
 #include "kinolab/core/plugin_registry.hpp"
@@ -159,18 +160,35 @@ struct SensorFrame {
 double castRay(const VoxelGrid& grid, const Eigen::Vector3d& origin,
                const Eigen::Vector3d& direction, double max_range);
 
-/// castRay() into a world: the same exact distance, found faster by leaping through free space
-/// by the ESDF's proven clearance before the traversal.
-double castRay(const World& world, const Eigen::Vector3d& origin, const Eigen::Vector3d& direction,
-               double max_range);
+/// A ground-truth world made ready for casting rays: its voxels grouped in bricks of 4^3 with
+/// a byte each telling whether one is occupied, so that a ray crosses an empty brick in one
+/// step and walks voxels only through bricks that hold an obstacle (both traversals without
+/// branches on the axis; 1.4x faster than leaping on the ESDF in the frame benchmark). Built
+/// once per world (a pass over its occupancy; a flight makes one); keeps a reference to
+/// `world`.
+class RayCaster {
+ public:
+  explicit RayCaster(const World& world);
+
+  /// castRay() into the world's grid: the same exact distance (to float rounding).
+  double cast(const Eigen::Vector3d& origin, const Eigen::Vector3d& direction,
+              double max_range) const;
+  const World& world() const { return *world_; }
+
+ private:
+  static constexpr int kBrick = 4;  ///< voxels a brick's side
+  const World* world_;
+  Eigen::Vector3i bricks_;              // bricks per axis
+  std::vector<std::uint8_t> occupied_;  // per brick (x slowest, z fastest): 1 if any voxel is
+};
 
 /// A frame of `sensor` from `origin`, the vehicle heading `yaw` (rad about z), world frame,
 /// with the sensor's range noise and dropouts drawn from `noise`.
 SensorFrame senseFrame(const World& truth, const Sensor& sensor, const Eigen::Vector3d& origin,
                        double yaw, Rng& noise);
-/// The same with the sensor's rayDirections() computed once by the caller (a flight's every
-/// frame casts the same rays).
-SensorFrame senseFrame(const World& truth, const Sensor& sensor,
+/// The same with the truth's caster and the sensor's rayDirections() made once by the caller
+/// (a flight's every frame casts the same rays into the same world).
+SensorFrame senseFrame(const RayCaster& truth, const Sensor& sensor,
                        const std::vector<Eigen::Vector3d>& rays, const Eigen::Vector3d& origin,
                        double yaw, Rng& noise);
 
