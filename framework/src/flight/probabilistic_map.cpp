@@ -57,6 +57,64 @@ Eigen::Vector3d clipToBox(const Eigen::Vector3d& from, const Eigen::Vector3d& to
   return from + std::max(0.0, t - 1e-3 * voxel / length) * d;
 }
 
+/// Amanatides and Woo's traversal of the cells of a box (`dims`, x slowest, z fastest) on
+/// fixed-point ray parameters, without branches on the axis: a ray's next axis is
+/// unpredictable, and these loops are most of a frame's voxel visits.
+struct CellWalk {
+  static constexpr double kScale = 16777216.0;                   // fixed-point units a cell (2^24)
+  static constexpr std::int64_t kNever = std::int64_t{1} << 60;  // beyond every limit
+  static std::int64_t fixed(double cells) {
+    return cells < 1e9 ? static_cast<std::int64_t>(cells * kScale) : kNever;
+  }
+
+  /// From `local` (in cells from the box's corner) along the unit `direction`.
+  CellWalk(const Eigen::Vector3d& local, const Eigen::Vector3d& direction,
+           const Eigen::Vector3i& dims) {
+    const std::array<std::ptrdiff_t, 3> strides{static_cast<std::ptrdiff_t>(dims.y()) * dims.z(),
+                                                dims.z(), 1};
+    for (int axis = 0; axis < 3; ++axis) {
+      const double corner = std::floor(local[axis]);
+      cell[axis] = static_cast<int>(corner);
+      index += static_cast<std::ptrdiff_t>(cell[axis]) * strides[axis];
+      const double d = direction[axis];
+      const double across = d != 0.0 ? 1.0 / std::abs(d) : INFINITY;
+      delta[axis] = fixed(across);
+      next[axis] = d > 0.0   ? fixed((corner + 1.0 - local[axis]) * across)
+                   : d < 0.0 ? fixed((local[axis] - corner) * across)
+                             : kNever;
+      sign[axis] = d > 0.0 ? 1 : (d < 0.0 ? -1 : 0);
+      stride[axis] = sign[axis] * strides[axis];
+    }
+  }
+  /// Where the ray leaves the current cell.
+  std::int64_t leave() const { return std::min(next[0], std::min(next[1], next[2])); }
+  /// Into the next cell; `leave` is leave().
+  void step(std::int64_t leave) {
+    const bool along_x = next[0] == leave;
+    const bool along_y = !along_x && next[1] == leave;
+    const bool along_z = !along_x && !along_y;
+    index += (along_x ? stride[0] : 0) + (along_y ? stride[1] : 0) + (along_z ? stride[2] : 0);
+    cell[0] += along_x ? sign[0] : 0;
+    cell[1] += along_y ? sign[1] : 0;
+    cell[2] += along_z ? sign[2] : 0;
+    next[0] += along_x ? delta[0] : 0;
+    next[1] += along_y ? delta[1] : 0;
+    next[2] += along_z ? delta[2] : 0;
+  }
+  bool inside(const Eigen::Vector3i& dims) const {
+    return static_cast<unsigned>(cell[0]) < static_cast<unsigned>(dims.x()) &&
+           static_cast<unsigned>(cell[1]) < static_cast<unsigned>(dims.y()) &&
+           static_cast<unsigned>(cell[2]) < static_cast<unsigned>(dims.z());
+  }
+
+  std::ptrdiff_t index = 0;             // the current cell's
+  std::array<int, 3> cell{};            // its coordinates
+  std::array<std::int64_t, 3> next{};   // where the ray leaves it along each axis
+  std::array<std::int64_t, 3> delta{};  // the ray's length across a cell along each axis
+  std::array<int, 3> sign{};
+  std::array<std::ptrdiff_t, 3> stride{};  // the index's step along each axis
+};
+
 class ProbabilisticVehicleMap final : public VehicleMap {
  public:
   explicit ProbabilisticVehicleMap(const ProbabilisticModel& model)
@@ -112,14 +170,7 @@ class ProbabilisticVehicleMap final : public VehicleMap {
       if (length <= near) return;
       // The far part, inwards from the end: a voxel entered (on its far side) within
       // exact_range of the origin is the near walk's.
-      bool first = skip_end;
-      grid.walkRay(start, -outwards, length, [&](const VoxelIndex& v, double t) {
-        if (first) {
-          first = false;
-          return true;
-        }
-        return length - t > near && countPass(entry(grid.index(v)));
-      });
+      walkFar(start, -outwards, length, near, skip_end);
     };
     for (const Eigen::Vector3d& p : frame.hits) walk(p, true);
     for (const Eigen::Vector3d& p : frame.misses) {
@@ -192,58 +243,46 @@ class ProbabilisticVehicleMap final : public VehicleMap {
   }
 
   /// Counts a pass in every voxel the ray origin + t direction (unit) crosses over a positive
-  /// length and leaves at t <= limit, and in the voxel it is in at `limit` when `count_end`:
-  /// Amanatides and Woo's traversal in the block's cells, on fixed-point ray parameters and without
-  /// branches on the axis (a ray's next axis is unpredictable; this loop is most of a frame's voxel
-  /// visits).
+  /// length and leaves at t <= limit, and in the voxel it is in at `limit` when `count_end`.
   void walkNear(const Eigen::Vector3d& origin, const Eigen::Vector3d& direction, double limit,
                 bool count_end) {
-    constexpr double kScale = 16777216.0;                   // fixed-point units a voxel (2^24)
-    constexpr std::int64_t kNever = std::int64_t{1} << 60;  // beyond every limit
-    const auto fixed = [&](double voxels) {
-      return voxels < 1e9 ? static_cast<std::int64_t>(voxels * kScale) : kNever;
-    };
     const double r = lattice().resolution();
-    const Eigen::Vector3d local = (origin - block_origin_) / r;  // in voxels
-    const std::array<std::ptrdiff_t, 3> strides{
-        static_cast<std::ptrdiff_t>(block_dims_.y()) * block_dims_.z(), block_dims_.z(), 1};
-    std::array<std::int64_t, 3> next{};   // where the ray leaves the current cell, per axis
-    std::array<std::int64_t, 3> delta{};  // the ray's length across a cell, per axis
-    std::array<std::ptrdiff_t, 3> step{};
-    std::ptrdiff_t index = 0;
-    for (int axis = 0; axis < 3; ++axis) {
-      const double cell = std::floor(local[axis]);
-      index += static_cast<std::ptrdiff_t>(cell) * strides[axis];
-      const double d = direction[axis];
-      const double across = d != 0.0 ? 1.0 / std::abs(d) : INFINITY;
-      delta[axis] = fixed(across);
-      next[axis] = d > 0.0   ? fixed((cell + 1.0 - local[axis]) * across)
-                   : d < 0.0 ? fixed((local[axis] - cell) * across)
-                             : kNever;
-      step[axis] = d > 0.0 ? strides[axis] : (d < 0.0 ? -strides[axis] : 0);
-    }
-    const std::int64_t end = fixed(limit / r);
-    auto [next_x, next_y, next_z] = next;
+    CellWalk walk((origin - block_origin_) / r, direction, block_dims_);
+    const std::int64_t end = CellWalk::fixed(limit / r);
     Counts* counts = block_.data();
     const auto pass = [&] {
-      std::uint16_t& passes = counts[index].passes;
+      std::uint16_t& passes = counts[walk.index].passes;
       passes += passes < UINT16_MAX ? 1 : 0;
     };
     std::int64_t entered = -1;  // a cell left where it was entered was only touched
     while (true) {
-      const std::int64_t leave = std::min(next_x, std::min(next_y, next_z));
+      const std::int64_t leave = walk.leave();
       if (leave > end) break;
       if (leave > entered) pass();
       entered = leave;
-      const bool along_x = next_x == leave;
-      const bool along_y = !along_x && next_y == leave;
-      const bool along_z = !along_x && !along_y;
-      index += (along_x ? step[0] : 0) + (along_y ? step[1] : 0) + (along_z ? step[2] : 0);
-      next_x += along_x ? delta[0] : 0;
-      next_y += along_y ? delta[1] : 0;
-      next_z += along_z ? delta[2] : 0;
+      walk.step(leave);
     }
     if (count_end) pass();
+  }
+
+  /// The far part of a walk, from `start` along the unit `inwards` to the origin `length`
+  /// away: counts a pass in every voxel entered before `length - near` (the first one unless
+  /// `skip_first`), and stops after one an earlier ray of the frame passed (the shortcut).
+  void walkFar(const Eigen::Vector3d& start, const Eigen::Vector3d& inwards, double length,
+               double near, bool skip_first) {
+    const VoxelGrid& grid = lattice();
+    const double r = grid.resolution();
+    CellWalk walk((start - grid.origin()) / r, inwards, grid.dims());
+    if (!walk.inside(grid.dims())) return;
+    const std::int64_t end = CellWalk::fixed((length - near) / r);
+    if (!skip_first && !countPass(entry(static_cast<std::size_t>(walk.index)))) return;
+    while (true) {
+      const std::int64_t leave = walk.leave();
+      if (leave >= end) return;
+      walk.step(leave);
+      if (!walk.inside(grid.dims())) return;  // rounding at the origin, on the lattice's side
+      if (!countPass(entry(static_cast<std::size_t>(walk.index)))) return;
+    }
   }
 
   /// Applies the block's counts (with a voxel's far-walk counts when it has both) and clears
