@@ -167,16 +167,14 @@ std::shared_ptr<const World> VehicleMap::window(const Eigen::Vector3d& center) {
                     std::abs(center.z() - window_middle_.z()) <= 0.5 * half_height;
   const Eigen::Vector3d half(half_side + model_.window_margin, half_side + model_.window_margin,
                              half_height);
-  std::vector<std::uint8_t> occupancy;
   if (!kept) {
     window_middle_ = center;
     VoxelGrid grid(latticeBox(center, half.array() + model_.reach), model_.resolution);
-    windowOccupancy(grid, center, occupancy);
-    grid.occupancy() = std::move(occupancy);
+    windowOccupancy(grid, center, grid.occupancy());
     window_field_ = std::make_unique<IncrementalEsdf>(std::move(grid));
   } else {
-    windowOccupancy(window_field_->grid(), center, occupancy);
-    if (window_field_->update(occupancy) == 0) return window_world_;
+    windowOccupancy(window_field_->grid(), center, window_occupancy_);
+    if (window_field_->update(window_occupancy_) == 0) return window_world_;
   }
   window_world_ =
       std::make_shared<const World>("known_window", 0, window_field_->grid(), window_field_->esdf(),

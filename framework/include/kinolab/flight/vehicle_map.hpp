@@ -156,6 +156,7 @@ class VehicleMap {
   std::unique_ptr<IncrementalEsdf> window_field_;
   std::shared_ptr<const World> window_world_;
   Eigen::Vector3d window_middle_ = Eigen::Vector3d::Zero();
+  std::vector<std::uint8_t> window_occupancy_;  // the kept window's, this frame (a buffer)
 };
 
 template <>
