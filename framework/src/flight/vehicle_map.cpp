@@ -120,22 +120,19 @@ void VehicleMap::windowOccupancy(const VoxelGrid& grid, const Eigen::Vector3d& c
       const std::uint8_t* states = inside ? &state_[lattice.index(column)] : nullptr;
       const int known = inside ? std::min(n.z(), lattice.dims().z() - first.z()) : 0;
       std::uint8_t* out = &occupancy[grid.index(x, y, 0)];
+      // Known voxels as the map has them (vectorised loops: this runs every frame), then the
+      // unknown ones as `unknown` says.
+      const auto kOccupied = static_cast<std::uint8_t>(Voxel::kOccupied);
+      const std::uint8_t unknown_value = model_.unknown == UnknownSpace::kOccupied ? 1 : 0;
+      for (int z = 0; z < known; ++z) {
+        out[z] = states[z] == kOccupied ? 1 : (states[z] == 0 ? unknown_value : 0);
+      }
+      std::fill(out + known, out + n.z(), unknown_value);
+      if (model_.unknown != UnknownSpace::kFreeBeyond) continue;
       for (int z = 0; z < n.z(); ++z) {
-        const std::uint8_t state = z < known ? states[z] : 0;
-        bool occupied = state == 2;
-        if (state == 0) {
-          switch (model_.unknown) {
-            case UnknownSpace::kFree:
-              break;
-            case UnknownSpace::kOccupied:
-              occupied = true;
-              break;
-            case UnknownSpace::kFreeBeyond:
-              occupied = (grid.center(VoxelIndex(x, y, z)) - center).squaredNorm() < near2;
-              break;
-          }
+        if (z >= known || states[z] == 0) {
+          out[z] = (grid.center(VoxelIndex(x, y, z)) - center).squaredNorm() < near2 ? 1 : 0;
         }
-        out[z] = occupied ? 1 : 0;
       }
     }
   }

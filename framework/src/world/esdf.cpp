@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <cstring>
 #include <exception>
 #include <limits>
 #include <mutex>
@@ -542,10 +543,15 @@ std::size_t IncrementalEsdf::update(const std::vector<std::uint8_t>& occupancy) 
   }
   std::vector<std::uint8_t>& current = grid_.occupancy();
   std::vector<std::size_t> changed;
-  for (std::size_t i = 0; i < current.size(); ++i) {
-    if ((current[i] != 0) != (occupancy[i] != 0)) {
-      changed.push_back(i);
-      current[i] = occupancy[i] != 0 ? 1 : 0;
+  // Eight voxels at a time where their bytes are equal (a frame changes few).
+  for (std::size_t begin = 0; begin < current.size(); begin += 8) {
+    const std::size_t end = std::min(begin + 8, current.size());
+    if (end - begin == 8 && std::memcmp(&current[begin], &occupancy[begin], 8) == 0) continue;
+    for (std::size_t i = begin; i < end; ++i) {
+      if ((current[i] != 0) != (occupancy[i] != 0)) {
+        changed.push_back(i);
+        current[i] = occupancy[i] != 0 ? 1 : 0;
+      }
     }
   }
   if (changed.empty()) return 0;
