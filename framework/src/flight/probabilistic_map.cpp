@@ -152,7 +152,7 @@ class ProbabilisticVehicleMap final : public VehicleMap {
     // The near part: voxels that rays cross in full within exact_range of the origin.
     const bool origin_inside = grid.inside(voxelOf(frame.origin));
     const double near = origin_inside ? exact_range_ : 0.0;
-    if (near > 0.0) startBlock(frame.origin, std::min(near, max_range));
+    if (near > 0.0) startBlock(frame, std::min(near, max_range));
     for (const Eigen::Vector3d& p : frame.hits) {
       const VoxelIndex v = voxelOf(p);
       if (!grid.inside(v)) continue;
@@ -220,16 +220,30 @@ class ProbabilisticVehicleMap final : public VehicleMap {
     setState(index, value > threshold_ ? Voxel::kOccupied : Voxel::kFree);
   }
 
-  /// Makes the block the voxels of the lattice's indices within `reach` of `origin` and two
-  /// voxels more (so that a traversal's rounding never leaves it), all counts zero. It may
-  /// reach beyond the lattice: those cells are never counted.
-  void startBlock(const Eigen::Vector3d& origin, double reach) {
+  /// Makes the block the lattice's voxels around the frame's rays within `reach` of its origin
+  /// (their bounding box within the lattice's, and two voxels more, so that a traversal's
+  /// rounding never leaves it), all counts zero. It may reach beyond the lattice: those cells
+  /// are never counted.
+  void startBlock(const SensorFrame& frame, double reach) {
+    Eigen::Vector3d low = frame.origin;
+    Eigen::Vector3d high = frame.origin;
+    for (const auto* points : {&frame.hits, &frame.misses}) {
+      for (const Eigen::Vector3d& p : *points) {
+        const Eigen::Vector3d d = p - frame.origin;
+        const double length = d.norm();
+        const Eigen::Vector3d end =
+            length > reach ? Eigen::Vector3d(frame.origin + reach / length * d) : p;
+        low = low.cwiseMin(end);
+        high = high.cwiseMax(end);
+      }
+    }
+    const Box& box = lattice().bounds();
+    low = low.cwiseMax(box.min);
+    high = high.cwiseMin(box.max).cwiseMax(low);
     const double r = lattice().resolution();
-    const Eigen::Vector3d local = (origin - lattice().origin()) / r;
-    const int half = static_cast<int>(std::ceil(reach / r)) + 2;
-    block_first_ = local.array().floor().cast<int>() - half;
-    block_dims_ = Eigen::Vector3i::Constant(2 * half + 1);
-    block_origin_ = lattice().origin() + r * block_first_.cast<double>();
+    block_first_ = ((low - lattice().origin()) / r).array().floor().cast<int>() - 2;
+    const VoxelIndex last = ((high - lattice().origin()) / r).array().floor().cast<int>() + 2;
+    block_dims_ = last - block_first_ + VoxelIndex::Ones();
     block_.assign(static_cast<std::size_t>(block_dims_.prod()), Counts{});
   }
 
@@ -247,14 +261,17 @@ class ProbabilisticVehicleMap final : public VehicleMap {
   void walkNear(const Eigen::Vector3d& origin, const Eigen::Vector3d& direction, double limit,
                 bool count_end) {
     const double r = lattice().resolution();
-    CellWalk walk((origin - block_origin_) / r, direction, block_dims_);
+    // In voxels from the lattice's corner, as the grid's own traversal has it, then shifted
+    // by the block's first voxel (exact: integers).
+    CellWalk walk((origin - lattice().origin()) / r - block_first_.cast<double>(), direction,
+                  block_dims_);
     const std::int64_t end = CellWalk::fixed(limit / r);
     Counts* counts = block_.data();
     const auto pass = [&] {
       std::uint16_t& passes = counts[walk.index].passes;
       passes += passes < UINT16_MAX ? 1 : 0;
     };
-    std::int64_t entered = -1;  // a cell left where it was entered was only touched
+    std::int64_t entered = 0;  // a cell left where it was entered was only touched
     while (true) {
       const std::int64_t leave = walk.leave();
       if (leave > end) break;
@@ -331,10 +348,9 @@ class ProbabilisticVehicleMap final : public VehicleMap {
   std::vector<std::uint32_t> slot_;  // 1 + the voxel's place in touched_, 0 when not touched
   std::vector<Touched> touched_;     // the frame's voxels
   // The frame's dense block around its origin (walkNear()): its first voxel's lattice index,
-  // its size, its corner and one cell's counts a voxel (x slowest, z fastest).
+  // its size and one cell's counts a voxel (x slowest, z fastest).
   VoxelIndex block_first_ = VoxelIndex::Zero();
   Eigen::Vector3i block_dims_ = Eigen::Vector3i::Zero();
-  Eigen::Vector3d block_origin_ = Eigen::Vector3d::Zero();
   std::vector<Counts> block_;
 };
 
