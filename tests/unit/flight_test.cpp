@@ -152,6 +152,43 @@ TEST(Sensor, CastingIntoAWorldCrossesEmptyBricksToTheSameHit) {
   EXPECT_GT(hits, 1000);
 }
 
+TEST(Sensor, CastingFromVoxelCornersAndAlongAxesCrossesBricksToTheSameHit) {
+  // Where the bricks' and the voxels' traversals meet faces, edges and corners exactly: rays
+  // from voxel corners (every fourth one a brick's), along the axes, along diagonals (through
+  // a corner or an edge at every voxel) or not, on a grid whose coordinates are exact in binary.
+  // The caster must enter the same voxels over zero length as the plain traversal does.
+  VoxelGrid grid(Box{Eigen::Vector3d::Zero(), Eigen::Vector3d(8, 8, 4)}, 0.25);
+  Rng rng(5);
+  for (std::size_t i = 0; i < grid.size(); ++i) grid.setOccupied(i, rng.uniform01() < 0.03);
+  const World world("random", 0, grid, Esdf(grid));
+  const RayCaster caster(world);
+  int hits = 0;
+  for (int i = 0; i < 20000; ++i) {
+    Eigen::Vector3d origin;
+    for (int axis = 0; axis < 3; ++axis) {
+      origin[axis] = 0.25 * static_cast<int>(rng.uniform(0.0, grid.dims()[axis] - 0.01));
+    }
+    if (i % 4 == 0) origin = origin.array().floor().matrix();  // a brick's corner (1 m)
+    Eigen::Vector3d direction =
+        Eigen::Vector3d(rng.normal(), rng.normal(), rng.normal()).normalized();
+    if (i % 2 == 0) direction = Eigen::Vector3d::Unit(i % 6 / 2) * (i % 4 == 0 ? 1.0 : -1.0);
+    if (i % 4 == 1) {  // along a diagonal: through edges and corners
+      direction = Eigen::Vector3d(i % 8 == 1 ? 1 : -1, i % 16 < 8 ? 1 : -1, i % 32 < 16 ? 1 : 0)
+                      .normalized();
+    }
+    const double range = rng.uniform(0.5, 12.0);
+    const double traversed = castRay(grid, origin, direction, range);
+    const double leapt = caster.cast(origin, direction, range);
+    if (std::isinf(traversed)) {
+      ASSERT_TRUE(std::isinf(leapt)) << i;
+    } else {
+      ++hits;
+      ASSERT_NEAR(leapt, traversed, 1e-9) << i;
+    }
+  }
+  EXPECT_GT(hits, 5000);
+}
+
 TEST(Sensor, RaysHitASphereAndMatchADenseMarch) {
   // A voxelised sphere (cubes whose centres lie within 1 m of (10, 5, 1.5)).
   VoxelGrid grid(Box{Eigen::Vector3d::Zero(), Eigen::Vector3d(20, 10, 3)}, 0.1);

@@ -6,6 +6,7 @@
 #include <cstdint>
 #include <vector>
 
+#include "cell_walk.hpp"
 #include "kinolab/core/fields.hpp"
 #include "kinolab/core/plugin.hpp"
 #include "kinolab/flight/vehicle_map.hpp"
@@ -56,64 +57,6 @@ Eigen::Vector3d clipToBox(const Eigen::Vector3d& from, const Eigen::Vector3d& to
   const double length = d.norm();
   return from + std::max(0.0, t - 1e-3 * voxel / length) * d;
 }
-
-/// Amanatides and Woo's traversal of the cells of a box (`dims`, x slowest, z fastest) on
-/// fixed-point ray parameters, without branches on the axis: a ray's next axis is
-/// unpredictable, and these loops are most of a frame's voxel visits.
-struct CellWalk {
-  static constexpr double kScale = 16777216.0;                   // fixed-point units a cell (2^24)
-  static constexpr std::int64_t kNever = std::int64_t{1} << 60;  // beyond every limit
-  static std::int64_t fixed(double cells) {
-    return cells < 1e9 ? static_cast<std::int64_t>(cells * kScale) : kNever;
-  }
-
-  /// From `local` (in cells from the box's corner) along the unit `direction`.
-  CellWalk(const Eigen::Vector3d& local, const Eigen::Vector3d& direction,
-           const Eigen::Vector3i& dims) {
-    const std::array<std::ptrdiff_t, 3> strides{static_cast<std::ptrdiff_t>(dims.y()) * dims.z(),
-                                                dims.z(), 1};
-    for (int axis = 0; axis < 3; ++axis) {
-      const double corner = std::floor(local[axis]);
-      cell[axis] = static_cast<int>(corner);
-      index += static_cast<std::ptrdiff_t>(cell[axis]) * strides[axis];
-      const double d = direction[axis];
-      const double across = d != 0.0 ? 1.0 / std::abs(d) : INFINITY;
-      delta[axis] = fixed(across);
-      next[axis] = d > 0.0   ? fixed((corner + 1.0 - local[axis]) * across)
-                   : d < 0.0 ? fixed((local[axis] - corner) * across)
-                             : kNever;
-      sign[axis] = d > 0.0 ? 1 : (d < 0.0 ? -1 : 0);
-      stride[axis] = sign[axis] * strides[axis];
-    }
-  }
-  /// Where the ray leaves the current cell.
-  std::int64_t leave() const { return std::min(next[0], std::min(next[1], next[2])); }
-  /// Into the next cell; `leave` is leave().
-  void step(std::int64_t leave) {
-    const bool along_x = next[0] == leave;
-    const bool along_y = !along_x && next[1] == leave;
-    const bool along_z = !along_x && !along_y;
-    index += (along_x ? stride[0] : 0) + (along_y ? stride[1] : 0) + (along_z ? stride[2] : 0);
-    cell[0] += along_x ? sign[0] : 0;
-    cell[1] += along_y ? sign[1] : 0;
-    cell[2] += along_z ? sign[2] : 0;
-    next[0] += along_x ? delta[0] : 0;
-    next[1] += along_y ? delta[1] : 0;
-    next[2] += along_z ? delta[2] : 0;
-  }
-  bool inside(const Eigen::Vector3i& dims) const {
-    return static_cast<unsigned>(cell[0]) < static_cast<unsigned>(dims.x()) &&
-           static_cast<unsigned>(cell[1]) < static_cast<unsigned>(dims.y()) &&
-           static_cast<unsigned>(cell[2]) < static_cast<unsigned>(dims.z());
-  }
-
-  std::ptrdiff_t index = 0;             // the current cell's
-  std::array<int, 3> cell{};            // its coordinates
-  std::array<std::int64_t, 3> next{};   // where the ray leaves it along each axis
-  std::array<std::int64_t, 3> delta{};  // the ray's length across a cell along each axis
-  std::array<int, 3> sign{};
-  std::array<std::ptrdiff_t, 3> stride{};  // the index's step along each axis
-};
 
 class ProbabilisticVehicleMap final : public VehicleMap {
  public:

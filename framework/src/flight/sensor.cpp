@@ -4,6 +4,7 @@
 #include <cmath>
 #include <limits>
 
+#include "cell_walk.hpp"
 #include "kinolab/core/fields.hpp"
 #include "kinolab/core/plugin.hpp"
 #include "kinolab/core/random.hpp"
@@ -82,140 +83,148 @@ double castRay(const VoxelGrid& grid, const Eigen::Vector3d& origin,
   return hit;
 }
 
-namespace {
-
-/// castRay() on the grid, without branches on the axis: the distance along the unit
-/// `direction` from `origin` (inside the grid, or on its face) to the first occupied voxel
-/// cube entered within `reach`, INFINITY when there is none or the ray leaves the grid.
-/// `across` is the ray's length across a voxel along each axis (resolution / |direction|).
-double firstOccupied(const VoxelGrid& grid, const Eigen::Vector3d& origin,
-                     const Eigen::Vector3d& direction, const Eigen::Vector3d& across,
-                     double reach) {
-  const Eigen::Vector3d local = (origin - grid.origin()) / grid.resolution();  // in voxels
-  const Eigen::Vector3i& n = grid.dims();
-  const std::array<std::ptrdiff_t, 3> strides{static_cast<std::ptrdiff_t>(n.y()) * n.z(), n.z(), 1};
-  std::array<int, 3> voxel{};
-  std::array<int, 3> step{};
-  std::array<double, 3> next{};   // ray parameter (m) where it leaves the voxel along each axis
-  std::array<double, 3> delta{};  // ray parameter across a voxel along each axis
-  std::ptrdiff_t index = 0;
-  for (int axis = 0; axis < 3; ++axis) {
-    voxel[axis] = static_cast<int>(std::floor(local[axis]));
-    if (voxel[axis] < 0 || voxel[axis] >= n[axis]) return INFINITY;
-    index += voxel[axis] * strides[axis];
-    const double d = direction[axis];
-    step[axis] = d > 0.0 ? 1 : (d < 0.0 ? -1 : 0);
-    const double to_face = d > 0.0 ? voxel[axis] + 1 - local[axis] : local[axis] - voxel[axis];
-    next[axis] = d != 0.0 ? to_face * across[axis] : INFINITY;
-    delta[axis] = across[axis];
-  }
-  const std::uint8_t* occupancy = grid.occupancy().data();
-  double t = 0.0;  // where the ray entered the voxel
-  while (t <= reach) {
-    if (occupancy[index] != 0) return t;
-    const double out = std::min(next[0], std::min(next[1], next[2]));
-    t = out;
-    const bool along_x = next[0] == out;
-    const bool along_y = !along_x && next[1] == out;
-    const bool along_z = !along_x && !along_y;
-    voxel[0] += along_x ? step[0] : 0;
-    voxel[1] += along_y ? step[1] : 0;
-    voxel[2] += along_z ? step[2] : 0;
-    index += (along_x ? step[0] * strides[0] : 0) + (along_y ? step[1] * strides[1] : 0) +
-             (along_z ? step[2] : 0);
-    next[0] += along_x ? delta[0] : 0.0;
-    next[1] += along_y ? delta[1] : 0.0;
-    next[2] += along_z ? delta[2] : 0.0;
-    if (static_cast<unsigned>(voxel[0]) >= static_cast<unsigned>(n.x()) ||
-        static_cast<unsigned>(voxel[1]) >= static_cast<unsigned>(n.y()) ||
-        static_cast<unsigned>(voxel[2]) >= static_cast<unsigned>(n.z())) {
-      return INFINITY;
-    }
-  }
-  return INFINITY;
-}
-
-}  // namespace
-
 RayCaster::RayCaster(const World& world) : world_(&world) {
   const VoxelGrid& grid = world.grid();
   const Eigen::Vector3i& n = grid.dims();
   bricks_ = (n.array() + kBrick - 1) / kBrick;
-  occupied_.assign(static_cast<std::size_t>(bricks_.prod()), 0);
+  masks_.assign(static_cast<std::size_t>(bricks_.prod()), 0);
   const std::uint8_t* occupancy = grid.occupancy().data();
   std::size_t i = 0;
   for (int x = 0; x < n.x(); ++x) {
     for (int y = 0; y < n.y(); ++y) {
       const std::size_t row =
           (static_cast<std::size_t>(x / kBrick) * bricks_.y() + y / kBrick) * bricks_.z();
+      const int bits = (x % kBrick * kBrick + y % kBrick) * kBrick;
       for (int z = 0; z < n.z(); ++z, ++i) {
-        if (occupancy[i] != 0) occupied_[row + z / kBrick] = 1;
+        if (occupancy[i] != 0) masks_[row + z / kBrick] |= std::uint64_t{1} << (bits + z % kBrick);
       }
     }
   }
+  occupied_.resize(masks_.size());
+  for (std::size_t brick = 0; brick < masks_.size(); ++brick) occupied_[brick] = masks_[brick] != 0;
 }
+
+namespace {
+
+constexpr std::array<std::ptrdiff_t, 3> kBitStrides{16, 4, 1};  // a brick's voxels in its mask
+
+/// The walk through the voxels of the brick that `bricks` is in, from where the ray entered it
+/// (`entered` > 0); `voxels` is the ray's walk through the grid's voxels from its start. The walk's
+/// cells are the brick's 4^3 voxels and its index is the voxel's bit in the brick's mask.
+/// Where faces meet at `entered` (the ray through an edge or a corner) the walk is where the
+/// voxels' own traversal would be, which steps the axes of equal parameters in the order x, y,
+/// z: a voxel face there on an axis after the one the ray entered the brick by is still ahead.
+CellWalk voxelsOfBrick(const CellWalk& bricks, const CellWalk& voxels, std::int64_t entered) {
+  int entry_axis = -1;  // the last axis the bricks' walk stepped at `entered`
+  for (int axis = 0; axis < 3; ++axis) {
+    if (bricks.sign[axis] != 0 && bricks.next[axis] - bricks.delta[axis] == entered) {
+      entry_axis = axis;
+    }
+  }
+  CellWalk walk;
+  for (int axis = 0; axis < 3; ++axis) {
+    const int sign = bricks.sign[axis];
+    const std::int64_t delta = voxels.delta[axis];
+    walk.sign[axis] = sign;
+    walk.delta[axis] = delta;
+    walk.stride[axis] = sign * kBitStrides[axis];
+    if (sign == 0) {
+      walk.cell[axis] = voxels.cell[axis] % 4;
+      walk.next[axis] = CellWalk::kNever;
+    } else {
+      // The brick's voxel faces on this axis that the ray has yet to cross: its far face and
+      // the three before it, those beyond `entered` (or at it, after the entry's axis).
+      const std::int64_t far = bricks.next[axis];
+      const std::int64_t from = axis > entry_axis ? entered - 1 : entered;  // (entered > 0)
+      const int ahead =
+          std::max(1, (far > from ? 1 : 0) + (far - delta > from ? 1 : 0) +
+                          (far - 2 * delta > from ? 1 : 0) + (far - 3 * delta > from ? 1 : 0));
+      walk.cell[axis] = sign > 0 ? 4 - ahead : ahead - 1;
+      walk.next[axis] = far - (ahead - 1) * delta;
+    }
+    walk.index += walk.cell[axis] * kBitStrides[axis];
+  }
+  return walk;
+}
+
+/// The same for a brick the ray is in at its start (`entered` 0: the start's brick, or one it
+/// enters over zero length from a start on a brick's face): the voxels' walk from the start
+/// stepped over zero length into the brick (at most three steps, by the same rule); false when
+/// it does not get there.
+bool voxelsOfStartBrick(const CellWalk& bricks, const CellWalk& voxels, CellWalk& walk) {
+  walk = voxels;
+  for (int steps = 0;; ++steps) {
+    bool there = true;
+    for (int axis = 0; axis < 3; ++axis) there &= walk.cell[axis] / 4 == bricks.cell[axis];
+    if (there) break;
+    if (steps == 3 || walk.leave() != 0) return false;
+    walk.step(0);
+  }
+  walk.index = 0;
+  for (int axis = 0; axis < 3; ++axis) {
+    walk.cell[axis] -= 4 * bricks.cell[axis];
+    walk.stride[axis] = walk.sign[axis] * kBitStrides[axis];
+    walk.index += walk.cell[axis] * kBitStrides[axis];
+  }
+  return true;
+}
+
+}  // namespace
 
 double RayCaster::cast(const Eigen::Vector3d& origin, const Eigen::Vector3d& direction,
                        double max_range) const {
-  // Amanatides and Woo's traversal over the bricks, without branches on the axis (a ray's
-  // next axis is unpredictable); through a brick that holds an obstacle, the voxels' own
-  // traversal from where the ray enters it to where it leaves (from a point on the brick's
-  // face rounding may start it in the empty brick before: a free voxel).
+  // Amanatides and Woo's traversal over the bricks; through a brick that holds an obstacle,
+  // the voxels' own traversal from where the ray enters it to where it leaves, on the brick's
+  // mask. Both on the same fixed-point ray parameters (CellWalk::coarser()); the distance
+  // returned is recomputed exactly from the struck voxel.
   const VoxelGrid& grid = world_->grid();
-  if (!grid.inside(
-          ((origin - grid.origin()) / grid.resolution()).array().floor().cast<int>().matrix())) {
+  const Eigen::Vector3d local = (origin - grid.origin()) / grid.resolution();  // in voxels
+  if (!grid.inside(local.array().floor().cast<int>().matrix())) {
     return INFINITY;  // as the voxels' traversal: nothing from outside the grid
   }
-  const double side = kBrick * grid.resolution();
-  const Eigen::Vector3d local = (origin - grid.origin()) / side;  // in bricks
-  Eigen::Vector3d across;  // the ray's length across a voxel along each axis
-  for (int axis = 0; axis < 3; ++axis) {
-    across[axis] =
-        direction[axis] != 0.0 ? grid.resolution() / std::abs(direction[axis]) : INFINITY;
-  }
-  const std::array<std::ptrdiff_t, 3> strides{
-      static_cast<std::ptrdiff_t>(bricks_.y()) * bricks_.z(), bricks_.z(), 1};
-  std::array<int, 3> brick{};     // the brick's coordinates
-  std::array<int, 3> step{};      // +-1 or 0 along each axis
-  std::array<double, 3> next{};   // ray parameter (m) where it leaves the brick along each axis
-  std::array<double, 3> delta{};  // ray parameter across a brick along each axis
-  std::ptrdiff_t index = 0;
-  for (int axis = 0; axis < 3; ++axis) {
-    brick[axis] = std::min(static_cast<int>(std::floor(local[axis])), bricks_[axis] - 1);
-    index += brick[axis] * strides[axis];
-    const double d = direction[axis];
-    step[axis] = d > 0.0 ? 1 : (d < 0.0 ? -1 : 0);
-    const double to_face = d > 0.0 ? brick[axis] + 1 - local[axis] : local[axis] - brick[axis];
-    next[axis] = d != 0.0 ? to_face * kBrick * across[axis] : INFINITY;
-    delta[axis] = kBrick * across[axis];
-  }
-  double t = 0.0;  // where the ray entered the brick
-  while (t <= max_range) {
-    const double out = std::min(next[0], std::min(next[1], next[2]));
-    if (occupied_[static_cast<std::size_t>(index)] != 0) {
-      const double reach = std::min(out, max_range) - t;
-      const double hit = firstOccupied(grid, origin + t * direction, direction, across, reach);
-      if (hit <= reach) return t + hit;
+  const CellWalk start(local, direction, grid.dims());
+  CellWalk bricks = start.coarser(kBrick, bricks_);
+  const std::int64_t end = CellWalk::fixed(max_range / grid.resolution());
+  std::int64_t entered = 0;  // where the ray entered the brick
+  while (entered <= end) {
+    const std::int64_t leave = bricks.leave();
+    if (occupied_[static_cast<std::size_t>(bricks.index)] != 0) {
+      const std::uint64_t mask = masks_[static_cast<std::size_t>(bricks.index)];
+      CellWalk voxels;
+      const bool walkable = entered > 0 || voxelsOfStartBrick(bricks, start, voxels);
+      if (entered > 0) voxels = voxelsOfBrick(bricks, start, entered);
+      std::int64_t in = entered;  // where the ray entered the voxel
+      while (walkable && in <= end) {
+        if ((mask >> voxels.index & 1) != 0) {
+          std::array<int, 3> voxel{};
+          for (int axis = 0; axis < 3; ++axis) {
+            voxel[axis] = bricks.cell[axis] * kBrick + voxels.cell[axis];
+          }
+          return entry(local, direction, voxel);
+        }
+        in = voxels.leave();
+        voxels.step(in);
+        if (!voxels.inside(Eigen::Vector3i::Constant(kBrick))) break;  // out of the brick
+      }
     }
-    t = out;
-    const bool along_x = next[0] == out;
-    const bool along_y = !along_x && next[1] == out;
-    const bool along_z = !along_x && !along_y;
-    brick[0] += along_x ? step[0] : 0;
-    brick[1] += along_y ? step[1] : 0;
-    brick[2] += along_z ? step[2] : 0;
-    index += (along_x ? step[0] * strides[0] : 0) + (along_y ? step[1] * strides[1] : 0) +
-             (along_z ? step[2] : 0);
-    next[0] += along_x ? delta[0] : 0.0;
-    next[1] += along_y ? delta[1] : 0.0;
-    next[2] += along_z ? delta[2] : 0.0;
-    if (static_cast<unsigned>(brick[0]) >= static_cast<unsigned>(bricks_.x()) ||
-        static_cast<unsigned>(brick[1]) >= static_cast<unsigned>(bricks_.y()) ||
-        static_cast<unsigned>(brick[2]) >= static_cast<unsigned>(bricks_.z())) {
-      return INFINITY;
-    }
+    entered = leave;
+    bricks.step(leave);
+    if (!bricks.inside(bricks_)) return INFINITY;
   }
   return INFINITY;
+}
+
+double RayCaster::entry(const Eigen::Vector3d& local, const Eigen::Vector3d& direction,
+                        const std::array<int, 3>& voxel) const {
+  // The largest of the parameters where the ray crosses the cube's near face on each axis.
+  double t = 0.0;
+  for (int axis = 0; axis < 3; ++axis) {
+    const double d = direction[axis];
+    if (d == 0.0) continue;
+    const double face = voxel[axis] + (d > 0.0 ? 0.0 : 1.0);
+    t = std::max(t, (face - local[axis]) / d);
+  }
+  return t * world_->grid().resolution();
 }
 
 SensorFrame senseFrame(const World& truth, const Sensor& sensor, const Eigen::Vector3d& origin,

@@ -1,6 +1,7 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <array>
 #include <cmath>
 #include <cstdint>
 #include <vector>
@@ -160,11 +161,11 @@ struct SensorFrame {
 double castRay(const VoxelGrid& grid, const Eigen::Vector3d& origin,
                const Eigen::Vector3d& direction, double max_range);
 
-/// A ground-truth world made ready for casting rays: its voxels grouped in bricks of 4^3 with
-/// a byte each telling whether one is occupied, so that a ray crosses an empty brick in one
-/// step and walks voxels only through bricks that hold an obstacle (both traversals without
-/// branches on the axis; 1.4x faster than leaping on the ESDF in the frame benchmark). Built
-/// once per world (a pass over its occupancy; a flight makes one); keeps a reference to
+/// A ground-truth world made ready for casting rays: its voxels grouped in bricks of 4^3, each
+/// brick's occupancy a 64-bit mask (and a byte telling whether it is empty), so that a ray crosses
+/// an empty brick in one step and walks voxels only through bricks that hold an obstacle, on the
+/// mask in a register (both traversals on fixed-point parameters without branches on the axis).
+/// Built once per world (a pass over its occupancy; a flight makes one); keeps a reference to
 /// `world`.
 class RayCaster {
  public:
@@ -176,10 +177,17 @@ class RayCaster {
   const World& world() const { return *world_; }
 
  private:
+  /// The distance from the ray's start (`local`, in voxels) to where it enters `voxel`, m.
+  double entry(const Eigen::Vector3d& local, const Eigen::Vector3d& direction,
+               const std::array<int, 3>& voxel) const;
+
   static constexpr int kBrick = 4;  ///< voxels a brick's side
   const World* world_;
   Eigen::Vector3i bricks_;              // bricks per axis
-  std::vector<std::uint8_t> occupied_;  // per brick (x slowest, z fastest): 1 if any voxel is
+  std::vector<std::uint64_t> masks_;    // per brick (x slowest, z fastest): bit (x * 4 + y) * 4 + z
+                                        // of its voxel (x, y, z) set when that voxel is occupied
+  std::vector<std::uint8_t> occupied_;  // per brick: its mask is not 0 (an eighth of the memory
+                                        // the bricks' walk reads)
 };
 
 /// A frame of `sensor` from `origin`, the vehicle heading `yaw` (rad about z), world frame,
