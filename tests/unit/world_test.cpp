@@ -5,6 +5,7 @@
 
 #include <filesystem>
 #include <fstream>
+#include <set>
 
 #include "kinolab/core/error.hpp"
 #include "kinolab/core/random.hpp"
@@ -31,7 +32,7 @@ std::string configErrorOf(const std::string& text) {
 }
 
 TEST(WorldSpecTest, EveryShippedWorldLoadsAndBuilds) {
-  for (const char* name : {"forest", "complex", "walls", "boxes", "empty", "geb079"}) {
+  for (const char* name : {"forest", "complex", "walls", "boxes", "empty", "geb079", "city"}) {
     const WorldSpec spec = WorldSpec::fromFile(kSourceDir + "/configs/worlds/" + name + ".yaml");
     EXPECT_EQ(spec.name, name);
     const VoxelGrid grid = World::buildGrid(spec);
@@ -130,6 +131,74 @@ TEST(WorldSpecTest, ForestTrunksHaveTheirHeightsAndCount) {
   EXPECT_EQ(high, 0u);
   // 20 trees of radius 0.2 m (about 12 voxels in cross-section) and 30 layers each.
   EXPECT_NEAR(static_cast<double>(low), 20 * 12.6 * 30, 20 * 12.6 * 30 * 0.25);
+}
+
+TEST(WorldSpecTest, ACityHasFreeStreetsBuildingsOfTheirHeightsAndStreetTrees) {
+  // Fixed sizes make the plan known: blocks [0, 50], [60, 110], [120, 170] on both axes,
+  // streets of 10 m between them, lots of 25 m with buildings 2 m in from their edges.
+  const std::string head =
+      "seed: 3\nresolution: 0.5\nbounds: {min: [0, 0, 0], max: [170, 170, 40]}\ngenerators:\n"
+      "  - {type: city, block_size: [50, 50], street_width: 10, lot_size: [25, 25], setback: 2, "
+      "building_height: [10, 30], building_probability: 1, ground_plane: false, ";
+  const VoxelGrid bare = World::buildGrid(specFromText(head + "tree_spacing: 0}\n"));
+  const VoxelGrid treed = World::buildGrid(specFromText(
+      head +
+      "tree_spacing: 10, tree_offset: 2.5, trunk_radius: [0.4, 0.4], tree_height: [6, 6], "
+      "canopy_radius: [2, 2], canopy_thickness: [2, 2]}\n"));
+  const auto occupied = [](const VoxelGrid& grid, double x, double y, double z) {
+    const Eigen::Vector3d local = (Eigen::Vector3d(x, y, z) - grid.origin()) / grid.resolution();
+    return grid.occupied(grid.index(VoxelIndex(local.array().floor().cast<int>())));
+  };
+  // 36 lots, each built: a building from (lot + 2) to (lot + 23) of 10-30 m, solid to its roof.
+  int buildings = 0;
+  for (const double bx : {0.0, 60.0, 120.0}) {
+    for (const double by : {0.0, 60.0, 120.0}) {
+      for (const double lx : {bx, bx + 25.0}) {
+        for (const double ly : {by, by + 25.0}) {
+          const double cx = lx + 12.5;
+          const double cy = ly + 12.5;
+          ASSERT_TRUE(occupied(bare, cx, cy, 9.75)) << cx << " " << cy;
+          EXPECT_FALSE(occupied(bare, cx, cy, 30.25)) << cx << " " << cy;
+          EXPECT_TRUE(occupied(bare, lx + 2.25, ly + 2.25, 0.25));   // the building's corner
+          EXPECT_FALSE(occupied(bare, lx + 1.75, ly + 12.5, 0.25));  // the setback
+          EXPECT_FALSE(occupied(bare, lx + 23.25, ly + 12.5, 0.25));
+          ++buildings;
+        }
+      }
+    }
+  }
+  EXPECT_EQ(buildings, 36);
+  // Heights vary: not every roof at the same height.
+  std::set<int> roofs;
+  for (int ix = 0; ix < bare.dims().x(); ix += 10) {
+    for (int iy = 0; iy < bare.dims().y(); iy += 10) {
+      int top = -1;
+      for (int iz = 0; iz < bare.dims().z(); ++iz) {
+        if (bare.occupied(bare.index(ix, iy, iz))) top = iz;
+      }
+      if (top >= 0) roofs.insert(top);
+    }
+  }
+  EXPECT_GT(roofs.size(), 10u);
+  // Streets are free to the sky without trees; with them, trunks stand 2.5 m out from the
+  // blocks every 10 m (the first 5 m from a corner), canopies from 4 to 6 m, the middle of the
+  // street free.
+  for (double t = 0.25; t < 170.0; t += 0.5) {
+    for (const double street : {55.0, 115.0}) {
+      for (const double z : {0.25, 5.25, 20.25}) {
+        ASSERT_FALSE(occupied(bare, street, t, z)) << street << " " << t << " " << z;
+        ASSERT_FALSE(occupied(bare, t, street, z)) << t << " " << street << " " << z;
+      }
+      ASSERT_FALSE(occupied(treed, street, t, 1.25)) << street << " " << t;
+    }
+  }
+  EXPECT_TRUE(occupied(treed, 5.0, 52.5, 1.25));           // a trunk south of the street at y 55
+  EXPECT_TRUE(occupied(treed, 5.0, 57.5, 1.25));           // and north of it
+  EXPECT_TRUE(occupied(treed, 52.5, 65.0, 1.25));          // along a block's east side
+  EXPECT_FALSE(occupied(treed, 10.0, 52.5, 1.25));         // between trunks
+  EXPECT_TRUE(occupied(treed, 6.5, 52.5, 5.25));           // its canopy
+  EXPECT_FALSE(occupied(treed, 6.5, 52.5, 6.25));          // above it
+  EXPECT_FALSE(occupied(treed, 5.0, 172.0 - 0.25, 1.25));  // none beyond the region's edge
 }
 
 TEST(WorldSpecTest, OctomapOccupiedLeavesBecomeOccupiedVoxels) {

@@ -1,5 +1,5 @@
-// The built-in world generators: empty, forest, boxes, walls (a maze of walls with gaps) and
-// box_list. The OctoMap generator lives in octomap_generator.cpp.
+// The built-in world generators: empty, forest, boxes, walls (a maze of walls with gaps),
+// box_list and city. The OctoMap generator lives in octomap_generator.cpp.
 #include <algorithm>
 #include <cmath>
 #include <functional>
@@ -391,6 +391,143 @@ class BoxListGenerator final : public WorldGenerator {
   std::vector<Box> boxes_;
 };
 
+/// A city: a street grid cutting the region into blocks, each block cut into lots that carry a
+/// building (a box of random height, set back from the lot's edges, so that alleys run between
+/// neighbours) or stay open squares, and street trees (trunks with disc canopies) along the
+/// sidewalks. Streets, alleys and squares are free from the ground up; buildings are solid to
+/// their roofs, as a height map of a city (or a photogrammetry mesh filled in) gives them.
+class CityGenerator final : public WorldGenerator {
+ public:
+  static ParameterSpecs declared() {
+    return withRegion(
+        ParameterSpecs()
+            .interval("block_size", {40.0, 80.0}, 2.0, kMaxLength,
+                      "side of a block between streets (drawn per row and column), m")
+            .real("street_width", 15.0, 0.0, kMaxLength, "width of a street between blocks, m")
+            .interval("lot_size", {12.0, 30.0}, 2.0, kMaxLength,
+                      "side of a lot a block is cut into (drawn per row and column of lots), m")
+            .real("setback", 2.0, 0.0, kMaxLength,
+                  "a building's distance from its lot's edges (an alley between neighbours is "
+                  "twice this), m")
+            .interval("building_height", {8.0, 60.0}, 0.0, kMaxLength,
+                      "building height range (uniform), m")
+            .real("building_probability", 0.85, 0.0, 1.0,
+                  "share of lots with a building (the others are open squares)")
+            .real("tree_spacing", 12.0, 0.0, kMaxLength,
+                  "street trees along every block's sidewalks this far apart (0: none), m")
+            .real("tree_offset", 2.5, 0.0, kMaxLength,
+                  "a street tree's distance from its block's edge, into the street, m")
+            .interval("trunk_radius", {0.15, 0.3}, 0.0, 100.0, "street tree trunk radius range, m")
+            .interval("tree_height", {5.0, 10.0}, 0.0, kMaxLength,
+                      "street tree height range (to the canopy's top), m")
+            .interval("canopy_radius", {1.5, 3.0}, 0.0, 100.0, "canopy radius range, m")
+            .interval("canopy_thickness", {1.5, 3.0}, 0.0, 100.0, "canopy thickness range, m")
+            .boolean("ground_plane", true, "the lowest voxel layer occupied"));
+  }
+  explicit CityGenerator(const ParameterSet& p)
+      : block_size_(intervalOf(p, "block_size")),
+        street_width_(p.real("street_width")),
+        lot_size_(intervalOf(p, "lot_size")),
+        setback_(p.real("setback")),
+        building_height_(intervalOf(p, "building_height")),
+        building_probability_(p.real("building_probability")),
+        tree_spacing_(p.real("tree_spacing")),
+        tree_offset_(p.real("tree_offset")),
+        trunk_radius_(intervalOf(p, "trunk_radius")),
+        tree_height_(intervalOf(p, "tree_height")),
+        canopy_radius_(intervalOf(p, "canopy_radius")),
+        canopy_thickness_(intervalOf(p, "canopy_thickness")),
+        ground_plane_(p.boolean("ground_plane")),
+        region_(Region::of(p)) {}
+
+  void apply(VoxelGrid& grid, Rng& rng) const override {
+    const Box bounds = grid.bounds();
+    const auto [low, high] = region_.within(bounds);
+    const double floor = bounds.min.z();
+    // Blocks: rows and columns of random widths with a street after each.
+    const std::vector<Interval> columns = cut(low.x(), high.x(), block_size_, street_width_, rng);
+    const std::vector<Interval> rows = cut(low.y(), high.y(), block_size_, street_width_, rng);
+    for (const Interval& bx : columns) {
+      for (const Interval& by : rows) {
+        // Lots: the block cut without gaps; a building keeps `setback` from its lot's edges.
+        for (const Interval& lx : cut(bx[0], bx[1], lot_size_, 0.0, rng)) {
+          for (const Interval& ly : cut(by[0], by[1], lot_size_, 0.0, rng)) {
+            if (rng.uniform01() >= building_probability_) continue;
+            const double height = rng.uniform(building_height_[0], building_height_[1]);
+            const Eigen::Vector3d min(lx[0] + setback_, ly[0] + setback_, floor);
+            const Eigen::Vector3d max(lx[1] - setback_, ly[1] - setback_, floor + height);
+            if ((max.array() > min.array()).all()) grid.fillBox(min, max);
+          }
+        }
+        if (tree_spacing_ > 0.0) plantStreetTrees(grid, bx, by, {low, high}, floor, rng);
+      }
+    }
+    if (ground_plane_) {
+      // The lowest layer of voxels (as the forest's).
+      grid.fillBox(bounds.min, {bounds.max.x(), bounds.max.y(), floor + grid.resolution()});
+    }
+  }
+
+ private:
+  /// [from, to] cut into pieces of random length in `size` with `gap` after each, in order;
+  /// the last one cut off at `to` (as a city is at the edge of a map).
+  static std::vector<Interval> cut(double from, double to, const Interval& size, double gap,
+                                   Rng& rng) {
+    std::vector<Interval> pieces;
+    for (double at = from; at < to;) {
+      const double end = std::min(to, at + rng.uniform(size[0], size[1]));
+      pieces.push_back({at, end});
+      at = end + gap;
+    }
+    return pieces;
+  }
+
+  /// Trees along the four sides of the block [bx] x [by], `tree_offset` out into the street,
+  /// `tree_spacing` apart, starting half a spacing from each corner; not beyond `region`.
+  void plantStreetTrees(VoxelGrid& grid, const Interval& bx, const Interval& by,
+                        const std::pair<Eigen::Vector2d, Eigen::Vector2d>& region, double floor,
+                        Rng& rng) const {
+    const auto plant = [&](const Eigen::Vector2d& at) {
+      if ((at.array() < region.first.array()).any() || (at.array() > region.second.array()).any()) {
+        return;
+      }
+      const double radius = rng.uniform(trunk_radius_[0], trunk_radius_[1]);
+      const double height = rng.uniform(tree_height_[0], tree_height_[1]);
+      const double canopy = rng.uniform(canopy_radius_[0], canopy_radius_[1]);
+      const double thickness = rng.uniform(canopy_thickness_[0], canopy_thickness_[1]);
+      fillCylinder(grid, at, radius, floor, floor + height);
+      fillCylinder(grid, at, canopy, floor + std::max(0.0, height - thickness), floor + height);
+    };
+    const double x0 = bx[0] - tree_offset_;
+    const double x1 = bx[1] + tree_offset_;
+    const double y0 = by[0] - tree_offset_;
+    const double y1 = by[1] + tree_offset_;
+    for (double x = bx[0] + 0.5 * tree_spacing_; x < bx[1]; x += tree_spacing_) {
+      plant({x, y0});
+      plant({x, y1});
+    }
+    for (double y = by[0] + 0.5 * tree_spacing_; y < by[1]; y += tree_spacing_) {
+      plant({x0, y});
+      plant({x1, y});
+    }
+  }
+
+  Interval block_size_;
+  double street_width_;
+  Interval lot_size_;
+  double setback_;
+  Interval building_height_;
+  double building_probability_;
+  double tree_spacing_;
+  double tree_offset_;
+  Interval trunk_radius_;
+  Interval tree_height_;
+  Interval canopy_radius_;
+  Interval canopy_thickness_;
+  bool ground_plane_;
+  Region region_;
+};
+
 template <typename Generator>
 PluginFactory<WorldGenerator> factoryOf() {
   return [](const ParameterSet& parameters) { return std::make_unique<Generator>(parameters); };
@@ -409,6 +546,9 @@ void registerBuiltins() {
                                 WallsGenerator::declared(), factoryOf<WallsGenerator>());
   registrar.add<WorldGenerator>("box_list", "explicit boxes (overhangs, bridges, ceilings)",
                                 BoxListGenerator::declared(), factoryOf<BoxListGenerator>());
+  registrar.add<WorldGenerator>(
+      "city", "a street grid of blocks of buildings of varied heights, with street trees",
+      CityGenerator::declared(), factoryOf<CityGenerator>());
   registerOctomapGenerator(registrar);
   registrar.commit();
 }

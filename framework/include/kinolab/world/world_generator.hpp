@@ -36,7 +36,7 @@ class WorldGenerator {
 };
 
 /// The registry of world generators: built-in `empty`, `forest`, `boxes`, `walls`,
-/// `box_list` and `octomap`.
+/// `box_list`, `city` and `octomap`.
 template <>
 PluginRegistry<WorldGenerator>& pluginRegistry<WorldGenerator>();
 
