@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <limits>
+#include <numeric>
 #include <thread>
 
 #include "kinolab/core/random.hpp"
@@ -687,6 +688,29 @@ TEST(GeodesicHeuristic, CountsTheStepsABreadthFirstSearchFinds) {
       }
       EXPECT_EQ(mismatches, 0) << dims.transpose() << ", radius " << robot_radius;
       EXPECT_GT(reached, 50) << "the goal's component is not trivial";
+      // The field grows as it is asked: asked in another order (the farthest voxels first, then
+      // at random), it gives the same counts.
+      const auto asked_otherwise =
+          heuristicForQuery(geodesicSteps(tau, robot_radius, goal_radius), *world, goal, never);
+      std::vector<std::size_t> order(grid.size());
+      std::iota(order.rbegin(), order.rend(), std::size_t{0});
+      for (std::size_t i = order.size() / 2; i + 1 < order.size(); ++i) {
+        const auto j = rng.uniformInt(static_cast<std::int64_t>(i),
+                                      static_cast<std::int64_t>(order.size()) - 1);
+        std::swap(order[i], order[static_cast<std::size_t>(j)]);
+      }
+      int differ = 0;
+      for (const std::size_t i : order) {
+        const VoxelIndex v(static_cast<int>(i / (dims.y() * dims.z())),
+                           static_cast<int>(i / dims.z() % dims.y()),
+                           static_cast<int>(i % dims.z()));
+        ChainState state = ChainState::Zero();
+        state.col(0) = grid.center(v);
+        const int expected = steps[i];
+        const double h = asked_otherwise->estimate(state, goal);
+        differ += expected == kUnreached ? h != INFINITY : std::abs(h - tau * expected) > 1e-9;
+      }
+      EXPECT_EQ(differ, 0) << dims.transpose() << ", radius " << robot_radius;
     }
   }
 }

@@ -30,7 +30,10 @@ namespace {
 /// The graph is searched level by level on bit columns (each (x, y) column of voxels packed
 /// into 64-bit words along z): a level's dilation is the OR of the nine neighbouring columns'
 /// frontier words, shifted by one bit both ways, masked by the voxels not yet reached. Only
-/// the columns next to the frontier are touched, so a level costs its frontier, not the grid.
+/// the columns next to the frontier are touched, and only as far as asked: hops() runs levels
+/// until the voxel asked for is reached, so a query costs the ball its search asks about, not
+/// the map (a column's words and counts are made when the search first touches it). The
+/// counts are the same whatever the order of the questions.
 class HopField {
  public:
   static constexpr std::uint16_t kUnreached = 0xFFFF;
@@ -38,33 +41,36 @@ class HopField {
 
   /// The voxels where the body's centre can be are those whose centre's distance plus half a
   /// voxel's diagonal reaches `threshold` (no point of the others is `threshold` from every
-  /// cube: the distance is 1-Lipschitz and exact at the centres).
+  /// cube: the distance is 1-Lipschitz and exact at the centres). Keeps a pointer to the
+  /// world's distances (the search that asks holds the world) and a copy of `stop`.
   HopField(const World& world, double threshold, const Eigen::Vector3d& goal, double goal_radius,
-           StopCondition& stop)
+           const StopCondition& stop)
       : origin_(world.grid().origin()),
         resolution_(world.grid().resolution()),
         dims_(world.grid().dims()),
         words_((dims_.z() + 63) / 64),
         columns_(static_cast<std::size_t>(dims_.x()) * dims_.y()),
-        hops_(world.grid().size(), kUnreached) {
-    const std::vector<float>& distance = world.esdf().values();
+        distance_(world.esdf().values().data()),
+        slot_(columns_, 0),
+        stamp_(columns_, 0),
+        stop_(stop) {
     // Less a ten-thousandth of a voxel: the stored distances are floats.
     const double reach = threshold - (0.5 * std::sqrt(3.0) + 1e-4) * resolution_;
-    const float at_least = std::nextafter(static_cast<float>(reach), -INFINITY);  // <= reach
-    open_.assign(columns_ * words_, 0);
-    for (std::size_t column = 0; column < columns_; ++column) {
-      const float* values = &distance[column * dims_.z()];
-      std::uint64_t* words = &open_[column * words_];
-      for (int z = 0; z < dims_.z(); ++z) {
-        words[z / 64] |= static_cast<std::uint64_t>(values[z] >= at_least) << (z % 64);
-      }
-    }
-    search(seeds(goal, goal_radius), stop);
+    at_least_ = std::nextafter(static_cast<float>(reach), -INFINITY);  // <= reach
+    // Room for every column (address space only until a column is touched): no copies as the
+    // search grows.
+    const std::size_t words = columns_ * static_cast<std::size_t>(words_);
+    open_.reserve(words);
+    frontier_.reserve(words);
+    next_.reserve(words);
+    hops_.reserve(world.grid().size());
+    seed(goal, goal_radius);
   }
 
   /// H of the voxel holding `point` (clamped into the grid): kUnreached when no chain joins it
-  /// to the goal region; when the search was cut short, at most the true count.
-  std::uint16_t hops(const Eigen::Vector3d& point) const {
+  /// to the goal region (or the body cannot be there); when the search was cut short by its
+  /// stop condition, at most the true count.
+  std::uint16_t hops(const Eigen::Vector3d& point) {
     const Eigen::Vector3d local = (point - origin_) / resolution_;
     VoxelIndex voxel;
     for (int axis = 0; axis < 3; ++axis) {
@@ -72,33 +78,56 @@ class HopField {
       voxel[axis] =
           value < 0.0 ? 0 : (value >= dims_[axis] ? dims_[axis] - 1 : static_cast<int>(value));
     }
-    const std::uint16_t hops = hops_[index(voxel)];
-    return hops == kUnreached ? floor_ : hops;
+    const std::size_t column = static_cast<std::size_t>(voxel.x()) * dims_.y() + voxel.y();
+    const auto z = static_cast<std::size_t>(voxel.z());
+    if (distance_[column * dims_.z() + z] < at_least_) return kUnreached;  // not a node
+    while (true) {
+      const std::uint32_t slot = slot_[column];
+      if (slot != 0 && hops_[(slot - 1) * static_cast<std::size_t>(dims_.z()) + z] != kUnreached) {
+        return hops_[(slot - 1) * static_cast<std::size_t>(dims_.z()) + z];
+      }
+      if (frontier_columns_.empty()) return floor_;  // searched out (or cut short)
+      advance();
+    }
   }
 
   double resolution() const { return resolution_; }
 
  private:
-  std::size_t index(const VoxelIndex& voxel) const {
-    return (static_cast<std::size_t>(voxel.x()) * dims_.y() + voxel.y()) * dims_.z() + voxel.z();
-  }
-
   static std::uint64_t bit(int z) { return std::uint64_t{1} << (z % 64); }
 
-  /// The open voxels whose cube meets the closed goal ball, marked with 0 hops; their columns.
-  std::vector<std::size_t> seeds(const Eigen::Vector3d& goal, double radius) {
-    std::vector<std::size_t> columns;
+  /// The column's slot (1 + its place in the per-column arrays), made on first touch: its
+  /// open words from the distances, no counts, no frontier.
+  std::uint32_t slotOf(std::size_t column) {
+    std::uint32_t& slot = slot_[column];
+    if (slot != 0) return slot;
+    slot = static_cast<std::uint32_t>(made_++) + 1;
+    const auto words = static_cast<std::size_t>(words_);
+    open_.resize(made_ * words, 0);
+    frontier_.resize(made_ * words, 0);
+    next_.resize(made_ * words, 0);
+    hops_.resize(made_ * static_cast<std::size_t>(dims_.z()), kUnreached);
+    const float* values = &distance_[column * dims_.z()];
+    std::uint64_t* open = &open_[(slot - 1) * words];
+    for (int z = 0; z < dims_.z(); ++z) {
+      open[z / 64] |= static_cast<std::uint64_t>(values[z] >= at_least_) << (z % 64);
+    }
+    return slot;
+  }
+
+  /// The open voxels whose cube meets the closed goal ball, marked with 0 hops; their columns
+  /// are the first frontier.
+  void seed(const Eigen::Vector3d& goal, double radius) {
     const double r = resolution_;
     Eigen::Vector3i low;
     Eigen::Vector3i high;
     for (int axis = 0; axis < 3; ++axis) {
       const double from = std::floor((goal[axis] - radius - origin_[axis]) / r);
       const double to = std::floor((goal[axis] + radius - origin_[axis]) / r);
-      if (!(to >= 0.0 && from < dims_[axis])) return columns;  // misses the grid (or NaN)
+      if (!(to >= 0.0 && from < dims_[axis])) return;  // misses the grid (or NaN)
       low[axis] = static_cast<int>(std::max(from, 0.0));
       high[axis] = static_cast<int>(std::min(to, dims_[axis] - 1.0));
     }
-    frontier_.assign(columns_ * words_, 0);
     for (int x = low.x(); x <= high.x(); ++x) {
       for (int y = low.y(); y <= high.y(); ++y) {
         const std::size_t column = static_cast<std::size_t>(x) * dims_.y() + y;
@@ -108,87 +137,92 @@ class HopField {
           const Eigen::Vector3d corner = origin_ + voxel.cast<double>() * r;
           const Eigen::Vector3d gap =
               (corner - goal).cwiseMax(goal - corner - Eigen::Vector3d::Constant(r)).cwiseMax(0.0);
-          std::uint64_t& open = open_[column * words_ + z / 64];
-          if (gap.norm() > radius || !(open & bit(z))) continue;
+          if (gap.norm() > radius) continue;
+          const std::size_t slot = slotOf(column) - 1;
+          std::uint64_t& open = open_[slot * words_ + z / 64];
+          if (!(open & bit(z))) continue;
           open &= ~bit(z);
-          frontier_[column * words_ + z / 64] |= bit(z);
-          hops_[index(voxel)] = 0;
+          frontier_[slot * words_ + z / 64] |= bit(z);
+          hops_[slot * dims_.z() + z] = 0;
           seeded = true;
         }
-        if (seeded) columns.push_back(column);
+        if (seeded) frontier_columns_.push_back(column);
       }
     }
-    return columns;
   }
 
-  void search(std::vector<std::size_t> frontier_columns, StopCondition& stop) {
-    std::vector<std::uint64_t> next(frontier_.size(), 0);
-    std::vector<std::uint32_t> stamp(columns_, 0);
-    std::vector<std::size_t> touched;
-    std::vector<std::size_t> next_columns;
-    std::vector<std::uint64_t> gathered(words_);
+  /// The next level of the search (the frontier's columns must not be empty); past the stop
+  /// condition, or at kMaxHops, it ends the search instead, unreached voxels then reading the
+  /// level (a lower bound of their count).
+  void advance() {
+    const auto level = static_cast<std::uint32_t>(level_ + 1);
+    if (level > kMaxHops || stop_.expired(0)) {
+      floor_ = static_cast<std::uint16_t>(std::min<std::uint32_t>(level, kMaxHops));
+      frontier_columns_.clear();
+      return;
+    }
+    level_ = level;
     const int nx = dims_.x();
     const int ny = dims_.y();
-    for (std::uint32_t level = 1; !frontier_columns.empty(); ++level) {
-      if (level > kMaxHops || stop.expired(0)) {
-        floor_ = static_cast<std::uint16_t>(std::min<std::uint32_t>(level, kMaxHops));
-        return;
-      }
-      // The columns next to the frontier (each once).
-      touched.clear();
-      for (const std::size_t column : frontier_columns) {
-        const int x = static_cast<int>(column / ny);
-        const int y = static_cast<int>(column % ny);
-        for (int cx = std::max(x - 1, 0); cx <= std::min(x + 1, nx - 1); ++cx) {
-          for (int cy = std::max(y - 1, 0); cy <= std::min(y + 1, ny - 1); ++cy) {
-            const std::size_t neighbour = static_cast<std::size_t>(cx) * ny + cy;
-            if (stamp[neighbour] == level) continue;
-            stamp[neighbour] = level;
-            touched.push_back(neighbour);
-          }
+    // The columns next to the frontier (each once).
+    touched_.clear();
+    for (const std::size_t column : frontier_columns_) {
+      const int x = static_cast<int>(column / ny);
+      const int y = static_cast<int>(column % ny);
+      for (int cx = std::max(x - 1, 0); cx <= std::min(x + 1, nx - 1); ++cx) {
+        for (int cy = std::max(y - 1, 0); cy <= std::min(y + 1, ny - 1); ++cy) {
+          const std::size_t neighbour = static_cast<std::size_t>(cx) * ny + cy;
+          if (stamp_[neighbour] == level) continue;
+          stamp_[neighbour] = level;
+          touched_.push_back(neighbour);
         }
       }
-      next_columns.clear();
-      for (const std::size_t column : touched) {
-        const int x = static_cast<int>(column / ny);
-        const int y = static_cast<int>(column % ny);
-        std::array<const std::uint64_t*, 9> neighbours{};
-        int count = 0;
-        for (int cx = std::max(x - 1, 0); cx <= std::min(x + 1, nx - 1); ++cx) {
-          for (int cy = std::max(y - 1, 0); cy <= std::min(y + 1, ny - 1); ++cy) {
-            neighbours[count++] = &frontier_[(static_cast<std::size_t>(cx) * ny + cy) * words_];
-          }
-        }
-        for (int k = 0; k < words_; ++k) {
-          std::uint64_t words = 0;
-          for (int i = 0; i < count; ++i) words |= neighbours[i][k];
-          gathered[k] = words;
-        }
-        bool reached = false;
-        for (int k = 0; k < words_; ++k) {
-          // One voxel up and down along z, across word boundaries.
-          std::uint64_t dilated = gathered[k] | (gathered[k] << 1) | (gathered[k] >> 1);
-          if (k > 0) dilated |= gathered[k - 1] >> 63;
-          if (k + 1 < words_) dilated |= gathered[k + 1] << 63;
-          std::uint64_t& open = open_[column * words_ + k];
-          std::uint64_t fresh = dilated & open;
-          if (!fresh) continue;
-          open &= ~fresh;
-          next[column * words_ + k] = fresh;
-          reached = true;
-          const std::size_t first = column * dims_.z() + 64 * static_cast<std::size_t>(k);
-          for (; fresh; fresh &= fresh - 1) {
-            hops_[first + std::countr_zero(fresh)] = static_cast<std::uint16_t>(level);
-          }
-        }
-        if (reached) next_columns.push_back(column);
-      }
-      for (const std::size_t column : frontier_columns) {
-        std::fill_n(frontier_.begin() + static_cast<std::ptrdiff_t>(column * words_), words_, 0);
-      }
-      frontier_.swap(next);
-      frontier_columns.swap(next_columns);
     }
+    for (const std::size_t column : touched_) slotOf(column);  // (before pointers into them)
+    next_columns_.clear();
+    gathered_.resize(static_cast<std::size_t>(words_));
+    for (const std::size_t column : touched_) {
+      const int x = static_cast<int>(column / ny);
+      const int y = static_cast<int>(column % ny);
+      std::array<const std::uint64_t*, 9> neighbours{};
+      int count = 0;
+      for (int cx = std::max(x - 1, 0); cx <= std::min(x + 1, nx - 1); ++cx) {
+        for (int cy = std::max(y - 1, 0); cy <= std::min(y + 1, ny - 1); ++cy) {
+          const std::uint32_t slot = slot_[static_cast<std::size_t>(cx) * ny + cy];
+          if (slot != 0) neighbours[count++] = &frontier_[(slot - 1) * words_];
+        }
+      }
+      for (int k = 0; k < words_; ++k) {
+        std::uint64_t words = 0;
+        for (int i = 0; i < count; ++i) words |= neighbours[i][k];
+        gathered_[k] = words;
+      }
+      const std::size_t slot = slot_[column] - 1;
+      bool reached = false;
+      for (int k = 0; k < words_; ++k) {
+        // One voxel up and down along z, across word boundaries.
+        std::uint64_t dilated = gathered_[k] | (gathered_[k] << 1) | (gathered_[k] >> 1);
+        if (k > 0) dilated |= gathered_[k - 1] >> 63;
+        if (k + 1 < words_) dilated |= gathered_[k + 1] << 63;
+        std::uint64_t& open = open_[slot * words_ + k];
+        std::uint64_t fresh = dilated & open;
+        if (!fresh) continue;
+        open &= ~fresh;
+        next_[slot * words_ + k] = fresh;
+        reached = true;
+        const std::size_t first = slot * dims_.z() + 64 * static_cast<std::size_t>(k);
+        for (; fresh; fresh &= fresh - 1) {
+          hops_[first + std::countr_zero(fresh)] = static_cast<std::uint16_t>(level);
+        }
+      }
+      if (reached) next_columns_.push_back(column);
+    }
+    for (const std::size_t column : frontier_columns_) {
+      const std::size_t slot = slot_[column] - 1;
+      std::fill_n(frontier_.begin() + static_cast<std::ptrdiff_t>(slot * words_), words_, 0);
+    }
+    frontier_.swap(next_);
+    frontier_columns_.swap(next_columns_);
   }
 
   Eigen::Vector3d origin_;
@@ -196,10 +230,25 @@ class HopField {
   Eigen::Vector3i dims_;
   int words_;
   std::size_t columns_;
+  const float* distance_;  ///< the world's, a voxel each
+  float at_least_ = 0.0f;  ///< a voxel is a node when its distance is at least this
+  // Per (x, y) column: 1 + its slot in the arrays below (0: not touched yet), and the last
+  // level that touched it.
+  std::vector<std::uint32_t> slot_;
+  std::vector<std::uint32_t> stamp_;
+  std::size_t made_ = 0;  ///< slots made
+  // Per slot: its column's counts (dims_.z() each) and words (words_ each).
   std::vector<std::uint16_t> hops_;
   std::vector<std::uint64_t> open_;      ///< voxels the body can be in, not yet reached
   std::vector<std::uint64_t> frontier_;  ///< the voxels reached at the last level
-  std::uint16_t floor_ = kUnreached;     ///< what an unreached voxel reads
+  std::vector<std::uint64_t> next_;      ///< those of the level being made
+  std::vector<std::size_t> frontier_columns_;
+  std::vector<std::size_t> next_columns_;
+  std::vector<std::size_t> touched_;
+  std::vector<std::uint64_t> gathered_;
+  std::uint32_t level_ = 0;           ///< the last level made
+  std::uint16_t floor_ = kUnreached;  ///< what an unreached node reads once the search ends
+  StopCondition stop_;
 };
 
 /// What the geodesic bound is combined with.
@@ -236,6 +285,7 @@ class GeodesicQueryHeuristic final : public SearchHeuristic {
                                         field_.resolution() * (1.0 + 1e-9)) +
                              1.0) {}
 
+  /// (Not safe to call from several threads at once: the field grows as it is asked.)
   double estimate(const ChainState& state, const Eigen::Vector3d& goal) const override {
     const std::uint16_t hops = field_.hops(state.col(0));
     if (hops == HopField::kUnreached) return INFINITY;
@@ -244,7 +294,7 @@ class GeodesicQueryHeuristic final : public SearchHeuristic {
   }
 
  private:
-  HopField field_;
+  mutable HopField field_;  // grown as the search asks (HopField::hops())
   std::shared_ptr<const TimeOptimalHeuristic> time_optimal_;  ///< none with `off`
   double step_cost_;
   double steps_per_primitive_;
