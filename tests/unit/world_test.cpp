@@ -201,6 +201,31 @@ TEST(WorldSpecTest, ACityHasFreeStreetsBuildingsOfTheirHeightsAndStreetTrees) {
   EXPECT_FALSE(occupied(treed, 5.0, 172.0 - 0.25, 1.25));  // none beyond the region's edge
 }
 
+TEST(WorldSpecTest, ACityThatWouldNeverFinishIsRefusedWithTheEstimate) {
+  const std::string head =
+      "seed: 3\nresolution: 10\nbounds: {min: [0, 0, 0], max: [10000, 10000, 40]}\n"
+      "generators:\n  - {type: city, ";
+  EXPECT_NE(configErrorOf(head + "tree_spacing: 0.1}\n")
+                .find("'tree_spacing': expected 0 (no "
+                      "street trees) or at least 0.5"),
+            std::string::npos);
+  const auto refusal = [&](const std::string& parameters) -> std::string {
+    try {
+      World::buildGrid(specFromText(head + parameters + "}\n"));
+    } catch (const ConfigError& error) {
+      return error.what();
+    }
+    return "(no error)";
+  };
+  EXPECT_NE(refusal("lot_size: [2, 30], tree_spacing: 0").find("'lot_size': up to 25000000 lots"),
+            std::string::npos)
+      << refusal("lot_size: [2, 30], tree_spacing: 0");
+  EXPECT_NE(refusal("block_size: [2, 10], street_width: 0, lot_size: [30, 30], tree_spacing: 0.5")
+                .find("'tree_spacing': up to"),
+            std::string::npos);
+  EXPECT_EQ(refusal("lot_size: [40, 60], tree_spacing: 20"), "(no error)");
+}
+
 TEST(WorldSpecTest, OctomapOccupiedLeavesBecomeOccupiedVoxels) {
   const WorldSpec free_unknown = WorldSpec::fromFile(kSourceDir + "/configs/worlds/geb079.yaml");
   const VoxelGrid grid = World::buildGrid(free_unknown);

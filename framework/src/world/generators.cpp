@@ -438,12 +438,19 @@ class CityGenerator final : public WorldGenerator {
         canopy_radius_(intervalOf(p, "canopy_radius")),
         canopy_thickness_(intervalOf(p, "canopy_thickness")),
         ground_plane_(p.boolean("ground_plane")),
-        region_(Region::of(p)) {}
+        region_(Region::of(p)) {
+    if (tree_spacing_ > 0.0 && tree_spacing_ < kMinTreeSpacing) {
+      throw ParameterConflict("tree_spacing", "expected 0 (no street trees) or at least " +
+                                                  formatNumber(kMinTreeSpacing) + " m, got " +
+                                                  formatNumber(tree_spacing_));
+    }
+  }
 
   void apply(VoxelGrid& grid, Rng& rng) const override {
     const Box bounds = grid.bounds();
     const auto [low, high] = region_.within(bounds);
     const double floor = bounds.min.z();
+    refuseUnboundedWork((high - low).cwiseMax(0.0));
     // Blocks: rows and columns of random widths with a street after each.
     const std::vector<Interval> columns = cut(low.x(), high.x(), block_size_, street_width_, rng);
     const std::vector<Interval> rows = cut(low.y(), high.y(), block_size_, street_width_, rng);
@@ -469,6 +476,35 @@ class CityGenerator final : public WorldGenerator {
   }
 
  private:
+  static constexpr double kMinTreeSpacing = 0.5;  ///< m
+  static constexpr double kMaxPieces = 1e7;       ///< lots, and street trees, a world may have
+
+  static std::string count(double value) { return std::to_string(std::llround(value)); }
+
+  /// Refuses a region of `extent` (m) that could hold more than kMaxPieces lots or street
+  /// trees (each a box or two cylinders to fill), with the estimate, before any is made.
+  void refuseUnboundedWork(const Eigen::Vector2d& extent) const {
+    const double lots = std::ceil(extent.x() / lot_size_[0]) * std::ceil(extent.y() / lot_size_[0]);
+    if (lots > kMaxPieces) {
+      throw ParameterConflict("lot_size", "up to " + count(lots) + " lots of " +
+                                              formatNumber(lot_size_[0]) + " m in a region of " +
+                                              formatNumber(extent.x()) + " x " +
+                                              formatNumber(extent.y()) + " m; at most " +
+                                              count(kMaxPieces) + " (larger lots)");
+    }
+    if (tree_spacing_ <= 0.0) return;
+    // Every block side gets at most its length / spacing + 1 trees on each of its two sides.
+    const double rows = std::ceil(extent.y() / (block_size_[0] + street_width_)) + 1.0;
+    const double columns = std::ceil(extent.x() / (block_size_[0] + street_width_)) + 1.0;
+    const double trees = 2.0 * rows * (extent.x() / tree_spacing_ + columns) +
+                         2.0 * columns * (extent.y() / tree_spacing_ + rows);
+    if (trees > kMaxPieces) {
+      throw ParameterConflict("tree_spacing",
+                              "up to " + formatNumber(trees) + " street trees; at most " +
+                                  formatNumber(kMaxPieces) + " (wider spacing or larger blocks)");
+    }
+  }
+
   /// [from, to] cut into pieces of random length in `size` with `gap` after each, in order;
   /// the last one cut off at `to` (as a city is at the edge of a map).
   static std::vector<Interval> cut(double from, double to, const Interval& size, double gap,

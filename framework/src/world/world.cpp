@@ -35,7 +35,12 @@ VoxelGrid World::buildGrid(const WorldSpec& spec) {
   VoxelGrid grid(spec.bounds, spec.resolution);
   for (std::size_t i = 0; i < spec.generators.size(); ++i) {
     Rng rng = Rng::derive(spec.seed, "world-generator", i);
-    spec.generators[i].generator->apply(grid, rng);
+    try {
+      spec.generators[i].generator->apply(grid, rng);
+    } catch (const ConfigError& error) {  // a refusal that needs the bounds (a work cap)
+      throw ConfigError("world '" + spec.name + "', generators[" + std::to_string(i) + "] (" +
+                        spec.generators[i].type + "): " + error.what());
+    }
   }
   return grid;
 }
