@@ -184,6 +184,8 @@ TEST(Sensor, CastingFromVoxelCornersAndAlongAxesCrossesBricksToTheSameHit) {
     } else {
       ++hits;
       ASSERT_NEAR(leapt, traversed, 1e-9) << i;
+      ASSERT_LE(leapt, range) << i;  // never a hit beyond the range
+      ASSERT_TRUE(std::isinf(caster.cast(origin, direction, -1.0))) << i;
     }
   }
   EXPECT_GT(hits, 5000);

@@ -137,8 +137,9 @@ TEST(WorldSpecTest, ACityHasFreeStreetsBuildingsOfTheirHeightsAndStreetTrees) {
   // Fixed sizes make the plan known: blocks [0, 50], [60, 110], [120, 170] on both axes,
   // streets of 10 m between them, lots of 25 m with buildings 2 m in from their edges.
   const std::string head =
-      "seed: 3\nresolution: 0.5\nbounds: {min: [0, 0, 0], max: [170, 170, 40]}\ngenerators:\n"
-      "  - {type: city, block_size: [50, 50], street_width: 10, lot_size: [25, 25], setback: 2, "
+      "seed: 3\nresolution: 0.5\nbounds: {min: [0, 0, 0], max: [180, 180, 40]}\ngenerators:\n"
+      "  - {type: city, region: {x: [0, 170], y: [0, 170]}, block_size: [50, 50], "
+      "street_width: 10, lot_size: [25, 25], setback: 2, "
       "building_height: [10, 30], building_probability: 1, ground_plane: false, ";
   const VoxelGrid bare = World::buildGrid(specFromText(head + "tree_spacing: 0}\n"));
   const VoxelGrid treed = World::buildGrid(specFromText(
@@ -192,13 +193,14 @@ TEST(WorldSpecTest, ACityHasFreeStreetsBuildingsOfTheirHeightsAndStreetTrees) {
       ASSERT_FALSE(occupied(treed, street, t, 1.25)) << street << " " << t;
     }
   }
-  EXPECT_TRUE(occupied(treed, 5.0, 52.5, 1.25));           // a trunk south of the street at y 55
-  EXPECT_TRUE(occupied(treed, 5.0, 57.5, 1.25));           // and north of it
-  EXPECT_TRUE(occupied(treed, 52.5, 65.0, 1.25));          // along a block's east side
-  EXPECT_FALSE(occupied(treed, 10.0, 52.5, 1.25));         // between trunks
-  EXPECT_TRUE(occupied(treed, 6.5, 52.5, 5.25));           // its canopy
-  EXPECT_FALSE(occupied(treed, 6.5, 52.5, 6.25));          // above it
-  EXPECT_FALSE(occupied(treed, 5.0, 172.0 - 0.25, 1.25));  // none beyond the region's edge
+  EXPECT_TRUE(occupied(treed, 5.0, 52.5, 1.25));    // a trunk south of the street at y 55
+  EXPECT_TRUE(occupied(treed, 5.0, 57.5, 1.25));    // and north of it
+  EXPECT_TRUE(occupied(treed, 52.5, 65.0, 1.25));   // along a block's east side
+  EXPECT_FALSE(occupied(treed, 10.0, 52.5, 1.25));  // between trunks
+  EXPECT_TRUE(occupied(treed, 6.5, 52.5, 5.25));    // its canopy
+  EXPECT_FALSE(occupied(treed, 6.5, 52.5, 6.25));   // above it
+  EXPECT_TRUE(occupied(treed, 5.0, 117.5, 1.25));   // north of the middle row of blocks
+  EXPECT_FALSE(occupied(treed, 5.0, 172.5, 1.25));  // but none north of the last: the region ends
 }
 
 TEST(WorldSpecTest, ACityThatWouldNeverFinishIsRefusedWithTheEstimate) {
@@ -217,11 +219,18 @@ TEST(WorldSpecTest, ACityThatWouldNeverFinishIsRefusedWithTheEstimate) {
     }
     return "(no error)";
   };
-  EXPECT_NE(refusal("lot_size: [2, 30], tree_spacing: 0").find("'lot_size': up to 25000000 lots"),
-            std::string::npos)
+  EXPECT_NE(
+      refusal("lot_size: [2, 30], tree_spacing: 0").find("'lot_size': up to 26863489 lots of 2 m"),
+      std::string::npos)
       << refusal("lot_size: [2, 30], tree_spacing: 0");
-  EXPECT_NE(refusal("block_size: [2, 10], street_width: 0, lot_size: [30, 30], tree_spacing: 0.5")
+  EXPECT_NE(refusal("block_size: [40, 40], street_width: 0, lot_size: [10000, 10000], "
+                    "tree_spacing: 0.5")
                 .find("'tree_spacing': up to"),
+            std::string::npos);
+  // Every block has a lot, however large lot_size is.
+  EXPECT_NE(refusal("block_size: [2, 2], street_width: 0, lot_size: [10000, 10000], "
+                    "tree_spacing: 0")
+                .find("'lot_size': up to"),
             std::string::npos);
   EXPECT_EQ(refusal("lot_size: [40, 60], tree_spacing: 20"), "(no error)");
 }

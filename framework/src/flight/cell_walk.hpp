@@ -45,7 +45,9 @@ struct CellWalk {
   }
   /// The same ray's walk through cells of `factor`^3 of these (`coarse_dims` of them; this
   /// walk's cells from 0), on the same fixed-point parameters: a coarse cell's faces are the
-  /// fine faces they lie on, so that the two walks agree exactly on where the ray crosses them.
+  /// fine faces they lie on, so that the two walks agree exactly on where the ray crosses them
+  /// (with each other; the parameters are truncated to 2^-24 of a cell, so where two faces are
+  /// crossed closer together than that, a walk on doubles may order them otherwise).
   CellWalk coarser(int factor, const Eigen::Vector3i& coarse_dims) const {
     const std::array<std::ptrdiff_t, 3> strides{
         static_cast<std::ptrdiff_t>(coarse_dims.y()) * coarse_dims.z(), coarse_dims.z(), 1};

@@ -176,10 +176,10 @@ double RayCaster::cast(const Eigen::Vector3d& origin, const Eigen::Vector3d& dir
   // Amanatides and Woo's traversal over the bricks; through a brick that holds an obstacle,
   // the voxels' own traversal from where the ray enters it to where it leaves, on the brick's
   // mask. Both on the same fixed-point ray parameters (CellWalk::coarser()); the distance
-  // returned is recomputed exactly from the struck voxel.
+  // returned is recomputed from the struck voxel's faces.
   const VoxelGrid& grid = world_->grid();
   const Eigen::Vector3d local = (origin - grid.origin()) / grid.resolution();  // in voxels
-  if (!grid.inside(local.array().floor().cast<int>().matrix())) {
+  if (!(max_range >= 0.0) || !grid.inside(local.array().floor().cast<int>().matrix())) {
     return INFINITY;  // as the voxels' traversal: nothing from outside the grid
   }
   const CellWalk start(local, direction, grid.dims());
@@ -200,7 +200,8 @@ double RayCaster::cast(const Eigen::Vector3d& origin, const Eigen::Vector3d& dir
           for (int axis = 0; axis < 3; ++axis) {
             voxel[axis] = bricks.cell[axis] * kBrick + voxels.cell[axis];
           }
-          return entry(local, direction, voxel);
+          const double distance = entry(local, direction, voxel);
+          return distance <= max_range ? distance : INFINITY;  // (fixed point rounds down)
         }
         in = voxels.leave();
         voxels.step(in);

@@ -405,7 +405,8 @@ class CityGenerator final : public WorldGenerator {
                       "side of a block between streets (drawn per row and column), m")
             .real("street_width", 15.0, 0.0, kMaxLength, "width of a street between blocks, m")
             .interval("lot_size", {12.0, 30.0}, 2.0, kMaxLength,
-                      "side of a lot a block is cut into (drawn per row and column of lots), m")
+                      "side of a lot: a block is cut into columns of lots of random widths, each "
+                      "column into lots of random depths, m")
             .real("setback", 2.0, 0.0, kMaxLength,
                   "a building's distance from its lot's edges (an alley between neighbours is "
                   "twice this), m")
@@ -484,7 +485,11 @@ class CityGenerator final : public WorldGenerator {
   /// Refuses a region of `extent` (m) that could hold more than kMaxPieces lots or street
   /// trees (each a box or two cylinders to fill), with the estimate, before any is made.
   void refuseUnboundedWork(const Eigen::Vector2d& extent) const {
-    const double lots = std::ceil(extent.x() / lot_size_[0]) * std::ceil(extent.y() / lot_size_[0]);
+    // Per axis: a lot of at least lot_size[0] but the last of each block (every block has one).
+    const double rows = std::ceil(extent.y() / (block_size_[0] + street_width_)) + 1.0;
+    const double columns = std::ceil(extent.x() / (block_size_[0] + street_width_)) + 1.0;
+    const double lots = (std::ceil(extent.x() / lot_size_[0]) + columns) *
+                        (std::ceil(extent.y() / lot_size_[0]) + rows);
     if (lots > kMaxPieces) {
       throw ParameterConflict("lot_size", "up to " + count(lots) + " lots of " +
                                               formatNumber(lot_size_[0]) + " m in a region of " +
@@ -494,8 +499,6 @@ class CityGenerator final : public WorldGenerator {
     }
     if (tree_spacing_ <= 0.0) return;
     // Every block side gets at most its length / spacing + 1 trees on each of its two sides.
-    const double rows = std::ceil(extent.y() / (block_size_[0] + street_width_)) + 1.0;
-    const double columns = std::ceil(extent.x() / (block_size_[0] + street_width_)) + 1.0;
     const double trees = 2.0 * rows * (extent.x() / tree_spacing_ + columns) +
                          2.0 * columns * (extent.y() / tree_spacing_ + rows);
     if (trees > kMaxPieces) {

@@ -171,7 +171,9 @@ class RayCaster {
  public:
   explicit RayCaster(const World& world);
 
-  /// castRay() into the world's grid: the same exact distance (to float rounding).
+  /// castRay() into the world's grid: the same distance (to rounding), and the same voxels
+  /// entered at edges and corners, except where the ray passes within 2^-24 of a voxel of an
+  /// edge or a corner, whose faces the two traversals' roundings may cross in another order.
   double cast(const Eigen::Vector3d& origin, const Eigen::Vector3d& direction,
               double max_range) const;
   const World& world() const { return *world_; }

@@ -114,7 +114,9 @@ class SearchHeuristic {
   /// The heuristic for one query on `world` towards `goal`, or nullptr (the default) when it
   /// is this one as it is. The search calls it before its first estimate of a query, so what
   /// it computes (e.g. a distance field over the free space) counts as planning time; past
-  /// `stop` it may return a weaker (still consistent) heuristic at once.
+  /// `stop` it may return a weaker (still consistent) heuristic at once. The result may keep
+  /// references into `world` (the search holds both) and need not be safe to use from several
+  /// threads at once (the built-in `geodesic` grows its field as it is asked).
   virtual std::shared_ptr<const SearchHeuristic> forQuery(const World& world,
                                                           const Eigen::Vector3d& goal,
                                                           StopCondition& stop) const;
