@@ -128,27 +128,40 @@ TEST(Sensor, NoiseDropoutsAndTheNearestRangeFollowTheirParameters) {
   EXPECT_FALSE(senseFrame(*world, camera, {9.75, 2.5, 1.5}, 0.0, noise).hits.empty());
 }
 
+/// Casts the rays `ray(i)` (origin, direction, range), i < count, with the caster and with
+/// the plain traversal: the same hit (to 1e-9 m, never beyond the range) or none, and none for
+/// a negative range. Stops at the first difference; returns how many hit.
+template <typename Ray>
+int expectCastsAlike(const RayCaster& caster, const VoxelGrid& grid, int count, const Ray& ray) {
+  int hits = 0;
+  for (int i = 0; i < count && !::testing::Test::HasFailure(); ++i) {
+    const auto [origin, direction, range] = ray(i);
+    const double traversed = castRay(grid, origin, direction, range);
+    const double leapt = caster.cast(origin, direction, range);
+    EXPECT_TRUE(std::isinf(caster.cast(origin, direction, -1.0))) << i;
+    if (std::isinf(traversed)) {
+      EXPECT_TRUE(std::isinf(leapt)) << i;
+      continue;
+    }
+    ++hits;
+    EXPECT_NEAR(leapt, traversed, 1e-9) << i;
+    EXPECT_LE(leapt, range) << i;
+  }
+  return hits;
+}
+
 TEST(Sensor, CastingIntoAWorldCrossesEmptyBricksToTheSameHit) {
   const auto world = test::smallWorld("forest");
   const RayCaster caster(*world);
   Rng rng(9);
   const Box& box = world->bounds();
-  int hits = 0;
-  for (int i = 0; i < 5000; ++i) {
+  const int hits = expectCastsAlike(caster, world->grid(), 5000, [&](int) {
     Eigen::Vector3d origin;
     for (int axis = 0; axis < 3; ++axis) origin[axis] = rng.uniform(box.min[axis], box.max[axis]);
     const Eigen::Vector3d direction =
         Eigen::Vector3d(rng.normal(), rng.normal(), 0.3 * rng.normal()).normalized();
-    const double range = rng.uniform(0.5, 15.0);
-    const double traversed = castRay(world->grid(), origin, direction, range);
-    const double leapt = caster.cast(origin, direction, range);
-    if (std::isinf(traversed)) {
-      ASSERT_TRUE(std::isinf(leapt)) << i;
-    } else {
-      ++hits;
-      ASSERT_NEAR(leapt, traversed, 1e-9) << i;
-    }
-  }
+    return std::tuple(origin, direction, rng.uniform(0.5, 15.0));
+  });
   EXPECT_GT(hits, 1000);
 }
 
@@ -162,8 +175,7 @@ TEST(Sensor, CastingFromVoxelCornersAndAlongAxesCrossesBricksToTheSameHit) {
   for (std::size_t i = 0; i < grid.size(); ++i) grid.setOccupied(i, rng.uniform01() < 0.03);
   const World world("random", 0, grid, Esdf(grid));
   const RayCaster caster(world);
-  int hits = 0;
-  for (int i = 0; i < 20000; ++i) {
+  const int hits = expectCastsAlike(caster, grid, 20000, [&](int i) {
     Eigen::Vector3d origin;
     for (int axis = 0; axis < 3; ++axis) {
       origin[axis] = 0.25 * static_cast<int>(rng.uniform(0.0, grid.dims()[axis] - 0.01));
@@ -176,18 +188,8 @@ TEST(Sensor, CastingFromVoxelCornersAndAlongAxesCrossesBricksToTheSameHit) {
       direction = Eigen::Vector3d(i % 8 == 1 ? 1 : -1, i % 16 < 8 ? 1 : -1, i % 32 < 16 ? 1 : 0)
                       .normalized();
     }
-    const double range = rng.uniform(0.5, 12.0);
-    const double traversed = castRay(grid, origin, direction, range);
-    const double leapt = caster.cast(origin, direction, range);
-    if (std::isinf(traversed)) {
-      ASSERT_TRUE(std::isinf(leapt)) << i;
-    } else {
-      ++hits;
-      ASSERT_NEAR(leapt, traversed, 1e-9) << i;
-      ASSERT_LE(leapt, range) << i;  // never a hit beyond the range
-      ASSERT_TRUE(std::isinf(caster.cast(origin, direction, -1.0))) << i;
-    }
-  }
+    return std::tuple(origin, direction, rng.uniform(0.5, 12.0));
+  });
   EXPECT_GT(hits, 5000);
 }
 
