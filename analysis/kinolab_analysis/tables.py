@@ -32,6 +32,7 @@ SUMMARISED = [
     ("mean_speed", "mean speed"),
     ("replans", "replans"),
     ("failed_replans", "failed replans"),
+    ("inside_margin", "inside margin"),
     ("replan_time_p95_ms", "replan p95"),
     ("replan_time_max_ms", "replan max"),
     ("frame_time_ms", "frame time"),

@@ -998,6 +998,7 @@ TEST(FlightTest, ACollisionWithTheGroundTruthEndsTheFlight) {
       Flight({{"sensor.range", "0.2", "test"}}).fly(world, {2, 3, 1.5}, {18, 3, 1.5});
   EXPECT_EQ(result.status, "collision") << result.message;
   EXPECT_NE(result.message.find("hits the ground truth"), std::string::npos);
+  EXPECT_TRUE(result.inside_margin) << result.min_clearance;  // inside every margin
   // The flight ends at the wall.
   EXPECT_NEAR(result.flown.endPosition().x(), 10.0 - 0.25, 0.1);
   EXPECT_TRUE(std::isnan(result.time_to_goal));
@@ -1060,6 +1061,9 @@ TEST(FlightTest, APlanSlowerThanTheCommittedTrajectoryIsSetAsideNotFailed) {
   };
   EXPECT_EQ(value("kept_replans"), set_aside);
   EXPECT_EQ(value("failed_replans"), failed);
+  // With perfect tracking the body keeps the planning margin (0.1 m) it was planned with.
+  EXPECT_FALSE(kept.inside_margin) << kept.min_clearance;
+  EXPECT_EQ(value("inside_margin"), 0.0);
   for (const FlightReplan& replan : taken.replans) EXPECT_FALSE(replan.kept);
   std::printf("kept %d of %zu replans; time to goal %.2f s kept, %.2f s every plan taken\n",
               set_aside, kept.replans.size(), kept.time_to_goal, taken.time_to_goal);

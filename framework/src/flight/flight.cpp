@@ -793,6 +793,7 @@ class FlightLoop {
     check_query.require_goal = false;
     const CheckResult check = checker_.check(result_.flown, check_query);
     result_.min_clearance = check.min_clearance;
+    result_.inside_margin = check.min_clearance < settings_.planning_margin;
     if (!check.valid && check.check == "collision") {
       result_.status = "collision";
       result_.message =
@@ -867,6 +868,10 @@ const MetricSpecs& flightStatistics() {
           .real("min_clearance", "m",
                 "least exact distance from the flown positions to the ground truth's occupied "
                 "cubes, less the robot radius")
+          .counter("inside_margin",
+                   "1 when the body came nearer the ground truth than the planning margin "
+                   "(tracking took it inside the clearance it was planned with), else 0: its "
+                   "mean is the share of such flights")
           .real("plan_distance_median", "m", "median D of the replans' plans to their goals")
           .real("plan_distance_max", "m", "largest D of a replan's plan")
           .real("jerk_integral", "m^2/s^5", "integral of the squared jerk of the flight")
@@ -980,6 +985,7 @@ MetricValues flightValues(const FlightResult& result) {
       {"replan_time_p95_ms", quantile(times, 0.95)},
       {"replan_time_max_ms", quantile(times, 1.0)},
       {"min_clearance", numberOrNone(result.min_clearance)},
+      {"inside_margin", result.inside_margin ? 1.0 : 0.0},
       {"plan_distance_median", quantile(distances, 0.5)},
       {"plan_distance_max", quantile(distances, 1.0)},
       {"jerk_integral", numberOrNone(result.flown.jerkIntegral())},

@@ -183,6 +183,9 @@ struct FlightResult {
   std::vector<FlightReplan> replans;
   double time_to_goal = 0.0;   ///< s (NaN unless reached)
   double min_clearance = 0.0;  ///< m: to the ground truth's cubes, less the body radius
+  /// The body came nearer the ground truth than the planning margin: tracking took it inside
+  /// the clearance it was planned with (min_clearance < planning_margin).
+  bool inside_margin = false;
   /// m: the flown position's distance from the committed one, largest and root mean square
   /// (every 0.01 s; 0 with perfect tracking).
   double tracking_error_max = 0.0;
