@@ -22,13 +22,20 @@ WorldSpec specFromText(const std::string& text, const std::string& directory = "
   return WorldSpec::fromYaml(YamlReader::loadString(text, "spec.yaml"), directory);
 }
 
-std::string configErrorOf(const std::string& text) {
+/// The ConfigError `work` throws, or "(no error)".
+template <typename Work>
+std::string errorOf(const Work& work) {
   try {
-    specFromText(text);
+    work();
   } catch (const ConfigError& error) {
     return error.what();
   }
   return "(no error)";
+}
+
+/// The ConfigError reading the spec `text` throws.
+std::string configErrorOf(const std::string& text) {
+  return errorOf([&] { specFromText(text); });
 }
 
 TEST(WorldSpecTest, EveryShippedWorldLoadsAndBuilds) {
@@ -211,13 +218,8 @@ TEST(WorldSpecTest, ACityThatWouldNeverFinishIsRefusedWithTheEstimate) {
                 .find("'tree_spacing': expected 0 (no "
                       "street trees) or at least 0.5"),
             std::string::npos);
-  const auto refusal = [&](const std::string& parameters) -> std::string {
-    try {
-      World::buildGrid(specFromText(head + parameters + "}\n"));
-    } catch (const ConfigError& error) {
-      return error.what();
-    }
-    return "(no error)";
+  const auto refusal = [&](const std::string& parameters) {
+    return errorOf([&] { World::buildGrid(specFromText(head + parameters + "}\n")); });
   };
   EXPECT_NE(
       refusal("lot_size: [2, 30], tree_spacing: 0").find("'lot_size': up to 26863489 lots of 2 m"),

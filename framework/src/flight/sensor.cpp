@@ -110,7 +110,8 @@ constexpr std::array<std::ptrdiff_t, 3> kBitStrides{16, 4, 1};  // a brick's vox
 
 /// The walk through the voxels of the brick that `bricks` is in, from where the ray entered it
 /// (`entered` > 0); `voxels` is the ray's walk through the grid's voxels from its start. The walk's
-/// cells are the brick's 4^3 voxels and its index is the voxel's bit in the brick's mask.
+/// cells are the brick's 4^3 voxels (4 is RayCaster's brick: a mask of 64 bits) and its index
+/// is the voxel's bit in the brick's mask.
 /// Where faces meet at `entered` (the ray through an edge or a corner) the walk is where the
 /// voxels' own traversal would be, which steps the axes of equal parameters in the order x, y,
 /// z: a voxel face there on an axis after the one the ray entered the brick by is still ahead.
@@ -191,8 +192,12 @@ double RayCaster::cast(const Eigen::Vector3d& origin, const Eigen::Vector3d& dir
     if (occupied_[static_cast<std::size_t>(bricks.index)] != 0) {
       const std::uint64_t mask = masks_[static_cast<std::size_t>(bricks.index)];
       CellWalk voxels;
-      const bool walkable = entered > 0 || voxelsOfStartBrick(bricks, start, voxels);
-      if (entered > 0) voxels = voxelsOfBrick(bricks, start, entered);
+      bool walkable = true;
+      if (entered > 0) {
+        voxels = voxelsOfBrick(bricks, start, entered);
+      } else {
+        walkable = voxelsOfStartBrick(bricks, start, voxels);
+      }
       std::int64_t in = entered;  // where the ray entered the voxel
       while (walkable && in <= end) {
         if ((mask >> voxels.index & 1) != 0) {

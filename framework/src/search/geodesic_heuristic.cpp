@@ -79,13 +79,14 @@ class HopField {
           value < 0.0 ? 0 : (value >= dims_[axis] ? dims_[axis] - 1 : static_cast<int>(value));
     }
     const std::size_t column = static_cast<std::size_t>(voxel.x()) * dims_.y() + voxel.y();
+    const auto nz = static_cast<std::size_t>(dims_.z());
     const auto z = static_cast<std::size_t>(voxel.z());
-    if (distance_[column * dims_.z() + z] < at_least_) return kUnreached;  // not a node
-    while (true) {
+    // Most voxels a search asks about are reached already: their count, with no more reads.
+    for (bool node_checked = false;; node_checked = true) {
       const std::uint32_t slot = slot_[column];
-      if (slot != 0 && hops_[(slot - 1) * static_cast<std::size_t>(dims_.z()) + z] != kUnreached) {
-        return hops_[(slot - 1) * static_cast<std::size_t>(dims_.z()) + z];
-      }
+      const std::uint16_t hops = slot != 0 ? hops_[(slot - 1) * nz + z] : kUnreached;
+      if (hops != kUnreached) return hops;
+      if (!node_checked && distance_[column * nz + z] < at_least_) return kUnreached;  // never
       if (frontier_columns_.empty()) return floor_;  // searched out (or cut short)
       advance();
     }

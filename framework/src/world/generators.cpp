@@ -502,9 +502,9 @@ class CityGenerator final : public WorldGenerator {
     const double trees = 2.0 * rows * (extent.x() / tree_spacing_ + columns) +
                          2.0 * columns * (extent.y() / tree_spacing_ + rows);
     if (trees > kMaxPieces) {
-      throw ParameterConflict("tree_spacing",
-                              "up to " + formatNumber(trees) + " street trees; at most " +
-                                  formatNumber(kMaxPieces) + " (wider spacing or larger blocks)");
+      throw ParameterConflict("tree_spacing", "up to " + count(trees) + " street trees; at most " +
+                                                  count(kMaxPieces) +
+                                                  " (wider spacing or larger blocks)");
     }
   }
 
