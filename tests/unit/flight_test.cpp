@@ -1009,9 +1009,12 @@ TEST(FlightTest, AStuckFlightSaysWhy) {
   // records what happened since its last progress: plans taken, replans failed, or both.
   const auto closed =
       worldOf("  - type: box_list\n    boxes: [{min: [9, 0, 0], max: [9.4, 10, 3]}]\n");
+  // Deterministic timing: what it tests must not depend on how loaded the machine is (in real
+  // time under load this flight has collided with the wall: see the session note of 9303c86).
   const FlightResult result =
-      Flight({{"stuck_time", "4", "test"}}).fly(closed, {2, 5, 1.5}, {18, 5, 1.5});
-  EXPECT_EQ(result.status, "stuck");
+      Flight({{"stuck_time", "4", "test"}, {"timing", "deterministic", "test"}})
+          .fly(closed, {2, 5, 1.5}, {18, 5, 1.5});
+  EXPECT_EQ(result.status, "stuck") << result.message;
   EXPECT_NE(result.message.find("meanwhile"), std::string::npos) << result.message;
   EXPECT_TRUE(result.message.find("plans taken meanwhile") != std::string::npos ||
               result.message.find("replans failed meanwhile") != std::string::npos)
