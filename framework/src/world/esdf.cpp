@@ -171,8 +171,8 @@ struct CubeTransform {
   explicit CubeTransform(const Eigen::Vector3i& grid_dims)
       : dims(grid_dims),
         slab(static_cast<std::size_t>(dims.y()) * dims.z()),
-        scratch(std::max(dims.x(), dims.y())),
-        in(static_cast<std::size_t>(kBlock) * std::max(dims.x(), dims.y())),
+        scratch(dims.maxCoeff()),
+        in(static_cast<std::size_t>(kBlock) * dims.maxCoeff()),
         out(in.size()) {}
 
   /// Pass 1 over the columns [begin, end) (x-y cells; all by default).
@@ -197,6 +197,36 @@ struct CubeTransform {
     end = std::min(end, slab);
     if (end > begin) {
       transformStrided(squared, begin, end - begin, dims.x(), slab, scratch, in, out);
+    }
+  }
+  /// Pass 1 along x instead (IncrementalEsdf's order): every x-line of `occupancy`, gathered
+  /// kBlock adjacent lines at a time, into `squared`.
+  void rows(const std::uint8_t* occupancy, std::uint8_t target, std::int32_t* squared) {
+    const auto n = static_cast<std::size_t>(dims.x());
+    std::vector<std::uint8_t> bytes(static_cast<std::size_t>(kBlock) * n);
+    for (std::size_t inner = 0; inner < slab; inner += kBlock) {
+      const std::size_t lines = std::min<std::size_t>(kBlock, slab - inner);
+      for (std::size_t q = 0; q < n; ++q) {
+        const std::uint8_t* row = occupancy + inner + q * slab;
+        for (std::size_t line = 0; line < lines; ++line) bytes[line * n + q] = row[line];
+      }
+      for (std::size_t line = 0; line < lines; ++line) {
+        transformColumn(bytes.data() + line * n, dims.x(), target, out.data() + line * n);
+      }
+      for (std::size_t q = 0; q < n; ++q) {
+        std::int32_t* row = squared + inner + q * slab;
+        for (std::size_t line = 0; line < lines; ++line) row[line] = out[line * n + q];
+      }
+    }
+  }
+  /// Pass 3 along z instead (IncrementalEsdf's order): every column of `squared`, in place.
+  void alongZ(std::int32_t* squared) {
+    const auto nz = static_cast<std::size_t>(dims.z());
+    const std::size_t count = static_cast<std::size_t>(dims.x()) * dims.y();
+    for (std::size_t column = 0; column < count; ++column) {
+      std::int32_t* cells = squared + column * nz;
+      transformLine(cells, out.data(), dims.z(), scratch);
+      std::copy(out.begin(), out.begin() + dims.z(), cells);
     }
   }
   static constexpr std::size_t kAll = std::numeric_limits<std::size_t>::max();
@@ -518,11 +548,11 @@ IncrementalEsdf::IncrementalEsdf(VoxelGrid grid) : grid_(std::move(grid)) {
   for (int sign = 0; sign < 2; ++sign) {
     std::vector<std::int32_t>* pass = pass_[sign];
     pass[0].resize(grid_.size());
-    transform.columns(grid_.occupancy().data(), sign == 0 ? 1 : 0, pass[0].data());
+    transform.rows(grid_.occupancy().data(), sign == 0 ? 1 : 0, pass[0].data());
     pass[1] = pass[0];
     transform.alongY(pass[1].data());
     pass[2] = pass[1];
-    transform.alongX(pass[2].data());
+    transform.alongZ(pass[2].data());
   }
   const Eigen::Vector3i& n = grid_.dims();
   lines_ = 2 * (static_cast<std::size_t>(n.x()) * n.y() + static_cast<std::size_t>(n.x()) * n.z() +
@@ -556,45 +586,50 @@ std::size_t IncrementalEsdf::update(const std::vector<std::uint8_t>& occupancy) 
   }
   if (changed.empty()) return 0;
   const Eigen::Vector3i& n = grid_.dims();
+  const auto nx = static_cast<std::size_t>(n.x());
   const auto nz = static_cast<std::size_t>(n.z());
   const std::size_t slab = static_cast<std::size_t>(n.y()) * nz;
   CubeTransform transform(n);
-  std::vector<std::int32_t> column(nz);
+  // The x-lines (y, z) holding a changed voxel: the same for both signs.
+  std::vector<std::uint8_t> x_dirty(slab, 0);
+  for (const std::size_t voxel : changed) x_dirty[voxel % slab] = 1;
+  std::vector<std::uint8_t> bytes(nx);
+  std::vector<std::int32_t> row(nx);
   // The voxels whose value may change: the changed ones and those whose pass 3 changed.
   std::vector<std::size_t> touched = changed;
   for (int sign = 0; sign < 2; ++sign) {
     const std::uint8_t target = sign == 0 ? 1 : 0;
     std::vector<std::int32_t>* pass = pass_[sign];
-    // Pass 1: the columns holding a changed voxel; mark the y-lines (x, z) they alter.
-    std::vector<std::uint8_t> y_dirty(static_cast<std::size_t>(n.x()) * nz, 0);
-    std::vector<std::uint8_t> x_dirty(slab, 0);
-    std::size_t last_column = grid_.size();
-    for (const std::size_t voxel : changed) {
-      const std::size_t c = voxel / nz;
-      if (c == last_column) continue;  // changed is in grid order: a column's voxels adjoin
-      last_column = c;
+    std::vector<std::uint8_t> y_dirty(nx * nz, 0);
+    std::vector<std::uint8_t> z_dirty(nx * static_cast<std::size_t>(n.y()), 0);
+    // Pass 1: the x-lines holding a changed voxel; mark the y-lines (x, z) they alter.
+    for (std::size_t line = 0; line < slab; ++line) {
+      if (!x_dirty[line]) continue;
       ++lines_;
-      transformColumn(current.data() + c * nz, n.z(), target, column.data());
-      for (std::size_t z = 0; z < nz; ++z) {
-        if (pass[0][c * nz + z] == column[z]) continue;
-        pass[0][c * nz + z] = column[z];
-        y_dirty[c / n.y() * nz + z] = 1;
+      for (std::size_t x = 0; x < nx; ++x) bytes[x] = current[line + x * slab];
+      transformColumn(bytes.data(), n.x(), target, row.data());
+      for (std::size_t x = 0; x < nx; ++x) {
+        std::int32_t& entry = pass[0][line + x * slab];
+        if (entry == row[x]) continue;
+        entry = row[x];
+        y_dirty[x * nz + line % nz] = 1;
       }
     }
-    // Pass 2: those y-lines; mark the x-lines (y, z) they alter.
+    // Pass 2: those y-lines; mark the columns (x, y) they alter.
     for (std::size_t line = 0; line < y_dirty.size(); ++line) {
       if (!y_dirty[line]) continue;
       ++lines_;
       const std::size_t x = line / nz;
       const std::size_t z = line % nz;
       transform.line(pass[0].data(), pass[1].data(), x * slab + z, n.y(), nz,
-                     [&](std::size_t index) { x_dirty[index % slab] = 1; });
+                     [&](std::size_t index) { z_dirty[index / nz] = 1; });
     }
-    // Pass 3: those x-lines; their altered entries are values to recompute.
-    for (std::size_t line = 0; line < slab; ++line) {
-      if (!x_dirty[line]) continue;
+    // Pass 3: those columns (contiguous, the pass with the most lines to redo); their altered
+    // entries are values to recompute.
+    for (std::size_t column = 0; column < z_dirty.size(); ++column) {
+      if (!z_dirty[column]) continue;
       ++lines_;
-      transform.line(pass[1].data(), pass[2].data(), line, n.x(), slab,
+      transform.line(pass[1].data(), pass[2].data(), column * nz, n.z(), 1,
                      [&](std::size_t index) { touched.push_back(index); });
     }
   }

@@ -212,10 +212,12 @@ class Esdf {
 
 /// An Esdf kept up to date while its grid's occupancy changes (a moving vehicle's planning
 /// window): update() recomputes only the lines of the three separable passes that the change
-/// reaches (the columns holding a changed voxel, then the y-lines whose pass-1 values changed,
-/// then the x-lines whose pass-2 values changed), with the same exact integer arithmetic, so
-/// that after every update esdf() equals Esdf(grid()) bit for bit. Keeps every pass's result
-/// for both signs: 24 bytes a voxel besides the grid and the values.
+/// reaches (the x-lines holding a changed voxel, then the y-lines whose pass-1 values changed,
+/// then the z-columns whose pass-2 values changed), with the same exact integer arithmetic.
+/// The passes' order does not change an exact result, so after every update esdf() equals
+/// Esdf(grid()) (z, y, x) bit for bit; the last pass, which has the most lines to redo, runs
+/// along contiguous memory. Keeps every pass's result for both signs: 24 bytes a voxel besides
+/// the grid and the values.
 class IncrementalEsdf {
  public:
   /// The field of `grid`, built in full.
