@@ -608,7 +608,11 @@ class FlightLoop {
         (plan.status != PlanStatus::kExact && plan.status != PlanStatus::kApproximate)) {
       replan.why = !plan.trajectory.empty() && !plan.check.valid
                        ? "the checker: " + plan.check.check + ": " + plan.check.detail
-                       : (plan.message.empty() ? "no trajectory" : plan.message);
+                   : !plan.message.empty() ? plan.message
+                   : plan.status == PlanStatus::kExact
+                       ? "the start is already within the planner's goal region of the local "
+                         "goal: nothing to fly"
+                       : "no trajectory";
       return false;
     }
     if (settings_.keep_faster && arrivesFirst(plan.trajectory, t_start, goal)) {

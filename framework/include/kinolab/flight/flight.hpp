@@ -72,7 +72,7 @@ struct FlightSettings {
   bool keep_faster = true;
   /// m: the planners keep the body's radius plus this from what the vehicle knows, room for
   /// tracking error, map noise and latency (the flight judges the body).
-  double planning_margin = 0.1;
+  double planning_margin = 0.15;
   /// > 0: keep the known map from above (VehicleMap::topView over the query's heights) every
   /// this many seconds of flight, for animations; 0: none. Not a parameter: the caller's.
   double snapshot_period = 0.0;
