@@ -1051,6 +1051,30 @@ TEST(FlightTest, AStuckFlightSaysWhy) {
       << result.message;
 }
 
+TEST(FlightTest, AVehicleAtItsLocalGoalButShortOfTheGoalMovesOntoIt) {
+  // At the default margin the goal's corner of this forest is too narrow for the planning
+  // radius: the local goal stands in for the goal 0.25 m from it, the vehicle stops within the
+  // planner's goal region of it (0.56 m from the goal, outside the goal tolerance), and from
+  // there every plan is empty. The loop moves it straight onto the local goal.
+  const auto world = worldOf(
+      "  - {type: forest, density: 0.1, trunk_radius: [0.15, 0.25], "
+      "trunk_height: [2.5, 3], min_spacing: 1.0, ground_plane: true}\n",
+      "{min: [0, 0, 0], max: [10, 10, 3]}");
+  const FlightResult result =
+      Flight({{"timing", "deterministic", "test"}, {"tracking", "perfect", "test"}})
+          .fly(world, {1, 1, 1.5}, {8.5, 8, 1.5});
+  EXPECT_EQ(result.status, "reached") << result.message;
+  int approaches = 0;
+  for (const FlightReplan& replan : result.replans) {
+    if (replan.recovery != "approach") continue;
+    ++approaches;
+    EXPECT_EQ(replan.status, "exact");
+    EXPECT_NE(replan.why.find("nothing to fly"), std::string::npos) << replan.why;
+  }
+  EXPECT_GE(approaches, 1);
+  EXPECT_FALSE(result.inside_margin) << result.min_clearance;
+}
+
 TEST(FlightTest, APlanSlowerThanTheCommittedTrajectoryIsSetAsideNotFailed) {
   // A lattice search from a state between its primitives' ends need not find the rest of the
   // plan it is on: through a forest, later plans are now and then slower than the committed

@@ -207,6 +207,11 @@ bool localGoal(const Eigen::Vector3d& from, const Eigen::Vector3d& goal,
 
 constexpr double kDegree = M_PI / 180.0;
 
+/// Why a replan whose plan is exact but empty failed: its start already lies in the planner's
+/// goal region of the local goal (FlightLoop::recover() then moves onto the local goal).
+constexpr const char* kNothingToFly =
+    "the start is already within the planner's goal region of the local goal: nothing to fly";
+
 /// `model` with its robot radius grown by `margin`.
 PlanningModel withMargin(PlanningModel model, double margin) {
   model.robot_radius += margin;
@@ -608,11 +613,9 @@ class FlightLoop {
         (plan.status != PlanStatus::kExact && plan.status != PlanStatus::kApproximate)) {
       replan.why = !plan.trajectory.empty() && !plan.check.valid
                        ? "the checker: " + plan.check.check + ": " + plan.check.detail
-                   : !plan.message.empty() ? plan.message
-                   : plan.status == PlanStatus::kExact
-                       ? "the start is already within the planner's goal region of the local "
-                         "goal: nothing to fly"
-                       : "no trajectory";
+                   : !plan.message.empty()             ? plan.message
+                   : plan.status == PlanStatus::kExact ? std::string(kNothingToFly)
+                                                       : "no trajectory";
       return false;
     }
     if (settings_.keep_faster && arrivesFirst(plan.trajectory, t_start, goal)) {
@@ -717,8 +720,10 @@ class FlightLoop {
 
   /// After a failed replan with the vehicle at rest (or about to be): back off from the
   /// nearest known obstacle when the planner refused the start (a planner's margin, such as
-  /// the TGK analogue's, can exceed the body's), else, from the second failure in a row, turn
-  /// the camera 90 degrees to look for a way.
+  /// the TGK analogue's, can exceed the body's); move straight onto the local goal when the
+  /// planner had nothing to fly (the vehicle within its goal region of the local goal, which
+  /// near an obstructed goal stands in for it, but not within the flight's goal tolerance);
+  /// else, from the second failure in a row, turn the camera 90 degrees to look for a way.
   void recover(FlightReplan& replan, const World& window) {
     ++failed_in_a_row_;
     const ChainState here = stateAt(committed_, t_);
@@ -729,6 +734,11 @@ class FlightLoop {
       replan.recovery = "back_off";
       return;
     }
+    if (replan.why == kNothingToFly && (replan.local_goal - here.col(0)).norm() > 0.05 &&
+        moveStraight(here.col(0), replan.local_goal - here.col(0), window, planning_model_)) {
+      replan.recovery = "approach";
+      return;
+    }
     if (failed_in_a_row_ >= 2) {
       look_offset_ = std::fmod(look_offset_ + 90.0 * kDegree, 2.0 * M_PI);
       replan.recovery = "look";
@@ -736,19 +746,26 @@ class FlightLoop {
   }
 
   /// A straight 0.3 m move from `position` away from the nearest known obstacle (the window
-  /// ESDF's gradient, horizontal), committed when it stays free in the window (and, with
-  /// commit: seen, keeps the centre in seen space); the next replan waits for its end.
+  /// ESDF's gradient, horizontal), for the body alone: a vehicle inside its planning margin
+  /// must be able to back out of it.
   bool backOff(const Eigen::Vector3d& position, const World& window) {
     Eigen::Vector3d gradient = Eigen::Vector3d::Zero();
     window.esdf().distanceWithGradient(position, &gradient);
     gradient.z() = 0.0;
     if (gradient.norm() < 1e-6) return false;
-    const auto move = straightMove(position, 0.3 * gradient.normalized(), 0.5 * brake_rate_,
-                                   0.5 * model_.limits.bound[1].minCoeff());
+    return moveStraight(position, 0.3 * gradient.normalized(), window, model_);
+  }
+
+  /// A straight rest-to-rest move from `position` by `offset` (half the braking rate, half
+  /// the speed limit), committed when it stays free for `body` in the window (and, with
+  /// commit: seen, keeps the centre in seen space); the next replan waits for its end.
+  bool moveStraight(const Eigen::Vector3d& position, const Eigen::Vector3d& offset,
+                    const World& window, const PlanningModel& body) {
+    const auto move =
+        straightMove(position, offset, 0.5 * brake_rate_, 0.5 * model_.limits.bound[1].minCoeff());
     Trajectory moved = slice(committed_, t_);
     for (const TrajectorySegment& segment : move) moved.append(segment);
-    // The body alone: a vehicle inside its planning margin must be able to back out of it.
-    if (!freeFrom(moved, t_, truth_->bounds(), window, model_) ||
+    if (!freeFrom(moved, t_, truth_->bounds(), window, body) ||
         seenUntil(moved, t_) < moved.duration()) {
       return false;
     }
