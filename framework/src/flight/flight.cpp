@@ -207,11 +207,6 @@ bool localGoal(const Eigen::Vector3d& from, const Eigen::Vector3d& goal,
 
 constexpr double kDegree = M_PI / 180.0;
 
-/// Why a replan whose plan is exact but empty failed: its start already lies in the planner's
-/// goal region of the local goal (FlightLoop::recover() then moves onto the local goal).
-constexpr const char* kNothingToFly =
-    "the start is already within the planner's goal region of the local goal: nothing to fly";
-
 /// `model` with its robot radius grown by `margin`.
 PlanningModel withMargin(PlanningModel model, double margin) {
   model.robot_radius += margin;
@@ -595,7 +590,8 @@ class FlightLoop {
 
   /// Whether a replan's plan becomes the committed trajectory (then spliced in from
   /// `t_start`), with why not in `replan.why`: too late (in real time a plan that took longer
-  /// than the latency arrives after its start), no valid trajectory, the committed trajectory
+  /// than the latency arrives after its start), nothing to fly (status at_local_goal), no
+  /// valid trajectory, the committed trajectory
   /// gets there first (`replan.kept`, arrivesFirst()), or no braking tail that fits. Every
   /// committed trajectory ends at rest: the plan gets a braking tail, which the planner never saw,
   /// so the plan is cut where its tail stays in the map and clear of what is known (the latest such
@@ -609,13 +605,16 @@ class FlightLoop {
                    formatNumber(1000.0 * settings_.replanLatency()) + " ms latency";
       return false;
     }
+    if (plan.status == PlanStatus::kExact && plan.trajectory.empty()) {
+      replan.status = "at_local_goal";  // recover() moves onto it
+      replan.why = "the start is already within the planner's goal region of the local goal";
+      return false;
+    }
     if (plan.trajectory.empty() || !plan.check.valid ||
         (plan.status != PlanStatus::kExact && plan.status != PlanStatus::kApproximate)) {
       replan.why = !plan.trajectory.empty() && !plan.check.valid
                        ? "the checker: " + plan.check.check + ": " + plan.check.detail
-                   : !plan.message.empty()             ? plan.message
-                   : plan.status == PlanStatus::kExact ? std::string(kNothingToFly)
-                                                       : "no trajectory";
+                       : (plan.message.empty() ? "no trajectory" : plan.message);
       return false;
     }
     if (settings_.keep_faster && arrivesFirst(plan.trajectory, t_start, goal)) {
@@ -734,7 +733,7 @@ class FlightLoop {
       replan.recovery = "back_off";
       return;
     }
-    if (replan.why == kNothingToFly && (replan.local_goal - here.col(0)).norm() > 0.05 &&
+    if (replan.status == "at_local_goal" && (replan.local_goal - here.col(0)).norm() > 0.05 &&
         moveStraight(here.col(0), replan.local_goal - here.col(0), window, planning_model_)) {
       replan.recovery = "approach";
       return;

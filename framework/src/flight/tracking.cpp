@@ -32,11 +32,10 @@ void QuadrotorTracker::advance(const Trajectory& reference, double t) {
     // Past its end the reference rests where it ended.
     const bool after = time_ >= reference.duration();
     const double at = std::clamp(time_, 0.0, reference.duration());
-    // The feed-forward reads the reference `preview` ahead (at rest past its end).
-    const double ahead = time_ + model_.preview;
-    const Eigen::Vector3d feed_forward = ahead >= reference.duration()
-                                             ? Eigen::Vector3d::Zero()
-                                             : reference.evaluate(std::max(ahead, 0.0), 2);
+    // The feed-forward reads the reference previewTime() ahead (at rest past its end).
+    const double ahead = time_ + model_.previewTime();
+    const Eigen::Vector3d feed_forward =
+        ahead >= reference.duration() ? Eigen::Vector3d::Zero() : reference.evaluate(ahead, 2);
     const Eigen::Vector3d command = feasible(
         feed_forward + model_.position_gain * (reference.evaluate(at, 0) - state_.col(0)) +
         model_.velocity_gain *

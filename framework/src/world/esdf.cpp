@@ -121,26 +121,27 @@ void transformLine(const std::int32_t* f, std::int32_t* d, int n, EnvelopeScratc
   }
 }
 
-/// Runs the 1-D transform over every line along one strided axis. Lines start at
-/// `first + block_offset + inner` for inner in [0, inner_count), with `length` elements
-/// `stride` apart; `inner_count` consecutive lines are contiguous in memory, so they are
-/// gathered kBlock at a time into contiguous rows and scattered back.
-void transformStrided(std::int32_t* data, std::size_t first, std::size_t inner_count, int length,
-                      std::size_t stride, EnvelopeScratch& scratch, std::vector<std::int32_t>& in,
-                      std::vector<std::int32_t>& out) {
+/// Runs a 1-D transform over every line along one strided axis, from `from` into `to` (the
+/// same array or another of the same layout). Lines start at `first + inner` for inner in
+/// [0, inner_count), with `length` elements `stride` apart; `inner_count` consecutive lines are
+/// contiguous in memory, so they are gathered kBlock at a time into contiguous rows of `in`,
+/// transformed by transform(row of in, row of out) and scattered back.
+template <typename T, typename Transform>
+void transformStrided(const T* from, std::int32_t* to, std::size_t first, std::size_t inner_count,
+                      int length, std::size_t stride, std::vector<T>& in,
+                      std::vector<std::int32_t>& out, const Transform& transform) {
   const std::size_t n = static_cast<std::size_t>(length);
   for (std::size_t inner = 0; inner < inner_count; inner += kBlock) {
     const std::size_t lines = std::min<std::size_t>(kBlock, inner_count - inner);
-    std::int32_t* base = data + first + inner;
     for (std::size_t q = 0; q < n; ++q) {
-      const std::int32_t* row = base + q * stride;
+      const T* row = from + first + inner + q * stride;
       for (std::size_t line = 0; line < lines; ++line) in[line * n + q] = row[line];
     }
     for (std::size_t line = 0; line < lines; ++line) {
-      transformLine(in.data() + line * n, out.data() + line * n, length, scratch);
+      transform(in.data() + line * n, out.data() + line * n);
     }
     for (std::size_t q = 0; q < n; ++q) {
-      std::int32_t* row = base + q * stride;
+      std::int32_t* row = to + first + inner + q * stride;
       for (std::size_t line = 0; line < lines; ++line) row[line] = out[line * n + q];
     }
   }
@@ -175,6 +176,12 @@ struct CubeTransform {
         in(static_cast<std::size_t>(kBlock) * dims.maxCoeff()),
         out(in.size()) {}
 
+  /// transformLine() over lines of `length` with this transform's scratch space.
+  auto envelope(int length) {
+    return [this, length](const std::int32_t* f, std::int32_t* d) {
+      transformLine(f, d, length, scratch);
+    };
+  }
   /// Pass 1 over the columns [begin, end) (x-y cells; all by default).
   void columns(const std::uint8_t* occupancy, std::uint8_t target, std::int32_t* squared,
                std::size_t begin = 0, std::size_t end = kAll) const {
@@ -188,45 +195,32 @@ struct CubeTransform {
   void alongY(std::int32_t* squared, std::size_t begin = 0, std::size_t end = kAll) {
     end = std::min(end, static_cast<std::size_t>(dims.x()));
     for (std::size_t ix = begin; ix < end; ++ix) {
-      transformStrided(squared, ix * slab, static_cast<std::size_t>(dims.z()), dims.y(),
-                       static_cast<std::size_t>(dims.z()), scratch, in, out);
+      transformStrided(squared, squared, ix * slab, static_cast<std::size_t>(dims.z()), dims.y(),
+                       static_cast<std::size_t>(dims.z()), in, out, envelope(dims.y()));
     }
   }
   /// Pass 3 over the x-lines of the (y, z) cells [begin, end) (in storage order).
   void alongX(std::int32_t* squared, std::size_t begin = 0, std::size_t end = kAll) {
     end = std::min(end, slab);
     if (end > begin) {
-      transformStrided(squared, begin, end - begin, dims.x(), slab, scratch, in, out);
+      transformStrided(squared, squared, begin, end - begin, dims.x(), slab, in, out,
+                       envelope(dims.x()));
     }
   }
-  /// Pass 1 along x instead (IncrementalEsdf's order): every x-line of `occupancy`, gathered
-  /// kBlock adjacent lines at a time, into `squared`.
+  /// Pass 1 along x instead (IncrementalEsdf's order): every x-line of `occupancy` into
+  /// `squared`.
   void rows(const std::uint8_t* occupancy, std::uint8_t target, std::int32_t* squared) {
-    const auto n = static_cast<std::size_t>(dims.x());
-    std::vector<std::uint8_t> bytes(static_cast<std::size_t>(kBlock) * n);
-    for (std::size_t inner = 0; inner < slab; inner += kBlock) {
-      const std::size_t lines = std::min<std::size_t>(kBlock, slab - inner);
-      for (std::size_t q = 0; q < n; ++q) {
-        const std::uint8_t* row = occupancy + inner + q * slab;
-        for (std::size_t line = 0; line < lines; ++line) bytes[line * n + q] = row[line];
-      }
-      for (std::size_t line = 0; line < lines; ++line) {
-        transformColumn(bytes.data() + line * n, dims.x(), target, out.data() + line * n);
-      }
-      for (std::size_t q = 0; q < n; ++q) {
-        std::int32_t* row = squared + inner + q * slab;
-        for (std::size_t line = 0; line < lines; ++line) row[line] = out[line * n + q];
-      }
-    }
+    std::vector<std::uint8_t> bytes(in.size());
+    transformStrided(occupancy, squared, 0, slab, dims.x(), slab, bytes, out,
+                     [&](const std::uint8_t* cells, std::int32_t* to) {
+                       transformColumn(cells, dims.x(), target, to);
+                     });
   }
   /// Pass 3 along z instead (IncrementalEsdf's order): every column of `squared`, in place.
   void alongZ(std::int32_t* squared) {
-    const auto nz = static_cast<std::size_t>(dims.z());
     const std::size_t count = static_cast<std::size_t>(dims.x()) * dims.y();
     for (std::size_t column = 0; column < count; ++column) {
-      std::int32_t* cells = squared + column * nz;
-      transformLine(cells, out.data(), dims.z(), scratch);
-      std::copy(out.begin(), out.begin() + dims.z(), cells);
+      line(squared, squared, column * dims.z(), dims.z(), 1, [](std::size_t) {});
     }
   }
   static constexpr std::size_t kAll = std::numeric_limits<std::size_t>::max();

@@ -158,7 +158,10 @@ struct FlightReplan {
   std::string reason;  ///< "start", "period", "collision", "retry"
   Eigen::Vector3d start = Eigen::Vector3d::Zero();
   Eigen::Vector3d local_goal = Eigen::Vector3d::Zero();
-  std::string status;  ///< the planner's status
+  /// The planner's status, or the loop's: "late" (real time: past the latency),
+  /// "no_local_goal", "at_local_goal" (an exact plan with nothing to fly: the start already in
+  /// the planner's goal region of the local goal).
+  std::string status;
   double planning_time_ms = 0.0;
   double distance_to_goal = 0.0;  ///< the plan's D to its local goal
   bool accepted = false;          ///< it became the committed trajectory
@@ -169,7 +172,8 @@ struct FlightReplan {
   /// a late plan, or no local goal.
   std::string why;
   /// What the loop did about a failure at rest ("" none, "look": the camera turned 90
-  /// degrees, "back_off": the vehicle moved away from the nearest known obstacle).
+  /// degrees, "back_off": the vehicle moved away from the nearest known obstacle, "approach":
+  /// it moved straight onto the local goal).
   std::string recovery;
   Trajectory trajectory;  ///< the plan (planner's time, from 0)
 };

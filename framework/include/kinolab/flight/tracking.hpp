@@ -20,8 +20,8 @@ enum class TrackingKind {
 /// controller (feed-forward acceleration, read `preview` ahead, plus PD on the position and
 /// velocity errors) whose command is projected into the thrust cone (total thrust within
 /// thrust_to_weight g, never pulling down, tilt at most max_tilt) and reached through the
-/// attitude's first-order lag,
-/// the thrust vector turning at most max_body_rate; the wind adds an acceleration, an
+/// attitude's first-order lag, the thrust vector turning at most max_body_rate; the wind adds
+/// an acceleration, an
 /// Ornstein-Uhlenbeck process per axis (standard deviation wind_sigma, correlation time
 /// wind_time), seeded. Simulated at control_rate with piecewise-constant jerk, so the flown
 /// trajectory is exact polynomial pieces the checker judges like any plan.
@@ -31,9 +31,9 @@ struct TrackingModel {
   double velocity_gain = 6.0;   ///< 1/s (critically damped with position_gain)
   double attitude_time = 0.08;  ///< s: the thrust vector's first-order lag
   /// s: the feed-forward acceleration is the reference's this far ahead, so that the lagged
-  /// thrust meets the reference's acceleration on time (attitude_time compensates the lag
-  /// exactly for a first-order lag, as flight stacks' jerk feed-forward does); 0: none.
-  double preview = 0.08;
+  /// thrust meets the reference's acceleration nearer on time (as flight stacks' jerk
+  /// feed-forward does); 0: none; negative: attitude_time (previewTime()).
+  double preview = -1.0;
   double thrust_to_weight = 2.0;          ///< the most thrust, in units of the vehicle's weight
   double max_tilt = 45.0 * M_PI / 180.0;  ///< rad (declared in degrees)
   double max_body_rate = 200.0 * M_PI / 180.0;  ///< rad/s (declared in degrees per second)
@@ -52,10 +52,10 @@ struct TrackingModel {
     f.real("velocity_gain", velocity_gain, 0.0, 1000.0, "tracking: velocity error gain, 1/s");
     f.real("attitude_time", attitude_time, 0.001, 10.0,
            "tracking: the thrust vector's first-order lag, s");
-    f.real("preview", preview, 0.0, 10.0,
+    f.real("preview", preview, -1.0, 10.0,
            "tracking: the controller feeds forward the reference's acceleration this far ahead, "
-           "s (at attitude_time it offsets the thrust lag, as a flight stack's jerk "
-           "feed-forward does; 0: none)");
+           "s, offsetting the thrust lag as a flight stack's jerk feed-forward does (0: none; "
+           "-1: attitude_time)");
     f.real("thrust_to_weight", thrust_to_weight, 1.01, 20.0,
            "tracking: the most thrust over the vehicle's weight");
     f.real("max_tilt", max_tilt, 1.0, 89.0, "tracking: the most tilt from upright, degrees",
@@ -67,6 +67,9 @@ struct TrackingModel {
     f.real("wind_time", wind_time, 0.01, 1000.0, "tracking: the wind's correlation time, s");
     f.real("control_rate", control_rate, 10.0, 10000.0, "tracking: the controller's rate, Hz");
   }
+
+  /// The feed-forward's preview, s: `preview`, or attitude_time when it is negative.
+  double previewTime() const { return preview < 0.0 ? attitude_time : preview; }
 };
 
 /// A quadrotor following a reference trajectory (TrackingModel), step by step.
