@@ -219,6 +219,21 @@ TEST_P(SensorConformance, UnitRaysPositiveRangeAndRateTheSameEveryCall) {
   ASSERT_FALSE(rays.empty());
   for (const auto& ray : rays) ASSERT_NEAR(ray.norm(), 1.0, 1e-9);
   EXPECT_EQ(sensor->rayDirections(), rays);
+  // A camera's pixel grid holds its rays, row by row: each projects onto its own pixel.
+  const std::optional<PixelGrid> pixels = sensor->pixelGrid();
+  if (pixels) {
+    ASSERT_EQ(static_cast<std::size_t>(pixels->columns) * pixels->rows, rays.size());
+    for (std::size_t k = 0; k < rays.size(); ++k) {
+      const Eigen::Vector3d& d = rays[k];
+      ASSERT_GT(d.x(), 0.0) << k;
+      ASSERT_EQ(std::lround(pixels->column_scale * d.y() / d.x() + pixels->column_offset),
+                static_cast<long>(k % pixels->columns))
+          << "ray " << k;
+      ASSERT_EQ(std::lround(pixels->row_scale * d.z() / d.x() + pixels->row_offset),
+                static_cast<long>(k / pixels->columns))
+          << "ray " << k;
+    }
+  }
   // A frame in the forest: at most one return a ray, hits within range, each on an occupied
   // voxel or (a noisy sensor) within five standard deviations of the range noise of one.
   const auto world = test::smallWorld("forest");
@@ -226,6 +241,7 @@ TEST_P(SensorConformance, UnitRaysPositiveRangeAndRateTheSameEveryCall) {
   Rng noise(1);
   const SensorFrame frame = senseFrame(*world, *sensor, origin, 0.3, noise);
   EXPECT_LE(frame.hits.size() + frame.misses.size(), rays.size());
+  EXPECT_EQ(frame.image.ranges.size(), pixels ? rays.size() : 0u);
   EXPECT_GE(static_cast<double>(frame.hits.size() + frame.misses.size()),
             (1.0 - sensor->noise().dropout) * static_cast<double>(rays.size()) * 0.9);
   const VoxelGrid& grid = world->grid();

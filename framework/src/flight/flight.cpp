@@ -279,6 +279,9 @@ class GuardedSensor final : public Sensor {
   SensorNoise noise() const override {
     return guardPluginCall(name_, "noise()", [&] { return sensor_->noise(); });
   }
+  std::optional<PixelGrid> pixelGrid() const override {
+    return guardPluginCall(name_, "pixelGrid()", [&] { return sensor_->pixelGrid(); });
+  }
 
  private:
   std::unique_ptr<Sensor> sensor_;

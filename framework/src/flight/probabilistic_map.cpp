@@ -7,8 +7,10 @@
 #include <vector>
 
 #include "cell_walk.hpp"
+#include "kinolab/core/error.hpp"
 #include "kinolab/core/fields.hpp"
 #include "kinolab/core/plugin.hpp"
+#include "kinolab/core/text.hpp"
 #include "kinolab/flight/vehicle_map.hpp"
 
 namespace kinolab {
@@ -22,7 +24,9 @@ struct ProbabilisticModel {
   double clamp_min = 0.12;
   double clamp_max = 0.97;
   double threshold = 0.5;
+  double threshold_free = 0.3;
   double exact_range = 3.0;
+  bool projection = true;
 
   template <typename Fields>
   void fields(Fields& f) {
@@ -32,12 +36,23 @@ struct ProbabilisticModel {
            "the probability a frame's passing ray gives a voxel");
     f.real("clamp_min", clamp_min, 0.001, 0.499, "a voxel's probability is kept at least this");
     f.real("clamp_max", clamp_max, 0.501, 0.999, "and at most this");
-    f.real("threshold", threshold, 0.01, 0.99, "a voxel is occupied above this probability");
+    f.real("threshold", threshold, 0.01, 0.99, "a voxel turns occupied above this probability");
+    f.real("threshold_free", threshold_free, 0.01, 0.99,
+           "an occupied voxel turns free again only below this probability (at most threshold; "
+           "equal: no hysteresis): a surface the noisy sensor hits in some frames and passes "
+           "in others stays an obstacle instead of flickering, and the window's ESDF is "
+           "updated only where the map really changed");
     f.real("exact_range", exact_range, 0.0, 1000.0,
            "within this distance of the sensor every voxel a ray crosses is counted; beyond it a "
            "ray's walk stops at the first voxel an earlier ray of the frame walked (fast, but it "
            "leaves voxels between converging rays unseen); keep it where the rays are dense: "
            "where they are sparse, a ray grazing an obstacle's voxel outvotes its hits, m");
+    f.boolean("projection", projection,
+              "a camera's frame within exact_range by projection (each voxel by the pixel "
+              "nearest its centre and the pixels its cube covers, as nvblox and Voxblox integrate "
+              "depth images: a visit per voxel in view, not per ray crossing it), where the "
+              "pixels are dense enough that the nearest one's ray crosses the voxel; false: "
+              "every ray walked, as a lidar's always is");
   }
 };
 
@@ -66,7 +81,9 @@ class ProbabilisticVehicleMap final : public VehicleMap {
         low_(static_cast<float>(logit(model.clamp_min))),
         high_(static_cast<float>(logit(model.clamp_max))),
         threshold_(static_cast<float>(logit(model.threshold))),
-        exact_range_(model.exact_range) {}
+        threshold_free_(static_cast<float>(logit(model.threshold_free))),
+        exact_range_(model.exact_range),
+        projection_(model.projection) {}
 
  protected:
   void doSetup() override {
@@ -87,7 +104,9 @@ class ProbabilisticVehicleMap final : public VehicleMap {
   /// and a voxel there is counted by every ray that crosses it: by a dedicated traversal from
   /// the origin counting into a dense block of the voxels around it (a ray's voxels in
   /// sequence; most of a frame's voxel visits are there, and the block's counters are
-  /// neighbours in memory where the frame's touched list is not).
+  /// neighbours in memory where the frame's touched list is not). A camera's frame is
+  /// counted there by projection instead (projectNear(): the same vote from the pixels a voxel
+  /// covers), without walking its rays.
   void doInsert(const SensorFrame& frame, double max_range) override {
     const VoxelGrid& grid = lattice();
     const double voxel = grid.resolution();
@@ -95,7 +114,13 @@ class ProbabilisticVehicleMap final : public VehicleMap {
     // The near part: voxels that rays cross in full within exact_range of the origin.
     const bool origin_inside = grid.inside(voxelOf(frame.origin));
     const double near = origin_inside ? exact_range_ : 0.0;
+    // A camera's image dense enough that every voxel within the near range holds the ray of
+    // the pixel nearest its centre: the near part by projection (projectNear()).
+    const SensorFrame::Image& image = frame.image;
+    const bool projective = projection_ && near > 0.0 && !image.ranges.empty() &&
+                            std::min(near, max_range) * image.grid.maxOffset() < 0.5 * voxel;
     if (near > 0.0) startBlock(frame, std::min(near, max_range));
+    if (projective) projectNear(frame, std::min(near, max_range));
     for (const Eigen::Vector3d& p : frame.hits) {
       const VoxelIndex v = voxelOf(p);
       if (!grid.inside(v)) continue;
@@ -109,7 +134,9 @@ class ProbabilisticVehicleMap final : public VehicleMap {
       if (!(length > 0.0)) return;
       const Eigen::Vector3d outwards = (start - frame.origin) / length;
       const bool skip_end = hit && start == end;  // a hit's own voxel is not passed
-      if (near > 0.0) walkNear(frame.origin, outwards, std::min(length, near), !skip_end);
+      if (near > 0.0 && !projective) {
+        walkNear(frame.origin, outwards, std::min(length, near), !skip_end);
+      }
       if (length <= near) return;
       // The far part, inwards from the end: a voxel entered (on its far side) within
       // exact_range of the origin is the near walk's.
@@ -156,11 +183,15 @@ class ProbabilisticVehicleMap final : public VehicleMap {
     return passes == 1;
   }
 
-  /// Applies a frame's counts to voxel `index`.
+  /// Applies a frame's counts to voxel `index`: a hit when at least as many of the frame's
+  /// rays ended in it as passed through it, else a miss; occupied above the threshold, and
+  /// once occupied until below threshold_free.
   void update(std::size_t index, const Counts& counts) {
     float& value = log_odds_[index];
     value = std::clamp(value + (counts.hits >= counts.passes ? hit_ : miss_), low_, high_);
-    setState(index, value > threshold_ ? Voxel::kOccupied : Voxel::kFree);
+    const bool occupied = state(index) == Voxel::kOccupied;
+    setState(index,
+             value > (occupied ? threshold_free_ : threshold_) ? Voxel::kOccupied : Voxel::kFree);
   }
 
   /// Makes the block the lattice's voxels around the frame's rays within `reach` of its origin
@@ -225,6 +256,60 @@ class ProbabilisticVehicleMap final : public VehicleMap {
     if (count_end) pass();
   }
 
+  /// The near part of a camera's frame by projection. A voxel of the block whose centre lies
+  /// within `near` of the origin, in view, and in front of the range its nearest pixel
+  /// measured is crossed by the frame's rays: by as many as the pixels its cube covers
+  /// (a^2 (|dx| + |dy| + |dz|) / ahead^3 over a pixel's du dv on the image plane, for a cube
+  /// of side a at offset d from the camera, ahead along its axis); those that did not end in
+  /// it passed it (at least one), so the walks' vote (hits >= passes) is a hit when at least
+  /// half of them ended in it. The nearest pixel's ray passes within half a voxel of the
+  /// centre (doInsert() checks that the pixels are that dense), so through the voxel's cube:
+  /// an obstacle's voxel would have stopped it nearer than its centre, and without noise no
+  /// obstacle's voxel is ever passed. A visit per voxel instead of per ray and voxel.
+  void projectNear(const SensorFrame& frame, double near) {
+    const SensorFrame::Image& image = frame.image;
+    const PixelGrid& pixels = image.grid;
+    const double r = lattice().resolution();
+    const double c = std::cos(image.yaw);
+    const double s = std::sin(image.yaw);
+    const Eigen::Vector3d first = lattice().origin() +
+                                  (block_first_.cast<double>().array() + 0.5).matrix() * r -
+                                  frame.origin;
+    const double near2 = near * near;
+    // A cube's covered pixels over |dx| + |dy| + |dz| times ahead^-3.
+    const double per_pixel = r * r * std::abs(pixels.column_scale * pixels.row_scale);
+    const float* ranges = image.ranges.data();
+    Counts* counts = block_.data();
+    const std::size_t nz = static_cast<std::size_t>(block_dims_.z());
+    for (int x = 0; x < block_dims_.x(); ++x) {
+      const double dx = first.x() + x * r;
+      for (int y = 0; y < block_dims_.y(); ++y, counts += nz) {
+        const double dy = first.y() + y * r;
+        const double ahead = c * dx + s * dy;  // the camera frame: x ahead, y left, z up
+        if (!(ahead > 0.0)) continue;
+        const double column = std::floor(pixels.column_scale * (c * dy - s * dx) / ahead +
+                                         pixels.column_offset + 0.5);
+        if (!(column >= 0.0 && column < pixels.columns)) continue;
+        const double across2 = dx * dx + dy * dy;
+        const double across = std::abs(dx) + std::abs(dy);
+        const double scale = per_pixel / (ahead * ahead * ahead);
+        const float* column_ranges = ranges + static_cast<std::ptrdiff_t>(column);
+        for (std::size_t z = 0; z < nz; ++z) {
+          const double dz = first.z() + static_cast<double>(z) * r;
+          const double row = std::floor(pixels.row_scale * dz / ahead + pixels.row_offset + 0.5);
+          const double distance2 = across2 + dz * dz;
+          if (!(row >= 0.0 && row < pixels.rows) || distance2 > near2) continue;
+          const double measured = column_ranges[static_cast<std::ptrdiff_t>(row) * pixels.columns];
+          if (!(distance2 < measured * measured)) continue;  // (NaN: lost, no pass)
+          const double crossing = std::min(scale * (across + std::abs(dz)), 65535.0);
+          Counts& voxel = counts[z];
+          voxel.passes = static_cast<std::uint16_t>(
+              std::max(1.0, std::round(crossing) - static_cast<double>(voxel.hits)));
+        }
+      }
+    }
+  }
+
   /// The far part of a walk, from `start` along the unit `inwards` to the origin `length`
   /// away: counts a pass in every voxel entered before `length - near` (the first one unless
   /// `skip_first`), and stops after one an earlier ray of the frame passed (the shortcut).
@@ -286,7 +371,9 @@ class ProbabilisticVehicleMap final : public VehicleMap {
   float low_;
   float high_;
   float threshold_;
+  float threshold_free_;
   double exact_range_;
+  bool projection_;
   std::vector<float> log_odds_;
   std::vector<std::uint32_t> slot_;  // 1 + the voxel's place in touched_, 0 when not touched
   std::vector<Touched> touched_;     // the frame's voxels
@@ -304,7 +391,14 @@ void registerBuiltins() {
       "a dense log-odds grid updated by ray casting, each voxel once a frame (the local maps of "
       "Fast-Planner and FIESTA); OctoMap's probabilities by default",
       declareFields<ProbabilisticModel>(), [](const ParameterSet& p) {
-        return std::make_unique<ProbabilisticVehicleMap>(readFields<ProbabilisticModel>(p));
+        const auto model = readFields<ProbabilisticModel>(p);
+        if (model.threshold_free > model.threshold) {
+          throw ConfigError("probabilistic: threshold_free " + formatNumber(model.threshold_free) +
+                            " is above threshold " + formatNumber(model.threshold) +
+                            ": an occupied voxel turns free below threshold_free, at most "
+                            "threshold");
+        }
+        return std::make_unique<ProbabilisticVehicleMap>(model);
       });
   registrar.commit();
 }

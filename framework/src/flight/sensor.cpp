@@ -49,6 +49,20 @@ std::vector<Eigen::Vector3d> DepthCamera::rayDirections() const {
   return directions;
 }
 
+std::optional<PixelGrid> DepthCamera::pixelGrid() const {
+  // rayDirections()'s u = half_w (1 - 2 (skip j + 1/2) / width) for used column j, inverted.
+  const double half_w = std::tan(0.5 * fov_horizontal);
+  const double half_h = std::tan(0.5 * fov_vertical);
+  PixelGrid grid;
+  grid.columns = (width + pixel_skip - 1) / pixel_skip;
+  grid.rows = (height + pixel_skip - 1) / pixel_skip;
+  grid.column_scale = -0.5 * width / (half_w * pixel_skip);
+  grid.column_offset = (0.5 * width - 0.5) / pixel_skip;
+  grid.row_scale = -0.5 * height / (half_h * pixel_skip);
+  grid.row_offset = (0.5 * height - 0.5) / pixel_skip;
+  return grid;
+}
+
 std::size_t DepthCamera::rayCount() const {
   const auto used = [&](int pixels) {
     return static_cast<std::size_t>((pixels + pixel_skip - 1) / pixel_skip);
@@ -252,21 +266,32 @@ SensorFrame senseFrame(const RayCaster& truth, const Sensor& sensor,
   // voxel (before the noise moves them); misses end a voxel beyond the range, so that the map
   // inserts free space only.
   const double nudge = 0.01 * voxel;
-  for (const Eigen::Vector3d& ray : rays) {
+  // A camera's image: its rays are its used pixels, row by row.
+  std::optional<PixelGrid> grid = sensor.pixelGrid();
+  if (grid && static_cast<std::size_t>(grid->columns) * grid->rows != rays.size()) grid.reset();
+  if (grid) {
+    frame.image.grid = *grid;
+    frame.image.yaw = yaw;
+    frame.image.ranges.assign(rays.size(), std::numeric_limits<float>::quiet_NaN());
+  }
+  float* ranges = grid ? frame.image.ranges.data() : nullptr;
+  for (std::size_t k = 0; k < rays.size(); ++k) {
     if (errors.dropout > 0.0 && noise.uniform01() < errors.dropout) continue;
+    const Eigen::Vector3d& ray = rays[k];
     const Eigen::Vector3d direction(c * ray.x() - s * ray.y(), s * ray.x() + c * ray.y(), ray.z());
     const double distance = truth.cast(origin, direction, range);
-    if (distance > range) {
-      frame.misses.push_back(origin + (range + voxel) * direction);
-      continue;
+    double measured = INFINITY;
+    if (distance <= range) {
+      const double sigma = errors.sigma(distance);
+      measured = distance + nudge + (sigma > 0.0 ? sigma * noise.normal() : 0.0);
+      if (distance < errors.min_range || measured < errors.min_range) continue;
     }
-    const double sigma = errors.sigma(distance);
-    const double measured = distance + nudge + (sigma > 0.0 ? sigma * noise.normal() : 0.0);
-    if (distance < errors.min_range || measured < errors.min_range) continue;
     if (measured > range) {
       frame.misses.push_back(origin + (range + voxel) * direction);
+      if (ranges) ranges[k] = INFINITY;
     } else {
       frame.hits.push_back(origin + measured * direction);
+      if (ranges) ranges[k] = static_cast<float>(measured);
     }
   }
   return frame;

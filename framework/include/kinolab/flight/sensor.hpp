@@ -4,6 +4,7 @@
 #include <array>
 #include <cmath>
 #include <cstdint>
+#include <optional>
 #include <vector>
 
 #include "kinolab/core/plugin_registry.hpp"
@@ -41,6 +42,24 @@ struct SensorNoise {
   }
 };
 
+/// Where a camera's used pixels lie: a direction (1, u, v) in the vehicle frame (x ahead, y
+/// left, z up; u and v on the image plane at x = 1) is nearest the used pixel of column
+/// round(column_scale u + column_offset) and row round(row_scale v + row_offset) (columns and
+/// rows count used pixels only, as rayDirections() gives them: row by row).
+struct PixelGrid {
+  int columns = 0;
+  int rows = 0;
+  double column_scale = 0.0;
+  double column_offset = 0.0;
+  double row_scale = 0.0;
+  double row_offset = 0.0;
+  /// The largest angle, rad, between a direction whose nearest used pixel is in the grid (a
+  /// continuous index within half a pixel of it) and that pixel's ray.
+  double maxOffset() const {
+    return 0.5 * std::hypot(1.0 / std::abs(column_scale), 1.0 / std::abs(row_scale));
+  }
+};
+
 /// A range sensor ray-cast into the ground-truth grid (kind "sensor", `kinolab list sensors`;
 /// a flight's `sensor` parameter chooses one, `sensor.NAME` sets its parameters). Built-in:
 /// `depth_camera` and `lidar`; a plugin adds another by registering a factory for this
@@ -59,6 +78,9 @@ class Sensor {
   virtual std::size_t rayCount() const { return rayDirections().size(); }
   /// Its errors and delay (senseFrame(), the flight loop); none by default.
   virtual SensorNoise noise() const { return {}; }
+  /// A camera's pixel grid, when its rays are one (then a frame carries its ranges as an
+  /// image, SensorFrame::image, and a map may integrate it by projection); none by default.
+  virtual std::optional<PixelGrid> pixelGrid() const { return std::nullopt; }
 };
 
 template <>
@@ -115,6 +137,7 @@ struct DepthCamera final : Sensor {
   std::vector<Eigen::Vector3d> rayDirections() const override;
   std::size_t rayCount() const override;
   SensorNoise noise() const override { return errors; }
+  std::optional<PixelGrid> pixelGrid() const override;
 };
 
 /// A 360-degree lidar: `beams` around, `channels` spread over the vertical field of view.
@@ -153,6 +176,15 @@ struct SensorFrame {
   Eigen::Vector3d origin = Eigen::Vector3d::Zero();
   std::vector<Eigen::Vector3d> hits;
   std::vector<Eigen::Vector3d> misses;
+  /// A camera's frame (Sensor::pixelGrid()) as an image too: every used pixel's measured
+  /// range, row by row (NaN where the ray was lost, +infinity where it struck nothing within
+  /// range), with the pixel grid and the heading it was taken at (rad about z); no ranges for
+  /// other sensors.
+  struct Image {
+    PixelGrid grid;
+    double yaw = 0.0;
+    std::vector<float> ranges;
+  } image;
 };
 
 /// Distance along the unit `direction` from `origin` to the first occupied voxel cube of
