@@ -80,6 +80,32 @@ void BM_EsdfBuildBoxesWorld(benchmark::State& state) {
 }
 BENCHMARK(BM_EsdfBuildBoxesWorld)->Apply(buildArguments);
 
+/// A flight's planning window built anew (a 108 x 108 x 28 grid, the default window with its
+/// reach; random boxes on the floor to 5 %): Esdf (arg 0) against IncrementalEsdf (arg 1),
+/// which keeps every pass's result to update later. Wall ns per voxel, one thread.
+void BM_WindowEsdfBuild(benchmark::State& state) {
+  VoxelGrid grid(Box{Eigen::Vector3d::Zero(), Eigen::Vector3d(10.8, 10.8, 2.8)}, 0.1);
+  Rng rng(3);
+  while (static_cast<double>(grid.occupiedCount()) < 0.05 * grid.size()) {
+    const Eigen::Vector3d min(rng.uniform(0, 10), rng.uniform(0, 10), 0.0);
+    grid.fillBox(min, min + Eigen::Vector3d(rng.uniform(0.2, 0.6), rng.uniform(0.2, 0.6), 2.8));
+  }
+  for (auto _ : state) {
+    if (state.range(0) == 0) {
+      Esdf esdf(grid, 1);
+      benchmark::DoNotOptimize(esdf.values().data());
+    } else {
+      IncrementalEsdf esdf(grid);
+      benchmark::DoNotOptimize(&esdf);
+    }
+  }
+  state.SetLabel(state.range(0) == 0 ? "Esdf" : "IncrementalEsdf");
+  state.counters["ns_per_voxel"] = benchmark::Counter(
+      static_cast<double>(grid.size()) * 1e-9,
+      benchmark::Counter::kIsIterationInvariantRate | benchmark::Counter::kInvert);
+}
+BENCHMARK(BM_WindowEsdfBuild)->Arg(0)->Arg(1)->UseRealTime()->Unit(benchmark::kMillisecond);
+
 /// Trilinear distance + gradient at random points; `side` = voxels per axis in x and y
 /// (16 x 16 x 16 floats = 16 KiB fits in L1/L2; 512 x 512 x 64 floats = 64 MiB does not);
 /// `huge_pages` 0: the same values in a copy on ordinary pages (Esdf itself advises huge

@@ -408,6 +408,38 @@ TEST(VehicleMapTest, TheKeptWindowIsUpdatedWhereTheMapChangedAndMovedWithTheVehi
   EXPECT_NEAR(sees(climbed)->bounds().min.z(), climbed.z() - 1.0, 0.1);
 }
 
+TEST(VehicleMapTest, AWindowSomeoneHoldsNeverChangesAndOneNoOneHoldsLendsItsMemory) {
+  const auto world = worldOf(kWall);
+  std::unique_ptr<VehicleMap> map = mapOf("probabilistic", world->bounds());
+  Lidar lidar;
+  lidar.range = 4.0;
+  Rng noise(1);
+  const auto sees = [&](const Eigen::Vector3d& at) {
+    map->insert(senseFrame(*world, lidar, at, 0.0, noise), lidar.range);
+    return map->window(at);
+  };
+  const Eigen::Vector3d origin(5.45, 3.05, 1.55);
+  std::shared_ptr<const World> held = sees(origin);
+  const std::vector<float> values = held->esdf().values();
+  const std::vector<std::uint8_t> occupancy = held->grid().occupancy();
+  // The wall comes into range: a new window, and the one held is as it was.
+  lidar.range = 6.0;
+  std::shared_ptr<const World> next = sees(origin);
+  ASSERT_NE(next, held);
+  EXPECT_NE(next->grid().occupancy(), occupancy);
+  EXPECT_EQ(held->esdf().values(), values);
+  EXPECT_EQ(held->grid().occupancy(), occupancy);
+  // No one holds the last one any more: the next window is made in its memory, and exact.
+  const float* memory = next->esdf().values().data();
+  const std::size_t occupied = next->grid().occupiedCount();
+  held.reset();
+  next.reset();
+  const std::shared_ptr<const World> after = sees(origin + Eigen::Vector3d(0.5, 0.0, 0.0));
+  ASSERT_NE(after->grid().occupiedCount(), occupied) << "nothing new: the same window";
+  EXPECT_EQ(after->esdf().values().data(), memory);
+  EXPECT_EQ(after->esdf().values(), Esdf(after->grid()).values());
+}
+
 /// A frame of rays from `origin` ending at `hits` (and passing on to `misses`).
 SensorFrame frameOf(const Eigen::Vector3d& origin, std::vector<Eigen::Vector3d> hits,
                     std::vector<Eigen::Vector3d> misses = {}) {

@@ -149,7 +149,17 @@ class ProbabilisticVehicleMap final : public VehicleMap {
       walk(frame.origin + std::min(1.0, max_range / d.norm()) * d, false);
     }
     if (near > 0.0) mergeBlock();
-    for (const Touched& touched : touched_) {
+    // The far walks' voxels lie all over the lattice: each update waits on three loads that
+    // miss the cache (its log-odds, state and slot) unless they were asked for ahead.
+    constexpr std::size_t kAhead = 16;
+    for (std::size_t k = 0; k < touched_.size(); ++k) {
+      if (k + kAhead < touched_.size()) {
+        const std::size_t later = touched_[k + kAhead].index;
+        __builtin_prefetch(&log_odds_[later], 1);
+        __builtin_prefetch(&slot_[later], 1);
+        prefetchState(later);
+      }
+      const Touched& touched = touched_[k];
       update(touched.index, touched.counts);
       slot_[touched.index] = 0;
     }

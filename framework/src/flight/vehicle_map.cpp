@@ -168,14 +168,29 @@ std::shared_ptr<const World> VehicleMap::window(const Eigen::Vector3d& center) {
     window_middle_ = center;
     VoxelGrid grid(latticeBox(center, half.array() + model_.reach), model_.resolution);
     windowOccupancy(grid, center, grid.occupancy());
-    window_field_ = std::make_unique<IncrementalEsdf>(std::move(grid));
+    if (window_field_) {
+      window_field_->rebuild(std::move(grid));
+    } else {
+      window_field_ = std::make_unique<IncrementalEsdf>(std::move(grid));
+    }
   } else {
     windowOccupancy(window_field_->grid(), center, window_occupancy_);
     if (window_field_->update(window_occupancy_) == 0) return window_world_;
   }
-  window_world_ =
-      std::make_shared<const World>("known_window", 0, window_field_->grid(), window_field_->esdf(),
-                                    domainBox(window_middle_, half));
+  // The World is a copy, so that one a planner holds never changes under it; when no one
+  // holds the last any more, its memory takes the copy (no new pages to fault in a frame).
+  VoxelGrid grid;
+  std::vector<float> values;
+  if (window_world_ && window_world_.use_count() == 1) {
+    auto [last_grid, last_field] = std::move(*window_world_).release();
+    grid = std::move(last_grid);
+    values = std::move(last_field).release();
+  }
+  window_world_.reset();
+  grid = window_field_->grid();
+  window_world_ = std::make_shared<World>("known_window", 0, std::move(grid),
+                                          window_field_->esdf(std::move(values)),
+                                          domainBox(window_middle_, half));
   return window_world_;
 }
 

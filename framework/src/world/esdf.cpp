@@ -536,21 +536,24 @@ double Esdf::exactDistanceAbove(const Eigen::Vector3d& point, double limit, doub
   return search.found && best < limit ? best : limit;
 }
 
-IncrementalEsdf::IncrementalEsdf(VoxelGrid grid) : grid_(std::move(grid)) {
-  if (grid_.size() == 0) throw InvalidArgument("IncrementalEsdf: empty grid");
+IncrementalEsdf::IncrementalEsdf(VoxelGrid grid) { rebuild(std::move(grid)); }
+
+void IncrementalEsdf::rebuild(VoxelGrid grid) {
+  if (grid.size() == 0) throw InvalidArgument("IncrementalEsdf: empty grid");
+  grid_ = std::move(grid);
   CubeTransform transform(grid_.dims());
   for (int sign = 0; sign < 2; ++sign) {
     std::vector<std::int32_t>* pass = pass_[sign];
     pass[0].resize(grid_.size());
     transform.rows(grid_.occupancy().data(), sign == 0 ? 1 : 0, pass[0].data());
-    pass[1] = pass[0];
+    pass[1].assign(pass[0].begin(), pass[0].end());
     transform.alongY(pass[1].data());
-    pass[2] = pass[1];
+    pass[2].assign(pass[1].begin(), pass[1].end());
     transform.alongZ(pass[2].data());
   }
   const Eigen::Vector3i& n = grid_.dims();
-  lines_ = 2 * (static_cast<std::size_t>(n.x()) * n.y() + static_cast<std::size_t>(n.x()) * n.z() +
-                static_cast<std::size_t>(n.y()) * n.z());
+  lines_ += 2 * (static_cast<std::size_t>(n.x()) * n.y() + static_cast<std::size_t>(n.x()) * n.z() +
+                 static_cast<std::size_t>(n.y()) * n.z());
   values_.resize(grid_.size());
   const auto cap = static_cast<float>((n.cast<double>() * grid_.resolution()).norm());
   const auto half_voxel = static_cast<float>(0.5 * grid_.resolution());

@@ -139,6 +139,9 @@ class VehicleMap {
   void setState(std::size_t index, Voxel state) {
     state_[index] = static_cast<std::uint8_t>(state);
   }
+  /// Asks for voxel `index`'s state ahead of state() or setState() (a kind updating voxels
+  /// scattered over the lattice hides the loads' latency so).
+  void prefetchState(std::size_t index) const { __builtin_prefetch(&state_[index], 1); }
 
  private:
   MapModel model_;
@@ -154,7 +157,7 @@ class VehicleMap {
   std::vector<std::uint8_t> state_;
   // The kept planning window (window()): its field, the World last made of it, its middle.
   std::unique_ptr<IncrementalEsdf> window_field_;
-  std::shared_ptr<const World> window_world_;
+  std::shared_ptr<World> window_world_;
   Eigen::Vector3d window_middle_ = Eigen::Vector3d::Zero();
   std::vector<std::uint8_t> window_occupancy_;  // the kept window's, this frame (a buffer)
 };

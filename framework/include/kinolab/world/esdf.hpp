@@ -47,6 +47,8 @@ class Esdf {
   const Eigen::Vector3d& origin() const { return origin_; }
   double maxDistance() const { return max_distance_; }
   const std::vector<float>& values() const { return values_; }
+  /// Takes the values out of a field no one needs any more (their memory for the next one).
+  std::vector<float> release() && { return std::move(values_); }
 
   /// The stored value of one voxel.
   float voxelDistance(std::size_t index) const { return values_[index]; }
@@ -222,14 +224,21 @@ class IncrementalEsdf {
  public:
   /// The field of `grid`, built in full.
   explicit IncrementalEsdf(VoxelGrid grid);
+  /// Builds the field of another grid in full, in this one's memory where it is large enough
+  /// (a flight's window moved: the same size elsewhere).
+  void rebuild(VoxelGrid grid);
 
   /// Makes `occupancy` (one byte a voxel, 0 free, else occupied, in grid order) the grid's,
   /// updating the field where it changes; returns how many voxels changed occupancy.
   std::size_t update(const std::vector<std::uint8_t>& occupancy);
 
   const VoxelGrid& grid() const { return grid_; }
-  /// The current field (a copy).
-  Esdf esdf() const { return Esdf(grid_, values_); }
+  /// The current field (a copy), in `memory` when it is large enough (the values of a field
+  /// no one needs any more, Esdf::release()).
+  Esdf esdf(std::vector<float> memory = {}) const {
+    memory.assign(values_.begin(), values_.end());
+    return Esdf(grid_, std::move(memory));
+  }
   /// Lines of the passes recomputed since construction (a count of work, for tests and
   /// benchmarks); a full build is columns + y-lines + x-lines, twice.
   std::size_t linesRecomputed() const { return lines_; }

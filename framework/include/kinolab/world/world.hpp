@@ -3,6 +3,7 @@
 #include <cstdint>
 #include <memory>
 #include <string>
+#include <utility>
 
 #include "kinolab/world/esdf.hpp"
 #include "kinolab/world/voxel_grid.hpp"
@@ -53,6 +54,10 @@ class World {
   /// is 1-Lipschitz): whether a query's straight line is open to a body of that radius.
   bool segmentFree(const Eigen::Vector3d& a, const Eigen::Vector3d& b, double radius,
                    double tolerance = 0.01) const;
+
+  /// Takes the grid and the field out of a World no one needs any more, so that their memory
+  /// serves the next one (a flight's planning window, made anew every frame).
+  std::pair<VoxelGrid, Esdf> release() && { return {std::move(grid_), std::move(esdf_)}; }
 
  private:
   std::string name_;
