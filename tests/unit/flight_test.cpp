@@ -643,6 +643,7 @@ TEST(VehicleMapTest, TheProbabilisticMapProjectsACamerasNearField) {
   std::size_t seen_by_both = 0;
   double crossings = 0.0;
   double estimates = 0.0;
+  std::size_t contested = 0;
   for (const bool noisy : {false, true}) {
     DepthCamera camera;
     if (!noisy) camera.errors = SensorNoise{};
@@ -695,6 +696,8 @@ TEST(VehicleMapTest, TheProbabilisticMapProjectsACamerasNearField) {
         if (d.norm() < measured) {
           const double crossing = r * r * (d.cwiseAbs().sum()) / (du * dv * ahead * ahead * ahead);
           passes = std::max(1, static_cast<int>(std::round(crossing)) - hit);
+          // Hit by some of the rays that cross it: the vote decides.
+          contested += hit > 0 && hit < std::round(crossing) ? 1 : 0;
         }
         const VehicleMap::Voxel expected = hit == 0 && passes == 0 ? VehicleMap::Voxel::kUnknown
                                            : hit >= passes         ? VehicleMap::Voxel::kOccupied
@@ -769,10 +772,73 @@ TEST(VehicleMapTest, TheProbabilisticMapProjectsACamerasNearField) {
   EXPECT_NEAR(crossings / estimates, 1.0, 0.05) << crossings << " rays, estimated " << estimates;
   EXPECT_GT(compared, 10000u);
   EXPECT_GT(occupied, 100u) << "no obstacle within range: the test shows little";
+  EXPECT_GT(contested, 50u) << "no voxel both hit and passed: the vote is not exercised";
   // Of the voxels wholly in view it sees nearly all the walks see (97 % here): not those
   // whose centre is hidden behind a surface that some rays cross at a corner.
   EXPECT_GT(static_cast<double>(seen_by_both), 0.95 * static_cast<double>(seen_by_walks))
       << seen_by_both << " of " << seen_by_walks;
+}
+
+TEST(VehicleMapTest, AProjectedVoxelIsAHitWhenHalfTheRaysThatCrossItEndInIt) {
+  // A camera frame of an empty room, made by hand: of the rays that cross one voxel 0.7 m
+  // ahead, a share end in it (the ray of the pixel nearest its centre passes on). At half or
+  // more the voxel is occupied, below it free, as the walks' vote would have it.
+  const Box box{Eigen::Vector3d::Zero(), Eigen::Vector3d(4, 4, 3)};
+  const Eigen::Vector3d origin(1.03, 2.02, 1.51);
+  const DepthCamera camera;
+  const std::vector<Eigen::Vector3d> rays = camera.rayDirections();
+  const PixelGrid pixels = *camera.pixelGrid();
+  const Eigen::Vector3d centre(1.75, 2.05, 1.55);  // a voxel's centre on the 0.1 m lattice
+  const auto crossing = [&](const Eigen::Vector3d& w, double* middle) {
+    double enter = 0.0;
+    double leave = INFINITY;
+    for (int axis = 0; axis < 3; ++axis) {
+      const double a = (centre[axis] - 0.05 - origin[axis]) / w[axis];
+      const double b = (centre[axis] + 0.05 - origin[axis]) / w[axis];
+      enter = std::max(enter, std::min(a, b));
+      leave = std::min(leave, std::max(a, b));
+    }
+    *middle = 0.5 * (enter + leave);
+    return enter < leave;
+  };
+  const Eigen::Vector3d d = centre - origin;
+  const std::size_t nearest = static_cast<std::size_t>(
+      std::lround(pixels.row_scale * d.z() / d.x() + pixels.row_offset) * pixels.columns +
+      std::lround(pixels.column_scale * d.y() / d.x() + pixels.column_offset));
+  for (const double share : {0.3, 0.45, 0.55, 0.8}) {
+    SCOPED_TRACE(share);
+    SensorFrame frame;
+    frame.origin = origin;
+    frame.image.grid = pixels;
+    frame.image.ranges.assign(rays.size(), INFINITY);
+    int crossed = 0;
+    int ended = 0;
+    for (std::size_t k = 0; k < rays.size(); ++k) {
+      double middle = 0.0;
+      if (k == nearest || !crossing(rays[k], &middle)) {
+        frame.misses.push_back(origin + 5.0 * rays[k]);
+        continue;
+      }
+      ++crossed;
+      // Every ray that crosses it ends in it until the share is reached.
+      if (ended < share * crossed) {
+        ++ended;
+        frame.hits.push_back(origin + middle * rays[k]);
+        frame.image.ranges[k] = static_cast<float>(middle);
+      } else {
+        frame.misses.push_back(origin + 5.0 * rays[k]);
+      }
+    }
+    ASSERT_GT(crossed, 50);
+    ASSERT_TRUE(std::isinf(frame.image.ranges[nearest]));
+    std::unique_ptr<VehicleMap> map = mapOf("probabilistic", box);
+    map->insert(frame, camera.maxRange());
+    const std::size_t voxel = map->lattice().index(
+        VoxelIndex(((centre - map->lattice().origin()) / 0.1).array().floor().cast<int>()));
+    EXPECT_EQ(map->state(voxel),
+              share >= 0.5 ? VehicleMap::Voxel::kOccupied : VehicleMap::Voxel::kFree)
+        << ended << " of " << crossed << " rays ended in it";
+  }
 }
 
 TEST(VehicleMapTest, WithinItsExactRangeTheProbabilisticMapCountsEveryRayThatCrossesAVoxel) {

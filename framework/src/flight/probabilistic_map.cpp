@@ -120,7 +120,6 @@ class ProbabilisticVehicleMap final : public VehicleMap {
     const bool projective = projection_ && near > 0.0 && !image.ranges.empty() &&
                             std::min(near, max_range) * image.grid.maxOffset() < 0.5 * voxel;
     if (near > 0.0) startBlock(frame, std::min(near, max_range));
-    if (projective) projectNear(frame, std::min(near, max_range));
     for (const Eigen::Vector3d& p : frame.hits) {
       const VoxelIndex v = voxelOf(p);
       if (!grid.inside(v)) continue;
@@ -128,6 +127,7 @@ class ProbabilisticVehicleMap final : public VehicleMap {
       std::uint16_t& hits = counts != nullptr ? counts->hits : entry(grid.index(v)).counts.hits;
       if (hits < UINT16_MAX) ++hits;
     }
+    if (projective) projectNear(frame, std::min(near, max_range));  // (after the hits)
     const auto walk = [&](const Eigen::Vector3d& end, bool hit) {
       const Eigen::Vector3d start = clipToBox(frame.origin, end, box, voxel);
       const double length = (start - frame.origin).norm();
