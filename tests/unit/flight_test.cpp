@@ -193,6 +193,72 @@ TEST(Sensor, CastingFromVoxelCornersAndAlongAxesCrossesBricksToTheSameHit) {
   EXPECT_GT(hits, 5000);
 }
 
+TEST(Sensor, ACamerasRaysStartedWhereBricksWithObstaclesBeginHitTheSame) {
+  // The start distances of a camera's pixels (bricks with an obstacle projected into the
+  // image) are lower bounds of every hit: each used pixel's ray, cast from its start, hits what
+  // the plain traversal from the camera hits; in forests (trunks, the ground, up close) and on
+  // random voxels, for cameras of several fields of view and skips, anywhere in the world and
+  // at its edges.
+  Rng rng(21);
+  const auto forest = test::smallWorld("forest");
+  VoxelGrid random_grid(Box{Eigen::Vector3d::Zero(), Eigen::Vector3d(8, 8, 4)}, 0.25);
+  for (std::size_t i = 0; i < random_grid.size(); ++i) {
+    random_grid.setOccupied(i, rng.uniform01() < 0.02);
+  }
+  const World random("random", 0, random_grid, Esdf(random_grid));
+  int bounded = 0;
+  int skipped = 0;
+  int hits = 0;
+  for (const World* world : {forest.get(), &random}) {
+    const RayCaster caster(*world);
+    const Box& box = world->bounds();
+    for (int pose = 0; pose < 100; ++pose) {
+      DepthCamera camera;
+      camera.width = pose % 3 == 0 ? 64 : 160;
+      camera.height = pose % 3 == 0 ? 48 : 100;
+      camera.pixel_skip = 1 + pose % 3;
+      camera.fov_horizontal = rng.uniform(0.5, 2.5);
+      camera.fov_vertical = rng.uniform(0.4, 1.5);
+      camera.range = rng.uniform(2.0, 12.0);
+      Eigen::Vector3d origin;
+      for (int axis = 0; axis < 3; ++axis) {
+        origin[axis] = rng.uniform(box.min[axis], box.max[axis]);
+      }
+      const double yaw = rng.uniform(-M_PI, M_PI);
+      const PixelGrid pixels = *camera.pixelGrid();
+      std::vector<float> starts;
+      caster.startDistances(origin, yaw, pixels, camera.range, starts);
+      if (starts.empty()) {  // within centimetres of an obstacle: the bound is not made
+        EXPECT_LT(world->clearance(origin), 0.5) << origin.transpose();
+        ++skipped;
+        continue;
+      }
+      ++bounded;
+      const std::vector<Eigen::Vector3d> rays = camera.rayDirections();
+      ASSERT_EQ(starts.size(), rays.size());
+      const double c = std::cos(yaw);
+      const double s = std::sin(yaw);
+      for (std::size_t k = 0; k < rays.size(); ++k) {
+        const Eigen::Vector3d& ray = rays[k];
+        const Eigen::Vector3d direction(c * ray.x() - s * ray.y(), s * ray.x() + c * ray.y(),
+                                        ray.z());
+        const double plain = castRay(world->grid(), origin, direction, camera.range);
+        const double from = caster.cast(origin, direction, camera.range, starts[k] - 1e-4);
+        if (std::isinf(plain)) {
+          ASSERT_TRUE(std::isinf(from)) << pose << " ray " << k;
+          continue;
+        }
+        ++hits;
+        ASSERT_LE(starts[k], plain + 1e-6) << pose << " ray " << k << ": the start is past the hit";
+        ASSERT_NEAR(from, plain, 1e-9) << pose << " ray " << k;
+      }
+    }
+  }
+  EXPECT_GT(bounded, 100);
+  EXPECT_GT(skipped, 0);
+  EXPECT_GT(hits, 100000);
+}
+
 TEST(Sensor, RaysHitASphereAndMatchADenseMarch) {
   // A voxelised sphere (cubes whose centres lie within 1 m of (10, 5, 1.5)).
   VoxelGrid grid(Box{Eigen::Vector3d::Zero(), Eigen::Vector3d(20, 10, 3)}, 0.1);

@@ -187,7 +187,7 @@ bool voxelsOfStartBrick(const CellWalk& bricks, const CellWalk& voxels, CellWalk
 }  // namespace
 
 double RayCaster::cast(const Eigen::Vector3d& origin, const Eigen::Vector3d& direction,
-                       double max_range) const {
+                       double max_range, double from) const {
   // Amanatides and Woo's traversal over the bricks; through a brick that holds an obstacle,
   // the voxels' own traversal from where the ray enters it to where it leaves, on the brick's
   // mask. Both on the same fixed-point ray parameters (CellWalk::coarser()); the distance
@@ -197,9 +197,14 @@ double RayCaster::cast(const Eigen::Vector3d& origin, const Eigen::Vector3d& dir
   if (!(max_range >= 0.0) || !grid.inside(local.array().floor().cast<int>().matrix())) {
     return INFINITY;  // as the voxels' traversal: nothing from outside the grid
   }
-  const CellWalk start(local, direction, grid.dims());
+  from = from > 0.0 ? from : 0.0;
+  if (from > max_range) return INFINITY;
+  // Started farther on, from a point outside the grid: the ray has left it (a box is convex).
+  const Eigen::Vector3d first = local + (from / grid.resolution()) * direction;
+  if (from > 0.0 && !grid.inside(first.array().floor().cast<int>().matrix())) return INFINITY;
+  const CellWalk start(first, direction, grid.dims());
   CellWalk bricks = start.coarser(kBrick, bricks_);
-  const std::int64_t end = CellWalk::fixed(max_range / grid.resolution());
+  const std::int64_t end = CellWalk::fixed((max_range - from) / grid.resolution());
   std::int64_t entered = 0;  // where the ray entered the brick
   while (entered <= end) {
     const std::int64_t leave = bricks.leave();
@@ -232,6 +237,104 @@ double RayCaster::cast(const Eigen::Vector3d& origin, const Eigen::Vector3d& dir
     if (!bricks.inside(bricks_)) return INFINITY;
   }
   return INFINITY;
+}
+
+void RayCaster::startDistances(const Eigen::Vector3d& origin, double yaw, const PixelGrid& pixels,
+                               double max_range, std::vector<float>& starts) const {
+  starts.clear();
+  const VoxelGrid& grid = world_->grid();
+  // Points in view nearer the camera's plane than kNear are within kNear times the image's
+  // corner ray's length of the camera: with no obstacle there, a brick is projected clipped
+  // to ahead >= kNear.
+  constexpr double kNear = 0.05;
+  const double corner_u = std::max(std::abs(pixels.column_offset + 0.5),
+                                   std::abs(pixels.columns - 0.5 - pixels.column_offset)) /
+                          std::abs(pixels.column_scale);
+  const double corner_v =
+      std::max(std::abs(pixels.row_offset + 0.5), std::abs(pixels.rows - 0.5 - pixels.row_offset)) /
+      std::abs(pixels.row_scale);
+  const double near = kNear * std::sqrt(1.0 + corner_u * corner_u + corner_v * corner_v);
+  if (!(world_->clearance(origin) > near + grid.resolution())) return;
+  starts.assign(static_cast<std::size_t>(pixels.columns) * pixels.rows, INFINITY);
+  const double c = std::cos(yaw);
+  const double s = std::sin(yaw);
+  const double side = kBrick * grid.resolution();
+  // The bricks within max_range of the camera.
+  const Eigen::Vector3d low = (origin.array() - max_range - grid.origin().array()) / side;
+  const Eigen::Vector3d high = (origin.array() + max_range - grid.origin().array()) / side;
+  Eigen::Vector3i first;
+  Eigen::Vector3i last;
+  for (int axis = 0; axis < 3; ++axis) {
+    first[axis] = std::max(0, static_cast<int>(std::floor(low[axis])));
+    last[axis] = std::min(bricks_[axis] - 1, static_cast<int>(std::floor(high[axis])));
+  }
+  for (int bx = first.x(); bx <= last.x(); ++bx) {
+    for (int by = first.y(); by <= last.y(); ++by) {
+      const std::size_t row = (static_cast<std::size_t>(bx) * bricks_.y() + by) * bricks_.z();
+      for (int bz = first.z(); bz <= last.z(); ++bz) {
+        if (occupied_[row + bz] == 0) continue;
+        const Eigen::Vector3d lo = grid.origin() + side * Eigen::Vector3d(bx, by, bz);
+        const Eigen::Vector3d hi = lo + Eigen::Vector3d::Constant(side);
+        const double nearest = (origin.cwiseMax(lo).cwiseMin(hi) - origin).norm();
+        if (nearest > max_range) continue;
+        // The brick's corners in the camera's frame (ahead, left, up), then its part ahead of
+        // kNear: the corners there and where its edges cross ahead = kNear.
+        std::array<Eigen::Vector3d, 8> corners;
+        for (int k = 0; k < 8; ++k) {
+          const Eigen::Vector3d d =
+              Eigen::Vector3d(k & 1 ? hi.x() : lo.x(), k & 2 ? hi.y() : lo.y(),
+                              k & 4 ? hi.z() : lo.z()) -
+              origin;
+          corners[k] = Eigen::Vector3d(c * d.x() + s * d.y(), -s * d.x() + c * d.y(), d.z());
+        }
+        double u_low = INFINITY;
+        double u_high = -INFINITY;
+        double v_low = INFINITY;
+        double v_high = -INFINITY;
+        const auto add = [&](const Eigen::Vector3d& q) {
+          const double u = q.y() / q.x();
+          const double v = q.z() / q.x();
+          u_low = std::min(u_low, u);
+          u_high = std::max(u_high, u);
+          v_low = std::min(v_low, v);
+          v_high = std::max(v_high, v);
+        };
+        for (int k = 0; k < 8; ++k) {
+          if (corners[k].x() >= kNear) add(corners[k]);
+          for (int bit = 1; bit < 8; bit <<= 1) {  // the edges from this corner, once each
+            if ((k & bit) != 0) continue;
+            const Eigen::Vector3d& p = corners[k];
+            const Eigen::Vector3d& q = corners[k | bit];
+            if ((p.x() < kNear) != (q.x() < kNear)) {
+              add(p + (kNear - p.x()) / (q.x() - p.x()) * (q - p));
+            }
+          }
+        }
+        if (!(u_low <= u_high)) continue;  // wholly behind
+        // The used pixels whose rays' (u, v) lie in that box (scales may be negative), with a
+        // hundredth of a pixel to spare for rounding.
+        const auto range = [](double a, double b, double scale, double offset, int count, int* from,
+                              int* to) {
+          const double p = scale * a + offset;
+          const double q = scale * b + offset;
+          *from = std::max(0, static_cast<int>(std::ceil(std::min(p, q) - 0.01)));
+          *to = std::min(count - 1, static_cast<int>(std::floor(std::max(p, q) + 0.01)));
+        };
+        int column_from = 0;
+        int column_to = 0;
+        int row_from = 0;
+        int row_to = 0;
+        range(u_low, u_high, pixels.column_scale, pixels.column_offset, pixels.columns,
+              &column_from, &column_to);
+        range(v_low, v_high, pixels.row_scale, pixels.row_offset, pixels.rows, &row_from, &row_to);
+        const auto bound = static_cast<float>(nearest);
+        for (int r = row_from; r <= row_to; ++r) {
+          float* line = starts.data() + static_cast<std::size_t>(r) * pixels.columns;
+          for (int k = column_from; k <= column_to; ++k) line[k] = std::min(line[k], bound);
+        }
+      }
+    }
+  }
 }
 
 double RayCaster::entry(const Eigen::Vector3d& local, const Eigen::Vector3d& direction,
@@ -275,11 +378,18 @@ SensorFrame senseFrame(const RayCaster& truth, const Sensor& sensor,
     frame.image.ranges.assign(rays.size(), std::numeric_limits<float>::quiet_NaN());
   }
   float* ranges = grid ? frame.image.ranges.data() : nullptr;
+  // A camera's rays start where the bricks with an obstacle that could stop them begin (a
+  // thousandth of a voxel before, for the bound's rounding): the empty space before is not
+  // walked.
+  std::vector<float> starts;
+  if (grid) truth.startDistances(origin, yaw, *grid, range, starts);
+  const double spare = 1e-3 * voxel;
   for (std::size_t k = 0; k < rays.size(); ++k) {
     if (errors.dropout > 0.0 && noise.uniform01() < errors.dropout) continue;
     const Eigen::Vector3d& ray = rays[k];
     const Eigen::Vector3d direction(c * ray.x() - s * ray.y(), s * ray.x() + c * ray.y(), ray.z());
-    const double distance = truth.cast(origin, direction, range);
+    const double from = starts.empty() ? 0.0 : static_cast<double>(starts[k]) - spare;
+    const double distance = truth.cast(origin, direction, range, from);
     double measured = INFINITY;
     if (distance <= range) {
       const double sigma = errors.sigma(distance);

@@ -207,7 +207,22 @@ class RayCaster {
   /// entered at edges and corners, except where the ray passes within 2^-24 of a voxel of an
   /// edge or a corner, whose faces the two traversals' roundings may cross in another order.
   double cast(const Eigen::Vector3d& origin, const Eigen::Vector3d& direction,
-              double max_range) const;
+              double max_range) const {
+    return cast(origin, direction, max_range, 0.0);
+  }
+  /// The same, the traversal started `from` metres along the ray: the same answer when no
+  /// occupied voxel's cube is nearer than `from` along it (the distance is still measured
+  /// from `origin`).
+  double cast(const Eigen::Vector3d& origin, const Eigen::Vector3d& direction, double max_range,
+              double from) const;
+  /// For a camera (`pixels`, heading `yaw` about z) at `origin`: per used pixel a distance
+  /// along its ray before which it meets no occupied voxel, so that cast() may start there.
+  /// Every brick with an obstacle within `max_range` is projected into the image, its nearest
+  /// point's distance written into the pixels its projection covers (a lower bound of where a
+  /// ray through it enters it). `starts` is left empty when the camera is within a few
+  /// centimetres of an obstacle (the bound is not made there).
+  void startDistances(const Eigen::Vector3d& origin, double yaw, const PixelGrid& pixels,
+                      double max_range, std::vector<float>& starts) const;
   const World& world() const { return *world_; }
 
  private:
