@@ -24,7 +24,7 @@ struct ProbabilisticModel {
   double clamp_min = 0.12;
   double clamp_max = 0.97;
   double threshold = 0.5;
-  double threshold_free = 0.3;
+  double threshold_free = -1.0;
   double exact_range = 3.0;
   bool projection = true;
 
@@ -37,22 +37,24 @@ struct ProbabilisticModel {
     f.real("clamp_min", clamp_min, 0.001, 0.499, "a voxel's probability is kept at least this");
     f.real("clamp_max", clamp_max, 0.501, 0.999, "and at most this");
     f.real("threshold", threshold, 0.01, 0.99, "a voxel turns occupied above this probability");
-    f.real("threshold_free", threshold_free, 0.01, 0.99,
-           "an occupied voxel turns free again only below this probability (at most threshold; "
-           "equal: no hysteresis): a surface the noisy sensor hits in some frames and passes "
-           "in others stays an obstacle instead of flickering, and the window's ESDF is "
-           "updated only where the map really changed");
+    f.real("threshold_free", threshold_free, -1.0, 0.99,
+           "an occupied voxel turns free again only below this probability (at most threshold, "
+           "above clamp_min; equal to threshold: no hysteresis; negative: 0.3, or threshold when "
+           "that is lower): a surface the noisy sensor hits in some frames and passes in others "
+           "stays an obstacle instead of flickering, and the window's ESDF is updated only "
+           "where the map really changed");
     f.real("exact_range", exact_range, 0.0, 1000.0,
            "within this distance of the sensor every voxel a ray crosses is counted; beyond it a "
            "ray's walk stops at the first voxel an earlier ray of the frame walked (fast, but it "
            "leaves voxels between converging rays unseen); keep it where the rays are dense: "
            "where they are sparse, a ray grazing an obstacle's voxel outvotes its hits, m");
     f.boolean("projection", projection,
-              "a camera's frame within exact_range by projection (each voxel by the pixel "
-              "nearest its centre and the pixels its cube covers, as nvblox and Voxblox integrate "
-              "depth images: a visit per voxel in view, not per ray crossing it), where the "
-              "pixels are dense enough that the nearest one's ray crosses the voxel; false: "
-              "every ray walked, as a lidar's always is");
+              "a camera's frame within exact_range by projection, as nvblox and Voxblox "
+              "integrate depth images (a voxel seen free by the pixel nearest its centre; one a "
+              "hit ended in voted on with the rays of the pixels its cube covers): a visit per "
+              "voxel in view, not per ray crossing it; used where the pixels are dense enough "
+              "that the nearest one's ray crosses the voxel; false: every ray walked, as a "
+              "lidar's always is");
   }
 };
 
@@ -81,7 +83,8 @@ class ProbabilisticVehicleMap final : public VehicleMap {
         low_(static_cast<float>(logit(model.clamp_min))),
         high_(static_cast<float>(logit(model.clamp_max))),
         threshold_(static_cast<float>(logit(model.threshold))),
-        threshold_free_(static_cast<float>(logit(model.threshold_free))),
+        threshold_free_(static_cast<float>(logit(
+            model.threshold_free < 0.0 ? std::min(0.3, model.threshold) : model.threshold_free))),
         exact_range_(model.exact_range),
         projection_(model.projection) {}
 
@@ -105,8 +108,8 @@ class ProbabilisticVehicleMap final : public VehicleMap {
   /// the origin counting into a dense block of the voxels around it (a ray's voxels in
   /// sequence; most of a frame's voxel visits are there, and the block's counters are
   /// neighbours in memory where the frame's touched list is not). A camera's frame is
-  /// counted there by projection instead (projectNear(): the same vote from the pixels a voxel
-  /// covers), without walking its rays.
+  /// counted there by projection instead (projectNear(), exactPasses()), without walking its
+  /// rays.
   void doInsert(const SensorFrame& frame, double max_range) override {
     const VoxelGrid& grid = lattice();
     const double voxel = grid.resolution();
@@ -127,7 +130,10 @@ class ProbabilisticVehicleMap final : public VehicleMap {
       std::uint16_t& hits = counts != nullptr ? counts->hits : entry(grid.index(v)).counts.hits;
       if (hits < UINT16_MAX) ++hits;
     }
-    if (projective) projectNear(frame, std::min(near, max_range));  // (after the hits)
+    // Projected: every voxel that reaches within the near range (its centre within half a
+    // voxel's diagonal more), so that the far walks' shortcut leaves no gap at its edge.
+    const double reach = std::min(near, max_range) + 0.5 * std::sqrt(3.0) * voxel;
+    if (projective) projectNear(frame, reach);
     const auto walk = [&](const Eigen::Vector3d& end, bool hit) {
       const Eigen::Vector3d start = clipToBox(frame.origin, end, box, voxel);
       const double length = (start - frame.origin).norm();
@@ -148,7 +154,7 @@ class ProbabilisticVehicleMap final : public VehicleMap {
       const Eigen::Vector3d d = p - frame.origin;
       walk(frame.origin + std::min(1.0, max_range / d.norm()) * d, false);
     }
-    if (near > 0.0) mergeBlock();
+    if (near > 0.0) mergeBlock(projective ? &frame : nullptr, reach);
     // The far walks' voxels lie all over the lattice: each update waits on three loads that
     // miss the cache (its log-odds, state and slot) unless they were asked for ahead.
     constexpr std::size_t kAhead = 16;
@@ -266,17 +272,15 @@ class ProbabilisticVehicleMap final : public VehicleMap {
     if (count_end) pass();
   }
 
-  /// The near part of a camera's frame by projection. A voxel of the block whose centre lies
-  /// within `near` of the origin, in view, and in front of the range its nearest pixel
-  /// measured is crossed by the frame's rays: by as many as the pixels its cube covers
-  /// (a^2 (|dx| + |dy| + |dz|) / ahead^3 over a pixel's du dv on the image plane, for a cube
-  /// of side a at offset d from the camera, ahead along its axis); those that did not end in
-  /// it passed it (at least one), so the walks' vote (hits >= passes) is a hit when at least
-  /// half of them ended in it. The nearest pixel's ray passes within half a voxel of the
-  /// centre (doInsert() checks that the pixels are that dense), so through the voxel's cube:
-  /// an obstacle's voxel would have stopped it nearer than its centre, and without noise no
-  /// obstacle's voxel is ever passed. A visit per voxel instead of per ray and voxel.
-  void projectNear(const SensorFrame& frame, double near) {
+  /// The near part of a camera's frame by projection, for the voxels of the block that no hit
+  /// of the frame ended in and whose centre lies within `reach` of the origin (those with a hit
+  /// are counted exactly, exactPasses()). Such a voxel in view, in front of the range its
+  /// nearest pixel measured, was passed: it is seen free. The nearest pixel's ray passes
+  /// within half a voxel of the centre (doInsert() checks that the pixels are that dense), so
+  /// through the voxel's cube: an obstacle's voxel would have stopped it nearer than its
+  /// centre, so without noise no obstacle's voxel is passed. A visit per voxel instead of one
+  /// per ray and voxel.
+  void projectNear(const SensorFrame& frame, double reach) {
     const SensorFrame::Image& image = frame.image;
     const PixelGrid& pixels = image.grid;
     const double r = lattice().resolution();
@@ -285,9 +289,7 @@ class ProbabilisticVehicleMap final : public VehicleMap {
     const Eigen::Vector3d first = lattice().origin() +
                                   (block_first_.cast<double>().array() + 0.5).matrix() * r -
                                   frame.origin;
-    const double near2 = near * near;
-    // A cube's covered pixels over |dx| + |dy| + |dz| times ahead^-3.
-    const double per_pixel = r * r * std::abs(pixels.column_scale * pixels.row_scale);
+    const double reach2 = reach * reach;
     const float* ranges = image.ranges.data();
     Counts* counts = block_.data();
     const std::size_t nz = static_cast<std::size_t>(block_dims_.z());
@@ -301,23 +303,93 @@ class ProbabilisticVehicleMap final : public VehicleMap {
                                          pixels.column_offset + 0.5);
         if (!(column >= 0.0 && column < pixels.columns)) continue;
         const double across2 = dx * dx + dy * dy;
-        const double across = std::abs(dx) + std::abs(dy);
-        const double scale = per_pixel / (ahead * ahead * ahead);
         const float* column_ranges = ranges + static_cast<std::ptrdiff_t>(column);
         for (std::size_t z = 0; z < nz; ++z) {
           const double dz = first.z() + static_cast<double>(z) * r;
           const double row = std::floor(pixels.row_scale * dz / ahead + pixels.row_offset + 0.5);
           const double distance2 = across2 + dz * dz;
-          if (!(row >= 0.0 && row < pixels.rows) || distance2 > near2) continue;
+          if (!(row >= 0.0 && row < pixels.rows) || distance2 > reach2) continue;
           const double measured = column_ranges[static_cast<std::ptrdiff_t>(row) * pixels.columns];
-          if (!(distance2 < measured * measured)) continue;  // (NaN: lost, no pass)
-          const double crossing = std::min(scale * (across + std::abs(dz)), 65535.0);
-          Counts& voxel = counts[z];
-          voxel.passes = static_cast<std::uint16_t>(
-              std::max(1.0, std::round(crossing) - static_cast<double>(voxel.hits)));
+          // (NaN: lost, no pass)
+          if (counts[z].hits == 0 && distance2 < measured * measured) counts[z].passes = 1;
         }
       }
     }
+  }
+
+  /// The rays of a camera's frame that passed through the cube of side `r` about `centre`
+  /// (entered it and ended beyond it), counted pixel by pixel over the pixels its corners
+  /// project to: the walks' count for that voxel, without walking.
+  std::uint16_t exactPasses(const SensorFrame& frame, const Eigen::Vector3d& centre) const {
+    const SensorFrame::Image& image = frame.image;
+    const PixelGrid& pixels = image.grid;
+    const double half = 0.5 * lattice().resolution();
+    const double c = std::cos(image.yaw);
+    const double s = std::sin(image.yaw);
+    const Eigen::Vector3d low = centre.array() - half - frame.origin.array();
+    const Eigen::Vector3d high = centre.array() + half - frame.origin.array();
+    // The corners' pixels (the whole image when the cube reaches behind the camera).
+    double column_low = 0.0;
+    double column_high = pixels.columns - 1.0;
+    double row_low = 0.0;
+    double row_high = pixels.rows - 1.0;
+    bool ahead = true;
+    double u_low = INFINITY;
+    double u_high = -INFINITY;
+    double v_low = INFINITY;
+    double v_high = -INFINITY;
+    for (int k = 0; k < 8; ++k) {
+      const Eigen::Vector3d d(k & 1 ? high.x() : low.x(), k & 2 ? high.y() : low.y(),
+                              k & 4 ? high.z() : low.z());
+      const double forward = c * d.x() + s * d.y();
+      if (!(forward > 1e-9)) {
+        ahead = false;
+        break;
+      }
+      const double u = (c * d.y() - s * d.x()) / forward;
+      const double v = d.z() / forward;
+      u_low = std::min(u_low, u);
+      u_high = std::max(u_high, u);
+      v_low = std::min(v_low, v);
+      v_high = std::max(v_high, v);
+    }
+    if (ahead) {
+      const auto span = [](double a, double b, double scale, double offset, double* from,
+                           double* to) {
+        *from = std::max(*from, std::ceil(std::min(scale * a, scale * b) + offset - 0.01));
+        *to = std::min(*to, std::floor(std::max(scale * a, scale * b) + offset + 0.01));
+      };
+      span(u_low, u_high, pixels.column_scale, pixels.column_offset, &column_low, &column_high);
+      span(v_low, v_high, pixels.row_scale, pixels.row_offset, &row_low, &row_high);
+    }
+    int passes = 0;
+    for (int row = static_cast<int>(row_low); row <= static_cast<int>(row_high); ++row) {
+      const double v = (row - pixels.row_offset) / pixels.row_scale;
+      for (int column = static_cast<int>(column_low); column <= static_cast<int>(column_high);
+           ++column) {
+        const float measured =
+            image.ranges[static_cast<std::size_t>(row) * pixels.columns + column];
+        if (std::isnan(measured)) continue;
+        const double u = (column - pixels.column_offset) / pixels.column_scale;
+        // The pixel's ray, (1, u, v) turned by the heading, over the cube's slabs.
+        const double length = std::sqrt(1.0 + u * u + v * v);
+        const Eigen::Vector3d w(c - s * u, s + c * u, v);
+        double enter = 0.0;
+        double leave = INFINITY;
+        for (int axis = 0; axis < 3; ++axis) {
+          if (w[axis] == 0.0) {
+            if (low[axis] > 0.0 || high[axis] < 0.0) leave = -1.0;
+            continue;
+          }
+          const double a = low[axis] / w[axis];
+          const double b = high[axis] / w[axis];
+          enter = std::max(enter, std::min(a, b));
+          leave = std::min(leave, std::max(a, b));
+        }
+        if (enter < leave && measured > leave * length) ++passes;
+      }
+    }
+    return static_cast<std::uint16_t>(std::min(passes, UINT16_MAX + 0));
   }
 
   /// The far part of a walk, from `start` along the unit `inwards` to the origin `length`
@@ -341,23 +413,37 @@ class ProbabilisticVehicleMap final : public VehicleMap {
   }
 
   /// Applies the block's counts (with a voxel's far-walk counts when it has both) and clears
-  /// them.
-  void mergeBlock() {
+  /// them. With a camera's frame `projected` (projectNear()), a voxel there that a hit ended
+  /// in, with its centre within `reach` of the origin, is counted exactly instead
+  /// (exactPasses(): every ray that crossed it, the far walks' among them).
+  void mergeBlock(const SensorFrame* projected, double reach) {
     const VoxelGrid& grid = lattice();
     std::size_t cell = 0;
     for (int x = 0; x < block_dims_.x(); ++x) {
       for (int y = 0; y < block_dims_.y(); ++y) {
         for (int z = 0; z < block_dims_.z(); ++z, ++cell) {
-          const Counts counts = block_[cell];
+          Counts counts = block_[cell];
           if (counts.hits == 0 && counts.passes == 0) continue;
           const VoxelIndex v = block_first_ + VoxelIndex(x, y, z);
           if (!grid.inside(v)) continue;
           const std::size_t index = grid.index(v);
+          bool exact = false;
+          if (projected != nullptr && counts.hits > 0) {
+            const Eigen::Vector3d centre = grid.center(v);
+            if ((centre - projected->origin).squaredNorm() <= reach * reach) {
+              counts.passes = exactPasses(*projected, centre);
+              exact = true;
+            }
+          }
           if (slot_[index] == 0) {
             update(index, counts);
             continue;
           }
           Counts& far = touched_[slot_[index] - 1].counts;
+          if (exact) {
+            far = counts;
+            continue;
+          }
           far.hits = static_cast<std::uint16_t>(std::min(far.hits + counts.hits, UINT16_MAX + 0));
           far.passes =
               static_cast<std::uint16_t>(std::min(far.passes + counts.passes, UINT16_MAX + 0));
@@ -402,11 +488,16 @@ void registerBuiltins() {
       "Fast-Planner and FIESTA); OctoMap's probabilities by default",
       declareFields<ProbabilisticModel>(), [](const ParameterSet& p) {
         const auto model = readFields<ProbabilisticModel>(p);
-        if (model.threshold_free > model.threshold) {
+        if (model.threshold_free >= 0.0 && model.threshold_free > model.threshold) {
           throw ConfigError("probabilistic: threshold_free " + formatNumber(model.threshold_free) +
                             " is above threshold " + formatNumber(model.threshold) +
                             ": an occupied voxel turns free below threshold_free, at most "
                             "threshold");
+        }
+        if (model.threshold_free >= 0.0 && model.threshold_free <= model.clamp_min) {
+          throw ConfigError("probabilistic: threshold_free " + formatNumber(model.threshold_free) +
+                            " is at most clamp_min " + formatNumber(model.clamp_min) +
+                            ": an occupied voxel would never turn free; set it above clamp_min");
         }
         return std::make_unique<ProbabilisticVehicleMap>(model);
       });

@@ -158,7 +158,7 @@ std::shared_ptr<const World> VehicleMap::window(const Eigen::Vector3d& center) {
     box.max = box.max.cwiseMin(domain_limit.max).cwiseMax(box.min);
     return box;
   };
-  const bool kept = window_field_ &&
+  const bool kept = window_field_ && window_world_ &&
                     contains(window_world_->bounds(),
                              domainBox(center, Eigen::Vector3d(half_side, half_side, 0.0))) &&
                     std::abs(center.z() - window_middle_.z()) <= 0.5 * half_height;
@@ -183,10 +183,10 @@ std::shared_ptr<const World> VehicleMap::window(const Eigen::Vector3d& center) {
   std::vector<float> values;
   if (window_world_ && window_world_.use_count() == 1) {
     auto [last_grid, last_field] = std::move(*window_world_).release();
+    window_world_.reset();  // spent (a throw below leaves none: the next call builds anew)
     grid = std::move(last_grid);
     values = std::move(last_field).release();
   }
-  window_world_.reset();
   grid = window_field_->grid();
   window_world_ = std::make_shared<World>("known_window", 0, std::move(grid),
                                           window_field_->esdf(std::move(values)),
