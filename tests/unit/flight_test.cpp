@@ -209,6 +209,8 @@ TEST(Sensor, ACamerasRaysStartedWhereBricksWithObstaclesBeginHitTheSame) {
   int bounded = 0;
   int skipped = 0;
   int hits = 0;
+  double started = 0.0;  // the hit rays' start distances, summed
+  double struck = 0.0;   // and their hits'
   for (const World* world : {forest.get(), &random}) {
     const RayCaster caster(*world);
     const Box& box = world->bounds();
@@ -251,12 +253,16 @@ TEST(Sensor, ACamerasRaysStartedWhereBricksWithObstaclesBeginHitTheSame) {
         ++hits;
         ASSERT_LE(starts[k], plain + 1e-6) << pose << " ray " << k << ": the start is past the hit";
         ASSERT_NEAR(from, plain, 1e-9) << pose << " ray " << k;
+        started += starts[k];
+        struck += plain;
       }
     }
   }
   EXPECT_GT(bounded, 100);
   EXPECT_GT(skipped, 0);
   EXPECT_GT(hits, 100000);
+  // And they save walking: on average a hit ray starts most of the way to its hit.
+  EXPECT_GT(started, 0.5 * struck) << started / hits << " m against " << struck / hits;
 }
 
 TEST(Sensor, RaysHitASphereAndMatchADenseMarch) {
@@ -629,7 +635,16 @@ TEST(VehicleMapTest, TheProbabilisticMapVotesOnceAFrameAndClampsItsBelief) {
     mapOf("probabilistic", box, {}, {{"threshold_free", "0.1", "test"}});
     ADD_FAILURE() << "accepted threshold_free below clamp_min";
   } catch (const ConfigError& error) {
-    EXPECT_NE(std::string(error.what()).find("threshold_free 0.1 is at most clamp_min 0.12"),
+    EXPECT_NE(std::string(error.what()).find("threshold_free 0.1 is below clamp_min 0.12"),
+              std::string::npos)
+        << error.what();
+  }
+  // So is a threshold below clamp_min that the default threshold_free follows.
+  try {
+    mapOf("probabilistic", box, {}, {{"threshold", "0.1", "test"}});
+    ADD_FAILURE() << "accepted a threshold below clamp_min";
+  } catch (const ConfigError& error) {
+    EXPECT_NE(std::string(error.what()).find("threshold_free 0.1 (threshold 0.1) is below"),
               std::string::npos)
         << error.what();
   }
@@ -783,8 +798,10 @@ TEST(VehicleMapTest, TheProbabilisticMapProjectsACamerasNearField) {
         const bool occupied_walked = walked->state(i) == VehicleMap::Voxel::kOccupied;
         occupied_either += occupied_here || occupied_walked ? 1 : 0;
         occupied_differ += occupied_here != occupied_walked ? 1 : 0;
-        if (!wholly_near) continue;
         const int hit = hits.count(i) ? hits[i] : 0;
+        // Beyond, a voxel without hits may also be passed by a far walk; one with hits is voted
+        // on with every ray through it there too (the far walks' counts replaced).
+        if (!wholly_near && (hit == 0 || d.norm() > exact + 0.5 * std::sqrt(3.0) * r)) continue;
         int passes = 0;
         if (hit > 0) {
           // Every ray of the frame through the cube that ended beyond it.
@@ -799,7 +816,10 @@ TEST(VehicleMapTest, TheProbabilisticMapProjectsACamerasNearField) {
               enter = std::max(enter, std::min(a, b));
               leave = std::min(leave, std::max(a, b));
             }
-            passes += enter < leave && measured > leave ? 1 : 0;
+            passes +=
+                enter < leave && (std::isinf(measured) ? enter < camera.range : measured > leave)
+                    ? 1
+                    : 0;
           }
           contested += passes > 0 ? 1 : 0;
         } else {
@@ -851,9 +871,9 @@ TEST(VehicleMapTest, TheProbabilisticMapProjectsACamerasNearField) {
 }
 
 TEST(VehicleMapTest, AProjectedVoxelIsAHitWhenHalfTheRaysThatCrossItEndInIt) {
-  // A camera frame of an empty room, made by hand: of the rays that cross one voxel 0.7 m
-  // ahead, a share end in it (the ray of the pixel nearest its centre passes on). At half or
-  // more the voxel is occupied, below it free, as the walks' vote would have it.
+  // A camera frame of an empty room, made by hand: of the N rays that cross one voxel 0.7 m
+  // ahead, e end in it and the rest pass on. It is occupied exactly when e >= N - e, the walks'
+  // vote: checked on both sides of the boundary, so a count off by one is caught.
   const Box box{Eigen::Vector3d::Zero(), Eigen::Vector3d(4, 4, 3)};
   const Eigen::Vector3d origin(1.03, 2.02, 1.51);
   const DepthCamera camera;
@@ -872,27 +892,23 @@ TEST(VehicleMapTest, AProjectedVoxelIsAHitWhenHalfTheRaysThatCrossItEndInIt) {
     *middle = 0.5 * (enter + leave);
     return enter < leave;
   };
-  const Eigen::Vector3d d = centre - origin;
-  const std::size_t nearest = static_cast<std::size_t>(
-      std::lround(pixels.row_scale * d.z() / d.x() + pixels.row_offset) * pixels.columns +
-      std::lround(pixels.column_scale * d.y() / d.x() + pixels.column_offset));
-  for (const double share : {0.3, 0.45, 0.55, 0.8}) {
-    SCOPED_TRACE(share);
+  int n = 0;
+  for (const Eigen::Vector3d& ray : rays) {
+    double middle = 0.0;
+    n += crossing(ray, &middle) ? 1 : 0;
+  }
+  ASSERT_GT(n, 50);
+  const int half = (n + 1) / 2;  // the least e with e >= n - e
+  for (const int ends : {n / 4, half - 1, half, 3 * n / 4}) {
+    SCOPED_TRACE(ends);
     SensorFrame frame;
     frame.origin = origin;
     frame.image.grid = pixels;
     frame.image.ranges.assign(rays.size(), INFINITY);
-    int crossed = 0;
     int ended = 0;
     for (std::size_t k = 0; k < rays.size(); ++k) {
       double middle = 0.0;
-      if (k == nearest || !crossing(rays[k], &middle)) {
-        frame.misses.push_back(origin + 5.0 * rays[k]);
-        continue;
-      }
-      ++crossed;
-      // Every ray that crosses it ends in it until the share is reached.
-      if (ended < share * crossed) {
+      if (crossing(rays[k], &middle) && ended < ends) {
         ++ended;
         frame.hits.push_back(origin + middle * rays[k]);
         frame.image.ranges[k] = static_cast<float>(middle);
@@ -900,15 +916,13 @@ TEST(VehicleMapTest, AProjectedVoxelIsAHitWhenHalfTheRaysThatCrossItEndInIt) {
         frame.misses.push_back(origin + 5.0 * rays[k]);
       }
     }
-    ASSERT_GT(crossed, 50);
-    ASSERT_TRUE(std::isinf(frame.image.ranges[nearest]));
     std::unique_ptr<VehicleMap> map = mapOf("probabilistic", box);
     map->insert(frame, camera.maxRange());
     const std::size_t voxel = map->lattice().index(
         VoxelIndex(((centre - map->lattice().origin()) / 0.1).array().floor().cast<int>()));
     EXPECT_EQ(map->state(voxel),
-              share >= 0.5 ? VehicleMap::Voxel::kOccupied : VehicleMap::Voxel::kFree)
-        << ended << " of " << crossed << " rays ended in it";
+              2 * ends >= n ? VehicleMap::Voxel::kOccupied : VehicleMap::Voxel::kFree)
+        << ends << " of " << n << " rays ended in it";
   }
 }
 

@@ -37,12 +37,13 @@ struct ProbabilisticModel {
     f.real("clamp_min", clamp_min, 0.001, 0.499, "a voxel's probability is kept at least this");
     f.real("clamp_max", clamp_max, 0.501, 0.999, "and at most this");
     f.real("threshold", threshold, 0.01, 0.99, "a voxel turns occupied above this probability");
-    f.real("threshold_free", threshold_free, -1.0, 0.99,
-           "an occupied voxel turns free again only below this probability (at most threshold, "
-           "above clamp_min; equal to threshold: no hysteresis; negative: 0.3, or threshold when "
-           "that is lower): a surface the noisy sensor hits in some frames and passes in others "
-           "stays an obstacle instead of flickering, and the window's ESDF is updated only "
-           "where the map really changed");
+    f.real(
+        "threshold_free", threshold_free, -1.0, 0.99,
+        "an occupied voxel turns free again only below this probability (at most threshold, "
+        "at least clamp_min; equal to threshold: no hysteresis; negative: 0.3, or threshold "
+        "when that is lower): a surface the noisy sensor hits in some frames and passes in others "
+        "stays an obstacle instead of flickering, and the window's ESDF is updated only "
+        "where the map really changed");
     f.real("exact_range", exact_range, 0.0, 1000.0,
            "within this distance of the sensor every voxel a ray crosses is counted; beyond it a "
            "ray's walk stops at the first voxel an earlier ray of the frame walked (fast, but it "
@@ -120,8 +121,11 @@ class ProbabilisticVehicleMap final : public VehicleMap {
     // A camera's image dense enough that every voxel within the near range holds the ray of
     // the pixel nearest its centre: the near part by projection (projectNear()).
     const SensorFrame::Image& image = frame.image;
+    // Projected: every voxel that reaches within the near range (its centre within half a
+    // voxel's diagonal more), so that the far walks' shortcut leaves no gap at its edge.
+    const double reach = std::min(near, max_range) + 0.5 * std::sqrt(3.0) * voxel;
     const bool projective = projection_ && near > 0.0 && !image.ranges.empty() &&
-                            std::min(near, max_range) * image.grid.maxOffset() < 0.5 * voxel;
+                            reach * image.grid.maxOffset() < 0.5 * voxel;
     if (near > 0.0) startBlock(frame, std::min(near, max_range));
     for (const Eigen::Vector3d& p : frame.hits) {
       const VoxelIndex v = voxelOf(p);
@@ -130,9 +134,6 @@ class ProbabilisticVehicleMap final : public VehicleMap {
       std::uint16_t& hits = counts != nullptr ? counts->hits : entry(grid.index(v)).counts.hits;
       if (hits < UINT16_MAX) ++hits;
     }
-    // Projected: every voxel that reaches within the near range (its centre within half a
-    // voxel's diagonal more), so that the far walks' shortcut leaves no gap at its edge.
-    const double reach = std::min(near, max_range) + 0.5 * std::sqrt(3.0) * voxel;
     if (projective) projectNear(frame, reach);
     const auto walk = [&](const Eigen::Vector3d& end, bool hit) {
       const Eigen::Vector3d start = clipToBox(frame.origin, end, box, voxel);
@@ -154,7 +155,7 @@ class ProbabilisticVehicleMap final : public VehicleMap {
       const Eigen::Vector3d d = p - frame.origin;
       walk(frame.origin + std::min(1.0, max_range / d.norm()) * d, false);
     }
-    if (near > 0.0) mergeBlock(projective ? &frame : nullptr, reach);
+    if (near > 0.0) mergeBlock(projective ? &frame : nullptr, reach, max_range);
     // The far walks' voxels lie all over the lattice: each update waits on three loads that
     // miss the cache (its log-odds, state and slot) unless they were asked for ahead.
     constexpr std::size_t kAhead = 16;
@@ -318,9 +319,11 @@ class ProbabilisticVehicleMap final : public VehicleMap {
   }
 
   /// The rays of a camera's frame that passed through the cube of side `r` about `centre`
-  /// (entered it and ended beyond it), counted pixel by pixel over the pixels its corners
-  /// project to: the walks' count for that voxel, without walking.
-  std::uint16_t exactPasses(const SensorFrame& frame, const Eigen::Vector3d& centre) const {
+  /// (entered it and ended beyond it; one that struck nothing, entered it within `max_range`),
+  /// counted pixel by pixel over the pixels its corners project to: the walks' count for that
+  /// voxel, without walking.
+  std::uint16_t exactPasses(const SensorFrame& frame, const Eigen::Vector3d& centre,
+                            double max_range) const {
     const SensorFrame::Image& image = frame.image;
     const PixelGrid& pixels = image.grid;
     const double half = 0.5 * lattice().resolution();
@@ -386,7 +389,9 @@ class ProbabilisticVehicleMap final : public VehicleMap {
           enter = std::max(enter, std::min(a, b));
           leave = std::min(leave, std::max(a, b));
         }
-        if (enter < leave && measured > leave * length) ++passes;
+        const bool through =
+            std::isinf(measured) ? enter * length < max_range : measured > leave * length;
+        if (enter < leave && through) ++passes;
       }
     }
     return static_cast<std::uint16_t>(std::min(passes, UINT16_MAX + 0));
@@ -416,7 +421,7 @@ class ProbabilisticVehicleMap final : public VehicleMap {
   /// them. With a camera's frame `projected` (projectNear()), a voxel there that a hit ended
   /// in, with its centre within `reach` of the origin, is counted exactly instead
   /// (exactPasses(): every ray that crossed it, the far walks' among them).
-  void mergeBlock(const SensorFrame* projected, double reach) {
+  void mergeBlock(const SensorFrame* projected, double reach, double max_range) {
     const VoxelGrid& grid = lattice();
     std::size_t cell = 0;
     for (int x = 0; x < block_dims_.x(); ++x) {
@@ -431,7 +436,7 @@ class ProbabilisticVehicleMap final : public VehicleMap {
           if (projected != nullptr && counts.hits > 0) {
             const Eigen::Vector3d centre = grid.center(v);
             if ((centre - projected->origin).squaredNorm() <= reach * reach) {
-              counts.passes = exactPasses(*projected, centre);
+              counts.passes = exactPasses(*projected, centre, max_range);
               exact = true;
             }
           }
@@ -494,10 +499,15 @@ void registerBuiltins() {
                             ": an occupied voxel turns free below threshold_free, at most "
                             "threshold");
         }
-        if (model.threshold_free >= 0.0 && model.threshold_free <= model.clamp_min) {
-          throw ConfigError("probabilistic: threshold_free " + formatNumber(model.threshold_free) +
-                            " is at most clamp_min " + formatNumber(model.clamp_min) +
-                            ": an occupied voxel would never turn free; set it above clamp_min");
+        const double free_below =
+            model.threshold_free >= 0.0 ? model.threshold_free : std::min(0.3, model.threshold);
+        if (free_below < model.clamp_min) {
+          throw ConfigError("probabilistic: threshold_free " + formatNumber(free_below) +
+                            (model.threshold_free >= 0.0
+                                 ? std::string()
+                                 : " (threshold " + formatNumber(model.threshold) + ")") +
+                            " is below clamp_min " + formatNumber(model.clamp_min) +
+                            ": an occupied voxel would never turn free; set it at least clamp_min");
         }
         return std::make_unique<ProbabilisticVehicleMap>(model);
       });

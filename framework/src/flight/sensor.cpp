@@ -327,7 +327,9 @@ void RayCaster::startDistances(const Eigen::Vector3d& origin, double yaw, const 
         range(u_low, u_high, pixels.column_scale, pixels.column_offset, pixels.columns,
               &column_from, &column_to);
         range(v_low, v_high, pixels.row_scale, pixels.row_offset, pixels.rows, &row_from, &row_to);
-        const auto bound = static_cast<float>(nearest);
+        // Rounded down, so that it stays a lower bound at any distance.
+        auto bound = static_cast<float>(nearest);
+        if (static_cast<double>(bound) > nearest) bound = std::nextafter(bound, 0.0f);
         for (int r = row_from; r <= row_to; ++r) {
           float* line = starts.data() + static_cast<std::size_t>(r) * pixels.columns;
           for (int k = column_from; k <= column_to; ++k) line[k] = std::min(line[k], bound);

@@ -183,10 +183,11 @@ std::shared_ptr<const World> VehicleMap::window(const Eigen::Vector3d& center) {
   std::vector<float> values;
   if (window_world_ && window_world_.use_count() == 1) {
     auto [last_grid, last_field] = std::move(*window_world_).release();
-    window_world_.reset();  // spent (a throw below leaves none: the next call builds anew)
     grid = std::move(last_grid);
     values = std::move(last_field).release();
   }
+  // Spent or out of date: a throw below leaves none, and the next call builds anew.
+  window_world_.reset();
   grid = window_field_->grid();
   window_world_ = std::make_shared<World>("known_window", 0, std::move(grid),
                                           window_field_->esdf(std::move(values)),
