@@ -462,14 +462,28 @@ TEST(VehicleMapTest, TheKeptWindowIsUpdatedWhereTheMapChangedAndMovedWithTheVehi
   EXPECT_NEAR(first->bounds().max.z() - first->bounds().min.z(), 2.0, 0.11);
   // Nothing new: the same world.
   EXPECT_EQ(sees(origin), first);
+  const std::vector<float> first_values = first->esdf().values();
+  const std::vector<std::uint8_t> first_occupancy = first->grid().occupancy();
   // 0.9 m on, the wall (x = 10) comes within range: the kept window (same box) is updated,
-  // and its ESDF is the exact field of its occupancy.
+  // and its ESDF is the exact field of its occupancy; the World held meanwhile is as it was.
   const Eigen::Vector3d on = origin + Eigen::Vector3d(0.9, 0.0, 0.0);
-  const auto updated = sees(on);
+  std::shared_ptr<const World> updated = sees(on);
   EXPECT_NE(updated, first);
   EXPECT_EQ(updated->bounds().min, first->bounds().min);
   EXPECT_GT(updated->grid().occupiedCount(), first->grid().occupiedCount());
   EXPECT_EQ(updated->esdf().values(), Esdf(updated->grid()).values());
+  EXPECT_EQ(first->esdf().values(), first_values);
+  EXPECT_EQ(first->grid().occupancy(), first_occupancy);
+  // When no one holds the last World any more, the next is made in its memory, and exact.
+  const float* memory = updated->esdf().values().data();
+  const std::size_t occupied = updated->grid().occupiedCount();
+  updated.reset();
+  lidar.range = 6.0;
+  const auto farther = sees(on);
+  ASSERT_NE(farther->grid().occupiedCount(), occupied) << "nothing new: the same window";
+  EXPECT_EQ(farther->esdf().values().data(), memory);
+  EXPECT_EQ(farther->esdf().values(), Esdf(farther->grid()).values());
+  lidar.range = 4.0;
   // Beyond the margin the window is built anew around the vehicle.
   const Eigen::Vector3d beyond = origin + Eigen::Vector3d(1.2, 0.0, 0.0);
   const auto moved = sees(beyond);
@@ -478,38 +492,6 @@ TEST(VehicleMapTest, TheKeptWindowIsUpdatedWhereTheMapChangedAndMovedWithTheVehi
   // So is a window whose middle the vehicle left by more than a quarter of its height.
   const Eigen::Vector3d climbed = beyond + Eigen::Vector3d(0.0, 0.0, 0.6);
   EXPECT_NEAR(sees(climbed)->bounds().min.z(), climbed.z() - 1.0, 0.1);
-}
-
-TEST(VehicleMapTest, AWindowSomeoneHoldsNeverChangesAndOneNoOneHoldsLendsItsMemory) {
-  const auto world = worldOf(kWall);
-  std::unique_ptr<VehicleMap> map = mapOf("probabilistic", world->bounds());
-  Lidar lidar;
-  lidar.range = 4.0;
-  Rng noise(1);
-  const auto sees = [&](const Eigen::Vector3d& at) {
-    map->insert(senseFrame(*world, lidar, at, 0.0, noise), lidar.range);
-    return map->window(at);
-  };
-  const Eigen::Vector3d origin(5.45, 3.05, 1.55);
-  std::shared_ptr<const World> held = sees(origin);
-  const std::vector<float> values = held->esdf().values();
-  const std::vector<std::uint8_t> occupancy = held->grid().occupancy();
-  // The wall comes into range: a new window, and the one held is as it was.
-  lidar.range = 6.0;
-  std::shared_ptr<const World> next = sees(origin);
-  ASSERT_NE(next, held);
-  EXPECT_NE(next->grid().occupancy(), occupancy);
-  EXPECT_EQ(held->esdf().values(), values);
-  EXPECT_EQ(held->grid().occupancy(), occupancy);
-  // No one holds the last one any more: the next window is made in its memory, and exact.
-  const float* memory = next->esdf().values().data();
-  const std::size_t occupied = next->grid().occupiedCount();
-  held.reset();
-  next.reset();
-  const std::shared_ptr<const World> after = sees(origin + Eigen::Vector3d(0.5, 0.0, 0.0));
-  ASSERT_NE(after->grid().occupiedCount(), occupied) << "nothing new: the same window";
-  EXPECT_EQ(after->esdf().values().data(), memory);
-  EXPECT_EQ(after->esdf().values(), Esdf(after->grid()).values());
 }
 
 /// A frame of rays from `origin` ending at `hits` (and passing on to `misses`).
@@ -609,59 +591,37 @@ TEST(VehicleMapTest, TheProbabilisticMapVotesOnceAFrameAndClampsItsBelief) {
   EXPECT_EQ(stateAt(phantom), Voxel::kFree);
   map->insert(frameOf(origin, {phantom}), 10.0);
   EXPECT_EQ(stateAt(phantom), Voxel::kOccupied);
-  // Without the hysteresis (threshold_free = threshold) nine passing frames free it.
-  std::unique_ptr<VehicleMap> plain =
-      mapOf("probabilistic", box, {}, {{"threshold_free", "0.5", "test"}});
-  for (int frame = 0; frame < 41; ++frame) plain->insert(frameOf(origin, {phantom}), 10.0);
-  const auto plainAt = [&](const Eigen::Vector3d& p) {
-    return plain->state(
-        lattice.index(VoxelIndex(((p - lattice.origin()) / 0.1).array().floor().cast<int>())));
+  // Passing frames that free it from the clamp, on a new map with `parameters`: eleven with
+  // the hysteresis, nine without (threshold_free = threshold), twelve when the default follows
+  // a threshold below 0.3 (0.25: log-odds -1.10; 3.48 - 12 x 0.405 = -1.38).
+  const auto framesToFree = [&](const std::vector<ParameterAssignment>& parameters) {
+    std::unique_ptr<VehicleMap> fresh = mapOf("probabilistic", box, {}, parameters);
+    for (int frame = 0; frame < 41; ++frame) fresh->insert(frameOf(origin, {phantom}), 10.0);
+    const std::size_t index =
+        lattice.index(VoxelIndex(((phantom - lattice.origin()) / 0.1).array().floor().cast<int>()));
+    int frames = 0;
+    while (fresh->state(index) == Voxel::kOccupied && frames < 100) {
+      fresh->insert(frameOf(origin, {beyond}), 10.0);
+      ++frames;
+    }
+    return frames;
   };
-  for (int frame = 0; frame < 8; ++frame) plain->insert(frameOf(origin, {beyond}), 10.0);
-  EXPECT_EQ(plainAt(phantom), Voxel::kOccupied);
-  plain->insert(frameOf(origin, {beyond}), 10.0);
-  EXPECT_EQ(plainAt(phantom), Voxel::kFree);
-  // threshold_free above threshold is refused, naming both.
-  try {
-    mapOf("probabilistic", box, {}, {{"threshold_free", "0.6", "test"}});
-    ADD_FAILURE() << "accepted threshold_free above threshold";
-  } catch (const ConfigError& error) {
-    EXPECT_NE(std::string(error.what()).find("threshold_free 0.6 is above threshold 0.5"),
-              std::string::npos)
-        << error.what();
-  }
-  // At or below clamp_min an occupied voxel would never be free again: refused.
-  try {
-    mapOf("probabilistic", box, {}, {{"threshold_free", "0.1", "test"}});
-    ADD_FAILURE() << "accepted threshold_free below clamp_min";
-  } catch (const ConfigError& error) {
-    EXPECT_NE(std::string(error.what()).find("threshold_free 0.1 is below clamp_min 0.12"),
-              std::string::npos)
-        << error.what();
-  }
-  // So is a threshold below clamp_min that the default threshold_free follows.
-  try {
-    mapOf("probabilistic", box, {}, {{"threshold", "0.1", "test"}});
-    ADD_FAILURE() << "accepted a threshold below clamp_min";
-  } catch (const ConfigError& error) {
-    EXPECT_NE(std::string(error.what()).find("threshold_free 0.1 (threshold 0.1) is below"),
-              std::string::npos)
-        << error.what();
-  }
-  // A threshold below the default threshold_free (0.3) takes it as threshold_free: no
-  // hysteresis, and nothing refused.
-  std::unique_ptr<VehicleMap> low =
-      mapOf("probabilistic", box, {}, {{"threshold", "0.25", "test"}});
-  for (int frame = 0; frame < 41; ++frame) low->insert(frameOf(origin, {phantom}), 10.0);
-  const auto lowAt = [&](const Eigen::Vector3d& p) {
-    return low->state(
-        lattice.index(VoxelIndex(((p - lattice.origin()) / 0.1).array().floor().cast<int>())));
+  EXPECT_EQ(framesToFree({}), 11);
+  EXPECT_EQ(framesToFree({{"threshold_free", "0.5", "test"}}), 9);
+  EXPECT_EQ(framesToFree({{"threshold", "0.25", "test"}}), 12);
+  // Refused, naming the values: threshold_free above threshold; below clamp_min (an occupied
+  // voxel would never be free again), also where the default follows a low threshold.
+  const auto refused = [&](const char* name, const char* value, const std::string& expected) {
+    try {
+      mapOf("probabilistic", box, {}, {{name, value, "test"}});
+      ADD_FAILURE() << "accepted " << name << " " << value;
+    } catch (const ConfigError& error) {
+      EXPECT_NE(std::string(error.what()).find(expected), std::string::npos) << error.what();
+    }
   };
-  // From 3.48, below logit(0.25) = -1.10 after 12 passing frames (3.48 - 4.86 = -1.38), not 11.
-  for (int frame = 0; frame < 11; ++frame) low->insert(frameOf(origin, {beyond}), 10.0);
-  EXPECT_EQ(lowAt(phantom), Voxel::kOccupied);
-  low->insert(frameOf(origin, {beyond}), 10.0);
-  EXPECT_EQ(lowAt(phantom), Voxel::kFree);
+  refused("threshold_free", "0.6", "threshold_free 0.6 is above threshold 0.5");
+  refused("threshold_free", "0.1", "threshold_free 0.1 is below clamp_min 0.12");
+  refused("threshold", "0.1", "threshold_free 0.1 (threshold 0.1) is below clamp_min");
 }
 
 TEST(VehicleMapTest, TheProbabilisticMapsHysteresisStopsNoisySurfacesFlickering) {
