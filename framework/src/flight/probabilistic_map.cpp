@@ -134,7 +134,7 @@ class ProbabilisticVehicleMap final : public VehicleMap {
       std::uint16_t& hits = counts != nullptr ? counts->hits : entry(grid.index(v)).counts.hits;
       if (hits < UINT16_MAX) ++hits;
     }
-    if (projective) projectNear(frame, reach, max_range);
+    if (projective) projectNear(frame, reach);
     const auto walk = [&](const Eigen::Vector3d& end, bool hit) {
       const Eigen::Vector3d start = clipToBox(frame.origin, end, box, voxel);
       const double length = (start - frame.origin).norm();
@@ -276,28 +276,15 @@ class ProbabilisticVehicleMap final : public VehicleMap {
   /// The near part of a camera's frame by projection, for the voxels of the block that no hit
   /// of the frame ended in and whose centre lies within `reach` of the origin (those with a hit
   /// are counted exactly, exactPasses()). Such a voxel in view, in front of the range its
-  /// nearest pixel measured, was passed: it is seen free; one whose centre is out of view but
-  /// whose cube is partly in it (at the view's edges), when a ray of its pixels passed through
-  /// it. The nearest pixel's ray passes
+  /// nearest pixel measured, was passed: it is seen free. The nearest pixel's ray passes
   /// within half a voxel of the centre (doInsert() checks that the pixels are that dense), so
   /// through the voxel's cube: an obstacle's voxel would have stopped it nearer than its
   /// centre, so without noise no obstacle's voxel is passed. A visit per voxel instead of one
   /// per ray and voxel.
-  void projectNear(const SensorFrame& frame, double reach, double max_range) {
+  void projectNear(const SensorFrame& frame, double reach) {
     const SensorFrame::Image& image = frame.image;
     const PixelGrid& pixels = image.grid;
     const double r = lattice().resolution();
-    // A voxel whose centre is out of view may still be partly in it: within its cube's angular
-    // radius (half its diagonal over `ahead`, stretched by sqrt(1 + u^2) off the axis) of the
-    // image's edge, in pixels, and a pixel to spare; its pixels are then searched for a ray
-    // that passed through it, crossing a twentieth of a voxel of it at least: a ray that only
-    // grazes an obstacle's voxel ends a hair beyond it (its hit is the next voxel's), and is
-    // no evidence that it is free.
-    const double radius = 0.5 * std::sqrt(3.0) * r;
-    const double least_chord = 0.05 * r;
-    const auto outside = [](double index, int count, double margin) {
-      return index < -0.5 - margin || index > count - 0.5 + margin;
-    };
     const double c = std::cos(image.yaw);
     const double s = std::sin(image.yaw);
     const Eigen::Vector3d first = lattice().origin() +
@@ -313,38 +300,19 @@ class ProbabilisticVehicleMap final : public VehicleMap {
         const double dy = first.y() + y * r;
         const double ahead = c * dx + s * dy;  // the camera frame: x ahead, y left, z up
         if (!(ahead > 0.0)) continue;
-        const double u = (c * dy - s * dx) / ahead;
-        const double exact_column = pixels.column_scale * u + pixels.column_offset;
-        // Partly in view is looked for only where the whole cube is ahead of the camera (nearer,
-        // the vehicle's body is).
-        const bool partly = ahead > radius;
-        const double column_margin =
-            partly ? radius / ahead * std::sqrt(1.0 + u * u) * std::abs(pixels.column_scale) + 1.0
-                   : 0.0;
-        if (outside(exact_column, pixels.columns, column_margin)) continue;
-        const double column = std::floor(exact_column + 0.5);
-        const bool column_in_view = column >= 0.0 && column < pixels.columns;
+        const double column = std::floor(pixels.column_scale * (c * dy - s * dx) / ahead +
+                                         pixels.column_offset + 0.5);
+        if (!(column >= 0.0 && column < pixels.columns)) continue;
         const double across2 = dx * dx + dy * dy;
+        const float* column_ranges = ranges + static_cast<std::ptrdiff_t>(column);
         for (std::size_t z = 0; z < nz; ++z) {
-          if (counts[z].hits != 0) continue;  // counted exactly (mergeBlock())
           const double dz = first.z() + static_cast<double>(z) * r;
+          const double row = std::floor(pixels.row_scale * dz / ahead + pixels.row_offset + 0.5);
           const double distance2 = across2 + dz * dz;
-          if (distance2 > reach2) continue;
-          const double v = dz / ahead;
-          const double exact_row = pixels.row_scale * v + pixels.row_offset;
-          const double row = std::floor(exact_row + 0.5);
-          if (column_in_view && row >= 0.0 && row < pixels.rows) {
-            const double measured = ranges[static_cast<std::ptrdiff_t>(row) * pixels.columns +
-                                           static_cast<std::ptrdiff_t>(column)];
-            if (distance2 < measured * measured) counts[z].passes = 1;  // (NaN: lost, no pass)
-            continue;
-          }
-          if (!partly) continue;
-          const double row_margin =
-              radius / ahead * std::sqrt(1.0 + v * v) * std::abs(pixels.row_scale) + 1.0;
-          if (outside(exact_row, pixels.rows, row_margin)) continue;
-          const Eigen::Vector3d centre = frame.origin + Eigen::Vector3d(dx, dy, dz);
-          if (exactPasses(frame, centre, max_range, 1, least_chord) > 0) counts[z].passes = 1;
+          if (!(row >= 0.0 && row < pixels.rows) || distance2 > reach2) continue;
+          const double measured = column_ranges[static_cast<std::ptrdiff_t>(row) * pixels.columns];
+          // (NaN: lost, no pass)
+          if (counts[z].hits == 0 && distance2 < measured * measured) counts[z].passes = 1;
         }
       }
     }
@@ -353,11 +321,9 @@ class ProbabilisticVehicleMap final : public VehicleMap {
   /// The rays of a camera's frame that passed through the cube of side `r` about `centre`
   /// (entered it and ended beyond it; one that struck nothing, entered it within `max_range`),
   /// counted pixel by pixel over the pixels its corners project to: the walks' count for that
-  /// voxel, without walking (stopped at `enough`; only rays crossing more than `least_chord`
-  /// of it).
+  /// voxel, without walking.
   std::uint16_t exactPasses(const SensorFrame& frame, const Eigen::Vector3d& centre,
-                            double max_range, int enough = UINT16_MAX,
-                            double least_chord = 0.0) const {
+                            double max_range) const {
     const SensorFrame::Image& image = frame.image;
     const PixelGrid& pixels = image.grid;
     const double half = 0.5 * lattice().resolution();
@@ -425,9 +391,7 @@ class ProbabilisticVehicleMap final : public VehicleMap {
         }
         const bool through =
             std::isinf(measured) ? enter * length < max_range : measured > leave * length;
-        if ((leave - enter) * length > least_chord && through && ++passes >= enough) {
-          return static_cast<std::uint16_t>(passes);
-        }
+        if (enter < leave && through) ++passes;
       }
     }
     return static_cast<std::uint16_t>(std::min(passes, UINT16_MAX + 0));
