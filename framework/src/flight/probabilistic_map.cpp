@@ -28,6 +28,12 @@ struct ProbabilisticModel {
   double exact_range = 3.0;
   bool projection = true;
 
+  /// The probability an occupied voxel turns free below: threshold_free, or by default (when
+  /// negative) 0.3, or threshold when that is lower.
+  double freeBelow() const {
+    return threshold_free >= 0.0 ? threshold_free : std::min(0.3, threshold);
+  }
+
   template <typename Fields>
   void fields(Fields& f) {
     f.real("probability_hit", probability_hit, 0.51, 0.99,
@@ -84,8 +90,7 @@ class ProbabilisticVehicleMap final : public VehicleMap {
         low_(static_cast<float>(logit(model.clamp_min))),
         high_(static_cast<float>(logit(model.clamp_max))),
         threshold_(static_cast<float>(logit(model.threshold))),
-        threshold_free_(static_cast<float>(logit(
-            model.threshold_free < 0.0 ? std::min(0.3, model.threshold) : model.threshold_free))),
+        threshold_free_(static_cast<float>(logit(model.freeBelow()))),
         exact_range_(model.exact_range),
         projection_(model.projection) {}
 
@@ -332,23 +337,18 @@ class ProbabilisticVehicleMap final : public VehicleMap {
     const Eigen::Vector3d low = centre.array() - half - frame.origin.array();
     const Eigen::Vector3d high = centre.array() + half - frame.origin.array();
     // The corners' pixels (the whole image when the cube reaches behind the camera).
-    double column_low = 0.0;
-    double column_high = pixels.columns - 1.0;
-    double row_low = 0.0;
-    double row_high = pixels.rows - 1.0;
-    bool ahead = true;
+    std::pair<int, int> columns{0, pixels.columns - 1};
+    std::pair<int, int> rows{0, pixels.rows - 1};
     double u_low = INFINITY;
     double u_high = -INFINITY;
     double v_low = INFINITY;
     double v_high = -INFINITY;
-    for (int k = 0; k < 8; ++k) {
+    bool ahead = true;
+    for (int k = 0; k < 8 && ahead; ++k) {
       const Eigen::Vector3d d(k & 1 ? high.x() : low.x(), k & 2 ? high.y() : low.y(),
                               k & 4 ? high.z() : low.z());
       const double forward = c * d.x() + s * d.y();
-      if (!(forward > 1e-9)) {
-        ahead = false;
-        break;
-      }
+      ahead = forward > 1e-9;
       const double u = (c * d.y() - s * d.x()) / forward;
       const double v = d.z() / forward;
       u_low = std::min(u_low, u);
@@ -357,19 +357,13 @@ class ProbabilisticVehicleMap final : public VehicleMap {
       v_high = std::max(v_high, v);
     }
     if (ahead) {
-      const auto span = [](double a, double b, double scale, double offset, double* from,
-                           double* to) {
-        *from = std::max(*from, std::ceil(std::min(scale * a, scale * b) + offset - 0.01));
-        *to = std::min(*to, std::floor(std::max(scale * a, scale * b) + offset + 0.01));
-      };
-      span(u_low, u_high, pixels.column_scale, pixels.column_offset, &column_low, &column_high);
-      span(v_low, v_high, pixels.row_scale, pixels.row_offset, &row_low, &row_high);
+      columns = pixels.columnsIn(u_low, u_high);
+      rows = pixels.rowsIn(v_low, v_high);
     }
     int passes = 0;
-    for (int row = static_cast<int>(row_low); row <= static_cast<int>(row_high); ++row) {
+    for (int row = rows.first; row <= rows.second; ++row) {
       const double v = (row - pixels.row_offset) / pixels.row_scale;
-      for (int column = static_cast<int>(column_low); column <= static_cast<int>(column_high);
-           ++column) {
+      for (int column = columns.first; column <= columns.second; ++column) {
         const float measured =
             image.ranges[static_cast<std::size_t>(row) * pixels.columns + column];
         if (std::isnan(measured)) continue;
@@ -499,8 +493,7 @@ void registerBuiltins() {
                             ": an occupied voxel turns free below threshold_free, at most "
                             "threshold");
         }
-        const double free_below =
-            model.threshold_free >= 0.0 ? model.threshold_free : std::min(0.3, model.threshold);
+        const double free_below = model.freeBelow();
         if (free_below < model.clamp_min) {
           throw ConfigError("probabilistic: threshold_free " + formatNumber(free_below) +
                             (model.threshold_free >= 0.0

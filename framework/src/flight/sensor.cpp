@@ -313,20 +313,8 @@ void RayCaster::startDistances(const Eigen::Vector3d& origin, double yaw, const 
         if (!(u_low <= u_high)) continue;  // wholly behind
         // The used pixels whose rays' (u, v) lie in that box (scales may be negative), with a
         // hundredth of a pixel to spare for rounding.
-        const auto range = [](double a, double b, double scale, double offset, int count, int* from,
-                              int* to) {
-          const double p = scale * a + offset;
-          const double q = scale * b + offset;
-          *from = std::max(0, static_cast<int>(std::ceil(std::min(p, q) - 0.01)));
-          *to = std::min(count - 1, static_cast<int>(std::floor(std::max(p, q) + 0.01)));
-        };
-        int column_from = 0;
-        int column_to = 0;
-        int row_from = 0;
-        int row_to = 0;
-        range(u_low, u_high, pixels.column_scale, pixels.column_offset, pixels.columns,
-              &column_from, &column_to);
-        range(v_low, v_high, pixels.row_scale, pixels.row_offset, pixels.rows, &row_from, &row_to);
+        const auto [column_from, column_to] = pixels.columnsIn(u_low, u_high);
+        const auto [row_from, row_to] = pixels.rowsIn(v_low, v_high);
         // Rounded down, so that it stays a lower bound at any distance.
         auto bound = static_cast<float>(nearest);
         if (static_cast<double>(bound) > nearest) bound = std::nextafter(bound, 0.0f);

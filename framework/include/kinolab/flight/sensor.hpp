@@ -1,10 +1,12 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <cstdint>
 #include <optional>
+#include <utility>
 #include <vector>
 
 #include "kinolab/core/plugin_registry.hpp"
@@ -53,6 +55,21 @@ struct PixelGrid {
   double column_offset = 0.0;
   double row_scale = 0.0;
   double row_offset = 0.0;
+  /// The used columns whose rays' u lie in [low, high], and the rows whose rays' v do: first
+  /// and last index (first > last: none), a hundredth of a pixel to spare for rounding.
+  std::pair<int, int> columnsIn(double low, double high) const {
+    return indicesIn(low, high, column_scale, column_offset, columns);
+  }
+  std::pair<int, int> rowsIn(double low, double high) const {
+    return indicesIn(low, high, row_scale, row_offset, rows);
+  }
+  static std::pair<int, int> indicesIn(double low, double high, double scale, double offset,
+                                       int count) {
+    const double a = scale * low + offset;
+    const double b = scale * high + offset;
+    return {std::max(0, static_cast<int>(std::ceil(std::min(a, b) - 0.01))),
+            std::min(count - 1, static_cast<int>(std::floor(std::max(a, b) + 0.01)))};
+  }
   /// The largest angle, rad, between a direction whose nearest used pixel is in the grid (a
   /// continuous index within half a pixel of it) and that pixel's ray.
   double maxOffset() const {
