@@ -165,6 +165,26 @@ void transformColumn(const std::uint8_t* cells, int n, std::uint8_t target, std:
   }
 }
 
+/// An entry of a pass's result that an update changed, as the next pass's lines see it: the
+/// line it lies on, its position along that line and its value before.
+struct LineChange {
+  std::uint32_t line;
+  int position;
+  std::int32_t old;
+};
+
+/// `changes` grouped by line, in line order (a counting sort: an update's changes are many
+/// and its lines few), into `sorted`; `starts[l]` .. `starts[l + 1]` are line l's.
+void byLine(const std::vector<LineChange>& changes, std::size_t lines,
+            std::vector<LineChange>& sorted, std::vector<std::uint32_t>& starts) {
+  starts.assign(lines + 1, 0);
+  for (const LineChange& c : changes) ++starts[c.line + 1];
+  for (std::size_t l = 0; l < lines; ++l) starts[l + 1] += starts[l];
+  sorted.resize(changes.size());
+  std::vector<std::uint32_t> next(starts.begin(), starts.end() - 1);
+  for (const LineChange& c : changes) sorted[next[c.line]++] = c;
+}
+
 /// The three passes over a grid of `dims` (x slowest, z fastest): pass 1 along z from the
 /// occupancy, then in place pass 2 along y (within each x-slab, lines over iy for every iz)
 /// and pass 3 along x (lines over ix for every (iy, iz)).
@@ -191,11 +211,12 @@ struct CubeTransform {
       transformColumn(occupancy + column * nz, dims.z(), target, squared + column * nz);
     }
   }
-  /// Pass 2 over the x-slabs [begin, end).
-  void alongY(std::int32_t* squared, std::size_t begin = 0, std::size_t end = kAll) {
+  /// Pass 2 over the x-slabs [begin, end), from `from` into `to` (the same or another).
+  void alongY(const std::int32_t* from, std::int32_t* to, std::size_t begin = 0,
+              std::size_t end = kAll) {
     end = std::min(end, static_cast<std::size_t>(dims.x()));
     for (std::size_t ix = begin; ix < end; ++ix) {
-      transformStrided(squared, squared, ix * slab, static_cast<std::size_t>(dims.z()), dims.y(),
+      transformStrided(from, to, ix * slab, static_cast<std::size_t>(dims.z()), dims.y(),
                        static_cast<std::size_t>(dims.z()), in, out, envelope(dims.y()));
     }
   }
@@ -208,25 +229,46 @@ struct CubeTransform {
     }
   }
   /// Pass 1 along x instead (IncrementalEsdf's order): every x-line of `occupancy` into
-  /// `squared`.
+  /// `squared`, as transformColumn() has it, by two sweeps over the x-slabs (every line at
+  /// once, contiguous).
   void rows(const std::uint8_t* occupancy, std::uint8_t target, std::int32_t* squared) {
-    std::vector<std::uint8_t> bytes(in.size());
-    transformStrided(occupancy, squared, 0, slab, dims.x(), slab, bytes, out,
-                     [&](const std::uint8_t* cells, std::int32_t* to) {
-                       transformColumn(cells, dims.x(), target, to);
-                     });
+    const auto nx = static_cast<std::size_t>(dims.x());
+    // Forward: the steps back to the nearest target voxel.
+    for (std::size_t x = 0; x < nx; ++x) {
+      const std::uint8_t* cells = occupancy + x * slab;
+      std::int32_t* steps = squared + x * slab;
+      const std::int32_t* behind = x > 0 ? steps - slab : nullptr;
+      for (std::size_t i = 0; i < slab; ++i) {
+        const std::int32_t last = behind != nullptr ? behind[i] : kNoSite;
+        steps[i] = cells[i] == target ? 0 : (last == kNoSite ? kNoSite : last + 1);
+      }
+    }
+    // Backward: the steps ahead, the nearer of the two, squared as a cube distance.
+    std::vector<std::int32_t> ahead(slab, kNoSite);
+    for (std::size_t x = nx; x-- > 0;) {
+      const std::uint8_t* cells = occupancy + x * slab;
+      std::int32_t* steps = squared + x * slab;
+      for (std::size_t i = 0; i < slab; ++i) {
+        const std::int32_t next = ahead[i];
+        ahead[i] = cells[i] == target ? 0 : (next == kNoSite ? kNoSite : next + 1);
+        const std::int32_t best = std::min(steps[i], ahead[i]);
+        steps[i] = best == kNoSite ? kNoSite : (best == 0 ? 0 : (2 * best - 1) * (2 * best - 1));
+      }
+    }
   }
-  /// Pass 3 along z instead (IncrementalEsdf's order): every column of `squared`, in place.
-  void alongZ(std::int32_t* squared) {
+  /// Pass 3 along z instead (IncrementalEsdf's order): every column of `from` into `to`
+  /// (another array).
+  void alongZ(const std::int32_t* from, std::int32_t* to) {
+    const auto nz = static_cast<std::size_t>(dims.z());
     const std::size_t count = static_cast<std::size_t>(dims.x()) * dims.y();
     for (std::size_t column = 0; column < count; ++column) {
-      line(squared, squared, column * dims.z(), dims.z(), 1, [](std::size_t) {});
+      transformLine(from + column * nz, to + column * nz, dims.z(), scratch);
     }
   }
   static constexpr std::size_t kAll = std::numeric_limits<std::size_t>::max();
   /// One line of pass 2 or 3 alone: `length` entries of `from`, `stride` apart from `first`,
-  /// transformed into `to` at the same places; calls changed(index) for every entry of `to`
-  /// that this alters.
+  /// transformed into `to` at the same places; calls changed(q, old) for every entry of `to`
+  /// that this alters (q along the line, old its value before).
   template <typename Changed>
   void line(const std::int32_t* from, std::int32_t* to, std::size_t first, int length,
             std::size_t stride, Changed&& changed) {
@@ -235,10 +277,53 @@ struct CubeTransform {
     for (int q = 0; q < length; ++q) {
       const std::size_t index = first + q * stride;
       if (to[index] != out[q]) {
+        changed(q, to[index]);
         to[index] = out[q];
-        changed(index);
       }
     }
+  }
+  /// The same line after `from` changed at [begin, end) (positions along it, with their old
+  /// values; `from` holds the new ones), `to` holding the transform of the old `from`. An
+  /// entry of `to` is min over i of from[i] + g(q - i), so where no entry's minimum came from
+  /// an entry that grew, the new line is the old one lowered by the entries that shrank alone;
+  /// else it is transformed anew (then true). Calls changed(q, old) as line() does.
+  template <typename Changed>
+  bool update(const std::int32_t* from, std::int32_t* to, std::size_t first, int length,
+              std::size_t stride, const LineChange* begin, const LineChange* end,
+              Changed&& changed) {
+    // The cube distance along the line: (2 |k| - 1)^2 for k != 0 voxels apart, 0 for k = 0.
+    const auto along = [](int k) -> std::int64_t {
+      const std::int64_t reach = 2 * static_cast<std::int64_t>(std::abs(k)) - 1;
+      return k == 0 ? 0 : reach * reach;
+    };
+    std::int32_t* old = in.data();
+    std::int32_t* lowered = out.data();
+    for (int q = 0; q < length; ++q) old[q] = lowered[q] = to[first + q * stride];
+    for (const LineChange* c = begin; c != end; ++c) {
+      if (from[first + c->position * stride] <= c->old) continue;
+      const std::int64_t was = c->old;
+      for (int q = 0; q < length; ++q) {
+        if (was + along(q - c->position) == old[q]) {
+          line(from, to, first, length, stride, changed);
+          return true;
+        }
+      }
+    }
+    for (const LineChange* c = begin; c != end; ++c) {
+      const std::int64_t now = from[first + c->position * stride];
+      if (now >= c->old) continue;
+      for (int q = 0; q < length; ++q) {
+        const std::int64_t value = now + along(q - c->position);
+        if (value < lowered[q]) lowered[q] = static_cast<std::int32_t>(value);
+      }
+    }
+    for (int q = 0; q < length; ++q) {
+      if (lowered[q] != old[q]) {
+        changed(q, old[q]);
+        to[first + q * stride] = lowered[q];
+      }
+    }
+    return false;
   }
 
   Eigen::Vector3i dims;
@@ -291,7 +376,7 @@ void squaredDistanceTo(const VoxelGrid& grid, std::uint8_t target, int threads,
     CubeTransform(n).columns(grid.occupancy().data(), target, squared.data(), begin, end);
   });
   inParallel(nx, threads, [&](std::size_t begin, std::size_t end) {
-    CubeTransform(n).alongY(squared.data(), begin, end);
+    CubeTransform(n).alongY(squared.data(), squared.data(), begin, end);
   });
   // Pass 3's share: whole blocks of kBlock adjacent lines, as one thread gathers them.
   const std::size_t blocks = (ny * nz + kBlock - 1) / kBlock;
@@ -544,12 +629,10 @@ void IncrementalEsdf::rebuild(VoxelGrid grid) {
   CubeTransform transform(grid_.dims());
   for (int sign = 0; sign < 2; ++sign) {
     std::vector<std::int32_t>* pass = pass_[sign];
-    pass[0].resize(grid_.size());
+    for (int k = 0; k < 3; ++k) pass[k].resize(grid_.size());
     transform.rows(grid_.occupancy().data(), sign == 0 ? 1 : 0, pass[0].data());
-    pass[1].assign(pass[0].begin(), pass[0].end());
-    transform.alongY(pass[1].data());
-    pass[2].assign(pass[1].begin(), pass[1].end());
-    transform.alongZ(pass[2].data());
+    transform.alongY(pass[0].data(), pass[1].data());
+    transform.alongZ(pass[1].data(), pass[2].data());
   }
   const Eigen::Vector3i& n = grid_.dims();
   lines_ += 2 * (static_cast<std::size_t>(n.x()) * n.y() + static_cast<std::size_t>(n.x()) * n.z() +
@@ -584,50 +667,61 @@ std::size_t IncrementalEsdf::update(const std::vector<std::uint8_t>& occupancy) 
   if (changed.empty()) return 0;
   const Eigen::Vector3i& n = grid_.dims();
   const auto nx = static_cast<std::size_t>(n.x());
+  const auto ny = static_cast<std::size_t>(n.y());
   const auto nz = static_cast<std::size_t>(n.z());
-  const std::size_t slab = static_cast<std::size_t>(n.y()) * nz;
+  const std::size_t slab = ny * nz;
   CubeTransform transform(n);
   // The x-lines (y, z) holding a changed voxel: the same for both signs.
   std::vector<std::uint8_t> x_dirty(slab, 0);
   for (const std::size_t voxel : changed) x_dirty[voxel % slab] = 1;
   std::vector<std::uint8_t> bytes(nx);
   std::vector<std::int32_t> row(nx);
+  // A pass's changed entries, for the next pass's lines, and the same by line.
+  std::vector<LineChange> changes;
+  std::vector<LineChange> sorted;
+  std::vector<std::uint32_t> starts;
   // The voxels whose value may change: the changed ones and those whose pass 3 changed.
   std::vector<std::size_t> touched = changed;
   for (int sign = 0; sign < 2; ++sign) {
     const std::uint8_t target = sign == 0 ? 1 : 0;
     std::vector<std::int32_t>* pass = pass_[sign];
-    std::vector<std::uint8_t> y_dirty(nx * nz, 0);
-    std::vector<std::uint8_t> z_dirty(nx * static_cast<std::size_t>(n.y()), 0);
-    // Pass 1: the x-lines holding a changed voxel; mark the y-lines (x, z) they alter.
+    // Pass 1: the x-lines holding a changed voxel; their changes are on the y-lines (x, z).
+    changes.clear();
     for (std::size_t line = 0; line < slab; ++line) {
       if (!x_dirty[line]) continue;
       ++lines_;
       for (std::size_t x = 0; x < nx; ++x) bytes[x] = current[line + x * slab];
       transformColumn(bytes.data(), n.x(), target, row.data());
+      const auto y = static_cast<int>(line / nz);
+      const std::size_t z = line % nz;
       for (std::size_t x = 0; x < nx; ++x) {
         std::int32_t& entry = pass[0][line + x * slab];
         if (entry == row[x]) continue;
+        changes.push_back({static_cast<std::uint32_t>(x * nz + z), y, entry});
         entry = row[x];
-        y_dirty[x * nz + line % nz] = 1;
       }
     }
-    // Pass 2: those y-lines; mark the columns (x, y) they alter.
-    for (std::size_t line = 0; line < y_dirty.size(); ++line) {
-      if (!y_dirty[line]) continue;
-      ++lines_;
+    // Pass 2: those y-lines; their changes are on the columns (x, y).
+    byLine(changes, nx * nz, sorted, starts);
+    changes.clear();
+    for (std::size_t line = 0; line < nx * nz; ++line) {
+      if (starts[line] == starts[line + 1]) continue;
       const std::size_t x = line / nz;
       const std::size_t z = line % nz;
-      transform.line(pass[0].data(), pass[1].data(), x * slab + z, n.y(), nz,
-                     [&](std::size_t index) { z_dirty[index / nz] = 1; });
+      lines_ += transform.update(
+          pass[0].data(), pass[1].data(), x * slab + z, n.y(), nz, sorted.data() + starts[line],
+          sorted.data() + starts[line + 1], [&](int y, std::int32_t old) {
+            changes.push_back({static_cast<std::uint32_t>(x * ny + y), static_cast<int>(z), old});
+          });
     }
-    // Pass 3: those columns (contiguous, the pass with the most lines to redo); their altered
-    // entries are values to recompute.
-    for (std::size_t column = 0; column < z_dirty.size(); ++column) {
-      if (!z_dirty[column]) continue;
-      ++lines_;
-      transform.line(pass[1].data(), pass[2].data(), column * nz, n.z(), 1,
-                     [&](std::size_t index) { touched.push_back(index); });
+    // Pass 3: those columns (contiguous, the pass with the most lines); their altered entries
+    // are values to recompute.
+    byLine(changes, nx * ny, sorted, starts);
+    for (std::size_t column = 0; column < nx * ny; ++column) {
+      if (starts[column] == starts[column + 1]) continue;
+      lines_ += transform.update(pass[1].data(), pass[2].data(), column * nz, n.z(), 1,
+                                 sorted.data() + starts[column], sorted.data() + starts[column + 1],
+                                 [&](int z, std::int32_t) { touched.push_back(column * nz + z); });
     }
   }
   const auto cap = static_cast<float>((n.cast<double>() * grid_.resolution()).norm());

@@ -213,9 +213,11 @@ class Esdf {
 };
 
 /// An Esdf kept up to date while its grid's occupancy changes (a moving vehicle's planning
-/// window): update() recomputes only the lines of the three separable passes that the change
+/// window): update() visits only the lines of the three separable passes that the change
 /// reaches (the x-lines holding a changed voxel, then the y-lines whose pass-1 values changed,
-/// then the z-columns whose pass-2 values changed), with the same exact integer arithmetic.
+/// then the z-columns whose pass-2 values changed), with the same exact integer arithmetic. A
+/// line whose inputs only shrank, or whose entries' minima none of the grown inputs gave, is
+/// updated from its changed inputs alone; only the others are transformed anew.
 /// The passes' order does not change an exact result, so after every update esdf() equals
 /// Esdf(grid()) (z, y, x) bit for bit; the last pass, which has the most lines to redo, runs
 /// along contiguous memory. Keeps every pass's result for both signs: 24 bytes a voxel besides
@@ -239,8 +241,9 @@ class IncrementalEsdf {
     memory.assign(values_.begin(), values_.end());
     return Esdf(grid_, std::move(memory));
   }
-  /// Lines of the passes recomputed since construction (a count of work, for tests and
-  /// benchmarks); a full build is columns + y-lines + x-lines, twice.
+  /// Lines of the passes transformed in full since construction (a count of work, for tests
+  /// and benchmarks; lines updated from their changed inputs alone do not count); a full build
+  /// is columns + y-lines + x-lines, twice.
   std::size_t linesRecomputed() const { return lines_; }
 
  private:
