@@ -194,7 +194,8 @@ struct CubeTransform {
         slab(static_cast<std::size_t>(dims.y()) * dims.z()),
         scratch(dims.maxCoeff()),
         in(static_cast<std::size_t>(kBlock) * dims.maxCoeff()),
-        out(in.size()) {}
+        out(in.size()),
+        suspects(static_cast<std::size_t>(dims.maxCoeff())) {}
 
   /// transformLine() over lines of `length` with this transform's scratch space.
   auto envelope(int length) {
@@ -284,9 +285,11 @@ struct CubeTransform {
   }
   /// The same line after `from` changed at [begin, end) (positions along it, with their old
   /// values; `from` holds the new ones), `to` holding the transform of the old `from`. An
-  /// entry of `to` is min over i of from[i] + g(q - i), so where no entry's minimum came from
-  /// an entry that grew, the new line is the old one lowered by the entries that shrank alone;
-  /// else it is transformed anew (then true). Calls changed(q, old) as line() does.
+  /// entry of `to` is min over i of from[i] + g(q - i): where its minimum came from no entry
+  /// that grew, the new one is the old one lowered by the entries that shrank; where it did
+  /// (a suspect), it is found anew by a scan outwards from q that stops where the distance
+  /// along the line alone reaches the best found. With many suspects the whole line is
+  /// transformed anew instead (then true). Calls changed(q, old) as line() does.
   template <typename Changed>
   bool update(const std::int32_t* from, std::int32_t* to, std::size_t first, int length,
               std::size_t stride, const LineChange* begin, const LineChange* end,
@@ -298,14 +301,25 @@ struct CubeTransform {
     };
     std::int32_t* old = in.data();
     std::int32_t* lowered = out.data();
-    for (int q = 0; q < length; ++q) old[q] = lowered[q] = to[first + q * stride];
+    std::uint8_t* suspect = suspects.data();
+    for (int q = 0; q < length; ++q) {
+      old[q] = lowered[q] = to[first + q * stride];
+      suspect[q] = 0;
+    }
+    // A scan costs about as much as a few entries of the transform (measured on a flight's
+    // window: most changed lines have at most 8 suspects).
+    const int most = length / 4;
+    int count = 0;
     for (const LineChange* c = begin; c != end; ++c) {
       if (from[first + c->position * stride] <= c->old) continue;
       const std::int64_t was = c->old;
       for (int q = 0; q < length; ++q) {
-        if (was + along(q - c->position) == old[q]) {
-          line(from, to, first, length, stride, changed);
-          return true;
+        if (suspect[q] == 0 && was + along(q - c->position) == old[q]) {
+          suspect[q] = 1;
+          if (++count > most) {
+            line(from, to, first, length, stride, changed);
+            return true;
+          }
         }
       }
     }
@@ -316,6 +330,21 @@ struct CubeTransform {
         const std::int64_t value = now + along(q - c->position);
         if (value < lowered[q]) lowered[q] = static_cast<std::int32_t>(value);
       }
+    }
+    for (int q = 0; count > 0 && q < length; ++q) {
+      if (suspect[q] == 0) continue;
+      --count;
+      std::int64_t best = from[first + q * stride];
+      for (int step = 1; step < length; ++step) {
+        const std::int64_t reach = along(step);
+        if (reach >= best) break;
+        for (const int i : {q - step, q + step}) {
+          if (i < 0 || i >= length) continue;
+          const std::int32_t site = from[first + i * stride];
+          if (site != kNoSite) best = std::min(best, site + reach);
+        }
+      }
+      lowered[q] = static_cast<std::int32_t>(best);
     }
     for (int q = 0; q < length; ++q) {
       if (lowered[q] != old[q]) {
@@ -331,6 +360,7 @@ struct CubeTransform {
   EnvelopeScratch scratch;
   std::vector<std::int32_t> in;
   std::vector<std::int32_t> out;
+  std::vector<std::uint8_t> suspects;  // update()'s
 };
 
 /// Calls work(begin, end) on `parts` contiguous ranges splitting [0, count), each on a thread
