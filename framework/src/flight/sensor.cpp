@@ -122,6 +122,24 @@ namespace {
 
 constexpr std::array<std::ptrdiff_t, 3> kBitStrides{16, 4, 1};  // a brick's voxels in its mask
 
+/// The box of a brick's set voxels (`mask` not 0), in voxels from the brick's corner: [low,
+/// high) per axis.
+void maskExtent(std::uint64_t mask, Eigen::Vector3i& low, Eigen::Vector3i& high) {
+  // Per axis, a bit for every index at which some voxel is set: the x-slabs are 16 bits of
+  // the mask, the y-rows 4 bits of their OR, the z-bits the OR of those.
+  std::uint32_t used[3] = {0, 0, 0};
+  const std::uint64_t rows = (mask | mask >> 16 | mask >> 32 | mask >> 48) & 0xFFFF;
+  for (int k = 0; k < 4; ++k) {
+    used[0] |= ((mask >> (16 * k)) & 0xFFFF) != 0 ? 1u << k : 0u;
+    used[1] |= ((rows >> (4 * k)) & 0xF) != 0 ? 1u << k : 0u;
+  }
+  used[2] = static_cast<std::uint32_t>((rows | rows >> 4 | rows >> 8 | rows >> 12) & 0xF);
+  for (int axis = 0; axis < 3; ++axis) {
+    low[axis] = __builtin_ctz(used[axis]);
+    high[axis] = 32 - __builtin_clz(used[axis]);
+  }
+}
+
 /// The walk through the voxels of the brick that `bricks` is in, from where the ray entered it
 /// (`entered` > 0); `voxels` is the ray's walk through the grid's voxels from its start. The walk's
 /// cells are the brick's 4^3 voxels (4 is RayCaster's brick: a mask of 64 bits) and its index
@@ -273,8 +291,16 @@ void RayCaster::startDistances(const Eigen::Vector3d& origin, double yaw, const 
       const std::size_t row = (static_cast<std::size_t>(bx) * bricks_.y() + by) * bricks_.z();
       for (int bz = first.z(); bz <= last.z(); ++bz) {
         if (occupied_[row + bz] == 0) continue;
-        const Eigen::Vector3d lo = grid.origin() + side * Eigen::Vector3d(bx, by, bz);
-        const Eigen::Vector3d hi = lo + Eigen::Vector3d::Constant(side);
+        // The box of the brick's obstacle voxels (tighter than the brick's: a trunk fills a
+        // part of most of its bricks).
+        Eigen::Vector3i set_low;
+        Eigen::Vector3i set_high;
+        maskExtent(masks_[row + bz], set_low, set_high);
+        const Eigen::Vector3i corner = kBrick * Eigen::Vector3i(bx, by, bz);
+        const Eigen::Vector3d lo =
+            grid.origin() + grid.resolution() * (corner + set_low).cast<double>();
+        const Eigen::Vector3d hi =
+            grid.origin() + grid.resolution() * (corner + set_high).cast<double>();
         const double nearest = (origin.cwiseMax(lo).cwiseMin(hi) - origin).norm();
         if (nearest > max_range) continue;
         // The brick's corners in the camera's frame (ahead, left, up), then its part ahead of
