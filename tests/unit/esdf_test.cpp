@@ -81,7 +81,11 @@ INSTANTIATE_TEST_SUITE_P(RandomGrids, EsdfBruteForceTest,
 TEST(IncrementalEsdfTest, EveryUpdateEqualsAFullBuildBitForBit) {
   for (const auto& [dims, density] :
        {std::pair{Eigen::Vector3i(23, 17, 9), 0.05}, std::pair{Eigen::Vector3i(1, 40, 6), 0.2},
-        std::pair{Eigen::Vector3i(30, 30, 30), 0.002}}) {
+        std::pair{Eigen::Vector3i(30, 30, 30), 0.002},
+        // Long sparse lines of one axis each (an obstacle at a line's far end is the nearest),
+        // and a grid one voxel thick.
+        std::pair{Eigen::Vector3i(3, 70, 2), 0.01}, std::pair{Eigen::Vector3i(2, 3, 90), 0.01},
+        std::pair{Eigen::Vector3i(40, 25, 1), 0.02}}) {
     VoxelGrid grid = randomGrid(dims, density, 7, 0.1);
     IncrementalEsdf incremental(grid);
     Rng rng(11);

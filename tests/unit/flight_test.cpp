@@ -261,8 +261,9 @@ TEST(Sensor, ACamerasRaysStartedWhereBricksWithObstaclesBeginHitTheSame) {
   EXPECT_GT(bounded, 100);
   EXPECT_GT(skipped, 0);
   EXPECT_GT(hits, 100000);
-  // And they save walking: on average a hit ray starts most of the way to its hit.
-  EXPECT_GT(started, 0.5 * struck) << started / hits << " m against " << struck / hits;
+  // And they save walking: on average a hit ray starts most of the way to its hit (0.87 of
+  // it; 0.53 when a brick was projected whole rather than as its obstacle voxels' box).
+  EXPECT_GT(started, 0.8 * struck) << started / hits << " m against " << struck / hits;
 }
 
 TEST(Sensor, RaysHitASphereAndMatchADenseMarch) {

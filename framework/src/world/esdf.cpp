@@ -186,8 +186,10 @@ void byLine(const std::vector<LineChange>& changes, std::size_t lines,
 }
 
 /// The three passes over a grid of `dims` (x slowest, z fastest): pass 1 along z from the
-/// occupancy, then in place pass 2 along y (within each x-slab, lines over iy for every iz)
-/// and pass 3 along x (lines over ix for every (iy, iz)).
+/// occupancy, then pass 2 along y (within each x-slab, lines over iy for every iz) and pass 3
+/// along x (lines over ix for every (iy, iz)), in place (Esdf); IncrementalEsdf's order, x, y
+/// and z, each pass into the next one's array (rows(), alongY(), alongZ()), and one line at
+/// a time (line(), update()).
 struct CubeTransform {
   explicit CubeTransform(const Eigen::Vector3i& grid_dims)
       : dims(grid_dims),
@@ -306,9 +308,14 @@ struct CubeTransform {
       old[q] = lowered[q] = to[first + q * stride];
       suspect[q] = 0;
     }
-    // A scan costs about as much as a few entries of the transform (measured on a flight's
-    // window: most changed lines have at most 8 suspects).
+    // A scan costs about as much as a few entries of the transform, and so does lowering the
+    // line by one shrunk input (measured on a flight's window: most changed lines have at
+    // most 8 suspects); a line with many of either is transformed anew (a wall appeared).
     const int most = length / 4;
+    if (end - begin > most) {
+      line(from, to, first, length, stride, changed);
+      return true;
+    }
     int count = 0;
     for (const LineChange* c = begin; c != end; ++c) {
       if (from[first + c->position * stride] <= c->old) continue;
@@ -335,13 +342,12 @@ struct CubeTransform {
       if (suspect[q] == 0) continue;
       --count;
       std::int64_t best = from[first + q * stride];
-      for (int step = 1; step < length; ++step) {
+      for (int step = 1; q - step >= 0 || q + step < length; ++step) {
         const std::int64_t reach = along(step);
         if (reach >= best) break;
         for (const int i : {q - step, q + step}) {
           if (i < 0 || i >= length) continue;
-          const std::int32_t site = from[first + i * stride];
-          if (site != kNoSite) best = std::min(best, site + reach);
+          best = std::min(best, from[first + i * stride] + reach);  // (int64: kNoSite + reach)
         }
       }
       lowered[q] = static_cast<std::int32_t>(best);

@@ -236,8 +236,9 @@ class RayCaster {
   /// along its ray before which it meets no occupied voxel, so that cast() may start there.
   /// Every brick with an obstacle within `max_range` is projected into the image (the box of
   /// its occupied voxels), that box's nearest point's distance written into the pixels its
-  /// projection covers (a lower bound of where a ray through it meets an obstacle there). `starts` is left empty when the camera is within a few
-  /// centimetres of an obstacle (the bound is not made there).
+  /// projection covers (a lower bound of where a ray through it meets an obstacle there).
+  /// `starts` is left empty when the camera is within a few centimetres of an obstacle (the
+  /// bound is not made there).
   void startDistances(const Eigen::Vector3d& origin, double yaw, const PixelGrid& pixels,
                       double max_range, std::vector<float>& starts) const;
   const World& world() const { return *world_; }
