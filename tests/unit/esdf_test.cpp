@@ -4,6 +4,7 @@
 
 #include <cmath>
 #include <limits>
+#include <string>
 
 #include "kinolab/core/error.hpp"
 #include "kinolab/core/random.hpp"
@@ -186,6 +187,24 @@ TEST(IncrementalEsdfTest, ANewObstacleInFreeSpaceTransformsOnlyItsXLines) {
   ASSERT_EQ(incremental.update(grid.occupancy()), 1u);
   EXPECT_GT(incremental.linesRecomputed() - built, 2u + 2u);
   EXPECT_EQ(incremental.esdf().values(), Esdf(grid).values());
+}
+
+TEST(EsdfTest, AGridAtTheTransformsLimitIsExactAndOneBeyondIsRefused) {
+  // Squared distances in quarter voxels are int32: a line of 23,000 voxels, (2 n)^2 = 2.116e9,
+  // still fits, and its far end is exact; 23,200 would overflow and is refused by name.
+  VoxelGrid line(Box{Eigen::Vector3d::Zero(), Eigen::Vector3d(1.0, 1.0, 23000.0)}, 1.0);
+  line.setOccupied({0, 0, 0}, true);
+  const Esdf esdf(line);
+  EXPECT_NEAR(esdf.voxelDistance(line.index(0, 0, 22999)), 22998.5, 1e-2);
+  EXPECT_NEAR(IncrementalEsdf(line).esdf().voxelDistance(line.index(0, 0, 22999)), 22998.5, 1e-2);
+  const VoxelGrid longer(Box{Eigen::Vector3d::Zero(), Eigen::Vector3d(1.0, 1.0, 23200.0)}, 1.0);
+  try {
+    const Esdf refused(longer);
+    FAIL() << "a grid beyond the transform was built";
+  } catch (const InvalidArgument& error) {
+    EXPECT_NE(std::string(error.what()).find("1 x 1 x 23200"), std::string::npos) << error.what();
+  }
+  EXPECT_THROW(IncrementalEsdf{longer}, InvalidArgument);
 }
 
 TEST(EsdfTest, SingleObstacleGivesTheEuclideanDistanceToItsCubeInMetres) {

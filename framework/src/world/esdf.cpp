@@ -7,6 +7,7 @@
 #include <exception>
 #include <limits>
 #include <mutex>
+#include <string>
 #include <thread>
 
 #include "kinolab/core/error.hpp"
@@ -421,6 +422,20 @@ void squaredDistanceTo(const VoxelGrid& grid, std::uint8_t target, int threads,
   });
 }
 
+/// Refuses a grid whose squared distances in quarter voxels would not fit the transforms'
+/// int32 (the grid's diagonal, (2 n)^2 summed over the axes, below kNoSite): about 23,000
+/// voxels along the diagonal. `who` names the caller.
+void checkTransformable(const VoxelGrid& grid, const char* who) {
+  const Eigen::Vector3i& n = grid.dims();
+  const double squared = 4.0 * n.cast<double>().squaredNorm();
+  if (squared >= static_cast<double>(kNoSite)) {
+    throw InvalidArgument(std::string(who) + ": a grid of " + std::to_string(n.x()) + " x " +
+                          std::to_string(n.y()) + " x " + std::to_string(n.z()) +
+                          " voxels is beyond the exact transform (its diagonal must be under " +
+                          "23,170 voxels); coarsen the resolution");
+  }
+}
+
 /// A distance, m, from its square in quarter voxels squared: kNoSite's root exceeds any real
 /// distance and is capped at `cap`.
 inline float cappedDistance(std::int32_t squared, float half_voxel, float cap) {
@@ -548,6 +563,7 @@ void Esdf::setGeometry(const VoxelGrid& grid) {
 Esdf::Esdf(const VoxelGrid& grid, int threads) {
   if (grid.size() == 0) throw InvalidArgument("Esdf: empty grid");
   if (threads < 0) throw InvalidArgument("Esdf: threads must be >= 0");
+  checkTransformable(grid, "Esdf");
   if (threads == 0) {
     threads = grid.size() < kParallelVoxels
                   ? 1
@@ -661,6 +677,7 @@ IncrementalEsdf::IncrementalEsdf(VoxelGrid grid) { rebuild(std::move(grid)); }
 
 void IncrementalEsdf::rebuild(VoxelGrid grid) {
   if (grid.size() == 0) throw InvalidArgument("IncrementalEsdf: empty grid");
+  checkTransformable(grid, "IncrementalEsdf");
   grid_ = std::move(grid);
   CubeTransform transform(grid_.dims());
   for (int sign = 0; sign < 2; ++sign) {
