@@ -302,13 +302,6 @@ struct CubeTransform {
       const std::int64_t reach = 2 * static_cast<std::int64_t>(std::abs(k)) - 1;
       return k == 0 ? 0 : reach * reach;
     };
-    std::int32_t* old = in.data();
-    std::int32_t* lowered = out.data();
-    std::uint8_t* suspect = suspects.data();
-    for (int q = 0; q < length; ++q) {
-      old[q] = lowered[q] = to[first + q * stride];
-      suspect[q] = 0;
-    }
     // A scan costs about as much as a few entries of the transform, and so does lowering the
     // line by one shrunk input (measured on a flight's window: most changed lines have at
     // most 8 suspects); a line with many of either is transformed anew (a wall appeared).
@@ -316,6 +309,13 @@ struct CubeTransform {
     if (end - begin > most) {
       line(from, to, first, length, stride, changed);
       return true;
+    }
+    std::int32_t* old = in.data();
+    std::int32_t* lowered = out.data();
+    std::uint8_t* suspect = suspects.data();
+    for (int q = 0; q < length; ++q) {
+      old[q] = lowered[q] = to[first + q * stride];
+      suspect[q] = 0;
     }
     int count = 0;
     for (const LineChange* c = begin; c != end; ++c) {
