@@ -45,6 +45,14 @@ void runWorld(const WorldOptions& options) {
   std::printf("  %-10s in %.3f s%s%s\n", how, load.seconds,
               load.cache_file.empty() ? "" : " (cache: ",
               load.cache_file.empty() ? "" : (load.cache_file + ")").c_str());
+  const Esdf& esdf = world.esdf();
+  std::printf("  memory     %.1f MB occupancy + %.1f MB distances", grid.memoryBytes() / 1e6,
+              esdf.memoryBytes() / 1e6);
+  if (grid.layout() == GridLayout::kBricked) {
+    std::printf(" (sparse: %zu bricks of 512 voxels near obstacles, exact to %.3g m)",
+                esdf.allocatedBricks(), esdf.truncation());
+  }
+  std::printf("\n");
   if (!load.note.empty()) std::printf("  note       %s\n", load.note.c_str());
   for (const auto& entry : spec.generators) {
     const std::string note =

@@ -6,9 +6,11 @@
 
 #include <algorithm>
 #include <cstdio>
+#include <filesystem>
 #include <map>
 #include <ostream>
 
+#include "kinolab/core/error.hpp"
 #include "kinolab/core/yaml_reader.hpp"
 #include "kinolab/experiment/query_sampler.hpp"
 #include "kinolab/planner/planner.hpp"
@@ -304,6 +306,74 @@ TEST(LazyFamilyOnARealMap, EveryLookaheadReturnsEagersCostOnGeb079) {
       "[ lazy family ] geb079: %d queries; full evaluations lwa %.0f, lra*(4) %.0f, "
       "lazysp %.0f\n",
       exact, full["1"], full["4"], full["inf"]);
+}
+
+TEST(SparseLayout, EveryShippedWorldPlansTheDenseWorldsCostsAndVerdicts) {
+  // Each shipped world built sparse (bricks, a field truncated at 2.5 m) plans what it plans
+  // dense: the same status, cost and expansions, eager and lazy, and the checker's verdict on
+  // the sparse world; the verdicts the searches need are the dense field's up to the
+  // truncation.
+  test::loadTestPlugins();
+  int solved = 0;
+  for (const char* name : {"forest", "boxes", "walls", "city", "geb079", "mpl_pillars"}) {
+    SCOPED_TRACE(name);
+    const std::string path = std::string(KINOLAB_SOURCE_DIR "/configs/worlds/") + name + ".yaml";
+    const auto dense = WorldCache(WorldCache::defaultDirectory())
+                           .loadOrBuild(WorldSpec::fromFile(path))
+                           .world;
+    const YamlReader root = YamlReader::loadFile(path);
+    YAML::Node edited = YAML::Clone(root.node());
+    edited["layout"] = "sparse";
+    edited["truncation"] = 2.5;  // the obstacle cost's reach on the city's 0.5 m voxels
+    const auto sparse = World::build(WorldSpec::fromYaml(
+        YamlReader::loadString(YAML::Dump(edited), path),
+        std::filesystem::path(path).parent_path().string()));
+    ASSERT_EQ(sparse->grid().layout(), GridLayout::kBricked);
+    const auto queries = test::randomQueries(*dense, 4, 31, 2.0, 7.0, 0.45);
+    const std::vector<std::string> base = {"time_limit=0", "max_expansions=20000",
+                                           "sampler.samples_per_axis=3"};
+    for (std::size_t q = 0; q < queries.size(); ++q) {
+      SCOPED_TRACE("query " + std::to_string(q));
+      for (const char* planner : {"eager_mp_astar", "lazy_mp_astar"}) {
+        SCOPED_TRACE(planner);
+        Outcome on_dense{};
+        Outcome on_sparse{};
+        const double expanded_dense =
+            statisticOf(planner, base, dense, queries[q], "expansions", on_dense);
+        const double expanded_sparse =
+            statisticOf(planner, base, sparse, queries[q], "expansions", on_sparse);
+        EXPECT_EQ(on_sparse.status, on_dense.status);
+        EXPECT_EQ(on_sparse.cost, on_dense.cost);
+        EXPECT_EQ(on_sparse.valid, on_dense.valid);
+        EXPECT_EQ(expanded_sparse, expanded_dense);
+        solved += on_dense.status == PlanStatus::kExact ? 1 : 0;
+      }
+    }
+  }
+  EXPECT_GE(solved, 30);
+}
+
+TEST(SparseLayout, ATruncationShorterThanWhatTheCostReadsIsRefusedAtSetup) {
+  // 0.5 m of exact distances on 0.1 m voxels: the default obstacle cost reads 0.1 + 0.5 +
+  // 2 sqrt(3) 0.1 = 0.95 m. Without the obstacle cost the verdicts need only the radius.
+  test::loadTestPlugins();
+  const auto world = World::build(WorldSpec::fromYaml(
+      YamlReader::loadString("resolution: 0.1\nbounds: {min: [0, 0, 0], max: [6, 6, 3]}\n"
+                             "generators: [{type: box_list, boxes: []}]\n"
+                             "layout: sparse\ntruncation: 0.5\n",
+                             "short.yaml"),
+      "."));
+  ConfiguredPlanner refused = configurePlanner("eager_mp_astar", test::assignments({}));
+  try {
+    refused.planner->setup({world, refused.sampler, 1});
+    ADD_FAILURE() << "a truncation of 0.5 m was accepted";
+  } catch (const InvalidArgument& error) {
+    EXPECT_NE(std::string(error.what()).find("exact to 0.5 m"), std::string::npos) << error.what();
+    EXPECT_NE(std::string(error.what()).find("larger truncation"), std::string::npos);
+  }
+  ConfiguredPlanner accepted =
+      configurePlanner("eager_mp_astar", test::assignments({"weight_obstacle=0"}));
+  EXPECT_NO_THROW(accepted.planner->setup({world, accepted.sampler, 1}));
 }
 
 TEST(ExactVerdict, AOneMetreCorridorOnAHalfMetreGridIsPlannedExact) {

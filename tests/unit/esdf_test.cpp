@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <string>
@@ -394,6 +395,137 @@ TEST(EsdfTest, ExactDistanceIsTheDistanceToTheNearestCubeBelowTheLimit) {
       }
       EXPECT_GT(below, 300);
     }
+  }
+}
+
+/// A grid of `dims` with random voxels and boxes: a solid block (bricks deeper than any
+/// truncation), an empty region (tiles without obstacles), thin walls.
+VoxelGrid structuredGrid(const Eigen::Vector3i& dims, double resolution, GridLayout layout,
+                         std::uint64_t seed) {
+  VoxelGrid grid(Box{Eigen::Vector3d::Zero(), dims.cast<double>() * resolution}, resolution,
+                 layout);
+  Rng rng(seed);
+  const Eigen::Vector3d size = dims.cast<double>() * resolution;
+  grid.fillBox(Eigen::Vector3d(0.1, 0.1, 0.0).cwiseProduct(size),
+               Eigen::Vector3d(0.35, 0.3, 0.8).cwiseProduct(size));
+  grid.fillBox(Eigen::Vector3d(0.5, 0.0, 0.0).cwiseProduct(size),
+               Eigen::Vector3d(0.52, 0.6, 0.5).cwiseProduct(size));
+  for (int i = 0; i < 400; ++i) {
+    const VoxelIndex v(static_cast<int>(rng.uniform01() * dims.x() * 0.7),
+                       static_cast<int>(rng.uniform01() * dims.y()),
+                       static_cast<int>(rng.uniform01() * dims.z()));
+    grid.setOccupied(v, true);
+  }
+  grid.compactBricks();
+  return grid;
+}
+
+TEST(EsdfTest, ATruncatedFieldIsTheExactFieldClampedAtItsTruncationBitForBit) {
+  // Several tiles (16 bricks of 8 voxels a side), sizes that are not whole bricks, both grid
+  // layouts, one and two threads.
+  for (const Eigen::Vector3i& dims :
+       {Eigen::Vector3i(300, 140, 21), Eigen::Vector3i(37, 260, 9), Eigen::Vector3i(20, 20, 1)}) {
+    for (const double truncation : {0.3, 1.0}) {
+      const VoxelGrid dense = structuredGrid(dims, 0.1, GridLayout::kDense, 5);
+      const VoxelGrid bricked = structuredGrid(dims, 0.1, GridLayout::kBricked, 5);
+      const Esdf exact(dense);
+      const auto limit = static_cast<float>(truncation);
+      for (const int threads : {1, 2}) {
+        for (const VoxelGrid* grid : {&dense, &bricked}) {
+          SCOPED_TRACE(::testing::Message() << dims.transpose() << " truncation " << truncation
+                                            << " threads " << threads);
+          const Esdf truncated = Esdf::truncated(*grid, truncation, threads);
+          EXPECT_EQ(truncated.truncation(), truncation);
+          std::size_t differ = 0;
+          for (std::size_t i = 0; i < dense.size(); ++i) {
+            const float expected = std::clamp(exact.voxelDistance(i), -limit, limit);
+            differ += truncated.voxelDistance(i) != expected ||
+                      truncated.voxelDistance(dense.voxel(i)) != expected;
+          }
+          EXPECT_EQ(differ, 0u);
+          // Values of their own for exactly the bricks with a value strictly between -T and T
+          // (or deeper than T but cut by the grid's end, whose voxels beyond read +T).
+          const Eigen::Vector3i bricks = (dims.array() + 7) / 8;
+          std::size_t needed = 0;
+          for (int bx = 0; bx < bricks.x(); ++bx) {
+            for (int by = 0; by < bricks.y(); ++by) {
+              for (int bz = 0; bz < bricks.z(); ++bz) {
+                bool inside = false;
+                bool all_deep = true;
+                const VoxelIndex first = VoxelIndex(bx, by, bz) * 8;
+                const VoxelIndex end = (first.array() + 8).min(dims.array());
+                for (int x = first.x(); x < end.x(); ++x) {
+                  for (int y = first.y(); y < end.y(); ++y) {
+                    for (int z = first.z(); z < end.z(); ++z) {
+                      const float value = exact.voxelDistance(VoxelIndex(x, y, z));
+                      inside = inside || std::abs(value) < limit;
+                      all_deep = all_deep && value <= -limit;
+                    }
+                  }
+                }
+                const bool cut = (end - first).minCoeff() < 8;
+                needed += inside || (all_deep && cut) ? 1 : 0;
+              }
+            }
+          }
+          EXPECT_EQ(truncated.allocatedBricks(), needed);
+          EXPECT_THROW((void)truncated.values(), InvalidArgument);
+        }
+      }
+    }
+  }
+  EXPECT_THROW((void)Esdf::truncated(randomGrid({4, 4, 4}, 0.1, 1), 0.0), InvalidArgument);
+  EXPECT_THROW((void)Esdf::truncated(randomGrid({4, 4, 4}, 0.1, 1), INFINITY), InvalidArgument);
+}
+
+TEST(EsdfTest, ATruncatedFieldGivesTheDenseVerdictsAndProvenBoundsUpToItsTruncation) {
+  // Random points on random and structured grids: every query of the truncated field is the
+  // dense field's where it can be (distances below T) and a lower bound of the distance
+  // elsewhere; verdicts at thresholds up to T are the same.
+  const double truncation = 0.5;
+  for (int round = 0; round < 4; ++round) {
+    const VoxelGrid grid =
+        round < 2 ? randomGrid({40, 33, 17}, round == 0 ? 0.002 : 0.02, 7 + round, 0.1)
+                  : structuredGrid({60, 50, 20}, 0.1, GridLayout::kBricked, round);
+    VoxelGrid dense_grid(grid.bounds(), grid.resolution());
+    grid.forEachOccupied([&](const VoxelIndex& v) { dense_grid.setOccupied(v, true); });
+    const Esdf dense(dense_grid);
+    const Esdf sparse = Esdf::truncated(grid, truncation);
+    Rng rng(17 + round);
+    const Eigen::Vector3d size = grid.dims().cast<double>() * grid.resolution();
+    int exact_below = 0;
+    for (int i = 0; i < 3000; ++i) {
+      const auto point = drawLastFirst<Eigen::Vector3d>(
+          [&](int axis) { return rng.uniform(-0.05, 1.05) * size[axis]; });
+      SCOPED_TRACE(::testing::Message() << "round " << round << " point " << point.transpose());
+      const double truth = dense.exactDistance(point, 100.0);
+      const double clearance = sparse.clearance(point);
+      if (clearance >= 0.0) {
+        EXPECT_LE(clearance, truth + 1e-9);
+      }
+      const double centres = sparse.centreBound(point);
+      if (centres >= 0.0) {
+        EXPECT_LE(centres, truth + 1e-6);
+      }
+      for (const double threshold : {0.0, 0.05, 0.2, 0.45, truncation}) {
+        EXPECT_EQ(sparse.decided(point, clearance, threshold, threshold) >= threshold,
+                  dense.decided(point, dense.clearance(point), threshold, threshold) >= threshold)
+            << threshold;
+      }
+      for (const double limit : {0.3, 2.0}) {
+        const double exact = sparse.exactDistance(point, limit);
+        const double expected = dense.exactDistance(point, limit);
+        if (expected < std::min(limit, truncation)) {
+          EXPECT_EQ(exact, expected) << limit;
+          ++exact_below;
+        } else {
+          // A lower bound of the distance, and at least what the verdicts need.
+          EXPECT_LE(exact, truth + 1e-9) << limit;
+          EXPECT_GE(exact, std::min(limit, truncation)) << limit;
+        }
+      }
+    }
+    EXPECT_GT(exact_below, 100);
   }
 }
 

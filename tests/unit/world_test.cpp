@@ -305,7 +305,7 @@ TEST(WorldSpecTest, SizesAndValuesOutsideWhatIsHandledExactlyAreRefusedUpFront) 
             std::string::npos);
   EXPECT_NE(configErrorOf("resolution: 0.001\nbounds: {min: [0, 0, 0], max: [1000, 1000, 10]}\n"
                           "generators: [{type: box_list, boxes: []}]\n")
-                .find("expected at most 1e9"),
+                .find("a dense world holds at most 1e9"),
             std::string::npos);
   EXPECT_NE(configErrorOf("resolution: 0.1\nbounds: {min: [0, 0, 0], max: [.nan, 2, 2]}\n"
                           "generators: [{type: box_list, boxes: []}]\n")
@@ -323,6 +323,65 @@ TEST(WorldSpecTest, SizesAndValuesOutsideWhatIsHandledExactlyAreRefusedUpFront) 
                 .find("resolution of 1e-09 m; expected 0.0001 to 100 m"),
             std::string::npos);
   std::filesystem::remove_all(directory);
+}
+
+TEST(WorldSpecTest, ASparseWorldHoldsTheSameVoxelsAsADenseOne) {
+  // Every generator's output, bricked: the same occupied voxels, by index and by voxel, and
+  // bricks only where a surface is (a city's insides and open air take none).
+  for (const std::string& text :
+       {kEveryRandomGenerator,
+        std::string("seed: 3\nresolution: 0.5\nbounds: {min: [0, 0, 0], max: [130, 90, 30]}\n"
+                    "generators:\n  - {type: city, block_size: [30, 50], street_width: 10, "
+                    "lot_size: [10, 20], building_height: [5, 25], tree_spacing: 9}\n")}) {
+    const WorldSpec dense_spec = specFromText(text);
+    const WorldSpec sparse_spec = specFromText(text + "layout: sparse\n");
+    EXPECT_NE(dense_spec.hash(), sparse_spec.hash());
+    const VoxelGrid dense = World::buildGrid(dense_spec);
+    const VoxelGrid sparse = World::buildGrid(sparse_spec);
+    ASSERT_EQ(sparse.layout(), GridLayout::kBricked);
+    ASSERT_EQ(sparse.dims(), dense.dims());
+    EXPECT_EQ(sparse.occupiedCount(), dense.occupiedCount());
+    std::size_t differ = 0;
+    for (std::size_t i = 0; i < dense.size(); ++i) {
+      differ += dense.occupied(i) != sparse.occupied(i) ||
+                dense.occupied(dense.voxel(i)) != sparse.occupied(dense.voxel(i));
+    }
+    EXPECT_EQ(differ, 0u);
+    std::size_t visited = 0;
+    sparse.forEachOccupied([&](const VoxelIndex& v) {
+      visited += dense.occupied(v) ? 1 : 0;
+    });
+    EXPECT_EQ(visited, dense.occupiedCount());
+    EXPECT_LT(sparse.memoryBytes(), dense.memoryBytes() / 4);
+    EXPECT_THROW((void)sparse.occupancy(), InvalidArgument);
+  }
+}
+
+TEST(WorldSpecTest, ALayoutOrTruncationThatIsNotUnderstoodIsRefused) {
+  const std::string base =
+      "resolution: 0.1\nbounds: {min: [0, 0, 0], max: [10, 10, 3]}\n"
+      "generators: [{type: box_list, boxes: []}]\n";
+  EXPECT_NE(configErrorOf(base + "layout: spares\n").find("unknown layout 'spares'"),
+            std::string::npos);
+  EXPECT_NE(configErrorOf(base + "layout: spares\n").find("sparse"), std::string::npos);
+  EXPECT_NE(configErrorOf(base + "truncation: 1\n").find("truncation applies to a sparse world"),
+            std::string::npos);
+  // Below a voxel or above 100 voxels.
+  EXPECT_NE(configErrorOf(base + "layout: sparse\ntruncation: 0.05\n").find("truncation"),
+            std::string::npos);
+  EXPECT_NE(configErrorOf(base + "layout: sparse\ntruncation: 11\n").find("truncation"),
+            std::string::npos);
+  EXPECT_EQ(specFromText(base + "layout: sparse\ntruncation: 0.5\n").truncation, 0.5);
+  // A 1 km city at 0.2 m is sparse's to hold, not dense's; 10^13 voxels are no one's.
+  const std::string city =
+      "resolution: 0.2\nbounds: {min: [0, 0, 0], max: [1000, 1000, 60]}\n"
+      "generators: [{type: box_list, boxes: []}]\n";
+  EXPECT_NE(configErrorOf(city).find("a dense world holds at most 1e9"), std::string::npos);
+  EXPECT_EQ(specFromText(city + "layout: sparse\n").layout, GridLayout::kBricked);
+  EXPECT_NE(configErrorOf("resolution: 0.01\nbounds: {min: [0, 0, 0], max: [1000, 1000, 100]}\n"
+                          "generators: [{type: box_list, boxes: []}]\nlayout: sparse\n")
+                .find("a sparse world holds at most 1e12"),
+            std::string::npos);
 }
 
 TEST(WorldSpecTest, FullOtMapsLoadLikeBinaryBtMaps) {

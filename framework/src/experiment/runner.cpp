@@ -88,16 +88,11 @@ WorldRecord worldRecord(const World& world, const std::string& id) {
   }
   record.top.assign(static_cast<std::size_t>(n.x()) * n.y(), 0);
   record.side.assign(static_cast<std::size_t>(n.x()) * n.z(), 0);
-  for (int x = 0; x < n.x(); ++x) {
-    for (int y = 0; y < n.y(); ++y) {
-      for (int z = 0; z < n.z(); ++z) {
-        if (!grid.occupied(grid.index(x, y, z))) continue;
-        auto& top = record.top[static_cast<std::size_t>(x) * n.y() + y];
-        top = std::max<std::uint16_t>(top, static_cast<std::uint16_t>(z + 1));
-        record.side[static_cast<std::size_t>(x) * n.z() + z] = 1;
-      }
-    }
-  }
+  grid.forEachOccupied([&](const VoxelIndex& v) {
+    auto& top = record.top[static_cast<std::size_t>(v.x()) * n.y() + v.y()];
+    top = std::max<std::uint16_t>(top, static_cast<std::uint16_t>(v.z() + 1));
+    record.side[static_cast<std::size_t>(v.x()) * n.z() + v.z()] = 1;
+  });
   const auto [boxes, stride] = view::viewerBoxes(grid);
   record.box_stride = stride;
   for (const view::VoxelBox& box : boxes) {

@@ -101,7 +101,7 @@ double viewOcclusion(const World& truth, const std::vector<Eigen::Vector3d>& gui
       for (int x = low.x(); x <= high.x(); ++x) {
         for (int y = low.y(); y <= high.y(); ++y) {
           for (int z = low.z(); z <= high.z(); ++z) {
-            if (!grid.occupied(grid.index(x, y, z))) continue;
+            if (!grid.occupied(VoxelIndex(x, y, z))) continue;
             const Eigen::Vector3d offset = grid.center(VoxelIndex(x, y, z)) - point;
             const double distance = offset.norm();
             if (distance > kSensingRange || distance <= 0.0) continue;
@@ -145,7 +145,7 @@ double obstaclesPerHectare(const World& truth, double height) {
   int areas = 0;
   for (int x = 0; x < n.x(); ++x) {
     for (int y = 0; y < n.y(); ++y) {
-      if (seen[static_cast<std::size_t>(x) * n.y() + y] || !grid.occupied(grid.index(x, y, z))) {
+      if (seen[static_cast<std::size_t>(x) * n.y() + y] || !grid.occupied(VoxelIndex(x, y, z))) {
         continue;
       }
       ++areas;
@@ -160,7 +160,7 @@ double obstaclesPerHectare(const World& truth, double height) {
             const int cy = c.y() + dy;
             if (cx < 0 || cy < 0 || cx >= n.x() || cy >= n.y()) continue;
             std::uint8_t& mark = seen[static_cast<std::size_t>(cx) * n.y() + cy];
-            if (mark || !grid.occupied(grid.index(cx, cy, z))) continue;
+            if (mark || !grid.occupied(VoxelIndex(cx, cy, z))) continue;
             mark = 1;
             stack.emplace_back(cx, cy);
           }
@@ -181,8 +181,15 @@ ScenarioDifficulty scenarioDifficulty(const World& truth, const PlanningQuery& q
   difficulty.obstacles_per_hectare = obstaclesPerHectare(truth, start.z());
   const double z_low = std::min(start.z(), query.goal.z()) - 0.5;
   const double z_high = std::max(start.z(), query.goal.z()) + 0.5;
-  const std::vector<Eigen::Vector3d> cells = columnGuide(
-      truth.grid(), truth.grid().occupancy(), 1, start, query.goal, robot_radius, z_low, z_high);
+  const VoxelGrid& grid = truth.grid();
+  std::vector<std::uint8_t> copy;  // a sparse world's occupancy, one byte a voxel
+  if (grid.layout() != GridLayout::kDense) {
+    copy.assign(grid.size(), 0);
+    grid.forEachOccupied([&](const VoxelIndex& v) { copy[grid.index(v)] = 1; });
+  }
+  const std::vector<Eigen::Vector3d> cells =
+      columnGuide(grid, copy.empty() ? grid.occupancy() : copy, 1, start, query.goal,
+                  robot_radius, z_low, z_high);
   if (cells.empty()) return difficulty;
   difficulty.guide = shortened(truth, cells, robot_radius);
   difficulty.guide_length = lengthOf(difficulty.guide);

@@ -102,18 +102,13 @@ RayCaster::RayCaster(const World& world) : world_(&world) {
   const Eigen::Vector3i& n = grid.dims();
   bricks_ = (n.array() + kBrick - 1) / kBrick;
   masks_.assign(static_cast<std::size_t>(bricks_.prod()), 0);
-  const std::uint8_t* occupancy = grid.occupancy().data();
-  std::size_t i = 0;
-  for (int x = 0; x < n.x(); ++x) {
-    for (int y = 0; y < n.y(); ++y) {
-      const std::size_t row =
-          (static_cast<std::size_t>(x / kBrick) * bricks_.y() + y / kBrick) * bricks_.z();
-      const int bits = (x % kBrick * kBrick + y % kBrick) * kBrick;
-      for (int z = 0; z < n.z(); ++z, ++i) {
-        if (occupancy[i] != 0) masks_[row + z / kBrick] |= std::uint64_t{1} << (bits + z % kBrick);
-      }
-    }
-  }
+  grid.forEachOccupied([&](const VoxelIndex& v) {
+    const std::size_t brick =
+        (static_cast<std::size_t>(v.x() / kBrick) * bricks_.y() + v.y() / kBrick) * bricks_.z() +
+        v.z() / kBrick;
+    const int bit = (v.x() % kBrick * kBrick + v.y() % kBrick) * kBrick + v.z() % kBrick;
+    masks_[brick] |= std::uint64_t{1} << bit;
+  });
   occupied_.resize(masks_.size());
   for (std::size_t brick = 0; brick < masks_.size(); ++brick) occupied_[brick] = masks_[brick] != 0;
 }

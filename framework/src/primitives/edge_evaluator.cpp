@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include "kinolab/core/error.hpp"
+#include "kinolab/core/text.hpp"
 
 namespace kinolab {
 namespace {
@@ -65,6 +66,24 @@ EdgeEvaluator::EdgeEvaluator(std::shared_ptr<const World> world, EdgeEvaluatorSe
     require(settings_.sampling.spacing > 0.0, "spacing must be positive");
   }
   inverse_safety_distance_ = 1.0 / settings_.safety_distance;
+  // A sparse world's distances are exact up to its truncation T. The verdicts read them up to
+  // the radius; the obstacle cost's trilinear values below the band's edge B read voxel
+  // centres up to B + 2 sqrt(3) voxels away (each centre within sqrt(3) voxels of the point,
+  // the distance 1-Lipschitz), so with T beyond that every cost is the dense world's.
+  const Esdf& esdf = world_->esdf();
+  if (esdf.truncation() < INFINITY) {
+    const double reach =
+        w.obstacle > 0.0 ? settings_.robot_radius + settings_.safety_distance +
+                               2.0 * std::sqrt(3.0) * esdf.resolution()
+                         : std::max(settings_.robot_radius, settings_.collision_tolerance);
+    require(esdf.truncation() > reach,
+            "world '" + world_->name() + "' is sparse with distances exact to " +
+                formatNumber(esdf.truncation()) + " m, and the " +
+                (w.obstacle > 0.0 ? "obstacle cost reads them to robot_radius + safety_distance "
+                                    "+ 2 sqrt(3) voxels = "
+                                  : "collision verdict reads them to robot_radius = ") +
+                formatNumber(reach) + " m: build the world with a larger truncation");
+  }
   const auto choose = [](int n, int k) {
     double value = 1.0;
     for (int i = 1; i <= k; ++i) value = value * (n - k + i) / i;

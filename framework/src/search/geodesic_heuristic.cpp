@@ -323,6 +323,10 @@ class GeodesicHeuristic final : public SearchHeuristic {
     // evaluator's verdict radius less the tolerance sphere tracing allows).
     const double threshold =
         std::max(edges_.robot_radius, edges_.collision_tolerance) - edges_.collision_tolerance;
+    if (world.grid().layout() != GridLayout::kDense) {
+      throw InvalidArgument("heuristic geodesic: world " + world.name() +
+                            " is sparse; the geodesic field needs a dense world (layout: dense)");
+    }
     return std::make_shared<GeodesicQueryHeuristic>(
         HopField(world, threshold, goal, goal_radius_, stop), edges_, time_optimal_);
   }

@@ -36,6 +36,24 @@ namespace {
 /// one world share one tree: it lives while a checker holds it, and a world outlives its
 /// checkers, so the world's address identifies it. (The experiment runner builds it before
 /// forking workers, which then inherit it.)
+/// Whether an occupied voxel has a free one among its 26 neighbours in the grid.
+bool onSurface(const VoxelGrid& grid, const VoxelIndex& voxel) {
+  for (int dx = -1; dx <= 1; ++dx) {
+    for (int dy = -1; dy <= 1; ++dy) {
+      for (int dz = -1; dz <= 1; ++dz) {
+        const VoxelIndex next = voxel + VoxelIndex(dx, dy, dz);
+        if (grid.inside(next) && !grid.occupied(next)) return true;
+      }
+    }
+  }
+  return false;
+}
+
+/// The tree holds the occupied voxels with a free neighbour only (a wall's skin, not its
+/// inside): a ball that meets an occupied cube while its centre lies in none meets one of
+/// these, because the segment from its centre to the first point of an occupied cube it
+/// reaches runs through free cubes, the last of which shares that point with the cube. With
+/// the test of the centre (collides()) the verdicts are those of every cube.
 std::shared_ptr<const fcl::CollisionObjectd> sharedOctree(const World& world) {
   static std::mutex mutex;
   static std::map<const World*, std::weak_ptr<const fcl::CollisionObjectd>> trees;
@@ -43,19 +61,14 @@ std::shared_ptr<const fcl::CollisionObjectd> sharedOctree(const World& world) {
   if (auto tree = trees[&world].lock()) return tree;
   const VoxelGrid& grid = world.grid();
   auto octree = std::make_shared<octomap::OcTree>(grid.resolution());
-  const Eigen::Vector3i& dims = grid.dims();
   const double r = grid.resolution();
-  for (int ix = 0; ix < dims.x(); ++ix) {
-    for (int iy = 0; iy < dims.y(); ++iy) {
-      for (int iz = 0; iz < dims.z(); ++iz) {
-        if (!grid.occupied(grid.index(ix, iy, iz))) continue;
-        octree->updateNode(
-            octomap::point3d(static_cast<float>((ix + 0.5) * r), static_cast<float>((iy + 0.5) * r),
-                             static_cast<float>((iz + 0.5) * r)),
-            true, /*lazy_eval=*/true);
-      }
-    }
-  }
+  grid.forEachOccupied([&](const VoxelIndex& v) {
+    if (!onSurface(grid, v)) return;
+    octree->updateNode(
+        octomap::point3d(static_cast<float>((v.x() + 0.5) * r), static_cast<float>((v.y() + 0.5) * r),
+                         static_cast<float>((v.z() + 0.5) * r)),
+        true, /*lazy_eval=*/true);
+  });
   octree->updateInnerOccupancy();
   auto tree = std::make_shared<fcl::CollisionObjectd>(
       std::make_shared<fcl::OcTreed>(std::shared_ptr<const octomap::OcTree>(octree)));
@@ -111,9 +124,12 @@ TrajectoryChecker::TrajectoryChecker(TrajectoryChecker&&) noexcept = default;
 TrajectoryChecker& TrajectoryChecker::operator=(TrajectoryChecker&&) noexcept = default;
 
 bool TrajectoryChecker::collides(const Eigen::Vector3d& position) const {
-  if (fcl_) return fcl_->collides(position);
-  // A point: is it in a closed occupied cube? On a face, edge or corner every voxel sharing
-  // it counts.
+  // The centre: is it in a closed occupied cube? On a face, edge or corner every voxel
+  // sharing it counts. Then the body against the obstacles' surface voxels.
+  return inOccupiedCube(position) || (fcl_ && fcl_->collides(position));
+}
+
+bool TrajectoryChecker::inOccupiedCube(const Eigen::Vector3d& position) const {
   const VoxelGrid& grid = world_->grid();
   const Eigen::Vector3d scaled = (position - grid.origin()) / grid.resolution();
   int low[3];

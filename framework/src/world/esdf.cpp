@@ -1,11 +1,13 @@
 #include "kinolab/world/esdf.hpp"
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <cstdint>
 #include <cstring>
 #include <exception>
 #include <limits>
+#include <memory>
 #include <mutex>
 #include <string>
 #include <thread>
@@ -457,9 +459,37 @@ inline float signedDistance(std::int32_t to_occupied, std::int32_t to_free, bool
 /// voxel outwards along x, then y, then z, both ways: the gaps grow, so each way stops at the
 /// first voxel beyond the best (and along z at the first occupied one), and everything stops
 /// at a cube nearer than sqrt(enough2).
+/// A dense field's z-rows (x and y strides; z is contiguous).
+struct DenseRows {
+  const float* values;
+  std::int64_t strides[2];
+  const float* operator()(std::int64_t x, std::int64_t y) const {
+    return values + x * strides[0] + y * strides[1];
+  }
+};
+
+/// A truncated field's z-rows, through its brick table.
+struct BrickRows {
+  struct Row {
+    const float* const* bricks;  // the column of bricks holding the row
+    std::size_t inner;           // the row within a brick
+    float operator[](std::int64_t z) const {
+      return bricks[static_cast<std::size_t>(z) >> 3][inner | (static_cast<std::size_t>(z) & 7)];
+    }
+  };
+  const float* const* table;
+  std::size_t strides[2];  // bricks per x and per y step
+  Row operator()(std::int64_t x, std::int64_t y) const {
+    const auto ux = static_cast<std::size_t>(x);
+    const auto uy = static_cast<std::size_t>(y);
+    return {table + (ux >> 3) * strides[0] + (uy >> 3) * strides[1], ((ux & 7) << 6) | ((uy & 7) << 3)};
+  }
+};
+
+/// The search of exactDistance(), over a field's z-rows (`Rows`: DenseRows or BrickRows).
+template <typename Rows>
 struct NearestCubeSearch {
-  const float* values = nullptr;
-  std::int64_t strides[2] = {0, 0};  // x and y; z is contiguous
+  Rows rows;
   double scaled[3] = {0, 0, 0};      // the point
   std::int64_t cell[3] = {0, 0, 0};  // its voxel (clamped into the grid)
   std::int64_t from[3] = {0, 0, 0};
@@ -479,7 +509,8 @@ struct NearestCubeSearch {
   bool beyond(double d2) const { return found ? d2 >= best2 : d2 > best2; }
 
   /// One way along z: false at the first voxel beyond the best or the first occupied one.
-  bool visit(const float* row, double gxy2, std::int64_t z) {
+  template <typename Row>
+  bool visit(const Row& row, double gxy2, std::int64_t z) {
     const double gz = gap(2, z);
     const double d2 = gxy2 + gz * gz;
     if (beyond(d2)) return false;
@@ -493,7 +524,7 @@ struct NearestCubeSearch {
   /// with a gap scaled - z - 1 of at least free_z; above, z > cell with a gap z - scaled of at
   /// least free_z. False when the search is done.
   bool column(std::int64_t x, std::int64_t y, double gxy2) {
-    const float* row = values + x * strides[0] + y * strides[1];
+    const auto row = rows(x, y);
     const double free_z = gxy2 < inner2 ? std::sqrt(inner2 - gxy2) : 0.0;
     const std::int64_t below =
         free_z > 0.0
@@ -556,6 +587,7 @@ void Esdf::setGeometry(const VoxelGrid& grid) {
     lower_corner_[axis] = std::max(0, dims_[axis] - 2);
     shift_[axis] = origin_[axis] * inverse_resolution_ + 0.5;
     neighbour_step_[axis] = dims_[axis] > 1 ? strides_[axis] : 0;
+    unit_step_[axis] = dims_[axis] > 1 ? 1 : 0;
     gradient_scale_[axis] = dims_[axis] > 1 ? inverse_resolution_ : 0.0;
   }
 }
@@ -598,40 +630,234 @@ Esdf::Esdf(const VoxelGrid& grid, std::vector<float> values) : values_(std::move
   setGeometry(grid);
 }
 
+struct Esdf::Bricks {
+  std::vector<const float*> table;
+  std::vector<std::unique_ptr<float[]>> chunks;  // the allocated bricks, a chunk per tile
+  std::size_t allocated = 0;
+  float far[kBrickVoxels];
+  float deep[kBrickVoxels];
+};
+
+const std::vector<float>& Esdf::values() const {
+  if (brick_table_) {
+    throw InvalidArgument(
+        "Esdf::values: a truncated (sparse) field has no dense array; query it by voxel");
+  }
+  return values_;
+}
+
+std::size_t Esdf::allocatedBricks() const { return bricks_ ? bricks_->allocated : 0; }
+
+std::size_t Esdf::memoryBytes() const {
+  if (!bricks_) return values_.capacity() * sizeof(float);
+  return bricks_->table.capacity() * sizeof(const float*) +
+         bricks_->allocated * kBrickVoxels * sizeof(float) + sizeof(Bricks);
+}
+
+namespace {
+
+/// The occupancy of the voxels [low, high) of `grid` (either layout) as a dense grid of their
+/// own (origin at zero), one brick at a time.
+VoxelGrid denseCopy(const VoxelGrid& grid, const Eigen::Vector3i& low, const Eigen::Vector3i& high) {
+  const Eigen::Vector3i n = high - low;
+  VoxelGrid copy(Box{Eigen::Vector3d::Zero(), n.cast<double>() * grid.resolution()},
+                 grid.resolution());
+  if (copy.dims() != n) throw std::logic_error("Esdf::truncated: a tile's grid is not its size");
+  std::uint8_t* out = copy.occupancy().data();
+  const int b = VoxelGrid::kBrick;
+  for (int bx = low.x() / b; bx * b < high.x(); ++bx) {
+    for (int by = low.y() / b; by * b < high.y(); ++by) {
+      for (int bz = low.z() / b; bz * b < high.z(); ++bz) {
+        if (grid.layout() == GridLayout::kBricked && !grid.brickHasObstacle(bx, by, bz)) continue;
+        const Eigen::Vector3i from = (Eigen::Vector3i(bx, by, bz) * b).cwiseMax(low);
+        const Eigen::Vector3i to = ((Eigen::Vector3i(bx, by, bz).array() + 1) * b).matrix().cwiseMin(high);
+        for (int x = from.x(); x < to.x(); ++x) {
+          for (int y = from.y(); y < to.y(); ++y) {
+            std::uint8_t* row = out + copy.index(x - low.x(), y - low.y(), 0) - low.z();
+            for (int z = from.z(); z < to.z(); ++z) row[z] = grid.occupied({x, y, z}) ? 1 : 0;
+          }
+        }
+      }
+    }
+  }
+  return copy;
+}
+
+/// Whether brick (bx, by, bz) of `grid` may hold an occupied voxel.
+bool mayHoldObstacle(const VoxelGrid& grid, int bx, int by, int bz) {
+  if (grid.layout() == GridLayout::kBricked) return grid.brickHasObstacle(bx, by, bz);
+  const int b = VoxelGrid::kBrick;
+  const Eigen::Vector3i from = Eigen::Vector3i(bx, by, bz) * b;
+  const Eigen::Vector3i to = ((Eigen::Vector3i(bx, by, bz).array() + 1) * b).matrix().cwiseMin(grid.dims());
+  for (int x = from.x(); x < to.x(); ++x) {
+    for (int y = from.y(); y < to.y(); ++y) {
+      for (int z = from.z(); z < to.z(); ++z) {
+        if (grid.occupied(grid.index(x, y, z))) return true;
+      }
+    }
+  }
+  return false;
+}
+
+}  // namespace
+
+Esdf Esdf::truncated(const VoxelGrid& grid, double truncation, int threads) {
+  if (grid.size() == 0) throw InvalidArgument("Esdf::truncated: empty grid");
+  if (!(truncation > 0.0 && truncation < INFINITY)) {
+    throw InvalidArgument("Esdf::truncated: the truncation must be a positive finite distance");
+  }
+  if (threads < 0) throw InvalidArgument("Esdf::truncated: threads must be >= 0");
+  if (threads == 0) {
+    threads = grid.size() < kParallelVoxels
+                  ? 1
+                  : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+  }
+  Esdf esdf;
+  esdf.setGeometry(grid);
+  esdf.truncation_ = truncation;
+  const auto limit = static_cast<float>(truncation);
+  const int b = VoxelGrid::kBrick;
+  const Eigen::Vector3i& n = grid.dims();
+  const Eigen::Vector3i bricks = (n.array() + b - 1) / b;
+  auto store = std::make_shared<Bricks>();
+  std::fill(std::begin(store->far), std::end(store->far), limit);
+  std::fill(std::begin(store->deep), std::end(store->deep), -limit);
+  store->table.assign(static_cast<std::size_t>(bricks.cast<double>().prod()), store->far);
+  esdf.brick_strides_[0] = static_cast<std::size_t>(bricks.y()) * bricks.z();
+  esdf.brick_strides_[1] = static_cast<std::size_t>(bricks.z());
+  // A cube within T of a voxel's centre is within `margin` voxels of the voxel on every axis
+  // (its offset k gives a distance of at least (k - 1/2) voxels).
+  const int margin = static_cast<int>(std::ceil(truncation / grid.resolution())) + 1;
+  const int margin_bricks = (margin + b - 1) / b;
+  constexpr int kTile = 16;  // bricks per tile side in x and y
+  const int tiles_x = (bricks.x() + kTile - 1) / kTile;
+  const int tiles_y = (bricks.y() + kTile - 1) / kTile;
+  std::atomic<int> next_tile{0};
+  std::mutex chunks_mutex;
+  const auto tile = [&](int t) {
+    const Eigen::Vector3i first(t / tiles_y * kTile, t % tiles_y * kTile, 0);
+    const Eigen::Vector3i last(std::min(first.x() + kTile, bricks.x()),
+                               std::min(first.y() + kTile, bricks.y()), bricks.z());
+    // The heights holding an obstacle within the margin of the tile's columns.
+    int z_low = bricks.z();
+    int z_high = -1;
+    for (int bx = std::max(0, first.x() - margin_bricks);
+         bx < std::min(bricks.x(), last.x() + margin_bricks); ++bx) {
+      for (int by = std::max(0, first.y() - margin_bricks);
+           by < std::min(bricks.y(), last.y() + margin_bricks); ++by) {
+        for (int bz = 0; bz < bricks.z(); ++bz) {
+          if (!mayHoldObstacle(grid, bx, by, bz)) continue;
+          z_low = std::min(z_low, bz);
+          z_high = std::max(z_high, bz);
+        }
+      }
+    }
+    if (z_high < 0) return;  // no obstacle within T: every brick stays at +T
+    const Eigen::Vector3i low = (Eigen::Vector3i(first.x() * b - margin, first.y() * b - margin,
+                                                 z_low * b - margin))
+                                    .cwiseMax(Eigen::Vector3i::Zero());
+    const Eigen::Vector3i high = Eigen::Vector3i(last.x() * b + margin, last.y() * b + margin,
+                                                 (z_high + 1) * b + margin)
+                                     .cwiseMin(n);
+    const VoxelGrid part = denseCopy(grid, low, high);
+    const Esdf exact(part, 1);
+    // The bricks of the tile with a value strictly inside (-T, T); the others share +T or -T.
+    std::vector<float> values;
+    std::vector<std::size_t> owners;
+    float brick[kBrickVoxels];
+    for (int bx = first.x(); bx < last.x(); ++bx) {
+      for (int by = first.y(); by < last.y(); ++by) {
+        for (int bz = 0; bz < bricks.z(); ++bz) {
+          const Eigen::Vector3i from = Eigen::Vector3i(bx, by, bz) * b;
+          if (from.z() + b <= low.z() || from.z() >= high.z()) continue;  // beyond the margin
+          bool all_far = true;
+          bool all_deep = true;
+          for (int i = 0; i < kBrickVoxels; ++i) {
+            const Eigen::Vector3i v = from + Eigen::Vector3i(i >> 6, (i >> 3) & 7, i & 7);
+            // Voxels past the grid's end are never read (+T keeps such a brick shared), and
+            // those below or above the tile's part are more than T from every obstacle.
+            const float value =
+                (v.array() < n.array()).all() && v.z() >= low.z() && v.z() < high.z()
+                    ? std::clamp(exact.voxelDistance(part.index(v - low)), -limit, limit)
+                    : limit;
+            brick[i] = value;
+            all_far = all_far && value == limit;
+            all_deep = all_deep && value == -limit;
+          }
+          const std::size_t index = (static_cast<std::size_t>(bx) * bricks.y() + by) * bricks.z() + bz;
+          if (all_deep) store->table[index] = store->deep;
+          if (all_far || all_deep) continue;
+          owners.push_back(index);
+          values.insert(values.end(), brick, brick + kBrickVoxels);
+        }
+      }
+    }
+    if (owners.empty()) return;
+    auto chunk = std::make_unique<float[]>(values.size());
+    std::copy(values.begin(), values.end(), chunk.get());
+    // Each tile writes its own entries of the table.
+    for (std::size_t k = 0; k < owners.size(); ++k) {
+      store->table[owners[k]] = chunk.get() + k * kBrickVoxels;
+    }
+    const std::lock_guard<std::mutex> lock(chunks_mutex);
+    store->allocated += owners.size();
+    store->chunks.push_back(std::move(chunk));
+  };
+  inParallel(static_cast<std::size_t>(threads), threads, [&](std::size_t, std::size_t) {
+    for (int t = next_tile++; t < tiles_x * tiles_y; t = next_tile++) tile(t);
+  });
+  esdf.brick_table_ = store->table.data();
+  esdf.bricks_ = std::move(store);
+  return esdf;
+}
+
 double Esdf::centreBound(const Eigen::Vector3d& point) const {
-  if (values_.empty()) return -INFINITY;
-  std::size_t base = 0;
+  if (values_.empty() && !brick_table_) return -INFINITY;
+  std::size_t lower[3];
   double low[3];   // offset (voxels) from the lower centre along each axis
   double high[3];  // and from the upper one
   for (int axis = 0; axis < 3; ++axis) {
     const double raw = point[axis] * inverse_resolution_ - shift_[axis];
     if (!std::isfinite(raw)) return -INFINITY;
-    const auto corner = static_cast<std::size_t>(
+    lower[axis] = static_cast<std::size_t>(
         static_cast<std::int64_t>(std::min(std::max(0.0, std::floor(raw)), lower_corner_[axis])));
-    low[axis] = raw - static_cast<double>(corner);
+    low[axis] = raw - static_cast<double>(lower[axis]);
     // On a one-voxel axis both "corners" are the one centre.
-    high[axis] = neighbour_step_[axis] != 0 ? low[axis] - 1.0 : low[axis];
-    base += corner * strides_[axis];
+    high[axis] = unit_step_[axis] != 0 ? low[axis] - 1.0 : low[axis];
   }
   double best = -INFINITY;
   for (int corner = 0; corner < 8; ++corner) {
-    std::size_t index = base;
+    std::size_t cell[3];
     double squared = 0.0;
     for (int axis = 0; axis < 3; ++axis) {
       const bool upper = (corner >> axis) & 1;
-      if (upper) index += neighbour_step_[axis];
+      cell[axis] = lower[axis] + (upper ? unit_step_[axis] : 0);
       const double offset = upper ? high[axis] : low[axis];
       squared += offset * offset;
     }
-    best = std::max(best, values_[index] - resolution_ * std::sqrt(squared));
+    best = std::max(best, valueAt(cell[0], cell[1], cell[2]) - resolution_ * std::sqrt(squared));
   }
   return best;
 }
 
 double Esdf::exactDistanceAbove(const Eigen::Vector3d& point, double limit, double enough,
                                 double lower) const {
+  if (brick_table_) {
+    return nearestCube(
+        NearestCubeSearch<BrickRows>{{brick_table_, {brick_strides_[0], brick_strides_[1]}}}, point,
+        limit, enough, lower);
+  }
   if (values_.empty()) return limit;
-  NearestCubeSearch search;
+  return nearestCube(
+      NearestCubeSearch<DenseRows>{{values_.data(),
+                                    {static_cast<std::int64_t>(strides_[0]),
+                                     static_cast<std::int64_t>(strides_[1])}}},
+      point, limit, enough, lower);
+}
+
+template <typename Search>
+double Esdf::nearestCube(Search search, const Eigen::Vector3d& point, double limit, double enough,
+                         double lower) const {
   double centre_offset2 = 0.0;
   for (int axis = 0; axis < 3; ++axis) {
     search.scaled[axis] = (point[axis] - origin_[axis]) * inverse_resolution_;
@@ -645,13 +871,17 @@ double Esdf::exactDistanceAbove(const Eigen::Vector3d& point, double limit, doub
   // lower bound of the distance (`lower`) every voxel is free, and within an upper bound
   // (the voxel's centre value, exact, and the way to it) there is a cube; both with float
   // rounding's slack. Only the shell is searched.
-  const float raw = values_[search.cell[0] * strides_[0] + search.cell[1] * strides_[1] +
-                            search.cell[2] * strides_[2]];
+  const float raw = valueAt(static_cast<std::size_t>(search.cell[0]),
+                            static_cast<std::size_t>(search.cell[1]),
+                            static_cast<std::size_t>(search.cell[2]));
   // At the cap (the grid's diagonal, farther than any cube of the grid is from a voxel
   // centre): no voxel is occupied.
   if (raw >= static_cast<float>(max_distance_)) return limit;
   const double stored = raw * inverse_resolution_;
   double reach = limit * inverse_resolution_;
+  // A truncated value at +T says only that the cube is at least T from the centre: the ball
+  // searched is the same, and finding no cube in it proves the distance at least its radius.
+  const bool beyond_truncation = raw >= static_cast<float>(truncation_);
   if (stored >= 0.0) reach = std::min(reach, stored + std::sqrt(centre_offset2) + 1e-4);
   const double inner = std::max(0.0, lower * inverse_resolution_ - 1e-4);
   for (int axis = 0; axis < 3; ++axis) {
@@ -660,9 +890,6 @@ double Esdf::exactDistanceAbove(const Eigen::Vector3d& point, double limit, doub
     search.to[axis] = std::min<std::int64_t>(
         dims_[axis] - 1, static_cast<std::int64_t>(std::floor(search.scaled[axis] + reach)));
   }
-  search.values = values_.data();
-  search.strides[0] = static_cast<std::int64_t>(strides_[0]);
-  search.strides[1] = static_cast<std::int64_t>(strides_[1]);
   search.inner2 = inner * inner;
   search.best2 = reach * reach;
   const double enough_voxels = enough * inverse_resolution_;
@@ -670,7 +897,9 @@ double Esdf::exactDistanceAbove(const Eigen::Vector3d& point, double limit, doub
   search.run();
   if (search.found && search.best2 == 0.0) return -0.5 * resolution_;  // in (or on) a cube
   const double best = std::sqrt(search.best2) * resolution_;
-  return search.found && best < limit ? best : limit;
+  if (search.found) return std::min(best, limit);
+  // Without a cube within reach: at least the reach (the limit, unless truncated).
+  return beyond_truncation ? std::min(limit, reach * resolution_) : limit;
 }
 
 IncrementalEsdf::IncrementalEsdf(VoxelGrid grid) { rebuild(std::move(grid)); }

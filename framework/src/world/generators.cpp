@@ -87,7 +87,7 @@ void fillCylinder(VoxelGrid& grid, const Eigen::Vector2d& center, double radius,
     for (int iy = first.y(); iy <= last.y(); ++iy) {
       const Eigen::Vector3d c = grid.center({ix, iy, 0});
       if ((c.head<2>() - center).squaredNorm() > radius_squared) continue;
-      for (int iz = first.z(); iz <= last.z(); ++iz) grid.setOccupied(grid.index(ix, iy, iz), true);
+      for (int iz = first.z(); iz <= last.z(); ++iz) grid.setOccupied(VoxelIndex(ix, iy, iz), true);
     }
   }
 }

@@ -1,14 +1,15 @@
 #include "kinolab/world/voxel_grid.hpp"
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
 
 #include "kinolab/core/error.hpp"
 
 namespace kinolab {
 
-VoxelGrid::VoxelGrid(const Box& bounds, double resolution)
-    : resolution_(resolution), origin_(bounds.min) {
+VoxelGrid::VoxelGrid(const Box& bounds, double resolution, GridLayout layout)
+    : resolution_(resolution), origin_(bounds.min), bricked_(layout == GridLayout::kBricked) {
   if (!(resolution > 0.0)) throw InvalidArgument("VoxelGrid: resolution must be positive");
   const Eigen::Vector3d extent = bounds.size();
   for (int axis = 0; axis < 3; ++axis) {
@@ -17,12 +18,88 @@ VoxelGrid::VoxelGrid(const Box& bounds, double resolution)
     dims_[axis] = std::max(1, static_cast<int>(std::ceil(extent[axis] / resolution - 1e-9)));
   }
   const double count = static_cast<double>(dims_.x()) * dims_.y() * dims_.z();
-  if (count > 2e9) throw InvalidArgument("VoxelGrid: more than 2e9 voxels; raise the resolution");
-  occupancy_.assign(static_cast<std::size_t>(count), 0);
+  size_ = static_cast<std::size_t>(count);
+  if (!bricked_) {
+    if (count > 2e9) throw InvalidArgument("VoxelGrid: more than 2e9 voxels; raise the resolution");
+    occupancy_.assign(size_, 0);
+    return;
+  }
+  // The table holds 4 bytes per brick of 512 voxels.
+  if (count > 1e12) throw InvalidArgument("VoxelGrid: more than 1e12 voxels; raise the resolution");
+  bricks_ = (dims_.array() + kBrick - 1) / kBrick;
+  brick_state_.assign(static_cast<std::size_t>(bricks_.cast<double>().prod()), kEmptyBrick);
+}
+
+std::size_t VoxelGrid::memoryBytes() const {
+  return occupancy_.capacity() + brick_state_.capacity() * sizeof(std::uint32_t) +
+         masks_.capacity() * sizeof(std::uint64_t);
 }
 
 std::size_t VoxelGrid::occupiedCount() const {
-  return static_cast<std::size_t>(std::count(occupancy_.begin(), occupancy_.end(), 1));
+  if (!bricked_) {
+    return static_cast<std::size_t>(std::count(occupancy_.begin(), occupancy_.end(), 1));
+  }
+  // Only bricks wholly inside the grid are ever full.
+  std::size_t count = 0;
+  for (const std::uint32_t state : brick_state_) {
+    if (state == kFullBrick) count += kBrick * kBrick * kBrick;
+    if (state < kMasked) continue;
+    for (int word = 0; word < 8; ++word) {
+      count += static_cast<std::size_t>(std::popcount(masks_[(state - kMasked) * 8 + word]));
+    }
+  }
+  return count;
+}
+
+const std::vector<std::uint8_t>& VoxelGrid::occupancy() const {
+  if (bricked_) denseOnly();
+  return occupancy_;
+}
+
+std::vector<std::uint8_t>& VoxelGrid::occupancy() {
+  if (bricked_) denseOnly();
+  return occupancy_;
+}
+
+void VoxelGrid::denseOnly() const {
+  throw InvalidArgument(
+      "VoxelGrid::occupancy: a bricked (sparse) grid has no dense occupancy array; query it by "
+      "voxel");
+}
+
+void VoxelGrid::setBrickedOccupied(const VoxelIndex& v, bool value) {
+  std::uint32_t& state = brick_state_[brickIndex(v.x() >> 3, v.y() >> 3, v.z() >> 3)];
+  if (state == (value ? kFullBrick : kEmptyBrick)) return;
+  if (state < kMasked) {
+    const std::uint64_t fill = state == kFullBrick ? ~std::uint64_t{0} : 0;
+    state = kMasked + static_cast<std::uint32_t>(masks_.size() / 8);
+    masks_.insert(masks_.end(), 8, fill);
+  }
+  std::uint64_t& word = masks_[(state - kMasked) * 8 + (v.x() & 7)];
+  const std::uint64_t bit = std::uint64_t{1} << (((v.y() & 7) << 3) | (v.z() & 7));
+  word = value ? word | bit : word & ~bit;
+}
+
+void VoxelGrid::compactBricks() {
+  if (!bricked_) return;
+  std::vector<std::uint64_t> kept;
+  for (std::uint32_t& state : brick_state_) {
+    if (state < kMasked) continue;
+    const std::uint64_t* mask = masks_.data() + (state - kMasked) * 8;
+    bool all = true;
+    bool none = true;
+    for (int word = 0; word < 8; ++word) {
+      all = all && mask[word] == ~std::uint64_t{0};
+      none = none && mask[word] == 0;
+    }
+    if (all || none) {
+      state = all ? kFullBrick : kEmptyBrick;
+    } else {
+      state = kMasked + static_cast<std::uint32_t>(kept.size() / 8);
+      kept.insert(kept.end(), mask, mask + 8);
+    }
+  }
+  masks_ = std::move(kept);
 }
 
 bool VoxelGrid::voxelRange(const Eigen::Vector3d& min, const Eigen::Vector3d& max,
@@ -58,7 +135,32 @@ bool VoxelGrid::overlapRange(const Eigen::Vector3d& min, const Eigen::Vector3d& 
 }
 
 void VoxelGrid::fillBox(const Eigen::Vector3d& min, const Eigen::Vector3d& max) {
-  forEachVoxelIn(min, max, [this](std::size_t i) { occupancy_[i] = 1; });
+  if (!bricked_) {
+    forEachVoxelIn(min, max, [this](std::size_t i) { occupancy_[i] = 1; });
+    return;
+  }
+  Eigen::Vector3i low;
+  Eigen::Vector3i high;
+  if (!voxelRange(min, max, low, high)) return;
+  // Bricks the box covers whole become full; the others get the box's part voxel by voxel.
+  for (int bx = low.x() >> 3; bx <= high.x() >> 3; ++bx) {
+    for (int by = low.y() >> 3; by <= high.y() >> 3; ++by) {
+      for (int bz = low.z() >> 3; bz <= high.z() >> 3; ++bz) {
+        const VoxelIndex first = VoxelIndex(bx, by, bz) * kBrick;
+        const VoxelIndex from = first.cwiseMax(low);
+        const VoxelIndex to = (first.array() + kBrick - 1).matrix().cwiseMin(high);
+        if (from == first && (to.array() == first.array() + kBrick - 1).all()) {
+          brick_state_[brickIndex(bx, by, bz)] = kFullBrick;  // a mask it had is dropped later
+          continue;
+        }
+        for (int x = from.x(); x <= to.x(); ++x) {
+          for (int y = from.y(); y <= to.y(); ++y) {
+            for (int z = from.z(); z <= to.z(); ++z) setBrickedOccupied({x, y, z}, true);
+          }
+        }
+      }
+    }
+  }
 }
 
 }  // namespace kinolab

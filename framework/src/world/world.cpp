@@ -32,7 +32,7 @@ World::World(std::string name, std::uint64_t spec_hash, VoxelGrid grid, Esdf esd
 }
 
 VoxelGrid World::buildGrid(const WorldSpec& spec) {
-  VoxelGrid grid(spec.bounds, spec.resolution);
+  VoxelGrid grid(spec.bounds, spec.resolution, spec.layout);
   for (std::size_t i = 0; i < spec.generators.size(); ++i) {
     Rng rng = Rng::derive(spec.seed, "world-generator", i);
     try {
@@ -42,12 +42,14 @@ VoxelGrid World::buildGrid(const WorldSpec& spec) {
                         spec.generators[i].type + "): " + error.what());
     }
   }
+  grid.compactBricks();
   return grid;
 }
 
 std::shared_ptr<const World> World::build(const WorldSpec& spec) {
   VoxelGrid grid = buildGrid(spec);
-  Esdf esdf(grid);
+  Esdf esdf = spec.layout == GridLayout::kBricked ? Esdf::truncated(grid, spec.truncation)
+                                                  : Esdf(grid);
   return std::make_shared<const World>(spec.name, spec.hash(), std::move(grid), std::move(esdf));
 }
 

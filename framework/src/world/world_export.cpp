@@ -114,7 +114,7 @@ RgbImage renderTopView(const World& world) {
     for (int iy = 0; iy < dims.y(); ++iy) {
       int top = -1;
       for (int iz = dims.z() - 1; iz >= 0 && top < 0; --iz) {
-        if (grid.occupied(grid.index(ix, iy, iz))) top = iz;
+        if (grid.occupied(VoxelIndex(ix, iy, iz))) top = iz;
       }
       const Rgb colour = top < 0 ? Rgb{255, 255, 255}
                                  : colourMap(kHeight, dims.z() > 1 ? top / (dims.z() - 1.0) : 1.0);
@@ -151,16 +151,36 @@ RgbImage renderEsdfSlice(const World& world, double z) {
 }
 
 void exportWorld(const World& world, const std::string& directory, double slice_height) {
+  const VoxelGrid& grid = world.grid();
+  const bool sparse = grid.layout() == GridLayout::kBricked;
+  // A sparse world is written out voxel by voxel, as arrays of 5 bytes a voxel.
+  constexpr std::size_t kMostSparseVoxels = std::size_t{1} << 28;
+  if (sparse && grid.size() > kMostSparseVoxels) {
+    throw InvalidArgument("exporting world " + world.name() + ": a sparse world of " +
+                          std::to_string(grid.size()) + " voxels is too large for dense arrays (at " +
+                          "most " + std::to_string(kMostSparseVoxels) + ")");
+  }
   std::error_code error;
   std::filesystem::create_directories(directory, error);
   if (error) throw FileError(directory + ": cannot create directory: " + error.message());
   const std::filesystem::path dir(directory);
-  const VoxelGrid& grid = world.grid();
   const std::vector<std::size_t> shape = {static_cast<std::size_t>(grid.dims().x()),
                                           static_cast<std::size_t>(grid.dims().y()),
                                           static_cast<std::size_t>(grid.dims().z())};
-  writeNpy((dir / "occupancy.npy").string(), "|u1", grid.occupancy().data(), 1, shape);
-  writeNpy((dir / "esdf.npy").string(), "<f4", world.esdf().values().data(), sizeof(float), shape);
+  if (sparse) {
+    std::vector<std::uint8_t> occupancy(grid.size());
+    std::vector<float> values(grid.size());
+    for (std::size_t i = 0; i < grid.size(); ++i) {
+      occupancy[i] = grid.occupied(i) ? 1 : 0;
+      values[i] = world.esdf().voxelDistance(i);
+    }
+    writeNpy((dir / "occupancy.npy").string(), "|u1", occupancy.data(), 1, shape);
+    writeNpy((dir / "esdf.npy").string(), "<f4", values.data(), sizeof(float), shape);
+  } else {
+    writeNpy((dir / "occupancy.npy").string(), "|u1", grid.occupancy().data(), 1, shape);
+    writeNpy((dir / "esdf.npy").string(), "<f4", world.esdf().values().data(), sizeof(float),
+             shape);
+  }
 
   YAML::Emitter yaml;
   yaml << YAML::BeginMap;
@@ -177,6 +197,9 @@ void exportWorld(const World& world, const std::string& directory, double slice_
        << "metres, one value per voxel: at a free voxel the distance from its centre to the "
           "nearest occupied voxel cube (half a voxel next to one), at an occupied voxel minus "
           "the distance from its centre to the nearest free cube";
+  if (sparse) {
+    yaml << YAML::Key << "truncation" << YAML::Value << world.esdf().truncation();
+  }
   yaml << YAML::Key << "slice_height" << YAML::Value << slice_height;
   yaml << YAML::EndMap;
   std::ofstream out(dir / "world.yaml");

@@ -100,9 +100,31 @@ void checkGridSize(const WorldSpec& spec, const YamlReader& node) {
   }
   const Eigen::Vector3d dims = (extent / spec.resolution).array().ceil();
   const double voxels = dims.prod();
+  const double memory = static_cast<double>(sysconf(_SC_PHYS_PAGES)) * sysconf(_SC_PAGESIZE);
+  if (spec.layout == GridLayout::kBricked) {
+    // Per brick of 512 voxels: its occupancy state (4 bytes) and its distances' pointer (8);
+    // the bricks near obstacles come on top (64 bytes of occupancy, 2 KiB of distances). A
+    // tile's exact transform spans the world's height.
+    if (voxels > 1e12 || dims.maxCoeff() > 2e9) {
+      node["resolution"].fail("bounds and resolution give " + formatNumber(voxels) +
+                              " voxels; a sparse world holds at most 1e12");
+    }
+    if (dims.z() > 20000) {
+      node["resolution"].fail("the world is " + formatNumber(dims.z()) +
+                              " voxels high; a sparse world is at most 20000");
+    }
+    if (memory > 0.0 && voxels / 512.0 * 12.0 > 0.6 * memory) {
+      node["resolution"].fail("the sparse world's brick tables alone need " +
+                              formatNumber(std::ceil(voxels / 512.0 * 12.0 / (1 << 30))) +
+                              " GiB; this machine has " +
+                              formatNumber(std::floor(memory / (1 << 30))) + " GiB");
+    }
+    return;
+  }
   if (voxels > 1e9) {
     node["resolution"].fail("bounds and resolution give " + formatNumber(voxels) +
-                            " voxels; expected at most 1e9");
+                            " voxels; a dense world holds at most 1e9 (layout: sparse holds "
+                            "more)");
   }
   // Squared distances in half voxels are 32-bit integers in the exact ESDF.
   const double diagonal = dims.norm();
@@ -118,7 +140,6 @@ void checkGridSize(const WorldSpec& spec, const YamlReader& node) {
   // 14 bytes a voxel leaves room for the rest, and at most 60 % of the machine's memory for
   // one world.
   const double bytes = voxels * 14.0;
-  const double memory = static_cast<double>(sysconf(_SC_PHYS_PAGES)) * sysconf(_SC_PAGESIZE);
   if (memory > 0.0 && bytes > 0.6 * memory) {
     node["resolution"].fail(
         formatNumber(voxels) + " voxels need about " + formatNumber(std::ceil(bytes / (1 << 30))) +
@@ -144,6 +165,22 @@ WorldSpec WorldSpec::fromYaml(const YamlReader& node, const std::string& spec_di
     spec.generators.push_back(readGenerator(entry, spec_directory));
   }
   if (spec.generators.empty()) node["generators"].fail("expected at least one generator");
+  if (const auto layout = node.optional("layout")) {
+    const auto value = layout->as<std::string>();
+    if (value != "dense" && value != "sparse") {
+      layout->fail("unknown layout '" + value + "'" + didYouMean(value, {"dense", "sparse"}) +
+                   "; expected dense or sparse");
+    }
+    spec.layout = value == "sparse" ? GridLayout::kBricked : GridLayout::kDense;
+  }
+  if (const auto truncation = node.optional("truncation")) {
+    if (spec.layout != GridLayout::kBricked) {
+      truncation->fail("truncation applies to a sparse world only (layout: sparse)");
+    }
+    // At most 100 voxels: each tile of the transform takes the truncation as its margin.
+    spec.truncation = node.getNumber("truncation", std::nullopt, spec.resolution,
+                                     100.0 * spec.resolution);
+  }
   if (auto bounds = node.optional("bounds")) {
     const auto min = bounds->getVector3("min");
     const auto max = bounds->getVector3("max");
@@ -178,7 +215,10 @@ std::string WorldSpec::canonicalText() const {
   out << "kinolab-world generators=" << kGeneratorVersion << " seed=" << seed << std::hexfloat
       << " resolution=" << resolution << " min=" << bounds.min.x() << ',' << bounds.min.y() << ','
       << bounds.min.z() << " max=" << bounds.max.x() << ',' << bounds.max.y() << ','
-      << bounds.max.z() << std::defaultfloat << '\n';
+      << bounds.max.z();
+  // Dense worlds keep the keys they had before layouts existed (and their cache files).
+  if (layout == GridLayout::kBricked) out << " layout=sparse truncation=" << truncation;
+  out << std::defaultfloat << '\n';
   for (const auto& entry : generators) {
     out << entry.type
         << withoutPaths(pluginRegistry<WorldGenerator>().info(entry.type).parameters,

@@ -79,6 +79,8 @@ class TrajectoryChecker {
 
  private:
   struct Fcl;
+  /// True when `position` lies in a closed occupied voxel cube.
+  bool inOccupiedCube(const Eigen::Vector3d& position) const;
   /// The checks in their order; each returns false, with the violation in `result`, at the
   /// first one it finds.
   bool checkStart(const Trajectory& trajectory, const CheckQuery& query, CheckResult& result) const;

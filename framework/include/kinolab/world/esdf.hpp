@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <memory>
 #include <vector>
 
 #include "kinolab/world/voxel_grid.hpp"
@@ -30,6 +31,14 @@ namespace kinolab {
 /// component along a clamped axis is zero (a NaN coordinate reads as the map's low side: a
 /// value, never an out-of-range read). The map says nothing about space beyond it:
 /// planners and the checker reject positions outside `bounds()`.
+///
+/// A truncated field (truncated(), for sparse worlds) keeps the exact value where it lies
+/// within the truncation distance T and +T (-T) where it is farther (deeper): min(max(D, -T),
+/// T), D the exact field, bit for bit. It stores 8 x 8 x 8 bricks, only those holding a value
+/// strictly between -T and T (the bricks near the obstacles' surfaces); every other brick is one
+/// shared brick of +T or of -T. The clamped field is 1-Lipschitz, exact where |D| < T and never
+/// above D where it is not negative, so clearance() and centreBound() stay proven lower bounds
+/// of the distance, and every verdict at a threshold up to T (decided()) is the dense field's.
 class Esdf {
  public:
   Esdf() = default;
@@ -41,30 +50,54 @@ class Esdf {
   static constexpr std::size_t kParallelVoxels = std::size_t{1} << 20;
   /// Adopts precomputed values (e.g. from the world cache), one per voxel in grid order.
   Esdf(const VoxelGrid& grid, std::vector<float> values);
+  /// The field of `grid` (either layout) truncated at `truncation` metres (> 0, finite), on
+  /// bricks: computed tile by tile (16 x 16 bricks and every height holding an obstacle, with a
+  /// margin of the truncation), each tile by the exact transform, on `threads` threads as the
+  /// constructor; memory for the bricks near obstacles only.
+  static Esdf truncated(const VoxelGrid& grid, double truncation, int threads = 0);
+
+  /// The truncation distance T of a truncated field; +infinity for a dense one.
+  double truncation() const { return truncation_; }
+  /// Bricks holding values of their own (a truncated field; 0 for a dense one).
+  std::size_t allocatedBricks() const;
+  /// Bytes the values take.
+  std::size_t memoryBytes() const;
 
   const Eigen::Vector3i& dims() const { return dims_; }
   double resolution() const { return resolution_; }
   const Eigen::Vector3d& origin() const { return origin_; }
   double maxDistance() const { return max_distance_; }
-  const std::vector<float>& values() const { return values_; }
+  /// One value per voxel in grid order: a dense field's only (throws InvalidArgument on a
+  /// truncated one: use voxelDistance()).
+  const std::vector<float>& values() const;
   /// Takes the values out of a field no one needs any more (their memory for the next one).
   std::vector<float> release() && { return std::move(values_); }
 
-  /// The stored value of one voxel.
-  float voxelDistance(std::size_t index) const { return values_[index]; }
+  /// The stored value of one voxel (by index, or by voxel).
+  float voxelDistance(std::size_t index) const {
+    if (!brick_table_) return values_[index];
+    const auto nz = static_cast<std::size_t>(dims_.z());
+    const std::size_t column = index / nz;
+    const auto ny = static_cast<std::size_t>(dims_.y());
+    return brickValue(column / ny, column % ny, index % nz);
+  }
+  float voxelDistance(const VoxelIndex& voxel) const {
+    return valueAt(static_cast<std::size_t>(voxel.x()), static_cast<std::size_t>(voxel.y()),
+                   static_cast<std::size_t>(voxel.z()));
+  }
 
   /// The value of the voxel nearest to `point` (after clamping): a lookup for callers with
   /// finite points (a NaN coordinate reads an in-range voxel; distance() is the checked query).
   double nearestDistance(const Eigen::Vector3d& point) const {
-    std::size_t index = 0;
+    std::size_t cell[3];
     for (int axis = 0; axis < 3; ++axis) {
       const double scaled = (point[axis] - origin_[axis]) * inverse_resolution_ - 0.5;
       // Clamped to >= 0 first, so truncation rounds to nearest (and needs no libm call);
       // max(0, x) first maps a NaN coordinate to 0, never to an index.
       const double clamped = std::min(std::max(0.0, scaled), upper_[axis]);
-      index += static_cast<std::size_t>(static_cast<std::int64_t>(clamped + 0.5)) * strides_[axis];
+      cell[axis] = static_cast<std::size_t>(static_cast<std::int64_t>(clamped + 0.5));
     }
-    return values_[index];
+    return valueAt(cell[0], cell[1], cell[2]);
   }
 
   /// Trilinear interpolation of the voxel-centre values; NaN when a coordinate is not finite
@@ -138,6 +171,21 @@ class Esdf {
   /// the ball it shows free).
   double exactDistanceAbove(const Eigen::Vector3d& point, double limit, double enough,
                             double lower) const;
+  /// exactDistanceAbove() with the search over the field's layout.
+  template <typename Search>
+  double nearestCube(Search search, const Eigen::Vector3d& point, double limit, double enough,
+                     double lower) const;
+  /// A truncated field's value at voxel (x, y, z) (inside the grid).
+  float brickValue(std::size_t x, std::size_t y, std::size_t z) const {
+    return brick_table_[(x >> 3) * brick_strides_[0] + (y >> 3) * brick_strides_[1] + (z >> 3)]
+                       [((x & 7) << 6) | ((y & 7) << 3) | (z & 7)];
+  }
+  /// The value at voxel (x, y, z) (inside the grid), either layout.
+  float valueAt(std::size_t x, std::size_t y, std::size_t z) const {
+    return brick_table_ ? brickValue(x, y, z)
+                        : values_[x * strides_[0] + y * strides_[1] + z * strides_[2]];
+  }
+
   /// The trilinear value; with `gradient`, its gradient; with `spread`, voxel^2 sum_i
   /// t_i (1 - t_i) for clearance().
   template <bool kWithGradient>
@@ -145,6 +193,7 @@ class Esdf {
                      double* spread) const {
     double fraction[3];
     double scale[3];
+    std::size_t corners[3];
     std::size_t base = 0;
     for (int axis = 0; axis < 3; ++axis) {
       const double raw = point[axis] * inverse_resolution_ - shift_[axis];
@@ -158,18 +207,37 @@ class Esdf {
       const auto corner = static_cast<std::size_t>(
           static_cast<std::int64_t>(std::min(scaled, lower_corner_[axis])));
       fraction[axis] = scaled - static_cast<double>(corner);
+      corners[axis] = corner;
       base += corner * strides_[axis];
     }
-    const float* v = values_.data() + base;
-    const std::size_t* step = neighbour_step_;
-    const double c000 = v[0];
-    const double c001 = v[step[2]];
-    const double c010 = v[step[1]];
-    const double c011 = v[step[1] + step[2]];
-    const double c100 = v[step[0]];
-    const double c101 = v[step[0] + step[2]];
-    const double c110 = v[step[0] + step[1]];
-    const double c111 = v[step[0] + step[1] + step[2]];
+    double c000, c001, c010, c011, c100, c101, c110, c111;
+    if (!brick_table_) {
+      const float* v = values_.data() + base;
+      const std::size_t* step = neighbour_step_;
+      c000 = v[0];
+      c001 = v[step[2]];
+      c010 = v[step[1]];
+      c011 = v[step[1] + step[2]];
+      c100 = v[step[0]];
+      c101 = v[step[0] + step[2]];
+      c110 = v[step[0] + step[1]];
+      c111 = v[step[0] + step[1] + step[2]];
+    } else {
+      const std::size_t x0 = corners[0];
+      const std::size_t y0 = corners[1];
+      const std::size_t z0 = corners[2];
+      const std::size_t x1 = x0 + unit_step_[0];
+      const std::size_t y1 = y0 + unit_step_[1];
+      const std::size_t z1 = z0 + unit_step_[2];
+      c000 = brickValue(x0, y0, z0);
+      c001 = brickValue(x0, y0, z1);
+      c010 = brickValue(x0, y1, z0);
+      c011 = brickValue(x0, y1, z1);
+      c100 = brickValue(x1, y0, z0);
+      c101 = brickValue(x1, y0, z1);
+      c110 = brickValue(x1, y1, z0);
+      c111 = brickValue(x1, y1, z1);
+    }
     const double tx = fraction[0];
     const double ty = fraction[1];
     const double tz = fraction[2];
@@ -198,6 +266,8 @@ class Esdf {
 
   void setGeometry(const VoxelGrid& grid);
 
+  static constexpr int kBrickVoxels = VoxelGrid::kBrick * VoxelGrid::kBrick * VoxelGrid::kBrick;
+
   Eigen::Vector3i dims_ = Eigen::Vector3i::Zero();
   double resolution_ = 0.0;
   double inverse_resolution_ = 0.0;
@@ -209,7 +279,15 @@ class Esdf {
   double gradient_scale_[3] = {0.0, 0.0, 0.0};
   std::size_t strides_[3] = {0, 0, 0};
   std::size_t neighbour_step_[3] = {0, 0, 0};
-  std::vector<float> values_;
+  std::size_t unit_step_[3] = {0, 0, 0};  // 1 along an axis of more than one voxel
+  std::vector<float> values_;             // a dense field's
+  // A truncated field's bricks (immutable, shared by copies) and their table: per brick
+  // (x-major, z fastest) a pointer to its 512 values, x-major, z fastest.
+  struct Bricks;
+  std::shared_ptr<const Bricks> bricks_;
+  const float* const* brick_table_ = nullptr;
+  std::size_t brick_strides_[2] = {0, 0};
+  double truncation_ = INFINITY;
 };
 
 /// An Esdf kept up to date while its grid's occupancy changes (a moving vehicle's planning

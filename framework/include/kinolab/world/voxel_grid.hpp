@@ -22,15 +22,31 @@ struct Box {
   Eigen::Vector3d size() const { return max - min; }
 };
 
+/// How a VoxelGrid stores its occupancy.
+enum class GridLayout {
+  /// One byte a voxel (occupancy()), for grids that fit in memory whole.
+  kDense,
+  /// Bricks of 8 x 8 x 8 voxels, each empty, full, or a 512-bit mask: memory for the bricks
+  /// an obstacle's surface crosses, so a city of 10^10 voxels fits (a "sparse" world).
+  kBricked,
+};
+
 /// An occupancy voxel grid with metric bounds. Voxel (ix, iy, iz) covers
 /// [origin + i * resolution, origin + (i + 1) * resolution) per axis; its centre is at
-/// origin + (i + 0.5) * resolution. Storage is row-major over (ix, iy, iz), z fastest, so
-/// index(ix, iy, iz) = (ix * ny + iy) * nz + iz ("axis_order: xyz" in exported files).
+/// origin + (i + 0.5) * resolution. Voxels are numbered row-major over (ix, iy, iz), z
+/// fastest, so index(ix, iy, iz) = (ix * ny + iy) * nz + iz ("axis_order: xyz" in exported
+/// files); a dense grid stores them in that order, a bricked one in bricks (the same queries,
+/// without occupancy()).
 class VoxelGrid {
  public:
+  /// A brick's side in voxels (kBricked).
+  static constexpr int kBrick = 8;
+
   VoxelGrid() = default;
   /// A free grid covering `bounds` (rounded up to whole voxels) at `resolution` metres.
-  VoxelGrid(const Box& bounds, double resolution);
+  VoxelGrid(const Box& bounds, double resolution, GridLayout layout = GridLayout::kDense);
+
+  GridLayout layout() const { return bricked_ ? GridLayout::kBricked : GridLayout::kDense; }
 
   const Eigen::Vector3i& dims() const { return dims_; }
   double resolution() const { return resolution_; }
@@ -38,7 +54,10 @@ class VoxelGrid {
   const Eigen::Vector3d& origin() const { return origin_; }
   /// The metric box the voxels cover (may exceed the requested bounds by < 1 voxel).
   Box bounds() const { return {origin_, origin_ + dims_.cast<double>() * resolution_}; }
-  std::size_t size() const { return occupancy_.size(); }
+  /// The number of voxels (dims' product).
+  std::size_t size() const { return size_; }
+  /// Bytes the occupancy takes (the byte array, or the bricks' table and masks).
+  std::size_t memoryBytes() const;
 
   std::size_t index(int ix, int iy, int iz) const {
     return (static_cast<std::size_t>(ix) * dims_.y() + iy) * dims_.z() + iz;
@@ -53,15 +72,83 @@ class VoxelGrid {
     return origin_ + (voxel.cast<double>().array() + 0.5).matrix() * resolution_;
   }
 
-  bool occupied(std::size_t index) const { return occupancy_[index] != 0; }
-  bool occupied(const VoxelIndex& voxel) const { return occupied(index(voxel)); }
-  void setOccupied(std::size_t index, bool value) { occupancy_[index] = value ? 1 : 0; }
-  void setOccupied(const VoxelIndex& voxel, bool value) { setOccupied(index(voxel), value); }
+  /// The voxel of an index (index()'s inverse).
+  VoxelIndex voxel(std::size_t index) const {
+    const auto nz = static_cast<std::size_t>(dims_.z());
+    const std::size_t column = index / nz;
+    return {static_cast<int>(column / static_cast<std::size_t>(dims_.y())),
+            static_cast<int>(column % static_cast<std::size_t>(dims_.y())),
+            static_cast<int>(index % nz)};
+  }
+
+  bool occupied(std::size_t index) const {
+    return bricked_ ? brickedOccupied(voxel(index)) : occupancy_[index] != 0;
+  }
+  bool occupied(const VoxelIndex& voxel) const {
+    return bricked_ ? brickedOccupied(voxel) : occupancy_[index(voxel)] != 0;
+  }
+  void setOccupied(std::size_t index, bool value) {
+    if (bricked_) {
+      setBrickedOccupied(voxel(index), value);
+    } else {
+      occupancy_[index] = value ? 1 : 0;
+    }
+  }
+  void setOccupied(const VoxelIndex& voxel, bool value) {
+    if (bricked_) {
+      setBrickedOccupied(voxel, value);
+    } else {
+      occupancy_[index(voxel)] = value ? 1 : 0;
+    }
+  }
   std::size_t occupiedCount() const;
 
-  /// 0 (free) or 1 (occupied) per voxel, in storage order.
-  const std::vector<std::uint8_t>& occupancy() const { return occupancy_; }
-  std::vector<std::uint8_t>& occupancy() { return occupancy_; }
+  /// 0 (free) or 1 (occupied) per voxel, in storage order; a dense grid's only (throws
+  /// InvalidArgument on a bricked one: use occupied() or forEachOccupied()).
+  const std::vector<std::uint8_t>& occupancy() const;
+  std::vector<std::uint8_t>& occupancy();
+
+  /// Calls `visit(voxel)` for every occupied voxel, x-major; a bricked grid skips its empty
+  /// bricks, so the cost is its obstacles', not its volume's.
+  template <typename Visit>
+  void forEachOccupied(Visit&& visit) const {
+    if (!bricked_) {
+      std::size_t i = 0;
+      for (int x = 0; x < dims_.x(); ++x) {
+        for (int y = 0; y < dims_.y(); ++y) {
+          for (int z = 0; z < dims_.z(); ++z, ++i) {
+            if (occupancy_[i] != 0) visit(VoxelIndex(x, y, z));
+          }
+        }
+      }
+      return;
+    }
+    for (int bx = 0; bx < bricks_.x(); ++bx) {
+      for (int by = 0; by < bricks_.y(); ++by) {
+        for (int bz = 0; bz < bricks_.z(); ++bz) {
+          if (brick_state_[brickIndex(bx, by, bz)] == kEmptyBrick) continue;
+          const VoxelIndex low(bx * kBrick, by * kBrick, bz * kBrick);
+          const VoxelIndex high = (low.array() + kBrick).min(dims_.array());
+          for (int x = low.x(); x < high.x(); ++x) {
+            for (int y = low.y(); y < high.y(); ++y) {
+              for (int z = low.z(); z < high.z(); ++z) {
+                if (brickedOccupied({x, y, z})) visit(VoxelIndex(x, y, z));
+              }
+            }
+          }
+        }
+      }
+    }
+  }
+
+  /// Bricks per axis (kBricked; zero on a dense grid).
+  const Eigen::Vector3i& brickDims() const { return bricks_; }
+  /// Whether brick (bx, by, bz) has an occupied voxel (kBricked).
+  bool brickHasObstacle(int bx, int by, int bz) const {
+    return brick_state_[brickIndex(bx, by, bz)] != kEmptyBrick;
+  }
+  /// Frees the masks of bricks that became wholly full or empty (a bricked grid after edits).
+  void compactBricks();
 
   /// Calls `visit(index)` for every voxel whose centre lies in the closed box [min, max].
   template <typename Visit>
@@ -137,10 +224,33 @@ class VoxelGrid {
     }
   }
 
+  // A brick's state: empty, full, or kMasked + the index of its mask (8 words, bit
+  // (y % 8) * 8 + z % 8 of word x % 8).
+  static constexpr std::uint32_t kEmptyBrick = 0;
+  static constexpr std::uint32_t kFullBrick = 1;
+  static constexpr std::uint32_t kMasked = 2;
+
+  std::size_t brickIndex(int bx, int by, int bz) const {
+    return (static_cast<std::size_t>(bx) * bricks_.y() + by) * bricks_.z() + bz;
+  }
+  bool brickedOccupied(const VoxelIndex& v) const {
+    const std::uint32_t state = brick_state_[brickIndex(v.x() >> 3, v.y() >> 3, v.z() >> 3)];
+    if (state < kMasked) return state == kFullBrick;
+    const std::uint64_t word = masks_[(state - kMasked) * 8 + (v.x() & 7)];
+    return (word >> (((v.y() & 7) << 3) | (v.z() & 7))) & 1;
+  }
+  void setBrickedOccupied(const VoxelIndex& v, bool value);
+  [[noreturn]] void denseOnly() const;
+
   Eigen::Vector3i dims_ = Eigen::Vector3i::Zero();
   double resolution_ = 0.0;
   Eigen::Vector3d origin_ = Eigen::Vector3d::Zero();
-  std::vector<std::uint8_t> occupancy_;
+  std::size_t size_ = 0;
+  std::vector<std::uint8_t> occupancy_;  // kDense
+  bool bricked_ = false;
+  Eigen::Vector3i bricks_ = Eigen::Vector3i::Zero();  // kBricked: bricks per axis
+  std::vector<std::uint32_t> brick_state_;
+  std::vector<std::uint64_t> masks_;
 };
 
 }  // namespace kinolab

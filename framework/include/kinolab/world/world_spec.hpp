@@ -29,13 +29,21 @@ struct WorldGeneratorEntry {
 ///     bounds: {min: [0, 0, 0], max: [40, 40, 6]}   # optional for a map-file world
 ///     generators:
 ///       - {type: forest, density: 0.06, trunk_radius: [0.15, 0.3]}
+///     layout: sparse      # optional: dense (the default) or sparse
+///     truncation: 1.0     # sparse only: distances exact up to this many metres
 ///
+/// A dense world holds every voxel (at most 10^9); a sparse one bricks of 8^3 voxels near
+/// obstacles only, with the ESDF truncated (Esdf::truncated()), for worlds of up to 10^12.
 /// The same spec gives the same grid bit for bit.
 struct WorldSpec {
   std::string name;
   std::uint64_t seed = 0;
   double resolution = 0.1;
   Box bounds;
+  GridLayout layout = GridLayout::kDense;
+  /// The sparse layout's truncation distance, m.
+  double truncation = kDefaultTruncation;
+  static constexpr double kDefaultTruncation = 2.0;
   std::vector<WorldGeneratorEntry> generators;
 
   /// Loads and validates a spec file; errors name the file, line and key path.
