@@ -366,10 +366,10 @@ TEST(WorldSpecTest, ALayoutOrTruncationThatIsNotUnderstoodIsRefused) {
   EXPECT_NE(configErrorOf(base + "layout: spares\n").find("sparse"), std::string::npos);
   EXPECT_NE(configErrorOf(base + "truncation: 1\n").find("truncation applies to a sparse world"),
             std::string::npos);
-  // Below a voxel or above 100 voxels.
+  // Below a voxel or above 90 voxels.
   EXPECT_NE(configErrorOf(base + "layout: sparse\ntruncation: 0.05\n").find("truncation"),
             std::string::npos);
-  EXPECT_NE(configErrorOf(base + "layout: sparse\ntruncation: 11\n").find("truncation"),
+  EXPECT_NE(configErrorOf(base + "layout: sparse\ntruncation: 9.5\n").find("truncation"),
             std::string::npos);
   EXPECT_EQ(specFromText(base + "layout: sparse\ntruncation: 0.5\n").truncation, 0.5);
   // A 1 km city at 0.2 m is sparse's to hold, not dense's; 10^13 voxels are no one's.

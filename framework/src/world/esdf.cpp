@@ -471,18 +471,22 @@ struct DenseRows {
 /// A truncated field's z-rows, through its brick table.
 struct BrickRows {
   struct Row {
-    const float* const* bricks;  // the column of bricks holding the row
-    std::size_t inner;           // the row within a brick
+    const std::int16_t* const* bricks;  // the column of bricks holding the row
+    std::size_t inner;                  // the row within a brick
+    const float* values;                // of the codes
     float operator[](std::int64_t z) const {
-      return bricks[static_cast<std::size_t>(z) >> 3][inner | (static_cast<std::size_t>(z) & 7)];
+      return values[static_cast<std::uint16_t>(
+          bricks[static_cast<std::size_t>(z) >> 3][inner | (static_cast<std::size_t>(z) & 7)])];
     }
   };
-  const float* const* table;
+  const std::int16_t* const* table;
   std::size_t strides[2];  // bricks per x and per y step
+  const float* values;
   Row operator()(std::int64_t x, std::int64_t y) const {
     const auto ux = static_cast<std::size_t>(x);
     const auto uy = static_cast<std::size_t>(y);
-    return {table + (ux >> 3) * strides[0] + (uy >> 3) * strides[1], ((ux & 7) << 6) | ((uy & 7) << 3)};
+    return {table + (ux >> 3) * strides[0] + (uy >> 3) * strides[1],
+            ((ux & 7) << 6) | ((uy & 7) << 3), values};
   }
 };
 
@@ -631,12 +635,22 @@ Esdf::Esdf(const VoxelGrid& grid, std::vector<float> values) : values_(std::move
 }
 
 struct Esdf::Bricks {
-  std::vector<const float*> table;
-  std::vector<std::unique_ptr<float[]>> chunks;  // the allocated bricks, a chunk per tile
+  std::vector<const std::int16_t*> table;
+  std::vector<std::unique_ptr<std::int16_t[]>> chunks;  // the allocated bricks, one per tile
   std::size_t allocated = 0;
-  float far[kBrickVoxels];
-  float deep[kBrickVoxels];
+  std::int16_t far[kBrickVoxels];
+  std::int16_t deep[kBrickVoxels];
+  std::vector<float> values;  // of each code, as 16 bits
 };
+
+namespace {
+
+// A voxel's code in a truncated field: +-(squared distance in half voxels) within T, else
+// +-kBeyond (T itself); 90 voxels of truncation square to 32,400 half voxels.
+constexpr std::int16_t kBeyond = 32767;
+constexpr double kMostTruncationVoxels = 90.0;
+
+}  // namespace
 
 const std::vector<float>& Esdf::values() const {
   if (brick_table_) {
@@ -650,8 +664,9 @@ std::size_t Esdf::allocatedBricks() const { return bricks_ ? bricks_->allocated 
 
 std::size_t Esdf::memoryBytes() const {
   if (!bricks_) return values_.capacity() * sizeof(float);
-  return bricks_->table.capacity() * sizeof(const float*) +
-         bricks_->allocated * kBrickVoxels * sizeof(float) + sizeof(Bricks);
+  return bricks_->table.capacity() * sizeof(const std::int16_t*) +
+         bricks_->allocated * kBrickVoxels * sizeof(std::int16_t) +
+         bricks_->values.capacity() * sizeof(float) + sizeof(Bricks);
 }
 
 namespace {
@@ -712,16 +727,30 @@ Esdf Esdf::truncated(const VoxelGrid& grid, double truncation, int threads) {
                   ? 1
                   : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
   }
+  if (truncation > kMostTruncationVoxels * grid.resolution()) {
+    throw InvalidArgument("Esdf::truncated: a truncation of " + std::to_string(truncation) +
+                          " m is more than 90 voxels");
+  }
   Esdf esdf;
   esdf.setGeometry(grid);
   esdf.truncation_ = truncation;
   const auto limit = static_cast<float>(truncation);
+  const auto half_voxel = static_cast<float>(0.5 * grid.resolution());
   const int b = VoxelGrid::kBrick;
   const Eigen::Vector3i& n = grid.dims();
   const Eigen::Vector3i bricks = (n.array() + b - 1) / b;
   auto store = std::make_shared<Bricks>();
-  std::fill(std::begin(store->far), std::end(store->far), limit);
-  std::fill(std::begin(store->deep), std::end(store->deep), -limit);
+  std::fill(std::begin(store->far), std::end(store->far), kBeyond);
+  std::fill(std::begin(store->deep), std::end(store->deep), static_cast<std::int16_t>(-kBeyond));
+  // The values the dense field computes from each squared distance (cappedDistance()).
+  store->values.assign(std::size_t{1} << 16, 0.0f);
+  for (std::int32_t code = 1; code < kBeyond; ++code) {
+    const float value = std::sqrt(static_cast<float>(code)) * half_voxel;
+    store->values[static_cast<std::uint16_t>(code)] = value;
+    store->values[static_cast<std::uint16_t>(-code)] = -value;
+  }
+  store->values[static_cast<std::uint16_t>(kBeyond)] = limit;
+  store->values[static_cast<std::uint16_t>(-kBeyond)] = -limit;
   store->table.assign(static_cast<std::size_t>(bricks.cast<double>().prod()), store->far);
   esdf.brick_strides_[0] = static_cast<std::size_t>(bricks.y()) * bricks.z();
   esdf.brick_strides_[1] = static_cast<std::size_t>(bricks.z());
@@ -760,11 +789,25 @@ Esdf Esdf::truncated(const VoxelGrid& grid, double truncation, int threads) {
                                                  (z_high + 1) * b + margin)
                                      .cwiseMin(n);
     const VoxelGrid part = denseCopy(grid, low, high);
-    const Esdf exact(part, 1);
+    std::vector<std::int32_t> to_occupied;
+    std::vector<std::int32_t> to_free;
+    squaredDistanceTo(part, 1, 1, to_occupied);
+    squaredDistanceTo(part, 0, 1, to_free);
+    // A voxel's code: its squared distance within T (in float, as the dense field compares),
+    // signed; kBeyond past T.
+    const auto code = [&](std::size_t i) -> std::int16_t {
+      const bool occupied = part.occupied(i);
+      const std::int32_t squared = occupied ? to_free[i] : to_occupied[i];
+      const std::int16_t magnitude =
+          std::sqrt(static_cast<float>(squared)) * half_voxel < limit
+              ? static_cast<std::int16_t>(squared)
+              : kBeyond;
+      return occupied ? static_cast<std::int16_t>(-magnitude) : magnitude;
+    };
     // The bricks of the tile with a value strictly inside (-T, T); the others share +T or -T.
-    std::vector<float> values;
+    std::vector<std::int16_t> values;
     std::vector<std::size_t> owners;
-    float brick[kBrickVoxels];
+    std::int16_t brick[kBrickVoxels];
     for (int bx = first.x(); bx < last.x(); ++bx) {
       for (int by = first.y(); by < last.y(); ++by) {
         for (int bz = 0; bz < bricks.z(); ++bz) {
@@ -776,13 +819,13 @@ Esdf Esdf::truncated(const VoxelGrid& grid, double truncation, int threads) {
             const Eigen::Vector3i v = from + Eigen::Vector3i(i >> 6, (i >> 3) & 7, i & 7);
             // Voxels past the grid's end are never read (+T keeps such a brick shared), and
             // those below or above the tile's part are more than T from every obstacle.
-            const float value =
+            const std::int16_t value =
                 (v.array() < n.array()).all() && v.z() >= low.z() && v.z() < high.z()
-                    ? std::clamp(exact.voxelDistance(part.index(v - low)), -limit, limit)
-                    : limit;
+                    ? code(part.index(v - low))
+                    : kBeyond;
             brick[i] = value;
-            all_far = all_far && value == limit;
-            all_deep = all_deep && value == -limit;
+            all_far = all_far && value == kBeyond;
+            all_deep = all_deep && value == -kBeyond;
           }
           const std::size_t index = (static_cast<std::size_t>(bx) * bricks.y() + by) * bricks.z() + bz;
           if (all_deep) store->table[index] = store->deep;
@@ -793,7 +836,7 @@ Esdf Esdf::truncated(const VoxelGrid& grid, double truncation, int threads) {
       }
     }
     if (owners.empty()) return;
-    auto chunk = std::make_unique<float[]>(values.size());
+    auto chunk = std::make_unique<std::int16_t[]>(values.size());
     std::copy(values.begin(), values.end(), chunk.get());
     // Each tile writes its own entries of the table.
     for (std::size_t k = 0; k < owners.size(); ++k) {
@@ -807,6 +850,7 @@ Esdf Esdf::truncated(const VoxelGrid& grid, double truncation, int threads) {
     for (int t = next_tile++; t < tiles_x * tiles_y; t = next_tile++) tile(t);
   });
   esdf.brick_table_ = store->table.data();
+  esdf.code_values_ = store->values.data();
   esdf.bricks_ = std::move(store);
   return esdf;
 }
@@ -844,7 +888,9 @@ double Esdf::exactDistanceAbove(const Eigen::Vector3d& point, double limit, doub
                                 double lower) const {
   if (brick_table_) {
     return nearestCube(
-        NearestCubeSearch<BrickRows>{{brick_table_, {brick_strides_[0], brick_strides_[1]}}}, point,
+        NearestCubeSearch<BrickRows>{
+            {brick_table_, {brick_strides_[0], brick_strides_[1]}, code_values_}},
+        point,
         limit, enough, lower);
   }
   if (values_.empty()) return limit;

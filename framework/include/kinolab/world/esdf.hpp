@@ -36,7 +36,9 @@ namespace kinolab {
 /// within the truncation distance T and +T (-T) where it is farther (deeper): min(max(D, -T),
 /// T), D the exact field, bit for bit. It stores 8 x 8 x 8 bricks, only those holding a value
 /// strictly between -T and T (the bricks near the obstacles' surfaces); every other brick is one
-/// shared brick of +T or of -T. The clamped field is 1-Lipschitz, exact where |D| < T and never
+/// shared brick of +T or of -T. A voxel takes 2 bytes: its squared distance in half voxels (an
+/// integer, signed as the value; T is at most 90 voxels), read through a table of the floats
+/// the dense field computes from it. The clamped field is 1-Lipschitz, exact where |D| < T and never
 /// above D where it is not negative, so clearance() and centreBound() stay proven lower bounds
 /// of the distance, and every verdict at a threshold up to T (decided()) is the dense field's.
 class Esdf {
@@ -177,8 +179,9 @@ class Esdf {
                      double lower) const;
   /// A truncated field's value at voxel (x, y, z) (inside the grid).
   float brickValue(std::size_t x, std::size_t y, std::size_t z) const {
-    return brick_table_[(x >> 3) * brick_strides_[0] + (y >> 3) * brick_strides_[1] + (z >> 3)]
-                       [((x & 7) << 6) | ((y & 7) << 3) | (z & 7)];
+    return code_values_[static_cast<std::uint16_t>(
+        brick_table_[(x >> 3) * brick_strides_[0] + (y >> 3) * brick_strides_[1] + (z >> 3)]
+                    [((x & 7) << 6) | ((y & 7) << 3) | (z & 7)])];
   }
   /// The value at voxel (x, y, z) (inside the grid), either layout.
   float valueAt(std::size_t x, std::size_t y, std::size_t z) const {
@@ -282,10 +285,12 @@ class Esdf {
   std::size_t unit_step_[3] = {0, 0, 0};  // 1 along an axis of more than one voxel
   std::vector<float> values_;             // a dense field's
   // A truncated field's bricks (immutable, shared by copies) and their table: per brick
-  // (x-major, z fastest) a pointer to its 512 values, x-major, z fastest.
+  // (x-major, z fastest) a pointer to its 512 codes, x-major, z fastest; a code c (as 16
+  // bits) reads code_values_[c].
   struct Bricks;
   std::shared_ptr<const Bricks> bricks_;
-  const float* const* brick_table_ = nullptr;
+  const std::int16_t* const* brick_table_ = nullptr;
+  const float* code_values_ = nullptr;
   std::size_t brick_strides_[2] = {0, 0};
   double truncation_ = INFINITY;
 };
