@@ -1,5 +1,5 @@
 #!/usr/bin/python3
-"""Plot the scale benchmark (BM_WorldScale): cost against world size, log-log.
+"""Plot the scale benchmark (BM_WorldScale): cost against world size, dense and sparse, log-log.
 
     ./build/benchmarks/kinolab_benchmarks --benchmark_filter=WorldScale \\
         --benchmark_out=out/scale.json --benchmark_out_format=json
@@ -30,25 +30,31 @@ def main() -> int:
         print(f"plot_scale: error: {args.json}: no BM_WorldScale results", file=sys.stderr)
         return 1
     runs.sort(key=lambda b: b["voxels"])
-    voxels = [b["voxels"] for b in runs]
-    figure, (times, memory) = plt.subplots(1, 2, figsize=(10, 4))
-    for key, label in (("build_s", "world build (generators)"), ("esdf_s", "exact ESDF (every core)"),
-                       ("plan_median_ms", "lazy MP-A*, 18-20 m queries (median of 10; 7 m in the smallest)")):
-        scale = 1e-3 if key.endswith("_ms") else 1.0
-        times.loglog(voxels, [b[key] * scale for b in runs], "o-", label=label)
+    figure, (times, memory) = plt.subplots(1, 2, figsize=(11, 4.2))
+    for sparse, style, name in ((0, "o-", "dense"), (1, "s--", "sparse")):
+        layout = [b for b in runs if int(b.get("sparse", 0)) == sparse]
+        if not layout:
+            continue
+        voxels = [b["voxels"] for b in layout]
+        for key, label in (("build_s", "world build (generators)"),
+                           ("esdf_s", "ESDF (every core; sparse: truncated at 1.2 m)"),
+                           ("plan_median_ms", "lazy MP-A*, median of ten 18-20 m queries")):
+            scale = 1e-3 if key.endswith("_ms") else 1.0
+            times.loglog(voxels, [b[key] * scale for b in layout], style, label=f"{name}: {label}")
+        memory.loglog(voxels, [b["peak_bytes_per_voxel"] * b["voxels"] / 2**30 for b in layout],
+                      style, label=f"{name}: peak while building")
+        memory.loglog(voxels, [b["rest_bytes_per_voxel"] * b["voxels"] / 2**30 for b in layout],
+                      style, alpha=0.5, label=f"{name}: at rest")
     times.set_xlabel("voxels")
     times.set_ylabel("seconds")
     times.set_title("time")
     times.grid(True, which="both", alpha=0.3)
-    times.legend(fontsize=8)
-    memory.loglog(voxels, [b["peak_bytes_per_voxel"] * b["voxels"] / 2**30 for b in runs], "o-",
-                  label="peak while building")
-    memory.loglog(voxels, [5 * v / 2**30 for v in voxels], "--", label="at rest: 5 bytes a voxel")
+    times.legend(fontsize=7)
     memory.set_xlabel("voxels")
     memory.set_ylabel("GiB")
-    memory.set_title("memory (dense world)")
+    memory.set_title("memory")
     memory.grid(True, which="both", alpha=0.3)
-    memory.legend(fontsize=8)
+    memory.legend(fontsize=7)
     figure.tight_layout()
     figure.savefig(args.png, dpi=110)
     return 0

@@ -1,9 +1,10 @@
-// How a dense world scales: the time and memory of its build (the generators), its ESDF (on
-// every core) and a fixed set of lazy MP-A* queries, as the world grows from 10^6 to 10^9
-// voxels (a dense world holds at most 10^9). The world is a forest (0.05 trees per square
-// metre, trunks 0.15-0.3 m, 6-8 m tall) 8 m high at 0.1 m, its square side grown with the
-// voxel count (11 m to 353 m). The 10^8 and 10^9 cases take a minute and about 8 GB; the
-// tests' smoke run leaves them out.
+// How a world scales, dense against sparse: the time and memory of its build (the generators),
+// its ESDF (on every core; the sparse world's truncated at 1.2 m, what the default obstacle cost
+// reads) and a fixed set of lazy MP-A* queries, as the world grows from 10^6 to 10^10 voxels (a
+// dense world holds at most 10^9). The world is a forest (0.05 trees per square metre, trunks
+// 0.15-0.3 m, 6-8 m tall, a ground plane) 8 m high at 0.1 m, its square side grown with the voxel
+// count (11 m to 1.1 km). The 10^8 cases take a few seconds, 10^9 a minute and the dense one 9 GB,
+// 10^10 (sparse) several minutes and about 10 GB; the tests' smoke run leaves them out.
 //   ./build/benchmarks/kinolab_benchmarks --benchmark_filter=WorldScale
 //       --benchmark_out=out/scale.json --benchmark_out_format=json    (one command line)
 //   /usr/bin/python3 benchmarks/plot_scale.py out/scale.json docs/images/world_scale.png
@@ -47,6 +48,7 @@ void resetPeakMemory() { std::ofstream("/proc/self/clear_refs") << "5"; }
 void BM_WorldScale(benchmark::State& state) {
   registerBuiltinPlugins();
   const double voxels = static_cast<double>(state.range(0));
+  const bool sparse = state.range(1) != 0;
   const double resolution = 0.1;
   const double height = 8.0;
   const double side = std::floor(std::sqrt(voxels / (height / resolution)) * resolution);
@@ -54,7 +56,8 @@ void BM_WorldScale(benchmark::State& state) {
       "name: scale\nseed: 3\nresolution: 0.1\nbounds: {min: [0, 0, 0], max: [" +
       std::to_string(side) + ", " + std::to_string(side) +
       ", 8]}\ngenerators: [{type: forest, density: 0.05, trunk_radius: [0.15, 0.3], "
-      "trunk_height: [6, 8], min_spacing: 1.0, ground_plane: true}]\n";
+      "trunk_height: [6, 8], min_spacing: 1.0, ground_plane: true}]\n" +
+      (sparse ? "layout: sparse\ntruncation: 1.2\n" : "");
   const WorldSpec spec = WorldSpec::fromYaml(YamlReader::loadString(text, "scale.yaml"), ".");
   for (auto _ : state) {
     resetPeakMemory();
@@ -62,7 +65,7 @@ void BM_WorldScale(benchmark::State& state) {
     const auto begin = Clock::now();
     VoxelGrid grid = World::buildGrid(spec);
     const auto built = Clock::now();
-    Esdf esdf(grid);
+    Esdf esdf = sparse ? Esdf::truncated(grid, spec.truncation) : Esdf(grid);
     const auto distances = Clock::now();
     const auto world =
         std::make_shared<const World>("scale", spec.hash(), std::move(grid), std::move(esdf));
@@ -92,16 +95,18 @@ void BM_WorldScale(benchmark::State& state) {
         1e9 * secondsBetween(built, distances) / static_cast<double>(world->grid().size());
     state.counters["peak_bytes_per_voxel"] =
         (peak - before) / static_cast<double>(world->grid().size());
+    state.counters["rest_bytes_per_voxel"] =
+        static_cast<double>(world->grid().memoryBytes() + world->esdf().memoryBytes()) /
+        static_cast<double>(world->grid().size());
+    state.counters["sparse"] = sparse ? 1.0 : 0.0;
     state.counters["plan_median_ms"] = 0.5 * (times[4] + times[5]);
     state.counters["solved"] = solved;
   }
 }
 BENCHMARK(BM_WorldScale)
-    ->ArgName("voxels")
-    ->Arg(1000000)
-    ->Arg(10000000)
-    ->Arg(100000000)
-    ->Arg(1000000000)
+    ->ArgNames({"voxels", "sparse"})
+    ->ArgsProduct({{1000000, 10000000, 100000000, 1000000000}, {0, 1}})
+    ->Args({10000000000, 1})
     ->Iterations(1)
     ->UseRealTime()
     ->Unit(benchmark::kSecond);

@@ -318,16 +318,15 @@ TEST(SparseLayout, EveryShippedWorldPlansTheDenseWorldsCostsAndVerdicts) {
   for (const char* name : {"forest", "boxes", "walls", "city", "geb079", "mpl_pillars"}) {
     SCOPED_TRACE(name);
     const std::string path = std::string(KINOLAB_SOURCE_DIR "/configs/worlds/") + name + ".yaml";
-    const auto dense = WorldCache(WorldCache::defaultDirectory())
-                           .loadOrBuild(WorldSpec::fromFile(path))
-                           .world;
+    const auto dense =
+        WorldCache(WorldCache::defaultDirectory()).loadOrBuild(WorldSpec::fromFile(path)).world;
     const YamlReader root = YamlReader::loadFile(path);
     YAML::Node edited = YAML::Clone(root.node());
     edited["layout"] = "sparse";
     edited["truncation"] = 2.5;  // the obstacle cost's reach on the city's 0.5 m voxels
-    const auto sparse = World::build(WorldSpec::fromYaml(
-        YamlReader::loadString(YAML::Dump(edited), path),
-        std::filesystem::path(path).parent_path().string()));
+    const auto sparse =
+        World::build(WorldSpec::fromYaml(YamlReader::loadString(YAML::Dump(edited), path),
+                                         std::filesystem::path(path).parent_path().string()));
     ASSERT_EQ(sparse->grid().layout(), GridLayout::kBricked);
     const auto queries = test::randomQueries(*dense, 4, 31, 2.0, 7.0, 0.45);
     const std::vector<std::string> base = {"time_limit=0", "max_expansions=20000",

@@ -484,9 +484,9 @@ TEST(EsdfTest, ATruncatedFieldGivesTheDenseVerdictsAndProvenBoundsUpToItsTruncat
   // elsewhere; verdicts at thresholds up to T are the same.
   const double truncation = 0.5;
   for (int round = 0; round < 4; ++round) {
-    const VoxelGrid grid =
-        round < 2 ? randomGrid({40, 33, 17}, round == 0 ? 0.002 : 0.02, 7 + round, 0.1)
-                  : structuredGrid({60, 50, 20}, 0.1, GridLayout::kBricked, round);
+    const VoxelGrid grid = round < 2
+                               ? randomGrid({40, 33, 17}, round == 0 ? 0.002 : 0.02, 7 + round, 0.1)
+                               : structuredGrid({60, 50, 20}, 0.1, GridLayout::kBricked, round);
     VoxelGrid dense_grid(grid.bounds(), grid.resolution());
     grid.forEachOccupied([&](const VoxelIndex& v) { dense_grid.setOccupied(v, true); });
     const Esdf dense(dense_grid);

@@ -1549,6 +1549,29 @@ TEST(FlightTest, AFlightRepeatsBitForBit) {
   EXPECT_NE(a.map->occupiedVoxels(), c.map->occupiedVoxels());
 }
 
+TEST(FlightTest, AFlightThroughASparseWorldIsTheDenseWorldsFlight) {
+  // The camera sees the bricked truth voxel for voxel, the vehicle maps what it sees, and
+  // the checker judges the flown path on the truncated field: the same flight bit for bit.
+  const auto dense = worldOf(kWall);
+  const auto sparse = worldOf(std::string(kWall) + "layout: sparse\n");
+  ASSERT_EQ(sparse->grid().layout(), GridLayout::kBricked);
+  const Flight deterministic({{"timing", "deterministic", "test"}});
+  const auto bounded = test::assignments({"time_limit=0", "max_expansions=20000"});
+  const FlightResult a = deterministic.fly(dense, {6, 3, 1.5}, {14, 3, 1.5}, bounded);
+  const FlightResult b = deterministic.fly(sparse, {6, 3, 1.5}, {14, 3, 1.5}, bounded);
+  EXPECT_EQ(b.status, a.status);
+  // A flight that sees the wall and goes round it to the goal.
+  EXPECT_EQ(a.status, "reached") << a.message;
+  EXPECT_GT(a.replans.size(), 10u);
+  ASSERT_EQ(a.flown.segments().size(), b.flown.segments().size());
+  for (std::size_t i = 0; i < a.flown.segments().size(); ++i) {
+    EXPECT_EQ(a.flown.segments()[i].duration, b.flown.segments()[i].duration);
+    EXPECT_TRUE(a.flown.segments()[i].coefficients == b.flown.segments()[i].coefficients);
+  }
+  EXPECT_EQ(a.replans.size(), b.replans.size());
+  EXPECT_EQ(a.map->occupiedVoxels(), b.map->occupiedVoxels());
+}
+
 TEST(FlightTest, InRealTimeAPlanLaterThanTheLatencyIsDiscarded) {
   // No plan is computed in no time: with a latency of 0 every plan is late in real time and
   // the vehicle never leaves the start; deterministic timing takes them all.

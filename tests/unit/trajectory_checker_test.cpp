@@ -194,7 +194,8 @@ TEST(TrajectoryCheckerTest, TheBodyCollidesExactlyWhenItMeetsAnOccupiedCube) {
   const std::string text =
       "seed: 2\nresolution: 0.1\nbounds: {min: [0, 0, 0], max: [6, 4, 3]}\n"
       "generators:\n  - {type: box_list, boxes: [{min: [1, 1, 0], max: [2.2, 2.3, 1.5]}, "
-      "{min: [3, 0, 0], max: [3.2, 4, 2]}]}\n  - {type: boxes, count: 15, size_x: [0.1, 0.4], size_y: [0.1, 0.4], size_z: [0.1, 0.4]}\n";
+      "{min: [3, 0, 0], max: [3.2, 4, 2]}]}\n  - {type: boxes, count: 15, size_x: [0.1, 0.4], "
+      "size_y: [0.1, 0.4], size_z: [0.1, 0.4]}\n";
   for (const char* layout : {"dense", "sparse"}) {
     SCOPED_TRACE(layout);
     const auto world = World::build(WorldSpec::fromYaml(

@@ -348,9 +348,7 @@ TEST(WorldSpecTest, ASparseWorldHoldsTheSameVoxelsAsADenseOne) {
     }
     EXPECT_EQ(differ, 0u);
     std::size_t visited = 0;
-    sparse.forEachOccupied([&](const VoxelIndex& v) {
-      visited += dense.occupied(v) ? 1 : 0;
-    });
+    sparse.forEachOccupied([&](const VoxelIndex& v) { visited += dense.occupied(v) ? 1 : 0; });
     EXPECT_EQ(visited, dense.occupiedCount());
     EXPECT_LT(sparse.memoryBytes(), dense.memoryBytes() / 4);
     EXPECT_THROW((void)sparse.occupancy(), InvalidArgument);

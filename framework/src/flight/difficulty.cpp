@@ -188,8 +188,8 @@ ScenarioDifficulty scenarioDifficulty(const World& truth, const PlanningQuery& q
     grid.forEachOccupied([&](const VoxelIndex& v) { copy[grid.index(v)] = 1; });
   }
   const std::vector<Eigen::Vector3d> cells =
-      columnGuide(grid, copy.empty() ? grid.occupancy() : copy, 1, start, query.goal,
-                  robot_radius, z_low, z_high);
+      columnGuide(grid, copy.empty() ? grid.occupancy() : copy, 1, start, query.goal, robot_radius,
+                  z_low, z_high);
   if (cells.empty()) return difficulty;
   difficulty.guide = shortened(truth, cells, robot_radius);
   difficulty.guide_length = lengthOf(difficulty.guide);

@@ -72,10 +72,10 @@ EdgeEvaluator::EdgeEvaluator(std::shared_ptr<const World> world, EdgeEvaluatorSe
   // the distance 1-Lipschitz), so with T beyond that every cost is the dense world's.
   const Esdf& esdf = world_->esdf();
   if (esdf.truncation() < INFINITY) {
-    const double reach =
-        w.obstacle > 0.0 ? settings_.robot_radius + settings_.safety_distance +
-                               2.0 * std::sqrt(3.0) * esdf.resolution()
-                         : std::max(settings_.robot_radius, settings_.collision_tolerance);
+    const double reach = w.obstacle > 0.0
+                             ? settings_.robot_radius + settings_.safety_distance +
+                                   2.0 * std::sqrt(3.0) * esdf.resolution()
+                             : std::max(settings_.robot_radius, settings_.collision_tolerance);
     require(esdf.truncation() > reach,
             "world '" + world_->name() + "' is sparse with distances exact to " +
                 formatNumber(esdf.truncation()) + " m, and the " +

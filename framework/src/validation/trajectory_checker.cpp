@@ -64,10 +64,10 @@ std::shared_ptr<const fcl::CollisionObjectd> sharedOctree(const World& world) {
   const double r = grid.resolution();
   grid.forEachOccupied([&](const VoxelIndex& v) {
     if (!onSurface(grid, v)) return;
-    octree->updateNode(
-        octomap::point3d(static_cast<float>((v.x() + 0.5) * r), static_cast<float>((v.y() + 0.5) * r),
-                         static_cast<float>((v.z() + 0.5) * r)),
-        true, /*lazy_eval=*/true);
+    octree->updateNode(octomap::point3d(static_cast<float>((v.x() + 0.5) * r),
+                                        static_cast<float>((v.y() + 0.5) * r),
+                                        static_cast<float>((v.z() + 0.5) * r)),
+                       true, /*lazy_eval=*/true);
   });
   octree->updateInnerOccupancy();
   auto tree = std::make_shared<fcl::CollisionObjectd>(

@@ -36,9 +36,8 @@ std::vector<VoxelBox> obstacleBoxes(const VoxelGrid& grid, int stride) {
   };
   // The coarse grid: 1 occupied, 2 already in a box.
   std::vector<std::uint8_t> cells(static_cast<std::size_t>(c.x()) * c.y() * c.z(), 0);
-  grid.forEachOccupied([&](const VoxelIndex& v) {
-    cells[at(v.x() / stride, v.y() / stride, v.z() / stride)] = 1;
-  });
+  grid.forEachOccupied(
+      [&](const VoxelIndex& v) { cells[at(v.x() / stride, v.y() / stride, v.z() / stride)] = 1; });
   // Greedy: from each occupied cell not yet covered, grow a box along z, then y, then x over
   // cells that are occupied and not covered (a floor becomes one box, a trunk a few).
   const auto free_of = [&](int x0, int x1, int y0, int y1, int z0, int z1) {

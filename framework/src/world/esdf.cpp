@@ -673,7 +673,8 @@ namespace {
 
 /// The occupancy of the voxels [low, high) of `grid` (either layout) as a dense grid of their
 /// own (origin at zero), one brick at a time.
-VoxelGrid denseCopy(const VoxelGrid& grid, const Eigen::Vector3i& low, const Eigen::Vector3i& high) {
+VoxelGrid denseCopy(const VoxelGrid& grid, const Eigen::Vector3i& low,
+                    const Eigen::Vector3i& high) {
   const Eigen::Vector3i n = high - low;
   VoxelGrid copy(Box{Eigen::Vector3d::Zero(), n.cast<double>() * grid.resolution()},
                  grid.resolution());
@@ -685,7 +686,8 @@ VoxelGrid denseCopy(const VoxelGrid& grid, const Eigen::Vector3i& low, const Eig
       for (int bz = low.z() / b; bz * b < high.z(); ++bz) {
         if (grid.layout() == GridLayout::kBricked && !grid.brickHasObstacle(bx, by, bz)) continue;
         const Eigen::Vector3i from = (Eigen::Vector3i(bx, by, bz) * b).cwiseMax(low);
-        const Eigen::Vector3i to = ((Eigen::Vector3i(bx, by, bz).array() + 1) * b).matrix().cwiseMin(high);
+        const Eigen::Vector3i to =
+            ((Eigen::Vector3i(bx, by, bz).array() + 1) * b).matrix().cwiseMin(high);
         for (int x = from.x(); x < to.x(); ++x) {
           for (int y = from.y(); y < to.y(); ++y) {
             std::uint8_t* row = out + copy.index(x - low.x(), y - low.y(), 0) - low.z();
@@ -703,7 +705,8 @@ bool mayHoldObstacle(const VoxelGrid& grid, int bx, int by, int bz) {
   if (grid.layout() == GridLayout::kBricked) return grid.brickHasObstacle(bx, by, bz);
   const int b = VoxelGrid::kBrick;
   const Eigen::Vector3i from = Eigen::Vector3i(bx, by, bz) * b;
-  const Eigen::Vector3i to = ((Eigen::Vector3i(bx, by, bz).array() + 1) * b).matrix().cwiseMin(grid.dims());
+  const Eigen::Vector3i to =
+      ((Eigen::Vector3i(bx, by, bz).array() + 1) * b).matrix().cwiseMin(grid.dims());
   for (int x = from.x(); x < to.x(); ++x) {
     for (int y = from.y(); y < to.y(); ++y) {
       for (int z = from.z(); z < to.z(); ++z) {
@@ -782,12 +785,12 @@ Esdf Esdf::truncated(const VoxelGrid& grid, double truncation, int threads) {
       }
     }
     if (z_high < 0) return;  // no obstacle within T: every brick stays at +T
-    const Eigen::Vector3i low = (Eigen::Vector3i(first.x() * b - margin, first.y() * b - margin,
-                                                 z_low * b - margin))
-                                    .cwiseMax(Eigen::Vector3i::Zero());
-    const Eigen::Vector3i high = Eigen::Vector3i(last.x() * b + margin, last.y() * b + margin,
-                                                 (z_high + 1) * b + margin)
-                                     .cwiseMin(n);
+    const Eigen::Vector3i low =
+        (Eigen::Vector3i(first.x() * b - margin, first.y() * b - margin, z_low * b - margin))
+            .cwiseMax(Eigen::Vector3i::Zero());
+    const Eigen::Vector3i high =
+        Eigen::Vector3i(last.x() * b + margin, last.y() * b + margin, (z_high + 1) * b + margin)
+            .cwiseMin(n);
     const VoxelGrid part = denseCopy(grid, low, high);
     std::vector<std::int32_t> to_occupied;
     std::vector<std::int32_t> to_free;
@@ -798,10 +801,9 @@ Esdf Esdf::truncated(const VoxelGrid& grid, double truncation, int threads) {
     const auto code = [&](std::size_t i) -> std::int16_t {
       const bool occupied = part.occupied(i);
       const std::int32_t squared = occupied ? to_free[i] : to_occupied[i];
-      const std::int16_t magnitude =
-          std::sqrt(static_cast<float>(squared)) * half_voxel < limit
-              ? static_cast<std::int16_t>(squared)
-              : kBeyond;
+      const std::int16_t magnitude = std::sqrt(static_cast<float>(squared)) * half_voxel < limit
+                                         ? static_cast<std::int16_t>(squared)
+                                         : kBeyond;
       return occupied ? static_cast<std::int16_t>(-magnitude) : magnitude;
     };
     // The bricks of the tile with a value strictly inside (-T, T); the others share +T or -T.
@@ -827,7 +829,8 @@ Esdf Esdf::truncated(const VoxelGrid& grid, double truncation, int threads) {
             all_far = all_far && value == kBeyond;
             all_deep = all_deep && value == -kBeyond;
           }
-          const std::size_t index = (static_cast<std::size_t>(bx) * bricks.y() + by) * bricks.z() + bz;
+          const std::size_t index =
+              (static_cast<std::size_t>(bx) * bricks.y() + by) * bricks.z() + bz;
           if (all_deep) store->table[index] = store->deep;
           if (all_far || all_deep) continue;
           owners.push_back(index);
@@ -890,15 +893,13 @@ double Esdf::exactDistanceAbove(const Eigen::Vector3d& point, double limit, doub
     return nearestCube(
         NearestCubeSearch<BrickRows>{
             {brick_table_, {brick_strides_[0], brick_strides_[1]}, code_values_}},
-        point,
-        limit, enough, lower);
+        point, limit, enough, lower);
   }
   if (values_.empty()) return limit;
-  return nearestCube(
-      NearestCubeSearch<DenseRows>{{values_.data(),
-                                    {static_cast<std::int64_t>(strides_[0]),
-                                     static_cast<std::int64_t>(strides_[1])}}},
-      point, limit, enough, lower);
+  return nearestCube(NearestCubeSearch<DenseRows>{{values_.data(),
+                                                   {static_cast<std::int64_t>(strides_[0]),
+                                                    static_cast<std::int64_t>(strides_[1])}}},
+                     point, limit, enough, lower);
 }
 
 template <typename Search>
@@ -917,9 +918,9 @@ double Esdf::nearestCube(Search search, const Eigen::Vector3d& point, double lim
   // lower bound of the distance (`lower`) every voxel is free, and within an upper bound
   // (the voxel's centre value, exact, and the way to it) there is a cube; both with float
   // rounding's slack. Only the shell is searched.
-  const float raw = valueAt(static_cast<std::size_t>(search.cell[0]),
-                            static_cast<std::size_t>(search.cell[1]),
-                            static_cast<std::size_t>(search.cell[2]));
+  const float raw =
+      valueAt(static_cast<std::size_t>(search.cell[0]), static_cast<std::size_t>(search.cell[1]),
+              static_cast<std::size_t>(search.cell[2]));
   // At the cap (the grid's diagonal, farther than any cube of the grid is from a voxel
   // centre): no voxel is occupied.
   if (raw >= static_cast<float>(max_distance_)) return limit;

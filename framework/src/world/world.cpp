@@ -48,8 +48,8 @@ VoxelGrid World::buildGrid(const WorldSpec& spec) {
 
 std::shared_ptr<const World> World::build(const WorldSpec& spec) {
   VoxelGrid grid = buildGrid(spec);
-  Esdf esdf = spec.layout == GridLayout::kBricked ? Esdf::truncated(grid, spec.truncation)
-                                                  : Esdf(grid);
+  Esdf esdf =
+      spec.layout == GridLayout::kBricked ? Esdf::truncated(grid, spec.truncation) : Esdf(grid);
   return std::make_shared<const World>(spec.name, spec.hash(), std::move(grid), std::move(esdf));
 }
 

@@ -157,8 +157,9 @@ void exportWorld(const World& world, const std::string& directory, double slice_
   constexpr std::size_t kMostSparseVoxels = std::size_t{1} << 28;
   if (sparse && grid.size() > kMostSparseVoxels) {
     throw InvalidArgument("exporting world " + world.name() + ": a sparse world of " +
-                          std::to_string(grid.size()) + " voxels is too large for dense arrays (at " +
-                          "most " + std::to_string(kMostSparseVoxels) + ")");
+                          std::to_string(grid.size()) +
+                          " voxels is too large for dense arrays (at " + "most " +
+                          std::to_string(kMostSparseVoxels) + ")");
   }
   std::error_code error;
   std::filesystem::create_directories(directory, error);

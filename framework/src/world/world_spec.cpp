@@ -178,8 +178,8 @@ WorldSpec WorldSpec::fromYaml(const YamlReader& node, const std::string& spec_di
       truncation->fail("truncation applies to a sparse world only (layout: sparse)");
     }
     // At most 90 voxels: a voxel keeps its squared distance in half voxels in 16 bits.
-    spec.truncation = node.getNumber("truncation", std::nullopt, spec.resolution,
-                                     90.0 * spec.resolution);
+    spec.truncation =
+        node.getNumber("truncation", std::nullopt, spec.resolution, 90.0 * spec.resolution);
   }
   if (auto bounds = node.optional("bounds")) {
     const auto min = bounds->getVector3("min");

@@ -38,9 +38,10 @@ namespace kinolab {
 /// strictly between -T and T (the bricks near the obstacles' surfaces); every other brick is one
 /// shared brick of +T or of -T. A voxel takes 2 bytes: its squared distance in half voxels (an
 /// integer, signed as the value; T is at most 90 voxels), read through a table of the floats
-/// the dense field computes from it. The clamped field is 1-Lipschitz, exact where |D| < T and never
-/// above D where it is not negative, so clearance() and centreBound() stay proven lower bounds
-/// of the distance, and every verdict at a threshold up to T (decided()) is the dense field's.
+/// the dense field computes from it. The clamped field is 1-Lipschitz, exact where |D| < T and
+/// never above D where it is not negative, so clearance() and centreBound() stay proven lower
+/// bounds of the distance, and every verdict at a threshold up to T (decided()) is the dense
+/// field's.
 class Esdf {
  public:
   Esdf() = default;
