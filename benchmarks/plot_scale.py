@@ -3,7 +3,7 @@
 
     ./build/benchmarks/kinolab_benchmarks --benchmark_filter=WorldScale \\
         --benchmark_out=out/scale.json --benchmark_out_format=json
-    /usr/bin/python3 benchmarks/plot_scale.py out/scale.json docs/images/world_scale.png
+    /usr/bin/python3 benchmarks/plot_scale.py out/scale.json [more.json ...] docs/images/world_scale.png
 """
 import argparse
 import json
@@ -17,17 +17,19 @@ import matplotlib.pyplot as plt  # noqa: E402
 
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("json", help="the benchmark's --benchmark_out JSON")
+    parser.add_argument("json", nargs="+", help="the benchmark's --benchmark_out JSON (one or more runs)")
     parser.add_argument("png", help="the figure to write")
     args = parser.parse_args()
-    try:
-        with open(args.json, encoding="utf-8") as handle:
-            runs = [b for b in json.load(handle)["benchmarks"] if b["name"].startswith("BM_WorldScale/")]
-    except (OSError, ValueError, KeyError) as error:
-        print(f"plot_scale: error: {args.json}: {error}", file=sys.stderr)
-        return 1
+    runs = []
+    for path in args.json:
+        try:
+            with open(path, encoding="utf-8") as handle:
+                runs += [b for b in json.load(handle)["benchmarks"] if b["name"].startswith("BM_WorldScale/")]
+        except (OSError, ValueError, KeyError) as error:
+            print(f"plot_scale: error: {path}: {error}", file=sys.stderr)
+            return 1
     if not runs:
-        print(f"plot_scale: error: {args.json}: no BM_WorldScale results", file=sys.stderr)
+        print(f"plot_scale: error: {', '.join(args.json)}: no BM_WorldScale results", file=sys.stderr)
         return 1
     runs.sort(key=lambda b: b["voxels"])
     figure, (times, memory) = plt.subplots(1, 2, figsize=(11, 4.2))
@@ -41,8 +43,12 @@ def main() -> int:
                            ("plan_median_ms", "lazy MP-A*, median of ten 18-20 m queries")):
             scale = 1e-3 if key.endswith("_ms") else 1.0
             times.loglog(voxels, [b[key] * scale for b in layout], style, label=f"{name}: {label}")
-        memory.loglog(voxels, [b["peak_bytes_per_voxel"] * b["voxels"] / 2**30 for b in layout],
-                      style, label=f"{name}: peak while building")
+        # The peak is Linux's VmHWM less the resident memory before: after a larger world in
+        # the same process the allocator reuses its pages, so it is shown for dense runs only.
+        if not sparse:
+            memory.loglog(voxels,
+                          [b["peak_bytes_per_voxel"] * b["voxels"] / 2**30 for b in layout],
+                          style, label=f"{name}: peak while building")
         memory.loglog(voxels, [b["rest_bytes_per_voxel"] * b["voxels"] / 2**30 for b in layout],
                       style, alpha=0.5, label=f"{name}: at rest")
     times.set_xlabel("voxels")

@@ -1524,6 +1524,17 @@ TEST(FlightTest, APlanSlowerThanTheCommittedTrajectoryIsSetAsideNotFailed) {
               set_aside, kept.replans.size(), kept.time_to_goal, taken.time_to_goal);
 }
 
+/// The same flown path bit for bit, the same replans and the same known map.
+void expectSameFlight(const FlightResult& a, const FlightResult& b) {
+  ASSERT_EQ(a.flown.segments().size(), b.flown.segments().size());
+  for (std::size_t i = 0; i < a.flown.segments().size(); ++i) {
+    EXPECT_EQ(a.flown.segments()[i].duration, b.flown.segments()[i].duration);
+    EXPECT_TRUE(a.flown.segments()[i].coefficients == b.flown.segments()[i].coefficients);
+  }
+  EXPECT_EQ(a.replans.size(), b.replans.size());
+  EXPECT_EQ(a.map->occupiedVoxels(), b.map->occupiedVoxels());
+}
+
 TEST(FlightTest, AFlightRepeatsBitForBit) {
   // Deterministic timing: the same seed, the same flight (sensor noise, dropouts and frame
   // latencies drawn from it). Each replan is bounded by its expansions, not by its time (a
@@ -1535,13 +1546,7 @@ TEST(FlightTest, AFlightRepeatsBitForBit) {
   const auto bounded = test::assignments({"time_limit=0", "max_expansions=20000"});
   const FlightResult a = deterministic.fly(world, {2, 3, 1.5}, {18, 3, 1.5}, bounded);
   const FlightResult b = deterministic.fly(world, {2, 3, 1.5}, {18, 3, 1.5}, bounded);
-  ASSERT_EQ(a.flown.segments().size(), b.flown.segments().size());
-  for (std::size_t i = 0; i < a.flown.segments().size(); ++i) {
-    EXPECT_EQ(a.flown.segments()[i].duration, b.flown.segments()[i].duration);
-    EXPECT_TRUE(a.flown.segments()[i].coefficients == b.flown.segments()[i].coefficients);
-  }
-  EXPECT_EQ(a.replans.size(), b.replans.size());
-  EXPECT_EQ(a.map->occupiedVoxels(), b.map->occupiedVoxels());
+  expectSameFlight(a, b);
   // Another seed, another noise: another known map.
   Flight reseeded({{"timing", "deterministic", "test"}, {"replan_budget", "100", "test"}});
   reseeded.setup.settings.seed = 1;
@@ -1563,13 +1568,7 @@ TEST(FlightTest, AFlightThroughASparseWorldIsTheDenseWorldsFlight) {
   // A flight that sees the wall and goes round it to the goal.
   EXPECT_EQ(a.status, "reached") << a.message;
   EXPECT_GT(a.replans.size(), 10u);
-  ASSERT_EQ(a.flown.segments().size(), b.flown.segments().size());
-  for (std::size_t i = 0; i < a.flown.segments().size(); ++i) {
-    EXPECT_EQ(a.flown.segments()[i].duration, b.flown.segments()[i].duration);
-    EXPECT_TRUE(a.flown.segments()[i].coefficients == b.flown.segments()[i].coefficients);
-  }
-  EXPECT_EQ(a.replans.size(), b.replans.size());
-  EXPECT_EQ(a.map->occupiedVoxels(), b.map->occupiedVoxels());
+  expectSameFlight(a, b);
 }
 
 TEST(FlightTest, InRealTimeAPlanLaterThanTheLatencyIsDiscarded) {
