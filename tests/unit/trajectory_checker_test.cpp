@@ -228,5 +228,26 @@ TEST(TrajectoryCheckerTest, TheBodyCollidesExactlyWhenItMeetsAnOccupiedCube) {
   }
 }
 
+TEST(TrajectoryCheckerTest, APointOnTheMapsOwnFaceIsInTheVoxelInsideOnly) {
+  // 0.5 m voxels, one occupied voxel at z in [2, 2.5] under the map's top face (z = 3): a body
+  // of 0.24 m on the top face is 0.5 m from it; one on the face between two voxels touches both.
+  const auto world = World::build(WorldSpec::fromYaml(
+      YamlReader::loadString("resolution: 0.5\nbounds: {min: [0, 0, 0], max: [3, 3, 3]}\n"
+                             "generators: [{type: box_list, boxes: [{min: [1, 1, 2], "
+                             "max: [1.5, 1.5, 2.5]}]}]\n",
+                             "faces.yaml"),
+      "."));
+  CheckerSettings settings;
+  settings.robot_radius = 0.29;
+  settings.collision_tolerance = 0.05;
+  const TrajectoryChecker checker(world, settings);
+  EXPECT_FALSE(checker.collides({1.25, 1.25, 3.0}));  // the top face, 0.5 m above the voxel
+  EXPECT_TRUE(checker.collides({1.25, 1.25, 2.5}));   // on its top face
+  EXPECT_TRUE(checker.collides({1.25, 1.25, 2.7}));   // 0.2 m above it
+  EXPECT_FALSE(checker.collides({1.25, 1.25, 0.0}));  // the bottom face
+  EXPECT_FALSE(checker.collides({3.0, 1.25, 2.25}));  // the side face, 1.5 m away
+  EXPECT_TRUE(checker.collides({1.5, 1.25, 2.25}));   // on its side face
+}
+
 }  // namespace
 }  // namespace kinolab

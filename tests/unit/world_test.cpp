@@ -370,6 +370,21 @@ TEST(WorldSpecTest, ALayoutOrTruncationThatIsNotUnderstoodIsRefused) {
   EXPECT_NE(configErrorOf(base + "layout: sparse\ntruncation: 9.5\n").find("truncation"),
             std::string::npos);
   EXPECT_EQ(specFromText(base + "layout: sparse\ntruncation: 0.5\n").truncation, 0.5);
+  // The default of 2 m is checked as a given value would be: over 90 voxels of 0.02 m, under
+  // one voxel of 3 m.
+  for (const char* resolution : {"0.02", "3"}) {
+    EXPECT_NE(configErrorOf("resolution: " + std::string(resolution) +
+                            "\nbounds: {min: [0, 0, 0], max: [6, 6, 6]}\n"
+                            "generators: [{type: box_list, boxes: []}]\nlayout: sparse\n")
+                  .find("the default truncation of 2 m"),
+              std::string::npos)
+        << resolution;
+  }
+  // Beyond what the checker's octree keys hold.
+  EXPECT_NE(configErrorOf("resolution: 0.1\nbounds: {min: [0, 0, 0], max: [4000, 10, 10]}\n"
+                          "generators: [{type: box_list, boxes: []}]\nlayout: sparse\n")
+                .find("at most 32767 a side"),
+            std::string::npos);
   // A 1 km city at 0.2 m is sparse's to hold, not dense's; 10^13 voxels are no one's.
   const std::string city =
       "resolution: 0.2\nbounds: {min: [0, 0, 0], max: [1000, 1000, 60]}\n"
@@ -377,7 +392,8 @@ TEST(WorldSpecTest, ALayoutOrTruncationThatIsNotUnderstoodIsRefused) {
   EXPECT_NE(configErrorOf(city).find("a dense world holds at most 1e9"), std::string::npos);
   EXPECT_EQ(specFromText(city + "layout: sparse\n").layout, GridLayout::kBricked);
   EXPECT_NE(configErrorOf("resolution: 0.01\nbounds: {min: [0, 0, 0], max: [1000, 1000, 100]}\n"
-                          "generators: [{type: box_list, boxes: []}]\nlayout: sparse\n")
+                          "generators: [{type: box_list, boxes: []}]\nlayout: sparse\n"
+                          "truncation: 0.5\n")
                 .find("a sparse world holds at most 1e12"),
             std::string::npos);
 }

@@ -69,7 +69,9 @@ EdgeEvaluator::EdgeEvaluator(std::shared_ptr<const World> world, EdgeEvaluatorSe
   // A sparse world's distances are exact up to its truncation T. The verdicts read them up to
   // the radius; the obstacle cost's trilinear values below the band's edge B read voxel
   // centres up to B + 2 sqrt(3) voxels away (each centre within sqrt(3) voxels of the point,
-  // the distance 1-Lipschitz), so with T beyond that every cost is the dense world's.
+  // the distance 1-Lipschitz), so with T beyond that a valid edge costs what it costs on the
+  // dense world. Verdicts are exact to the tolerance on either layout; where the truth lies
+  // within the tolerance band the two may differ (tracing steps follow the clamped clearance).
   const Esdf& esdf = world_->esdf();
   if (esdf.truncation() < INFINITY) {
     const double reach = w.obstacle > 0.0

@@ -116,6 +116,12 @@ TrajectoryChecker::TrajectoryChecker(std::shared_ptr<const World> world, Checker
   const double voxel = world_->esdf().resolution();
   spacing_ = settings_.spacing > 0.0 ? settings_.spacing : std::min(0.25 * voxel, 0.025);
   body_radius_ = std::max(settings_.robot_radius - settings_.collision_tolerance, 0.0);
+  // OctoMap's keys hold 2^15 voxels either side of its centre: beyond, its tree loses voxels.
+  if (body_radius_ > 0.0 && world_->grid().dims().maxCoeff() > 32767) {
+    throw InvalidArgument("trajectory checker: world '" + world_->name() + "' is " +
+                          std::to_string(world_->grid().dims().maxCoeff()) +
+                          " voxels long; the checker's octree holds at most 32767 a side");
+  }
   if (body_radius_ > 0.0) fcl_ = std::make_unique<Fcl>(*world_, body_radius_);
 }
 
@@ -135,10 +141,12 @@ bool TrajectoryChecker::inOccupiedCube(const Eigen::Vector3d& position) const {
   int low[3];
   int high[3];
   for (int axis = 0; axis < 3; ++axis) {
-    const double cell = std::floor(scaled[axis]);
+    // On the face between voxels k - 1 and k (scaled == k) both hold the point; on the map's
+    // own faces only the voxel inside.
+    const double cell = std::clamp(std::floor(scaled[axis]), -1.0, 1.0 * grid.dims()[axis]);
     const int last = grid.dims()[axis] - 1;
     high[axis] = std::clamp(static_cast<int>(cell), 0, last);
-    low[axis] = cell == scaled[axis] ? std::max(high[axis] - 1, 0) : high[axis];
+    low[axis] = std::clamp(cell == scaled[axis] ? static_cast<int>(cell) - 1 : high[axis], 0, last);
   }
   for (int x = low[0]; x <= high[0]; ++x) {
     for (int y = low[1]; y <= high[1]; ++y) {

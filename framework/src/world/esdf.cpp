@@ -762,6 +762,14 @@ Esdf Esdf::truncated(const VoxelGrid& grid, double truncation, int threads) {
   const int margin = static_cast<int>(std::ceil(truncation / grid.resolution())) + 1;
   const int margin_bricks = (margin + b - 1) / b;
   constexpr int kTile = 16;  // bricks per tile side in x and y
+  // The largest tile's part must be within the exact transform's size.
+  const Eigen::Vector3i part_size =
+      Eigen::Vector3i(kTile * b + 2 * margin, kTile * b + 2 * margin, n.z()).cwiseMin(n);
+  if (4.0 * part_size.cast<double>().squaredNorm() >= static_cast<double>(kNoSite)) {
+    throw InvalidArgument("Esdf::truncated: a grid " + std::to_string(n.z()) +
+                          " voxels high is beyond the exact transform's tiles; coarsen the "
+                          "resolution");
+  }
   const int tiles_x = (bricks.x() + kTile - 1) / kTile;
   const int tiles_y = (bricks.y() + kTile - 1) / kTile;
   std::atomic<int> next_tile{0};

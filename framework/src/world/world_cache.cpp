@@ -155,7 +155,8 @@ WorldLoad WorldCache::loadOrBuild(const WorldSpec& spec) const {
   const auto start = std::chrono::steady_clock::now();
   WorldLoad load;
   if (spec.layout == GridLayout::kBricked) {
-    // A sparse world's file would be its bricks; building it is what it costs to read.
+    // The file format holds dense arrays: a sparse world is built each time (bricks on disk
+    // are still to come).
     load.world = World::build(spec);
     load.note = "sparse worlds are not cached";
     load.seconds = secondsSince(start);

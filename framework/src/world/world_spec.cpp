@@ -103,11 +103,17 @@ void checkGridSize(const WorldSpec& spec, const YamlReader& node) {
   const double memory = static_cast<double>(sysconf(_SC_PHYS_PAGES)) * sysconf(_SC_PAGESIZE);
   if (spec.layout == GridLayout::kBricked) {
     // Per brick of 512 voxels: its occupancy state (4 bytes) and its distances' pointer (8);
-    // the bricks near obstacles come on top (64 bytes of occupancy, 2 KiB of distances). A
+    // the bricks near obstacles come on top (64 bytes of occupancy, 1 KiB of distances). A
     // tile's exact transform spans the world's height.
-    if (voxels > 1e12 || dims.maxCoeff() > 2e9) {
+    if (voxels > 1e12) {
       node["resolution"].fail("bounds and resolution give " + formatNumber(voxels) +
                               " voxels; a sparse world holds at most 1e12");
+    }
+    // The checker's octree keys: 32767 voxels a side.
+    if (dims.maxCoeff() > 32767) {
+      node["resolution"].fail("the world is " + formatNumber(dims.maxCoeff()) +
+                              " voxels long; a sparse world is at most 32767 a side (3.2 km at "
+                              "0.1 m)");
     }
     if (dims.z() > 20000) {
       node["resolution"].fail("the world is " + formatNumber(dims.z()) +
@@ -180,6 +186,13 @@ WorldSpec WorldSpec::fromYaml(const YamlReader& node, const std::string& spec_di
     // At most 90 voxels: a voxel keeps its squared distance in half voxels in 16 bits.
     spec.truncation =
         node.getNumber("truncation", std::nullopt, spec.resolution, 90.0 * spec.resolution);
+  }
+  if (spec.layout == GridLayout::kBricked &&
+      !(spec.truncation >= spec.resolution && spec.truncation <= 90.0 * spec.resolution)) {
+    node["layout"].fail("the default truncation of " + formatNumber(spec.truncation) +
+                        " m is not between one voxel and 90 voxels (" +
+                        formatNumber(spec.resolution) + " to " +
+                        formatNumber(90.0 * spec.resolution) + " m): set `truncation`");
   }
   if (auto bounds = node.optional("bounds")) {
     const auto min = bounds->getVector3("min");

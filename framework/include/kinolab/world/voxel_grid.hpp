@@ -108,8 +108,9 @@ class VoxelGrid {
   const std::vector<std::uint8_t>& occupancy() const;
   std::vector<std::uint8_t>& occupancy();
 
-  /// Calls `visit(voxel)` for every occupied voxel, x-major; a bricked grid skips its empty
-  /// bricks, so the cost is its obstacles', not its volume's.
+  /// Calls `visit(voxel)` for every occupied voxel (a dense grid's x-major, a bricked grid's
+  /// brick by brick); a bricked grid skips its empty bricks, so the cost is its obstacles', not
+  /// its volume's.
   template <typename Visit>
   void forEachOccupied(Visit&& visit) const {
     if (!bricked_) {
