@@ -529,5 +529,21 @@ TEST(EsdfTest, ATruncatedFieldGivesTheDenseVerdictsAndProvenBoundsUpToItsTruncat
   }
 }
 
+TEST(EsdfTest, ACubeAtExactlyTheThresholdDoesNotHideANearerOne) {
+  // One cube 0.3 m straight along y from the point, one 0.283 m away diagonally; the
+  // threshold 3 * 0.1 rounds to just above 0.3. Stopping at the first cube "nearer than the
+  // threshold" took the one at 0.3 and called the point free at it (found by a review).
+  for (const GridLayout layout : {GridLayout::kDense, GridLayout::kBricked}) {
+    VoxelGrid grid(Box{Eigen::Vector3d::Zero(), Eigen::Vector3d(2, 2, 0.4)}, 0.1, layout);
+    grid.setOccupied(VoxelIndex(8, 13, 1), true);
+    grid.setOccupied(VoxelIndex(5, 7, 1), true);
+    const Esdf esdf = layout == GridLayout::kDense ? Esdf(grid) : Esdf::truncated(grid, 1.0);
+    const Eigen::Vector3d point(0.8, 1.0, 0.15);
+    const double threshold = 3 * 0.1;
+    EXPECT_LT(esdf.decided(point, esdf.clearance(point), threshold, threshold), threshold);
+    EXPECT_NEAR(esdf.exactDistance(point, 1.0), std::sqrt(0.08), 1e-12);
+  }
+}
+
 }  // namespace
 }  // namespace kinolab

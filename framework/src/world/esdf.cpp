@@ -948,7 +948,9 @@ double Esdf::nearestCube(Search search, const Eigen::Vector3d& point, double lim
   search.inner2 = inner * inner;
   search.best2 = reach * reach;
   const double enough_voxels = enough * inverse_resolution_;
-  search.enough2 = enough > 0.0 ? enough_voxels * enough_voxels : -1.0;
+  // Stop early only on a cube provably nearer than `enough` (its distance rounds below it):
+  // one at `enough` itself, within rounding, must not end the search for a nearer one.
+  search.enough2 = enough > 0.0 ? enough_voxels * enough_voxels * (1.0 - 1e-12) : -1.0;
   search.run();
   if (search.found && search.best2 == 0.0) return -0.5 * resolution_;  // in (or on) a cube
   const double best = std::sqrt(search.best2) * resolution_;
