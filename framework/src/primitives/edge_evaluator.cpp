@@ -4,7 +4,6 @@
 #include <cmath>
 
 #include "kinolab/core/error.hpp"
-#include "kinolab/core/text.hpp"
 
 namespace kinolab {
 namespace {
@@ -72,20 +71,11 @@ EdgeEvaluator::EdgeEvaluator(std::shared_ptr<const World> world, EdgeEvaluatorSe
   // the distance 1-Lipschitz), so with T beyond that a valid edge costs what it costs on the
   // dense world. Verdicts are exact to the tolerance on either layout; where the truth lies
   // within the tolerance band the two may differ (tracing steps follow the clamped clearance).
-  const Esdf& esdf = world_->esdf();
-  if (esdf.truncation() < INFINITY) {
-    const double reach = w.obstacle > 0.0
-                             ? settings_.robot_radius + settings_.safety_distance +
-                                   2.0 * std::sqrt(3.0) * esdf.resolution()
-                             : std::max(settings_.robot_radius, settings_.collision_tolerance);
-    require(esdf.truncation() > reach,
-            "world '" + world_->name() + "' is sparse with distances exact to " +
-                formatNumber(esdf.truncation()) + " m, and the " +
-                (w.obstacle > 0.0 ? "obstacle cost reads them to robot_radius + safety_distance "
-                                    "+ 2 sqrt(3) voxels = "
-                                  : "collision verdict reads them to robot_radius = ") +
-                formatNumber(reach) + " m: build the world with a larger truncation");
-  }
+  world_->requireExactDistancesTo(
+      w.obstacle > 0.0
+          ? world_->obstacleCostReach(settings_.robot_radius + settings_.safety_distance)
+          : verdictRadius(),
+      w.obstacle > 0.0 ? "edge evaluator (obstacle cost)" : "edge evaluator (collision verdict)");
   const auto choose = [](int n, int k) {
     double value = 1.0;
     for (int i = 1; i <= k; ++i) value = value * (n - k + i) / i;

@@ -427,8 +427,7 @@ void squaredDistanceTo(const VoxelGrid& grid, std::uint8_t target, int threads,
 /// Refuses a grid whose squared distances in quarter voxels would not fit the transforms'
 /// int32 (the grid's diagonal, (2 n)^2 summed over the axes, below kNoSite): about 23,000
 /// voxels along the diagonal. `who` names the caller.
-void checkTransformable(const VoxelGrid& grid, const char* who) {
-  const Eigen::Vector3i& n = grid.dims();
+void checkTransformable(const Eigen::Vector3i& n, const char* who) {
   const double squared = 4.0 * n.cast<double>().squaredNorm();
   if (squared >= static_cast<double>(kNoSite)) {
     throw InvalidArgument(std::string(who) + ": a grid of " + std::to_string(n.x()) + " x " +
@@ -599,7 +598,7 @@ void Esdf::setGeometry(const VoxelGrid& grid) {
 Esdf::Esdf(const VoxelGrid& grid, int threads) {
   if (grid.size() == 0) throw InvalidArgument("Esdf: empty grid");
   if (threads < 0) throw InvalidArgument("Esdf: threads must be >= 0");
-  checkTransformable(grid, "Esdf");
+  checkTransformable(grid.dims(), "Esdf");
   if (threads == 0) {
     threads = grid.size() < kParallelVoxels
                   ? 1
@@ -763,13 +762,9 @@ Esdf Esdf::truncated(const VoxelGrid& grid, double truncation, int threads) {
   const int margin_bricks = (margin + b - 1) / b;
   constexpr int kTile = 16;  // bricks per tile side in x and y
   // The largest tile's part must be within the exact transform's size.
-  const Eigen::Vector3i part_size =
-      Eigen::Vector3i(kTile * b + 2 * margin, kTile * b + 2 * margin, n.z()).cwiseMin(n);
-  if (4.0 * part_size.cast<double>().squaredNorm() >= static_cast<double>(kNoSite)) {
-    throw InvalidArgument("Esdf::truncated: a grid " + std::to_string(n.z()) +
-                          " voxels high is beyond the exact transform's tiles; coarsen the "
-                          "resolution");
-  }
+  checkTransformable(
+      Eigen::Vector3i(kTile * b + 2 * margin, kTile * b + 2 * margin, n.z()).cwiseMin(n),
+      "Esdf::truncated (a tile)");
   const int tiles_x = (bricks.x() + kTile - 1) / kTile;
   const int tiles_y = (bricks.y() + kTile - 1) / kTile;
   std::atomic<int> next_tile{0};
@@ -963,7 +958,7 @@ IncrementalEsdf::IncrementalEsdf(VoxelGrid grid) { rebuild(std::move(grid)); }
 
 void IncrementalEsdf::rebuild(VoxelGrid grid) {
   if (grid.size() == 0) throw InvalidArgument("IncrementalEsdf: empty grid");
-  checkTransformable(grid, "IncrementalEsdf");
+  checkTransformable(grid.dims(), "IncrementalEsdf");
   grid_ = std::move(grid);
   CubeTransform transform(grid_.dims());
   for (int sign = 0; sign < 2; ++sign) {

@@ -53,6 +53,15 @@ std::shared_ptr<const World> World::build(const WorldSpec& spec) {
   return std::make_shared<const World>(spec.name, spec.hash(), std::move(grid), std::move(esdf));
 }
 
+void World::requireExactDistancesTo(double reach, const std::string& who) const {
+  if (esdf_.truncation() > reach) return;
+  // Rounded up to the millimetre: a truncation of that much is enough.
+  throw InvalidArgument(who + ": world '" + name_ + "' is sparse with distances exact to " +
+                        formatNumber(esdf_.truncation()) + " m, and it reads them to " +
+                        formatNumber(std::ceil(reach * 1000.0) / 1000.0) +
+                        " m: build the world with a larger truncation");
+}
+
 bool World::segmentFree(const Eigen::Vector3d& a, const Eigen::Vector3d& b, double radius,
                         double tolerance) const {
   if (!(radius >= 0.0 && radius < INFINITY && tolerance > 0.0 && tolerance < INFINITY)) {

@@ -8,7 +8,6 @@
 #include <optional>
 #include <tuple>
 
-#include "kinolab/core/error.hpp"
 #include "kinolab/core/text.hpp"
 
 namespace kinolab::smoothing {
@@ -202,18 +201,10 @@ CheckerSettings clearanceCheck(const SmootherSettings& settings) {
 BsplineSmoother::BsplineSmoother(std::shared_ptr<const World> world,
                                  const SmootherSettings& settings)
     : world_(world), settings_(settings), checker_(world, clearanceCheck(settings)) {
-  // The obstacle cost reads the trilinear distance and its gradient out to the band's edge:
-  // on a sparse world every corner it reads must be exact (within 2 sqrt(3) voxels of it).
-  const Esdf& esdf = world_->esdf();
-  const double reach =
-      settings_.robot_radius + settings_.safety_distance + 2.0 * std::sqrt(3.0) * esdf.resolution();
-  if (esdf.truncation() <= reach) {
-    throw InvalidArgument("bspline smoother: world '" + world_->name() +
-                          "' is sparse with distances exact to " + formatNumber(esdf.truncation()) +
-                          " m, and the obstacle cost reads them to robot_radius + "
-                          "safety_distance + 2 sqrt(3) voxels = " +
-                          formatNumber(reach) + " m: build the world with a larger truncation");
-  }
+  // The obstacle cost reads the trilinear distance and its gradient out to the band's edge.
+  world_->requireExactDistancesTo(
+      world_->obstacleCostReach(settings_.robot_radius + settings_.safety_distance),
+      "bspline smoother (obstacle cost)");
 }
 
 void BsplineSmoother::addCosts(ceres::Problem& problem, Eigen::Matrix3Xd& control, double interval,

@@ -55,6 +55,17 @@ class World {
   bool segmentFree(const Eigen::Vector3d& a, const Eigen::Vector3d& b, double radius,
                    double tolerance = 0.01) const;
 
+  /// Throws InvalidArgument (naming the world, `who` and both distances) when the field is
+  /// truncated at or below `reach`, the distance out to which `who` reads it exactly.
+  void requireExactDistancesTo(double reach, const std::string& who) const;
+  /// The reach of an obstacle cost that reads the trilinear distance (and its gradient) out
+  /// to `band`: every corner it reads lies within sqrt(3) voxels of the point, the point within
+  /// sqrt(3) voxels of the corners' least (the distance is 1-Lipschitz), so band + 2 sqrt(3)
+  /// voxels.
+  double obstacleCostReach(double band) const {
+    return band + 2.0 * std::sqrt(3.0) * esdf_.resolution();
+  }
+
   /// Takes the grid and the field out of a World no one needs any more, so that their memory
   /// serves the next one (a flight's planning window, made anew every frame).
   std::pair<VoxelGrid, Esdf> release() && { return {std::move(grid_), std::move(esdf_)}; }
