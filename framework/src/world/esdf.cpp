@@ -48,8 +48,10 @@ struct EnvelopeScratch {
 /// min(f[k], f[k + 1]); d = min(f, the lower envelope of those n + 1 parabolas at 2 q)
 /// (Felzenszwalb and Huttenlocher's algorithm in integer arithmetic: no division, no
 /// rounding). Entries without a site (kNoSite) are skipped, so huge sentinels never enter
-/// the arithmetic.
-void transformLine(const std::int32_t* f, std::int32_t* d, int n, EnvelopeScratch& scratch) {
+/// the arithmetic. An entry at or above `limit` comes out as kNoSite (a truncated field's
+/// "beyond"; see signedSquaredDistances()); the input must already hold kNoSite for those.
+void transformLine(const std::int32_t* f, std::int32_t* d, int n, EnvelopeScratch& scratch,
+                   std::int32_t limit = kNoSite) {
   std::copy(f, f + n, d);
   // A line mostly of zeros (voxels at distance 0: in the inside transform, the free space
   // around thin obstacles) is done per non-zero entry: scanning outward while the line
@@ -57,18 +59,20 @@ void transformLine(const std::int32_t* f, std::int32_t* d, int n, EnvelopeScratc
   // non-zeros at most kShortRun long that is at most kShortRun / 2 steps an entry.
   constexpr int kShortRun = 64;
   int zeros = 0;
+  int sites = 0;
   int run = 0;
   int longest = 0;
   for (int q = 0; q < n; ++q) {
     run = f[q] == 0 ? 0 : run + 1;
     zeros += f[q] == 0;
+    sites += f[q] != kNoSite;
     longest = std::max(longest, run);
   }
-  if (zeros == n) return;
+  if (zeros == n || sites == 0) return;
   if (zeros > 0 && longest <= kShortRun && 4 * zeros >= 3 * n) {
     for (int q = 0; q < n; ++q) {
       if (f[q] == 0) continue;
-      std::int64_t best = f[q];
+      std::int64_t best = std::min(f[q], limit);
       for (int step = 1;; ++step) {
         const std::int64_t reach = 2 * static_cast<std::int64_t>(step) - 1;
         if (reach * reach >= best || (q - step < 0 && q + step >= n)) break;
@@ -77,7 +81,7 @@ void transformLine(const std::int32_t* f, std::int32_t* d, int n, EnvelopeScratc
           best = std::min(best, f[i] + reach * reach);
         }
       }
-      d[q] = static_cast<std::int32_t>(best);
+      d[q] = best >= limit ? kNoSite : static_cast<std::int32_t>(best);
     }
     return;
   }
@@ -119,8 +123,8 @@ void transformLine(const std::int32_t* f, std::int32_t* d, int n, EnvelopeScratc
     // Advance while the next parabola starts at or before x: zn / zd <= x.
     while (j < last && zn[j + 1] <= x * zd[j + 1]) ++j;
     const std::int64_t offset = x - (2 * static_cast<std::int64_t>(v[j]) - 1);
-    const std::int64_t value = offset * offset + height[j];
-    if (value < d[q]) d[q] = static_cast<std::int32_t>(value);
+    const std::int64_t value = std::min<std::int64_t>(offset * offset + height[j], d[q]);
+    d[q] = value >= limit ? kNoSite : static_cast<std::int32_t>(value);
   }
 }
 
@@ -168,6 +172,67 @@ void transformColumn(const std::uint8_t* cells, int n, std::uint8_t target, std:
   }
 }
 
+// A signed field holds both transforms in one entry a voxel: a free voxel's squared distance
+// (quarter voxels) to the nearest occupied cube as it is (>= 0), an occupied voxel's to the
+// nearest free cube as its bitwise complement (< 0). Nothing is lost: in every pass a voxel's
+// distance to cubes of its own kind is 0.
+inline std::int32_t encodeSigned(bool occupied, std::int32_t squared) {
+  return occupied ? ~squared : squared;
+}
+inline std::int32_t decodeSigned(std::int32_t entry) { return entry < 0 ? ~entry : entry; }
+
+/// The cube distance (2 k - 1)^2 to a voxel k >= 1 away along a line, kNoSite at or above
+/// `limit`.
+inline std::int32_t alongLine(std::int64_t k, std::int32_t limit) {
+  const std::int64_t reach = 2 * k - 1;
+  return reach * reach >= limit ? kNoSite : static_cast<std::int32_t>(reach * reach);
+}
+
+/// Pass 1 of the signed transform, along z (contiguous): per voxel of the column `cells` (n
+/// long), the cube distance along the column to the nearest voxel of the other kind, by two
+/// sweeps (kNoSite without one, or at or above `limit`), encoded.
+void signedColumn(const std::uint8_t* cells, int n, std::int32_t* out, std::int32_t limit) {
+  // The last voxel of each kind seen, as a position (-1: none yet).
+  int last[2] = {-1, -1};
+  for (int iz = 0; iz < n; ++iz) {
+    const int kind = cells[iz] != 0 ? 1 : 0;
+    last[kind] = iz;
+    out[iz] = last[1 - kind] < 0 ? kNoSite : iz - last[1 - kind];  // steps back
+  }
+  int next[2] = {n, n};
+  for (int iz = n - 1; iz >= 0; --iz) {
+    const int kind = cells[iz] != 0 ? 1 : 0;
+    next[kind] = iz;
+    const std::int32_t ahead = next[1 - kind] == n ? kNoSite : next[1 - kind] - iz;
+    const std::int32_t steps = std::min(out[iz], ahead);
+    out[iz] = encodeSigned(kind == 1, steps == kNoSite ? kNoSite : alongLine(steps, limit));
+  }
+}
+
+/// Pass 2 or 3 of the signed transform along a line of n encoded entries. A run of voxels of
+/// one kind sees only its own entries and, one voxel past either end, a cube of the other
+/// kind at distance 0: an entry beyond that cube is farther than the cube itself. So each run
+/// is transformLine() of its own entries, lowered by its ends' cubes. `values` and `result`
+/// are scratch of n entries.
+void transformSignedLine(const std::int32_t* f, std::int32_t* d, int n, EnvelopeScratch& scratch,
+                         std::int32_t limit, std::int32_t* values, std::int32_t* result) {
+  for (int begin = 0; begin < n;) {
+    const bool occupied = f[begin] < 0;
+    int end = begin + 1;
+    while (end < n && (f[end] < 0) == occupied) ++end;
+    const int length = end - begin;
+    for (int i = 0; i < length; ++i) values[i] = decodeSigned(f[begin + i]);
+    transformLine(values, result, length, scratch, limit);
+    for (int i = 0; i < length; ++i) {
+      std::int32_t best = result[i];
+      if (begin > 0) best = std::min(best, alongLine(i + 1, limit));
+      if (end < n) best = std::min(best, alongLine(length - i, limit));
+      d[begin + i] = encodeSigned(occupied, best);
+    }
+    begin = end;
+  }
+}
+
 /// An entry of a pass's result that an update changed, as the next pass's lines see it: the
 /// line it lies on, its position along that line and its value before.
 struct LineChange {
@@ -192,15 +257,20 @@ void byLine(const std::vector<LineChange>& changes, std::size_t lines,
 /// occupancy, then pass 2 along y (within each x-slab, lines over iy for every iz) and pass 3
 /// along x (lines over ix for every (iy, iz)), in place (Esdf); IncrementalEsdf's order, x, y
 /// and z, each pass into the next one's array (rows(), alongY(), alongZ()), and one line at
-/// a time (line(), update()).
+/// a time (line(), update()). Esdf's passes are on a signed field (encodeSigned(); both
+/// distances at once); with a `limit`, its entries at or above it are kNoSite after every pass
+/// (a truncated field's; the default keeps every distance).
 struct CubeTransform {
-  explicit CubeTransform(const Eigen::Vector3i& grid_dims)
+  explicit CubeTransform(const Eigen::Vector3i& grid_dims, std::int32_t squared_limit = kNoSite)
       : dims(grid_dims),
+        limit(squared_limit),
         slab(static_cast<std::size_t>(dims.y()) * dims.z()),
         scratch(dims.maxCoeff()),
         in(static_cast<std::size_t>(kBlock) * dims.maxCoeff()),
         out(in.size()),
-        suspects(static_cast<std::size_t>(dims.maxCoeff())) {}
+        suspects(static_cast<std::size_t>(dims.maxCoeff())),
+        run_values(suspects.size()),
+        run_result(suspects.size()) {}
 
   /// transformLine() over lines of `length` with this transform's scratch space.
   auto envelope(int length) {
@@ -208,30 +278,39 @@ struct CubeTransform {
       transformLine(f, d, length, scratch);
     };
   }
-  /// Pass 1 over the columns [begin, end) (x-y cells; all by default).
-  void columns(const std::uint8_t* occupancy, std::uint8_t target, std::int32_t* squared,
-               std::size_t begin = 0, std::size_t end = kAll) const {
+  /// transformSignedLine() likewise.
+  auto signedEnvelope(int length) {
+    return [this, length](const std::int32_t* f, std::int32_t* d) {
+      transformSignedLine(f, d, length, scratch, limit, run_values.data(), run_result.data());
+    };
+  }
+  /// Signed pass 1 over the columns [begin, end) (x-y cells).
+  void signedColumns(const std::uint8_t* occupancy, std::int32_t* field, std::size_t begin,
+                     std::size_t end) const {
     const std::size_t nz = static_cast<std::size_t>(dims.z());
-    end = std::min(end, static_cast<std::size_t>(dims.x()) * dims.y());
     for (std::size_t column = begin; column < end; ++column) {
-      transformColumn(occupancy + column * nz, dims.z(), target, squared + column * nz);
+      signedColumn(occupancy + column * nz, dims.z(), field + column * nz, limit);
     }
   }
-  /// Pass 2 over the x-slabs [begin, end), from `from` into `to` (the same or another).
+  /// Pass 2 over the x-slabs [begin, end), from `from` into `to` (the same or another): of a
+  /// signed field, or else of one distance.
   void alongY(const std::int32_t* from, std::int32_t* to, std::size_t begin = 0,
-              std::size_t end = kAll) {
+              std::size_t end = kAll, bool signed_field = false) {
     end = std::min(end, static_cast<std::size_t>(dims.x()));
     for (std::size_t ix = begin; ix < end; ++ix) {
-      transformStrided(from, to, ix * slab, static_cast<std::size_t>(dims.z()), dims.y(),
-                       static_cast<std::size_t>(dims.z()), in, out, envelope(dims.y()));
+      const auto strided = [&](const auto& transform) {
+        transformStrided(from, to, ix * slab, static_cast<std::size_t>(dims.z()), dims.y(),
+                         static_cast<std::size_t>(dims.z()), in, out, transform);
+      };
+      signed_field ? strided(signedEnvelope(dims.y())) : strided(envelope(dims.y()));
     }
   }
-  /// Pass 3 over the x-lines of the (y, z) cells [begin, end) (in storage order).
-  void alongX(std::int32_t* squared, std::size_t begin = 0, std::size_t end = kAll) {
+  /// Signed pass 3 over the x-lines of the (y, z) cells [begin, end) (in storage order).
+  void signedAlongX(std::int32_t* field, std::size_t begin, std::size_t end) {
     end = std::min(end, slab);
     if (end > begin) {
-      transformStrided(squared, squared, begin, end - begin, dims.x(), slab, in, out,
-                       envelope(dims.x()));
+      transformStrided(field, field, begin, end - begin, dims.x(), slab, in, out,
+                       signedEnvelope(dims.x()));
     }
   }
   /// Pass 1 along x instead (IncrementalEsdf's order): every x-line of `occupancy` into
@@ -365,11 +444,14 @@ struct CubeTransform {
   }
 
   Eigen::Vector3i dims;
+  std::int32_t limit;
   std::size_t slab;
   EnvelopeScratch scratch;
   std::vector<std::int32_t> in;
   std::vector<std::int32_t> out;
   std::vector<std::uint8_t> suspects;  // update()'s
+  std::vector<std::int32_t> run_values;  // transformSignedLine()'s
+  std::vector<std::int32_t> run_result;
 };
 
 /// Calls work(begin, end) on `parts` contiguous ranges splitting [0, count), each on a thread
@@ -399,28 +481,32 @@ void inParallel(std::size_t count, int parts, const Work& work) {
   if (error) std::rethrow_exception(error);
 }
 
-/// Squared Euclidean distance, in quarter voxels squared ((2 d / voxel)^2), from every voxel's
-/// centre to the nearest cube of a voxel whose occupancy equals `target` (0 in such a voxel).
-/// Exact: per axis the offset to a cube k voxels away is max(|k| - 1/2, 0), a separable sum.
-/// Each pass's lines are independent: `threads` threads take a share each, every line computed
-/// as by one thread, so the result is the same bit for bit. Into `squared` (one per voxel).
-void squaredDistanceTo(const VoxelGrid& grid, std::uint8_t target, int threads,
-                       std::vector<std::int32_t>& squared) {
-  squared.resize(grid.size());
+/// Squared Euclidean distance, in quarter voxels squared ((2 d / voxel)^2), from every free
+/// voxel's centre to the nearest occupied cube and from every occupied one's to the nearest
+/// free cube, as a signed field (encodeSigned()) in `field`, one entry per voxel. Exact: per
+/// axis the offset to a cube k voxels away is max(|k| - 1/2, 0), a separable sum. Each pass's
+/// lines are independent: `threads` threads take a share each, every line computed as by one
+/// thread, so the result is the same bit for bit. With a `limit`, every distance at or above
+/// it is kNoSite instead, after each pass: exact for those below, since every pass's entry is
+/// at most the final one it leads to, and cheaper, since lines far from the other kind are
+/// then all kNoSite.
+void signedSquaredDistances(const VoxelGrid& grid, int threads, std::vector<std::int32_t>& field,
+                            std::int32_t limit = kNoSite) {
+  field.resize(grid.size());
   const Eigen::Vector3i& n = grid.dims();
   const auto nx = static_cast<std::size_t>(n.x());
   const auto ny = static_cast<std::size_t>(n.y());
   const auto nz = static_cast<std::size_t>(n.z());
   inParallel(nx * ny, threads, [&](std::size_t begin, std::size_t end) {
-    CubeTransform(n).columns(grid.occupancy().data(), target, squared.data(), begin, end);
+    CubeTransform(n, limit).signedColumns(grid.occupancy().data(), field.data(), begin, end);
   });
   inParallel(nx, threads, [&](std::size_t begin, std::size_t end) {
-    CubeTransform(n).alongY(squared.data(), squared.data(), begin, end);
+    CubeTransform(n, limit).alongY(field.data(), field.data(), begin, end, true);
   });
   // Pass 3's share: whole blocks of kBlock adjacent lines, as one thread gathers them.
   const std::size_t blocks = (ny * nz + kBlock - 1) / kBlock;
   inParallel(blocks, threads, [&](std::size_t begin, std::size_t end) {
-    CubeTransform(n).alongX(squared.data(), begin * kBlock, end * kBlock);
+    CubeTransform(n, limit).signedAlongX(field.data(), begin * kBlock, end * kBlock);
   });
 }
 
@@ -608,21 +694,17 @@ Esdf::Esdf(const VoxelGrid& grid, int threads) {
   values_ = vectorOnHugePages<float>(grid.size());
   const auto cap = static_cast<float>(max_distance_);
   const auto half_voxel = static_cast<float>(0.5 * resolution_);  // the fields are in half voxels
-  const std::uint8_t* occupancy = grid.occupancy().data();
-  // One squared-distance field at a time, in one buffer (the build holds 9 bytes a voxel: the
-  // occupancy, the values and the field): a free voxel's value is its distance to the
-  // occupied cubes, an occupied one's minus its distance to the free cubes.
-  std::vector<std::int32_t> squared;
-  for (const bool occupied : {false, true}) {
-    squaredDistanceTo(grid, occupied ? 0 : 1, threads, squared);
-    inParallel(grid.size(), threads, [&](std::size_t begin, std::size_t end) {
-      for (std::size_t i = begin; i < end; ++i) {
-        if ((occupancy[i] != 0) != occupied) continue;
-        const float distance = cappedDistance(squared[i], half_voxel, cap);
-        values_[i] = occupied ? -distance : distance;
-      }
-    });
-  }
+  // Both distances in one signed field (the build holds 9 bytes a voxel: the occupancy, the
+  // values and the field): a free voxel's value is its distance to the occupied cubes, an
+  // occupied one's minus its distance to the free cubes.
+  std::vector<std::int32_t> field;
+  signedSquaredDistances(grid, threads, field);
+  inParallel(grid.size(), threads, [&](std::size_t begin, std::size_t end) {
+    for (std::size_t i = begin; i < end; ++i) {
+      const float distance = cappedDistance(decodeSigned(field[i]), half_voxel, cap);
+      values_[i] = field[i] < 0 ? -distance : distance;
+    }
+  });
 }
 
 Esdf::Esdf(const VoxelGrid& grid, std::vector<float> values) : values_(std::move(values)) {
@@ -690,7 +772,12 @@ VoxelGrid denseCopy(const VoxelGrid& grid, const Eigen::Vector3i& low,
         for (int x = from.x(); x < to.x(); ++x) {
           for (int y = from.y(); y < to.y(); ++y) {
             std::uint8_t* row = out + copy.index(x - low.x(), y - low.y(), 0) - low.z();
-            for (int z = from.z(); z < to.z(); ++z) row[z] = grid.occupied({x, y, z}) ? 1 : 0;
+            if (grid.layout() == GridLayout::kBricked) {
+              const unsigned bits = grid.brickRow(x, y, bz);
+              for (int z = from.z(); z < to.z(); ++z) row[z] = (bits >> (z & 7)) & 1;
+            } else {
+              for (int z = from.z(); z < to.z(); ++z) row[z] = grid.occupied({x, y, z}) ? 1 : 0;
+            }
           }
         }
       }
@@ -753,6 +840,10 @@ Esdf Esdf::truncated(const VoxelGrid& grid, double truncation, int threads) {
   }
   store->values[static_cast<std::uint16_t>(kBeyond)] = limit;
   store->values[static_cast<std::uint16_t>(-kBeyond)] = -limit;
+  // The least squared distance (half voxels) the dense field puts at or past T, as it compares
+  // (in float, cappedDistance()); every one below it is within T (the comparison is monotone).
+  std::int32_t beyond = 0;
+  while (std::sqrt(static_cast<float>(beyond)) * half_voxel < limit) ++beyond;
   store->table.assign(static_cast<std::size_t>(bricks.cast<double>().prod()), store->far);
   esdf.brick_strides_[0] = static_cast<std::size_t>(bricks.y()) * bricks.z();
   esdf.brick_strides_[1] = static_cast<std::size_t>(bricks.z());
@@ -795,19 +886,13 @@ Esdf Esdf::truncated(const VoxelGrid& grid, double truncation, int threads) {
         Eigen::Vector3i(last.x() * b + margin, last.y() * b + margin, (z_high + 1) * b + margin)
             .cwiseMin(n);
     const VoxelGrid part = denseCopy(grid, low, high);
-    std::vector<std::int32_t> to_occupied;
-    std::vector<std::int32_t> to_free;
-    squaredDistanceTo(part, 1, 1, to_occupied);
-    squaredDistanceTo(part, 0, 1, to_free);
-    // A voxel's code: its squared distance within T (in float, as the dense field compares),
-    // signed; kBeyond past T.
+    std::vector<std::int32_t> field;
+    signedSquaredDistances(part, 1, field, beyond);
+    // A voxel's code: its squared distance within T, signed; kBeyond past T.
     const auto code = [&](std::size_t i) -> std::int16_t {
-      const bool occupied = part.occupied(i);
-      const std::int32_t squared = occupied ? to_free[i] : to_occupied[i];
-      const std::int16_t magnitude = std::sqrt(static_cast<float>(squared)) * half_voxel < limit
-                                         ? static_cast<std::int16_t>(squared)
-                                         : kBeyond;
-      return occupied ? static_cast<std::int16_t>(-magnitude) : magnitude;
+      const std::int32_t squared = decodeSigned(field[i]);
+      const std::int16_t magnitude = squared < beyond ? static_cast<std::int16_t>(squared) : kBeyond;
+      return field[i] < 0 ? static_cast<std::int16_t>(-magnitude) : magnitude;
     };
     // The bricks of the tile with a value strictly inside (-T, T); the others share +T or -T.
     std::vector<std::int16_t> values;
@@ -818,19 +903,24 @@ Esdf Esdf::truncated(const VoxelGrid& grid, double truncation, int threads) {
         for (int bz = 0; bz < bricks.z(); ++bz) {
           const Eigen::Vector3i from = Eigen::Vector3i(bx, by, bz) * b;
           if (from.z() + b <= low.z() || from.z() >= high.z()) continue;  // beyond the margin
+          // Voxels past the grid's end are never read (+T keeps such a brick shared), and
+          // those below or above the tile's part are more than T from every obstacle.
+          const int z_from = std::max(from.z(), low.z());
+          const int z_to = std::min(from.z() + b, high.z());
           bool all_far = true;
           bool all_deep = true;
-          for (int i = 0; i < kBrickVoxels; ++i) {
-            const Eigen::Vector3i v = from + Eigen::Vector3i(i >> 6, (i >> 3) & 7, i & 7);
-            // Voxels past the grid's end are never read (+T keeps such a brick shared), and
-            // those below or above the tile's part are more than T from every obstacle.
-            const std::int16_t value =
-                (v.array() < n.array()).all() && v.z() >= low.z() && v.z() < high.z()
-                    ? code(part.index(v - low))
-                    : kBeyond;
-            brick[i] = value;
-            all_far = all_far && value == kBeyond;
-            all_deep = all_deep && value == -kBeyond;
+          for (int i = 0; i < b * b; ++i) {
+            const int x = from.x() + (i >> 3);
+            const int y = from.y() + (i & 7);
+            std::int16_t* row = brick + i * b;
+            std::fill(row, row + b, kBeyond);
+            if (x >= n.x() || y >= n.y()) continue;
+            const std::size_t start = part.index(x - low.x(), y - low.y(), z_from - low.z());
+            for (int z = z_from; z < z_to; ++z) row[z - from.z()] = code(start + (z - z_from));
+            for (int k = 0; k < b; ++k) {
+              all_far = all_far && row[k] == kBeyond;
+              all_deep = all_deep && row[k] == -kBeyond;
+            }
           }
           const std::size_t index =
               (static_cast<std::size_t>(bx) * bricks.y() + by) * bricks.z() + bz;

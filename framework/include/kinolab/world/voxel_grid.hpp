@@ -148,6 +148,13 @@ class VoxelGrid {
   bool brickHasObstacle(int bx, int by, int bz) const {
     return brick_state_[brickIndex(bx, by, bz)] != kEmptyBrick;
   }
+  /// The occupancy of the eight voxels (x, y, 8 bz + k) of brick layer bz, bit k (kBricked; a
+  /// full brick past the grid's end has bits set beyond it).
+  std::uint8_t brickRow(int x, int y, int bz) const {
+    const std::uint32_t state = brick_state_[brickIndex(x >> 3, y >> 3, bz)];
+    if (state < kMasked) return state == kFullBrick ? 0xFF : 0;
+    return static_cast<std::uint8_t>(masks_[(state - kMasked) * 8 + (x & 7)] >> ((y & 7) << 3));
+  }
   /// Frees the masks of bricks that became wholly full or empty (a bricked grid after edits).
   void compactBricks();
 
