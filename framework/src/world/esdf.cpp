@@ -41,50 +41,17 @@ struct EnvelopeScratch {
   std::vector<std::int64_t> boundary_denominator;
 };
 
-/// One pass of the cube distance transform along a line of `n` voxels, in quarter voxels
-/// squared: the distance from centre q to a cube i != q voxels away along the line is
-/// (2 |q - i| - 1)^2, a parabola in 2 q centred on the cube's near face, 2 i + 1 or 2 i - 1.
-/// Neighbouring voxels share a face, so the faces 2 k + 1 (k = -1 .. n - 1) carry
+/// The lower envelope of one pass of the cube distance transform along a line of `n` voxels,
+/// in quarter voxels squared: the distance from centre q to a cube i != q voxels away along
+/// the line is (2 |q - i| - 1)^2, a parabola in 2 q centred on the cube's near face, 2 i + 1
+/// or 2 i - 1. Neighbouring voxels share a face, so the faces 2 k + 1 (k = -1 .. n - 1) carry
 /// min(f[k], f[k + 1]); d = min(f, the lower envelope of those n + 1 parabolas at 2 q)
 /// (Felzenszwalb and Huttenlocher's algorithm in integer arithmetic: no division, no
 /// rounding). Entries without a site (kNoSite) are skipped, so huge sentinels never enter
 /// the arithmetic. An entry at or above `limit` comes out as kNoSite (a truncated field's
 /// "beyond"; see signedSquaredDistances()); the input must already hold kNoSite for those.
-void transformLine(const std::int32_t* f, std::int32_t* d, int n, EnvelopeScratch& scratch,
-                   std::int32_t limit = kNoSite) {
-  std::copy(f, f + n, d);
-  // A line mostly of zeros (voxels at distance 0: in the inside transform, the free space
-  // around thin obstacles) is done per non-zero entry: scanning outward while the line
-  // distance alone stays below the best found, which the nearest zero bounds; with runs of
-  // non-zeros at most kShortRun long that is at most kShortRun / 2 steps an entry.
-  constexpr int kShortRun = 64;
-  int zeros = 0;
-  int sites = 0;
-  int run = 0;
-  int longest = 0;
-  for (int q = 0; q < n; ++q) {
-    run = f[q] == 0 ? 0 : run + 1;
-    zeros += f[q] == 0;
-    sites += f[q] != kNoSite;
-    longest = std::max(longest, run);
-  }
-  if (zeros == n || sites == 0) return;
-  if (zeros > 0 && longest <= kShortRun && 4 * zeros >= 3 * n) {
-    for (int q = 0; q < n; ++q) {
-      if (f[q] == 0) continue;
-      std::int64_t best = std::min(f[q], limit);
-      for (int step = 1;; ++step) {
-        const std::int64_t reach = 2 * static_cast<std::int64_t>(step) - 1;
-        if (reach * reach >= best || (q - step < 0 && q + step >= n)) break;
-        for (const int i : {q - step, q + step}) {
-          if (i < 0 || i >= n || f[i] == kNoSite) continue;
-          best = std::min(best, f[i] + reach * reach);
-        }
-      }
-      d[q] = best >= limit ? kNoSite : static_cast<std::int32_t>(best);
-    }
-    return;
-  }
+void lowerEnvelope(const std::int32_t* f, std::int32_t* d, int n, EnvelopeScratch& scratch,
+                   std::int32_t limit) {
   std::int32_t* v = scratch.sites.data();  // the face index k + 1 (0 .. n)
   std::int64_t* g = scratch.heights.data();
   std::int64_t* zn = scratch.boundary_numerator.data();
@@ -115,7 +82,10 @@ void transformLine(const std::int32_t* f, std::int32_t* d, int n, EnvelopeScratc
     zd[k] = denominator;
     height[k] = fq;
   }
-  if (k < 0) return;
+  if (k < 0) {
+    std::copy(f, f + n, d);
+    return;
+  }
   const int last = k;
   int j = 0;
   for (int q = 0; q < n; ++q) {
@@ -123,9 +93,51 @@ void transformLine(const std::int32_t* f, std::int32_t* d, int n, EnvelopeScratc
     // Advance while the next parabola starts at or before x: zn / zd <= x.
     while (j < last && zn[j + 1] <= x * zd[j + 1]) ++j;
     const std::int64_t offset = x - (2 * static_cast<std::int64_t>(v[j]) - 1);
-    const std::int64_t value = std::min<std::int64_t>(offset * offset + height[j], d[q]);
+    const std::int64_t value = std::min<std::int64_t>(offset * offset + height[j], f[q]);
     d[q] = value >= limit ? kNoSite : static_cast<std::int32_t>(value);
   }
+}
+
+/// One pass of the cube distance transform along a line of `n` voxels (lowerEnvelope()),
+/// from `f` into `d`.
+void transformLine(const std::int32_t* f, std::int32_t* d, int n, EnvelopeScratch& scratch) {
+  // A line mostly of zeros (voxels at distance 0: in the inside transform, the free space
+  // around thin obstacles) is done per non-zero entry: scanning outward while the line
+  // distance alone stays below the best found, which the nearest zero bounds; with runs of
+  // non-zeros at most kShortRun long that is at most kShortRun / 2 steps an entry.
+  constexpr int kShortRun = 64;
+  int zeros = 0;
+  int run = 0;
+  int longest = 0;
+  for (int q = 0; q < n; ++q) {
+    run = f[q] == 0 ? 0 : run + 1;
+    zeros += f[q] == 0;
+    longest = std::max(longest, run);
+  }
+  if (zeros == n) {
+    std::copy(f, f + n, d);
+    return;
+  }
+  if (zeros > 0 && longest <= kShortRun && 4 * zeros >= 3 * n) {
+    for (int q = 0; q < n; ++q) {
+      if (f[q] == 0) {
+        d[q] = 0;
+        continue;
+      }
+      std::int64_t best = f[q];
+      for (int step = 1;; ++step) {
+        const std::int64_t reach = 2 * static_cast<std::int64_t>(step) - 1;
+        if (reach * reach >= best || (q - step < 0 && q + step >= n)) break;
+        for (const int i : {q - step, q + step}) {
+          if (i < 0 || i >= n || f[i] == kNoSite) continue;
+          best = std::min(best, f[i] + reach * reach);
+        }
+      }
+      d[q] = static_cast<std::int32_t>(best);
+    }
+    return;
+  }
+  lowerEnvelope(f, d, n, scratch, kNoSite);
 }
 
 /// Runs a 1-D transform over every line along one strided axis, from `from` into `to` (the
@@ -192,27 +204,32 @@ inline std::int32_t alongLine(std::int64_t k, std::int32_t limit) {
 /// long), the cube distance along the column to the nearest voxel of the other kind, by two
 /// sweeps (kNoSite without one, or at or above `limit`), encoded.
 void signedColumn(const std::uint8_t* cells, int n, std::int32_t* out, std::int32_t limit) {
-  // The last voxel of each kind seen, as a position (-1: none yet).
-  int last[2] = {-1, -1};
+  // The last free and occupied voxel seen, as a position (-1: none yet).
+  int last_free = -1;
+  int last_occupied = -1;
   for (int iz = 0; iz < n; ++iz) {
-    const int kind = cells[iz] != 0 ? 1 : 0;
-    last[kind] = iz;
-    out[iz] = last[1 - kind] < 0 ? kNoSite : iz - last[1 - kind];  // steps back
+    const bool occupied = cells[iz] != 0;
+    last_free = occupied ? last_free : iz;
+    last_occupied = occupied ? iz : last_occupied;
+    const int other = occupied ? last_free : last_occupied;
+    out[iz] = other < 0 ? kNoSite : iz - other;  // steps back
   }
-  int next[2] = {n, n};
+  int next_free = n;
+  int next_occupied = n;
   for (int iz = n - 1; iz >= 0; --iz) {
-    const int kind = cells[iz] != 0 ? 1 : 0;
-    next[kind] = iz;
-    const std::int32_t ahead = next[1 - kind] == n ? kNoSite : next[1 - kind] - iz;
-    const std::int32_t steps = std::min(out[iz], ahead);
-    out[iz] = encodeSigned(kind == 1, steps == kNoSite ? kNoSite : alongLine(steps, limit));
+    const bool occupied = cells[iz] != 0;
+    next_free = occupied ? next_free : iz;
+    next_occupied = occupied ? iz : next_occupied;
+    const int other = occupied ? next_free : next_occupied;
+    const std::int32_t steps = std::min(out[iz], other == n ? kNoSite : other - iz);
+    out[iz] = encodeSigned(occupied, steps == kNoSite ? kNoSite : alongLine(steps, limit));
   }
 }
 
 /// Pass 2 or 3 of the signed transform along a line of n encoded entries. A run of voxels of
 /// one kind sees only its own entries and, one voxel past either end, a cube of the other
 /// kind at distance 0: an entry beyond that cube is farther than the cube itself. So each run
-/// is transformLine() of its own entries, lowered by its ends' cubes. `values` and `result`
+/// is lowerEnvelope() of its own entries, lowered by its ends' cubes. `values` and `result`
 /// are scratch of n entries.
 void transformSignedLine(const std::int32_t* f, std::int32_t* d, int n, EnvelopeScratch& scratch,
                          std::int32_t limit, std::int32_t* values, std::int32_t* result) {
@@ -221,8 +238,21 @@ void transformSignedLine(const std::int32_t* f, std::int32_t* d, int n, Envelope
     int end = begin + 1;
     while (end < n && (f[end] < 0) == occupied) ++end;
     const int length = end - begin;
-    for (int i = 0; i < length; ++i) values[i] = decodeSigned(f[begin + i]);
-    transformLine(values, result, length, scratch, limit);
+    int sites = 0;
+    for (int i = 0; i < length; ++i) {
+      values[i] = decodeSigned(f[begin + i]);
+      sites += values[i] != kNoSite;
+    }
+    if (sites == 0 && begin == 0 && end == n) {  // no distance within the limit
+      std::copy(f, f + n, d);
+      return;
+    }
+    // (Within a run no entry is 0: a voxel's cube is of its own kind.)
+    if (sites > 0) {
+      lowerEnvelope(values, result, length, scratch, limit);
+    } else {
+      std::fill(result, result + length, kNoSite);
+    }
     for (int i = 0; i < length; ++i) {
       std::int32_t best = result[i];
       if (begin > 0) best = std::min(best, alongLine(i + 1, limit));
