@@ -247,11 +247,23 @@ void transformSignedLine(const std::int32_t* f, std::int32_t* d, int n, Envelope
       std::copy(f, f + n, d);
       return;
     }
-    // (Within a run no entry is 0: a voxel's cube is of its own kind.)
-    if (sites > 0) {
-      lowerEnvelope(values, result, length, scratch, limit);
-    } else {
+    // (Within a run no entry is 0: a voxel's cube is of its own kind.) A short run is cheaper
+    // entry by entry than by its envelope (random voxels make many).
+    constexpr int kShortRun = 8;
+    if (sites == 0) {
       std::fill(result, result + length, kNoSite);
+    } else if (length <= kShortRun) {
+      for (int i = 0; i < length; ++i) {
+        std::int64_t best = values[i];
+        for (int j = 0; j < length; ++j) {
+          if (j == i || values[j] == kNoSite) continue;
+          const std::int64_t reach = 2 * std::abs(i - j) - 1;
+          best = std::min(best, values[j] + reach * reach);
+        }
+        result[i] = best >= limit ? kNoSite : static_cast<std::int32_t>(best);
+      }
+    } else {
+      lowerEnvelope(values, result, length, scratch, limit);
     }
     for (int i = 0; i < length; ++i) {
       std::int32_t best = result[i];
