@@ -201,28 +201,25 @@ inline std::int32_t alongLine(std::int64_t k, std::int32_t limit) {
 }
 
 /// Pass 1 of the signed transform, along z (contiguous): per voxel of the column `cells` (n
-/// long), the cube distance along the column to the nearest voxel of the other kind, by two
-/// sweeps (kNoSite without one, or at or above `limit`), encoded.
+/// long), the cube distance along the column to the nearest voxel of the other kind (kNoSite
+/// without one, or at or above `limit`), encoded; run by run, a run's voxels being nearest to
+/// one of its ends.
 void signedColumn(const std::uint8_t* cells, int n, std::int32_t* out, std::int32_t limit) {
-  // The last free and occupied voxel seen, as a position (-1: none yet).
-  int last_free = -1;
-  int last_occupied = -1;
-  for (int iz = 0; iz < n; ++iz) {
-    const bool occupied = cells[iz] != 0;
-    last_free = occupied ? last_free : iz;
-    last_occupied = occupied ? iz : last_occupied;
-    const int other = occupied ? last_free : last_occupied;
-    out[iz] = other < 0 ? kNoSite : iz - other;  // steps back
-  }
-  int next_free = n;
-  int next_occupied = n;
-  for (int iz = n - 1; iz >= 0; --iz) {
-    const bool occupied = cells[iz] != 0;
-    next_free = occupied ? next_free : iz;
-    next_occupied = occupied ? iz : next_occupied;
-    const int other = occupied ? next_free : next_occupied;
-    const std::int32_t steps = std::min(out[iz], other == n ? kNoSite : other - iz);
-    out[iz] = encodeSigned(occupied, steps == kNoSite ? kNoSite : alongLine(steps, limit));
+  for (int begin = 0; begin < n;) {
+    const std::uint8_t kind = cells[begin];
+    int end = begin + 1;
+    while (end < n && cells[end] == kind) ++end;
+    const bool occupied = kind != 0;
+    const std::int32_t none = encodeSigned(occupied, kNoSite);
+    // Steps to the other kind below (begin > 0) and above (end < n); past n, none.
+    const int below = begin > 0 ? 1 : 2 * n + 1;
+    const int above = end < n ? end - begin : 2 * n + 1;
+    for (int i = 0; i < end - begin; ++i) {
+      const int steps = std::min(below + i, above - i);
+      const std::int32_t squared = steps > n ? kNoSite : alongLine(steps, limit);
+      out[begin + i] = squared == kNoSite ? none : encodeSigned(occupied, squared);
+    }
+    begin = end;
   }
 }
 
