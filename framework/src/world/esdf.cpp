@@ -236,26 +236,31 @@ void transformSignedLine(const std::int32_t* f, std::int32_t* d, int n, Envelope
     while (end < n && (f[end] < 0) == occupied) ++end;
     const int length = end - begin;
     int sites = 0;
+    std::int32_t largest = 0;
     for (int i = 0; i < length; ++i) {
       values[i] = decodeSigned(f[begin + i]);
       sites += values[i] != kNoSite;
+      largest = std::max(largest, values[i]);
     }
     if (sites == 0 && begin == 0 && end == n) {  // no distance within the limit
       std::copy(f, f + n, d);
       return;
     }
-    // (Within a run no entry is 0: a voxel's cube is of its own kind.) A short run is cheaper
-    // entry by entry than by its envelope (random voxels make many).
-    constexpr int kShortRun = 8;
+    // (Within a run no entry is 0: a voxel's cube is of its own kind.) Where every entry is
+    // near (random voxels, a truncated field's band) each is found by a scan outwards that
+    // stops where the distance along the line alone reaches the best found: a few steps an
+    // entry, cheaper than the envelope's bookkeeping.
+    constexpr std::int32_t kNearSquared = 16 * 16;  // 8 voxels
     if (sites == 0) {
       std::fill(result, result + length, kNoSite);
-    } else if (length <= kShortRun) {
+    } else if (largest <= kNearSquared) {
       for (int i = 0; i < length; ++i) {
         std::int64_t best = values[i];
-        for (int j = 0; j < length; ++j) {
-          if (j == i || values[j] == kNoSite) continue;
-          const std::int64_t reach = 2 * std::abs(i - j) - 1;
-          best = std::min(best, values[j] + reach * reach);
+        for (int step = 1;; ++step) {
+          const std::int64_t reach = 2 * static_cast<std::int64_t>(step) - 1;
+          if (reach * reach >= best || (i - step < 0 && i + step >= length)) break;
+          if (i - step >= 0) best = std::min(best, values[i - step] + reach * reach);
+          if (i + step < length) best = std::min(best, values[i + step] + reach * reach);
         }
         result[i] = best >= limit ? kNoSite : static_cast<std::int32_t>(best);
       }
