@@ -18,8 +18,10 @@ namespace kinolab {
 /// cube. Computed exactly by separable lower-envelope passes (Felzenszwalb and Huttenlocher,
 /// "Distance Transforms of Sampled Functions", 2012) in integer arithmetic (half-voxel
 /// units): per axis the offset to a cube k voxels away is max(|k| - 1/2, 0), the lower of two
-/// parabolas centred half a voxel either side, so each pass is two envelopes; linear in the
-/// number of voxels. A grid without any occupied (or any free) voxel stores +maxDistance()
+/// parabolas centred half a voxel either side; linear in the number of voxels. Both distances
+/// are found in one pass over each line: a run of voxels of one kind sees only its own entries
+/// and the cubes of the other kind at its ends (any entry beyond such a cube is farther than
+/// the cube). A grid without any occupied (or any free) voxel stores +maxDistance()
 /// (or -maxDistance()), the grid's diagonal.
 ///
 /// Between centres, distance() interpolates trilinearly. That can overstate the distance to
@@ -55,8 +57,10 @@ class Esdf {
   Esdf(const VoxelGrid& grid, std::vector<float> values);
   /// The field of `grid` (either layout) truncated at `truncation` metres (> 0, finite), on
   /// bricks: computed tile by tile (16 x 16 bricks and every height holding an obstacle, with a
-  /// margin of the truncation), each tile by the exact transform, on `threads` threads as the
-  /// constructor; memory for the bricks near obstacles only.
+  /// margin of the truncation), each tile by the exact transform with every entry past T
+  /// dropped after each pass (exact below T: a pass's entry never exceeds the final distance it
+  /// leads to), tiles shared over `threads` threads as the constructor; memory for the bricks
+  /// near obstacles only.
   static Esdf truncated(const VoxelGrid& grid, double truncation, int threads = 0);
 
   /// The truncation distance T of a truncated field; +infinity for a dense one.
