@@ -186,11 +186,56 @@ TEST(TrajectoryChecker, CollisionIsExactAgainstTheCubesAtAnyRadius) {
   }
 }
 
+/// The distance from `p` to the nearest occupied cube within `reach` of it (on every axis), by
+/// brute force over the voxels there; infinity when there is none.
+double nearestCubeWithin(const VoxelGrid& grid, const Eigen::Vector3d& p, double reach) {
+  double nearest = INFINITY;
+  Eigen::Vector3i low;
+  Eigen::Vector3i high;
+  const Eigen::Vector3d box = Eigen::Vector3d::Constant(reach);
+  if (!grid.voxelRange(p - box, p + box, low, high)) return nearest;
+  for (int x = low.x(); x <= high.x(); ++x) {
+    for (int y = low.y(); y <= high.y(); ++y) {
+      for (int z = low.z(); z <= high.z(); ++z) {
+        if (!grid.occupied(VoxelIndex(x, y, z))) continue;
+        const Eigen::Vector3d corner = grid.origin() + Eigen::Vector3d(x, y, z) * grid.resolution();
+        const Eigen::Vector3d far = corner.array() + grid.resolution();
+        nearest = std::min(nearest, (p - p.cwiseMax(corner).cwiseMin(far)).norm());
+      }
+    }
+  }
+  return nearest;
+}
+
+/// What expectCollisionsExact() saw: bodies touching a cube, and missing one by less than
+/// `near` metres.
+struct CollisionCounts {
+  int hits = 0;
+  int near_misses = 0;
+};
+
+/// checker.collides() for bodies of `radius` at the points `draw()` gives, against the brute
+/// force (ties within a micrometre are left to FCL's rounding).
+template <typename Draw>
+CollisionCounts expectCollisionsExact(const TrajectoryChecker& checker, const VoxelGrid& grid,
+                                      double radius, double near, int bodies, Draw&& draw) {
+  CollisionCounts counts;
+  for (int i = 0; i < bodies; ++i) {
+    const Eigen::Vector3d p = draw(i);
+    const double nearest = nearestCubeWithin(grid, p, radius + 2 * grid.resolution());
+    if (std::abs(nearest - radius) < 1e-6) continue;
+    EXPECT_EQ(checker.collides(p), nearest <= radius) << p.transpose() << " " << nearest;
+    counts.hits += nearest <= radius ? 1 : 0;
+    counts.near_misses += nearest > radius && nearest < radius + near ? 1 : 0;
+  }
+  return counts;
+}
+
 TEST(TrajectoryCheckerTest, TheBodyCollidesExactlyWhenItMeetsAnOccupiedCube) {
   // The checker's tree holds the obstacles' surface voxels only (with the centre tested
   // against every cube): random bodies in a world of solid blocks, walls and scattered voxels,
-  // on both layouts, against the distance from the centre to every occupied cube by brute
-  // force. Bodies of 0.3 m fit inside the 1 m blocks without touching their skin.
+  // on both layouts, against the brute force. Bodies of 0.3 m fit inside the 1 m blocks
+  // without touching their skin.
   const std::string text =
       "seed: 2\nresolution: 0.1\nbounds: {min: [0, 0, 0], max: [6, 4, 3]}\n"
       "generators:\n  - {type: box_list, boxes: [{min: [1, 1, 0], max: [2.2, 2.3, 1.5]}, "
@@ -200,7 +245,6 @@ TEST(TrajectoryCheckerTest, TheBodyCollidesExactlyWhenItMeetsAnOccupiedCube) {
     SCOPED_TRACE(layout);
     const auto world = World::build(WorldSpec::fromYaml(
         YamlReader::loadString(text + "layout: " + layout + "\n", "blocks.yaml"), "."));
-    const VoxelGrid& grid = world->grid();
     CheckerSettings settings;
     settings.robot_radius = 0.35;
     settings.collision_tolerance = 0.05;
@@ -208,23 +252,54 @@ TEST(TrajectoryCheckerTest, TheBodyCollidesExactlyWhenItMeetsAnOccupiedCube) {
     const double radius = 0.3;
     Rng rng(5);
     int inside_blocks = 0;
-    int near_misses = 0;
-    for (int i = 0; i < 4000; ++i) {
-      const Eigen::Vector3d p(rng.uniform(0.0, 6.0), rng.uniform(0.0, 4.0), rng.uniform(0.0, 3.0));
-      double nearest = INFINITY;
-      grid.forEachOccupied([&](const VoxelIndex& v) {
-        const Eigen::Vector3d low = grid.origin() + v.cast<double>() * grid.resolution();
-        const Eigen::Vector3d high = low.array() + grid.resolution();
-        nearest = std::min(nearest, (p - p.cwiseMax(low).cwiseMin(high)).norm());
-      });
-      // Ties within a micrometre are left to FCL's rounding.
-      if (std::abs(nearest - radius) < 1e-6) continue;
-      EXPECT_EQ(checker.collides(p), nearest <= radius) << p.transpose() << " " << nearest;
-      inside_blocks += nearest == 0.0 && world->distance(p) < -radius ? 1 : 0;
-      near_misses += nearest > radius && nearest < radius + 0.05 ? 1 : 0;
-    }
+    const CollisionCounts counts =
+        expectCollisionsExact(checker, world->grid(), radius, 0.05, 4000, [&](int) {
+          const Eigen::Vector3d p(rng.uniform(0.0, 6.0), rng.uniform(0.0, 4.0),
+                                  rng.uniform(0.0, 3.0));
+          inside_blocks += world->distance(p) < -radius ? 1 : 0;
+          return p;
+        });
     EXPECT_GT(inside_blocks, 10);
-    EXPECT_GT(near_misses, 20);
+    EXPECT_GT(counts.near_misses, 20);
+  }
+}
+
+TEST(TrajectoryCheckerTest, TheBodyCollidesExactlyAcrossTheCheckersTiles) {
+  // The checker's trees cover 256 x 256 voxels each, made as checks reach them: on a 0.02 m
+  // grid 12 m x 6 m, tile borders lie at x = 5.12 and 10.24 m and at y = 5.12 m. A block and a
+  // wall straddle them, small boxes lie about; bodies near the borders, on both layouts,
+  // against the brute force.
+  const std::string text =
+      "seed: 4\nresolution: 0.02\nbounds: {min: [0, 0, 0], max: [12, 6, 0.6]}\n"
+      "generators:\n  - {type: box_list, boxes: [{min: [4.9, 1, 0], max: [5.4, 2, 0.4]}, "
+      "{min: [0, 5.0, 0], max: [12, 5.2, 0.3]}, {min: [10.1, 2.5, 0.1], max: [10.3, 2.7, 0.5]}]}\n"
+      "  - {type: boxes, count: 60, size_x: [0.04, 0.2], size_y: [0.04, 0.2], "
+      "size_z: [0.04, 0.2]}\n";
+  for (const std::string layout : {"dense", "sparse\ntruncation: 0.5"}) {
+    SCOPED_TRACE(layout);
+    const auto world = World::build(WorldSpec::fromYaml(
+        YamlReader::loadString(text + "layout: " + layout + "\n", "tiles.yaml"), "."));
+    CheckerSettings settings;
+    settings.robot_radius = 0.15;
+    settings.collision_tolerance = 0.05;
+    const TrajectoryChecker checker(world, settings);
+    const double radius = 0.1;
+    Rng rng(9);
+    int across = 0;  // bodies reaching over a border
+    const CollisionCounts counts =
+        expectCollisionsExact(checker, world->grid(), radius, 0.02, 3000, [&](int i) {
+          const double x = i % 3 == 0   ? rng.uniform(4.8, 5.5)
+                           : i % 3 == 1 ? rng.uniform(9.9, 10.6)
+                                        : rng.uniform(0.0, 12.0);
+          const double y = i % 2 == 0 ? rng.uniform(4.8, 5.5) : rng.uniform(0.0, 6.0);
+          const Eigen::Vector3d p(x, y, rng.uniform(0.0, 0.6));
+          const auto tile = [](double v) { return std::floor(v / 5.12); };
+          across += tile(x - radius) != tile(x + radius) || tile(y - radius) != tile(y + radius);
+          return p;
+        });
+    EXPECT_GT(counts.hits, 300);
+    EXPECT_GT(counts.near_misses, 30);
+    EXPECT_GT(across, 300);
   }
 }
 

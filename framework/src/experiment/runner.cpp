@@ -332,8 +332,8 @@ void prepareStore(ResultsStore& store, const Experiment& experiment, const Runne
 /// The worlds and queries of the pending runs, built before the first worker so that every
 /// worker shares them (copy-on-write), with one collision model per world.
 struct SharedInputs : PlacedInputs {
-  /// Kept while workers run: their collision models are built here once and inherited by
-  /// every worker (the body radius is irrelevant to the shared model).
+  /// Kept while workers run: their collision models (dense worlds') are built here once and
+  /// inherited by every worker (the body radius is irrelevant to the shared model).
   std::vector<TrajectoryChecker> checkers;
 
   const std::shared_ptr<const World>& world(const Experiment& experiment,
@@ -360,7 +360,11 @@ SharedInputs shareInputs(const Experiment& experiment, PlacedInputs placed, Resu
       store.insertWorld(worldRecord(*built->second, world.id));
       CheckerSettings settings;
       settings.robot_radius = 1e3;
-      inputs.checkers.emplace_back(built->second, settings);
+      const TrajectoryChecker& checker = inputs.checkers.emplace_back(built->second, settings);
+      // A dense world's model is made once, here (tens of milliseconds); a sparse world is
+      // made for size (a city's model takes minutes and gigabytes), so each worker makes the
+      // tiles its trajectories reach.
+      if (built->second->grid().layout() == GridLayout::kDense) checker.makeCollisionModel();
     }
   }
   return inputs;

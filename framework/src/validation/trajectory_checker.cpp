@@ -30,12 +30,6 @@ double speedBound(const TrajectorySegment& segment) {
 
 namespace {
 
-/// The world's occupied voxels as an OctoMap tree wrapped for FCL. The tree is built in grid
-/// coordinates (world minus the grid origin), so its cubes are exactly the grid's voxels.
-/// Building it scans the whole grid (tens of milliseconds for a large world), so checkers of
-/// one world share one tree: it lives while a checker holds it, and a world outlives its
-/// checkers, so the world's address identifies it. (The experiment runner builds it before
-/// forking workers, which then inherit it.)
 /// Whether an occupied voxel has a free one among its 26 neighbours in the grid.
 bool onSurface(const VoxelGrid& grid, const VoxelIndex& voxel) {
   for (int dx = -1; dx <= 1; ++dx) {
@@ -49,55 +43,168 @@ bool onSurface(const VoxelGrid& grid, const VoxelIndex& voxel) {
   return false;
 }
 
-/// The tree holds the occupied voxels with a free neighbour only (a wall's skin, not its
-/// inside): a ball that meets an occupied cube while its centre lies in none meets one of
-/// these, because the segment from its centre to the first point of an occupied cube it
-/// reaches runs through free cubes, the last of which shares that point with the cube. With
-/// the test of the centre (collides()) the verdicts are those of every cube.
-std::shared_ptr<const fcl::CollisionObjectd> sharedOctree(const World& world) {
+/// The obstacles' surface voxels as OctoMap trees wrapped for FCL, one per tile of kTile x
+/// kTile voxels in x and y (every height), each made when a check first reaches its tile: a
+/// check costs the trees of the tiles its body reaches, not the world's (a city's surface is
+/// tens of millions of voxels). The trees hold the occupied voxels with a free neighbour only
+/// (a wall's skin, not its inside): a ball that meets an occupied cube while its centre lies in
+/// none meets one of these, because the segment from its centre to the first point of an
+/// occupied cube it reaches runs through free cubes, the last of which shares that point with
+/// the cube. With the test of the centre (collides()) the verdicts are those of every cube.
+/// The trees are in grid coordinates (world minus the grid origin), so their cubes are exactly
+/// the grid's voxels.
+class SurfaceTiles {
+ public:
+  static constexpr int kTile = 256;
+
+  explicit SurfaceTiles(const VoxelGrid& grid)
+      : grid_(grid),
+        tiles_x_((grid.dims().x() + kTile - 1) / kTile),
+        tiles_y_((grid.dims().y() + kTile - 1) / kTile),
+        trees_(static_cast<std::size_t>(tiles_x_) * tiles_y_),
+        made_(trees_.size(), 0) {}
+
+  int tilesX() const { return tiles_x_; }
+  int tilesY() const { return tiles_y_; }
+
+  /// Tile (tx, ty)'s tree, made on first use; null when the tile has no surface voxel.
+  const fcl::CollisionObjectd* tile(int tx, int ty) {
+    const std::size_t index = static_cast<std::size_t>(tx) * tiles_y_ + ty;
+    const std::lock_guard<std::mutex> lock(mutex_);
+    if (made_[index] == 0) {
+      trees_[index] = make(tx, ty);
+      made_[index] = 1;
+    }
+    return trees_[index].get();
+  }
+
+ private:
+  std::unique_ptr<fcl::CollisionObjectd> make(int tx, int ty) const {
+    const VoxelGrid& grid = grid_;
+    const double r = grid.resolution();
+    auto octree = std::make_shared<octomap::OcTree>(r);
+    const Eigen::Vector3i low(tx * kTile, ty * kTile, 0);
+    const Eigen::Vector3i high =
+        (low + Eigen::Vector3i(kTile, kTile, grid.dims().z())).cwiseMin(grid.dims());
+    const int b = VoxelGrid::kBrick;
+    const bool bricked = grid.layout() == GridLayout::kBricked;
+    bool any = false;
+    // Brick by brick (a bricked grid skips its empty bricks, and the full ones inside others).
+    for (int bx = low.x() / b; bx * b < high.x(); ++bx) {
+      for (int by = low.y() / b; by * b < high.y(); ++by) {
+        for (int bz = 0; bz * b < high.z(); ++bz) {
+          if (bricked && (!grid.brickHasObstacle(bx, by, bz) || buried(bx, by, bz))) continue;
+          const Eigen::Vector3i from = Eigen::Vector3i(bx, by, bz) * b;
+          const Eigen::Vector3i to = (from.array() + b).matrix().cwiseMin(high);
+          for (int x = from.x(); x < to.x(); ++x) {
+            for (int y = from.y(); y < to.y(); ++y) {
+              for (int z = from.z(); z < to.z(); ++z) {
+                const VoxelIndex v(x, y, z);
+                if (!grid.occupied(v) || !onSurface(grid, v)) continue;
+                octree->updateNode(octomap::point3d(static_cast<float>((x + 0.5) * r),
+                                                    static_cast<float>((y + 0.5) * r),
+                                                    static_cast<float>((z + 0.5) * r)),
+                                   true, /*lazy_eval=*/true);
+                any = true;
+              }
+            }
+          }
+        }
+      }
+    }
+    if (!any) return nullptr;
+    octree->updateInnerOccupancy();
+    auto tree = std::make_unique<fcl::CollisionObjectd>(
+        std::make_shared<fcl::OcTreed>(std::shared_ptr<const octomap::OcTree>(octree)));
+    tree->computeAABB();
+    return tree;
+  }
+
+  /// Whether brick (bx, by, bz) of a bricked grid and its 26 neighbours (inside the grid) are
+  /// all full: then none of its voxels has a free neighbour.
+  bool buried(int bx, int by, int bz) const {
+    const Eigen::Vector3i& bricks = grid_.brickDims();
+    for (int dx = -1; dx <= 1; ++dx) {
+      for (int dy = -1; dy <= 1; ++dy) {
+        for (int dz = -1; dz <= 1; ++dz) {
+          const Eigen::Vector3i next(bx + dx, by + dy, bz + dz);
+          if ((next.array() < 0).any() || (next.array() >= bricks.array()).any()) continue;
+          if (!grid_.brickFull(next.x(), next.y(), next.z())) return false;
+        }
+      }
+    }
+    return true;
+  }
+
+  const VoxelGrid& grid_;
+  int tiles_x_;
+  int tiles_y_;
+  std::mutex mutex_;
+  std::vector<std::unique_ptr<fcl::CollisionObjectd>> trees_;
+  std::vector<std::uint8_t> made_;
+};
+
+/// The surface tiles of `world`, shared by its checkers: they live while a checker holds them,
+/// and a world outlives its checkers, so the world's address identifies them. (The experiment
+/// runner makes every tile of a dense world before forking workers, which then inherit them.)
+std::shared_ptr<SurfaceTiles> sharedTiles(const World& world) {
   static std::mutex mutex;
-  static std::map<const World*, std::weak_ptr<const fcl::CollisionObjectd>> trees;
+  static std::map<const World*, std::weak_ptr<SurfaceTiles>> tiles;
   const std::lock_guard<std::mutex> lock(mutex);
-  if (auto tree = trees[&world].lock()) return tree;
-  const VoxelGrid& grid = world.grid();
-  auto octree = std::make_shared<octomap::OcTree>(grid.resolution());
-  const double r = grid.resolution();
-  grid.forEachOccupied([&](const VoxelIndex& v) {
-    if (!onSurface(grid, v)) return;
-    octree->updateNode(octomap::point3d(static_cast<float>((v.x() + 0.5) * r),
-                                        static_cast<float>((v.y() + 0.5) * r),
-                                        static_cast<float>((v.z() + 0.5) * r)),
-                       true, /*lazy_eval=*/true);
-  });
-  octree->updateInnerOccupancy();
-  auto tree = std::make_shared<fcl::CollisionObjectd>(
-      std::make_shared<fcl::OcTreed>(std::shared_ptr<const octomap::OcTree>(octree)));
-  tree->computeAABB();
-  trees[&world] = tree;
-  return tree;
+  if (auto shared = tiles[&world].lock()) return shared;
+  auto shared = std::make_shared<SurfaceTiles>(world.grid());
+  tiles[&world] = shared;
+  return shared;
 }
 
 }  // namespace
 
 struct TrajectoryChecker::Fcl {
   Eigen::Vector3d origin;
-  std::shared_ptr<const fcl::CollisionObjectd> tree;
+  double inverse_tile;  ///< 1 / (tile side, m)
+  std::shared_ptr<SurfaceTiles> tiles;
   std::shared_ptr<fcl::Sphered> sphere;
   mutable fcl::CollisionObjectd body;
 
   Fcl(const World& world, double radius)
       : origin(world.grid().origin()),
-        tree(sharedOctree(world)),
+        inverse_tile(1.0 / (SurfaceTiles::kTile * world.grid().resolution())),
+        tiles(sharedTiles(world)),
         sphere(std::make_shared<fcl::Sphered>(radius)),
         body(sphere) {}
 
+  /// The tiles [first, last] the sphere at `local` (grid coordinates) reaches along one axis.
+  static std::pair<int, int> reach(double local, double radius, double inverse_tile, int tiles) {
+    const auto at = [&](double x) {
+      return static_cast<int>(std::clamp(std::floor(x * inverse_tile), 0.0, tiles - 1.0));
+    };
+    return {at(local - radius), at(local + radius)};
+  }
+
   bool collides(const Eigen::Vector3d& position) const {
-    body.setTranslation(position - origin);
+    const Eigen::Vector3d local = position - origin;
+    body.setTranslation(local);
     body.computeAABB();
-    fcl::CollisionRequestd request;
-    fcl::CollisionResultd result;
-    fcl::collide(&body, tree.get(), request, result);
-    return result.isCollision();
+    const double radius = sphere->radius;
+    const auto [x0, x1] = reach(local.x(), radius, inverse_tile, tiles->tilesX());
+    const auto [y0, y1] = reach(local.y(), radius, inverse_tile, tiles->tilesY());
+    for (int tx = x0; tx <= x1; ++tx) {
+      for (int ty = y0; ty <= y1; ++ty) {
+        const fcl::CollisionObjectd* tree = tiles->tile(tx, ty);
+        if (tree == nullptr) continue;
+        fcl::CollisionRequestd request;
+        fcl::CollisionResultd result;
+        fcl::collide(&body, tree, request, result);
+        if (result.isCollision()) return true;
+      }
+    }
+    return false;
+  }
+
+  void makeEveryTile() const {
+    for (int tx = 0; tx < tiles->tilesX(); ++tx) {
+      for (int ty = 0; ty < tiles->tilesY(); ++ty) tiles->tile(tx, ty);
+    }
   }
 };
 
@@ -133,6 +240,10 @@ bool TrajectoryChecker::collides(const Eigen::Vector3d& position) const {
   // The centre: is it in a closed occupied cube? On a face, edge or corner every voxel
   // sharing it counts. Then the body against the obstacles' surface voxels.
   return inOccupiedCube(position) || (fcl_ && fcl_->collides(position));
+}
+
+void TrajectoryChecker::makeCollisionModel() const {
+  if (fcl_) fcl_->makeEveryTile();
 }
 
 bool TrajectoryChecker::inOccupiedCube(const Eigen::Vector3d& position) const {

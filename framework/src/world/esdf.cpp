@@ -493,7 +493,7 @@ struct CubeTransform {
   EnvelopeScratch scratch;
   std::vector<std::int32_t> in;
   std::vector<std::int32_t> out;
-  std::vector<std::uint8_t> suspects;  // update()'s
+  std::vector<std::uint8_t> suspects;    // update()'s
   std::vector<std::int32_t> run_values;  // transformSignedLine()'s
   std::vector<std::int32_t> run_result;
 };
@@ -935,7 +935,8 @@ Esdf Esdf::truncated(const VoxelGrid& grid, double truncation, int threads) {
     // A voxel's code: its squared distance within T, signed; kBeyond past T.
     const auto code = [&](std::size_t i) -> std::int16_t {
       const std::int32_t squared = decodeSigned(field[i]);
-      const std::int16_t magnitude = squared < beyond ? static_cast<std::int16_t>(squared) : kBeyond;
+      const std::int16_t magnitude =
+          squared < beyond ? static_cast<std::int16_t>(squared) : kBeyond;
       return field[i] < 0 ? static_cast<std::int16_t>(-magnitude) : magnitude;
     };
     // The bricks of the tile with a value strictly inside (-T, T); the others share +T or -T.

@@ -59,9 +59,10 @@ struct CheckResult {
 /// planners but the world's occupancy: it samples the trajectory itself at a fine spacing and
 /// tests the body, a sphere of robot_radius - collision_tolerance, against the occupied
 /// voxels' cubes exactly at every sample, at any resolution: through FCL (the sphere against
-/// an OctoMap OcTree of the occupied voxels, whose leaves are exactly the grid's cubes) when
-/// that radius is positive, and for a point robot by whether an occupied cube contains the
-/// point. The ESDF only gives the clearance figures.
+/// OctoMap OcTrees of the occupied voxels with a free neighbour, whose leaves are exactly the
+/// grid's cubes, one per tile of 256 x 256 voxels made when a check first reaches it, with the
+/// centre tested against every cube) when that radius is positive, and for a point robot by
+/// whether an occupied cube contains the point. The ESDF only gives the clearance figures.
 class TrajectoryChecker {
  public:
   TrajectoryChecker(std::shared_ptr<const World> world, CheckerSettings settings);
@@ -76,6 +77,11 @@ class TrajectoryChecker {
 
   /// True when the body at `position` touches an occupied voxel cube.
   bool collides(const Eigen::Vector3d& position) const;
+
+  /// Makes the whole collision model now (it is otherwise made tile by tile as checks reach
+  /// it), shared by every checker of the world: what the experiment runner does before it
+  /// forks workers, which then inherit it. Nothing to make for a point robot.
+  void makeCollisionModel() const;
 
  private:
   struct Fcl;

@@ -148,6 +148,11 @@ class VoxelGrid {
   bool brickHasObstacle(int bx, int by, int bz) const {
     return brick_state_[brickIndex(bx, by, bz)] != kEmptyBrick;
   }
+  /// Whether brick (bx, by, bz) is stored as wholly occupied (kBricked; a brick filled voxel by
+  /// voxel is, after compactBricks()).
+  bool brickFull(int bx, int by, int bz) const {
+    return brick_state_[brickIndex(bx, by, bz)] == kFullBrick;
+  }
   /// The occupancy of the eight voxels (x, y, 8 bz + k) of brick layer bz, bit k (kBricked; a
   /// full brick past the grid's end has bits set beyond it).
   std::uint8_t brickRow(int x, int y, int bz) const {
