@@ -83,6 +83,19 @@ TEST(ObstacleBoxes, ACoarserStrideCoversEveryOccupiedVoxelWithFewerBoxes) {
   EXPECT_THROW(obstacleBoxes(grid, 0), InvalidArgument);
 }
 
+TEST(ObstacleBoxes, AHugeSparseWorldsViewerGridIsCoarseEnoughToHold) {
+  // 2048 x 1024 x 128 voxels (2^28): a byte a voxel would be 256 MiB, twice the cap, so the
+  // viewer's boxes start at stride 2, and still cover the one box.
+  VoxelGrid grid(Box{Eigen::Vector3d::Zero(), Eigen::Vector3d(204.8, 102.4, 12.8)}, 0.1,
+                 GridLayout::kBricked);
+  grid.fillBox(Eigen::Vector3d(10, 10, 0), Eigen::Vector3d(20.1, 15.1, 5.1));
+  const auto [boxes, stride] = viewerBoxes(grid);
+  EXPECT_EQ(stride, 2);
+  ASSERT_EQ(boxes.size(), 1u);
+  EXPECT_EQ(boxes[0].lo, (std::array<int, 3>{100, 100, 0}));
+  EXPECT_EQ(boxes[0].hi, (std::array<int, 3>{202, 152, 52}));
+}
+
 TEST(Scene, HoldsTheWorldTrajectoriesTreesAndFlights) {
   const auto world = World::build(WorldSpec::fromText(
       "name: s\nresolution: 0.1\nbounds: {min: [0, 0, 0], max: [4, 4, 2]}\n"

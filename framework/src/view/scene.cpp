@@ -78,7 +78,12 @@ std::vector<VoxelBox> obstacleBoxes(const VoxelGrid& grid, int stride) {
 }
 
 std::pair<std::vector<VoxelBox>, int> viewerBoxes(const VoxelGrid& grid, std::size_t max_boxes) {
-  for (int stride = 1;; stride *= 2) {
+  int first = 1;
+  while (((grid.dims().array() + first - 1) / first).cast<double>().prod() >
+         static_cast<double>(kMostViewerCells)) {
+    first *= 2;
+  }
+  for (int stride = first;; stride *= 2) {
     std::vector<VoxelBox> boxes = obstacleBoxes(grid, stride);
     if (boxes.size() <= max_boxes || stride >= grid.dims().maxCoeff()) {
       return {std::move(boxes), stride};

@@ -23,7 +23,10 @@ struct VoxelBox {
 std::vector<VoxelBox> obstacleBoxes(const VoxelGrid& grid, int stride = 1);
 
 /// The obstacle boxes of a world for the 3D viewer: at the finest stride (1, 2, 4, ...) that
-/// gives at most `max_boxes` boxes. Returns the boxes and the stride used.
+/// gives at most `max_boxes` boxes, and whose coarse grid has at most kMostViewerCells cells
+/// (a byte each: a city of 7.5 x 10^9 voxels starts at stride 4). Returns the boxes and the
+/// stride used.
+constexpr std::size_t kMostViewerCells = std::size_t{1} << 27;
 std::pair<std::vector<VoxelBox>, int> viewerBoxes(const VoxelGrid& grid,
                                                   std::size_t max_boxes = 60000);
 
