@@ -303,6 +303,36 @@ TEST(TrajectoryCheckerTest, TheBodyCollidesExactlyAcrossTheCheckersTiles) {
   }
 }
 
+TEST(TrajectoryCheckerTest, AWorldLongerThanOctomapsKeysIsCheckedToItsFarEnd) {
+  // 40,000 voxels along x (OctoMap's keys reach 2^15 either way of a tree's centre): boxes near
+  // both ends, bodies about them against the brute force.
+  const auto world = World::build(WorldSpec::fromYaml(
+      YamlReader::loadString(
+          "resolution: 0.1\nbounds: {min: [0, 0, 0], max: [4000, 1.6, 1.6]}\nlayout: sparse\n"
+          "generators: [{type: box_list, boxes: [{min: [2, 0.4, 0], max: [2.5, 1.2, 1]}, "
+          "{min: [3500, 0.4, 0], max: [3500.5, 1.2, 1]}, {min: [3999.5, 0, 0], "
+          "max: [4000, 0.3, 0.3]}]}]\n",
+          "long.yaml"),
+      "."));
+  ASSERT_GT(world->grid().dims().x(), 32768);
+  CheckerSettings settings;
+  settings.robot_radius = 0.25;
+  settings.collision_tolerance = 0.05;
+  const TrajectoryChecker checker(world, settings);
+  Rng rng(3);
+  const CollisionCounts counts =
+      expectCollisionsExact(checker, world->grid(), 0.2, 0.05, 1500, [&](int i) {
+        const double x = i % 3 == 0   ? rng.uniform(1.5, 3.0)
+                         : i % 3 == 1 ? rng.uniform(3499.5, 3501.0)
+                                      : rng.uniform(3999.0, 4000.0);
+        return Eigen::Vector3d(x, rng.uniform(0.0, 1.6), rng.uniform(0.0, 1.6));
+      });
+  EXPECT_GT(counts.hits, 300);
+  EXPECT_GT(counts.near_misses, 20);
+  EXPECT_TRUE(checker.collides({3500.25, 0.8, 1.15}));  // 0.15 m above the far box
+  EXPECT_FALSE(checker.collides({3500.25, 0.8, 1.25}));
+}
+
 TEST(TrajectoryCheckerTest, APointOnTheMapsOwnFaceIsInTheVoxelInsideOnly) {
   // 0.5 m voxels, one occupied voxel at z in [2, 2.5] under the map's top face (z = 3): a body
   // of 0.24 m on the top face is 0.5 m from it; one on the face between two voxels touches both.

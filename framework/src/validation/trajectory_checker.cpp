@@ -51,8 +51,9 @@ bool onSurface(const VoxelGrid& grid, const VoxelIndex& voxel) {
 /// none meets one of these, because the segment from its centre to the first point of an
 /// occupied cube it reaches runs through free cubes, the last of which shares that point with
 /// the cube. With the test of the centre (collides()) the verdicts are those of every cube.
-/// The trees are in grid coordinates (world minus the grid origin), so their cubes are exactly
-/// the grid's voxels.
+/// Each tree is in its tile's coordinates (world minus the grid origin minus the tile's
+/// corner), so its cubes are exactly the grid's voxels, and OctoMap's keys (2^15 voxels either
+/// way) bound a tile, not the world.
 class SurfaceTiles {
  public:
   static constexpr int kTile = 256;
@@ -101,8 +102,8 @@ class SurfaceTiles {
               for (int z = from.z(); z < to.z(); ++z) {
                 const VoxelIndex v(x, y, z);
                 if (!grid.occupied(v) || !onSurface(grid, v)) continue;
-                octree->updateNode(octomap::point3d(static_cast<float>((x + 0.5) * r),
-                                                    static_cast<float>((y + 0.5) * r),
+                octree->updateNode(octomap::point3d(static_cast<float>((x - low.x() + 0.5) * r),
+                                                    static_cast<float>((y - low.y() + 0.5) * r),
                                                     static_cast<float>((z + 0.5) * r)),
                                    true, /*lazy_eval=*/true);
                 any = true;
@@ -161,37 +162,37 @@ std::shared_ptr<SurfaceTiles> sharedTiles(const World& world) {
 
 struct TrajectoryChecker::Fcl {
   Eigen::Vector3d origin;
-  double inverse_tile;  ///< 1 / (tile side, m)
+  double tile_side;  ///< m
   std::shared_ptr<SurfaceTiles> tiles;
   std::shared_ptr<fcl::Sphered> sphere;
   mutable fcl::CollisionObjectd body;
 
   Fcl(const World& world, double radius)
       : origin(world.grid().origin()),
-        inverse_tile(1.0 / (SurfaceTiles::kTile * world.grid().resolution())),
+        tile_side(SurfaceTiles::kTile * world.grid().resolution()),
         tiles(sharedTiles(world)),
         sphere(std::make_shared<fcl::Sphered>(radius)),
         body(sphere) {}
 
   /// The tiles [first, last] the sphere at `local` (grid coordinates) reaches along one axis.
-  static std::pair<int, int> reach(double local, double radius, double inverse_tile, int tiles) {
+  std::pair<int, int> reach(double local, double radius, int count) const {
     const auto at = [&](double x) {
-      return static_cast<int>(std::clamp(std::floor(x * inverse_tile), 0.0, tiles - 1.0));
+      return static_cast<int>(std::clamp(std::floor(x / tile_side), 0.0, count - 1.0));
     };
     return {at(local - radius), at(local + radius)};
   }
 
   bool collides(const Eigen::Vector3d& position) const {
     const Eigen::Vector3d local = position - origin;
-    body.setTranslation(local);
-    body.computeAABB();
     const double radius = sphere->radius;
-    const auto [x0, x1] = reach(local.x(), radius, inverse_tile, tiles->tilesX());
-    const auto [y0, y1] = reach(local.y(), radius, inverse_tile, tiles->tilesY());
+    const auto [x0, x1] = reach(local.x(), radius, tiles->tilesX());
+    const auto [y0, y1] = reach(local.y(), radius, tiles->tilesY());
     for (int tx = x0; tx <= x1; ++tx) {
       for (int ty = y0; ty <= y1; ++ty) {
         const fcl::CollisionObjectd* tree = tiles->tile(tx, ty);
         if (tree == nullptr) continue;
+        body.setTranslation(local - Eigen::Vector3d(tx * tile_side, ty * tile_side, 0.0));
+        body.computeAABB();
         fcl::CollisionRequestd request;
         fcl::CollisionResultd result;
         fcl::collide(&body, tree, request, result);
@@ -223,12 +224,6 @@ TrajectoryChecker::TrajectoryChecker(std::shared_ptr<const World> world, Checker
   const double voxel = world_->esdf().resolution();
   spacing_ = settings_.spacing > 0.0 ? settings_.spacing : std::min(0.25 * voxel, 0.025);
   body_radius_ = std::max(settings_.robot_radius - settings_.collision_tolerance, 0.0);
-  // OctoMap's keys hold 2^15 voxels either side of its centre: beyond, its tree loses voxels.
-  if (body_radius_ > 0.0 && world_->grid().dims().maxCoeff() > 32767) {
-    throw InvalidArgument("trajectory checker: world '" + world_->name() + "' is " +
-                          std::to_string(world_->grid().dims().maxCoeff()) +
-                          " voxels long; the checker's octree holds at most 32767 a side");
-  }
   if (body_radius_ > 0.0) fcl_ = std::make_unique<Fcl>(*world_, body_radius_);
 }
 

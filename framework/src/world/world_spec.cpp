@@ -109,12 +109,6 @@ void checkGridSize(const WorldSpec& spec, const YamlReader& node) {
       node["resolution"].fail("bounds and resolution give " + formatNumber(voxels) +
                               " voxels; a sparse world holds at most 1e12");
     }
-    // The checker's octree keys: 32767 voxels a side.
-    if (dims.maxCoeff() > 32767) {
-      node["resolution"].fail("the world is " + formatNumber(dims.maxCoeff()) +
-                              " voxels long; a sparse world is at most 32767 a side (3.2 km at "
-                              "0.1 m)");
-    }
     if (dims.z() > 20000) {
       node["resolution"].fail("the world is " + formatNumber(dims.z()) +
                               " voxels high; a sparse world is at most 20000");
