@@ -174,12 +174,14 @@ struct TrajectoryChecker::Fcl {
         sphere(std::make_shared<fcl::Sphered>(radius)),
         body(sphere) {}
 
-  /// The tiles [first, last] the sphere at `local` (grid coordinates) reaches along one axis.
+  /// The tiles [first, last] the sphere at `local` (grid coordinates) reaches along one axis
+  /// (a micrometre wider, so that rounding at a border never drops the tile beyond).
   std::pair<int, int> reach(double local, double radius, int count) const {
     const auto at = [&](double x) {
       return static_cast<int>(std::clamp(std::floor(x / tile_side), 0.0, count - 1.0));
     };
-    return {at(local - radius), at(local + radius)};
+    const double wide = radius + 1e-6;
+    return {at(local - wide), at(local + wide)};
   }
 
   bool collides(const Eigen::Vector3d& position) const {
