@@ -214,11 +214,26 @@ struct CollisionCounts {
   int near_misses = 0;
 };
 
-/// checker.collides() for bodies of `radius` at the points `draw()` gives, against the brute
-/// force (ties within a micrometre are left to FCL's rounding).
+/// A world from a spec's text.
+std::shared_ptr<const World> worldFrom(const std::string& text, const std::string& source) {
+  return World::build(WorldSpec::fromYaml(YamlReader::loadString(text, source), "."));
+}
+
+/// A checker of `world` whose body is a sphere of radius `body` (the robot radius less a
+/// collision tolerance of 0.05 m).
+TrajectoryChecker bodyChecker(std::shared_ptr<const World> world, double body) {
+  CheckerSettings settings;
+  settings.robot_radius = body + 0.05;
+  settings.collision_tolerance = 0.05;
+  return TrajectoryChecker(std::move(world), settings);
+}
+
+/// checker.collides() for its body at the points `draw()` gives, against the brute force
+/// (ties within a micrometre are left to FCL's rounding).
 template <typename Draw>
 CollisionCounts expectCollisionsExact(const TrajectoryChecker& checker, const VoxelGrid& grid,
-                                      double radius, double near, int bodies, Draw&& draw) {
+                                      double near, int bodies, Draw&& draw) {
+  const double radius = checker.settings().robot_radius - checker.settings().collision_tolerance;
   CollisionCounts counts;
   for (int i = 0; i < bodies; ++i) {
     const Eigen::Vector3d p = draw(i);
@@ -243,17 +258,13 @@ TEST(TrajectoryCheckerTest, TheBodyCollidesExactlyWhenItMeetsAnOccupiedCube) {
       "size_y: [0.1, 0.4], size_z: [0.1, 0.4]}\n";
   for (const char* layout : {"dense", "sparse"}) {
     SCOPED_TRACE(layout);
-    const auto world = World::build(WorldSpec::fromYaml(
-        YamlReader::loadString(text + "layout: " + layout + "\n", "blocks.yaml"), "."));
-    CheckerSettings settings;
-    settings.robot_radius = 0.35;
-    settings.collision_tolerance = 0.05;
-    const TrajectoryChecker checker(world, settings);
+    const auto world = worldFrom(text + "layout: " + layout + "\n", "blocks.yaml");
     const double radius = 0.3;
+    const TrajectoryChecker checker = bodyChecker(world, radius);
     Rng rng(5);
     int inside_blocks = 0;
     const CollisionCounts counts =
-        expectCollisionsExact(checker, world->grid(), radius, 0.05, 4000, [&](int) {
+        expectCollisionsExact(checker, world->grid(), 0.05, 4000, [&](int) {
           const Eigen::Vector3d p(rng.uniform(0.0, 6.0), rng.uniform(0.0, 4.0),
                                   rng.uniform(0.0, 3.0));
           inside_blocks += world->distance(p) < -radius ? 1 : 0;
@@ -277,17 +288,13 @@ TEST(TrajectoryCheckerTest, TheBodyCollidesExactlyAcrossTheCheckersTiles) {
       "size_z: [0.04, 0.2]}\n";
   for (const std::string layout : {"dense", "sparse\ntruncation: 0.5"}) {
     SCOPED_TRACE(layout);
-    const auto world = World::build(WorldSpec::fromYaml(
-        YamlReader::loadString(text + "layout: " + layout + "\n", "tiles.yaml"), "."));
-    CheckerSettings settings;
-    settings.robot_radius = 0.15;
-    settings.collision_tolerance = 0.05;
-    const TrajectoryChecker checker(world, settings);
+    const auto world = worldFrom(text + "layout: " + layout + "\n", "tiles.yaml");
     const double radius = 0.1;
+    const TrajectoryChecker checker = bodyChecker(world, radius);
     Rng rng(9);
     int across = 0;  // bodies reaching over a border
     const CollisionCounts counts =
-        expectCollisionsExact(checker, world->grid(), radius, 0.02, 3000, [&](int i) {
+        expectCollisionsExact(checker, world->grid(), 0.02, 3000, [&](int i) {
           const double x = i % 3 == 0   ? rng.uniform(4.8, 5.5)
                            : i % 3 == 1 ? rng.uniform(9.9, 10.6)
                                         : rng.uniform(0.0, 12.0);
@@ -306,22 +313,17 @@ TEST(TrajectoryCheckerTest, TheBodyCollidesExactlyAcrossTheCheckersTiles) {
 TEST(TrajectoryCheckerTest, AWorldLongerThanOctomapsKeysIsCheckedToItsFarEnd) {
   // 40,000 voxels along x (OctoMap's keys reach 2^15 either way of a tree's centre): boxes near
   // both ends, bodies about them against the brute force.
-  const auto world = World::build(WorldSpec::fromYaml(
-      YamlReader::loadString(
-          "resolution: 0.1\nbounds: {min: [0, 0, 0], max: [4000, 1.6, 1.6]}\nlayout: sparse\n"
-          "generators: [{type: box_list, boxes: [{min: [2, 0.4, 0], max: [2.5, 1.2, 1]}, "
-          "{min: [3500, 0.4, 0], max: [3500.5, 1.2, 1]}, {min: [3999.5, 0, 0], "
-          "max: [4000, 0.3, 0.3]}]}]\n",
-          "long.yaml"),
-      "."));
+  const auto world = worldFrom(
+      "resolution: 0.1\nbounds: {min: [0, 0, 0], max: [4000, 1.6, 1.6]}\nlayout: sparse\n"
+      "generators: [{type: box_list, boxes: [{min: [2, 0.4, 0], max: [2.5, 1.2, 1]}, "
+      "{min: [3500, 0.4, 0], max: [3500.5, 1.2, 1]}, {min: [3999.5, 0, 0], "
+      "max: [4000, 0.3, 0.3]}]}]\n",
+      "long.yaml");
   ASSERT_GT(world->grid().dims().x(), 32768);
-  CheckerSettings settings;
-  settings.robot_radius = 0.25;
-  settings.collision_tolerance = 0.05;
-  const TrajectoryChecker checker(world, settings);
+  const TrajectoryChecker checker = bodyChecker(world, 0.2);
   Rng rng(3);
   const CollisionCounts counts =
-      expectCollisionsExact(checker, world->grid(), 0.2, 0.05, 1500, [&](int i) {
+      expectCollisionsExact(checker, world->grid(), 0.05, 1500, [&](int i) {
         const double x = i % 3 == 0   ? rng.uniform(1.5, 3.0)
                          : i % 3 == 1 ? rng.uniform(3499.5, 3501.0)
                                       : rng.uniform(3999.0, 4000.0);

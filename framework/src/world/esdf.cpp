@@ -336,17 +336,21 @@ struct CubeTransform {
       signedColumn(occupancy + column * nz, dims.z(), field + column * nz, limit);
     }
   }
-  /// Pass 2 over the x-slabs [begin, end), from `from` into `to` (the same or another): of a
-  /// signed field, or else of one distance.
+  /// Pass 2 over the x-slabs [begin, end), from `from` into `to` (the same or another).
   void alongY(const std::int32_t* from, std::int32_t* to, std::size_t begin = 0,
-              std::size_t end = kAll, bool signed_field = false) {
+              std::size_t end = kAll) {
     end = std::min(end, static_cast<std::size_t>(dims.x()));
     for (std::size_t ix = begin; ix < end; ++ix) {
-      const auto strided = [&](const auto& transform) {
-        transformStrided(from, to, ix * slab, static_cast<std::size_t>(dims.z()), dims.y(),
-                         static_cast<std::size_t>(dims.z()), in, out, transform);
-      };
-      signed_field ? strided(signedEnvelope(dims.y())) : strided(envelope(dims.y()));
+      transformStrided(from, to, ix * slab, static_cast<std::size_t>(dims.z()), dims.y(),
+                       static_cast<std::size_t>(dims.z()), in, out, envelope(dims.y()));
+    }
+  }
+  /// Signed pass 2 over the x-slabs [begin, end), in place.
+  void signedAlongY(std::int32_t* field, std::size_t begin, std::size_t end) {
+    end = std::min(end, static_cast<std::size_t>(dims.x()));
+    for (std::size_t ix = begin; ix < end; ++ix) {
+      transformStrided(field, field, ix * slab, static_cast<std::size_t>(dims.z()), dims.y(),
+                       static_cast<std::size_t>(dims.z()), in, out, signedEnvelope(dims.y()));
     }
   }
   /// Signed pass 3 over the x-lines of the (y, z) cells [begin, end) (in storage order).
@@ -545,7 +549,7 @@ void signedSquaredDistances(const VoxelGrid& grid, int threads, std::vector<std:
     CubeTransform(n, limit).signedColumns(grid.occupancy().data(), field.data(), begin, end);
   });
   inParallel(nx, threads, [&](std::size_t begin, std::size_t end) {
-    CubeTransform(n, limit).alongY(field.data(), field.data(), begin, end, true);
+    CubeTransform(n, limit).signedAlongY(field.data(), begin, end);
   });
   // Pass 3's share: whole blocks of kBlock adjacent lines, as one thread gathers them.
   const std::size_t blocks = (ny * nz + kBlock - 1) / kBlock;
