@@ -75,6 +75,7 @@ TEST_P(HeuristicConformance, FiniteAndConsistentWithTheFullEdgeCosts) {
       continue;  // declines this order (obvp above 2), as it may
     }
     ++orders;
+    heuristic = heuristicForControls(heuristic, samples.controls);
     Rng rng(17 + order);
     int edges = 0;
     int violations = 0;

@@ -49,9 +49,35 @@ struct ConsistencyCount {
   int violations = 0;  ///< h(s) > c_lower(s, s') + h(s')
 };
 
+/// `inner` times `scale` (deliberately inconsistent when the scale is above 1), prepared as
+/// `inner` is for the controls and each query.
+class ScaledHeuristic final : public SearchHeuristic {
+ public:
+  ScaledHeuristic(std::shared_ptr<const SearchHeuristic> inner, double scale)
+      : inner_(std::move(inner)), scale_(scale) {}
+  double estimate(const ChainState& state, const Eigen::Vector3d& goal) const override {
+    return scale_ * inner_->estimate(state, goal);
+  }
+  std::shared_ptr<const SearchHeuristic> forControls(
+      const std::vector<Eigen::Vector3d>& controls) const override {
+    return std::make_shared<ScaledHeuristic>(heuristicForControls(inner_, controls), scale_);
+  }
+  std::shared_ptr<const SearchHeuristic> forQuery(const World& world, const Eigen::Vector3d& goal,
+                                                  StopCondition& stop) const override {
+    return std::make_shared<ScaledHeuristic>(heuristicForQuery(inner_, world, goal, stop), scale_);
+  }
+
+ private:
+  std::shared_ptr<const SearchHeuristic> inner_;
+  double scale_;
+};
+
 /// Checks h(s) <= c_lower(s, s') + h(s') on random primitives (the sampler's grid of 5 per
 /// axis, at the limit included) from random moving states, against random goals, with the
-/// weakest lower bound the search queues (no map term).
+/// weakest lower bound the search queues (no map term). The heuristic is prepared for the
+/// controls and for each goal, as a search prepares it. `lattice` is the lattice heuristic,
+/// "inflated_lattice" it times 1.05: their states move at whole numbers of the grid's velocity
+/// step (as every state of a search from rest does), so that the lattice is what is checked.
 ConsistencyCount checkConsistency(const std::string& heuristic_name, int order, double goal_radius,
                                   int primitives) {
   const auto world = test::smallWorld("forest");
@@ -63,14 +89,21 @@ ConsistencyCount checkConsistency(const std::string& heuristic_name, int order, 
   settings.weights.length = 0.5;
   settings.weights.control_effort = order == 2 ? 0.7 : 0.1;
   const EdgeEvaluator evaluator(world, settings);
+  const bool lattice = heuristic_name == "lattice" || heuristic_name == "inflated_lattice";
   std::shared_ptr<const SearchHeuristic> heuristic =
       heuristic_name == "inflated" ? std::make_shared<InflatedHeuristic>(settings, goal_radius)
+      : heuristic_name == "inflated_lattice"
+          ? std::make_shared<ScaledHeuristic>(heuristicFor("lattice", settings, goal_radius), 1.05)
       : heuristic_name == "time_optimal_whole"
           ? pluginRegistry<HeuristicBuilder>()
                 .create("time_optimal", test::assignments({"whole_primitives=true"}))
                 ->build({settings, goal_radius})
           : heuristicFor(heuristic_name, settings, goal_radius);
   const auto controls = controlGrid({-1.0, -0.4, 0.0, 0.6, 1.0}, settings.limits.bound[order]);
+  heuristic = heuristicForControls(heuristic, controls);
+  // The grid's step: 0.2 u_max (-1.2 = -2 x 0.6 at u_max 3), a velocity step of 0.2 u_max tau.
+  const double velocity_step = 0.2 * settings.limits.bound[order].x() * settings.duration;
+  const int velocity_steps = static_cast<int>(settings.limits.bound[1].x() / velocity_step);
   ConsistencyCount count;
   while (count.edges < primitives) {
     ChainState state = ChainState::Zero();
@@ -79,7 +112,9 @@ ConsistencyCount checkConsistency(const std::string& heuristic_name, int order, 
         [&](int axis) { return axis < 2 ? rng.uniform(0.5, 11.5) : rng.uniform(0.5, 2.5); });
     for (int k = 1; k < order; ++k) {
       for (int axis = 0; axis < 3; ++axis) {
-        state(axis, k) = rng.uniform(-1.0, 1.0) * settings.limits.bound[k][axis];
+        state(axis, k) =
+            lattice ? velocity_step * std::floor(rng.uniform(-velocity_steps, velocity_steps + 1))
+                    : rng.uniform(-1.0, 1.0) * settings.limits.bound[k][axis];
       }
     }
     // Goals near and far, so that states inside, at and beyond the goal region all occur.
@@ -112,13 +147,16 @@ ConsistencyCount checkConsistency(const std::string& heuristic_name, int order, 
 TEST(SearchHeuristic, EveryBuiltInHeuristicIsConsistentWithTheWeakestLowerBound) {
   for (const int order : {2, 3, 4}) {
     for (const std::string name : {"euclidean", "min_time", "time_optimal", "time_optimal_whole",
-                                   "obvp", "max", "geodesic"}) {
-      if (name == "obvp" && order != 2) continue;
+                                   "obvp", "max", "geodesic", "lattice"}) {
+      if ((name == "obvp" || name == "lattice") && order != 2) continue;
       for (const double goal_radius : {0.5, 0.01}) {
         const ConsistencyCount count = checkConsistency(name, order, goal_radius, 10000);
         EXPECT_GE(count.edges, 10000);
-        // Not vacuous: many goals are reachable (others lie outside the map or in a trunk).
-        EXPECT_GT(count.finite, count.edges / 4) << name;
+        // Not vacuous: many goals are reachable (others lie outside the map or in a trunk;
+        // for the lattice, a goal ball of 1 cm holds a state of the start's lattice, whose
+        // points are 4.8 cm apart on each axis here, about one time in ten).
+        EXPECT_GT(count.finite, count.edges / (name == "lattice" && goal_radius < 0.1 ? 20 : 4))
+            << name;
         EXPECT_EQ(count.violations, 0)
             << name << " at order " << order << ", goal radius " << goal_radius << ": "
             << count.violations << " of " << count.edges << " edges";
@@ -131,6 +169,11 @@ TEST(SearchHeuristic, TheConsistencyCheckCatchesAnInflatedHeuristic) {
   for (const int order : {2, 3}) {
     const ConsistencyCount count = checkConsistency("inflated", order, 0.5, 10000);
     EXPECT_GT(count.violations, 0) << "order " << order;
+  }
+  // The lattice heuristic is tight: 5 % more breaks it on its own lattice.
+  for (const double goal_radius : {0.5, 0.01}) {
+    EXPECT_GT(checkConsistency("inflated_lattice", 2, goal_radius, 10000).violations, 0)
+        << goal_radius;
   }
 }
 
@@ -765,6 +808,111 @@ TEST(GeodesicHeuristic, LazyAndEagerReturnTimeOptimalsCostsWithFewerExpansions) 
       EXPECT_EQ(e.status, expected.status) << kind;
       EXPECT_EQ(l.status, expected.status) << kind;
       if (expected.status != PlanStatus::kExact) continue;  // a lattice that cannot reach it
+      ++solved;
+      ASSERT_EQ(e.status, PlanStatus::kExact) << kind;
+      ASSERT_EQ(l.status, PlanStatus::kExact) << kind;
+      EXPECT_NEAR(e.cost, expected.cost, 1e-9 * expected.cost) << kind;
+      EXPECT_NEAR(l.cost, expected.cost, 1e-9 * expected.cost) << kind;
+      EXPECT_TRUE(e.check.valid && l.check.valid) << kind;
+      before += test::statistic(expected.statistics, "expansions");
+      after += test::statistic(e.statistics, "expansions");
+    }
+    EXPECT_GE(solved, 4) << kind;
+    EXPECT_LT(after, before) << kind;
+  }
+}
+
+TEST(LatticeHeuristic, IsTheOptimalCostInFreeSpaceWhenOneAxisMoves) {
+  // With no obstacles and the goal straight along x from rest, the optimal path moves x alone:
+  // its cost is the x table's value, so the heuristic at the start is the optimal cost, to
+  // rounding; and no state off the optimal paths ever gets a smaller f, so the search expands
+  // at most a few states a primitive (time_optimal floods many more).
+  const auto world = test::smallWorld("empty");
+  const auto controls = controlGrid({-1.0, 0.0, 1.0}, Eigen::Vector3d(3, 3, 3));
+  for (const double distance : {2.3, 5.0, 9.7}) {
+    ChainState start = ChainState::Zero();
+    start.col(0) = Eigen::Vector3d(1.0, 1.7, 1.5);
+    const Eigen::Vector3d goal = start.col(0) + Eigen::Vector3d(distance, 0.0, 0.0);
+    const auto solve = [&](const std::string& name) {
+      SearchPolicies policies;
+      policies.edges = std::make_shared<FullEvaluationPolicy>();
+      policies.heuristic = heuristicFor(name, SearchSettings().edges, SearchSettings().goal_radius);
+      policies.space = std::make_shared<LatticeSpace>(LatticeSpace::Resolution());
+      auto search = std::make_unique<MotionPrimitiveSearch>(world, controls, SearchSettings(),
+                                                            std::move(policies));
+      StopCondition stop(Budget{});
+      EXPECT_EQ(search->search(start, goal, stop), MotionPrimitiveSearch::Outcome::kGoal);
+      return search;
+    };
+    const auto lattice = solve("lattice");
+    const auto reference = solve("time_optimal");
+    EXPECT_NEAR(lattice->cost(), reference->cost(), 1e-9 * reference->cost()) << distance;
+    StopCondition stop(Budget{});
+    const auto heuristic = heuristicForQuery(
+        heuristicForControls(
+            heuristicFor("lattice", SearchSettings().edges, SearchSettings().goal_radius),
+            controls),
+        *world, goal, stop);
+    EXPECT_NEAR(heuristic->estimate(start, goal), reference->cost(), 1e-9 * reference->cost())
+        << distance;
+    const auto primitives = static_cast<double>(lattice->trajectory().segments().size());
+    EXPECT_LE(lattice->counters().expansions, 4 * (primitives + 1)) << distance;
+    EXPECT_LE(lattice->counters().expansions, reference->counters().expansions) << distance;
+    if (distance > 5.0) {
+      EXPECT_LT(3 * lattice->counters().expansions, reference->counters().expansions);
+    }
+  }
+}
+
+TEST(LatticeHeuristic, RefusesControlsOffAGridAndOrdersAboveTwo) {
+  test::loadTestPlugins();
+  const auto heuristic =
+      heuristicFor("lattice", SearchSettings().edges, SearchSettings().goal_radius);
+  try {
+    heuristic->forControls({Eigen::Vector3d(1.0, 0.0, 0.0), Eigen::Vector3d(std::sqrt(2.0), 0, 0)});
+    FAIL() << "no error";
+  } catch (const InvalidArgument& error) {
+    EXPECT_NE(std::string(error.what()).find("controls' x values are not whole multiples"),
+              std::string::npos)
+        << error.what();
+  }
+  try {
+    configurePlanner("lazy_mp_astar", test::assignments({"order=3", "heuristic=lattice"}));
+    FAIL() << "no error";
+  } catch (const ConfigError& error) {
+    EXPECT_NE(std::string(error.what()).find("parameter 'heuristic': lattice needs order 2"),
+              std::string::npos)
+        << error.what();
+  }
+}
+
+TEST(LatticeHeuristic, LazyAndEagerReturnTimeOptimalsCostsWithFewerExpansions) {
+  // As the geodesic one's test: the same optimal costs as the default heuristic (lazy = eager)
+  // and fewer expansions in all.
+  test::loadTestPlugins();
+  for (const std::string kind : {"walls", "forest"}) {
+    const auto world = test::smallWorld(kind);
+    const auto queries = test::randomQueries(*world, 6, 8, 3.0, 9.0, 0.6);
+    const auto planner = [&](const std::string& type, const std::string& heuristic) {
+      ConfiguredPlanner configured = configurePlanner(
+          type, test::assignments({"sampler.samples_per_axis=3", "time_limit=0",
+                                   "max_expansions=200000", "heuristic=" + heuristic}));
+      configured.planner->setup({world, configured.sampler, 1});
+      return configured;
+    };
+    ConfiguredPlanner reference = planner("eager_mp_astar", "time_optimal");
+    ConfiguredPlanner eager = planner("eager_mp_astar", "lattice");
+    ConfiguredPlanner lazy = planner("lazy_mp_astar", "lattice");
+    double before = 0.0;
+    double after = 0.0;
+    int solved = 0;
+    for (const PlanningQuery& query : queries) {
+      const PlanResult expected = reference.planner->plan(query, Budget{});
+      const PlanResult e = eager.planner->plan(query, Budget{});
+      const PlanResult l = lazy.planner->plan(query, Budget{});
+      EXPECT_EQ(e.status, expected.status) << kind;
+      EXPECT_EQ(l.status, expected.status) << kind;
+      if (expected.status != PlanStatus::kExact) continue;
       ++solved;
       ASSERT_EQ(e.status, PlanStatus::kExact) << kind;
       ASSERT_EQ(l.status, PlanStatus::kExact) << kind;

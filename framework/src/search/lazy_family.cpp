@@ -92,6 +92,7 @@ LazyFamilySearch::LazyFamilySearch(const char* name, std::shared_ptr<const World
   if (!(settings_.heuristic_weight >= 1.0)) {
     throw InvalidArgument(who + ": heuristic_weight must be >= 1");
   }
+  policies_.heuristic = heuristicForControls(policies_.heuristic, controls_);
 }
 
 void LazyFamilySearch::reset(const ChainState& start, const Eigen::Vector3d& goal,

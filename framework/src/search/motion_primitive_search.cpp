@@ -55,6 +55,7 @@ MotionPrimitiveSearch::MotionPrimitiveSearch(std::shared_ptr<const World> world,
     throw InvalidArgument("motion-primitive search: at most 2^30 controls, got " +
                           std::to_string(controls_.size()));
   }
+  policies_.heuristic = heuristicForControls(policies_.heuristic, controls_);
   evaluations_.resize(controls_.size());
   estimates_.resize(controls_.size());
   if (policies_.shot) {

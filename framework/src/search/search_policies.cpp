@@ -476,6 +476,22 @@ std::shared_ptr<const SearchHeuristic> MaxHeuristic::forQuery(const World& world
   return changed ? std::make_shared<MaxHeuristic>(std::move(parts)) : nullptr;
 }
 
+std::shared_ptr<const SearchHeuristic> MaxHeuristic::forControls(
+    const std::vector<Eigen::Vector3d>& controls) const {
+  std::vector<std::shared_ptr<const SearchHeuristic>> parts;
+  bool changed = false;
+  for (const auto& part : parts_) {
+    parts.push_back(heuristicForControls(part, controls));
+    changed = changed || parts.back() != part;
+  }
+  return changed ? std::make_shared<MaxHeuristic>(std::move(parts)) : nullptr;
+}
+
+std::shared_ptr<const SearchHeuristic> SearchHeuristic::forControls(
+    const std::vector<Eigen::Vector3d>& /*controls*/) const {
+  return nullptr;
+}
+
 std::shared_ptr<const SearchHeuristic> SearchHeuristic::forQuery(const World& /*world*/,
                                                                  const Eigen::Vector3d& /*goal*/,
                                                                  StopCondition& /*stop*/) const {
@@ -486,6 +502,13 @@ std::shared_ptr<const SearchHeuristic> heuristicForQuery(
     const std::shared_ptr<const SearchHeuristic>& heuristic, const World& world,
     const Eigen::Vector3d& goal, StopCondition& stop) {
   auto prepared = heuristic->forQuery(world, goal, stop);
+  return prepared ? prepared : heuristic;
+}
+
+std::shared_ptr<const SearchHeuristic> heuristicForControls(
+    const std::shared_ptr<const SearchHeuristic>& heuristic,
+    const std::vector<Eigen::Vector3d>& controls) {
+  auto prepared = heuristic->forControls(controls);
   return prepared ? prepared : heuristic;
 }
 

@@ -105,7 +105,8 @@ PluginRegistry<EdgeEvaluationPolicy>& pluginRegistry<EdgeEvaluationPolicy>();
 ///
 /// +infinity is a valid estimate: it says that no path from the state reaches the goal region
 /// (the search does not queue such a state). A heuristic that reads the map (its free space)
-/// prepares for each query in forQuery().
+/// prepares for each query in forQuery(); one that reads the search's control set prepares for
+/// it in forControls().
 class SearchHeuristic {
  public:
   virtual ~SearchHeuristic() = default;
@@ -120,12 +121,22 @@ class SearchHeuristic {
   virtual std::shared_ptr<const SearchHeuristic> forQuery(const World& world,
                                                           const Eigen::Vector3d& goal,
                                                           StopCondition& stop) const;
+  /// The heuristic for a search whose edges are the primitives of `controls` (the planner's
+  /// control set, fixed for its searches), or nullptr (the default) when it is this one as it
+  /// is. The search calls it once when it is made, before any forQuery(). Throws
+  /// InvalidArgument when the heuristic cannot serve that set.
+  virtual std::shared_ptr<const SearchHeuristic> forControls(
+      const std::vector<Eigen::Vector3d>& controls) const;
 };
 
 /// `heuristic`'s forQuery(), or `heuristic` itself when that returns nullptr.
 std::shared_ptr<const SearchHeuristic> heuristicForQuery(
     const std::shared_ptr<const SearchHeuristic>& heuristic, const World& world,
     const Eigen::Vector3d& goal, StopCondition& stop);
+/// `heuristic`'s forControls(), or `heuristic` itself when that returns nullptr.
+std::shared_ptr<const SearchHeuristic> heuristicForControls(
+    const std::shared_ptr<const SearchHeuristic>& heuristic,
+    const std::vector<Eigen::Vector3d>& controls);
 
 /// w_T |d| / |v_max| + w_L |d|, d the distance to the goal ball.
 class EuclideanHeuristic final : public SearchHeuristic {
@@ -347,6 +358,9 @@ class MaxHeuristic final : public SearchHeuristic {
   /// The largest of the parts' heuristics for the query (nullptr when none changes).
   std::shared_ptr<const SearchHeuristic> forQuery(const World& world, const Eigen::Vector3d& goal,
                                                   StopCondition& stop) const override;
+  /// The largest of the parts' heuristics for the controls (nullptr when none changes).
+  std::shared_ptr<const SearchHeuristic> forControls(
+      const std::vector<Eigen::Vector3d>& controls) const override;
 
  private:
   std::vector<std::shared_ptr<const SearchHeuristic>> parts_;

@@ -1,0 +1,295 @@
+// The heuristic kind `lattice`: the exact cost to the goal of the control set's own lattice with
+// no obstacles, axis by axis (as hybrid A*'s "non-holonomic without obstacles" heuristic is the
+// exact cost of its car in free space), by max with time_optimal in whole primitives.
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstdint>
+#include <functional>
+#include <queue>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "kinolab/core/error.hpp"
+#include "kinolab/core/plugin.hpp"
+#include "kinolab/search/search_policies.hpp"
+#include "kinolab/world/world.hpp"
+
+namespace kinolab {
+namespace {
+
+/// Within this (in steps) a state's offset or velocity counts as a whole number of steps.
+constexpr double kOnLattice = 1e-6;
+
+/// One axis of an order-2 control set: every control's value on the axis is a whole multiple
+/// of `step`; `moves` are those multiples (each once).
+struct AxisControls {
+  double step = 1.0;
+  std::vector<int> moves;
+};
+
+/// The axis's values of `controls` as multiples of one step (the largest step that makes each a
+/// whole number, the smallest non-zero value over n for n = 1..64); throws InvalidArgument when
+/// there is none (e.g. a random control set).
+AxisControls axisControls(const std::vector<Eigen::Vector3d>& controls, int axis) {
+  double smallest = INFINITY;
+  for (const auto& control : controls) {
+    if (control[axis] != 0.0) smallest = std::min(smallest, std::abs(control[axis]));
+  }
+  AxisControls result;
+  if (!std::isfinite(smallest)) {  // no control moves along this axis
+    result.moves = {0};
+    return result;
+  }
+  for (int n = 1; n <= 64; ++n) {
+    const double step = smallest / n;
+    bool whole = true;
+    std::vector<int> moves;
+    for (const auto& control : controls) {
+      const double steps = control[axis] / step;
+      const double rounded = std::round(steps);
+      if (std::abs(steps - rounded) > kOnLattice) {
+        whole = false;
+        break;
+      }
+      moves.push_back(static_cast<int>(rounded));
+    }
+    if (!whole) continue;
+    std::sort(moves.begin(), moves.end());
+    moves.erase(std::unique(moves.begin(), moves.end()), moves.end());
+    result.step = step;
+    result.moves = std::move(moves);
+    return result;
+  }
+  throw InvalidArgument("heuristic lattice: the controls' " + std::string(1, "xyz"[axis]) +
+                        " values are not whole multiples of one step (the smallest non-zero "
+                        "one over 1..64): the lattice heuristic needs a control grid; use "
+                        "time_optimal with this control sampler");
+}
+
+/// What one axis's cost counts: a primitive's duration tau at w_T per second, and the axis's
+/// share w_U u^2 tau of the control effort; the goal interval [-R, R] (the goal ball's extent
+/// on the axis) and the velocity limit.
+struct AxisCosts {
+  double tau = 0.0;
+  double weight_duration = 0.0;
+  double weight_control = 0.0;
+  double goal_radius = 0.0;
+  double max_velocity = 0.0;
+};
+
+/// The least cost, from each state of one axis's lattice, of primitives that end with the
+/// axis's offset to the goal in [-R, R], with no obstacles: exact for the relaxed problem in
+/// which the axis moves alone (and every primitive costs w_T tau plus the axis's effort).
+///
+/// The lattice: with controls u = q m (m whole) and a velocity v = q tau j (j whole: a start at
+/// rest), a primitive moves the axis by v tau + u tau^2 / 2 = w (2 j + m), w = q tau^2 / 2, and
+/// ends at velocity q tau (j + m). So from a state whose offset to the goal is (c + phase) w,
+/// every state a search reaches has offset (c' + phase) w for whole c': the table holds one
+/// value per (c, j), for every offset within the world's extent (a state cannot leave the world,
+/// so neither can its axis), by a backward Dijkstra from the cells inside [-R, R]. The relaxed
+/// problem has every edge of the real one (the same move, at most its cost) and every goal
+/// state of it, so its exact cost is consistent and a lower bound.
+class AxisTable {
+ public:
+  AxisTable(const AxisControls& controls, const AxisCosts& costs, double phase, double extent)
+      : cell_(0.5 * controls.step * costs.tau * costs.tau),
+        unit_velocity_(controls.step * costs.tau),
+        phase_(phase) {
+    velocities_ = static_cast<int>(std::floor(costs.max_velocity / unit_velocity_ * (1.0 + 1e-9)));
+    const int width = 2 * velocities_ + 1;
+    first_cell_ = static_cast<long long>(std::floor(-extent / cell_ - phase_)) - 1;
+    cells_ = static_cast<long long>(std::ceil(extent / cell_ - phase_)) + 2 - first_cell_;
+    values_.assign(static_cast<std::size_t>(cells_ * width), INFINITY);
+    using Entry = std::pair<double, std::size_t>;
+    std::priority_queue<Entry, std::vector<Entry>, std::greater<>> open;
+    const double reach = costs.goal_radius * (1.0 + 1e-9) + 1e-12;
+    for (long long c = 0; c < cells_; ++c) {
+      if (std::abs((static_cast<double>(c + first_cell_) + phase_) * cell_) > reach) continue;
+      for (int j = 0; j < width; ++j) {
+        const auto node = static_cast<std::size_t>(c * width + j);
+        values_[node] = 0.0;
+        open.emplace(0.0, node);
+      }
+    }
+    std::vector<double> move_cost;
+    for (const int m : controls.moves) {
+      const double u = controls.step * m;
+      move_cost.push_back(costs.tau * (costs.weight_duration + costs.weight_control * u * u));
+    }
+    while (!open.empty()) {
+      const auto [value, node] = open.top();
+      open.pop();
+      if (value > values_[node]) continue;
+      const long long c_after = static_cast<long long>(node) / width;
+      const int j_after = static_cast<int>(node % width) - velocities_;
+      for (std::size_t k = 0; k < controls.moves.size(); ++k) {
+        const int m = controls.moves[k];
+        const int j = j_after - m;
+        if (j < -velocities_ || j > velocities_) continue;
+        const long long c = c_after - 2 * j - m;
+        if (c < 0 || c >= cells_) continue;
+        const auto before = static_cast<std::size_t>(c * width + (j + velocities_));
+        const double candidate = value + move_cost[k];
+        if (candidate < values_[before]) {
+          values_[before] = candidate;
+          open.emplace(candidate, before);
+        }
+      }
+    }
+  }
+
+  /// The value at the axis's offset to the goal and velocity; NaN when they are not on this
+  /// table's lattice (or outside it).
+  double value(double offset, double velocity) const {
+    const double cell = offset / cell_ - phase_;
+    const double step = velocity / unit_velocity_;
+    const double c = std::round(cell);
+    const double j = std::round(step);
+    if (!(std::abs(cell - c) <= kOnLattice * std::max(1.0, std::abs(c)) &&
+          std::abs(step - j) <= kOnLattice * std::max(1.0, std::abs(j)))) {
+      return NAN;
+    }
+    const double row = c - static_cast<double>(first_cell_);
+    if (row < 0.0 || row >= static_cast<double>(cells_) || std::abs(j) > velocities_) return NAN;
+    return values_[static_cast<std::size_t>(row) * (2 * velocities_ + 1) +
+                   static_cast<std::size_t>(j + velocities_)];
+  }
+
+  /// The phase of the lattice through a state at `offset`: offset / w less its floor.
+  static double phaseOf(const AxisControls& controls, const AxisCosts& costs, double offset) {
+    const double cells = offset / (0.5 * controls.step * costs.tau * costs.tau);
+    return cells - std::floor(cells);
+  }
+
+ private:
+  double cell_;
+  double unit_velocity_;
+  double phase_;
+  int velocities_ = 0;          ///< |j| at most this (the velocity limit)
+  long long first_cell_ = 0;    ///< c of the table's first row
+  long long cells_ = 0;         ///< rows
+  std::vector<double> values_;  ///< per (c, j), j fastest; +infinity: the goal is out of reach
+};
+
+/// One query's heuristic: max over the axes of their table's value (plus w_L times the distance
+/// to the goal ball), by max with time_optimal in whole primitives. The tables are made at the
+/// first estimate, on the lattice through that state (the start): when its velocity is not a
+/// whole number of velocity steps (a moving start, as a flight's replan has), the query keeps
+/// time_optimal alone. (Not safe to call from several threads at once.)
+class LatticeQueryHeuristic final : public SearchHeuristic {
+ public:
+  LatticeQueryHeuristic(std::shared_ptr<const SearchHeuristic> fallback,
+                        std::array<AxisControls, 3> axes, std::array<AxisCosts, 3> costs,
+                        double weight_length, Eigen::Vector3d extent)
+      : fallback_(std::move(fallback)),
+        axes_(std::move(axes)),
+        costs_(costs),
+        weight_length_(weight_length),
+        extent_(extent) {}
+
+  double estimate(const ChainState& state, const Eigen::Vector3d& goal) const override {
+    const double base = fallback_->estimate(state, goal);
+    if (!prepared_) prepare(state, goal);
+    if (tables_.empty()) return base;
+    double best = 0.0;
+    for (int axis = 0; axis < 3; ++axis) {
+      const double value = tables_[axis].value(state(axis, 0) - goal[axis], state(axis, 1));
+      // Off the start's lattice (no state a search of these controls reaches): time_optimal.
+      if (std::isnan(value)) return base;
+      best = std::max(best, value);
+    }
+    const double distance = std::max((state.col(0) - goal).norm() - costs_[0].goal_radius, 0.0);
+    return std::max(base, best + weight_length_ * distance);
+  }
+
+ private:
+  void prepare(const ChainState& state, const Eigen::Vector3d& goal) const {
+    prepared_ = true;
+    for (int axis = 0; axis < 3; ++axis) {
+      const double steps = state(axis, 1) / (axes_[axis].step * costs_[axis].tau);
+      if (std::abs(steps - std::round(steps)) > kOnLattice) return;  // a moving start
+    }
+    for (int axis = 0; axis < 3; ++axis) {
+      const double phase =
+          AxisTable::phaseOf(axes_[axis], costs_[axis], state(axis, 0) - goal[axis]);
+      tables_.emplace_back(axes_[axis], costs_[axis], phase, extent_[axis]);
+    }
+  }
+
+  std::shared_ptr<const SearchHeuristic> fallback_;
+  std::array<AxisControls, 3> axes_;
+  std::array<AxisCosts, 3> costs_;
+  double weight_length_;
+  Eigen::Vector3d extent_;
+  mutable bool prepared_ = false;
+  mutable std::vector<AxisTable> tables_;  ///< none: time_optimal alone
+};
+
+/// The registered heuristic: time_optimal in whole primitives until the controls and then a
+/// query are known.
+class LatticeHeuristic final : public SearchHeuristic {
+ public:
+  LatticeHeuristic(const HeuristicContext& context, std::vector<AxisControls> axes = {})
+      : context_(context),
+        axes_(std::move(axes)),
+        time_optimal_(
+            std::make_shared<TimeOptimalHeuristic>(context.edges, context.goal_radius, true)) {}
+
+  double estimate(const ChainState& state, const Eigen::Vector3d& goal) const override {
+    return time_optimal_->estimate(state, goal);
+  }
+
+  std::shared_ptr<const SearchHeuristic> forControls(
+      const std::vector<Eigen::Vector3d>& controls) const override {
+    std::vector<AxisControls> axes;
+    for (int axis = 0; axis < 3; ++axis) axes.push_back(axisControls(controls, axis));
+    return std::make_shared<LatticeHeuristic>(context_, std::move(axes));
+  }
+
+  std::shared_ptr<const SearchHeuristic> forQuery(const World& world,
+                                                  const Eigen::Vector3d& /*goal*/,
+                                                  StopCondition& /*stop*/) const override {
+    if (axes_.empty()) return nullptr;  // no controls yet: time_optimal
+    const EdgeEvaluatorSettings& edges = context_.edges;
+    std::array<AxisCosts, 3> costs;
+    for (int axis = 0; axis < 3; ++axis) {
+      costs[axis] = {edges.duration, edges.weights.duration, edges.weights.control_effort,
+                     context_.goal_radius, edges.limits.bound[1][axis]};
+    }
+    return std::make_shared<LatticeQueryHeuristic>(
+        time_optimal_, std::array<AxisControls, 3>{axes_[0], axes_[1], axes_[2]}, costs,
+        edges.weights.length, world.bounds().size());
+  }
+
+ private:
+  HeuristicContext context_;
+  std::vector<AxisControls> axes_;  ///< per axis, once the controls are known
+  std::shared_ptr<const TimeOptimalHeuristic> time_optimal_;
+};
+
+void registerBuiltins() {
+  PluginRegistrar registrar("built-in (framework)");
+  registrar.add<HeuristicBuilder>(
+      "lattice",
+      "the exact cost to the goal of the control grid's lattice with no obstacles, axis by axis "
+      "(time and the axis's control effort; the largest axis), by max with time_optimal in "
+      "whole primitives; order 2, starts on the lattice (at rest)",
+      ParameterSpecs(), [](const ParameterSet&) {
+        return std::make_unique<HeuristicBuilder>([](const HeuristicContext& context) {
+          if (context.edges.order != 2) {
+            throw ParameterConflict("heuristic",
+                                    "lattice needs order 2 (acceleration control), got order " +
+                                        std::to_string(context.edges.order) + "; use time_optimal");
+          }
+          return std::make_shared<LatticeHeuristic>(context);
+        });
+      });
+  registrar.commit();
+}
+
+[[maybe_unused]] const bool builtins_registered = (registerBuiltins(), true);
+
+}  // namespace
+}  // namespace kinolab
