@@ -6,6 +6,7 @@
 #include <cmath>
 #include <cstdint>
 #include <functional>
+#include <limits>
 #include <queue>
 #include <string>
 #include <utility>
@@ -79,83 +80,128 @@ struct AxisCosts {
   double max_velocity = 0.0;
 };
 
-/// The least cost, from each state of one axis's lattice, of primitives that end with the
-/// axis's offset to the goal in [-R, R], with no obstacles: exact for the relaxed problem in
-/// which the axis moves alone (and every primitive costs w_T tau plus the axis's effort).
+/// One axis's lattice, with no obstacles: for every state and every number N of primitives up
+/// to a horizon, the least control effort of the axis (w_U u^2 tau a primitive) over exactly N
+/// primitives that end with the axis's offset to the goal in [-R, R], within its velocity limit.
 ///
 /// The lattice: with controls u = q m (m whole) and a velocity v = q tau j (j whole: a start at
 /// rest), a primitive moves the axis by v tau + u tau^2 / 2 = w (2 j + m), w = q tau^2 / 2, and
 /// ends at velocity q tau (j + m). So from a state whose offset to the goal is (c + phase) w,
-/// every state a search reaches has offset (c' + phase) w for whole c': the table holds one
-/// value per (c, j), for every offset within the world's extent (a state cannot leave the world,
-/// so neither can its axis), by a backward Dijkstra from the cells inside [-R, R]. The relaxed
-/// problem has every edge of the real one (the same move, at most its cost) and every goal
-/// state of it, so its exact cost is consistent and a lower bound.
+/// every state a search reaches has offset (c' + phase) w for whole c': the table holds one row
+/// per (c, j), for every offset within the world's extent (a state cannot leave the world, so
+/// neither can its axis), filled N by N from the cells inside [-R, R] (N = 0).
 class AxisTable {
  public:
-  AxisTable(const AxisControls& controls, const AxisCosts& costs, double phase, double extent)
+  AxisTable(const AxisControls& controls, const AxisCosts& costs, double phase, double extent,
+            int horizon)
       : cell_(0.5 * controls.step * costs.tau * costs.tau),
         unit_velocity_(controls.step * costs.tau),
-        phase_(phase) {
+        phase_(phase),
+        horizon_(horizon) {
     velocities_ = static_cast<int>(std::floor(costs.max_velocity / unit_velocity_ * (1.0 + 1e-9)));
-    const int width = 2 * velocities_ + 1;
+    width_ = 2 * velocities_ + 1;
     first_cell_ = static_cast<long long>(std::floor(-extent / cell_ - phase_)) - 1;
     cells_ = static_cast<long long>(std::ceil(extent / cell_ - phase_)) + 2 - first_cell_;
-    values_.assign(static_cast<std::size_t>(cells_ * width), INFINITY);
-    using Entry = std::pair<double, std::size_t>;
-    std::priority_queue<Entry, std::vector<Entry>, std::greater<>> open;
+    const auto states = static_cast<std::size_t>(cells_ * width_);
+    effort_.assign(states * static_cast<std::size_t>(horizon_ + 1), INFINITY);
+    first_.assign(states, kNever);
     const double reach = costs.goal_radius * (1.0 + 1e-9) + 1e-12;
     for (long long c = 0; c < cells_; ++c) {
       if (std::abs((static_cast<double>(c + first_cell_) + phase_) * cell_) > reach) continue;
-      for (int j = 0; j < width; ++j) {
-        const auto node = static_cast<std::size_t>(c * width + j);
-        values_[node] = 0.0;
-        open.emplace(0.0, node);
+      for (int j = 0; j < width_; ++j) {
+        effort_[static_cast<std::size_t>(c * width_ + j)] = 0.0;
+        first_[static_cast<std::size_t>(c * width_ + j)] = 0;
       }
     }
-    std::vector<double> move_cost;
+    std::vector<double> move_effort;
     for (const int m : controls.moves) {
       const double u = controls.step * m;
-      move_cost.push_back(costs.tau * (costs.weight_duration + costs.weight_control * u * u));
+      move_effort.push_back(costs.weight_control * u * u * costs.tau);
     }
+    // The least cost in any number of primitives, time included (a backward Dijkstra from
+    // the goal interval): +infinity where the axis never meets it.
+    alone_.assign(states, INFINITY);
+    using Entry = std::pair<double, std::size_t>;
+    std::priority_queue<Entry, std::vector<Entry>, std::greater<>> open;
+    for (std::size_t state = 0; state < states; ++state) {
+      if (first_[state] != 0) continue;
+      alone_[state] = 0.0;
+      open.emplace(0.0, state);
+    }
+    const double step_cost = costs.weight_duration * costs.tau;
     while (!open.empty()) {
-      const auto [value, node] = open.top();
+      const auto [value, state] = open.top();
       open.pop();
-      if (value > values_[node]) continue;
-      const long long c_after = static_cast<long long>(node) / width;
-      const int j_after = static_cast<int>(node % width) - velocities_;
+      if (value > alone_[state]) continue;
+      const auto c_after = static_cast<long long>(state) / width_;
+      const int j_after = static_cast<int>(static_cast<long long>(state) % width_) - velocities_;
       for (std::size_t k = 0; k < controls.moves.size(); ++k) {
         const int m = controls.moves[k];
         const int j = j_after - m;
-        if (j < -velocities_ || j > velocities_) continue;
         const long long c = c_after - 2 * j - m;
-        if (c < 0 || c >= cells_) continue;
-        const auto before = static_cast<std::size_t>(c * width + (j + velocities_));
-        const double candidate = value + move_cost[k];
-        if (candidate < values_[before]) {
-          values_[before] = candidate;
+        if (j < -velocities_ || j > velocities_ || c < 0 || c >= cells_) continue;
+        const auto before = static_cast<std::size_t>(c * width_ + j + velocities_);
+        const double candidate = value + step_cost + move_effort[k];
+        if (candidate < alone_[before]) {
+          alone_[before] = candidate;
           open.emplace(candidate, before);
+        }
+      }
+    }
+    for (int n = 1; n <= horizon_; ++n) {
+      const double* before = &effort_[(n - 1) * states];
+      double* now = &effort_[n * states];
+      for (long long c = 0; c < cells_; ++c) {
+        for (int j = -velocities_; j <= velocities_; ++j) {
+          double best = INFINITY;
+          for (std::size_t k = 0; k < controls.moves.size(); ++k) {
+            const int m = controls.moves[k];
+            const int j_after = j + m;
+            const long long c_after = c + 2 * j + m;
+            if (j_after < -velocities_ || j_after > velocities_ || c_after < 0 ||
+                c_after >= cells_) {
+              continue;
+            }
+            best =
+                std::min(best, move_effort[k] + before[c_after * width_ + j_after + velocities_]);
+          }
+          const auto state = static_cast<std::size_t>(c * width_ + j + velocities_);
+          now[state] = best;
+          if (best < INFINITY && first_[state] == kNever) first_[state] = n;
         }
       }
     }
   }
 
-  /// The value at the axis's offset to the goal and velocity; NaN when they are not on this
-  /// table's lattice (or outside it).
-  double value(double offset, double velocity) const {
+  static constexpr int kNever = std::numeric_limits<int>::max();
+
+  /// The row of the state at the axis's offset to the goal and velocity; -1 when they are not
+  /// on this table's lattice (or outside it).
+  long long row(double offset, double velocity) const {
     const double cell = offset / cell_ - phase_;
     const double step = velocity / unit_velocity_;
     const double c = std::round(cell);
     const double j = std::round(step);
     if (!(std::abs(cell - c) <= kOnLattice * std::max(1.0, std::abs(c)) &&
           std::abs(step - j) <= kOnLattice * std::max(1.0, std::abs(j)))) {
-      return NAN;
+      return -1;
     }
-    const double row = c - static_cast<double>(first_cell_);
-    if (row < 0.0 || row >= static_cast<double>(cells_) || std::abs(j) > velocities_) return NAN;
-    return values_[static_cast<std::size_t>(row) * (2 * velocities_ + 1) +
-                   static_cast<std::size_t>(j + velocities_)];
+    const double r = c - static_cast<double>(first_cell_);
+    if (r < 0.0 || r >= static_cast<double>(cells_) || std::abs(j) > velocities_) return -1;
+    return static_cast<long long>(r) * width_ + static_cast<long long>(j) + velocities_;
   }
+  /// The least number of primitives (up to the horizon) that brings the row's state to the
+  /// goal interval; kNever when none does.
+  int first(long long row) const { return first_[static_cast<std::size_t>(row)]; }
+  /// The least effort of exactly n primitives (n <= horizon) from the row's state.
+  double effort(int n, long long row) const {
+    return effort_[static_cast<std::size_t>(n) * static_cast<std::size_t>(cells_ * width_) +
+                   static_cast<std::size_t>(row)];
+  }
+  int horizon() const { return horizon_; }
+  /// The least cost of any number of primitives, w_T tau each plus the axis's effort, from the
+  /// row's state: the axis's cost moving alone (+infinity: it never meets the goal interval).
+  double alone(long long row) const { return alone_[static_cast<std::size_t>(row)]; }
 
   /// The phase of the lattice through a state at `offset`: offset / w less its floor.
   static double phaseOf(const AxisControls& controls, const AxisCosts& costs, double offset) {
@@ -167,17 +213,28 @@ class AxisTable {
   double cell_;
   double unit_velocity_;
   double phase_;
+  int horizon_;
   int velocities_ = 0;          ///< |j| at most this (the velocity limit)
+  int width_ = 1;               ///< 2 velocities_ + 1
   long long first_cell_ = 0;    ///< c of the table's first row
-  long long cells_ = 0;         ///< rows
-  std::vector<double> values_;  ///< per (c, j), j fastest; +infinity: the goal is out of reach
+  long long cells_ = 0;         ///< cells
+  std::vector<double> effort_;  ///< per n, per (c, j), j fastest; +infinity: not in n
+  std::vector<int> first_;      ///< per (c, j): the least n with a finite effort
+  std::vector<double> alone_;   ///< per (c, j): alone()
 };
 
-/// One query's heuristic: max over the axes of their table's value (plus w_L times the distance
-/// to the goal ball), by max with time_optimal in whole primitives. The tables are made at the
-/// first estimate, on the lattice through that state (the start): when its velocity is not a
-/// whole number of velocity steps (a moving start, as a flight's replan has), the query keeps
-/// time_optimal alone. (Not safe to call from several threads at once.)
+/// One query's heuristic: the exact cost, with no obstacles, of the axes moving together on the
+/// lattice, min over N of N w_T tau + sum_i E_i(N) (E_i the axis's least effort in exactly N
+/// primitives; every axis must be in its goal interval at the same primitive), at most
+/// (H + 1) w_T tau beyond the tables' horizon H; at least the largest axis's cost moving alone
+/// (+infinity when an axis never meets its goal interval); plus w_L times the distance to the
+/// goal ball; by max with time_optimal in whole primitives. Consistent: an edge of cost c from s
+/// to s' has every axis's effort e_i, so the N-primitive sum at s is at most c plus the
+/// (N - 1)-primitive one at s' (and a value capped at (H + 1) w_T tau, or reached at N = H,
+/// is at most w_T tau more than the cap or H w_T tau at s'). The tables are made at the first
+/// estimate, on the lattice through that state (the start): when its velocity is not a whole number
+/// of velocity steps (a moving start, as a flight's replan has), the query keeps time_optimal
+/// alone. (Not safe to call from several threads at once.)
 class LatticeQueryHeuristic final : public SearchHeuristic {
  public:
   LatticeQueryHeuristic(std::shared_ptr<const SearchHeuristic> fallback,
@@ -193,13 +250,26 @@ class LatticeQueryHeuristic final : public SearchHeuristic {
     const double base = fallback_->estimate(state, goal);
     if (!prepared_) prepare(state, goal);
     if (tables_.empty()) return base;
-    double best = 0.0;
+    std::array<long long, 3> rows{};
+    int first = 0;
+    double alone = 0.0;
     for (int axis = 0; axis < 3; ++axis) {
-      const double value = tables_[axis].value(state(axis, 0) - goal[axis], state(axis, 1));
+      rows[axis] = tables_[axis].row(state(axis, 0) - goal[axis], state(axis, 1));
       // Off the start's lattice (no state a search of these controls reaches): time_optimal.
-      if (std::isnan(value)) return base;
-      best = std::max(best, value);
+      if (rows[axis] < 0) return base;
+      first = std::max(first, tables_[axis].first(rows[axis]));
+      alone = std::max(alone, tables_[axis].alone(rows[axis]));
     }
+    if (alone == INFINITY) return INFINITY;  // an axis never meets its goal interval
+    const double step = costs_[0].weight_duration * costs_[0].tau;
+    const int horizon = tables_[0].horizon();
+    double best = (horizon + 1) * step;  // more primitives than the tables hold
+    for (int n = first; n <= horizon && n * step < best; ++n) {
+      double cost = n * step;
+      for (int axis = 0; axis < 3; ++axis) cost += tables_[axis].effort(n, rows[axis]);
+      best = std::min(best, cost);
+    }
+    best = std::max(best, alone);
     const double distance = std::max((state.col(0) - goal).norm() - costs_[0].goal_radius, 0.0);
     return std::max(base, best + weight_length_ * distance);
   }
@@ -211,10 +281,17 @@ class LatticeQueryHeuristic final : public SearchHeuristic {
       const double steps = state(axis, 1) / (axes_[axis].step * costs_[axis].tau);
       if (std::abs(steps - std::round(steps)) > kOnLattice) return;  // a moving start
     }
+    // Room for twice the primitives the farthest axis needs at full speed, and some.
+    double primitives = 0.0;
+    for (int axis = 0; axis < 3; ++axis) {
+      primitives = std::max(primitives, std::abs(state(axis, 0) - goal[axis]) /
+                                            (costs_[axis].max_velocity * costs_[axis].tau));
+    }
+    const int horizon = static_cast<int>(std::min(2.0 * std::ceil(primitives) + 16.0, 4096.0));
     for (int axis = 0; axis < 3; ++axis) {
       const double phase =
           AxisTable::phaseOf(axes_[axis], costs_[axis], state(axis, 0) - goal[axis]);
-      tables_.emplace_back(axes_[axis], costs_[axis], phase, extent_[axis]);
+      tables_.emplace_back(axes_[axis], costs_[axis], phase, extent_[axis], horizon);
     }
   }
 
