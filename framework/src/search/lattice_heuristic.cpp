@@ -239,12 +239,13 @@ class LatticeQueryHeuristic final : public SearchHeuristic {
  public:
   LatticeQueryHeuristic(std::shared_ptr<const SearchHeuristic> fallback,
                         std::array<AxisControls, 3> axes, std::array<AxisCosts, 3> costs,
-                        double weight_length, Eigen::Vector3d extent)
+                        double weight_length, Eigen::Vector3d extent, int horizon)
       : fallback_(std::move(fallback)),
         axes_(std::move(axes)),
         costs_(costs),
         weight_length_(weight_length),
-        extent_(extent) {}
+        extent_(extent),
+        horizon_(horizon) {}
 
   double estimate(const ChainState& state, const Eigen::Vector3d& goal) const override {
     const double base = fallback_->estimate(state, goal);
@@ -281,13 +282,17 @@ class LatticeQueryHeuristic final : public SearchHeuristic {
       const double steps = state(axis, 1) / (axes_[axis].step * costs_[axis].tau);
       if (std::abs(steps - std::round(steps)) > kOnLattice) return;  // a moving start
     }
-    // Room for twice the primitives the farthest axis needs at full speed, and some.
-    double primitives = 0.0;
-    for (int axis = 0; axis < 3; ++axis) {
-      primitives = std::max(primitives, std::abs(state(axis, 0) - goal[axis]) /
-                                            (costs_[axis].max_velocity * costs_[axis].tau));
+    // Room for twice the primitives the farthest axis needs at full speed, and some (unless
+    // set).
+    int horizon = horizon_;
+    if (horizon == 0) {
+      double primitives = 0.0;
+      for (int axis = 0; axis < 3; ++axis) {
+        primitives = std::max(primitives, std::abs(state(axis, 0) - goal[axis]) /
+                                              (costs_[axis].max_velocity * costs_[axis].tau));
+      }
+      horizon = static_cast<int>(std::min(2.0 * std::ceil(primitives) + 16.0, 4096.0));
     }
-    const int horizon = static_cast<int>(std::min(2.0 * std::ceil(primitives) + 16.0, 4096.0));
     for (int axis = 0; axis < 3; ++axis) {
       const double phase =
           AxisTable::phaseOf(axes_[axis], costs_[axis], state(axis, 0) - goal[axis]);
@@ -300,6 +305,7 @@ class LatticeQueryHeuristic final : public SearchHeuristic {
   std::array<AxisCosts, 3> costs_;
   double weight_length_;
   Eigen::Vector3d extent_;
+  int horizon_;  ///< primitives the tables hold (0: from the start's distance)
   mutable bool prepared_ = false;
   mutable std::vector<AxisTable> tables_;  ///< none: time_optimal alone
 };
@@ -308,8 +314,10 @@ class LatticeQueryHeuristic final : public SearchHeuristic {
 /// query are known.
 class LatticeHeuristic final : public SearchHeuristic {
  public:
-  LatticeHeuristic(const HeuristicContext& context, std::vector<AxisControls> axes = {})
+  LatticeHeuristic(const HeuristicContext& context, int horizon,
+                   std::vector<AxisControls> axes = {})
       : context_(context),
+        horizon_(horizon),
         axes_(std::move(axes)),
         time_optimal_(
             std::make_shared<TimeOptimalHeuristic>(context.edges, context.goal_radius, true)) {}
@@ -322,7 +330,7 @@ class LatticeHeuristic final : public SearchHeuristic {
       const std::vector<Eigen::Vector3d>& controls) const override {
     std::vector<AxisControls> axes;
     for (int axis = 0; axis < 3; ++axis) axes.push_back(axisControls(controls, axis));
-    return std::make_shared<LatticeHeuristic>(context_, std::move(axes));
+    return std::make_shared<LatticeHeuristic>(context_, horizon_, std::move(axes));
   }
 
   std::shared_ptr<const SearchHeuristic> forQuery(const World& world,
@@ -337,11 +345,12 @@ class LatticeHeuristic final : public SearchHeuristic {
     }
     return std::make_shared<LatticeQueryHeuristic>(
         time_optimal_, std::array<AxisControls, 3>{axes_[0], axes_[1], axes_[2]}, costs,
-        edges.weights.length, world.bounds().size());
+        edges.weights.length, world.bounds().size(), horizon_);
   }
 
  private:
   HeuristicContext context_;
+  int horizon_;
   std::vector<AxisControls> axes_;  ///< per axis, once the controls are known
   std::shared_ptr<const TimeOptimalHeuristic> time_optimal_;
 };
@@ -350,17 +359,23 @@ void registerBuiltins() {
   PluginRegistrar registrar("built-in (framework)");
   registrar.add<HeuristicBuilder>(
       "lattice",
-      "the exact cost to the goal of the control grid's lattice with no obstacles, axis by axis "
-      "(time and the axis's control effort; the largest axis), by max with time_optimal in "
-      "whole primitives; order 2, starts on the lattice (at rest)",
-      ParameterSpecs(), [](const ParameterSet&) {
-        return std::make_unique<HeuristicBuilder>([](const HeuristicContext& context) {
+      "the exact cost to the goal of the control grid's lattice with no obstacles (time and "
+      "control effort, the axes moving together to the goal's cube), by max with time_optimal "
+      "in whole primitives; order 2, starts on the lattice (at rest)",
+      ParameterSpecs().integer(
+          "horizon", 0, 0, 100000,
+          "primitives the per-query tables hold (memory: that times the lattice's cells and "
+          "velocities, 8 bytes each); beyond it the bound is (horizon + 1) w_T tau; 0: twice "
+          "the start's primitives at full speed, plus 16"),
+      [](const ParameterSet& p) {
+        const int horizon = static_cast<int>(p.integer("horizon"));
+        return std::make_unique<HeuristicBuilder>([horizon](const HeuristicContext& context) {
           if (context.edges.order != 2) {
             throw ParameterConflict("heuristic",
                                     "lattice needs order 2 (acceleration control), got order " +
                                         std::to_string(context.edges.order) + "; use time_optimal");
           }
-          return std::make_shared<LatticeHeuristic>(context);
+          return std::make_shared<LatticeHeuristic>(context, horizon);
         });
       });
   registrar.commit();
