@@ -880,6 +880,26 @@ TEST(LatticeHeuristic, IsTheOptimalCostInFreeSpace) {
   }
 }
 
+TEST(LatticeHeuristic, ALatticeTooFineForItsTablesKeepsTimeOptimal) {
+  // tau 0.01 s and 64 controls per axis: a lattice step of 5 micrometres and 4,000 velocities
+  // an axis, 10^10 states in a 12 m world: past the tables' budget, the query is time_optimal
+  // in whole primitives (no tables are made).
+  EdgeEvaluatorSettings edges;
+  edges.duration = 0.01;
+  std::vector<double> values;
+  for (int k = 0; k < 64; ++k) values.push_back(-1.0 + 2.0 * k / 63.0);
+  const auto controls = controlGrid(values, Eigen::Vector3d(3, 3, 3));
+  const auto world = test::smallWorld("empty");
+  ChainState start = ChainState::Zero();
+  start.col(0) = Eigen::Vector3d(1.0, 1.7, 1.0);
+  const Eigen::Vector3d goal(9.0, 8.0, 2.0);
+  StopCondition stop(Budget{});
+  const auto lattice = heuristicForQuery(
+      heuristicForControls(heuristicFor("lattice", edges, 0.5), controls), *world, goal, stop);
+  const TimeOptimalHeuristic whole(edges, 0.5, true);
+  EXPECT_EQ(lattice->estimate(start, goal), whole.estimate(start, goal));
+}
+
 TEST(LatticeHeuristic, RefusesControlsOffAGridAndOrdersAboveTwo) {
   test::loadTestPlugins();
   const auto heuristic =

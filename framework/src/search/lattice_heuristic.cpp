@@ -22,6 +22,8 @@ namespace {
 
 /// Within this (in steps) a state's offset or velocity counts as a whole number of steps.
 constexpr double kOnLattice = 1e-6;
+/// At most this many table entries a query (8 bytes each: 256 MiB).
+constexpr double kMaxEntries = 1 << 25;
 
 /// One axis of an order-2 control set: every control's value on the axis is a whole multiple
 /// of `step`; `moves` are those multiples (each once).
@@ -203,6 +205,15 @@ class AxisTable {
   /// row's state: the axis's cost moving alone (+infinity: it never meets the goal interval).
   double alone(long long row) const { return alone_[static_cast<std::size_t>(row)]; }
 
+  /// About the rows (states) of the table of an axis of `extent` (at least the constructor's,
+  /// less one cell): what a query's tables are budgeted by.
+  static double rows(const AxisControls& controls, const AxisCosts& costs, double extent) {
+    const double cell = 0.5 * controls.step * costs.tau * costs.tau;
+    const double velocities =
+        std::floor(costs.max_velocity / (controls.step * costs.tau) * (1.0 + 1e-9));
+    return (2.0 * std::ceil(extent / cell) + 4.0) * (2.0 * velocities + 1.0);
+  }
+
   /// The phase of the lattice through a state at `offset`: offset / w less its floor.
   static double phaseOf(const AxisControls& controls, const AxisCosts& costs, double offset) {
     const double cells = offset / (0.5 * controls.step * costs.tau * costs.tau);
@@ -283,20 +294,27 @@ class LatticeQueryHeuristic final : public SearchHeuristic {
       if (std::abs(steps - std::round(steps)) > kOnLattice) return;  // a moving start
     }
     // Room for twice the primitives the farthest axis needs at full speed, and some (unless
-    // set).
-    int horizon = horizon_;
+    // set), within kMaxEntries; a lattice too fine for even one primitive keeps time_optimal.
+    double horizon = horizon_;
     if (horizon == 0) {
       double primitives = 0.0;
       for (int axis = 0; axis < 3; ++axis) {
         primitives = std::max(primitives, std::abs(state(axis, 0) - goal[axis]) /
                                               (costs_[axis].max_velocity * costs_[axis].tau));
       }
-      horizon = static_cast<int>(std::min(2.0 * std::ceil(primitives) + 16.0, 4096.0));
+      horizon = 2.0 * std::ceil(primitives) + 16.0;
     }
+    double rows = 0.0;
+    for (int axis = 0; axis < 3; ++axis) {
+      rows += AxisTable::rows(axes_[axis], costs_[axis], extent_[axis]);
+    }
+    horizon = std::min(horizon, std::floor(kMaxEntries / rows) - 2.0);
+    if (!(horizon >= 1.0)) return;
     for (int axis = 0; axis < 3; ++axis) {
       const double phase =
           AxisTable::phaseOf(axes_[axis], costs_[axis], state(axis, 0) - goal[axis]);
-      tables_.emplace_back(axes_[axis], costs_[axis], phase, extent_[axis], horizon);
+      tables_.emplace_back(axes_[axis], costs_[axis], phase, extent_[axis],
+                           static_cast<int>(horizon));
     }
   }
 
@@ -365,8 +383,8 @@ void registerBuiltins() {
       ParameterSpecs().integer(
           "horizon", 0, 0, 100000,
           "primitives the per-query tables hold (memory: that times the lattice's cells and "
-          "velocities, 8 bytes each); beyond it the bound is (horizon + 1) w_T tau; 0: twice "
-          "the start's primitives at full speed, plus 16"),
+          "velocities, 8 bytes each, at most 256 MiB); beyond it the bound is (horizon + 1) "
+          "w_T tau; 0: twice the start's primitives at full speed, plus 16"),
       [](const ParameterSet& p) {
         const int horizon = static_cast<int>(p.integer("horizon"));
         return std::make_unique<HeuristicBuilder>([horizon](const HeuristicContext& context) {
