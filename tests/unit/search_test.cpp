@@ -912,6 +912,15 @@ TEST(LatticeHeuristic, RefusesControlsOffAGridAndOrdersAboveTwo) {
               std::string::npos)
         << error.what();
   }
+  // Named where the configuration is read: the random sampler's set is no grid.
+  try {
+    configurePlanner("lazy_mp_astar", test::assignments({"sampler=random", "heuristic=lattice"}));
+    FAIL() << "no error";
+  } catch (const ConfigError& error) {
+    EXPECT_NE(std::string(error.what()).find("parameter 'heuristic': lattice needs a control grid"),
+              std::string::npos)
+        << error.what();
+  }
   try {
     configurePlanner("lazy_mp_astar", test::assignments({"order=3", "heuristic=lattice"}));
     FAIL() << "no error";

@@ -65,10 +65,9 @@ AxisControls axisControls(const std::vector<Eigen::Vector3d>& controls, int axis
     result.moves = std::move(moves);
     return result;
   }
-  throw InvalidArgument("heuristic lattice: the controls' " + std::string(1, "xyz"[axis]) +
-                        " values are not whole multiples of one step (the smallest non-zero "
-                        "one over 1..64): the lattice heuristic needs a control grid; use "
-                        "time_optimal with this control sampler");
+  throw InvalidArgument(std::string("lattice needs a control grid: the controls' ") + "xyz"[axis] +
+                        " values are not whole multiples of one step, as a uniform sampler's "
+                        "are; use time_optimal with this control set");
 }
 
 /// What one axis's cost counts: a primitive's duration tau at w_T per second, and the axis's

@@ -188,10 +188,20 @@ void MotionPrimitivePlanner::doSetup(const PlannerContext& context) {
 
 void MotionPrimitivePlanner::doCheck(const ControlSampler* sampler) const {
   const EdgeEvaluatorSettings& edges = config_.settings.edges;
-  if (!config_.controls.empty()) {
-    requireAMovingControl(config_.controls, edges);
-  } else if (sampler) {
-    requireAMovingControl(sampler->sample(edges.limits.bound[edges.order], 1), edges);
+  const std::vector<Eigen::Vector3d> controls =
+      !config_.controls.empty() ? config_.controls
+                                : (sampler ? sampler->sample(edges.limits.bound[edges.order], 1)
+                                           : std::vector<Eigen::Vector3d>());
+  if (controls.empty()) return;
+  requireAMovingControl(controls, edges);
+  // A heuristic that reads the control set (`lattice`) refuses one it cannot serve here, where
+  // the configuration names the heuristic, not when a worker sets the planner up.
+  try {
+    heuristicForControls(config_.policies.heuristic, controls);
+  } catch (const ParameterConflict&) {
+    throw;
+  } catch (const InvalidArgument& error) {
+    throw ParameterConflict("heuristic", error.what(), {"sampler"});
   }
 }
 
