@@ -789,24 +789,23 @@ TEST(GeodesicHeuristic, AnEnclosedGoalEndsTheSearchAtItsStart) {
   }
 }
 
-TEST(GeodesicHeuristic, LazyAndEagerReturnTimeOptimalsCostsWithFewerExpansions) {
-  // The same optimal costs as the default heuristic on every query (lazy = eager), and fewer
-  // expansions in all: the estimate is at least time_optimal's everywhere (so only ties can
-  // make one query expand more).
+/// Eager and lazy MP-A* with `heuristic` return the default heuristic's optimal cost on every
+/// query of the small walls and forest worlds (lazy = eager), with fewer expansions in all.
+void expectTimeOptimalsCostsWithFewerExpansions(const std::string& heuristic) {
   test::loadTestPlugins();
   for (const std::string kind : {"walls", "forest"}) {
     const auto world = test::smallWorld(kind);
     const auto queries = test::randomQueries(*world, 6, 8, 3.0, 9.0, 0.6);
-    const auto planner = [&](const std::string& type, const std::string& heuristic) {
-      ConfiguredPlanner configured = configurePlanner(
-          type, test::assignments({"sampler.samples_per_axis=3", "time_limit=0",
-                                   "max_expansions=200000", "heuristic=" + heuristic}));
+    const auto planner = [&](const std::string& type, const std::string& name) {
+      ConfiguredPlanner configured =
+          configurePlanner(type, test::assignments({"sampler.samples_per_axis=3", "time_limit=0",
+                                                    "max_expansions=200000", "heuristic=" + name}));
       configured.planner->setup({world, configured.sampler, 1});
       return configured;
     };
     ConfiguredPlanner reference = planner("eager_mp_astar", "time_optimal");
-    ConfiguredPlanner eager = planner("eager_mp_astar", "geodesic");
-    ConfiguredPlanner lazy = planner("lazy_mp_astar", "geodesic");
+    ConfiguredPlanner eager = planner("eager_mp_astar", heuristic);
+    ConfiguredPlanner lazy = planner("lazy_mp_astar", heuristic);
     double before = 0.0;
     double after = 0.0;
     int solved = 0;
@@ -829,6 +828,12 @@ TEST(GeodesicHeuristic, LazyAndEagerReturnTimeOptimalsCostsWithFewerExpansions) 
     EXPECT_GE(solved, 4) << kind;
     EXPECT_LT(after, before) << kind;
   }
+}
+
+TEST(GeodesicHeuristic, LazyAndEagerReturnTimeOptimalsCostsWithFewerExpansions) {
+  // The estimate is at least time_optimal's everywhere (so only ties can make one query
+  // expand more).
+  expectTimeOptimalsCostsWithFewerExpansions("geodesic");
 }
 
 TEST(LatticeHeuristic, IsTheOptimalCostInFreeSpace) {
@@ -932,44 +937,7 @@ TEST(LatticeHeuristic, RefusesControlsOffAGridAndOrdersAboveTwo) {
 }
 
 TEST(LatticeHeuristic, LazyAndEagerReturnTimeOptimalsCostsWithFewerExpansions) {
-  // As the geodesic one's test: the same optimal costs as the default heuristic (lazy = eager)
-  // and fewer expansions in all.
-  test::loadTestPlugins();
-  for (const std::string kind : {"walls", "forest"}) {
-    const auto world = test::smallWorld(kind);
-    const auto queries = test::randomQueries(*world, 6, 8, 3.0, 9.0, 0.6);
-    const auto planner = [&](const std::string& type, const std::string& heuristic) {
-      ConfiguredPlanner configured = configurePlanner(
-          type, test::assignments({"sampler.samples_per_axis=3", "time_limit=0",
-                                   "max_expansions=200000", "heuristic=" + heuristic}));
-      configured.planner->setup({world, configured.sampler, 1});
-      return configured;
-    };
-    ConfiguredPlanner reference = planner("eager_mp_astar", "time_optimal");
-    ConfiguredPlanner eager = planner("eager_mp_astar", "lattice");
-    ConfiguredPlanner lazy = planner("lazy_mp_astar", "lattice");
-    double before = 0.0;
-    double after = 0.0;
-    int solved = 0;
-    for (const PlanningQuery& query : queries) {
-      const PlanResult expected = reference.planner->plan(query, Budget{});
-      const PlanResult e = eager.planner->plan(query, Budget{});
-      const PlanResult l = lazy.planner->plan(query, Budget{});
-      EXPECT_EQ(e.status, expected.status) << kind;
-      EXPECT_EQ(l.status, expected.status) << kind;
-      if (expected.status != PlanStatus::kExact) continue;
-      ++solved;
-      ASSERT_EQ(e.status, PlanStatus::kExact) << kind;
-      ASSERT_EQ(l.status, PlanStatus::kExact) << kind;
-      EXPECT_NEAR(e.cost, expected.cost, 1e-9 * expected.cost) << kind;
-      EXPECT_NEAR(l.cost, expected.cost, 1e-9 * expected.cost) << kind;
-      EXPECT_TRUE(e.check.valid && l.check.valid) << kind;
-      before += test::statistic(expected.statistics, "expansions");
-      after += test::statistic(e.statistics, "expansions");
-    }
-    EXPECT_GE(solved, 4) << kind;
-    EXPECT_LT(after, before) << kind;
-  }
+  expectTimeOptimalsCostsWithFewerExpansions("lattice");
 }
 
 }  // namespace
