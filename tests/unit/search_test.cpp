@@ -789,23 +789,25 @@ TEST(GeodesicHeuristic, AnEnclosedGoalEndsTheSearchAtItsStart) {
   }
 }
 
-/// Eager and lazy MP-A* with `heuristic` return the default heuristic's optimal cost on every
-/// query of the small walls and forest worlds (lazy = eager), with fewer expansions in all.
-void expectTimeOptimalsCostsWithFewerExpansions(const std::string& heuristic) {
+/// Eager and lazy MP-A* with the heuristic `settings` choose (`heuristic=...` and its own)
+/// return the default heuristic's optimal cost on every query of the small walls and forest
+/// worlds (lazy = eager), with fewer expansions in all.
+void expectTimeOptimalsCostsWithFewerExpansions(const std::vector<std::string>& settings) {
   test::loadTestPlugins();
   for (const std::string kind : {"walls", "forest"}) {
     const auto world = test::smallWorld(kind);
     const auto queries = test::randomQueries(*world, 6, 8, 3.0, 9.0, 0.6);
-    const auto planner = [&](const std::string& type, const std::string& name) {
-      ConfiguredPlanner configured =
-          configurePlanner(type, test::assignments({"sampler.samples_per_axis=3", "time_limit=0",
-                                                    "max_expansions=200000", "heuristic=" + name}));
+    const auto planner = [&](const std::string& type, const std::vector<std::string>& chosen) {
+      std::vector<std::string> items = {"sampler.samples_per_axis=3", "time_limit=0",
+                                        "max_expansions=200000"};
+      items.insert(items.end(), chosen.begin(), chosen.end());
+      ConfiguredPlanner configured = configurePlanner(type, test::assignments(items));
       configured.planner->setup({world, configured.sampler, 1});
       return configured;
     };
-    ConfiguredPlanner reference = planner("eager_mp_astar", "time_optimal");
-    ConfiguredPlanner eager = planner("eager_mp_astar", heuristic);
-    ConfiguredPlanner lazy = planner("lazy_mp_astar", heuristic);
+    ConfiguredPlanner reference = planner("eager_mp_astar", {"heuristic=time_optimal"});
+    ConfiguredPlanner eager = planner("eager_mp_astar", settings);
+    ConfiguredPlanner lazy = planner("lazy_mp_astar", settings);
     double before = 0.0;
     double after = 0.0;
     int solved = 0;
@@ -833,7 +835,7 @@ void expectTimeOptimalsCostsWithFewerExpansions(const std::string& heuristic) {
 TEST(GeodesicHeuristic, LazyAndEagerReturnTimeOptimalsCostsWithFewerExpansions) {
   // The estimate is at least time_optimal's everywhere (so only ties can make one query
   // expand more).
-  expectTimeOptimalsCostsWithFewerExpansions("geodesic");
+  expectTimeOptimalsCostsWithFewerExpansions({"heuristic=geodesic"});
 }
 
 TEST(LatticeHeuristic, IsTheOptimalCostInFreeSpace) {
@@ -937,7 +939,44 @@ TEST(LatticeHeuristic, RefusesControlsOffAGridAndOrdersAboveTwo) {
 }
 
 TEST(LatticeHeuristic, LazyAndEagerReturnTimeOptimalsCostsWithFewerExpansions) {
-  expectTimeOptimalsCostsWithFewerExpansions("lattice");
+  expectTimeOptimalsCostsWithFewerExpansions({"heuristic=lattice"});
+}
+
+TEST(MaxHeuristic, CombinesAnyTwoPreparedForTheirControlsAndQueries) {
+  // The lattice bound (prepared for the controls) and the geodesic one (for each query).
+  expectTimeOptimalsCostsWithFewerExpansions({"heuristic=max", "heuristic.first=lattice",
+                                              "heuristic.second=geodesic",
+                                              "heuristic.second.time_optimal=off"});
+  // Directly: the lattice part is prepared for the controls (else it would read time_optimal).
+  EdgeEvaluatorSettings edges;
+  const auto controls = controlGrid({-1.0, 0.0, 1.0}, Eigen::Vector3d(3, 3, 3));
+  const auto world = test::smallWorld("empty");
+  ChainState start = ChainState::Zero();
+  start.col(0) = Eigen::Vector3d(1.0, 1.7, 1.0);
+  const Eigen::Vector3d goal(10.0, 9.0, 2.0);
+  const auto prepared = [&](const std::shared_ptr<const SearchHeuristic>& heuristic) {
+    StopCondition stop(Budget{});
+    return heuristicForQuery(heuristicForControls(heuristic, controls), *world, goal, stop)
+        ->estimate(start, goal);
+  };
+  const double both =
+      prepared(pluginRegistry<HeuristicBuilder>()
+                   .create("max", test::assignments({"first=lattice", "second=geodesic"}))
+                   ->build({edges, 0.5}));
+  EXPECT_EQ(both, prepared(heuristicFor("lattice", edges, 0.5)));
+  EXPECT_GT(both, TimeOptimalHeuristic(edges, 0.5, true).estimate(start, goal));
+  // A part that does not serve the order is left out; when neither does, the first's reason.
+  EXPECT_NO_THROW(configurePlanner(
+      "lazy_mp_astar",
+      test::assignments({"order=3", "heuristic=max", "heuristic.first=geodesic"})));
+  try {
+    configurePlanner("lazy_mp_astar",
+                     test::assignments({"order=3", "heuristic=max", "heuristic.first=lattice"}));
+    FAIL() << "no error";
+  } catch (const ConfigError& error) {
+    EXPECT_NE(std::string(error.what()).find("lattice needs order 2"), std::string::npos)
+        << error.what();
+  }
 }
 
 }  // namespace

@@ -1,6 +1,8 @@
 // The registries of the search's policies (heuristics and lower bounds) and the framework's
 // own entries in them, registered when the library loads: every planner, in tree or out,
 // finds them by key.
+#include <optional>
+
 #include "kinolab/core/error.hpp"
 #include "kinolab/core/fields.hpp"
 #include "kinolab/core/plugin.hpp"
@@ -75,16 +77,33 @@ void registerBuiltins() {
         });
       });
   registrar.add<HeuristicBuilder>(
-      "max", "the largest of time_optimal and obvp (obvp only at order 2)", ParameterSpecs(),
-      [](const ParameterSet&) {
-        return std::make_unique<HeuristicBuilder>([](const HeuristicContext& context)
-                                                      -> std::shared_ptr<const SearchHeuristic> {
-          auto time_optimal =
-              std::make_shared<TimeOptimalHeuristic>(context.edges, context.goal_radius);
-          if (context.edges.order != 2) return time_optimal;
-          return std::make_shared<MaxHeuristic>(std::vector<std::shared_ptr<const SearchHeuristic>>{
-              time_optimal, std::make_shared<ObvpHeuristic>(context.edges, context.goal_radius)});
-        });
+      "max",
+      "the larger of two heuristics, `first` and `second` (by default time_optimal and obvp); "
+      "a part that does not serve the planner's order (obvp above 2) is left out",
+      ParameterSpecs()
+          .plugin("heuristic", "first", "time_optimal",
+                  "one part (kinolab list heuristics); its parameters as first.NAME")
+          .plugin("heuristic", "second", "obvp", "the other part; its parameters as second.NAME"),
+      [](const ParameterSet& p) {
+        std::vector<std::shared_ptr<const HeuristicBuilder>> parts;
+        for (const char* name : {"first", "second"}) {
+          parts.push_back(pluginRegistry<HeuristicBuilder>().createChosen(p, name));
+        }
+        return std::make_unique<HeuristicBuilder>(
+            [parts](const HeuristicContext& context) -> std::shared_ptr<const SearchHeuristic> {
+              std::vector<std::shared_ptr<const SearchHeuristic>> made;
+              std::optional<ParameterConflict> declined;
+              for (const auto& part : parts) {
+                try {
+                  made.push_back(part->build(context));
+                } catch (const ParameterConflict& conflict) {
+                  if (!declined) declined = conflict;
+                }
+              }
+              if (made.empty()) throw *declined;
+              if (made.size() == 1) return made.front();
+              return std::make_shared<MaxHeuristic>(std::move(made));
+            });
       });
 
   registrar.add<EdgeEvaluationPolicy>("full", "every edge fully evaluated at expansion (eager)",
