@@ -85,22 +85,54 @@ struct AxisCosts {
 /// to a horizon, the least control effort of the axis (w_U u^2 tau a primitive) over exactly N
 /// primitives that end with the axis's offset to the goal in [-R, R], within its velocity limit.
 ///
-/// The lattice: with controls u = q m (m whole) and a velocity v = q tau j (j whole: a start at
-/// rest), a primitive moves the axis by v tau + u tau^2 / 2 = w (2 j + m), w = q tau^2 / 2, and
-/// ends at velocity q tau (j + m). So from a state whose offset to the goal is (c + phase) w,
-/// every state a search reaches has offset (c' + phase) w for whole c': the table holds one row
-/// per (c, j), for every offset within the world's extent (a state cannot leave the world, so
-/// neither can its axis), filled N by N from the cells inside [-R, R] (N = 0).
+/// The lattice: with controls u = q m (m whole) and a velocity v = v_0 + q tau j (j whole), a
+/// primitive moves the axis by v tau + u tau^2 / 2 = v_0 tau + w (2 j + m), w = q tau^2 / 2, and
+/// ends at velocity v_0 + q tau (j + m). Every state a search reaches has the velocity of the
+/// start plus whole steps, so v_0 is the start's velocity, or 0 when that is a whole number of
+/// steps (a start at rest). The table holds a row per (cell, j) for every offset within the
+/// world's extent (a state cannot leave the world, so neither can its axis), filled N by N from
+/// the cells that meet [-R, R] (N = 0).
+/// - v_0 = 0 (exact): every state's offset is (c + phase) w for whole c, phase that of the
+///   start: the cells are those points, and a primitive goes from cell c to c + 2 j + m.
+/// - v_0 != 0 (a moving start): the offsets drift by v_0 tau a primitive, not a whole number of
+///   cells; the cells are K to a w (subCells()), a state is in the cell its offset falls in, and
+///   a primitive goes from cell c to one of c + K (2 j + m) + floor(d) + {-1, 0, 1, 2}, d = v_0
+///   tau over the cell's width (the one its end falls in, whatever rounding moved either end
+///   across a border): a relaxation whose cost is a lower bound, its path gaining at most two
+///   cells a primitive over the real one.
 class AxisTable {
  public:
-  AxisTable(const AxisControls& controls, const AxisCosts& costs, double phase, double extent,
-            int horizon)
-      : cell_(0.5 * controls.step * costs.tau * costs.tau),
-        unit_velocity_(controls.step * costs.tau),
-        phase_(phase),
-        horizon_(horizon) {
-    velocities_ = static_cast<int>(std::floor(costs.max_velocity / unit_velocity_ * (1.0 + 1e-9)));
-    width_ = 2 * velocities_ + 1;
+  /// The cells a w is cut into under a drifting lattice: up to 16, none narrower than a 64th
+  /// of the way a primitive goes at full speed (so that the relaxation gains at most 1/32 of
+  /// that a primitive, and a fine lattice's tables stay small).
+  static int subCells(const AxisControls& controls, const AxisCosts& costs) {
+    const double w = 0.5 * controls.step * costs.tau * costs.tau;
+    const double finest = costs.max_velocity * costs.tau / 64.0;
+    return static_cast<int>(std::clamp(std::floor(w / finest), 1.0, 16.0));
+  }
+
+  AxisTable(const AxisControls& controls, const AxisCosts& costs, double extent, int horizon,
+            double start_offset, double start_velocity)
+      : unit_velocity_(controls.step * costs.tau), horizon_(horizon) {
+    const double w = 0.5 * controls.step * costs.tau * costs.tau;
+    const double steps = start_velocity / unit_velocity_;
+    exact_ = std::abs(steps - std::round(steps)) <= kOnLattice * std::max(1.0, std::abs(steps));
+    std::vector<long long> shifts = {0};
+    int sub = 1;
+    if (exact_) {
+      cell_ = w;
+      phase_ = start_offset / w - std::floor(start_offset / w);
+    } else {
+      velocity_origin_ = start_velocity;
+      sub = subCells(controls, costs);
+      cell_ = w / sub;
+      const auto drift = static_cast<long long>(std::floor(start_velocity * costs.tau / cell_));
+      shifts = {drift - 1, drift, drift + 1, drift + 2};
+    }
+    const double limit = costs.max_velocity * (1.0 + 1e-9) + 1e-12;
+    lowest_ = static_cast<int>(std::ceil((-limit - velocity_origin_) / unit_velocity_));
+    const int highest = static_cast<int>(std::floor((limit - velocity_origin_) / unit_velocity_));
+    width_ = std::max(highest - lowest_ + 1, 0);
     first_cell_ = static_cast<long long>(std::floor(-extent / cell_ - phase_)) - 1;
     cells_ = static_cast<long long>(std::ceil(extent / cell_ - phase_)) + 2 - first_cell_;
     const auto states = static_cast<std::size_t>(cells_ * width_);
@@ -108,7 +140,9 @@ class AxisTable {
     first_.assign(states, kNever);
     const double reach = costs.goal_radius * (1.0 + 1e-9) + 1e-12;
     for (long long c = 0; c < cells_; ++c) {
-      if (std::abs((static_cast<double>(c + first_cell_) + phase_) * cell_) > reach) continue;
+      const double low = (static_cast<double>(c + first_cell_) + phase_) * cell_;
+      // A point of the lattice inside [-R, R] (exact), or a cell meeting it.
+      if (exact_ ? std::abs(low) > reach : (low > reach || low + cell_ < -reach)) continue;
       for (int j = 0; j < width_; ++j) {
         effort_[static_cast<std::size_t>(c * width_ + j)] = 0.0;
         first_[static_cast<std::size_t>(c * width_ + j)] = 0;
@@ -119,6 +153,8 @@ class AxisTable {
       const double u = controls.step * m;
       move_effort.push_back(costs.weight_control * u * u * costs.tau);
     }
+    // The move in cells of control k from velocity step j: sub (2 j + m) + a shift.
+    const auto move = [&](int j, int m) { return static_cast<long long>(sub) * (2 * j + m); };
     // The least cost in any number of primitives, time included (a backward Dijkstra from
     // the goal interval): +infinity where the axis never meets it.
     alone_.assign(states, INFINITY);
@@ -135,17 +171,20 @@ class AxisTable {
       open.pop();
       if (value > alone_[state]) continue;
       const auto c_after = static_cast<long long>(state) / width_;
-      const int j_after = static_cast<int>(static_cast<long long>(state) % width_) - velocities_;
+      const int j_after = static_cast<int>(static_cast<long long>(state) % width_) + lowest_;
       for (std::size_t k = 0; k < controls.moves.size(); ++k) {
         const int m = controls.moves[k];
         const int j = j_after - m;
-        const long long c = c_after - 2 * j - m;
-        if (j < -velocities_ || j > velocities_ || c < 0 || c >= cells_) continue;
-        const auto before = static_cast<std::size_t>(c * width_ + j + velocities_);
+        if (j < lowest_ || j >= lowest_ + width_) continue;
         const double candidate = value + step_cost + move_effort[k];
-        if (candidate < alone_[before]) {
-          alone_[before] = candidate;
-          open.emplace(candidate, before);
+        for (const long long shift : shifts) {
+          const long long c = c_after - move(j, m) - shift;
+          if (c < 0 || c >= cells_) continue;
+          const auto before = static_cast<std::size_t>(c * width_ + j - lowest_);
+          if (candidate < alone_[before]) {
+            alone_[before] = candidate;
+            open.emplace(candidate, before);
+          }
         }
       }
     }
@@ -153,20 +192,19 @@ class AxisTable {
       const double* before = &effort_[(n - 1) * states];
       double* now = &effort_[n * states];
       for (long long c = 0; c < cells_; ++c) {
-        for (int j = -velocities_; j <= velocities_; ++j) {
+        for (int j = lowest_; j < lowest_ + width_; ++j) {
           double best = INFINITY;
           for (std::size_t k = 0; k < controls.moves.size(); ++k) {
             const int m = controls.moves[k];
             const int j_after = j + m;
-            const long long c_after = c + 2 * j + m;
-            if (j_after < -velocities_ || j_after > velocities_ || c_after < 0 ||
-                c_after >= cells_) {
-              continue;
+            if (j_after < lowest_ || j_after >= lowest_ + width_) continue;
+            for (const long long shift : shifts) {
+              const long long c_after = c + move(j, m) + shift;
+              if (c_after < 0 || c_after >= cells_) continue;
+              best = std::min(best, move_effort[k] + before[c_after * width_ + j_after - lowest_]);
             }
-            best =
-                std::min(best, move_effort[k] + before[c_after * width_ + j_after + velocities_]);
           }
-          const auto state = static_cast<std::size_t>(c * width_ + j + velocities_);
+          const auto state = static_cast<std::size_t>(c * width_ + j - lowest_);
           now[state] = best;
           if (best < INFINITY && first_[state] == kNever) first_[state] = n;
         }
@@ -179,17 +217,22 @@ class AxisTable {
   /// The row of the state at the axis's offset to the goal and velocity; -1 when they are not
   /// on this table's lattice (or outside it).
   long long row(double offset, double velocity) const {
-    const double cell = offset / cell_ - phase_;
-    const double step = velocity / unit_velocity_;
-    const double c = std::round(cell);
+    const double step = (velocity - velocity_origin_) / unit_velocity_;
     const double j = std::round(step);
-    if (!(std::abs(cell - c) <= kOnLattice * std::max(1.0, std::abs(c)) &&
-          std::abs(step - j) <= kOnLattice * std::max(1.0, std::abs(j)))) {
-      return -1;
+    if (!(std::abs(step - j) <= kOnLattice * std::max(1.0, std::abs(j)))) return -1;
+    double c = 0.0;
+    if (exact_) {
+      const double cell = offset / cell_ - phase_;
+      c = std::round(cell);
+      if (!(std::abs(cell - c) <= kOnLattice * std::max(1.0, std::abs(c)))) return -1;
+    } else {
+      c = std::floor(offset / cell_);
     }
     const double r = c - static_cast<double>(first_cell_);
-    if (r < 0.0 || r >= static_cast<double>(cells_) || std::abs(j) > velocities_) return -1;
-    return static_cast<long long>(r) * width_ + static_cast<long long>(j) + velocities_;
+    if (!(r >= 0.0 && r < static_cast<double>(cells_) && j >= lowest_ && j < lowest_ + width_)) {
+      return -1;
+    }
+    return static_cast<long long>(r) * width_ + static_cast<long long>(j) - lowest_;
   }
   /// The least number of primitives (up to the horizon) that brings the row's state to the
   /// goal interval; kNever when none does.
@@ -204,33 +247,35 @@ class AxisTable {
   /// row's state: the axis's cost moving alone (+infinity: it never meets the goal interval).
   double alone(long long row) const { return alone_[static_cast<std::size_t>(row)]; }
 
-  /// About the rows (states) of the table of an axis of `extent` (at least the constructor's,
-  /// less one cell): what a query's tables are budgeted by.
-  static double rows(const AxisControls& controls, const AxisCosts& costs, double extent) {
-    const double cell = 0.5 * controls.step * costs.tau * costs.tau;
-    const double velocities =
-        std::floor(costs.max_velocity / (controls.step * costs.tau) * (1.0 + 1e-9));
-    return (2.0 * std::ceil(extent / cell) + 4.0) * (2.0 * velocities + 1.0);
-  }
-
-  /// The phase of the lattice through a state at `offset`: offset / w less its floor.
-  static double phaseOf(const AxisControls& controls, const AxisCosts& costs, double offset) {
-    const double cells = offset / (0.5 * controls.step * costs.tau * costs.tau);
-    return cells - std::floor(cells);
+  /// About the rows (states) of the table of an axis of `extent` from a start at
+  /// `start_velocity` (at least the constructor's, less one cell): what a query's tables are
+  /// budgeted by.
+  static double rows(const AxisControls& controls, const AxisCosts& costs, double extent,
+                     double start_velocity) {
+    const double unit = controls.step * costs.tau;
+    const double steps = start_velocity / unit;
+    const bool exact =
+        std::abs(steps - std::round(steps)) <= kOnLattice * std::max(1.0, std::abs(steps));
+    const double cell =
+        0.5 * controls.step * costs.tau * costs.tau / (exact ? 1 : subCells(controls, costs));
+    const double velocities = std::floor(costs.max_velocity / unit * (1.0 + 1e-9));
+    return (2.0 * std::ceil(extent / cell) + 4.0) * (2.0 * velocities + 2.0);
   }
 
  private:
-  double cell_;
-  double unit_velocity_;
-  double phase_;
+  double unit_velocity_;  ///< q tau
   int horizon_;
-  int velocities_ = 0;          ///< |j| at most this (the velocity limit)
-  int width_ = 1;               ///< 2 velocities_ + 1
-  long long first_cell_ = 0;    ///< c of the table's first row
-  long long cells_ = 0;         ///< cells
-  std::vector<double> effort_;  ///< per n, per (c, j), j fastest; +infinity: not in n
-  std::vector<int> first_;      ///< per (c, j): the least n with a finite effort
-  std::vector<double> alone_;   ///< per (c, j): alone()
+  bool exact_ = true;             ///< v_0 = 0: the cells are the lattice's points
+  double velocity_origin_ = 0.0;  ///< v_0
+  double cell_ = 0.0;             ///< the cells' width
+  double phase_ = 0.0;            ///< (exact) the start's offset over w, less its floor
+  int lowest_ = 0;                ///< the least j within the velocity limit
+  int width_ = 1;                 ///< js within it
+  long long first_cell_ = 0;      ///< the first row's cell
+  long long cells_ = 0;           ///< cells
+  std::vector<double> effort_;    ///< per n, per (c, j), j fastest; +infinity: not in n
+  std::vector<int> first_;        ///< per (c, j): the least n with a finite effort
+  std::vector<double> alone_;     ///< per (c, j): alone()
 };
 
 /// One query's heuristic: the exact cost, with no obstacles, of the axes moving together on the
@@ -242,9 +287,9 @@ class AxisTable {
 /// to s' has every axis's effort e_i, so the N-primitive sum at s is at most c plus the
 /// (N - 1)-primitive one at s' (and a value capped at (H + 1) w_T tau, or reached at N = H,
 /// is at most w_T tau more than the cap or H w_T tau at s'). The tables are made at the first
-/// estimate, on the lattice through that state (the start): when its velocity is not a whole number
-/// of velocity steps (a moving start, as a flight's replan has), the query keeps time_optimal
-/// alone. (Not safe to call from several threads at once.)
+/// estimate, for the lattice of that state (the start): exact on an axis where it moves at a
+/// whole number of velocity steps, a relaxation on finer cells where it does not (AxisTable).
+/// (Not safe to call from several threads at once.)
 class LatticeQueryHeuristic final : public SearchHeuristic {
  public:
   LatticeQueryHeuristic(std::shared_ptr<const SearchHeuristic> fallback,
@@ -288,10 +333,6 @@ class LatticeQueryHeuristic final : public SearchHeuristic {
  private:
   void prepare(const ChainState& state, const Eigen::Vector3d& goal) const {
     prepared_ = true;
-    for (int axis = 0; axis < 3; ++axis) {
-      const double steps = state(axis, 1) / (axes_[axis].step * costs_[axis].tau);
-      if (std::abs(steps - std::round(steps)) > kOnLattice) return;  // a moving start
-    }
     // Room for twice the primitives the farthest axis needs at full speed, and some (unless
     // set), within kMaxEntries; a lattice too fine for even one primitive keeps time_optimal.
     double horizon = horizon_;
@@ -305,15 +346,13 @@ class LatticeQueryHeuristic final : public SearchHeuristic {
     }
     double rows = 0.0;
     for (int axis = 0; axis < 3; ++axis) {
-      rows += AxisTable::rows(axes_[axis], costs_[axis], extent_[axis]);
+      rows += AxisTable::rows(axes_[axis], costs_[axis], extent_[axis], state(axis, 1));
     }
     horizon = std::min(horizon, std::floor(kMaxEntries / rows) - 2.0);
     if (!(horizon >= 1.0)) return;
     for (int axis = 0; axis < 3; ++axis) {
-      const double phase =
-          AxisTable::phaseOf(axes_[axis], costs_[axis], state(axis, 0) - goal[axis]);
-      tables_.emplace_back(axes_[axis], costs_[axis], phase, extent_[axis],
-                           static_cast<int>(horizon));
+      tables_.emplace_back(axes_[axis], costs_[axis], extent_[axis], static_cast<int>(horizon),
+                           state(axis, 0) - goal[axis], state(axis, 1));
     }
   }
 
@@ -378,7 +417,8 @@ void registerBuiltins() {
       "lattice",
       "the exact cost to the goal of the control grid's lattice with no obstacles (time and "
       "control effort, the axes moving together to the goal's cube), by max with time_optimal "
-      "in whole primitives; order 2, starts on the lattice (at rest)",
+      "in whole primitives; order 2; exact from a start at rest, a relaxation on finer cells "
+      "from a moving one",
       ParameterSpecs().integer(
           "horizon", 0, 0, 100000,
           "primitives the per-query tables hold (memory: that times the lattice's cells and "
