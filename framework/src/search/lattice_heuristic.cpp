@@ -90,7 +90,7 @@ struct AxisCosts {
 /// ends at velocity v_0 + q tau (j + m). Every state a search reaches has the velocity of the
 /// start plus whole steps, so v_0 is the start's velocity, or 0 when that is a whole number of
 /// steps (a start at rest). The table holds a row per (cell, j) for every offset within the
-/// world's extent (a state cannot leave the world, so neither can its axis), filled N by N from
+/// world (a state cannot leave the world, so neither can its axis), filled N by N from
 /// the cells that meet [-R, R] (N = 0).
 /// - v_0 = 0 (exact): every state's offset is (c + phase) w for whole c, phase that of the
 ///   start: the cells are those points, and a primitive goes from cell c to c + 2 j + m.
@@ -111,8 +111,8 @@ class AxisTable {
     return static_cast<int>(std::clamp(std::floor(w / finest), 1.0, 16.0));
   }
 
-  AxisTable(const AxisControls& controls, const AxisCosts& costs, double extent, int horizon,
-            double start_offset, double start_velocity)
+  AxisTable(const AxisControls& controls, const AxisCosts& costs, double low, double high,
+            int horizon, double start_offset, double start_velocity)
       : unit_velocity_(controls.step * costs.tau), horizon_(horizon) {
     const double w = 0.5 * controls.step * costs.tau * costs.tau;
     const double steps = start_velocity / unit_velocity_;
@@ -133,16 +133,17 @@ class AxisTable {
     lowest_ = static_cast<int>(std::ceil((-limit - velocity_origin_) / unit_velocity_));
     const int highest = static_cast<int>(std::floor((limit - velocity_origin_) / unit_velocity_));
     width_ = std::max(highest - lowest_ + 1, 0);
-    first_cell_ = static_cast<long long>(std::floor(-extent / cell_ - phase_)) - 1;
-    cells_ = static_cast<long long>(std::ceil(extent / cell_ - phase_)) + 2 - first_cell_;
+    first_cell_ = static_cast<long long>(std::floor(low / cell_ - phase_)) - 1;
+    cells_ = static_cast<long long>(std::ceil(high / cell_ - phase_)) + 2 - first_cell_;
     const auto states = static_cast<std::size_t>(cells_ * width_);
     effort_.assign(states * static_cast<std::size_t>(horizon_ + 1), INFINITY);
     first_.assign(states, kNever);
     const double reach = costs.goal_radius * (1.0 + 1e-9) + 1e-12;
     for (long long c = 0; c < cells_; ++c) {
-      const double low = (static_cast<double>(c + first_cell_) + phase_) * cell_;
+      // The lattice point (exact) or the lower end of the cell (a moving start).
+      const double edge = (static_cast<double>(c + first_cell_) + phase_) * cell_;
       // A point of the lattice inside [-R, R] (exact), or a cell meeting it.
-      if (exact_ ? std::abs(low) > reach : (low > reach || low + cell_ < -reach)) continue;
+      if (exact_ ? std::abs(edge) > reach : (edge > reach || edge + cell_ < -reach)) continue;
       for (int j = 0; j < width_; ++j) {
         effort_[static_cast<std::size_t>(c * width_ + j)] = 0.0;
         first_[static_cast<std::size_t>(c * width_ + j)] = 0;
@@ -188,21 +189,38 @@ class AxisTable {
         }
       }
     }
+    // Each layer from the one before. The shifts are consecutive, so a primitive reads the
+    // least of that layer over a window of cells: least[s + window - 1] is it for the window
+    // starting at cell s (made once a layer, for every window that meets the table).
+    const long long lowest_shift = shifts.front();
+    const auto window = static_cast<long long>(shifts.size());
+    const long long starts = cells_ + window - 1;
+    std::vector<double> least(static_cast<std::size_t>(starts * width_));
     for (int n = 1; n <= horizon_; ++n) {
       const double* before = &effort_[(n - 1) * states];
       double* now = &effort_[n * states];
+      for (long long i = 0; i < starts; ++i) {
+        const long long from = std::max(i - (window - 1), 0LL);
+        const long long to = std::min(i + 1, cells_);
+        for (int j = 0; j < width_; ++j) {
+          double value = INFINITY;
+          for (long long t = from; t < to; ++t) value = std::min(value, before[t * width_ + j]);
+          least[static_cast<std::size_t>(i * width_ + j)] = value;
+        }
+      }
       for (long long c = 0; c < cells_; ++c) {
         for (int j = lowest_; j < lowest_ + width_; ++j) {
           double best = INFINITY;
           for (std::size_t k = 0; k < controls.moves.size(); ++k) {
             const int m = controls.moves[k];
             const int j_after = j + m;
-            if (j_after < lowest_ || j_after >= lowest_ + width_) continue;
-            for (const long long shift : shifts) {
-              const long long c_after = c + move(j, m) + shift;
-              if (c_after < 0 || c_after >= cells_) continue;
-              best = std::min(best, move_effort[k] + before[c_after * width_ + j_after - lowest_]);
+            const long long start = c + move(j, m) + lowest_shift;
+            if (j_after < lowest_ || j_after >= lowest_ + width_ || start + window <= 0 ||
+                start >= cells_) {
+              continue;
             }
+            const auto i = static_cast<std::size_t>(start + window - 1);
+            best = std::min(best, move_effort[k] + least[i * width_ + j_after - lowest_]);
           }
           const auto state = static_cast<std::size_t>(c * width_ + j - lowest_);
           now[state] = best;
@@ -247,10 +265,11 @@ class AxisTable {
   /// row's state: the axis's cost moving alone (+infinity: it never meets the goal interval).
   double alone(long long row) const { return alone_[static_cast<std::size_t>(row)]; }
 
-  /// About the rows (states) of the table of an axis of `extent` from a start at
+  /// About the rows (states) of the table of an axis whose offsets to the goal lie in
+  /// [low, high] from a start at
   /// `start_velocity` (at least the constructor's, less one cell): what a query's tables are
   /// budgeted by.
-  static double rows(const AxisControls& controls, const AxisCosts& costs, double extent,
+  static double rows(const AxisControls& controls, const AxisCosts& costs, double low, double high,
                      double start_velocity) {
     const double unit = controls.step * costs.tau;
     const double steps = start_velocity / unit;
@@ -259,7 +278,7 @@ class AxisTable {
     const double cell =
         0.5 * controls.step * costs.tau * costs.tau / (exact ? 1 : subCells(controls, costs));
     const double velocities = std::floor(costs.max_velocity / unit * (1.0 + 1e-9));
-    return (2.0 * std::ceil(extent / cell) + 4.0) * (2.0 * velocities + 2.0);
+    return (std::ceil((high - low) / cell) + 4.0) * (2.0 * velocities + 2.0);
   }
 
  private:
@@ -294,12 +313,14 @@ class LatticeQueryHeuristic final : public SearchHeuristic {
  public:
   LatticeQueryHeuristic(std::shared_ptr<const SearchHeuristic> fallback,
                         std::array<AxisControls, 3> axes, std::array<AxisCosts, 3> costs,
-                        double weight_length, Eigen::Vector3d extent, int horizon)
+                        double weight_length, Eigen::Vector3d low, Eigen::Vector3d high,
+                        int horizon)
       : fallback_(std::move(fallback)),
         axes_(std::move(axes)),
         costs_(costs),
         weight_length_(weight_length),
-        extent_(extent),
+        low_(std::move(low)),
+        high_(std::move(high)),
         horizon_(horizon) {}
 
   double estimate(const ChainState& state, const Eigen::Vector3d& goal) const override {
@@ -346,13 +367,13 @@ class LatticeQueryHeuristic final : public SearchHeuristic {
     }
     double rows = 0.0;
     for (int axis = 0; axis < 3; ++axis) {
-      rows += AxisTable::rows(axes_[axis], costs_[axis], extent_[axis], state(axis, 1));
+      rows += AxisTable::rows(axes_[axis], costs_[axis], low_[axis], high_[axis], state(axis, 1));
     }
     horizon = std::min(horizon, std::floor(kMaxEntries / rows) - 2.0);
     if (!(horizon >= 1.0)) return;
     for (int axis = 0; axis < 3; ++axis) {
-      tables_.emplace_back(axes_[axis], costs_[axis], extent_[axis], static_cast<int>(horizon),
-                           state(axis, 0) - goal[axis], state(axis, 1));
+      tables_.emplace_back(axes_[axis], costs_[axis], low_[axis], high_[axis],
+                           static_cast<int>(horizon), state(axis, 0) - goal[axis], state(axis, 1));
     }
   }
 
@@ -360,8 +381,9 @@ class LatticeQueryHeuristic final : public SearchHeuristic {
   std::array<AxisControls, 3> axes_;
   std::array<AxisCosts, 3> costs_;
   double weight_length_;
-  Eigen::Vector3d extent_;
-  int horizon_;  ///< primitives the tables hold (0: from the start's distance)
+  Eigen::Vector3d low_;   ///< the least offset to the goal a state in the world has, per axis
+  Eigen::Vector3d high_;  ///< the largest
+  int horizon_;           ///< primitives the tables hold (0: from the start's distance)
   mutable bool prepared_ = false;
   mutable std::vector<AxisTable> tables_;  ///< none: time_optimal alone
 };
@@ -389,8 +411,7 @@ class LatticeHeuristic final : public SearchHeuristic {
     return std::make_shared<LatticeHeuristic>(context_, horizon_, std::move(axes));
   }
 
-  std::shared_ptr<const SearchHeuristic> forQuery(const World& world,
-                                                  const Eigen::Vector3d& /*goal*/,
+  std::shared_ptr<const SearchHeuristic> forQuery(const World& world, const Eigen::Vector3d& goal,
                                                   StopCondition& /*stop*/) const override {
     if (axes_.empty()) return nullptr;  // no controls yet: time_optimal
     const EdgeEvaluatorSettings& edges = context_.edges;
@@ -401,7 +422,7 @@ class LatticeHeuristic final : public SearchHeuristic {
     }
     return std::make_shared<LatticeQueryHeuristic>(
         time_optimal_, std::array<AxisControls, 3>{axes_[0], axes_[1], axes_[2]}, costs,
-        edges.weights.length, world.bounds().size(), horizon_);
+        edges.weights.length, world.bounds().min - goal, world.bounds().max - goal, horizon_);
   }
 
  private:
