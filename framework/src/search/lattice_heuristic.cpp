@@ -1,6 +1,7 @@
 // The heuristic kind `lattice`: the exact cost to the goal of the control set's own lattice with
-// no obstacles, axis by axis (as hybrid A*'s "non-holonomic without obstacles" heuristic is the
-// exact cost of its car in free space), by max with time_optimal in whole primitives.
+// no obstacles, the three axes moving together (as hybrid A*'s "non-holonomic without
+// obstacles" heuristic is the exact cost of its car in free space), by max with time_optimal
+// in whole primitives.
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -266,9 +267,8 @@ class AxisTable {
   double alone(long long row) const { return alone_[static_cast<std::size_t>(row)]; }
 
   /// About the rows (states) of the table of an axis whose offsets to the goal lie in
-  /// [low, high] from a start at
-  /// `start_velocity` (at least the constructor's, less one cell): what a query's tables are
-  /// budgeted by.
+  /// [low, high], from a start at `start_velocity` (at least the constructor's, less one
+  /// cell): what a query's tables are budgeted by.
   static double rows(const AxisControls& controls, const AxisCosts& costs, double low, double high,
                      double start_velocity) {
     const double unit = controls.step * costs.tau;
