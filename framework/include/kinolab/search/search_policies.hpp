@@ -345,8 +345,8 @@ class HeuristicBuilder {
   Make make_;
 };
 
-/// The registry of heuristics: built-in `euclidean`, `min_time`, `time_optimal`, `obvp` and
-/// `max`.
+/// The registry of heuristics: built-in `euclidean`, `min_time`, `time_optimal`, `obvp`, `max`
+/// (of any two), `geodesic` and `lattice`.
 template <>
 PluginRegistry<HeuristicBuilder>& pluginRegistry<HeuristicBuilder>();
 
