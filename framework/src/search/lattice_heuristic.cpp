@@ -354,6 +354,7 @@ class LatticeQueryHeuristic final : public SearchHeuristic {
  private:
   void prepare(const ChainState& state, const Eigen::Vector3d& goal) const {
     prepared_ = true;
+    if (!state.leftCols(2).allFinite() || !goal.allFinite()) return;  // time_optimal's verdict
     // Room for twice the primitives the farthest axis needs at full speed, and some (unless
     // set), within kMaxEntries; a lattice too fine for even one primitive keeps time_optimal.
     double horizon = horizon_;
