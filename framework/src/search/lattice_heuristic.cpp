@@ -8,6 +8,7 @@
 #include <cstdint>
 #include <functional>
 #include <limits>
+#include <optional>
 #include <queue>
 #include <string>
 #include <utility>
@@ -21,8 +22,14 @@
 namespace kinolab {
 namespace {
 
-/// Within this (in steps) a state's offset or velocity counts as a whole number of steps.
+/// Within this (in steps, relative beyond one) a state's offset or velocity counts as a whole
+/// number of steps.
 constexpr double kOnLattice = 1e-6;
+
+/// True when `steps` is a whole number, to kOnLattice.
+bool wholeSteps(double steps) {
+  return std::abs(steps - std::round(steps)) <= kOnLattice * std::max(1.0, std::abs(steps));
+}
 /// At most this many table entries a query (8 bytes each: 256 MiB).
 constexpr double kMaxEntries = 1 << 25;
 
@@ -53,7 +60,7 @@ AxisControls axisControls(const std::vector<Eigen::Vector3d>& controls, int axis
     for (const auto& control : controls) {
       const double steps = control[axis] / step;
       const double rounded = std::round(steps);
-      if (std::abs(steps - rounded) > kOnLattice) {
+      if (std::abs(steps - rounded) > kOnLattice) {  // (absolute: a control is a grid's exactly)
         whole = false;
         break;
       }
@@ -82,6 +89,11 @@ struct AxisCosts {
   double max_velocity = 0.0;
 };
 
+/// The lattice's position step w = q tau^2 / 2 on an axis.
+double latticeStep(const AxisControls& controls, const AxisCosts& costs) {
+  return 0.5 * controls.step * costs.tau * costs.tau;
+}
+
 /// One axis's lattice, with no obstacles: for every state and every number N of primitives up
 /// to a horizon, the least control effort of the axis (w_U u^2 tau a primitive) over exactly N
 /// primitives that end with the axis's offset to the goal in [-R, R], within its velocity limit.
@@ -107,26 +119,31 @@ class AxisTable {
   /// of the way a primitive goes at full speed (so that the relaxation gains at most 1/32 of
   /// that a primitive, and a fine lattice's tables stay small).
   static int subCells(const AxisControls& controls, const AxisCosts& costs) {
-    const double w = 0.5 * controls.step * costs.tau * costs.tau;
     const double finest = costs.max_velocity * costs.tau / 64.0;
-    return static_cast<int>(std::clamp(std::floor(w / finest), 1.0, 16.0));
+    return static_cast<int>(
+        std::clamp(std::floor(latticeStep(controls, costs) / finest), 1.0, 16.0));
+  }
+
+  /// The cells a w takes in the table of a start at `start_velocity`: 1 when that is a whole
+  /// number of velocity steps (the table is exact), else subCells().
+  static int cellsPerStep(const AxisControls& controls, const AxisCosts& costs,
+                          double start_velocity) {
+    return wholeSteps(start_velocity / (controls.step * costs.tau)) ? 1 : subCells(controls, costs);
   }
 
   AxisTable(const AxisControls& controls, const AxisCosts& costs, double low, double high,
             int horizon, double start_offset, double start_velocity)
       : unit_velocity_(controls.step * costs.tau), horizon_(horizon) {
-    const double w = 0.5 * controls.step * costs.tau * costs.tau;
-    const double steps = start_velocity / unit_velocity_;
-    exact_ = std::abs(steps - std::round(steps)) <= kOnLattice * std::max(1.0, std::abs(steps));
+    // (A drifting lattice may be cut into one cell a w too: exact is the start's velocity.)
+    exact_ = wholeSteps(start_velocity / unit_velocity_);
+    const int sub = cellsPerStep(controls, costs, start_velocity);
+    cell_ = latticeStep(controls, costs) / sub;
+    // The cells a primitive's end may lie beyond its move: none, or the drift's four.
     std::vector<long long> shifts = {0};
-    int sub = 1;
     if (exact_) {
-      cell_ = w;
-      phase_ = start_offset / w - std::floor(start_offset / w);
+      phase_ = start_offset / cell_ - std::floor(start_offset / cell_);
     } else {
       velocity_origin_ = start_velocity;
-      sub = subCells(controls, costs);
-      cell_ = w / sub;
       const auto drift = static_cast<long long>(std::floor(start_velocity * costs.tau / cell_));
       shifts = {drift - 1, drift, drift + 1, drift + 2};
     }
@@ -237,15 +254,13 @@ class AxisTable {
   /// on this table's lattice (or outside it).
   long long row(double offset, double velocity) const {
     const double step = (velocity - velocity_origin_) / unit_velocity_;
+    if (!wholeSteps(step)) return -1;
     const double j = std::round(step);
-    if (!(std::abs(step - j) <= kOnLattice * std::max(1.0, std::abs(j)))) return -1;
-    double c = 0.0;
+    double c = std::floor(offset / cell_);
     if (exact_) {
       const double cell = offset / cell_ - phase_;
+      if (!wholeSteps(cell)) return -1;
       c = std::round(cell);
-      if (!(std::abs(cell - c) <= kOnLattice * std::max(1.0, std::abs(c)))) return -1;
-    } else {
-      c = std::floor(offset / cell_);
     }
     const double r = c - static_cast<double>(first_cell_);
     if (!(r >= 0.0 && r < static_cast<double>(cells_) && j >= lowest_ && j < lowest_ + width_)) {
@@ -271,13 +286,10 @@ class AxisTable {
   /// cell): what a query's tables are budgeted by.
   static double rows(const AxisControls& controls, const AxisCosts& costs, double low, double high,
                      double start_velocity) {
-    const double unit = controls.step * costs.tau;
-    const double steps = start_velocity / unit;
-    const bool exact =
-        std::abs(steps - std::round(steps)) <= kOnLattice * std::max(1.0, std::abs(steps));
     const double cell =
-        0.5 * controls.step * costs.tau * costs.tau / (exact ? 1 : subCells(controls, costs));
-    const double velocities = std::floor(costs.max_velocity / unit * (1.0 + 1e-9));
+        latticeStep(controls, costs) / cellsPerStep(controls, costs, start_velocity);
+    const double velocities =
+        std::floor(costs.max_velocity / (controls.step * costs.tau) * (1.0 + 1e-9));
     return (std::ceil((high - low) / cell) + 4.0) * (2.0 * velocities + 2.0);
   }
 
@@ -347,8 +359,8 @@ class LatticeQueryHeuristic final : public SearchHeuristic {
       best = std::min(best, cost);
     }
     best = std::max(best, alone);
-    const double distance = std::max((state.col(0) - goal).norm() - costs_[0].goal_radius, 0.0);
-    return std::max(base, best + weight_length_ * distance);
+    return std::max(
+        base, best + weight_length_ * ballDistance(state.col(0), goal, costs_[0].goal_radius));
   }
 
  private:
@@ -394,7 +406,7 @@ class LatticeQueryHeuristic final : public SearchHeuristic {
 class LatticeHeuristic final : public SearchHeuristic {
  public:
   LatticeHeuristic(const HeuristicContext& context, int horizon,
-                   std::vector<AxisControls> axes = {})
+                   std::optional<std::array<AxisControls, 3>> axes = std::nullopt)
       : context_(context),
         horizon_(horizon),
         axes_(std::move(axes)),
@@ -407,29 +419,30 @@ class LatticeHeuristic final : public SearchHeuristic {
 
   std::shared_ptr<const SearchHeuristic> forControls(
       const std::vector<Eigen::Vector3d>& controls) const override {
-    std::vector<AxisControls> axes;
-    for (int axis = 0; axis < 3; ++axis) axes.push_back(axisControls(controls, axis));
-    return std::make_shared<LatticeHeuristic>(context_, horizon_, std::move(axes));
+    return std::make_shared<LatticeHeuristic>(
+        context_, horizon_,
+        std::array<AxisControls, 3>{axisControls(controls, 0), axisControls(controls, 1),
+                                    axisControls(controls, 2)});
   }
 
   std::shared_ptr<const SearchHeuristic> forQuery(const World& world, const Eigen::Vector3d& goal,
                                                   StopCondition& /*stop*/) const override {
-    if (axes_.empty()) return nullptr;  // no controls yet: time_optimal
+    if (!axes_) return nullptr;  // no controls yet: time_optimal
     const EdgeEvaluatorSettings& edges = context_.edges;
     std::array<AxisCosts, 3> costs;
     for (int axis = 0; axis < 3; ++axis) {
       costs[axis] = {edges.duration, edges.weights.duration, edges.weights.control_effort,
                      context_.goal_radius, edges.limits.bound[1][axis]};
     }
-    return std::make_shared<LatticeQueryHeuristic>(
-        time_optimal_, std::array<AxisControls, 3>{axes_[0], axes_[1], axes_[2]}, costs,
-        edges.weights.length, world.bounds().min - goal, world.bounds().max - goal, horizon_);
+    return std::make_shared<LatticeQueryHeuristic>(time_optimal_, *axes_, costs,
+                                                   edges.weights.length, world.bounds().min - goal,
+                                                   world.bounds().max - goal, horizon_);
   }
 
  private:
   HeuristicContext context_;
   int horizon_;
-  std::vector<AxisControls> axes_;  ///< per axis, once the controls are known
+  std::optional<std::array<AxisControls, 3>> axes_;  ///< once the controls are known
   std::shared_ptr<const TimeOptimalHeuristic> time_optimal_;
 };
 

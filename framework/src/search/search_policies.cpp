@@ -7,12 +7,12 @@
 #include "kinolab/core/error.hpp"
 
 namespace kinolab {
-namespace {
 
-/// The distance from `position` to the goal ball of radius R.
 double ballDistance(const Eigen::Vector3d& position, const Eigen::Vector3d& goal, double radius) {
   return std::max((position - goal).norm() - radius, 0.0);
 }
+
+namespace {
 
 /// The least time to move `distance` >= 0 along an axis from speed `v` (positive towards the
 /// target) with |v| <= v_max and |a| <= a_max: full acceleration, then cruise.

@@ -138,6 +138,9 @@ std::shared_ptr<const SearchHeuristic> heuristicForControls(
     const std::shared_ptr<const SearchHeuristic>& heuristic,
     const std::vector<Eigen::Vector3d>& controls);
 
+/// The distance from `position` to the goal ball of radius `radius` around `goal` (0 inside).
+double ballDistance(const Eigen::Vector3d& position, const Eigen::Vector3d& goal, double radius);
+
 /// w_T |d| / |v_max| + w_L |d|, d the distance to the goal ball.
 class EuclideanHeuristic final : public SearchHeuristic {
  public:
