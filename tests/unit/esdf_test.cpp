@@ -78,6 +78,42 @@ INSTANTIATE_TEST_SUITE_P(RandomGrids, EsdfBruteForceTest,
                                            EsdfCase{{24, 24, 24}, 0.9},
                                            EsdfCase{{40, 3, 19}, 0.002}));
 
+/// The strided passes take four adjacent lines at a time by a joint scan outwards and fall
+/// back to the envelope, line by line, when an entry lies more than 16 voxels from the other
+/// kind: grids long along x (pass 3) or y (pass 2) with dense ends and an empty middle mix both
+/// within one group of lines, next to lines dense throughout.
+TEST(EsdfTest, LinesWithFarEntriesBesideNearOnesAreExact) {
+  for (const Eigen::Vector3i& dims : {Eigen::Vector3i(80, 6, 5), Eigen::Vector3i(6, 80, 5)}) {
+    const int along = dims.x() > dims.y() ? 0 : 1;
+    VoxelGrid grid = randomGrid(dims, 0.0, 1, 0.1);
+    Rng rng(5);
+    for (int x = 0; x < dims.x(); ++x) {
+      for (int y = 0; y < dims.y(); ++y) {
+        for (int z = 0; z < dims.z(); ++z) {
+          const int position = along == 0 ? x : y;
+          const int across = along == 0 ? y : x;
+          const bool dense = position < 12 || position >= 68 || across == 2;
+          if (dense && rng.uniform01() < 0.3) grid.setOccupied(grid.index(x, y, z), true);
+        }
+      }
+    }
+    const Esdf esdf(grid);
+    double worst = 0.0;
+    for (int x = 0; x < dims.x(); ++x) {
+      for (int y = 0; y < dims.y(); ++y) {
+        for (int z = 0; z < dims.z(); ++z) {
+          const VoxelIndex voxel(x, y, z);
+          const double expected = bruteForce(grid, voxel) * grid.resolution();
+          worst = std::max(worst, std::abs(esdf.voxelDistance(grid.index(voxel)) - expected));
+        }
+      }
+    }
+    EXPECT_LT(worst, 1e-5) << "dims " << dims.transpose();
+    // The incremental field's passes go line by line, in another order.
+    EXPECT_EQ(IncrementalEsdf(grid).esdf().values(), esdf.values()) << "dims " << dims.transpose();
+  }
+}
+
 /// Random edits of a grid's occupancy, as a vehicle's window sees them: a few voxels
 /// appearing or vanishing, a box of them at once, everything cleared and filled again.
 TEST(IncrementalEsdfTest, EveryUpdateEqualsAFullBuildBitForBit) {

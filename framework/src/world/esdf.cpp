@@ -277,6 +277,54 @@ void transformSignedLine(const std::int32_t* f, std::int32_t* d, int n, Envelope
   }
 }
 
+/// Four lanes of int32 (GCC's vector extension: one SSE2 register), one line each.
+using Lanes = std::int32_t __attribute__((vector_size(4 * sizeof(std::int32_t))));
+constexpr std::size_t kLanes = 4;
+
+/// True when some lane of `mask` (0 or -1 per lane) is set.
+inline bool anyLane(const Lanes& mask) {
+  std::uint64_t words[2];
+  std::memcpy(words, &mask, sizeof(Lanes));
+  return (words[0] | words[1]) != 0;
+}
+
+/// Pass 2 or 3 of the signed transform on four lines at once (`entry`, a line a lane, `length`
+/// long) into `result`, when every entry is near: each line as transformSignedLine() has it,
+/// found by its scan outwards for the four together, which stops where the distance along the
+/// line alone reaches all four's best. The entry i steps from q offers its own value plus
+/// (2 i - 1)^2 when of q's kind, else its cube, (2 i - 1)^2 alone: the cubes of the other kind
+/// at a run's ends, and beyond them entries no nearer than those cubes. Exact, and so the same
+/// integers as the line-by-line transform. False (`result` then partly written) when some
+/// entry's scan would go past kNearSteps steps: far entries, which the envelope does in linear
+/// time. Entries are capped at 2^30 in the sums (no overflow): a capped offer exceeds every
+/// best that a scan within kNearSteps accepts.
+bool signedNearLanes(const Lanes* entry, Lanes* result, int length, std::int32_t limit) {
+  constexpr int kNearSteps = 16;
+  constexpr std::int32_t kCap = std::int32_t{1} << 30;
+  for (int q = 0; q < length; ++q) {
+    const Lanes self = entry[q];
+    const Lanes sign = self >> 31;  // -1 in an occupied voxel
+    Lanes best = self ^ sign;
+    for (int step = 1; q - step >= 0 || q + step < length; ++step) {
+      const std::int32_t reach = (2 * step - 1) * (2 * step - 1);
+      if (!anyLane(best > reach)) break;
+      if (step > kNearSteps) return false;
+      for (const int i : {q - step, q + step}) {
+        if (i < 0 || i >= length) continue;
+        const Lanes other = entry[i];
+        const Lanes same = ~((other ^ self) >> 31);  // -1 where of q's kind
+        Lanes value = other ^ (other >> 31);
+        value = value < kCap ? value : kCap;
+        const Lanes offer = (value & same) + reach;
+        best = offer < best ? offer : best;
+      }
+    }
+    const Lanes beyond = best >= limit;
+    result[q] = ((best & ~beyond) | (kNoSite & beyond)) ^ sign;
+  }
+  return true;
+}
+
 /// An entry of a pass's result that an update changed, as the next pass's lines see it: the
 /// line it lies on, its position along that line and its value before.
 struct LineChange {
@@ -322,11 +370,35 @@ struct CubeTransform {
       transformLine(f, d, length, scratch);
     };
   }
-  /// transformSignedLine() likewise.
-  auto signedEnvelope(int length) {
-    return [this, length](const std::int32_t* f, std::int32_t* d) {
-      transformSignedLine(f, d, length, scratch, limit, run_values.data(), run_result.data());
-    };
+  /// Signed pass 2 or 3, in place, over `count` adjacent lines from `first` of `length`
+  /// entries `stride` apart: four lines at a time by signedNearLanes(), or one at a time by
+  /// transformSignedLine() where those have far entries.
+  void signedStrided(std::int32_t* field, std::size_t first, std::size_t count, int length,
+                     std::size_t stride) {
+    const auto n = static_cast<std::size_t>(length);
+    lanes.resize(2 * n);
+    Lanes* entry = lanes.data();
+    Lanes* result = lanes.data() + n;
+    for (std::size_t group = 0; group < count; group += kLanes) {
+      const std::size_t lines = std::min(kLanes, count - group);
+      const std::size_t bytes = lines * sizeof(std::int32_t);
+      std::int32_t* start = field + first + group;
+      // Lanes past `lines` hold 0 (a site of their own: near) and are not written back.
+      for (std::size_t q = 0; q < n; ++q) {
+        entry[q] = Lanes{};
+        std::memcpy(&entry[q], start + q * stride, bytes);
+      }
+      if (signedNearLanes(entry, result, length, limit)) {
+        for (std::size_t q = 0; q < n; ++q) std::memcpy(start + q * stride, &result[q], bytes);
+        continue;
+      }
+      for (std::size_t line = 0; line < lines; ++line) {
+        for (std::size_t q = 0; q < n; ++q) in[q] = entry[q][line];
+        transformSignedLine(in.data(), out.data(), length, scratch, limit, run_values.data(),
+                            run_result.data());
+        for (std::size_t q = 0; q < n; ++q) start[q * stride + line] = out[q];
+      }
+    }
   }
   /// Signed pass 1 over the columns [begin, end) (x-y cells).
   void signedColumns(const std::uint8_t* occupancy, std::int32_t* field, std::size_t begin,
@@ -349,16 +421,15 @@ struct CubeTransform {
   void signedAlongY(std::int32_t* field, std::size_t begin, std::size_t end) {
     end = std::min(end, static_cast<std::size_t>(dims.x()));
     for (std::size_t ix = begin; ix < end; ++ix) {
-      transformStrided(field, field, ix * slab, static_cast<std::size_t>(dims.z()), dims.y(),
-                       static_cast<std::size_t>(dims.z()), in, out, signedEnvelope(dims.y()));
+      signedStrided(field, ix * slab, static_cast<std::size_t>(dims.z()), dims.y(),
+                    static_cast<std::size_t>(dims.z()));
     }
   }
   /// Signed pass 3 over the x-lines of the (y, z) cells [begin, end) (in storage order).
   void signedAlongX(std::int32_t* field, std::size_t begin, std::size_t end) {
     end = std::min(end, slab);
     if (end > begin) {
-      transformStrided(field, field, begin, end - begin, dims.x(), slab, in, out,
-                       signedEnvelope(dims.x()));
+      signedStrided(field, begin, end - begin, dims.x(), slab);
     }
   }
   /// Pass 1 along x instead (IncrementalEsdf's order): every x-line of `occupancy` into
@@ -500,6 +571,7 @@ struct CubeTransform {
   std::vector<std::uint8_t> suspects;    // update()'s
   std::vector<std::int32_t> run_values;  // transformSignedLine()'s
   std::vector<std::int32_t> run_result;
+  std::vector<Lanes> lanes;  // signedStrided()'s
 };
 
 /// Calls work(begin, end) on `parts` contiguous ranges splitting [0, count), each on a thread
