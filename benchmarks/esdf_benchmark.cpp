@@ -1,6 +1,7 @@
 // ESDF build and query kernels. Figures are per voxel (build) and per query.
 #include <benchmark/benchmark.h>
 
+#include <span>
 #include <vector>
 
 #include "kinolab/builtin_plugins.hpp"
@@ -24,20 +25,31 @@ VoxelGrid randomGrid(const Eigen::Vector3i& dims, double occupancy, double resol
 /// is per query (items_per_second), not per batch.
 constexpr std::size_t kBatch = 256;
 
+/// With `batched`, each batch is one Esdf::distancesWithGradients() call (the same values).
 void runGradientQueries(benchmark::State& state, const Esdf& esdf,
-                        const std::vector<Eigen::Vector3d>& points) {
+                        const std::vector<Eigen::Vector3d>& points, bool batched = false) {
   std::size_t start = 0;
+  std::vector<double> distances(kBatch);
+  std::vector<Eigen::Vector3d> gradients(kBatch);
   for (auto _ : state) {
     double sum = 0.0;
-    Eigen::Vector3d gradient;
-    for (std::size_t k = 0; k < kBatch; ++k) {
-      sum += esdf.distanceWithGradient(points[start + k], &gradient);
-      sum += gradient.x() + gradient.y() + gradient.z();
+    if (batched) {
+      esdf.distancesWithGradients(std::span(points).subspan(start, kBatch), distances, gradients);
+      for (std::size_t k = 0; k < kBatch; ++k) {
+        sum += distances[k] + gradients[k].x() + gradients[k].y() + gradients[k].z();
+      }
+    } else {
+      Eigen::Vector3d gradient;
+      for (std::size_t k = 0; k < kBatch; ++k) {
+        sum += esdf.distanceWithGradient(points[start + k], &gradient);
+        sum += gradient.x() + gradient.y() + gradient.z();
+      }
     }
     benchmark::DoNotOptimize(sum);
     start = (start + kBatch) & (points.size() - 1);
   }
   state.SetItemsProcessed(static_cast<std::int64_t>(state.iterations() * kBatch));
+  state.SetLabel(batched ? "batched" : "one by one");
 }
 
 /// Builds the signed ESDF of `grid` once per iteration on `threads` threads; reports wall ns
@@ -143,7 +155,8 @@ BENCHMARK(BM_WindowEsdfBuild)->Arg(0)->Arg(1)->UseRealTime()->Unit(benchmark::kM
 /// Trilinear distance + gradient at random points; `side` = voxels per axis in x and y
 /// (16 x 16 x 16 floats = 16 KiB fits in L1/L2; 512 x 512 x 64 floats = 64 MiB does not);
 /// `huge_pages` 0: the same values in a copy on ordinary pages (Esdf itself advises huge
-/// pages), side by side in one run.
+/// pages), side by side in one run; `batched` 1: 256 points a call to
+/// Esdf::distancesWithGradients() instead of one query at a time.
 void BM_DistanceWithGradient(benchmark::State& state) {
   const int side = static_cast<int>(state.range(0));
   const int height = side >= 256 ? 64 : side;
@@ -157,14 +170,16 @@ void BM_DistanceWithGradient(benchmark::State& state) {
   for (auto& p : points) {
     p = {rng.uniform(0, extent.x()), rng.uniform(0, extent.y()), rng.uniform(0, extent.z())};
   }
-  runGradientQueries(state, esdf, points);
+  runGradientQueries(state, esdf, points, state.range(2) == 1);
   state.counters["grid_MiB"] = static_cast<double>(grid.size() * sizeof(float)) / (1 << 20);
 }
 BENCHMARK(BM_DistanceWithGradient)
-    ->ArgNames({"side", "huge_pages"})
-    ->Args({16, 1})
-    ->Args({512, 0})
-    ->Args({512, 1});
+    ->ArgNames({"side", "huge_pages", "batched"})
+    ->Args({16, 1, 0})
+    ->Args({16, 1, 1})
+    ->Args({512, 0, 0})
+    ->Args({512, 1, 0})
+    ->Args({512, 1, 1});
 
 /// The same query on the 64 MiB grid, but at points 5 cm apart along random 4 m segments:
 /// the access pattern of edge evaluation, where consecutive queries share cache lines.
@@ -182,9 +197,9 @@ void BM_DistanceWithGradientAlongSegments(benchmark::State& state) {
     for (int k = 0; k < 80; ++k) points.push_back(a + direction * (0.05 * k));
   }
   points.resize(1 << 16);
-  runGradientQueries(state, esdf, points);
+  runGradientQueries(state, esdf, points, state.range(0) == 1);
 }
-BENCHMARK(BM_DistanceWithGradientAlongSegments);
+BENCHMARK(BM_DistanceWithGradientAlongSegments)->ArgName("batched")->Arg(0)->Arg(1);
 
 /// Trilinear distance only, and the nearest-voxel lookup, on the in-cache grid.
 void BM_DistanceQueries(benchmark::State& state) {

@@ -10,6 +10,7 @@
 #include <chrono>
 #include <cmath>
 #include <memory>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -88,17 +89,18 @@ py::object distances(const PyWorld& self, const py::object& points, bool with_gr
   double* d = distance.mutable_data();
   double* g = gradient.mutable_data();
   {
+    // Rows of three contiguous doubles are Eigen::Vector3d's layout: the batched queries
+    // (Esdf::distances, the same values as one at a time) read and write the arrays in place.
+    static_assert(sizeof(Eigen::Vector3d) == 3 * sizeof(double));
     py::gil_scoped_release release;
     const Esdf& esdf = self.world->esdf();
-    for (py::ssize_t i = 0; i < n; ++i) {
-      const Eigen::Vector3d point(in[3 * i], in[3 * i + 1], in[3 * i + 2]);
-      if (with_gradient) {
-        Eigen::Vector3d grad;
-        d[i] = esdf.distanceWithGradient(point, &grad);
-        for (int axis = 0; axis < 3; ++axis) g[3 * i + axis] = grad[axis];
-      } else {
-        d[i] = esdf.distance(point);
-      }
+    const auto count = static_cast<std::size_t>(n);
+    const std::span points_in(reinterpret_cast<const Eigen::Vector3d*>(in), count);
+    if (with_gradient) {
+      esdf.distancesWithGradients(points_in, std::span(d, count),
+                                  std::span(reinterpret_cast<Eigen::Vector3d*>(g), count));
+    } else {
+      esdf.distances(points_in, std::span(d, count));
     }
   }
   if (input.ndim() == 1) {

@@ -71,7 +71,8 @@ def test_distances_are_vectorised_and_their_gradient_is_the_fields_slope(forest)
     points = rng.uniform([0.5, 0.5, 0.5], [9.5, 9.5, 2.5], size=(500, 3))
     distance = forest.distance(points)
     assert distance.shape == (500,)
-    assert distance[7] == pytest.approx(forest.distance(points[7]))
+    # Many points at once (two to an SSE2 register) give exactly what one at a time gives.
+    assert all(distance[i] == forest.distance(points[i]) for i in range(0, 500, 7))
     # At a voxel centre the trilinear distance is the ESDF's value there.
     index = np.array([37, 52, 14])
     centre = np.array(forest.origin) + (index + 0.5) * forest.resolution

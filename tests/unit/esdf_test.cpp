@@ -4,7 +4,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <limits>
+#include <span>
 #include <string>
 
 #include "kinolab/core/error.hpp"
@@ -320,6 +322,56 @@ TEST(EsdfTest, ACoordinateThatIsNotFiniteReadsInRangeAndGivesNaN) {
     Eigen::Vector3d gradient;
     EXPECT_TRUE(std::isnan(esdf.distanceWithGradient(bad, &gradient)));  // the value
   }
+}
+
+/// distances() and distancesWithGradients() find two points' cells at once in SSE2 lanes and
+/// interpolate in chunks of sixteen: every value must be the single query's, bit for bit,
+/// for every count (chunks cut anywhere, an odd point alone), on both layouts, a grid one voxel
+/// thick, and points outside the map, on its bounds or without a position.
+TEST(EsdfTest, ManyPointsAtOnceGiveTheSingleQueriesValuesBitForBit) {
+  const VoxelGrid dense = randomGrid({19, 14, 11}, 0.08, 4, 0.1);
+  const VoxelGrid flat = randomGrid({9, 12, 1}, 0.2, 5, 0.1);
+  const Esdf fields[] = {Esdf(dense), Esdf::truncated(dense, 0.35), Esdf(flat)};
+  Rng rng(9);
+  std::vector<Eigen::Vector3d> points(1003);
+  for (auto& p : points) {
+    p = {rng.uniform(-0.3, 2.2), rng.uniform(-0.3, 1.7), rng.uniform(-0.3, 1.4)};
+  }
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  const double inf = std::numeric_limits<double>::infinity();
+  points[3] = {nan, 0.5, 0.5};
+  points[4] = {0.5, inf, 0.5};
+  points[5] = {0.5, 0.5, -inf};
+  points[6] = {-0.0, 0.05, 1.1};   // the low side, a centre, the top of the dense grid
+  points[7] = {1.9, 1.4, 1.1};     // the dense grid's far corner
+  points[8] = {0.85, 0.65, 0.05};  // a centre
+  points[9] = {1e300, -1e300, nan};
+  const auto same = [](double a, double b) { return std::memcmp(&a, &b, sizeof a) == 0; };
+  for (const Esdf& esdf : fields) {
+    for (const std::size_t count : {0, 1, 2, 3, 15, 16, 17, 33, 1003}) {
+      const std::span<const Eigen::Vector3d> some(points.data(), count);
+      std::vector<double> distances(count);
+      std::vector<double> plain(count);
+      std::vector<Eigen::Vector3d> gradients(count);
+      esdf.distancesWithGradients(some, distances, gradients);
+      esdf.distances(some, plain);
+      for (std::size_t i = 0; i < count; ++i) {
+        Eigen::Vector3d gradient;
+        const double expected = esdf.distanceWithGradient(points[i], &gradient);
+        ASSERT_TRUE(same(distances[i], expected)) << "point " << i << " of " << count;
+        ASSERT_TRUE(same(plain[i], esdf.distance(points[i]))) << "point " << i << " of " << count;
+        for (int axis = 0; axis < 3; ++axis) {
+          ASSERT_TRUE(same(gradients[i][axis], gradient[axis]))
+              << "point " << i << " axis " << axis;
+        }
+      }
+    }
+  }
+  std::vector<double> two(2);
+  EXPECT_THROW(fields[0].distances(points, two), InvalidArgument);
+  std::vector<Eigen::Vector3d> one(1);
+  EXPECT_THROW(fields[0].distancesWithGradients(std::span(points).first(2), two, one),
+               InvalidArgument);
 }
 
 TEST(EsdfTest, PointsOutsideTheMapTakeTheValueOfTheNearestPointInside) {

@@ -1072,6 +1072,100 @@ Esdf Esdf::truncated(const VoxelGrid& grid, double truncation, int threads) {
   return esdf;
 }
 
+template <bool kWithGradient>
+void Esdf::batch(const Eigen::Vector3d* points, std::size_t count, double* distances,
+                 Eigen::Vector3d* gradients) const {
+  // Chunks of kChunk points: the cells of chunk j + 1 found, and their corners' lines
+  // requested into the outer caches (a prefetch to L1 would wait for its few fill buffers),
+  // before chunk j is interpolated.
+  constexpr std::size_t kChunk = 16;
+  Cell cells[2][kChunk];
+  // cellOf() for two points at once, in the two lanes of SSE2 pairs: the same operations in the
+  // same order, so the same cells bit for bit.
+  const auto cellPair = [this](const Eigen::Vector3d& a, const Eigen::Vector3d& b, Cell& cell_a,
+                               Cell& cell_b) {
+    using Pair = double __attribute__((vector_size(16)));
+    using Mask = std::int64_t __attribute__((vector_size(16)));
+    using Indices = std::int32_t __attribute__((vector_size(8)));
+    const Pair zero = {0.0, 0.0};
+    cell_a.base = 0;
+    cell_b.base = 0;
+    for (int axis = 0; axis < 3; ++axis) {
+      const Pair raw = Pair{a[axis], b[axis]} * inverse_resolution_ - shift_[axis];
+      // std::max(0.0, raw) and std::min(.., upper) as the standard library selects them: a NaN
+      // coordinate becomes 0.
+      const Pair low = zero < raw ? raw : zero;
+      const Pair upper = {upper_[axis], upper_[axis]};
+      const Pair scaled = upper < low ? upper : low;
+      const Mask unclamped = raw == scaled;
+      const Pair scale = unclamped ? Pair{gradient_scale_[axis], gradient_scale_[axis]} : zero;
+      const Pair highest = {lower_corner_[axis], lower_corner_[axis]};
+      // Truncation to 32 bits is the 64-bit one: an axis has at most checkTransformable()'s
+      // 23,000-odd voxels.
+      const Indices corner = __builtin_convertvector(highest < scaled ? highest : scaled, Indices);
+      const Pair fraction = scaled - __builtin_convertvector(corner, Pair);
+      cell_a.fraction[axis] = fraction[0];
+      cell_b.fraction[axis] = fraction[1];
+      cell_a.scale[axis] = scale[0];
+      cell_b.scale[axis] = scale[1];
+      cell_a.corner[axis] = static_cast<std::size_t>(corner[0]);
+      cell_b.corner[axis] = static_cast<std::size_t>(corner[1]);
+      cell_a.base += cell_a.corner[axis] * strides_[axis];
+      cell_b.base += cell_b.corner[axis] * strides_[axis];
+    }
+    const Pair poison =
+        Pair{a.x(), b.x()} * 0.0 + Pair{a.y(), b.y()} * 0.0 + Pair{a.z(), b.z()} * 0.0;
+    cell_a.poison = poison[0];
+    cell_b.poison = poison[1];
+  };
+
+  const float* values = brick_table_ ? nullptr : values_.data();
+  const std::size_t* step = neighbour_step_;
+  const auto find = [&](std::size_t first, Cell* out) {
+    const std::size_t n = std::min(kChunk, count - first);
+    std::size_t k = 0;
+    for (; k + 1 < n; k += 2)
+      cellPair(points[first + k], points[first + k + 1], out[k], out[k + 1]);
+    if (k < n) out[k] = cellOf(points[first + k]);
+    if (!values) return;
+    for (k = 0; k < n; ++k) {
+      const float* v = values + out[k].base;
+      __builtin_prefetch(v, 0, 1);
+      __builtin_prefetch(v + step[1] + step[2], 0, 1);
+      __builtin_prefetch(v + step[0], 0, 1);
+      __builtin_prefetch(v + step[0] + step[1] + step[2], 0, 1);
+    }
+  };
+  if (count > 0) find(0, cells[0]);
+  for (std::size_t first = 0, j = 0; first < count; first += kChunk, j ^= 1) {
+    if (first + kChunk < count) find(first + kChunk, cells[j ^ 1]);
+    const std::size_t n = std::min(kChunk, count - first);
+    for (std::size_t k = 0; k < n; ++k) {
+      distances[first + k] =
+          blend<kWithGradient>(cells[j][k], kWithGradient ? &gradients[first + k] : nullptr);
+    }
+  }
+}
+
+void Esdf::distances(std::span<const Eigen::Vector3d> points, std::span<double> distances) const {
+  if (distances.size() != points.size()) {
+    throw InvalidArgument("Esdf::distances: " + std::to_string(distances.size()) +
+                          " distances for " + std::to_string(points.size()) + " points");
+  }
+  batch<false>(points.data(), points.size(), distances.data(), nullptr);
+}
+
+void Esdf::distancesWithGradients(std::span<const Eigen::Vector3d> points,
+                                  std::span<double> distances,
+                                  std::span<Eigen::Vector3d> gradients) const {
+  if (distances.size() != points.size() || gradients.size() != points.size()) {
+    throw InvalidArgument("Esdf::distancesWithGradients: " + std::to_string(distances.size()) +
+                          " distances and " + std::to_string(gradients.size()) + " gradients for " +
+                          std::to_string(points.size()) + " points");
+  }
+  batch<true>(points.data(), points.size(), distances.data(), gradients.data());
+}
+
 double Esdf::centreBound(const Eigen::Vector3d& point) const {
   if (values_.empty() && !brick_table_) return -INFINITY;
   std::size_t lower[3];
