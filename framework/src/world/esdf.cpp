@@ -383,13 +383,25 @@ struct CubeTransform {
       const std::size_t lines = std::min(kLanes, count - group);
       const std::size_t bytes = lines * sizeof(std::int32_t);
       std::int32_t* start = field + first + group;
-      // Lanes past `lines` hold 0 (a site of their own: near) and are not written back.
+      // Lanes past `lines` hold 0 (a site of their own: near) and are not written back. (A
+      // whole group's copies are of a constant size: one instruction, not a call.)
+      const bool whole = lines == kLanes;
       for (std::size_t q = 0; q < n; ++q) {
-        entry[q] = Lanes{};
-        std::memcpy(&entry[q], start + q * stride, bytes);
+        if (whole) {
+          std::memcpy(&entry[q], start + q * stride, sizeof(Lanes));
+        } else {
+          entry[q] = Lanes{};
+          std::memcpy(&entry[q], start + q * stride, bytes);
+        }
       }
       if (signedNearLanes(entry, result, length, limit)) {
-        for (std::size_t q = 0; q < n; ++q) std::memcpy(start + q * stride, &result[q], bytes);
+        for (std::size_t q = 0; q < n; ++q) {
+          if (whole) {
+            std::memcpy(start + q * stride, &result[q], sizeof(Lanes));
+          } else {
+            std::memcpy(start + q * stride, &result[q], bytes);
+          }
+        }
         continue;
       }
       for (std::size_t line = 0; line < lines; ++line) {
