@@ -1087,76 +1087,117 @@ Esdf Esdf::truncated(const VoxelGrid& grid, double truncation, int threads) {
 template <bool kWithGradient>
 void Esdf::batch(const Eigen::Vector3d* points, std::size_t count, double* distances,
                  Eigen::Vector3d* gradients) const {
-  // Chunks of kChunk points: the cells of chunk j + 1 found, and their corners' lines
-  // requested into the outer caches (a prefetch to L1 would wait for its few fill buffers),
-  // before chunk j is interpolated.
-  constexpr std::size_t kChunk = 16;
-  Cell cells[2][kChunk];
-  // cellOf() for two points at once, in the two lanes of SSE2 pairs: the same operations in the
-  // same order, so the same cells bit for bit.
-  const auto cellPair = [this](const Eigen::Vector3d& a, const Eigen::Vector3d& b, Cell& cell_a,
-                               Cell& cell_b) {
-    using Pair = double __attribute__((vector_size(16)));
-    using Mask = std::int64_t __attribute__((vector_size(16)));
-    using Indices = std::int32_t __attribute__((vector_size(8)));
+  const auto one = [&](std::size_t i) {
+    distances[i] =
+        interpolate<kWithGradient>(points[i], kWithGradient ? &gradients[i] : nullptr, nullptr);
+  };
+  if (brick_table_) {  // a truncated field's bricks: one at a time
+    for (std::size_t i = 0; i < count; ++i) one(i);
+    return;
+  }
+  // Two points at a time, a point to a lane of SSE2 pairs, through interpolate()'s arithmetic:
+  // per lane the same operations in the same order (for each x side on its own), so the same
+  // values bit for bit. Chunks of kChunk pairs: the cells of chunk j + 1 found and their
+  // corners' cache lines requested into the outer caches (a prefetch to L1 would wait for its
+  // few fill buffers) before chunk j is interpolated.
+  using Pair = double __attribute__((vector_size(16)));
+  using Mask = std::int64_t __attribute__((vector_size(16)));
+  using Indices = std::int32_t __attribute__((vector_size(8)));
+  struct Cells {
+    std::size_t base[2];
+    Pair fraction[3];
+    Pair scale[3];
+    Pair poison;
+  };
+  const auto cellsOf = [this](const Eigen::Vector3d& a, const Eigen::Vector3d& b, Cells& cells) {
     const Pair zero = {0.0, 0.0};
-    cell_a.base = 0;
-    cell_b.base = 0;
+    cells.base[0] = 0;
+    cells.base[1] = 0;
     for (int axis = 0; axis < 3; ++axis) {
       const Pair raw = Pair{a[axis], b[axis]} * inverse_resolution_ - shift_[axis];
-      // std::max(0.0, raw) and std::min(.., upper) as the standard library selects them: a NaN
+      // std::max(0.0, raw), then std::min(.., upper), as the standard library selects: a NaN
       // coordinate becomes 0.
       const Pair low = zero < raw ? raw : zero;
       const Pair upper = {upper_[axis], upper_[axis]};
       const Pair scaled = upper < low ? upper : low;
       const Mask unclamped = raw == scaled;
-      const Pair scale = unclamped ? Pair{gradient_scale_[axis], gradient_scale_[axis]} : zero;
+      cells.scale[axis] = unclamped ? Pair{gradient_scale_[axis], gradient_scale_[axis]} : zero;
       const Pair highest = {lower_corner_[axis], lower_corner_[axis]};
       // Truncation to 32 bits is the 64-bit one: an axis has at most checkTransformable()'s
       // 23,000-odd voxels.
       const Indices corner = __builtin_convertvector(highest < scaled ? highest : scaled, Indices);
-      const Pair fraction = scaled - __builtin_convertvector(corner, Pair);
-      cell_a.fraction[axis] = fraction[0];
-      cell_b.fraction[axis] = fraction[1];
-      cell_a.scale[axis] = scale[0];
-      cell_b.scale[axis] = scale[1];
-      cell_a.corner[axis] = static_cast<std::size_t>(corner[0]);
-      cell_b.corner[axis] = static_cast<std::size_t>(corner[1]);
-      cell_a.base += cell_a.corner[axis] * strides_[axis];
-      cell_b.base += cell_b.corner[axis] * strides_[axis];
+      cells.fraction[axis] = scaled - __builtin_convertvector(corner, Pair);
+      cells.base[0] += static_cast<std::size_t>(corner[0]) * strides_[axis];
+      cells.base[1] += static_cast<std::size_t>(corner[1]) * strides_[axis];
     }
-    const Pair poison =
-        Pair{a.x(), b.x()} * 0.0 + Pair{a.y(), b.y()} * 0.0 + Pair{a.z(), b.z()} * 0.0;
-    cell_a.poison = poison[0];
-    cell_b.poison = poison[1];
+    cells.poison = Pair{a.x(), b.x()} * 0.0 + Pair{a.y(), b.y()} * 0.0 + Pair{a.z(), b.z()} * 0.0;
   };
-
-  const float* values = brick_table_ ? nullptr : values_.data();
   const std::size_t* step = neighbour_step_;
-  const auto find = [&](std::size_t first, Cell* out) {
-    const std::size_t n = std::min(kChunk, count - first);
-    std::size_t k = 0;
-    for (; k + 1 < n; k += 2)
-      cellPair(points[first + k], points[first + k + 1], out[k], out[k + 1]);
-    if (k < n) out[k] = cellOf(points[first + k]);
-    if (!values) return;
-    for (k = 0; k < n; ++k) {
-      const float* v = values + out[k].base;
-      __builtin_prefetch(v, 0, 1);
-      __builtin_prefetch(v + step[1] + step[2], 0, 1);
-      __builtin_prefetch(v + step[0], 0, 1);
-      __builtin_prefetch(v + step[0] + step[1] + step[2], 0, 1);
+  const auto blend = [&](const Cells& cells, std::size_t i) {
+    const float* a = values_.data() + cells.base[0];
+    const float* b = values_.data() + cells.base[1];
+    const auto corner = [&](std::size_t offset) { return Pair{a[offset], b[offset]}; };
+    const Pair c000 = corner(0);
+    const Pair c001 = corner(step[2]);
+    const Pair c010 = corner(step[1]);
+    const Pair c011 = corner(step[1] + step[2]);
+    const Pair c100 = corner(step[0]);
+    const Pair c101 = corner(step[0] + step[2]);
+    const Pair c110 = corner(step[0] + step[1]);
+    const Pair c111 = corner(step[0] + step[1] + step[2]);
+    const Pair tx = cells.fraction[0];
+    const Pair ty = cells.fraction[1];
+    const Pair tz = cells.fraction[2];
+    const Pair dz_low0 = c001 - c000;  // interpolate()'s dz_low, the x0 side
+    const Pair dz_low1 = c101 - c100;
+    const Pair dz_high0 = c011 - c010;
+    const Pair dz_high1 = c111 - c110;
+    const Pair e00 = c000 + dz_low0 * tz;  // e0, x0 side
+    const Pair e01 = c100 + dz_low1 * tz;
+    const Pair e10 = c010 + dz_high0 * tz;
+    const Pair e11 = c110 + dz_high1 * tz;
+    const Pair dy0 = e10 - e00;
+    const Pair dy1 = e11 - e01;
+    const Pair c0 = e00 + dy0 * ty;
+    const Pair c1 = e01 + dy1 * ty;
+    const Pair dx = c1 - c0;
+    const Pair value = c0 + dx * tx + cells.poison;
+    distances[i] = value[0];
+    distances[i + 1] = value[1];
+    if constexpr (kWithGradient) {
+      const Pair dz0 = dz_low0 + (dz_high0 - dz_low0) * ty;
+      const Pair dz1 = dz_low1 + (dz_high1 - dz_low1) * ty;
+      const Pair gx = dx * cells.scale[0];
+      const Pair gy = (dy0 + (dy1 - dy0) * tx) * cells.scale[1];
+      const Pair gz = (dz0 + (dz1 - dz0) * tx) * cells.scale[2];
+      gradients[i] = {gx[0], gy[0], gz[0]};
+      gradients[i + 1] = {gx[1], gy[1], gz[1]};
     }
   };
-  if (count > 0) find(0, cells[0]);
-  for (std::size_t first = 0, j = 0; first < count; first += kChunk, j ^= 1) {
-    if (first + kChunk < count) find(first + kChunk, cells[j ^ 1]);
-    const std::size_t n = std::min(kChunk, count - first);
+  constexpr std::size_t kChunk = 8;
+  const std::size_t pairs = count / 2;
+  Cells cells[2][kChunk];
+  const auto find = [&](std::size_t first, Cells* out) {
+    const std::size_t n = std::min(kChunk, pairs - first);
     for (std::size_t k = 0; k < n; ++k) {
-      distances[first + k] =
-          blend<kWithGradient>(cells[j][k], kWithGradient ? &gradients[first + k] : nullptr);
+      const std::size_t i = 2 * (first + k);
+      cellsOf(points[i], points[i + 1], out[k]);
+      for (const std::size_t base : out[k].base) {
+        const float* v = values_.data() + base;
+        __builtin_prefetch(v, 0, 1);
+        __builtin_prefetch(v + step[1] + step[2], 0, 1);
+        __builtin_prefetch(v + step[0], 0, 1);
+        __builtin_prefetch(v + step[0] + step[1] + step[2], 0, 1);
+      }
     }
+  };
+  if (pairs > 0) find(0, cells[0]);
+  for (std::size_t first = 0, j = 0; first < pairs; first += kChunk, j ^= 1) {
+    if (first + kChunk < pairs) find(first + kChunk, cells[j ^ 1]);
+    const std::size_t n = std::min(kChunk, pairs - first);
+    for (std::size_t k = 0; k < n; ++k) blend(cells[j][k], 2 * (first + k));
   }
+  if (count % 2 == 1) one(count - 1);
 }
 
 void Esdf::distances(std::span<const Eigen::Vector3d> points, std::span<double> distances) const {

@@ -120,10 +120,11 @@ class Esdf {
   }
 
   /// distance() at every point of `points`, into `distances` (as many): the same values bit for
-  /// bit, faster for many points. Sixteen points' cells are found (two at a time) and their
-  /// corners' cache lines requested while the sixteen before them are interpolated, so that
-  /// the memory reads of many points overlap (about 4x more random queries a second on a
-  /// 64 MiB field; docs/benchmarks.md). Throws InvalidArgument on a size mismatch.
+  /// bit, faster for many points (a dense field's; a truncated one's are taken one at a time).
+  /// Two points go through the arithmetic at once, one to a lane of SSE2 pairs, and sixteen
+  /// points' corners are requested from memory while the sixteen before them are interpolated,
+  /// so that the memory reads of many points overlap (docs/benchmarks.md has the figures).
+  /// Throws InvalidArgument on a size mismatch.
   void distances(std::span<const Eigen::Vector3d> points, std::span<double> distances) const;
   /// distanceWithGradient() at every point likewise, into `distances` and `gradients`.
   void distancesWithGradients(std::span<const Eigen::Vector3d> points, std::span<double> distances,
@@ -205,48 +206,33 @@ class Esdf {
                         : values_[x * strides_[0] + y * strides_[1] + z * strides_[2]];
   }
 
-  /// Where a point falls: its cell's lower corner (per axis and as a dense index), the
-  /// fractions within the cell, the gradient's scale per axis (zero along a clamped axis) and
-  /// the poison term (0 for a finite point, NaN otherwise).
-  struct Cell {
-    std::size_t corner[3];
-    std::size_t base;
+  /// The trilinear value; with `gradient`, its gradient; with `spread`, voxel^2 sum_i
+  /// t_i (1 - t_i) for clearance().
+  template <bool kWithGradient>
+  double interpolate(const Eigen::Vector3d& point, Eigen::Vector3d* gradient,
+                     double* spread) const {
     double fraction[3];
     double scale[3];
-    double poison;
-  };
-
-  /// The cell of one point (batch() has the same arithmetic for two at once).
-  Cell cellOf(const Eigen::Vector3d& point) const {
-    Cell cell;
-    cell.base = 0;
+    std::size_t corners[3];
+    std::size_t base = 0;
     for (int axis = 0; axis < 3; ++axis) {
       const double raw = point[axis] * inverse_resolution_ - shift_[axis];
       // max(0, x) first maps a NaN coordinate to 0, never to an index.
       const double scaled = std::min(std::max(0.0, raw), upper_[axis]);
       // Along a clamped axis the field is constant, so that gradient component is zero.
-      cell.scale[axis] = raw == scaled ? gradient_scale_[axis] : 0.0;
+      if constexpr (kWithGradient) scale[axis] = raw == scaled ? gradient_scale_[axis] : 0.0;
       // The lower corner stays one below the last centre so that corner + 1 exists; on a
       // one-voxel axis the step is zero and both corners are the same voxel.
       // scaled >= 0, so truncation is floor (and needs no libm call); converted back from a
       // signed integer, which takes one instruction (an unsigned one takes a branch).
       const auto corner = static_cast<std::int64_t>(std::min(scaled, lower_corner_[axis]));
-      cell.fraction[axis] = scaled - static_cast<double>(corner);
-      cell.corner[axis] = static_cast<std::size_t>(corner);
-      cell.base += cell.corner[axis] * strides_[axis];
+      fraction[axis] = scaled - static_cast<double>(corner);
+      corners[axis] = static_cast<std::size_t>(corner);
+      base += corners[axis] * strides_[axis];
     }
-    // x * 0 is 0 for a finite coordinate and NaN otherwise: added last, off the loads' path,
-    // so that a point with no position has no distance (the gradient is not poisoned).
-    cell.poison = point.x() * 0.0 + point.y() * 0.0 + point.z() * 0.0;
-    return cell;
-  }
-
-  /// The trilinear value in `cell`; with `gradient`, its gradient.
-  template <bool kWithGradient>
-  double blend(const Cell& cell, Eigen::Vector3d* gradient) const {
     double c000, c001, c010, c011, c100, c101, c110, c111;
     if (!brick_table_) {
-      const float* v = values_.data() + cell.base;
+      const float* v = values_.data() + base;
       const std::size_t* step = neighbour_step_;
       c000 = v[0];
       c001 = v[step[2]];
@@ -257,9 +243,9 @@ class Esdf {
       c110 = v[step[0] + step[1]];
       c111 = v[step[0] + step[1] + step[2]];
     } else {
-      const std::size_t x0 = cell.corner[0];
-      const std::size_t y0 = cell.corner[1];
-      const std::size_t z0 = cell.corner[2];
+      const std::size_t x0 = corners[0];
+      const std::size_t y0 = corners[1];
+      const std::size_t z0 = corners[2];
       const std::size_t x1 = x0 + unit_step_[0];
       const std::size_t y1 = y0 + unit_step_[1];
       const std::size_t z1 = z0 + unit_step_[2];
@@ -272,9 +258,12 @@ class Esdf {
       c110 = brickValue(x1, y1, z0);
       c111 = brickValue(x1, y1, z1);
     }
-    const double tx = cell.fraction[0];
-    const double ty = cell.fraction[1];
-    const double tz = cell.fraction[2];
+    const double tx = fraction[0];
+    const double ty = fraction[1];
+    const double tz = fraction[2];
+    if (spread) {
+      *spread = (tx * (1.0 - tx) + ty * (1.0 - ty) + tz * (1.0 - tz)) * resolution_ * resolution_;
+    }
     // Interpolate along z, then y, then x, the two x sides at once (lanes x0, x1 of a pair: the
     // same operations, in the same order, as one side at a time).
     using Pair = double __attribute__((vector_size(16)));
@@ -291,25 +280,14 @@ class Esdf {
     const double dx = c[1] - c[0];
     if constexpr (kWithGradient) {
       const Pair dz = dz_low + (dz_high - dz_low) * ty;  // dz0, dz1
-      (*gradient)[0] = dx * cell.scale[0];
-      (*gradient)[1] = (dy[0] + (dy[1] - dy[0]) * tx) * cell.scale[1];
-      (*gradient)[2] = (dz[0] + (dz[1] - dz[0]) * tx) * cell.scale[2];
+      (*gradient)[0] = dx * scale[0];
+      (*gradient)[1] = (dy[0] + (dy[1] - dy[0]) * tx) * scale[1];
+      (*gradient)[2] = (dz[0] + (dz[1] - dz[0]) * tx) * scale[2];
     }
-    return c[0] + dx * tx + cell.poison;
-  }
-
-  /// The trilinear value; with `gradient`, its gradient; with `spread`, voxel^2 sum_i
-  /// t_i (1 - t_i) for clearance().
-  template <bool kWithGradient>
-  double interpolate(const Eigen::Vector3d& point, Eigen::Vector3d* gradient,
-                     double* spread) const {
-    const Cell cell = cellOf(point);
-    if (spread) {
-      const double* t = cell.fraction;
-      *spread = (t[0] * (1.0 - t[0]) + t[1] * (1.0 - t[1]) + t[2] * (1.0 - t[2])) * resolution_ *
-                resolution_;
-    }
-    return blend<kWithGradient>(cell, gradient);
+    // x * 0 is 0 for a finite coordinate and NaN otherwise: added last, off the loads' path,
+    // so that a point with no position has no distance (the gradient is not poisoned).
+    const double poison = point.x() * 0.0 + point.y() * 0.0 + point.z() * 0.0;
+    return c[0] + dx * tx + poison;
   }
 
   /// distances() and distancesWithGradients().
