@@ -136,12 +136,18 @@ RgbImage renderEsdfSlice(const World& world, double z) {
   // Colour scale: clearances beyond 3 m (or a quarter of the map) look the same.
   const double far = std::min(3.0, 0.25 * (dims.head<2>().cast<double>() * resolution).maxCoeff());
   RgbImage image(dims.x() * scale, dims.y() * scale);
+  // A column of the picture at a time, its distances in one batched query.
+  std::vector<Eigen::Vector3d> points(static_cast<std::size_t>(image.height));
+  std::vector<double> distances(points.size());
   for (int px = 0; px < image.width; ++px) {
     for (int py = 0; py < image.height; ++py) {
-      const Eigen::Vector3d point(
+      points[static_cast<std::size_t>(py)] = {
           grid.origin().x() + (px + 0.5) * resolution / scale,
-          grid.origin().y() + (image.height - py - 0.5) * resolution / scale, z);
-      const double d = world.distance(point);
+          grid.origin().y() + (image.height - py - 0.5) * resolution / scale, z};
+    }
+    world.esdf().distances(points, distances);
+    for (int py = 0; py < image.height; ++py) {
+      const double d = distances[static_cast<std::size_t>(py)];
       const Rgb colour = d < 0.0 ? lerp(Rgb{240, 90, 80}, Rgb{120, 0, 0}, std::min(1.0, -d / far))
                                  : colourMap(kViridis, d / far);
       image.set(px, py, colour);
