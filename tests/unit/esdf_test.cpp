@@ -116,6 +116,28 @@ TEST(EsdfTest, LinesWithFarEntriesBesideNearOnesAreExact) {
   }
 }
 
+/// A short line (12 voxels) with no site beside a long one whose sites are over 16,384 voxels away
+/// (a squared distance above 2^30 quarter voxels): the four-line scan must leave such lines to the
+/// envelope rather than offer a capped sum as a site.
+TEST(EsdfTest, DistancesBeyondSixteenThousandVoxelsAreExact) {
+  const Eigen::Vector3i dims(20000, 12, 1);
+  const double resolution = 0.01;
+  VoxelGrid grid(Box{Eigen::Vector3d::Zero(), dims.cast<double>() * resolution}, resolution);
+  grid.setOccupied(grid.index(0, 0, 0), true);
+  const Esdf esdf(grid);
+  double worst = 0.0;
+  for (int x = 0; x < dims.x(); ++x) {
+    for (int y = 0; y < dims.y(); ++y) {
+      if (x == 0 && y == 0) continue;
+      const double expected =
+          std::hypot(std::max(x - 0.5, 0.0), std::max(y - 0.5, 0.0)) * resolution;
+      const double value = esdf.voxelDistance(grid.index(x, y, 0));
+      worst = std::max(worst, std::abs(value - expected) / expected);
+    }
+  }
+  EXPECT_LT(worst, 1e-6);
+}
+
 /// Random edits of a grid's occupancy, as a vehicle's window sees them: a few voxels
 /// appearing or vanishing, a box of them at once, everything cleared and filled again.
 TEST(IncrementalEsdfTest, EveryUpdateEqualsAFullBuildBitForBit) {

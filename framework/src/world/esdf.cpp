@@ -296,8 +296,9 @@ inline bool anyLane(const Lanes& mask) {
 /// at a run's ends, and beyond them entries no nearer than those cubes. Exact, and so the same
 /// integers as the line-by-line transform. False (`result` then partly written) when some
 /// entry's scan would go past kNearSteps steps: far entries, which the envelope does in linear
-/// time. Entries are capped at 2^30 in the sums (no overflow): a capped offer exceeds every
-/// best that a scan within kNearSteps accepts.
+/// time. Entries are capped at 2^30 in the sums (no overflow), so a best below the cap is exact
+/// and one at or above it (a short line with no site, or sites that far) is left to the
+/// envelope too.
 bool signedNearLanes(const Lanes* entry, Lanes* result, int length, std::int32_t limit) {
   constexpr int kNearSteps = 16;
   constexpr std::int32_t kCap = std::int32_t{1} << 30;
@@ -319,6 +320,7 @@ bool signedNearLanes(const Lanes* entry, Lanes* result, int length, std::int32_t
         best = offer < best ? offer : best;
       }
     }
+    if (anyLane(best >= kCap)) return false;
     const Lanes beyond = best >= limit;
     result[q] = ((best & ~beyond) | (kNoSite & beyond)) ^ sign;
   }
