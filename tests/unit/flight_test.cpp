@@ -1186,6 +1186,19 @@ TEST(DifficultyTest, FlightBenchMetricsGrowWithWhatStandsInTheWay) {
   EXPECT_GT(wall.view_occlusion, 0.0);
   EXPECT_GT(wall.traversability_obstruction, 0.5);
   EXPECT_NEAR(wall.obstacles_per_hectare, 50.0, 1e-9);
+  // A sparse world (bricks, a truncated field) reads its own occupancy: the same figures.
+  const auto sparse = World::build(WorldSpec::fromYaml(
+      YamlReader::loadString("resolution: 0.1\nlayout: sparse\ntruncation: 1.0\nbounds: {min: "
+                             "[0, 0, 0], max: [20, 10, 3]}\ngenerators:\n" +
+                                 std::string(kWall),
+                             "flight_test.yaml"),
+      "."));
+  ASSERT_NE(sparse->grid().layout(), GridLayout::kDense);
+  const ScenarioDifficulty on_bricks = scenarioDifficulty(*sparse, query, 0.25);
+  EXPECT_EQ(on_bricks.guide, wall.guide);
+  EXPECT_EQ(on_bricks.traversability_obstruction, wall.traversability_obstruction);
+  EXPECT_EQ(on_bricks.view_occlusion, wall.view_occlusion);
+  EXPECT_EQ(on_bricks.obstacles_per_hectare, wall.obstacles_per_hectare);
   // No way at all: no guide, no path metrics.
   const ScenarioDifficulty closed = scenarioDifficulty(
       *worldOf("  - type: box_list\n    boxes: [{min: [9, 0, 0], max: [9.4, 10, 3]}]\n"), query,

@@ -182,14 +182,15 @@ ScenarioDifficulty scenarioDifficulty(const World& truth, const PlanningQuery& q
   const double z_low = std::min(start.z(), query.goal.z()) - 0.5;
   const double z_high = std::max(start.z(), query.goal.z()) + 0.5;
   const VoxelGrid& grid = truth.grid();
-  std::vector<std::uint8_t> copy;  // a sparse world's occupancy, one byte a voxel
-  if (grid.layout() != GridLayout::kDense) {
-    copy.assign(grid.size(), 0);
-    grid.forEachOccupied([&](const VoxelIndex& v) { copy[grid.index(v)] = 1; });
-  }
+  // The grid's own occupancy, either layout (a sparse world is never copied out).
+  const auto obstacle = [&grid](int x, int y, int z0, int z1) {
+    for (int z = z0; z <= z1; ++z) {
+      if (grid.occupied(VoxelIndex(x, y, z))) return true;
+    }
+    return false;
+  };
   const std::vector<Eigen::Vector3d> cells =
-      columnGuide(grid, copy.empty() ? grid.occupancy() : copy, 1, start, query.goal, robot_radius,
-                  z_low, z_high);
+      columnGuide(grid, obstacle, start, query.goal, robot_radius, z_low, z_high);
   if (cells.empty()) return difficulty;
   difficulty.guide = shortened(truth, cells, robot_radius);
   difficulty.guide_length = lengthOf(difficulty.guide);

@@ -371,9 +371,11 @@ bool TrajectoryChecker::checkCollision(const Trajectory& trajectory, CheckResult
         return violation(result, "bounds", time, position,
                          "position " + formatPoint(position) + " leaves the map");
       }
-      // Up to the map's diagonal (where the ESDF caps, in a map without obstacles); always
-      // finite (a position inside the map is).
-      const double distance = world.esdf().exactDistance(position, world.esdf().maxDistance());
+      // Up to the map's diagonal (where the ESDF caps, in a map without obstacles), or up to
+      // a truncated field's truncation (a sparse world's clearance figures are capped there:
+      // exact below it); always finite (a position inside the map is).
+      const double distance = world.esdf().exactDistance(
+          position, std::min(world.esdf().maxDistance(), world.esdf().truncation()));
       clearance_sum += std::max(distance, 0.0) - settings_.robot_radius;
       least = std::min(least, std::max(distance, 0.0));
       if (collides(position)) {

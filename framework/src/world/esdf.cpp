@@ -1289,10 +1289,12 @@ double Esdf::nearestCube(Search search, const Eigen::Vector3d& point, double lim
   if (raw >= static_cast<float>(max_distance_)) return limit;
   const double stored = raw * inverse_resolution_;
   double reach = limit * inverse_resolution_;
-  // A truncated value at +T says only that the cube is at least T from the centre: the ball
-  // searched is the same, and finding no cube in it proves the distance at least its radius.
+  // A truncated value at +T says only that the cube is at least T from the centre, no bound
+  // above: the search goes out to the limit (the lower bounds still skip the ball inside).
   const bool beyond_truncation = raw >= static_cast<float>(truncation_);
-  if (stored >= 0.0) reach = std::min(reach, stored + std::sqrt(centre_offset2) + 1e-4);
+  if (stored >= 0.0 && !beyond_truncation) {
+    reach = std::min(reach, stored + std::sqrt(centre_offset2) + 1e-4);
+  }
   const double inner = std::max(0.0, lower * inverse_resolution_ - 1e-4);
   for (int axis = 0; axis < 3; ++axis) {
     search.from[axis] = std::max<std::int64_t>(
@@ -1310,8 +1312,7 @@ double Esdf::nearestCube(Search search, const Eigen::Vector3d& point, double lim
   if (search.found && search.best2 == 0.0) return -0.5 * resolution_;  // in (or on) a cube
   const double best = std::sqrt(search.best2) * resolution_;
   if (search.found) return std::min(best, limit);
-  // Without a cube within reach: at least the reach (the limit, unless truncated).
-  return beyond_truncation ? std::min(limit, reach * resolution_) : limit;
+  return limit;  // no cube within reach: at least the limit
 }
 
 IncrementalEsdf::IncrementalEsdf(VoxelGrid grid) { rebuild(std::move(grid)); }

@@ -3,6 +3,7 @@
 #include <Eigen/Core>
 #include <cstddef>
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <string>
 #include <vector>
@@ -165,16 +166,17 @@ class VehicleMap {
 template <>
 PluginRegistry<VehicleMap>& pluginRegistry<VehicleMap>();
 
+/// Whether the column (x, y) of a lattice holds an obstacle in the voxel layers [z0, z1].
+using ObstacleInColumn = std::function<bool(int x, int y, int z0, int z1)>;
+
 /// A shortest 8-connected path over the x-y cells of `lattice` from `from` to `to`, through
-/// cells with no voxel whose value in `cells` (one per lattice voxel) is `occupied` within
-/// `radius` in the heights [z_low, z_high] (VehicleMap::guide on a map's states; on a ground
-/// truth's occupancy, the way a flight could take knowing everything). Cell centres at
-/// heights interpolated from `from` to `to`, the first and last at `from` and `to`; empty
-/// when there is none.
-std::vector<Eigen::Vector3d> columnGuide(const VoxelGrid& lattice,
-                                         const std::vector<std::uint8_t>& cells,
-                                         std::uint8_t occupied, const Eigen::Vector3d& from,
-                                         const Eigen::Vector3d& to, double radius, double z_low,
-                                         double z_high);
+/// cells with no column within `radius` that holds an obstacle (`obstacle`) in the heights
+/// [z_low, z_high] (VehicleMap::guide on a map's states; on a ground truth's grid of either
+/// layout, the way a flight could take knowing everything). Cell centres at heights
+/// interpolated from `from` to `to`, the first and last at `from` and `to`; empty when there is
+/// none.
+std::vector<Eigen::Vector3d> columnGuide(const VoxelGrid& lattice, const ObstacleInColumn& obstacle,
+                                         const Eigen::Vector3d& from, const Eigen::Vector3d& to,
+                                         double radius, double z_low, double z_high);
 
 }  // namespace kinolab

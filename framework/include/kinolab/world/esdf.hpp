@@ -178,7 +178,9 @@ class Esdf {
   /// exact; D is 1-Lipschitz), and those voxels (at most `limit` away) are searched from the
   /// point's voxel outwards, skipping the ball within centreBound(), known free: the shell
   /// between the two bounds: for a distance r, about pi (r / voxel)^2 columns of a few
-  /// look-ups each (the whole ball took (r / voxel)^3).
+  /// look-ups each (the whole ball took (r / voxel)^3). On a truncated field a centre value at
+  /// +T bounds nothing above, so there the search goes out to `limit` (keep it small: a sparse
+  /// world's callers pass at most a few metres).
   /// With `enough` > 0 it returns as soon as it finds a cube nearer than that (a distance below
   /// `enough`, not necessarily the least): a verdict at radius `enough` needs no more.
   double exactDistance(const Eigen::Vector3d& point, double limit, double enough = 0.0) const {
