@@ -183,14 +183,14 @@ ScenarioDifficulty scenarioDifficulty(const World& truth, const PlanningQuery& q
   const double z_high = std::max(start.z(), query.goal.z()) + 0.5;
   const VoxelGrid& grid = truth.grid();
   // The grid's own occupancy, either layout (a sparse world is never copied out).
-  const auto obstacle = [&grid](int x, int y, int z0, int z1) {
-    for (int z = z0; z <= z1; ++z) {
-      if (grid.occupied(VoxelIndex(x, y, z))) return true;
+  const auto obstacles = [&grid](int x, int z0, int z1, std::uint8_t* row) {
+    for (int y = 0; y < grid.dims().y(); ++y) {
+      row[y] = 0;
+      for (int z = z0; z <= z1 && row[y] == 0; ++z) row[y] = grid.occupied(VoxelIndex(x, y, z));
     }
-    return false;
   };
   const std::vector<Eigen::Vector3d> cells =
-      columnGuide(grid, obstacle, start, query.goal, robot_radius, z_low, z_high);
+      columnGuide(grid, obstacles, start, query.goal, robot_radius, z_low, z_high);
   if (cells.empty()) return difficulty;
   difficulty.guide = shortened(truth, cells, robot_radius);
   difficulty.guide_length = lengthOf(difficulty.guide);

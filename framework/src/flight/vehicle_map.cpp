@@ -197,17 +197,19 @@ std::shared_ptr<const World> VehicleMap::window(const Eigen::Vector3d& center) {
 
 namespace {
 
-/// Per x-y cell of `lattice` (x slowest): 1 where a column with an obstacle (`obstacle`) in
+/// Per x-y cell of `lattice` (x slowest): 1 where a column with an obstacle (`obstacles`) in
 /// the voxel layers [z0, z1] lies within `radius` of the cell's centre.
-std::vector<std::uint8_t> blockedCells(const VoxelGrid& lattice, const ObstacleInColumn& obstacle,
+std::vector<std::uint8_t> blockedCells(const VoxelGrid& lattice, const ObstacleColumns& obstacles,
                                        int z0, int z1, double radius) {
   const Eigen::Vector3i& n = lattice.dims();
   const double r = lattice.resolution();
   std::vector<std::uint8_t> blocked(static_cast<std::size_t>(n.x()) * n.y(), 0);
+  std::vector<std::uint8_t> row(static_cast<std::size_t>(n.y()));
   const int reach = static_cast<int>(std::ceil(radius / r));
   for (int x = 0; x < n.x(); ++x) {
+    obstacles(x, z0, z1, row.data());
     for (int y = 0; y < n.y(); ++y) {
-      if (!obstacle(x, y, z0, z1)) continue;
+      if (row[static_cast<std::size_t>(y)] == 0) continue;
       for (int dx = -reach; dx <= reach; ++dx) {
         for (int dy = -reach; dy <= reach; ++dy) {
           const int cx = x + dx;
@@ -281,16 +283,18 @@ std::vector<std::size_t> cellPath(const std::vector<std::uint8_t>& blocked, int 
 std::vector<Eigen::Vector3d> VehicleMap::guide(const Eigen::Vector3d& from,
                                                const Eigen::Vector3d& to, double radius,
                                                double z_low, double z_high) const {
-  const auto obstacle = [this](int x, int y, int z0, int z1) {
-    const std::uint8_t* column = &state_[lattice_.index(x, y, 0)];
-    return std::any_of(column + z0, column + z1 + 1, [](std::uint8_t v) {
-      return v == static_cast<std::uint8_t>(Voxel::kOccupied);
-    });
+  const auto obstacles = [this](int x, int z0, int z1, std::uint8_t* row) {
+    for (int y = 0; y < lattice_.dims().y(); ++y) {
+      const std::uint8_t* column = &state_[lattice_.index(x, y, 0)];
+      row[y] = std::any_of(column + z0, column + z1 + 1, [](std::uint8_t v) {
+        return v == static_cast<std::uint8_t>(Voxel::kOccupied);
+      });
+    }
   };
-  return columnGuide(lattice_, obstacle, from, to, radius, z_low, z_high);
+  return columnGuide(lattice_, obstacles, from, to, radius, z_low, z_high);
 }
 
-std::vector<Eigen::Vector3d> columnGuide(const VoxelGrid& lattice, const ObstacleInColumn& obstacle,
+std::vector<Eigen::Vector3d> columnGuide(const VoxelGrid& lattice, const ObstacleColumns& obstacles,
                                          const Eigen::Vector3d& from, const Eigen::Vector3d& to,
                                          double radius, double z_low, double z_high) {
   const Eigen::Vector3i& n = lattice.dims();
@@ -305,7 +309,7 @@ std::vector<Eigen::Vector3d> columnGuide(const VoxelGrid& lattice, const Obstacl
       std::clamp(static_cast<int>(std::floor((z_low - lattice.origin().z()) / r)), 0, n.z() - 1);
   const int z1 =
       std::clamp(static_cast<int>(std::floor((z_high - lattice.origin().z()) / r)), 0, n.z() - 1);
-  std::vector<std::uint8_t> blocked = blockedCells(lattice, obstacle, z0, z1, radius);
+  std::vector<std::uint8_t> blocked = blockedCells(lattice, obstacles, z0, z1, radius);
   const Eigen::Vector2i start = cellOf(from);
   const Eigen::Vector2i goal = cellOf(to);
   blocked[static_cast<std::size_t>(start.x()) * n.y() + start.y()] = 0;  // the vehicle is here

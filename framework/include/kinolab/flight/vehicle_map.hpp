@@ -166,16 +166,17 @@ class VehicleMap {
 template <>
 PluginRegistry<VehicleMap>& pluginRegistry<VehicleMap>();
 
-/// Whether the column (x, y) of a lattice holds an obstacle in the voxel layers [z0, z1].
-using ObstacleInColumn = std::function<bool(int x, int y, int z0, int z1)>;
+/// Marks the columns of a lattice's x-row `x` that hold an obstacle in the voxel layers
+/// [z0, z1]: row[y] = 1 for those, 0 for the others (a row at a time: one call per row).
+using ObstacleColumns = std::function<void(int x, int z0, int z1, std::uint8_t* row)>;
 
 /// A shortest 8-connected path over the x-y cells of `lattice` from `from` to `to`, through
-/// cells with no column within `radius` that holds an obstacle (`obstacle`) in the heights
+/// cells with no column within `radius` that holds an obstacle (`obstacles`) in the heights
 /// [z_low, z_high] (VehicleMap::guide on a map's states; on a ground truth's grid of either
 /// layout, the way a flight could take knowing everything). Cell centres at heights
 /// interpolated from `from` to `to`, the first and last at `from` and `to`; empty when there is
 /// none.
-std::vector<Eigen::Vector3d> columnGuide(const VoxelGrid& lattice, const ObstacleInColumn& obstacle,
+std::vector<Eigen::Vector3d> columnGuide(const VoxelGrid& lattice, const ObstacleColumns& obstacles,
                                          const Eigen::Vector3d& from, const Eigen::Vector3d& to,
                                          double radius, double z_low, double z_high);
 
