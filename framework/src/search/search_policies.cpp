@@ -14,6 +14,20 @@ double ballDistance(const Eigen::Vector3d& position, const Eigen::Vector3d& goal
 
 namespace {
 
+/// A MaxHeuristic of `parts` each prepared by `prepare` (for a query, for a control set);
+/// nullptr when no part changes.
+template <typename Prepare>
+std::shared_ptr<const SearchHeuristic> maxOfPrepared(
+    const std::vector<std::shared_ptr<const SearchHeuristic>>& parts, const Prepare& prepare) {
+  std::vector<std::shared_ptr<const SearchHeuristic>> prepared;
+  bool changed = false;
+  for (const auto& part : parts) {
+    prepared.push_back(prepare(part));
+    changed = changed || prepared.back() != part;
+  }
+  return changed ? std::make_shared<MaxHeuristic>(std::move(prepared)) : nullptr;
+}
+
 /// The least time to move `distance` >= 0 along an axis from speed `v` (positive towards the
 /// target) with |v| <= v_max and |a| <= a_max: full acceleration, then cruise.
 double axisMinimumTime(double distance, double v, double v_max, double a_max) {
@@ -467,24 +481,14 @@ double MaxHeuristic::estimate(const ChainState& state, const Eigen::Vector3d& go
 std::shared_ptr<const SearchHeuristic> MaxHeuristic::forQuery(const World& world,
                                                               const Eigen::Vector3d& goal,
                                                               StopCondition& stop) const {
-  std::vector<std::shared_ptr<const SearchHeuristic>> parts;
-  bool changed = false;
-  for (const auto& part : parts_) {
-    parts.push_back(heuristicForQuery(part, world, goal, stop));
-    changed = changed || parts.back() != part;
-  }
-  return changed ? std::make_shared<MaxHeuristic>(std::move(parts)) : nullptr;
+  return maxOfPrepared(
+      parts_, [&](const auto& part) { return heuristicForQuery(part, world, goal, stop); });
 }
 
 std::shared_ptr<const SearchHeuristic> MaxHeuristic::forControls(
     const std::vector<Eigen::Vector3d>& controls) const {
-  std::vector<std::shared_ptr<const SearchHeuristic>> parts;
-  bool changed = false;
-  for (const auto& part : parts_) {
-    parts.push_back(heuristicForControls(part, controls));
-    changed = changed || parts.back() != part;
-  }
-  return changed ? std::make_shared<MaxHeuristic>(std::move(parts)) : nullptr;
+  return maxOfPrepared(parts_,
+                       [&](const auto& part) { return heuristicForControls(part, controls); });
 }
 
 std::shared_ptr<const SearchHeuristic> SearchHeuristic::forControls(
