@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <map>
@@ -44,18 +45,24 @@ struct Outcome {
   double cost;
   bool valid;
   double certified;
+  double start_heuristic;  ///< the search's reported estimate at the start
 };
+
+Outcome outcomeOf(const PlanResult& result) {
+  double certified = 0.0;
+  double start_heuristic = NAN;
+  for (const auto& [name, value] : result.statistics) {
+    if (name == "certified_edges") certified = value;
+    if (name == "start_heuristic") start_heuristic = value;
+  }
+  return {result.status, result.cost, result.check.valid, certified, start_heuristic};
+}
 
 Outcome run(const std::string& key, const std::vector<std::string>& items,
             const std::shared_ptr<const World>& world, const PlanningQuery& query) {
   ConfiguredPlanner configured = configurePlanner(key, test::assignments(items));
   configured.planner->setup({world, configured.sampler, 1});
-  const PlanResult result = configured.planner->plan(query, Budget{});
-  double certified = 0.0;
-  for (const auto& [name, value] : result.statistics) {
-    if (name == "certified_edges") certified = value;
-  }
-  return {result.status, result.cost, result.check.valid, certified};
+  return outcomeOf(configured.planner->plan(query, Budget{}));
 }
 
 class LazyEagerEquivalence : public ::testing::TestWithParam<Case> {
@@ -89,6 +96,10 @@ TEST_P(LazyEagerEquivalence, SameCostAsEagerAndEveryTrajectoryPassesTheChecker) 
       EXPECT_TRUE(eager.valid);
     }
     exact += eager.status == PlanStatus::kExact;
+    if (eager.status == PlanStatus::kExact) {
+      EXPECT_GT(eager.start_heuristic, 0.0);  // every query starts outside its goal ball
+      EXPECT_LE(eager.start_heuristic, eager.cost + 1e-9 * std::max(1.0, eager.cost));
+    }
     for (const char* bound : {"endpoint", "control_only", "lipschitz"}) {
       SCOPED_TRACE(bound);
       const Outcome lazy =
@@ -113,6 +124,11 @@ TEST_P(LazyEagerEquivalence, SameCostAsEagerAndEveryTrajectoryPassesTheChecker) 
       ASSERT_EQ(lazy.status, PlanStatus::kExact);
       EXPECT_NEAR(lazy.cost, eager.cost, 1e-9 * std::max(1.0, eager.cost));
       EXPECT_TRUE(lazy.valid);
+      // Each of these is at least time_optimal and at most the optimum at the start, as the
+      // searches report it.
+      const double slack = 1e-9 * std::max(1.0, eager.cost);
+      EXPECT_GE(lazy.start_heuristic, eager.start_heuristic - slack);
+      EXPECT_LE(lazy.start_heuristic, eager.cost + slack);
     }
     const Outcome seed = run("lazy_mp_astar", with("duplicate_rule=seed"), world, queries[q]);
     if (eager.status == PlanStatus::kExact) {
@@ -153,7 +169,7 @@ double statisticOf(const std::string& key, const std::vector<std::string>& items
   ConfiguredPlanner configured = configurePlanner(key, test::assignments(items));
   configured.planner->setup({world, configured.sampler, 1});
   const PlanResult result = configured.planner->plan(query, Budget{});
-  outcome = {result.status, result.cost, result.check.valid, 0.0};
+  outcome = outcomeOf(result);
   return test::statistic(result.statistics, name);
 }
 

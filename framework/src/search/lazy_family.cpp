@@ -100,6 +100,7 @@ void LazyFamilySearch::reset(const ChainState& start, const Eigen::Vector3d& goa
   start_ = start;
   goal_ = goal;
   heuristic_ = heuristicForQuery(policies_.heuristic, *world_, goal, stop);
+  start_heuristic_ = heuristic_->estimate(start, goal);
   path_.clear();
   solved_ = memory_limited_ = reverse_next_ = false;
   expansions_ = 0;
@@ -123,7 +124,8 @@ double LazyFamilySearch::cost() const {
 }
 
 Statistics LazyFamilySearch::statistics() const {
-  Statistics statistics{{"expansions", static_cast<double>(expansions_)}};
+  Statistics statistics{{"expansions", static_cast<double>(expansions_)},
+                        {"start_heuristic", start_heuristic_}};
   for (auto& entry : ownStatistics()) statistics.push_back(std::move(entry));
   work_.addStatistics(statistics, total_seconds_);
   return statistics;

@@ -115,7 +115,10 @@ MetricSpecs motionPrimitiveStatistics() {
       .clock("time_evaluation_ms", "time spent evaluating edges (within planning_time_ms)")
       .clock("time_search_ms", "time in the search besides edge evaluation (Dellin's breakdown)")
       .counter("controls", "size of the control set")
-      .real("heuristic_weight", "", "epsilon: the heuristic's weight");
+      .real("heuristic_weight", "", "epsilon: the heuristic's weight")
+      .real("start_heuristic", "",
+            "the heuristic's estimate at the start, unweighted (a lower bound of the optimal "
+            "cost: start_heuristic / cost is how tight the bound is)");
 }
 
 std::shared_ptr<const SearchHeuristic> heuristicFor(const std::string& key,

@@ -279,7 +279,8 @@ MotionPrimitiveSearch::Outcome MotionPrimitiveSearch::search(const ChainState& s
   root.state = start;
   root.slot = slotOf(start);
   candidates_.push_back(root);
-  const double root_f = priority(0.0, heuristic_->estimate(start, goal_));
+  counters_.start_heuristic = heuristic_->estimate(start, goal_);
+  const double root_f = priority(0.0, counters_.start_heuristic);
   slots_[root.slot].best_f = root_f;
   slots_[root.slot].seen = true;
   push({root_f, 0.0, 0, 0, kCandidate});
@@ -366,7 +367,8 @@ Statistics MotionPrimitiveSearch::statistics() const {
        value(static_cast<long long>(std::count_if(
            slots_.begin(), slots_.end(), [](const Slot& slot) { return slot.closed >= 0; })))},
       {"time_evaluation_ms", 1e3 * counters_.evaluation_seconds},
-      {"time_search_ms", 1e3 * (counters_.search_seconds - counters_.evaluation_seconds)}};
+      {"time_search_ms", 1e3 * (counters_.search_seconds - counters_.evaluation_seconds)},
+      {"start_heuristic", counters_.start_heuristic}};
   if (policies_.shot) {
     statistics.emplace_back("shots", value(counters_.shots));
     statistics.emplace_back("shots_rejected", value(counters_.shots_rejected));

@@ -114,6 +114,7 @@ class LazyFamilySearch {
   ChainState start_;
   Eigen::Vector3d goal_;
   std::shared_ptr<const SearchHeuristic> heuristic_;  ///< the query's (SearchHeuristic::forQuery)
+  double start_heuristic_ = 0.0;                      ///< its estimate at the start
   std::vector<LazyPathStep> path_;  ///< the final path, or the last one's evaluated valid start
   bool solved_ = false;
   bool memory_limited_ = false;

@@ -59,6 +59,7 @@ struct SearchCounters {
   bool memory_limited = false;   ///< stopped by memory_limit_mb
   long long shots = 0;           ///< analytic expansions tried (SearchPolicies::shot)
   long long shots_rejected = 0;  ///< of those, refused by the checker
+  double start_heuristic = 0.0;  ///< the heuristic's estimate at the start (unweighted)
 };
 
 /// The motion-primitive A* core shared by the lazy and eager planners and by any new
