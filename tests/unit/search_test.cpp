@@ -663,14 +663,15 @@ TEST(MotionPrimitiveSearch, AnEnclosedGoalExhaustsTheSearch) {
 /// The geodesic heuristic alone with one voxel step a primitive (v tau < voxel) and w_T = 1:
 /// its estimate is tau times the voxel steps H.
 std::shared_ptr<const SearchHeuristic> geodesicSteps(double tau, double robot_radius,
-                                                     double goal_radius) {
+                                                     double goal_radius,
+                                                     const std::string& memory_mb = "2048") {
   EdgeEvaluatorSettings edges;
   edges.duration = tau;
   edges.limits = DynamicLimits::uniform(2.0, 3.0);
   edges.weights = {1.0, 0.0, 0.0, 0.0};
   edges.robot_radius = robot_radius;
   return pluginRegistry<HeuristicBuilder>()
-      .create("geodesic", test::assignments({"time_optimal=off"}))
+      .create("geodesic", test::assignments({"time_optimal=off", "memory_mb=" + memory_mb}))
       ->build({edges, goal_radius});
 }
 
@@ -678,7 +679,8 @@ TEST(GeodesicHeuristic, CountsTheStepsABreadthFirstSearchFinds) {
   // Random grids, some with columns taller than a 64-bit word (the search packs z into words),
   // against a plain breadth-first search over 26-neighbours from the goal ball's voxels, through
   // the voxels whose centre's distance plus half a voxel's diagonal reaches the body's radius
-  // less the collision tolerance.
+  // less the collision tolerance; and the same grids bricked, with a field truncated at two
+  // voxels (a sparse world's), give the same counts.
   Rng rng(31);
   const double tau = 0.04;  // 2 m/s x 0.04 s < 0.1 m: one step a primitive
   for (const Eigen::Vector3i& dims :
@@ -748,6 +750,19 @@ TEST(GeodesicHeuristic, CountsTheStepsABreadthFirstSearchFinds) {
       }
       EXPECT_EQ(mismatches, 0) << dims.transpose() << ", radius " << robot_radius;
       EXPECT_GT(reached, 50) << "the goal's component is not trivial";
+      VoxelGrid bricked(grid.bounds(), 0.1, GridLayout::kBricked);
+      for (std::size_t i = 0; i < grid.size(); ++i) bricked.setOccupied(i, grid.occupied(i));
+      const auto sparse =
+          std::make_shared<World>("random", 0, bricked, Esdf::truncated(bricked, 0.2));
+      const auto on_sparse =
+          heuristicForQuery(geodesicSteps(tau, robot_radius, goal_radius), *sparse, goal, never);
+      int sparse_mismatches = 0;
+      for (std::size_t i = 0; i < grid.size(); ++i) {
+        ChainState state = ChainState::Zero();
+        state.col(0) = grid.center(grid.voxel(i));
+        sparse_mismatches += on_sparse->estimate(state, goal) != heuristic->estimate(state, goal);
+      }
+      EXPECT_EQ(sparse_mismatches, 0) << dims.transpose() << ", radius " << robot_radius;
       // The field grows as it is asked: asked in a random order, it gives the same counts.
       const auto asked_otherwise =
           heuristicForQuery(geodesicSteps(tau, robot_radius, goal_radius), *world, goal, never);
@@ -795,6 +810,83 @@ TEST(GeodesicHeuristic, AnEnclosedGoalEndsTheSearchAtItsStart) {
     EXPECT_EQ(result.status, PlanStatus::kNoSolution) << planner << lookahead << result.message;
     EXPECT_LE(test::statistic(result.statistics, "expansions"), 1.0) << planner << lookahead;
   }
+}
+
+TEST(GeodesicHeuristic, AMemoryBudgetEndsTheSearchAtALowerBoundThatStaysConsistent) {
+  // 300 x 300 x 10 voxels: the per-column tables take 0.69 MB, so 1 MB holds about 7,500 of
+  // the 90,000 columns. The budgeted field stops growing there: every voxel reads at most the
+  // unbudgeted count (the far ones less), and neighbours still differ by at most one step, so
+  // the estimate stays consistent (one step a primitive here).
+  Rng rng(47);
+  VoxelGrid grid(Box{Eigen::Vector3d::Zero(), Eigen::Vector3d(30.0, 30.0, 1.0)}, 0.1);
+  for (std::size_t i = 0; i < grid.size(); ++i) grid.setOccupied(i, rng.uniform01() < 0.05);
+  const World world("random", 0, grid, Esdf(grid));
+  const double tau = 0.04;
+  const Eigen::Vector3d goal(1.0, 1.0, 0.5);
+  StopCondition never(Budget{});
+  const auto full = heuristicForQuery(geodesicSteps(tau, 0.0, 0.15), world, goal, never);
+  const auto cut = heuristicForQuery(geodesicSteps(tau, 0.0, 0.15, "1"), world, goal, never);
+  std::vector<double> estimates(grid.size());
+  int above = 0;
+  int lower = 0;
+  int equal = 0;
+  for (std::size_t i = 0; i < grid.size(); ++i) {
+    ChainState state = ChainState::Zero();
+    state.col(0) = grid.center(grid.voxel(i));
+    estimates[i] = cut->estimate(state, goal);
+    const double reference = full->estimate(state, goal);
+    above += estimates[i] > reference;
+    lower += estimates[i] < reference;
+    equal += estimates[i] == reference && reference > 0.0 && reference < INFINITY;
+  }
+  EXPECT_EQ(above, 0);
+  EXPECT_GT(lower, 100000) << "the budget did not cut the search short";
+  EXPECT_GT(equal, 1000) << "the budgeted search reached too little";
+  int steeper = 0;
+  for (std::size_t i = 0; i < grid.size(); ++i) {
+    if (estimates[i] == INFINITY) continue;  // not a node
+    const VoxelIndex v = grid.voxel(i);
+    for (int dx = -1; dx <= 1; ++dx) {
+      for (int dy = -1; dy <= 1; ++dy) {
+        for (int dz = -1; dz <= 1; ++dz) {
+          const VoxelIndex n = v + VoxelIndex(dx, dy, dz);
+          if (!grid.inside(n) || estimates[grid.index(n)] == INFINITY) continue;
+          steeper += std::abs(estimates[i] - estimates[grid.index(n)]) > tau * (1.0 + 1e-9);
+        }
+      }
+    }
+  }
+  EXPECT_EQ(steeper, 0);
+  // A budget below the per-column tables is refused, naming both.
+  try {
+    VoxelGrid wide(Box{Eigen::Vector3d::Zero(), Eigen::Vector3d(40.0, 40.0, 0.2)}, 0.1);
+    const World large("wide", 0, wide, Esdf(wide));
+    heuristicForQuery(geodesicSteps(tau, 0.0, 0.15, "1"), large, goal, never);
+    ADD_FAILURE() << "160,000 columns' tables (1.2 MB) fitted in 1 MB";
+  } catch (const InvalidArgument& error) {
+    EXPECT_NE(std::string(error.what()).find("memory_mb 1 is below the 1.23 MB"), std::string::npos)
+        << error.what();
+  }
+}
+
+TEST(GeodesicHeuristic, ASparseWorldTruncatedShortOfItsFreeSpaceTestIsRefused) {
+  // On 0.1 m voxels a 0.5 m body's free space needs distances to 0.49 - 0.087 = 0.40 m; a field
+  // truncated at 0.3 m cannot tell those voxels (it reads 0.3 beyond), at 0.5 m it can.
+  VoxelGrid grid(Box{Eigen::Vector3d::Zero(), Eigen::Vector3d(3.0, 3.0, 2.0)}, 0.1,
+                 GridLayout::kBricked);
+  grid.setOccupied(grid.index(VoxelIndex(15, 15, 10)), true);
+  const Eigen::Vector3d goal(0.6, 0.6, 1.0);
+  StopCondition never(Budget{});
+  const World short_field("short", 0, grid, Esdf::truncated(grid, 0.3));
+  try {
+    heuristicForQuery(geodesicSteps(0.04, 0.5, 0.15), short_field, goal, never);
+    ADD_FAILURE() << "a truncation of 0.3 m was accepted";
+  } catch (const InvalidArgument& error) {
+    EXPECT_NE(std::string(error.what()).find("exact to 0.3 m"), std::string::npos) << error.what();
+    EXPECT_NE(std::string(error.what()).find("larger truncation"), std::string::npos);
+  }
+  const World long_field("long", 0, grid, Esdf::truncated(grid, 0.5));
+  EXPECT_NO_THROW(heuristicForQuery(geodesicSteps(0.04, 0.5, 0.15), long_field, goal, never));
 }
 
 /// Eager and lazy MP-A* with the heuristic `settings` choose (`heuristic=...` and its own)

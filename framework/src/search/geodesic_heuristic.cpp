@@ -10,10 +10,13 @@
 
 #include "kinolab/core/fields.hpp"
 #include "kinolab/core/plugin.hpp"
+#include "kinolab/core/text.hpp"
 #include "kinolab/search/search_policies.hpp"
 
 namespace kinolab {
 namespace {
+
+constexpr double kMiB = 1024.0 * 1024.0;
 
 /// Chebyshev hop counts over a grid's voxels from the goal region: H(v) is the fewest steps
 /// between 26-neighbours, through voxels the body's centre can be in, from v to a voxel that
@@ -34,6 +37,12 @@ namespace {
 /// until the voxel asked for is reached, so a query costs the ball its search asks about, not
 /// the map (a column's words and counts are made when the search first touches it). The
 /// counts are the same whatever the order of the questions.
+///
+/// Memory: 8 bytes a column of the map, and 2 bytes a voxel plus 24 bytes a 64 voxels for each
+/// column the search touches, within a budget: when the next level would need more, the search
+/// ends there, and every voxel not reached reads that level L, a lower bound of its count. The
+/// field then reads min(H, L), which differs between two voxels by no more than H does: still
+/// consistent.
 class HopField {
  public:
   static constexpr std::uint16_t kUnreached = 0xFFFF;
@@ -41,29 +50,50 @@ class HopField {
 
   /// The voxels where the body's centre can be are those whose centre's distance plus half a
   /// voxel's diagonal reaches `threshold` (no point of the others is `threshold` from every
-  /// cube: the distance is 1-Lipschitz and exact at the centres). Keeps a pointer to the
-  /// world's distances (the search that asks holds the world) and a copy of `stop`.
+  /// cube: the distance is 1-Lipschitz and exact at the centres). On a sparse world's field,
+  /// truncated at T, that test is the dense field's when T reaches the test's value (a voxel
+  /// reading T is at least T away); a shorter truncation is refused. Keeps a reference to the
+  /// world's field (the search that asks holds the world) and a copy of `stop`.
   HopField(const World& world, double threshold, const Eigen::Vector3d& goal, double goal_radius,
-           const StopCondition& stop)
+           double memory_bytes, const StopCondition& stop)
       : origin_(world.grid().origin()),
         resolution_(world.grid().resolution()),
         dims_(world.grid().dims()),
         words_((dims_.z() + 63) / 64),
         columns_(static_cast<std::size_t>(dims_.x()) * dims_.y()),
-        distance_(world.esdf().values().data()),
-        slot_(columns_, 0),
-        stamp_(columns_, 0),
+        esdf_(world.esdf()),
         stop_(stop) {
     // Less a ten-thousandth of a voxel: the stored distances are floats.
     const double reach = threshold - (0.5 * std::sqrt(3.0) + 1e-4) * resolution_;
     at_least_ = std::nextafter(static_cast<float>(reach), -INFINITY);  // <= reach
-    // Room for every column (address space only until a column is touched): no copies as the
-    // search grows.
-    const std::size_t words = columns_ * static_cast<std::size_t>(words_);
+    if (!(esdf_.truncation() >= at_least_)) {
+      throw InvalidArgument("heuristic geodesic: world " + world.name() +
+                            "'s distances are exact to " + formatNumber(esdf_.truncation()) +
+                            " m (its truncation), but its free space needs them to " +
+                            formatNumber(reach) +
+                            " m (robot_radius less collision_tolerance and half a voxel's "
+                            "diagonal): build it with a larger truncation");
+    }
+    const double table_bytes = 2.0 * sizeof(std::uint32_t) * static_cast<double>(columns_);
+    if (!(memory_bytes >= table_bytes)) {
+      throw InvalidArgument(
+          "heuristic geodesic: memory_mb " + formatNumber(memory_bytes / kMiB) + " is below the " +
+          formatNumber(std::ceil(table_bytes / kMiB * 100.0) / 100.0) +
+          " MB its tables take on world " + world.name() + " (8 bytes a column of the map)");
+    }
+    const double slot_bytes = sizeof(std::uint16_t) * static_cast<double>(dims_.z()) +
+                              3.0 * sizeof(std::uint64_t) * words_;
+    max_slots_ = static_cast<std::size_t>(
+        std::min(static_cast<double>(columns_), (memory_bytes - table_bytes) / slot_bytes));
+    slot_.assign(columns_, 0);
+    stamp_.assign(columns_, 0);
+    // Room for every column the budget holds (address space only until a column is touched):
+    // no copies as the search grows.
+    const std::size_t words = max_slots_ * static_cast<std::size_t>(words_);
     open_.reserve(words);
     frontier_.reserve(words);
     next_.reserve(words);
-    hops_.reserve(world.grid().size());
+    hops_.reserve(max_slots_ * static_cast<std::size_t>(dims_.z()));
     seed(goal, goal_radius);
   }
 
@@ -86,7 +116,9 @@ class HopField {
       const std::uint32_t slot = slot_[column];
       const std::uint16_t hops = slot != 0 ? hops_[(slot - 1) * nz + z] : kUnreached;
       if (hops != kUnreached) return hops;
-      if (!node_checked && distance_[column * nz + z] < at_least_) return kUnreached;  // never
+      if (!node_checked && esdf_.voxelDistance(column * nz + z) < at_least_) {
+        return kUnreached;  // never
+      }
       if (frontier_columns_.empty()) return floor_;  // searched out (or cut short)
       advance();
     }
@@ -108,10 +140,11 @@ class HopField {
     frontier_.resize(made_ * words, 0);
     next_.resize(made_ * words, 0);
     hops_.resize(made_ * static_cast<std::size_t>(dims_.z()), kUnreached);
-    const float* values = &distance_[column * dims_.z()];
     std::uint64_t* open = &open_[(slot - 1) * words];
+    const std::size_t first = column * static_cast<std::size_t>(dims_.z());
     for (int z = 0; z < dims_.z(); ++z) {
-      open[z / 64] |= static_cast<std::uint64_t>(values[z] >= at_least_) << (z % 64);
+      open[z / 64] |= static_cast<std::uint64_t>(esdf_.voxelDistance(first + z) >= at_least_)
+                      << (z % 64);
     }
     return slot;
   }
@@ -153,19 +186,19 @@ class HopField {
   }
 
   /// The next level of the search (the frontier's columns must not be empty); past the stop
-  /// condition, or at kMaxHops, it ends the search instead, unreached voxels then reading the
-  /// level (a lower bound of their count).
+  /// condition, at kMaxHops, or when its columns would not fit the memory budget, it ends the
+  /// search instead, unreached voxels then reading the level (a lower bound of their count).
   void advance() {
     const auto level = static_cast<std::uint32_t>(level_ + 1);
-    if (level > kMaxHops || stop_.expired(0)) {
+    const auto end = [&] {
       floor_ = static_cast<std::uint16_t>(std::min<std::uint32_t>(level, kMaxHops));
       frontier_columns_.clear();
-      return;
-    }
-    level_ = level;
+    };
+    if (level > kMaxHops || stop_.expired(0)) return end();
     const int nx = dims_.x();
     const int ny = dims_.y();
-    // The columns next to the frontier (each once).
+    // The columns next to the frontier (each once), and how many of them are new.
+    std::size_t fresh_columns = 0;
     touched_.clear();
     for (const std::size_t column : frontier_columns_) {
       const int x = static_cast<int>(column / ny);
@@ -176,9 +209,12 @@ class HopField {
           if (stamp_[neighbour] == level) continue;
           stamp_[neighbour] = level;
           touched_.push_back(neighbour);
+          fresh_columns += slot_[neighbour] == 0;
         }
       }
     }
+    if (made_ + fresh_columns > max_slots_) return end();
+    level_ = level;
     for (const std::size_t column : touched_) slotOf(column);  // (before pointers into them)
     next_columns_.clear();
     gathered_.resize(static_cast<std::size_t>(words_));
@@ -231,8 +267,9 @@ class HopField {
   Eigen::Vector3i dims_;
   int words_;
   std::size_t columns_;
-  const float* distance_;  ///< the world's, a voxel each
-  float at_least_ = 0.0f;  ///< a voxel is a node when its distance is at least this
+  const Esdf& esdf_;          ///< the world's distances, a voxel each
+  float at_least_ = 0.0f;     ///< a voxel is a node when its distance is at least this
+  std::size_t max_slots_{0};  ///< the columns the memory budget holds
   // Per (x, y) column: 1 + its slot in the arrays below (0: not touched yet), and the last
   // level that touched it.
   std::vector<std::uint32_t> slot_;
@@ -257,6 +294,7 @@ enum class TimeOptimalPart { kWhole, kPlain, kOff };
 
 struct GeodesicOptions {
   TimeOptimalPart time_optimal = TimeOptimalPart::kWhole;
+  double memory_mb = 2048.0;
 
   template <typename Fields>
   void fields(Fields& f) {
@@ -266,6 +304,10 @@ struct GeodesicOptions {
               {"off", TimeOptimalPart::kOff}},
              "the larger of the geodesic bound and time_optimal with whole_primitives (whole), "
              "time_optimal as it is (plain), or the geodesic bound alone (off)");
+    f.real("memory_mb", memory_mb, 1.0, 1e6,
+           "memory of a query's search over the voxels, MB (8 bytes a column of the map, and "
+           "about 2.4 bytes a voxel of each column it reaches): past it the search stops, and "
+           "the voxels it has not reached read its last level (a lower bound)");
   }
 };
 
@@ -305,11 +347,13 @@ class GeodesicQueryHeuristic final : public SearchHeuristic {
 /// known, then GeodesicQueryHeuristic.
 class GeodesicHeuristic final : public SearchHeuristic {
  public:
-  GeodesicHeuristic(const HeuristicContext& context, TimeOptimalPart part)
-      : edges_(context.edges), goal_radius_(context.goal_radius) {
-    if (part != TimeOptimalPart::kOff) {
-      time_optimal_ = std::make_shared<TimeOptimalHeuristic>(context.edges, context.goal_radius,
-                                                             part == TimeOptimalPart::kWhole);
+  GeodesicHeuristic(const HeuristicContext& context, const GeodesicOptions& options)
+      : edges_(context.edges),
+        goal_radius_(context.goal_radius),
+        memory_bytes_(options.memory_mb * kMiB) {
+    if (options.time_optimal != TimeOptimalPart::kOff) {
+      time_optimal_ = std::make_shared<TimeOptimalHeuristic>(
+          context.edges, context.goal_radius, options.time_optimal == TimeOptimalPart::kWhole);
     }
   }
 
@@ -323,17 +367,14 @@ class GeodesicHeuristic final : public SearchHeuristic {
     // evaluator's verdict radius less the tolerance sphere tracing allows).
     const double threshold =
         std::max(edges_.robot_radius, edges_.collision_tolerance) - edges_.collision_tolerance;
-    if (world.grid().layout() != GridLayout::kDense) {
-      throw InvalidArgument("heuristic geodesic: world " + world.name() +
-                            " is sparse; the geodesic field needs a dense world (layout: dense)");
-    }
     return std::make_shared<GeodesicQueryHeuristic>(
-        HopField(world, threshold, goal, goal_radius_, stop), edges_, time_optimal_);
+        HopField(world, threshold, goal, goal_radius_, memory_bytes_, stop), edges_, time_optimal_);
   }
 
  private:
   EdgeEvaluatorSettings edges_;
   double goal_radius_;
+  double memory_bytes_;  ///< the budget of a query's HopField
   std::shared_ptr<const TimeOptimalHeuristic> time_optimal_;
 };
 
@@ -344,9 +385,9 @@ void registerBuiltins() {
       "w_T tau ceil(H / m): H the voxel steps to the goal through the free space (a search over "
       "the map per query), m the most one primitive takes; with time_optimal by max",
       declareFields<GeodesicOptions>(), [](const ParameterSet& p) {
-        const TimeOptimalPart part = readFields<GeodesicOptions>(p).time_optimal;
-        return std::make_unique<HeuristicBuilder>([part](const HeuristicContext& context) {
-          return std::make_shared<GeodesicHeuristic>(context, part);
+        const GeodesicOptions options = readFields<GeodesicOptions>(p);
+        return std::make_unique<HeuristicBuilder>([options](const HeuristicContext& context) {
+          return std::make_shared<GeodesicHeuristic>(context, options);
         });
       });
   registrar.commit();
