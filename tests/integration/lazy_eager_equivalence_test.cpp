@@ -226,6 +226,7 @@ TEST_P(LazyFamilyEquivalence, EveryLookaheadAndSelectorReturnsEagersCostEvaluati
         ASSERT_EQ(lazy.status, PlanStatus::kExact);
         EXPECT_NEAR(lazy.cost, eager.cost, 1e-9 * std::max(1.0, eager.cost));
         EXPECT_TRUE(lazy.valid);
+        EXPECT_EQ(lazy.start_heuristic, eager.start_heuristic);  // the same heuristic
       }
     }
   }
@@ -315,6 +316,7 @@ TEST(LazyFamilyOnARealMap, EveryLookaheadReturnsEagersCostOnGeb079) {
       ASSERT_EQ(lazy.status, PlanStatus::kExact);
       EXPECT_NEAR(lazy.cost, eager.cost, 1e-9 * std::max(1.0, eager.cost));
       EXPECT_TRUE(lazy.valid);
+      EXPECT_EQ(lazy.start_heuristic, eager.start_heuristic);  // the same heuristic
     }
   }
   EXPECT_GE(exact, 4);

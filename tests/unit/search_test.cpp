@@ -664,14 +664,15 @@ TEST(MotionPrimitiveSearch, AnEnclosedGoalExhaustsTheSearch) {
 /// its estimate is tau times the voxel steps H.
 std::shared_ptr<const SearchHeuristic> geodesicSteps(double tau, double robot_radius,
                                                      double goal_radius,
-                                                     const std::string& memory_mb = "2048") {
+                                                     const std::string& memory_limit_mb = "2048") {
   EdgeEvaluatorSettings edges;
   edges.duration = tau;
   edges.limits = DynamicLimits::uniform(2.0, 3.0);
   edges.weights = {1.0, 0.0, 0.0, 0.0};
   edges.robot_radius = robot_radius;
   return pluginRegistry<HeuristicBuilder>()
-      .create("geodesic", test::assignments({"time_optimal=off", "memory_mb=" + memory_mb}))
+      .create("geodesic",
+              test::assignments({"time_optimal=off", "memory_limit_mb=" + memory_limit_mb}))
       ->build({edges, goal_radius});
 }
 
@@ -679,8 +680,8 @@ TEST(GeodesicHeuristic, CountsTheStepsABreadthFirstSearchFinds) {
   // Random grids, some with columns taller than a 64-bit word (the search packs z into words),
   // against a plain breadth-first search over 26-neighbours from the goal ball's voxels, through
   // the voxels whose centre's distance plus half a voxel's diagonal reaches the body's radius
-  // less the collision tolerance; and the same grids bricked, with a field truncated at two
-  // voxels (a sparse world's), give the same counts.
+  // less the collision tolerance; and the same grids bricked, with a field truncated just past
+  // that test's value (a sparse world's), give the same counts.
   Rng rng(31);
   const double tau = 0.04;  // 2 m/s x 0.04 s < 0.1 m: one step a primitive
   for (const Eigen::Vector3i& dims :
@@ -752,8 +753,11 @@ TEST(GeodesicHeuristic, CountsTheStepsABreadthFirstSearchFinds) {
       EXPECT_GT(reached, 50) << "the goal's component is not trivial";
       VoxelGrid bricked(grid.bounds(), 0.1, GridLayout::kBricked);
       for (std::size_t i = 0; i < grid.size(); ++i) bricked.setOccupied(i, grid.occupied(i));
+      // Truncated just past the node test's value: voxels reading +T pass it, those reading -T
+      // fail it, as on the dense field.
+      const double truncation = std::abs(threshold) + 0.005;
       const auto sparse =
-          std::make_shared<World>("random", 0, bricked, Esdf::truncated(bricked, 0.2));
+          std::make_shared<World>("random", 0, bricked, Esdf::truncated(bricked, truncation));
       const auto on_sparse =
           heuristicForQuery(geodesicSteps(tau, robot_radius, goal_radius), *sparse, goal, never);
       int sparse_mismatches = 0;
@@ -864,7 +868,8 @@ TEST(GeodesicHeuristic, AMemoryBudgetEndsTheSearchAtALowerBoundThatStaysConsiste
     heuristicForQuery(geodesicSteps(tau, 0.0, 0.15, "1"), large, goal, never);
     ADD_FAILURE() << "160,000 columns' tables (1.2 MB) fitted in 1 MB";
   } catch (const InvalidArgument& error) {
-    EXPECT_NE(std::string(error.what()).find("memory_mb 1 is below the 1.23 MB"), std::string::npos)
+    EXPECT_NE(std::string(error.what()).find("memory_limit_mb 1 is below the 1.23 MB"),
+              std::string::npos)
         << error.what();
   }
 }

@@ -38,11 +38,11 @@ constexpr double kMiB = 1024.0 * 1024.0;
 /// the map (a column's words and counts are made when the search first touches it). The
 /// counts are the same whatever the order of the questions.
 ///
-/// Memory: 8 bytes a column of the map, and 2 bytes a voxel plus 24 bytes a 64 voxels for each
-/// column the search touches, within a budget: when the next level would need more, the search
-/// ends there, and every voxel not reached reads that level L, a lower bound of its count. The
-/// field then reads min(H, L), which differs between two voxels by no more than H does: still
-/// consistent.
+/// Memory: 8 bytes a column of the map, and 2 bytes a voxel plus 24 bytes a 64 voxels and 24
+/// bytes for each column the search touches, within a budget: when the next level L would need
+/// more, the search ends before it, and every node not reached reads L, a lower bound of its
+/// count (the field then reads min(H, L), which differs between two voxels by no more than H
+/// does: still consistent; a node no chain joins to the goal reads L too).
 class HopField {
  public:
   static constexpr std::uint16_t kUnreached = 0xFFFF;
@@ -51,9 +51,9 @@ class HopField {
   /// The voxels where the body's centre can be are those whose centre's distance plus half a
   /// voxel's diagonal reaches `threshold` (no point of the others is `threshold` from every
   /// cube: the distance is 1-Lipschitz and exact at the centres). On a sparse world's field,
-  /// truncated at T, that test is the dense field's when T reaches the test's value (a voxel
-  /// reading T is at least T away); a shorter truncation is refused. Keeps a reference to the
-  /// world's field (the search that asks holds the world) and a copy of `stop`.
+  /// truncated at T, that test is the dense field's when T exceeds the test's value in
+  /// magnitude; a shorter truncation is refused. Keeps a reference to the world's field (the
+  /// search that asks holds the world) and a copy of `stop`.
   HopField(const World& world, double threshold, const Eigen::Vector3d& goal, double goal_radius,
            double memory_bytes, const StopCondition& stop)
       : origin_(world.grid().origin()),
@@ -66,23 +66,20 @@ class HopField {
     // Less a ten-thousandth of a voxel: the stored distances are floats.
     const double reach = threshold - (0.5 * std::sqrt(3.0) + 1e-4) * resolution_;
     at_least_ = std::nextafter(static_cast<float>(reach), -INFINITY);  // <= reach
-    if (!(esdf_.truncation() >= at_least_)) {
-      throw InvalidArgument("heuristic geodesic: world " + world.name() +
-                            "'s distances are exact to " + formatNumber(esdf_.truncation()) +
-                            " m (its truncation), but its free space needs them to " +
-                            formatNumber(reach) +
-                            " m (robot_radius less collision_tolerance and half a voxel's "
-                            "diagonal): build it with a larger truncation");
-    }
+    // A truncated field reads +T beyond T and -T deeper than T: the node test is the dense
+    // field's when T passes it (a voxel reading T is at least T away) and -T fails it.
+    world.requireExactDistancesTo(std::abs(at_least_), "heuristic geodesic");
     const double table_bytes = 2.0 * sizeof(std::uint32_t) * static_cast<double>(columns_);
     if (!(memory_bytes >= table_bytes)) {
       throw InvalidArgument(
-          "heuristic geodesic: memory_mb " + formatNumber(memory_bytes / kMiB) + " is below the " +
-          formatNumber(std::ceil(table_bytes / kMiB * 100.0) / 100.0) +
+          "heuristic geodesic: memory_limit_mb " + formatNumber(memory_bytes / kMiB) +
+          " is below the " + formatNumber(std::ceil(table_bytes / kMiB * 100.0) / 100.0) +
           " MB its tables take on world " + world.name() + " (8 bytes a column of the map)");
     }
+    // A touched column's counts and three words a 64 voxels, and its place in the three
+    // lists of columns.
     const double slot_bytes = sizeof(std::uint16_t) * static_cast<double>(dims_.z()) +
-                              3.0 * sizeof(std::uint64_t) * words_;
+                              3.0 * sizeof(std::uint64_t) * words_ + 3.0 * sizeof(std::size_t);
     max_slots_ = static_cast<std::size_t>(
         std::min(static_cast<double>(columns_), (memory_bytes - table_bytes) / slot_bytes));
     slot_.assign(columns_, 0);
@@ -94,6 +91,9 @@ class HopField {
     frontier_.reserve(words);
     next_.reserve(words);
     hops_.reserve(max_slots_ * static_cast<std::size_t>(dims_.z()));
+    frontier_columns_.reserve(max_slots_);
+    next_columns_.reserve(max_slots_);
+    touched_.reserve(max_slots_);
     seed(goal, goal_radius);
   }
 
@@ -141,10 +141,12 @@ class HopField {
     next_.resize(made_ * words, 0);
     hops_.resize(made_ * static_cast<std::size_t>(dims_.z()), kUnreached);
     std::uint64_t* open = &open_[(slot - 1) * words];
-    const std::size_t first = column * static_cast<std::size_t>(dims_.z());
+    const auto x = static_cast<int>(column / static_cast<std::size_t>(dims_.y()));
+    const auto y = static_cast<int>(column % static_cast<std::size_t>(dims_.y()));
     for (int z = 0; z < dims_.z(); ++z) {
-      open[z / 64] |= static_cast<std::uint64_t>(esdf_.voxelDistance(first + z) >= at_least_)
-                      << (z % 64);
+      open[z / 64] |=
+          static_cast<std::uint64_t>(esdf_.voxelDistance(VoxelIndex(x, y, z)) >= at_least_)
+          << (z % 64);
     }
     return slot;
   }
@@ -267,9 +269,9 @@ class HopField {
   Eigen::Vector3i dims_;
   int words_;
   std::size_t columns_;
-  const Esdf& esdf_;          ///< the world's distances, a voxel each
-  float at_least_ = 0.0f;     ///< a voxel is a node when its distance is at least this
-  std::size_t max_slots_{0};  ///< the columns the memory budget holds
+  const Esdf& esdf_;           ///< the world's distances, a voxel each
+  float at_least_ = 0.0f;      ///< a voxel is a node when its distance is at least this
+  std::size_t max_slots_ = 0;  ///< the columns the memory budget holds
   // Per (x, y) column: 1 + its slot in the arrays below (0: not touched yet), and the last
   // level that touched it.
   std::vector<std::uint32_t> slot_;
@@ -294,7 +296,7 @@ enum class TimeOptimalPart { kWhole, kPlain, kOff };
 
 struct GeodesicOptions {
   TimeOptimalPart time_optimal = TimeOptimalPart::kWhole;
-  double memory_mb = 2048.0;
+  double memory_limit_mb = 2048.0;
 
   template <typename Fields>
   void fields(Fields& f) {
@@ -304,10 +306,11 @@ struct GeodesicOptions {
               {"off", TimeOptimalPart::kOff}},
              "the larger of the geodesic bound and time_optimal with whole_primitives (whole), "
              "time_optimal as it is (plain), or the geodesic bound alone (off)");
-    f.real("memory_mb", memory_mb, 1.0, 1e6,
-           "memory of a query's search over the voxels, MB (8 bytes a column of the map, and "
-           "about 2.4 bytes a voxel of each column it reaches): past it the search stops, and "
-           "the voxels it has not reached read its last level (a lower bound)");
+    f.real("memory_limit_mb", memory_limit_mb, 1.0, 1e6,
+           "memory of a query's search over the voxels, MB, besides the planner's own (8 bytes "
+           "a column of the map, and about 2.4 bytes a voxel of each column it reaches): past "
+           "it the search stops, and the voxels it has not reached read the level it did not "
+           "make (a lower bound)");
   }
 };
 
@@ -350,7 +353,7 @@ class GeodesicHeuristic final : public SearchHeuristic {
   GeodesicHeuristic(const HeuristicContext& context, const GeodesicOptions& options)
       : edges_(context.edges),
         goal_radius_(context.goal_radius),
-        memory_bytes_(options.memory_mb * kMiB) {
+        memory_bytes_(options.memory_limit_mb * kMiB) {
     if (options.time_optimal != TimeOptimalPart::kOff) {
       time_optimal_ = std::make_shared<TimeOptimalHeuristic>(
           context.edges, context.goal_radius, options.time_optimal == TimeOptimalPart::kWhole);

@@ -117,8 +117,9 @@ MetricSpecs motionPrimitiveStatistics() {
       .counter("controls", "size of the control set")
       .real("heuristic_weight", "", "epsilon: the heuristic's weight")
       .real("start_heuristic", "",
-            "the heuristic's estimate at the start, unweighted (a lower bound of the optimal "
-            "cost: start_heuristic / cost is how tight the bound is)");
+            "the heuristic's estimate at the start, unweighted (with an admissible heuristic, as "
+            "every built-in one is, a lower bound of the optimal cost: start_heuristic / cost "
+            "is how tight it is)");
 }
 
 std::shared_ptr<const SearchHeuristic> heuristicFor(const std::string& key,
