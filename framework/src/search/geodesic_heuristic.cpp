@@ -97,7 +97,7 @@ class HopField {
 
   /// H of the voxel holding `point` (clamped into the grid): kUnreached when no chain joins it
   /// to the goal region (or the body cannot be there); when the search was cut short by its
-  /// stop condition, at most the true count.
+  /// stop condition or its memory budget, at most the true count.
   std::uint16_t hops(const Eigen::Vector3d& point) {
     const Eigen::Vector3d local = (point - origin_) / resolution_;
     VoxelIndex voxel;
