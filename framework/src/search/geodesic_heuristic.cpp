@@ -62,7 +62,6 @@ class HopField {
         words_((dims_.z() + 63) / 64),
         columns_(static_cast<std::size_t>(dims_.x()) * dims_.y()),
         esdf_(world.esdf()),
-        dense_(std::isinf(esdf_.truncation()) ? esdf_.values().data() : nullptr),
         stop_(stop) {
     // Less a ten-thousandth of a voxel: the stored distances are floats.
     const double reach = threshold - (0.5 * std::sqrt(3.0) + 1e-4) * resolution_;
@@ -139,17 +138,10 @@ class HopField {
     next_.resize(made_ * words, 0);
     hops_.resize(made_ * static_cast<std::size_t>(dims_.z()), kUnreached);
     std::uint64_t* open = &open_[(slot - 1) * words];
-    const auto nodes = [&](auto distance) {
-      for (int z = 0; z < dims_.z(); ++z) {
-        open[z / 64] |= static_cast<std::uint64_t>(distance(z) >= at_least_) << (z % 64);
-      }
-    };
-    if (dense_) {  // a dense column lies side by side: no index arithmetic a voxel
-      nodes([values = dense_ + column * dims_.z()](int z) { return values[z]; });
-    } else {
-      const auto x = static_cast<int>(column / static_cast<std::size_t>(dims_.y()));
-      const auto y = static_cast<int>(column % static_cast<std::size_t>(dims_.y()));
-      nodes([&](int z) { return esdf_.voxelDistance(VoxelIndex(x, y, z)); });
+    const std::size_t first = column * static_cast<std::size_t>(dims_.z());
+    for (int z = 0; z < dims_.z(); ++z) {
+      open[z / 64] |= static_cast<std::uint64_t>(esdf_.voxelDistance(first + z) >= at_least_)
+                      << (z % 64);
     }
     return slot;
   }
@@ -273,7 +265,6 @@ class HopField {
   int words_;
   std::size_t columns_;
   const Esdf& esdf_;           ///< the world's distances, a voxel each
-  const float* dense_;         ///< a dense field's values (none for a truncated one)
   float at_least_ = 0.0f;      ///< a voxel is a node when its distance is at least this
   std::size_t max_slots_ = 0;  ///< the columns the memory budget holds
   // Per (x, y) column: 1 + its slot in the arrays below (0: not touched yet), and the last
