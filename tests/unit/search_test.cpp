@@ -17,15 +17,21 @@
 namespace kinolab {
 namespace {
 
-/// The message of the ConfigError that configuring lazy MP-A* with `items` throws; "" when it
-/// accepts them (so a test expecting a message fails).
-std::string configErrorOf(const std::vector<std::string>& items) {
+/// The message of the `Error` that `work` throws; "" when it throws none (so a test expecting a
+/// message fails).
+template <typename Error, typename Work>
+std::string errorOf(const Work& work) {
   try {
-    configurePlanner("lazy_mp_astar", test::assignments(items));
-  } catch (const ConfigError& error) {
+    work();
+  } catch (const Error& error) {
     return error.what();
   }
   return "";
+}
+
+/// The message of the ConfigError that configuring lazy MP-A* with `items` throws.
+std::string configErrorOf(const std::vector<std::string>& items) {
+  return errorOf<ConfigError>([&] { configurePlanner("lazy_mp_astar", test::assignments(items)); });
 }
 
 ChainState randomState(Rng& rng, const World& world, int order) {
@@ -817,10 +823,10 @@ TEST(GeodesicHeuristic, AnEnclosedGoalEndsTheSearchAtItsStart) {
 }
 
 TEST(GeodesicHeuristic, AMemoryBudgetEndsTheSearchAtALowerBoundThatStaysConsistent) {
-  // 300 x 300 x 10 voxels: the per-column tables take 0.69 MB, so 1 MB holds about 7,500 of
-  // the 90,000 columns. The budgeted field stops growing there: every voxel reads at most the
-  // unbudgeted count (the far ones less), and neighbours still differ by at most one step, so
-  // the estimate stays consistent (one step a primitive here).
+  // 300 x 300 x 10 voxels: the per-column tables take 0.69 MB, so 1 MB holds about 4,800 of
+  // the 90,000 columns (68 bytes each). The budgeted field stops growing there: every voxel reads
+  // at most the unbudgeted count (the far ones less), and neighbours still differ by at most one
+  // step, so the estimate stays consistent (one step a primitive here).
   Rng rng(47);
   VoxelGrid grid(Box{Eigen::Vector3d::Zero(), Eigen::Vector3d(30.0, 30.0, 1.0)}, 0.1);
   for (std::size_t i = 0; i < grid.size(); ++i) grid.setOccupied(i, rng.uniform01() < 0.05);
@@ -861,17 +867,12 @@ TEST(GeodesicHeuristic, AMemoryBudgetEndsTheSearchAtALowerBoundThatStaysConsiste
     }
   }
   EXPECT_EQ(steeper, 0);
-  // A budget below the per-column tables is refused, naming both.
-  try {
-    VoxelGrid wide(Box{Eigen::Vector3d::Zero(), Eigen::Vector3d(40.0, 40.0, 0.2)}, 0.1);
-    const World large("wide", 0, wide, Esdf(wide));
-    heuristicForQuery(geodesicSteps(tau, 0.0, 0.15, "1"), large, goal, never);
-    ADD_FAILURE() << "160,000 columns' tables (1.2 MB) fitted in 1 MB";
-  } catch (const InvalidArgument& error) {
-    EXPECT_NE(std::string(error.what()).find("memory_limit_mb 1 is below the 1.23 MB"),
-              std::string::npos)
-        << error.what();
-  }
+  // A budget below the per-column tables (160,000 columns: 1.22 MB) is refused, naming both.
+  VoxelGrid wide(Box{Eigen::Vector3d::Zero(), Eigen::Vector3d(40.0, 40.0, 0.2)}, 0.1);
+  const World large("wide", 0, wide, Esdf(wide));
+  const std::string refused = errorOf<InvalidArgument>(
+      [&] { heuristicForQuery(geodesicSteps(tau, 0.0, 0.15, "1"), large, goal, never); });
+  EXPECT_NE(refused.find("memory_limit_mb 1 is below the 1.23 MB"), std::string::npos) << refused;
 }
 
 TEST(GeodesicHeuristic, ASparseWorldTruncatedShortOfItsFreeSpaceTestIsRefused) {
@@ -883,13 +884,10 @@ TEST(GeodesicHeuristic, ASparseWorldTruncatedShortOfItsFreeSpaceTestIsRefused) {
   const Eigen::Vector3d goal(0.6, 0.6, 1.0);
   StopCondition never(Budget{});
   const World short_field("short", 0, grid, Esdf::truncated(grid, 0.3));
-  try {
-    heuristicForQuery(geodesicSteps(0.04, 0.5, 0.15), short_field, goal, never);
-    ADD_FAILURE() << "a truncation of 0.3 m was accepted";
-  } catch (const InvalidArgument& error) {
-    EXPECT_NE(std::string(error.what()).find("exact to 0.3 m"), std::string::npos) << error.what();
-    EXPECT_NE(std::string(error.what()).find("larger truncation"), std::string::npos);
-  }
+  const std::string refused = errorOf<InvalidArgument>(
+      [&] { heuristicForQuery(geodesicSteps(0.04, 0.5, 0.15), short_field, goal, never); });
+  EXPECT_NE(refused.find("exact to 0.3 m"), std::string::npos) << refused;
+  EXPECT_NE(refused.find("larger truncation"), std::string::npos) << refused;
   const World long_field("long", 0, grid, Esdf::truncated(grid, 0.5));
   EXPECT_NO_THROW(heuristicForQuery(geodesicSteps(0.04, 0.5, 0.15), long_field, goal, never));
 }

@@ -256,11 +256,13 @@ class AxisTable {
     const double step = (velocity - velocity_origin_) / unit_velocity_;
     if (!wholeSteps(step)) return -1;
     const double j = std::round(step);
-    double c = std::floor(offset / cell_);
+    double c = 0.0;
     if (exact_) {
       const double cell = offset / cell_ - phase_;
       if (!wholeSteps(cell)) return -1;
       c = std::round(cell);
+    } else {
+      c = std::floor(offset / cell_);
     }
     const double r = c - static_cast<double>(first_cell_);
     if (!(r >= 0.0 && r < static_cast<double>(cells_) && j >= lowest_ && j < lowest_ + width_)) {
