@@ -1,6 +1,7 @@
 #include <gtest/gtest.h>
 
 #include "kinolab/core/plugin.hpp"
+#include "support/errors.hpp"
 
 namespace kinolab {
 
@@ -32,15 +33,6 @@ void addSized(PluginRegistrar& registrar, const std::string& key) {
                         });
 }
 
-std::string messageOf(const std::function<void()>& action) {
-  try {
-    action();
-  } catch (const PluginError& error) {
-    return error.what();
-  }
-  return "no error";
-}
-
 TEST(PluginRegistry, RegistersCreatesAndLists) {
   PluginRegistrar registrar("test origin");
   addSized(registrar, "square");
@@ -51,7 +43,7 @@ TEST(PluginRegistry, RegistersCreatesAndLists) {
   EXPECT_EQ(registry.info("square").origin, "test origin");
   EXPECT_DOUBLE_EQ(registry.create("square", {})->size(), 1.0);
   EXPECT_DOUBLE_EQ(registry.create("square", {{"size", "2.5", "--set"}})->size(), 2.5);
-  const std::string unknown = messageOf([&] { registry.create("sqare", {}); });
+  const std::string unknown = test::errorOf<PluginError>([&] { registry.create("sqare", {}); });
   EXPECT_NE(unknown.find("unknown widget 'sqare' (did you mean 'square'?); known widgets: "
                          "circle, square"),
             std::string::npos)
@@ -67,7 +59,7 @@ TEST(PluginRegistry, ADuplicateKeyAddsNothingFromThatOrigin) {
   PluginRegistrar second("second.so");
   addSized(second, "hexagon");
   addSized(second, "triangle");
-  const std::string message = messageOf([&] { second.commit(); });
+  const std::string message = test::errorOf<PluginError>([&] { second.commit(); });
   EXPECT_NE(message.find("widget 'triangle' from second.so is already registered"),
             std::string::npos)
       << message;
@@ -76,18 +68,21 @@ TEST(PluginRegistry, ADuplicateKeyAddsNothingFromThatOrigin) {
   PluginRegistrar twice("twice.so");
   addSized(twice, "pentagon");
   addSized(twice, "pentagon");
-  EXPECT_NE(messageOf([&] { twice.commit(); }).find("registers widget 'pentagon' twice"),
-            std::string::npos);
+  EXPECT_NE(
+      test::errorOf<PluginError>([&] { twice.commit(); }).find("registers widget 'pentagon' twice"),
+      std::string::npos);
   EXPECT_FALSE(pluginRegistry<Widget>().contains("pentagon"));
 }
 
 TEST(PluginLibrary, BadLibrariesAreClearErrors) {
-  EXPECT_NE(messageOf([] {
+  EXPECT_NE(test::errorOf<PluginError>([] {
               loadPluginLibrary("/no/such/plugin.so");
             }).find("plugin library '/no/such/plugin.so': no such file"),
             std::string::npos);
   const std::string not_a_library = KINOLAB_SOURCE_DIR "/tests/CMakeLists.txt";
-  EXPECT_NE(messageOf([&] { loadPluginLibrary(not_a_library); }).find("cannot be loaded"),
+  EXPECT_NE(test::errorOf<PluginError>([&] {
+              loadPluginLibrary(not_a_library);
+            }).find("cannot be loaded"),
             std::string::npos);
 }
 

@@ -11,27 +11,17 @@
 #include "kinolab/search/motion_primitive_planner.hpp"
 #include "kinolab/search/motion_primitive_search.hpp"
 #include "kinolab/search/search_policies.hpp"
+#include "support/errors.hpp"
 #include "support/planning.hpp"
 #include "support/test_plugins.hpp"
 
 namespace kinolab {
 namespace {
 
-/// The message of the `Error` that `work` throws; "" when it throws none (so a test expecting a
-/// message fails).
-template <typename Error, typename Work>
-std::string errorOf(const Work& work) {
-  try {
-    work();
-  } catch (const Error& error) {
-    return error.what();
-  }
-  return "";
-}
-
 /// The message of the ConfigError that configuring lazy MP-A* with `items` throws.
 std::string configErrorOf(const std::vector<std::string>& items) {
-  return errorOf<ConfigError>([&] { configurePlanner("lazy_mp_astar", test::assignments(items)); });
+  return test::errorOf<ConfigError>(
+      [&] { configurePlanner("lazy_mp_astar", test::assignments(items)); });
 }
 
 ChainState randomState(Rng& rng, const World& world, int order) {
@@ -870,7 +860,7 @@ TEST(GeodesicHeuristic, AMemoryBudgetEndsTheSearchAtALowerBoundThatStaysConsiste
   // A budget below the per-column tables (160,000 columns: 1.22 MB) is refused, naming both.
   VoxelGrid wide(Box{Eigen::Vector3d::Zero(), Eigen::Vector3d(40.0, 40.0, 0.2)}, 0.1);
   const World large("wide", 0, wide, Esdf(wide));
-  const std::string refused = errorOf<InvalidArgument>(
+  const std::string refused = test::errorOf<InvalidArgument>(
       [&] { heuristicForQuery(geodesicSteps(tau, 0.0, 0.15, "1"), large, goal, never); });
   EXPECT_NE(refused.find("memory_limit_mb 1 is below the 1.23 MB"), std::string::npos) << refused;
 }
@@ -884,7 +874,7 @@ TEST(GeodesicHeuristic, ASparseWorldTruncatedShortOfItsFreeSpaceTestIsRefused) {
   const Eigen::Vector3d goal(0.6, 0.6, 1.0);
   StopCondition never(Budget{});
   const World short_field("short", 0, grid, Esdf::truncated(grid, 0.3));
-  const std::string refused = errorOf<InvalidArgument>(
+  const std::string refused = test::errorOf<InvalidArgument>(
       [&] { heuristicForQuery(geodesicSteps(0.04, 0.5, 0.15), short_field, goal, never); });
   EXPECT_NE(refused.find("exact to 0.3 m"), std::string::npos) << refused;
   EXPECT_NE(refused.find("larger truncation"), std::string::npos) << refused;
