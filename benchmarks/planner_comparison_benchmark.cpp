@@ -21,7 +21,7 @@ void compare(benchmark::State& state, const std::string& planner,
   std::vector<double> times;
   std::vector<double> durations;
   std::vector<double> lengths;
-  std::vector<double> jerks;
+  std::vector<double> efforts;  // the integral of |a|^2: defined for every planner's trajectory
   int runs = 0;
   for (auto _ : state) {
     for (const PlanningQuery& query : bench::queries()) {
@@ -32,14 +32,14 @@ void compare(benchmark::State& state, const std::string& planner,
       if (result.status != PlanStatus::kExact || !result.check.valid) continue;
       durations.push_back(result.trajectory.duration());
       lengths.push_back(result.trajectory.length());
-      jerks.push_back(result.trajectory.jerkIntegral());
+      efforts.push_back(result.check.evaluation.acceleration_integral);
     }
   }
   state.counters["success_pct"] = 100.0 * static_cast<double>(durations.size()) / runs;
   state.counters["median_ms"] = bench::median(times);
   state.counters["median_duration_s"] = bench::median(durations);
   state.counters["median_length_m"] = bench::median(lengths);
-  state.counters["median_jerk"] = bench::median(jerks);
+  state.counters["median_acceleration_integral"] = bench::median(efforts);
 }
 
 // The searches at their defaults: optimal (epsilon 1), 27 controls, tau 0.6 s.

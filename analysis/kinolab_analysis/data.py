@@ -18,7 +18,7 @@ from . import stats
 # version 4 added the flights table, version 5 the worlds' obstacle boxes (for the 3D view),
 # version 6 the progress table (anytime progress series; empty in older databases), version 7
 # the runs' load_average and the meta table's machine and cores (missing in older ones).
-SCHEMA_VERSION = 7
+SCHEMA_VERSION = 8
 
 # A stored search tree's edge states (the trees table's `state`), each with the colour every
 # figure and the 3D viewer draw it in. The names are kinolab's (SearchTreeEdge::State;

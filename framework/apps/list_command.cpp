@@ -40,6 +40,8 @@ nlohmann::json toJson(const MetricSpecs& specs) {
                     {"unit", spec.unit},
                     {"clock", spec.clock},
                     {"series", spec.series},
+                    {"direction", spec.directionName()},
+                    {"comparable", spec.comparable},
                     {"doc", spec.doc}});
   }
   return list;
@@ -48,12 +50,12 @@ nlohmann::json toJson(const MetricSpecs& specs) {
 void printMetrics(const char* title, const MetricSpecs& specs) {
   std::printf("  %s\n", title);
   for (const MetricSpec& spec : specs.all()) {
-    std::printf("      %-26s %-8s %-8s %-6s %s\n", spec.name.c_str(), spec.typeName().c_str(),
-                spec.unit.empty() ? "-" : spec.unit.c_str(),
+    std::printf("      %-26s %-8s %-8s %-6s %-6s %-4s %s\n", spec.name.c_str(),
+                spec.typeName().c_str(), spec.unit.empty() ? "-" : spec.unit.c_str(),
                 spec.series  ? "series"
                 : spec.clock ? "clock"
                              : "",
-                spec.doc.c_str());
+                spec.directionName().c_str(), spec.comparable ? "all" : "own", spec.doc.c_str());
   }
 }
 
@@ -82,7 +84,9 @@ void listMetrics(bool json) {
               << '\n';
     return;
   }
-  std::printf("metrics (name, type, unit, clock figure, meaning)\n");
+  std::printf(
+      "metrics (name, type, unit, clock figure, which way is better, comparable across all "
+      "planners or only a planner's own, meaning)\n");
   printMetrics("every result (columns of results.sqlite's runs table):", resultMetrics());
   printMetrics("the runner, for every run (runs table):", runnerMetrics());
   printMetrics("statistics of every planner (statistics table):", commonStatistics());

@@ -75,7 +75,8 @@ void runPlan(const PlanOptions& options) {
               formatNumber(result.cost).c_str(), result.distance_to_goal);
   if (!result.trajectory.empty()) {
     if (result.check.valid) {
-      std::printf("  checker    valid (min clearance %.3f m)\n", result.check.min_clearance);
+      std::printf("  checker    valid (min clearance %.3f m)\n",
+                  result.check.evaluation.min_clearance);
     } else {
       std::printf("  checker    INVALID, %s check: %s\n", result.check.check.c_str(),
                   result.check.detail.c_str());
@@ -117,6 +118,14 @@ void runPlan(const PlanOptions& options) {
                 options.out_dir.c_str(), viewed ? ", view.html" : "");
   }
   std::cout << json.dump() << std::endl;
+  // A query the planner cannot start from or reach is bad input: the result is printed, and
+  // the command fails.
+  if (result.status == PlanStatus::kInvalidStart || result.status == PlanStatus::kInvalidGoal) {
+    const bool start_problem = result.status == PlanStatus::kInvalidStart;
+    throw ConfigError(
+        std::string(start_problem ? "--start '" + options.start : "--goal '" + options.goal) +
+        "': " + result.message);
+  }
 }
 
 }  // namespace
@@ -241,7 +250,8 @@ void addPlanCommand(CLI::App& app) {
       "(m/s^3), sampled every --sample-step seconds and at the end.\n"
       "tree.csv: one row per point of each search-tree edge (parent to child), with its "
       "evaluation state (partial, full, certified, rejected) and whether the child was closed.\n"
-      "Exit status 0 whenever planning ran (whatever its status); 1 for bad input.");
+      "Exit status 0 whenever planning ran (whatever its status); 1 for bad input, an invalid "
+      "start or goal (outside the map, in collision for the body) included.");
   command->callback([options] { runPlan(*options); });
 }
 

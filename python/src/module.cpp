@@ -287,8 +287,17 @@ py::dict checkDict(const CheckResult& check) {
   dict["detail"] = check.detail;
   dict["time"] = check.time;
   dict["position"] = py::make_tuple(check.position.x(), check.position.y(), check.position.z());
-  dict["min_clearance"] = check.min_clearance;
-  dict["mean_clearance"] = check.mean_clearance;
+  // The evaluation, typed as every run's (evaluationMetrics()).
+  const MetricList<TrajectoryEvaluation>& evaluation = evaluationMetrics();
+  for (const auto& [name, value] : evaluation.values(check.evaluation)) {
+    if (const auto* number = std::get_if<double>(&value)) {
+      dict[py::str(name)] = *number;
+    } else if (const auto* text = std::get_if<std::string>(&value)) {
+      dict[py::str(name)] = *text;
+    } else {
+      dict[py::str(name)] = py::none();
+    }
+  }
   dict["samples"] = check.samples;
   return dict;
 }

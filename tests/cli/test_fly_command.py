@@ -16,12 +16,12 @@ def test_fly_prints_a_json_summary_and_writes_the_flight(kinolab, world, tmp_pat
     assert result.returncode == 0, result.stderr
     summary = last_json(result)
     assert summary["status"] == "reached" and summary["success"] is True, summary
-    for key in ("time_to_goal", "flown_length", "mean_speed", "replans", "failed_replans",
+    for key in ("time_to_goal", "length", "mean_speed", "replans", "failed_replans",
                 "replan_time_median_ms", "replan_time_p95_ms", "replan_time_max_ms",
                 "min_clearance", "plan_distance_median", "jerk_integral", "frames",
                 "frame_time_ms"):
         assert key in summary, key
-    assert summary["flown_length"] >= 10.0  # at least the straight line, 10.1 m
+    assert summary["length"] >= 10.0  # at least the straight line, 10.1 m
     assert summary["min_clearance"] > -0.011  # the body keeps its radius less the tolerance
     assert json.loads((out / "summary.json").read_text())["status"] == "reached"
     flown = list(csv.DictReader((out / "flown.csv").open()))

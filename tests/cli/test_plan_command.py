@@ -47,17 +47,36 @@ def test_plan_prints_a_checked_json_summary_and_writes_files(kinolab, world, tmp
     assert any(row["closed"] == "1" for row in tree)
 
 
-def test_infeasible_queries_are_statuses_not_crashes(kinolab, world):
+def test_infeasible_queries_print_their_status_and_fail(kinolab, world):
+    """An invalid start or goal is bad input: the result is printed (its status and why), and
+    the command exits 1 naming the option."""
     outside = kinolab("plan", "--world", world, "--planner", "lazy_mp_astar", *FAST,
                       "--start", "-3,1,1.5", "--goal", "8,8,1.5")
-    assert outside.returncode == 0, outside.stderr
+    assert outside.returncode == 1
+    assert "--start '-3,1,1.5': start (-3, 1, 1.5) is outside the map" in outside.stderr
     summary = last_json(outside)
     assert summary["status"] == "invalid_start" and "outside the map" in summary["message"]
     assert summary["checker_valid"] is False and summary["success"] is False
     floor = kinolab("plan", "--world", world, "--planner", "eager_mp_astar", *FAST,
                     "--start", "1,1,1.5", "--goal", "5,5,0.02")
+    assert floor.returncode == 1 and "--goal '5,5,0.02'" in floor.stderr
     assert last_json(floor)["status"] == "invalid_goal"
     assert "in collision" in last_json(floor)["message"]
+
+
+def test_piecewise_constant_acceleration_has_no_jerk_integral_but_its_jumps(kinolab, world):
+    """MP-A* of order 2 flies constant accelerations: its jerk is impulsive at the joints, so
+    the jerk integral is undefined (null, with the reason), never 0; the acceleration jumps
+    and the integral of |a|^2 are its finite measures."""
+    result = kinolab("plan", "--world", world, "--planner", "lazy_mp_astar", *FAST,
+                     "--start", "1,1,1.5", "--goal", "8,8,1.5")
+    assert result.returncode == 0, result.stderr
+    summary = last_json(result)
+    assert summary["status"] == "exact"
+    assert summary["jerk_integral"] is None and summary["jerk_per_metre"] is None
+    assert "jerk_integral: the acceleration jumps at" in summary["undefined"]
+    assert summary["acceleration_jumps"] > 0 and summary["acceleration_integral"] > 0
+    assert summary["objective"].startswith("motion-primitive cost: order 2")
 
 
 @pytest.mark.parametrize("arguments, message", [

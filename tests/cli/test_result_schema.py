@@ -64,7 +64,18 @@ def test_list_metrics_prints_the_schema(kinolab):
     assert result["success"]["type"] == "boolean"
     assert {m["name"] for m in schema["runner"]} == {
         "peak_memory_mb", "planning_time_min_ms", "planning_time_cold_ms", "line_blocked",
-        "wall_time_ms", "started_at", "load_average"}
+        "time_limit", "time_limit_own", "wall_time_ms", "started_at", "load_average"}
+    # What a comparison across planners may use: the checker's evaluation of the trajectory
+    # is comparable, a planner's own objective is not.
+    assert result["cost"]["comparable"] is False and result["objective"]["type"] == "text"
+    for name in ("duration", "length", "acceleration_integral", "jerk_integral",
+                 "acceleration_jumps", "max_curvature", "min_clearance", "peak_speed"):
+        assert result[name]["comparable"] is True, name
+    assert result["length"]["direction"] == "lower"
+    assert result["min_clearance"]["direction"] == "higher"
+    # A flight's run columns are a plan's: one runs table for both.
+    flight = {m["name"]: m for m in schema["flight"]}
+    assert {"status", "success", "length", "jerk_integral", "undefined"} <= set(flight)
     lazy = {m["name"]: m for m in schema["statistics"]["lazy_mp_astar"]}
     assert lazy["expansions"]["type"] == "integer"
     assert "time_check_ms" in {m["name"] for m in schema["statistics"]["common"]}

@@ -49,7 +49,7 @@ TEST(TrajectoryChecker, AcceptsAFreeLineAndReportsClearance) {
   EXPECT_GT(result.samples, 200);
   // Nearest obstacle: the box top (its face at z = 2), 0.7 below; radius 0.25. Exact: the
   // samples at x in [5, 5.4] are straight above the face.
-  EXPECT_NEAR(result.min_clearance, 0.45, 1e-9);
+  EXPECT_NEAR(result.evaluation.min_clearance, 0.45, 1e-9);
   EXPECT_DOUBLE_EQ(result.body_radius, 0.24);  // radius less the collision tolerance
 }
 
@@ -69,8 +69,8 @@ TEST(TrajectoryChecker, MinClearanceIsTheExactDistanceToTheCubes) {
                               p.z() - 2.0);
     least = std::min(least, gap.norm());
   }
-  EXPECT_GE(result.min_clearance + 0.25, least - 1e-9);
-  EXPECT_LE(result.min_clearance + 0.25, least + 0.0125);
+  EXPECT_GE(result.evaluation.min_clearance + 0.25, least - 1e-9);
+  EXPECT_LE(result.evaluation.min_clearance + 0.25, least + 0.0125);
 }
 
 TEST(TrajectoryChecker, MeanClearanceIsTheMeanExactDistanceAtItsSamples) {
@@ -93,8 +93,83 @@ TEST(TrajectoryChecker, MeanClearanceIsTheMeanExactDistanceAtItsSamples) {
     sum += box(p);
     trilinear += room()->esdf().distance(p);
   }
-  EXPECT_NEAR(result.mean_clearance, sum / result.samples - 0.25, 1e-9);
+  EXPECT_NEAR(result.evaluation.mean_clearance, sum / result.samples - 0.25, 1e-9);
   EXPECT_GT(std::abs(trilinear - sum) / result.samples, 1e-4);  // the test can tell them apart
+}
+
+TEST(TrajectoryChecker, EvaluatesPiecewiseConstantAccelerationWithoutAJerkOfZero) {
+  // Two acceleration primitives in the free part of the room: from (1, 1, 2.5) at 1 m/s
+  // along x, pushed along +y for 1 s, then along -y for 1 s. Its acceleration jumps once, by
+  // (0, -2, 0): the jerk is impulsive there, so its integral is undefined, never 0.
+  ChainState start = ChainState::Zero();
+  start.col(0) = Eigen::Vector3d(1, 1, 2.5);
+  start.col(1) = Eigen::Vector3d(1, 0, 0);
+  const TrajectorySegment first = TrajectorySegment::primitive(start, {0, 1, 0}, 2, 1.0);
+  ChainState joint = ChainState::Zero();
+  joint.col(0) = first.evaluate(1.0, 0);
+  joint.col(1) = first.evaluate(1.0, 1);
+  Trajectory turn;
+  turn.append(first);
+  turn.append(TrajectorySegment::primitive(joint, {0, -1, 0}, 2, 1.0));
+  const TrajectoryChecker checker(room(), {});
+  const CheckResult result = checker.check(turn, queryFor(turn));
+  ASSERT_TRUE(result.valid) << result.check << ": " << result.detail;
+  const TrajectoryEvaluation& e = result.evaluation;
+  EXPECT_DOUBLE_EQ(e.duration, 2.0);
+  EXPECT_TRUE(std::isnan(e.jerk_integral));
+  EXPECT_NE(e.undefined.find("jerk_integral: the acceleration jumps at 1 joint"), std::string::npos)
+      << e.undefined;
+  EXPECT_NEAR(e.acceleration_jumps, 4.0, 1e-12);     // |(0, -2, 0)|^2
+  EXPECT_NEAR(e.acceleration_integral, 2.0, 1e-12);  // |a|^2 = 1 for 2 s
+  // At t = 0 the velocity (1, 0, 0) is normal to the acceleration (0, 1, 0): curvature
+  // |v x a| / |v|^3 = 1, the largest (the speed only grows from there: 1 / (1 + t^2)^1.5).
+  EXPECT_NEAR(e.max_curvature, 1.0, 1e-9);
+  EXPECT_GT(e.mean_curvature, 0.2);
+  EXPECT_LT(e.mean_curvature, 1.0);
+  EXPECT_NEAR(e.peak_speed, std::sqrt(2.0), 1e-9);  // (1, 1, 0) at the joint
+  EXPECT_NEAR(e.peak_acceleration, 1.0, 1e-12);
+  EXPECT_NEAR(e.speed_limit_ratio, 1.0 / MotionDefaults::kMaxVelocity, 1e-9);
+  EXPECT_NEAR(e.acceleration_limit_ratio, 1.0 / MotionDefaults::kMaxAcceleration, 1e-12);
+}
+
+TEST(TrajectoryChecker, EvaluatesASmoothTrajectoryInFull) {
+  // x(t) = 1 + t^3 / 6 + ... : one cubic piece (jerk 1 along x), continuous everything.
+  Trajectory cubic;
+  TrajectorySegment segment;
+  segment.duration = 1.5;
+  segment.coefficients = Eigen::Matrix<double, 3, 4>::Zero();
+  segment.coefficients.col(0) = Eigen::Vector3d(1, 1, 2.5);
+  segment.coefficients(0, 3) = 1.0 / 6.0;
+  cubic.append(segment);
+  const TrajectoryChecker checker(room(), {});
+  const TrajectoryEvaluation e = checker.evaluate(cubic);
+  EXPECT_EQ(e.undefined, "");
+  EXPECT_NEAR(e.jerk_integral, 1.5, 1e-12);                          // |j|^2 = 1
+  EXPECT_NEAR(e.acceleration_integral, 1.5 * 1.5 * 1.5 / 3, 1e-12);  // a = t
+  EXPECT_EQ(e.acceleration_jumps, 0.0);
+  EXPECT_NEAR(e.max_curvature, 0.0, 1e-12);  // a straight line
+  // Every value the metric list reads is the evaluation's, by name.
+  for (const auto& [name, value] : evaluationMetrics().values(e)) {
+    if (name == "jerk_integral") {
+      EXPECT_NEAR(std::get<double>(value), 1.5, 1e-12);
+    }
+    if (name == "jerk_per_metre") {
+      EXPECT_NEAR(std::get<double>(value), 1.5 / e.length, 1e-12);
+    }
+  }
+}
+
+TEST(TrajectoryChecker, AnEmptyOrNonFiniteTrajectoryHasNoFigures) {
+  const TrajectoryChecker checker(room(), {});
+  EXPECT_TRUE(std::isnan(checker.evaluate(Trajectory()).length));
+  Trajectory broken = line({1, 1, 2.5}, {1, 0, 0}, 1.0);
+  TrajectorySegment bad = broken.segments().front();
+  bad.coefficients(1, 1) = NAN;
+  Trajectory nan;
+  nan.append(bad);
+  const TrajectoryEvaluation e = checker.evaluate(nan);
+  EXPECT_TRUE(std::isnan(e.min_clearance));
+  EXPECT_NE(e.undefined.find("not finite"), std::string::npos);
 }
 
 TEST(TrajectoryChecker, FindsTheFirstViolationOfEachKind) {

@@ -51,6 +51,25 @@ TEST(Trajectory, PiecesJoinAndGlobalTimeFindsTheRightPiece) {
   EXPECT_EQ(trajectory.evaluate(9.0), trajectory.endPosition());
 }
 
+TEST(Trajectory, JumpsAreFoundAtTheJointsOnly) {
+  // Two acceleration primitives, the second starting where the first ended: position and
+  // velocity continuous, the acceleration jumping from (1, 0, 0) to (0, -2, 0).
+  Trajectory two;
+  const TrajectorySegment first =
+      TrajectorySegment::primitive(ChainState::Zero(), {1, 0, 0}, 2, 1.0);
+  ChainState joint = ChainState::Zero();
+  joint.col(0) = first.evaluate(1.0, 0);
+  joint.col(1) = first.evaluate(1.0, 1);
+  two.append(first);
+  two.append(TrajectorySegment::primitive(joint, {0, -2, 0}, 2, 1.0));
+  EXPECT_EQ(two.jumps(0).count, 0);
+  EXPECT_EQ(two.jumps(1).count, 0);
+  const Trajectory::Jumps acceleration = two.jumps(2);
+  EXPECT_EQ(acceleration.count, 1);
+  EXPECT_NEAR(acceleration.squared_sum, 1.0 + 4.0, 1e-12);
+  EXPECT_NEAR(two.squaredIntegral(2), 1.0 + 4.0, 1e-12);  // |a|^2 for 1 s each
+}
+
 TEST(Trajectory, LengthJerkAndSamplesByHand) {
   // x(t) = t^3 over [0, 2]: jerk 6, |jerk|^2 integral 36 * 2; length 8.
   Trajectory cubic;
@@ -59,12 +78,13 @@ TEST(Trajectory, LengthJerkAndSamplesByHand) {
   segment.coefficients = Eigen::Matrix<double, 3, 4>::Zero();
   segment.coefficients(0, 3) = 1.0;
   cubic.append(segment);
-  EXPECT_NEAR(cubic.jerkIntegral(), 72.0, 1e-9);
+  EXPECT_NEAR(cubic.squaredIntegral(3), 72.0, 1e-9);
+  EXPECT_NEAR(cubic.squaredIntegral(2), 6.0 * 6.0 * 8.0 / 3.0, 1e-9);  // a = 6t: 36 t^3 / 3
   EXPECT_NEAR(cubic.length(), 8.0, 1e-9);
   // A quadratic (acceleration control) has no jerk inside its pieces.
   Trajectory quadratic;
   quadratic.append(TrajectorySegment::primitive(ChainState::Zero(), {1, 2, 2}, 2, 1.0));
-  EXPECT_EQ(quadratic.jerkIntegral(), 0.0);
+  EXPECT_EQ(quadratic.squaredIntegral(3), 0.0);
   EXPECT_NEAR(quadratic.length(), 1.5, 1e-9);  // |a| t^2 / 2 with |a| = 3
 
   const auto samples = cubic.sample(0.3);

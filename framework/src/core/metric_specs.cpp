@@ -18,6 +18,36 @@ std::string MetricSpec::typeName() const {
   return "?";
 }
 
+std::string MetricSpec::directionName() const {
+  switch (direction) {
+    case MetricDirection::kLower:
+      return "lower";
+    case MetricDirection::kHigher:
+      return "higher";
+    case MetricDirection::kNone:
+      break;
+  }
+  return "";
+}
+
+MetricSpecs& MetricSpecs::lower() {
+  if (specs_.empty()) throw InvalidArgument("lower(): no metric declared yet");
+  specs_.back().direction = MetricDirection::kLower;
+  return *this;
+}
+
+MetricSpecs& MetricSpecs::higher() {
+  if (specs_.empty()) throw InvalidArgument("higher(): no metric declared yet");
+  specs_.back().direction = MetricDirection::kHigher;
+  return *this;
+}
+
+MetricSpecs& MetricSpecs::comparable() {
+  if (specs_.empty()) throw InvalidArgument("comparable(): no metric declared yet");
+  specs_.back().comparable = true;
+  return *this;
+}
+
 MetricSpecs& MetricSpecs::add(MetricSpec spec) {
   if (find(spec.name)) throw InvalidArgument("metric '" + spec.name + "' declared twice");
   specs_.push_back(std::move(spec));

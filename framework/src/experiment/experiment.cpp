@@ -213,27 +213,64 @@ std::vector<PlanningQuery> QuerySpec::make(const World& world, const std::string
   return queries;
 }
 
+namespace {
+
+std::string randomRule(const QuerySpec::Random& random) {
+  return formatNumber(random.min_distance) + " " + formatNumber(random.max_distance) + " " +
+         formatNumber(random.clearance) + " " + formatNumber(random.height[0]) + " " +
+         formatNumber(random.height[1]) +
+         (random.lattice_step > 0.0 ? " lattice " + formatNumber(random.lattice_step) + " " +
+                                          formatNumber(random.lattice_offset)
+                                    : std::string());
+}
+
+std::string acrossRule(const QuerySpec::Across& across) {
+  return std::to_string(across.axis) + " " + formatNumber(across.margin) + " " +
+         formatNumber(across.clearance) + " " + formatNumber(across.height[0]) + " " +
+         formatNumber(across.height[1]);
+}
+
+}  // namespace
+
 std::string QuerySpec::canonicalText() const {
   std::string text;
   for (const auto& [start, goal] : fixed) {
     text += "fixed " + formatPoint(start) + " " + formatPoint(goal) + ";";
   }
-  text += "random " + std::to_string(random.count) + " " + formatNumber(random.min_distance) + " " +
-          formatNumber(random.max_distance) + " " + formatNumber(random.clearance) + " " +
-          formatNumber(random.height[0]) + " " + formatNumber(random.height[1]) +
-          (random.lattice_step > 0.0 ? " lattice " + formatNumber(random.lattice_step) + " " +
-                                           formatNumber(random.lattice_offset)
-                                     : std::string()) +
-          ";";
-  text += "across " + std::to_string(across.count) + " " + std::to_string(across.axis) + " " +
-          formatNumber(across.margin) + " " + formatNumber(across.clearance) + " " +
-          formatNumber(across.height[0]) + " " + formatNumber(across.height[1]);
+  text += "random " + std::to_string(random.count) + " " + randomRule(random) + ";";
+  text += "across " + std::to_string(across.count) + " " + acrossRule(across);
   return text;
+}
+
+std::string QuerySpec::queryText(int index) const {
+  const int fixed_count = static_cast<int>(fixed.size());
+  if (index < fixed_count) {
+    const auto& [start, goal] = fixed[static_cast<std::size_t>(index)];
+    return "fixed " + formatPoint(start) + " " + formatPoint(goal);
+  }
+  index -= fixed_count;
+  // Random queries are drawn one after the other from one stream: the i-th depends on the
+  // rule and on i, not on how many are drawn after it.
+  if (index < random.count) return "random #" + std::to_string(index) + " " + randomRule(random);
+  index -= random.count;
+  return "across #" + std::to_string(index) + " " + acrossRule(across) + " after random " +
+         std::to_string(random.count) + " " + randomRule(random);
 }
 
 std::string ExperimentPlanner::canonicalText() const {
   // The parameters' canonical text holds every plugin parameter's own (the sampler's too).
   return type + "{" + parameters.canonical() + "}";
+}
+
+bool ExperimentPlanner::ownTimeLimit() const {
+  return std::any_of(assignments.begin(), assignments.end(),
+                     [](const ParameterAssignment& a) { return a.name == "time_limit"; });
+}
+
+double ExperimentPlanner::timeLimit(const ExperimentBudget& budget) const {
+  // An own limit of 0 ("none") still runs within the experiment's budget.
+  const double own = ownTimeLimit() ? parameters.real("time_limit") : 0.0;
+  return own > 0.0 ? own : budget.time;
 }
 
 // ---- the experiment -------------------------------------------------------------------------
@@ -447,7 +484,7 @@ Experiment Experiment::fromFile(const std::string& path) {
   // The run-hash format is part of the experiment's identity: a database whose runs were
   // hashed another way (before plugin parameters nested) is another experiment, never
   // resumed into or merged with this one.
-  experiment.config_hash = toHex(hashString("run hashes 2\n" + experiment.canonical));
+  experiment.config_hash = toHex(hashString("run hashes 3\n" + experiment.canonical));
   // Every row names a planner id of every variant.
   for (const auto& entry : experiment.reproduces_rows) {
     const std::string& id = entry.first;  // (a structured binding: not capturable by clang 14)
@@ -493,7 +530,6 @@ std::vector<RunSpec> Experiment::runs() const {
         std::to_string(variant.budget.iterations) + "/timing " +
         std::to_string(variant.timing.warmup) + "+" + std::to_string(variant.timing.repeats) +
         (flights ? "/flight " + variant.flight.canonical() : std::string());
-    const std::string queries = variant.queries.canonicalText();
     for (std::size_t w = 0; w < variant.worlds.size(); ++w) {
       const ExperimentWorld& world = variant.worlds[w];
       const std::string world_text = world.id + ":" + toHex(world.spec.hash());
@@ -510,8 +546,8 @@ std::vector<RunSpec> Experiment::runs() const {
             run.planner = p;
             run.repetition = r;
             run.seed = case_seed;
-            run.hash = toHex(hashString(world_text + "|" + queries + "|" + the_case + "|" +
-                                            variant.planners[p].id + "=" +
+            run.hash = toHex(hashString(world_text + "|" + variant.queries.queryText(q) + "|" +
+                                            the_case + "|" + variant.planners[p].id + "=" +
                                             variant.planners[p].canonicalText() + "|" + budget,
                                         seed));
             runs.push_back(std::move(run));

@@ -2,6 +2,7 @@
 
 #include <sqlite3.h>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <functional>
@@ -13,6 +14,7 @@
 #include "kinolab/core/files.hpp"
 #include "kinolab/core/text.hpp"
 #include "kinolab/experiment/shard.hpp"
+#include "kinolab/flight/flight.hpp"
 
 namespace kinolab {
 
@@ -29,6 +31,11 @@ const MetricSpecs& runnerMetrics() {
           .boolean("line_blocked",
                    "the straight line from start to goal collides for the planner's body: the "
                    "query needs a detour")
+          .real("time_limit", "s",
+                "the time budget of each plan: the experiment's budget.time, or the planner "
+                "entry's own time_limit")
+          .boolean("time_limit_own",
+                   "the planner's entry set its own time_limit (else budget.time is its budget)")
           .clock("wall_time_ms", "the worker process, from fork to exit")
           .machine("started_at", MetricType::kText, "", "when the run started, UTC, ISO 8601")
           .machine("load_average", MetricType::kReal, "",
@@ -62,9 +69,9 @@ constexpr int kIdentityCount = 17;
 
 /// The tables of a results database (kTables and the runs table); older schema versions had
 /// a subset.
-const std::set<std::string> kResultsTables = {"meta",   "statistics", "metrics",
-                                              "worlds", "progress",   "trajectories",
-                                              "trees",  "flights",    "runs"};
+const std::set<std::string> kResultsTables = {"meta",     "statistics",   "metrics", "worlds",
+                                              "progress", "trajectories", "trees",   "flights",
+                                              "runs",     "planned"};
 
 constexpr const char* kTables = R"sql(
 CREATE TABLE IF NOT EXISTS meta (key TEXT PRIMARY KEY, value TEXT NOT NULL);
@@ -72,7 +79,8 @@ CREATE TABLE IF NOT EXISTS statistics (
   run_hash TEXT NOT NULL, name TEXT NOT NULL, value REAL, PRIMARY KEY (run_hash, name));
 CREATE TABLE IF NOT EXISTS metrics (
   name TEXT NOT NULL, kind TEXT NOT NULL, planner_type TEXT NOT NULL, type TEXT, unit TEXT,
-  doc TEXT, clock INTEGER, PRIMARY KEY (name, planner_type));
+  doc TEXT, clock INTEGER, direction TEXT, comparable INTEGER, PRIMARY KEY (name, planner_type));
+CREATE TABLE IF NOT EXISTS planned (run_hash TEXT PRIMARY KEY);
 CREATE TABLE IF NOT EXISTS worlds (
   world_hash TEXT PRIMARY KEY, id TEXT, resolution REAL, origin_x REAL, origin_y REAL,
   origin_z REAL, nx INTEGER, ny INTEGER, nz INTEGER, top BLOB, side BLOB, box_stride INTEGER,
@@ -86,11 +94,21 @@ CREATE TABLE IF NOT EXISTS flights (run_hash TEXT PRIMARY KEY, replans TEXT NOT 
   known_map TEXT NOT NULL, clearance TEXT NOT NULL, known_voxels TEXT NOT NULL);
 )sql";
 
-/// Every metric column of `runs`, in order: the result metrics, then the runner's.
+/// Every metric column of `runs`, in order: a plan's metrics, a flight's that a plan has not,
+/// then the runner's. A name both kinds declare is one column, of one type.
 std::vector<const MetricSpec*> metricColumns() {
   std::vector<const MetricSpec*> columns;
-  for (const MetricSpecs* specs : {&resultMetrics(), &runnerMetrics()}) {
-    for (const MetricSpec& spec : specs->all()) columns.push_back(&spec);
+  for (const MetricSpecs* specs :
+       {&resultMetrics(), &flightRunMetrics().specs(), &runnerMetrics()}) {
+    for (const MetricSpec& spec : specs->all()) {
+      const auto same = std::find_if(columns.begin(), columns.end(),
+                                     [&](const MetricSpec* c) { return c->name == spec.name; });
+      if (same == columns.end()) {
+        columns.push_back(&spec);
+      } else if ((*same)->type != spec.type) {
+        throw std::logic_error("metric '" + spec.name + "' is declared with two types");
+      }
+    }
   }
   return columns;
 }
@@ -373,6 +391,18 @@ long long ResultsStore::removeRuns(const std::set<std::string>& statuses) {
   return removed;
 }
 
+void ResultsStore::setPlanned(const std::vector<std::string>& run_hashes) {
+  transaction([&] {
+    execute("DELETE FROM planned");
+    Statement insert(db_, "INSERT OR IGNORE INTO planned (run_hash) VALUES (?)", path_);
+    for (const std::string& hash : run_hashes) {
+      insert.add(hash);
+      insert.step(path_);
+      insert.reset();
+    }
+  });
+}
+
 long long ResultsStore::runCount() const {
   Statement query(db_, "SELECT COUNT(*) FROM runs", path_);
   query.step(path_);
@@ -457,7 +487,7 @@ void ResultsStore::declareMetrics(const std::string& kind, const std::string& pl
   transaction([&] {
     Statement insert(db_,
                      "INSERT OR REPLACE INTO metrics (name, kind, planner_type, type, unit, doc, "
-                     "clock) VALUES (?, ?, ?, ?, ?, ?, ?)",
+                     "clock, direction, comparable) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?)",
                      path_);
     for (const MetricSpec& spec : specs.all()) {
       const std::string type = spec.typeName();
@@ -467,6 +497,8 @@ void ResultsStore::declareMetrics(const std::string& kind, const std::string& pl
         insert.add(*text);
       }
       insert.add(spec.clock ? 1 : 0);
+      insert.add(spec.directionName());
+      insert.add(spec.comparable ? 1 : 0);
       insert.step(path_);
       insert.reset();
     }
@@ -580,7 +612,7 @@ void ResultsStore::merge(const std::string& output, const std::vector<std::strin
       merged.execute("ATTACH DATABASE '" + quoted + "' AS shard");
       merged.execute("BEGIN IMMEDIATE");
       for (const char* table : {"runs", "statistics", "progress", "metrics", "worlds",
-                                "trajectories", "trees", "flights"}) {
+                                "trajectories", "trees", "flights", "planned"}) {
         merged.execute(std::string("INSERT OR IGNORE INTO ") + table + " SELECT * FROM shard." +
                        table);
       }

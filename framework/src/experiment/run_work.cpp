@@ -18,10 +18,11 @@
 namespace kinolab {
 namespace {
 
-/// What a worker's `metrics` hold: the result's and the runner's.
-const MetricSpecs& workerMetrics() {
-  static const MetricSpecs specs = MetricSpecs(resultMetrics()).include(runnerMetrics());
-  return specs;
+/// What a worker's `metrics` hold: the result's (a plan's or a flight's) and the runner's.
+const MetricSpecs& workerMetrics(bool flight) {
+  static const MetricSpecs plan = MetricSpecs(resultMetrics()).include(runnerMetrics());
+  static const MetricSpecs flown = MetricSpecs(flightRunMetrics().specs()).include(runnerMetrics());
+  return flight ? flown : plan;
 }
 
 /// Whether the straight line from start to goal collides for the body: the query needs a
@@ -62,9 +63,16 @@ std::string planRun(const Experiment& experiment, const RunSpec& run,
   const ExperimentVariant& variant = experiment.variants[run.variant];
   return workerOutput(variant, [&](nlohmann::json& out) {
     const ExperimentPlanner& spec = variant.planners[run.planner];
-    ConfiguredPlanner configured = configurePlanner(spec.type, spec.assignments);
+    // One budget: the experiment's time is the planner's own time_limit too, unless the
+    // planner's entry set one (then that is its budget, recorded with the run).
+    const double time_limit = spec.timeLimit(variant.budget);
+    std::vector<ParameterAssignment> assignments = spec.assignments;
+    if (!spec.ownTimeLimit() && spec.parameters.has("time_limit")) {
+      assignments.push_back({"time_limit", formatNumber(time_limit), "budget.time"});
+    }
+    ConfiguredPlanner configured = configurePlanner(spec.type, assignments);
     configured.planner->setup({world, configured.sampler, run.seed});
-    Budget budget{variant.budget.time, std::numeric_limits<long long>::max()};
+    Budget budget{time_limit, std::numeric_limits<long long>::max()};
     if (variant.budget.iterations > 0) budget.max_iterations = variant.budget.iterations;
     SearchTree tree;
     const bool store_tree =
@@ -93,7 +101,9 @@ std::string planRun(const Experiment& experiment, const RunSpec& run,
     metrics.emplace_back("planning_time_min_ms", timed.front());
     metrics.emplace_back("planning_time_cold_ms", cold_ms);
     metrics.emplace_back("line_blocked", lineBlocked(*world, query, configured.planner->model()));
-    out["metrics"] = nlohmann::json::parse(toJson(metrics, workerMetrics()));
+    metrics.emplace_back("time_limit", time_limit);
+    metrics.emplace_back("time_limit_own", spec.ownTimeLimit() ? 1.0 : 0.0);
+    out["metrics"] = nlohmann::json::parse(toJson(metrics, workerMetrics(false)));
     out["statistics"] = nlohmann::json::parse(
         toJson(statisticValues(result.statistics), declaredStatistics(*configured.info)));
     // The anytime progress of the last plan (a clock figure, as its planning time).
@@ -124,35 +134,13 @@ std::string flyRun(const Experiment& experiment, const RunSpec& run,
     if (keep_map) settings.snapshot_period = 2.0;
     const PlannerFactory factory = plannerFactory(spec.type, spec.assignments, run.seed);
     const FlightResult flight = fly(world, factory, query, setup);
-    const MetricValues values = flightValues(flight);
-    const auto value = [&](std::string_view name) -> MetricValue {
-      for (const auto& [key, item] : values) {
-        if (key == name) return item;
-      }
-      return std::monostate{};
-    };
     const bool flown = !flight.flown.empty();
-    const bool collided = flight.status == "collision";
-    MetricValues metrics = {
-        {"status", flight.status},
-        {"message", flight.message},
-        {"success", value("success")},
-        {"planning_time_ms", value("replan_time_median_ms")},
-        {"distance_to_goal",
-         flown ? MetricValue((flight.flown.endPosition() - query.goal).norm()) : MetricValue{}},
-        {"duration", flown ? MetricValue(flight.flown.duration()) : MetricValue{}},
-        {"length", value("flown_length")},
-        {"jerk_integral", value("jerk_integral")},
-        {"min_clearance", value("min_clearance")},
-        {"checker_valid", collided ? 0.0 : 1.0},
-        {"checker_check", collided ? std::string("collision") : std::string()},
-        {"checker_detail", collided ? flight.message : std::string()},
-        {"line_blocked", lineBlocked(*world, query, flight.model)},
-    };
-    out["metrics"] = nlohmann::json::parse(toJson(metrics, workerMetrics()));
+    MetricValues metrics = flightRunMetrics().values(flight);
+    metrics.emplace_back("line_blocked", lineBlocked(*world, query, flight.model));
+    out["metrics"] = nlohmann::json::parse(toJson(metrics, workerMetrics(true)));
     const double radius = flight.model.robot_radius;
     MetricValues statistics;
-    for (const auto& [name, item] : values) {
+    for (const auto& [name, item] : flightValues(flight)) {
       if (flightStatistics().find(name)) statistics.emplace_back(name, item);
     }
     out["statistics"] = nlohmann::json::parse(toJson(statistics, flightStatistics()));
@@ -225,8 +213,8 @@ RunRecord recordOf(const Experiment& experiment, const RunSpec& run, const Worke
             (worker.clock == BudgetClock::kCpu ? "CPU" : "wall") + " clock): " +
             (experiment.flights
                  ? "the flight ran past its budget of " + formatNumber(variant.budget.time) + " s"
-                 : "the planner ignored its time budget of " + formatNumber(variant.budget.time) +
-                       " s per plan (" +
+                 : "the planner ignored its time budget of " +
+                       formatNumber(planner.timeLimit(variant.budget)) + " s per plan (" +
                        std::to_string(variant.timing.warmup + variant.timing.repeats) + " plans)"));
     return record;
   }

@@ -211,6 +211,35 @@ std::vector<std::string> runStatuses() {
   return statuses;
 }
 
+namespace {
+
+/// Refuses a query whose start or goal no planner of `variant` could plan from or to (outside
+/// the map, or in collision for the planner's body), naming the world, the query and why:
+/// the run would otherwise end invalid_start or invalid_goal for every such planner.
+void requireValidQueries(const ExperimentVariant& variant, const ExperimentWorld& world,
+                         const World& built, const std::vector<PlanningQuery>& queries) {
+  for (const ExperimentPlanner& planner : variant.planners) {
+    const PlanningModel model =
+        configurePlanner(planner.type, planner.assignments).planner->model();
+    for (std::size_t q = 0; q < queries.size(); ++q) {
+      for (const auto& [what, position] :
+           {std::pair<const char*, Eigen::Vector3d>{"start", queries[q].start.col(0)},
+            {"goal", queries[q].goal}}) {
+        if (const std::string problem = positionProblem(built, position, model); !problem.empty()) {
+          throw ConfigError("queries: world '" + world.id + "'" +
+                            (variant.label.empty() ? "" : " (sweep " + variant.label + ")") +
+                            ", query " + std::to_string(q) + ": the " + what + " " + problem +
+                            " (planner '" + planner.id + "', robot_radius " +
+                            formatNumber(model.robot_radius) +
+                            "); move it, or raise the random queries' clearance");
+        }
+      }
+    }
+  }
+}
+
+}  // namespace
+
 PlacedInputs placeInputs(
     const Experiment& experiment, const std::vector<const RunSpec*>& runs,
     const std::string& cache_dir,
@@ -228,7 +257,10 @@ PlacedInputs placeInputs(
       if (on_world) on_world(world, built, load.source == WorldSource::kCache);
     }
     auto& list = inputs.queries[{run->variant, run->world}];
-    if (list.empty()) list = variant.queries.make(*built, world.id, experiment.seed);
+    if (list.empty()) {
+      list = variant.queries.make(*built, world.id, experiment.seed);
+      if (!experiment.flights) requireValidQueries(variant, world, *built, list);
+    }
   }
   return inputs;
 }
@@ -263,16 +295,26 @@ std::string describeRuns(const Experiment& experiment, const std::vector<RunSpec
 
 namespace {
 
-/// Checks the shard's database: refuses another experiment, another shard, another schema
-/// and (without --resume) one that holds runs; records the meta and the metric declarations.
+/// Checks the shard's database: refuses another experiment (another name), another shard,
+/// another schema and (without --resume) one that holds runs; records the meta, the metric
+/// declarations and the runs planned now. With --resume the experiment may have grown or
+/// changed (planners, queries, repetitions, sweep values added; parameters changed): the runs
+/// it still plans are kept, and those it no longer plans stay in the file, apart.
 void prepareStore(ResultsStore& store, const Experiment& experiment, const RunnerOptions& options,
-                  std::size_t planned) {
+                  const std::vector<RunSpec>& runs) {
   const std::string shard = options.shard.text();
   if (const auto stored = store.meta("config_hash")) {
-    if (*stored != experiment.config_hash) {
-      throw ConfigError(store.path() + " holds another experiment (config hash " + *stored +
-                        ", this one is " + experiment.config_hash +
-                        "); choose another --out directory");
+    const std::string name = store.meta("name").value_or("");
+    if (name != experiment.name) {
+      throw ConfigError(store.path() + " holds another experiment ('" + name + "', this one is '" +
+                        experiment.name + "'); choose another --out directory");
+    }
+    if (*stored != experiment.config_hash && !options.resume) {
+      throw ConfigError(store.path() + " holds runs of experiment '" + name +
+                        "' as configured before (config hash " + *stored + ", now " +
+                        experiment.config_hash +
+                        "); pass --resume to add the runs it lacks (the runs it no longer plans "
+                        "are kept apart, never pooled), or choose another --out directory");
     }
     if (store.meta("shard").value_or(shard) != shard) {
       throw ConfigError(store.path() + " holds shard " + *store.meta("shard") + ", not " + shard);
@@ -295,7 +337,7 @@ void prepareStore(ResultsStore& store, const Experiment& experiment, const Runne
       {"config", experiment.canonical},
       {"config_hash", experiment.config_hash},
       {"shard", shard},
-      {"runs_planned", std::to_string(planned)},
+      {"runs_planned", std::to_string(runs.size())},
       {"schema_version", std::to_string(kResultsSchemaVersion)},
       {"plugins", join(experiment.plugins, "\n")},
       {"last_started_at", utcNow()},
@@ -314,7 +356,11 @@ void prepareStore(ResultsStore& store, const Experiment& experiment, const Runne
   }
   for (const auto& [key, value] : provenance()) meta["provenance." + key] = value;
   store.setMeta(meta);
-  store.declareMetrics("result", "", resultMetrics());
+  std::vector<std::string> hashes;
+  for (const RunSpec& run : runs) hashes.push_back(run.hash);
+  store.setPlanned(hashes);
+  store.declareMetrics("result", "",
+                       experiment.flights ? flightRunMetrics().specs() : resultMetrics());
   store.declareMetrics("runner", "", runnerMetrics());
   std::set<std::string> planner_types;
   for (const ExperimentVariant& variant : experiment.variants) {
@@ -409,7 +455,7 @@ RunnerSummary runExperiment(const Experiment& experiment, const RunnerOptions& o
   // One writer per results directory: a second runner stops here, before any work.
   const DirectoryLock lock(options.out_dir, "kinolab run " + experiment.source);
   ResultsStore store((std::filesystem::path(options.out_dir) / "results.sqlite").string());
-  prepareStore(store, experiment, options, runs.size());
+  prepareStore(store, experiment, options, runs);
   if (!options.retry.empty()) {
     const long long removed = store.removeRuns(options.retry);
     std::fprintf(stderr, "run: %lld stored runs with status %s will run again\n", removed,
@@ -436,7 +482,12 @@ RunnerSummary runExperiment(const Experiment& experiment, const RunnerOptions& o
   while ((next < pending.size() && !g_stop_signal) || !pool.empty()) {
     while (!g_stop_signal && next < pending.size() && !pool.full()) {
       const RunSpec& run = *pending[next];
-      const ExperimentBudget& budget = experiment.variants[run.variant].budget;
+      const ExperimentVariant& variant = experiment.variants[run.variant];
+      // A planning run's plans each have the planner's time limit (the experiment's budget
+      // unless its entry sets its own); a flight has the experiment's.
+      const double time_limit = experiment.flights
+                                    ? variant.budget.time
+                                    : variant.planners[run.planner].timeLimit(variant.budget);
       // Every plan of the timing protocol has the time budget.
       const TimingProtocol& timing = experiment.variants[run.variant].timing;
       const double plans = experiment.flights ? 1.0 : timing.warmup + timing.repeats;
@@ -445,10 +496,11 @@ RunnerSummary runExperiment(const Experiment& experiment, const RunnerOptions& o
           experiment.flights
               ? readFields<FlightSettings>(experiment.variants[run.variant].flight).clock
               : BudgetClock::kWall;
-      pool.start(next++, plans * budget.time + options.grace_seconds, clock, budget.memory_mb, [&] {
-        return (experiment.flights ? flyRun : planRun)(
-            experiment, run, inputs.world(experiment, run), inputs.query(run));
-      });
+      pool.start(next++, plans * time_limit + options.grace_seconds, clock,
+                 variant.budget.memory_mb, [&] {
+                   return (experiment.flights ? flyRun : planRun)(
+                       experiment, run, inputs.world(experiment, run), inputs.query(run));
+                 });
     }
     if (g_stop_signal) {
       pool.killAll();  // runs in flight are not recorded: the database stays resumable

@@ -815,16 +815,21 @@ class FlightLoop {
     check_query.goal = query_.goal;
     check_query.require_goal = false;
     const CheckResult check = checker_.check(result_.flown, check_query);
-    result_.min_clearance = check.min_clearance;
-    result_.inside_margin = check.min_clearance < settings_.planning_margin;
+    result_.evaluation = check.evaluation;
     if (!check.valid && check.check == "collision") {
       result_.status = "collision";
       result_.message =
           "the flown trajectory hits the ground truth at t = " + std::to_string(check.time) +
           " s: " + check.detail;
       result_.flown = slice(result_.flown, check.time);
+      result_.evaluation = checker_.evaluate(result_.flown);
     } else if (!check.valid) {
       result_.message = "the checker: " + check.check + ": " + check.detail;
+    }
+    result_.min_clearance = result_.evaluation.min_clearance;
+    result_.inside_margin = result_.min_clearance < settings_.planning_margin;
+    if (!result_.flown.empty()) {
+      result_.distance_to_goal = (result_.flown.endPosition() - query_.goal).norm();
     }
     if (result_.status != "reached") result_.time_to_goal = NAN;
   }
@@ -877,7 +882,8 @@ const MetricSpecs& flightStatistics() {
   static const MetricSpecs specs =
       MetricSpecs()
           .real("time_to_goal", "s", "simulated flight time to the goal (reached only)")
-          .real("flown_length", "m", "length of the flown trajectory")
+          .lower()
+          .comparable()
           .real("mean_speed", "m/s", "flown length over flight time")
           .counter("replans", "replans made (planned, on collision, retries)")
           .counter("failed_replans",
@@ -888,16 +894,12 @@ const MetricSpecs& flightStatistics() {
           .clock("replan_time_median_ms", "median planning time of the replans")
           .clock("replan_time_p95_ms", "95th percentile planning time of the replans")
           .clock("replan_time_max_ms", "largest planning time of a replan")
-          .real("min_clearance", "m",
-                "least exact distance from the flown positions to the ground truth's occupied "
-                "cubes, less the robot radius")
           .counter("inside_margin",
                    "1 when the body came nearer the ground truth than the planning margin "
                    "(tracking took it inside the clearance it was planned with), else 0: its "
                    "mean is the share of such flights")
           .real("plan_distance_median", "m", "median D of the replans' plans to their goals")
           .real("plan_distance_max", "m", "largest D of a replan's plan")
-          .real("jerk_integral", "m^2/s^5", "integral of the squared jerk of the flight")
           .real("tracking_error_max", "m",
                 "largest distance between the flown and the committed position (0: perfect "
                 "tracking)")
@@ -919,15 +921,74 @@ const MetricSpecs& flightStatistics() {
   return specs;
 }
 
+namespace {
+
+/// The `q` quantile (linear between order statistics) of `values`; none when empty.
+MetricValue quantile(std::vector<double> values, double q) {
+  if (values.empty()) return std::monostate{};
+  std::sort(values.begin(), values.end());
+  const double position = q * static_cast<double>(values.size() - 1);
+  const auto low = static_cast<std::size_t>(std::floor(position));
+  const std::size_t high = std::min(values.size() - 1, low + 1);
+  return values[low] + (position - static_cast<double>(low)) * (values[high] - values[low]);
+}
+
+/// The planning times of the replans that planned.
+std::vector<double> replanTimes(const FlightResult& result) {
+  std::vector<double> times;
+  for (const FlightReplan& replan : result.replans) {
+    if (replan.status != "no_local_goal") times.push_back(replan.planning_time_ms);
+  }
+  return times;
+}
+
+}  // namespace
+
+const MetricList<FlightResult>& flightRunMetrics() {
+  using F = FlightResult;
+  static const MetricList<F> list =
+      MetricList<F>()
+          .add(MetricSpecs().text("status",
+                                  "reached, collision (with the ground truth), stuck, timeout, "
+                                  "invalid_start, invalid_goal"),
+               [](const F& f) -> MetricValue { return f.status; })
+          .add(MetricSpecs().text("message", "why, for statuses other than reached"),
+               [](const F& f) -> MetricValue { return f.message; })
+          .add(MetricSpecs()
+                   .boolean("success", "reached the goal without a collision")
+                   .higher()
+                   .comparable(),
+               [](const F& f) -> MetricValue { return f.status == "reached" ? 1.0 : 0.0; })
+          .add(MetricSpecs()
+                   .clock("planning_time_ms", "the replans' median planning time")
+                   .lower()
+                   .comparable(),
+               [](const F& f) { return quantile(replanTimes(f), 0.5); })
+          .add(MetricSpecs()
+                   .real("distance_to_goal", "m", "from where the flight ended to the goal")
+                   .lower()
+                   .comparable(),
+               [](const F& f) { return numberOrNone(f.distance_to_goal); })
+          .include(evaluationMetrics(),
+                   [](const F& f) { return f.flown.empty() ? nullptr : &f.evaluation; })
+          .add(MetricSpecs()
+                   .boolean("checker_valid", "the flown trajectory kept off the ground truth")
+                   .higher()
+                   .comparable(),
+               [](const F& f) -> MetricValue { return f.status == "collision" ? 0.0 : 1.0; })
+          .add(MetricSpecs().text("checker_check", "collision, when the flight hit"),
+               [](const F& f) -> MetricValue {
+                 return f.status == "collision" ? std::string("collision") : std::string();
+               })
+          .add(MetricSpecs().text("checker_detail", "where it hit"), [](const F& f) -> MetricValue {
+            return f.status == "collision" ? f.message : std::string();
+          });
+  return list;
+}
+
 const MetricSpecs& flightMetrics() {
   static const MetricSpecs specs =
-      MetricSpecs()
-          .text("status",
-                "reached, collision (with the ground truth), stuck, timeout, "
-                "invalid_start, invalid_goal")
-          .text("message", "why, for statuses other than reached")
-          .boolean("success", "reached the goal without a collision")
-          .include(flightStatistics());
+      MetricSpecs(flightRunMetrics().specs()).include(flightStatistics());
   return specs;
 }
 
@@ -970,34 +1031,22 @@ std::string replansCsv(const FlightResult& result) {
 }
 
 MetricValues flightValues(const FlightResult& result) {
-  std::vector<double> times;
   std::vector<double> distances;
   int failed = 0;
   for (const FlightReplan& replan : result.replans) {
-    if (replan.status != "no_local_goal") times.push_back(replan.planning_time_ms);
     if (std::isfinite(replan.distance_to_goal)) distances.push_back(replan.distance_to_goal);
     failed += replan.accepted || replan.kept ? 0 : 1;
   }
-  const auto quantile = [](std::vector<double> values, double q) -> MetricValue {
-    if (values.empty()) return std::monostate{};
-    std::sort(values.begin(), values.end());
-    const double position = q * static_cast<double>(values.size() - 1);
-    const auto low = static_cast<std::size_t>(std::floor(position));
-    const std::size_t high = std::min(values.size() - 1, low + 1);
-    return values[low] + (position - static_cast<double>(low)) * (values[high] - values[low]);
-  };
+  const std::vector<double> times = replanTimes(result);
   const double duration = result.flown.duration();
   const double length = result.flown.length();
   const double per_frame =
       result.frames > 0
           ? (result.time_sense_ms + result.time_map_ms + result.time_window_ms) / result.frames
           : NAN;
-  return {
-      {"status", result.status},
-      {"message", result.message},
-      {"success", result.status == "reached" ? 1.0 : 0.0},
+  MetricValues values = flightRunMetrics().values(result);
+  const MetricValues statistics = {
       {"time_to_goal", numberOrNone(result.time_to_goal)},
-      {"flown_length", numberOrNone(length)},
       {"mean_speed", numberOrNone(duration > 0.0 ? length / duration : NAN)},
       {"replans", static_cast<double>(result.replans.size())},
       {"failed_replans", static_cast<double>(failed)},
@@ -1007,11 +1056,9 @@ MetricValues flightValues(const FlightResult& result) {
       {"replan_time_median_ms", quantile(times, 0.5)},
       {"replan_time_p95_ms", quantile(times, 0.95)},
       {"replan_time_max_ms", quantile(times, 1.0)},
-      {"min_clearance", numberOrNone(result.min_clearance)},
       {"inside_margin", result.inside_margin ? 1.0 : 0.0},
       {"plan_distance_median", quantile(distances, 0.5)},
       {"plan_distance_max", quantile(distances, 1.0)},
-      {"jerk_integral", numberOrNone(result.flown.jerkIntegral())},
       {"tracking_error_max", numberOrNone(result.tracking_error_max)},
       {"tracking_error_rms", numberOrNone(result.tracking_error_rms)},
       {"guide_length", numberOrNone(result.difficulty.guide_length)},
@@ -1026,6 +1073,8 @@ MetricValues flightValues(const FlightResult& result) {
       {"frame_time_ms", numberOrNone(per_frame)},
       {"guide_time_ms",
        numberOrNone(result.replans.empty() ? NAN : result.time_guide_ms / result.replans.size())}};
+  values.insert(values.end(), statistics.begin(), statistics.end());
+  return values;
 }
 
 }  // namespace kinolab

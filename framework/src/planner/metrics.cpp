@@ -11,34 +11,68 @@
 
 namespace kinolab {
 
-const MetricSpecs& resultMetrics() {
-  static const MetricSpecs specs =
-      MetricSpecs()
-          .text("status",
-                "exact, approximate, no_solution, timeout (the planner spent its budget), "
-                "invalid_start, invalid_goal, invalid_trajectory; from the runner: crash, "
-                "killed (past its budget), oom, error")
-          .text("message", "why, for statuses other than exact")
-          .boolean("success", "exact and accepted by the independent checker")
-          .clock("planning_time_ms", "the planner's own work (no checking, no figures)")
-          .real("cost", "", "the planner's own cost of its trajectory")
-          .real("distance_to_goal", "m",
-                "D: from the trajectory's closest point (or the start) to the goal")
-          .real("duration", "s", "trajectory duration")
-          .real("length", "m", "trajectory length")
-          .real("jerk_integral", "m^2/s^5", "integral of the squared jerk")
-          .real("min_clearance", "m",
-                "least exact distance from the trajectory's checked positions to the occupied "
-                "voxel cubes, less the robot radius")
-          .real("mean_clearance", "m",
-                "mean exact distance from the trajectory's checked positions to the occupied "
-                "voxel cubes, less the robot radius")
-          .boolean("checker_valid", "the independent checker accepts the trajectory")
-          .text("checker_check", "the check that failed (collision, limits, start, goal, ...)")
-          .text("checker_detail", "what that check found")
-          .real("checker_time", "s", "trajectory time of the failure");
-  return specs;
+const MetricList<PlanResult>& planMetrics() {
+  using R = PlanResult;
+  const auto number = [](double R::*field) {
+    return [field](const R& r) { return numberOrNone(r.*field); };
+  };
+  static const MetricList<R> list =
+      MetricList<R>()
+          .add(MetricSpecs().text(
+                   "status",
+                   "exact, approximate, no_solution, timeout (the planner spent its budget), "
+                   "invalid_start, invalid_goal, invalid_trajectory; from the runner: crash, "
+                   "killed (past its budget), oom, error"),
+               [](const R& r) -> MetricValue { return std::string(toString(r.status)); })
+          .add(MetricSpecs().text("message", "why, for statuses other than exact"),
+               [](const R& r) -> MetricValue { return r.message; })
+          .add(MetricSpecs()
+                   .boolean("success", "exact and accepted by the independent checker")
+                   .higher()
+                   .comparable(),
+               [](const R& r) -> MetricValue {
+                 return isSuccess(r.status, r.check.valid) ? 1.0 : 0.0;
+               })
+          .add(MetricSpecs()
+                   .clock("planning_time_ms", "the planner's own work (no checking, no figures)")
+                   .lower()
+                   .comparable(),
+               number(&R::planning_time_ms))
+          .add(MetricSpecs()
+                   .real("cost", "",
+                         "the planner's own objective (see objective): compared only between "
+                         "planners of the same objective")
+                   .lower(),
+               number(&R::cost))
+          .add(MetricSpecs().text("objective",
+                                  "what cost measures: costs of equal objectives compare"),
+               [](const R& r) -> MetricValue { return r.objective; })
+          .add(MetricSpecs()
+                   .real("distance_to_goal", "m",
+                         "D: from the trajectory's closest point (or the start) to the goal")
+                   .lower()
+                   .comparable(),
+               number(&R::distance_to_goal))
+          .include(evaluationMetrics(),
+                   [](const R& r) { return r.trajectory.empty() ? nullptr : &r.check.evaluation; })
+          .add(MetricSpecs()
+                   .boolean("checker_valid", "the independent checker accepts the trajectory")
+                   .higher()
+                   .comparable(),
+               [](const R& r) -> MetricValue { return r.check.valid ? 1.0 : 0.0; })
+          .add(MetricSpecs().text("checker_check",
+                                  "the check that failed (collision, limits, start, goal, ...)"),
+               [](const R& r) -> MetricValue { return r.check.check; })
+          .add(MetricSpecs().text("checker_detail", "what that check found"),
+               [](const R& r) -> MetricValue { return r.check.detail; })
+          .add(MetricSpecs().real("checker_time", "s", "trajectory time of the failure"),
+               [](const R& r) -> MetricValue {
+                 return r.check.check.empty() ? MetricValue{} : numberOrNone(r.check.time);
+               });
+  return list;
 }
+
+const MetricSpecs& resultMetrics() { return planMetrics().specs(); }
 
 const MetricSpecs& commonStatistics() {
   static const MetricSpecs specs =
@@ -50,30 +84,7 @@ bool isSuccess(PlanStatus status, bool checker_valid) {
   return status == PlanStatus::kExact && checker_valid;
 }
 
-MetricValues resultValues(const PlanResult& result) {
-  const bool has_trajectory = !result.trajectory.empty();
-  const auto ofTrajectory = [&](auto compute) -> MetricValue {
-    return has_trajectory ? numberOrNone(compute()) : MetricValue{};
-  };
-  const CheckResult& check = result.check;
-  return {
-      {"status", std::string(toString(result.status))},
-      {"message", result.message},
-      {"success", isSuccess(result.status, check.valid) ? 1.0 : 0.0},
-      {"planning_time_ms", numberOrNone(result.planning_time_ms)},
-      {"cost", numberOrNone(result.cost)},
-      {"distance_to_goal", numberOrNone(result.distance_to_goal)},
-      {"duration", ofTrajectory([&] { return result.trajectory.duration(); })},
-      {"length", ofTrajectory([&] { return result.trajectory.length(); })},
-      {"jerk_integral", ofTrajectory([&] { return result.trajectory.jerkIntegral(); })},
-      {"min_clearance", ofTrajectory([&] { return check.min_clearance; })},
-      {"mean_clearance", ofTrajectory([&] { return check.mean_clearance; })},
-      {"checker_valid", check.valid ? 1.0 : 0.0},
-      {"checker_check", check.check},
-      {"checker_detail", check.detail},
-      {"checker_time", check.check.empty() ? MetricValue{} : numberOrNone(check.time)},
-  };
-}
+MetricValues resultValues(const PlanResult& result) { return planMetrics().values(result); }
 
 MetricValues statisticValues(const std::vector<std::pair<std::string, double>>& statistics) {
   MetricValues values;

@@ -9,31 +9,6 @@
 #include "kinolab/primitives/control_sampler.hpp"
 
 namespace kinolab {
-namespace {
-
-/// Why a position cannot be a start or goal, or "" when it can: outside the map, or closer to
-/// the occupied cubes than the body may come (its radius less the collision tolerance, the
-/// rule every edge and the checker hold to).
-std::string positionProblem(const World& world, const Eigen::Vector3d& position,
-                            const PlanningModel& model) {
-  const double radius = model.robot_radius - model.collision_tolerance;
-  if (!position.allFinite()) return "is not finite";
-  if (!world.bounds().contains(position)) {
-    const Box& b = world.bounds();
-    return formatPoint(position) + " is outside the map " + formatPoint(b.min) + " .. " +
-           formatPoint(b.max);
-  }
-  const double clearance = world.clearanceFor(position, radius);
-  if (clearance < radius) {
-    return formatPoint(position) + " is in collision: an occupied voxel cube is " +
-           formatNumber(std::max(clearance, 0.0)) + " m from it, less than the robot radius " +
-           formatNumber(model.robot_radius) + " m less the collision tolerance " +
-           formatNumber(model.collision_tolerance) + " m";
-  }
-  return "";
-}
-
-}  // namespace
 
 std::string_view toString(PlanStatus status) {
   switch (status) {
@@ -69,6 +44,25 @@ std::string_view toString(SearchTreeEdge::State state) {
   return "unknown";
 }
 
+std::string positionProblem(const World& world, const Eigen::Vector3d& position,
+                            const PlanningModel& model) {
+  const double radius = model.robot_radius - model.collision_tolerance;
+  if (!position.allFinite()) return "is not finite";
+  if (!world.bounds().contains(position)) {
+    const Box& b = world.bounds();
+    return formatPoint(position) + " is outside the map " + formatPoint(b.min) + " .. " +
+           formatPoint(b.max);
+  }
+  const double clearance = world.clearanceFor(position, radius);
+  if (clearance < radius) {
+    return formatPoint(position) + " is in collision: an occupied voxel cube is " +
+           formatNumber(std::max(clearance, 0.0)) + " m from it, less than the robot radius " +
+           formatNumber(model.robot_radius) + " m less the collision tolerance " +
+           formatNumber(model.collision_tolerance) + " m";
+  }
+  return "";
+}
+
 KINOLAB_DEFINE_PLUGIN_REGISTRY(Planner, "planner", "planners",
                                "planners: the contract of kinolab/planner/planner.hpp", 1)
 
@@ -91,6 +85,12 @@ void Planner::setup(const PlannerContext& context) {
   }
   checker_ = std::make_unique<TrajectoryChecker>(context.world, checkerSettings(planningModel()));
   world_ = context.world;
+}
+
+std::string Planner::objective() const {
+  std::string own = costObjective();
+  if (!own.empty()) return own;
+  return configuration_.empty() ? "planner-specific" : configuration_;
 }
 
 Budget Planner::budgetFor(const Budget& budget) const {
@@ -133,6 +133,7 @@ PlanResult Planner::plan(const PlanningQuery& query, const Budget& budget, Searc
     rethrowFromPlugin(pluginName(), "plan()");
   }
   result.planning_time_ms = 1e3 * stop.elapsed();
+  result.objective = objective();
   if (tree) {
     try {
       *tree = doTree(kMaxTreeEdges);
@@ -265,6 +266,8 @@ ConfiguredPlanner configurePlanner(std::string_view key,
   configured.info = &planners.info(key);
   configured.planner->key_ = configured.info->key;
   configured.planner->declared_statistics_ = declaredStatistics(*configured.info);
+  configured.planner->configuration_ =
+      configured.info->key + "{" + configured.parameters.canonical() + "}";
   return configured;
 }
 

@@ -213,6 +213,19 @@ void MotionPrimitivePlanner::doReset() {
   if (search_) search_->clear();
 }
 
+std::string MotionPrimitivePlanner::costObjective() const {
+  const EdgeEvaluatorSettings& edges = config_.settings.edges;
+  const CostWeights& w = edges.weights;
+  const bool spaced = edges.sampling.mode == EdgeSampling::Mode::kSpacing;
+  return "motion-primitive cost: order " + std::to_string(edges.order) + ", per s " +
+         formatNumber(w.duration) + ", per m " + formatNumber(w.length) + ", control " +
+         formatNumber(w.control_effort) + ", obstacle " + formatNumber(w.obstacle) + " within " +
+         formatNumber(edges.safety_distance) + " m of radius " + formatNumber(edges.robot_radius) +
+         ", " +
+         (spaced ? "samples every " + formatNumber(edges.sampling.spacing) + " m"
+                 : std::to_string(edges.sampling.samples) + " samples an edge");
+}
+
 PlanningModel MotionPrimitivePlanner::planningModel() const {
   PlanningModel model;
   model.robot_radius = config_.settings.edges.robot_radius;

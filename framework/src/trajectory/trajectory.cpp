@@ -105,19 +105,35 @@ double Trajectory::length() const {
   return total;
 }
 
-double Trajectory::jerkIntegral() const {
+double Trajectory::squaredIntegral(int derivative) const {
   double total = 0.0;
   for (const auto& segment : segments_) {
-    if (segment.coefficients.cols() < 4) continue;
-    const auto jerk = derivativeCoefficients(segment.coefficients, 3);
-    const int terms = static_cast<int>(jerk.cols());
+    if (segment.coefficients.cols() <= derivative) continue;
+    const auto values = derivativeCoefficients(segment.coefficients, derivative);
+    const int terms = static_cast<int>(values.cols());
     for (int i = 0; i < terms; ++i) {
       for (int j = 0; j < terms; ++j) {
-        total += jerk.col(i).dot(jerk.col(j)) * std::pow(segment.duration, i + j + 1) / (i + j + 1);
+        total +=
+            values.col(i).dot(values.col(j)) * std::pow(segment.duration, i + j + 1) / (i + j + 1);
       }
     }
   }
   return total;
+}
+
+Trajectory::Jumps Trajectory::jumps(int derivative, double tolerance) const {
+  Jumps jumps;
+  for (std::size_t i = 1; i < segments_.size(); ++i) {
+    const TrajectorySegment& before = segments_[i - 1];
+    const Eigen::Vector3d left = before.evaluate(before.duration, derivative);
+    const Eigen::Vector3d right = segments_[i].evaluate(0.0, derivative);
+    const double jump = (right - left).norm();
+    if (jump > tolerance * std::max({1.0, left.norm(), right.norm()})) {
+      ++jumps.count;
+      jumps.squared_sum += jump * jump;
+    }
+  }
+  return jumps;
 }
 
 double Trajectory::closestDistance(const Eigen::Vector3d& point, double step) const {

@@ -301,9 +301,200 @@ CheckResult TrajectoryChecker::check(const Trajectory& trajectory, const CheckQu
     violation(result, "empty", 0.0, query.start.col(0), "no trajectory");
     return result;
   }
+  result.evaluation = evaluate(trajectory);
   result.valid = checkStart(trajectory, query, result) && checkLimits(trajectory, result) &&
                  checkCollision(trajectory, result) && checkGoal(trajectory, query, result);
   return result;
+}
+
+TrajectoryEvaluation TrajectoryChecker::evaluate(const Trajectory& trajectory) const {
+  TrajectoryEvaluation result;
+  if (trajectory.empty()) return result;
+  for (const TrajectorySegment& segment : trajectory.segments()) {
+    if (!std::isfinite(segment.duration) || !segment.coefficients.allFinite()) {
+      result.undefined = "every figure: the trajectory is not finite";
+      return result;
+    }
+  }
+  result.duration = trajectory.duration();
+  result.length = trajectory.length();
+  std::vector<std::string> undefined;
+  // A jump of derivative k - 1 at a joint makes derivative k impulsive: its squared
+  // integral is not finite, whatever the polynomials' own figure says.
+  const auto integral = [&](int derivative, const char* name, const char* below) {
+    const Trajectory::Jumps jumps = trajectory.jumps(derivative - 1);
+    if (jumps.count == 0) return trajectory.squaredIntegral(derivative);
+    undefined.push_back(std::string(name) + ": the " + below + " jumps at " +
+                        std::to_string(jumps.count) + " joint" + (jumps.count > 1 ? "s" : "") +
+                        ", so the " + kDerivatives[derivative] + " is impulsive there");
+    return static_cast<double>(NAN);
+  };
+  result.acceleration_integral = integral(2, "acceleration_integral", "velocity");
+  result.jerk_integral = integral(3, "jerk_integral", "acceleration");
+  result.acceleration_jumps = trajectory.jumps(2).squared_sum;
+
+  const World& world = *world_;
+  const DynamicLimits& limits = settings_.limits;
+  const double cap = std::min(world.esdf().maxDistance(), world.esdf().truncation());
+  double least = INFINITY;
+  double clearance_sum = 0.0;
+  int samples = 0;
+  double peak_speed = 0.0;
+  double peak_acceleration = 0.0;
+  double speed_ratio = 0.0;
+  double acceleration_ratio = 0.0;
+  double max_curvature = 0.0;
+  double turning = 0.0;  // integral of curvature over the arc length of the moving samples
+  double moving_length = 0.0;
+  double segment_start = 0.0;
+  std::vector<std::pair<double, double>> times;
+  for (const auto& segment : trajectory.segments()) {
+    sampleTimes(segment, segment_start, speedBound(segment), spacing_, times);
+    for (std::size_t i = 0; i < times.size(); ++i) {
+      const double local = times[i].second;
+      const Eigen::Vector3d position = segment.evaluate(local);
+      const Eigen::Vector3d velocity = segment.evaluate(local, 1);
+      const Eigen::Vector3d acceleration = segment.evaluate(local, 2);
+      // The exact distance, up to the map's diagonal or a truncated field's truncation (a
+      // sparse world's clearance figures are capped there: exact below it).
+      const double distance = std::max(world.esdf().exactDistance(position, cap), 0.0);
+      least = std::min(least, distance);
+      clearance_sum += distance;
+      ++samples;
+      const double speed = velocity.norm();
+      peak_speed = std::max(peak_speed, speed);
+      peak_acceleration = std::max(peak_acceleration, acceleration.norm());
+      for (int axis = 0; axis < 3; ++axis) {
+        speed_ratio = std::max(speed_ratio, std::abs(velocity[axis]) / limits.bound[1][axis]);
+        acceleration_ratio =
+            std::max(acceleration_ratio, std::abs(acceleration[axis]) / limits.bound[2][axis]);
+      }
+      if (speed < TrajectoryEvaluation::kCurvatureMinSpeed) continue;
+      const double curvature = velocity.cross(acceleration).norm() / (speed * speed * speed);
+      max_curvature = std::max(max_curvature, curvature);
+      // The sample's share of the segment's time (half of each neighbouring interval).
+      const double before = i > 0 ? local - times[i - 1].second : 0.0;
+      const double after = i + 1 < times.size() ? times[i + 1].second - local : 0.0;
+      const double arc = 0.5 * (before + after) * speed;
+      turning += curvature * arc;
+      moving_length += arc;
+    }
+    segment_start += segment.duration;
+  }
+  result.min_clearance = least - settings_.robot_radius;
+  result.mean_clearance = clearance_sum / samples - settings_.robot_radius;
+  result.peak_speed = peak_speed;
+  result.peak_acceleration = peak_acceleration;
+  result.speed_limit_ratio = speed_ratio;
+  result.acceleration_limit_ratio = acceleration_ratio;
+  if (moving_length > 0.0) {
+    result.max_curvature = max_curvature;
+    result.mean_curvature = turning / moving_length;
+  } else {
+    undefined.push_back("max_curvature, mean_curvature: the trajectory never moves faster than " +
+                        formatNumber(TrajectoryEvaluation::kCurvatureMinSpeed) +
+                        " m/s, so its direction is not defined");
+  }
+  result.undefined = join(undefined, "\n");
+  return result;
+}
+
+const MetricList<TrajectoryEvaluation>& evaluationMetrics() {
+  using E = TrajectoryEvaluation;
+  const auto of = [](double E::*field) {
+    return [field](const E& e) { return numberOrNone(e.*field); };
+  };
+  // Per metre of path: a long detour and a short direct flight compared on one scale
+  // (FlightBench's energy measures).
+  const auto perMetre = [](double E::*field) {
+    return [field](const E& e) { return numberOrNone(e.length > 0.0 ? e.*field / e.length : NAN); };
+  };
+  static const MetricList<E> list =
+      MetricList<E>()
+          .add(MetricSpecs().real("duration", "s", "trajectory duration").lower().comparable(),
+               of(&E::duration))
+          .add(MetricSpecs().real("length", "m", "trajectory length").lower().comparable(),
+               of(&E::length))
+          .add(MetricSpecs()
+                   .real("acceleration_integral", "m^2/s^3",
+                         "integral of |a|^2 over the trajectory (undefined where the velocity "
+                         "jumps)")
+                   .lower()
+                   .comparable(),
+               of(&E::acceleration_integral))
+          .add(MetricSpecs()
+                   .real("acceleration_per_metre", "m/s^3", "acceleration_integral per metre")
+                   .lower()
+                   .comparable(),
+               perMetre(&E::acceleration_integral))
+          .add(MetricSpecs()
+                   .real("jerk_integral", "m^2/s^5",
+                         "integral of |j|^2 over the trajectory; undefined (never 0) where the "
+                         "acceleration jumps: see acceleration_jumps")
+                   .lower()
+                   .comparable(),
+               of(&E::jerk_integral))
+          .add(MetricSpecs()
+                   .real("jerk_per_metre", "m/s^5", "jerk_integral per metre")
+                   .lower()
+                   .comparable(),
+               perMetre(&E::jerk_integral))
+          .add(MetricSpecs()
+                   .real("acceleration_jumps", "m^2/s^4",
+                         "sum of the squared acceleration jumps at the joints (0: continuous "
+                         "acceleration)")
+                   .lower()
+                   .comparable(),
+               of(&E::acceleration_jumps))
+          .add(MetricSpecs()
+                   .real("max_curvature", "1/m",
+                         "largest curvature |v x a| / |v|^3 where the speed is at least 0.1 m/s")
+                   .lower()
+                   .comparable(),
+               of(&E::max_curvature))
+          .add(MetricSpecs()
+                   .real("mean_curvature", "1/m",
+                         "turning per metre: curvature integrated over arc length, over the "
+                         "length (where the speed is at least 0.1 m/s)")
+                   .lower()
+                   .comparable(),
+               of(&E::mean_curvature))
+          .add(MetricSpecs()
+                   .real("min_clearance", "m",
+                         "least exact distance from the trajectory's checked positions to the "
+                         "occupied voxel cubes, less the robot radius")
+                   .higher()
+                   .comparable(),
+               of(&E::min_clearance))
+          .add(MetricSpecs()
+                   .real("mean_clearance", "m",
+                         "mean exact distance from the trajectory's checked positions to the "
+                         "occupied voxel cubes, less the robot radius")
+                   .higher()
+                   .comparable(),
+               of(&E::mean_clearance))
+          .add(MetricSpecs().real("peak_speed", "m/s", "largest speed |v|").comparable(),
+               of(&E::peak_speed))
+          .add(MetricSpecs()
+                   .real("peak_acceleration", "m/s^2", "largest acceleration |a|")
+                   .comparable(),
+               of(&E::peak_acceleration))
+          .add(MetricSpecs()
+                   .real("speed_limit_ratio", "",
+                         "largest per-axis speed over its limit (above 1: beyond the limit)")
+                   .comparable(),
+               of(&E::speed_limit_ratio))
+          .add(MetricSpecs()
+                   .real("acceleration_limit_ratio", "",
+                         "largest per-axis acceleration over its limit (above 1: beyond the "
+                         "limit)")
+                   .comparable(),
+               of(&E::acceleration_limit_ratio))
+          .add(MetricSpecs().text("undefined",
+                                  "the figures not defined for this trajectory, NAME: REASON a "
+                                  "line (never stored as 0)"),
+               [](const E& e) -> MetricValue { return e.undefined; });
+  return list;
 }
 
 bool TrajectoryChecker::checkStart(const Trajectory& trajectory, const CheckQuery& query,
@@ -355,11 +546,8 @@ bool TrajectoryChecker::checkLimits(const Trajectory& trajectory, CheckResult& r
 }
 
 bool TrajectoryChecker::checkCollision(const Trajectory& trajectory, CheckResult& result) const {
-  // Every position sample against the map bounds and the occupied cubes; the clearance
-  // figures from the exact distance to the cubes at every sample.
+  // Every position sample against the map bounds and the occupied cubes.
   const World& world = *world_;
-  double clearance_sum = 0.0;
-  double least = INFINITY;
   double segment_start = 0.0;
   std::vector<std::pair<double, double>> times;
   for (const auto& segment : trajectory.segments()) {
@@ -371,13 +559,6 @@ bool TrajectoryChecker::checkCollision(const Trajectory& trajectory, CheckResult
         return violation(result, "bounds", time, position,
                          "position " + formatPoint(position) + " leaves the map");
       }
-      // Up to the map's diagonal (where the ESDF caps, in a map without obstacles), or up to
-      // a truncated field's truncation (a sparse world's clearance figures are capped there:
-      // exact below it); always finite (a position inside the map is).
-      const double distance = world.esdf().exactDistance(
-          position, std::min(world.esdf().maxDistance(), world.esdf().truncation()));
-      clearance_sum += std::max(distance, 0.0) - settings_.robot_radius;
-      least = std::min(least, std::max(distance, 0.0));
       if (collides(position)) {
         return violation(result, "collision", time, position,
                          body_radius_ > 0.0
@@ -389,8 +570,6 @@ bool TrajectoryChecker::checkCollision(const Trajectory& trajectory, CheckResult
     }
     segment_start += segment.duration;
   }
-  result.mean_clearance = clearance_sum / result.samples;
-  result.min_clearance = least - settings_.robot_radius;
   return true;
 }
 

@@ -127,6 +127,12 @@ class HybridBsplinePlanner final : public MotionPrimitivePlanner {
     smoother_.emplace(context.world, smoother_settings_);
   }
 
+  /// The smoothed trajectory's cost is the shot policy's reading of the edge cost, not the
+  /// search's sum over primitives: another objective than the front end's.
+  std::string costObjective() const override {
+    return "B-spline smoothed, " + MotionPrimitivePlanner::costObjective();
+  }
+
   PlanResult doPlan(const PlanningQuery& query, StopCondition& stop) override {
     PlanResult result = MotionPrimitivePlanner::doPlan(query, stop);
     result.statistics.emplace_back("front_end_cost", result.cost);

@@ -320,6 +320,7 @@ class OmplControlPlanner final : public Planner {
   SearchTree doTree(std::size_t max_edges) const override;
   PlanningModel planningModel() const override { return model_; }
   Budget ownBudget() const override { return budget_; }
+  std::string costObjective() const override { return "trajectory length"; }
 
  private:
   ControlSettings settings_;

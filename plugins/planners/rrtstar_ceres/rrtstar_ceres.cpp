@@ -216,6 +216,8 @@ class RrtStarPlanner final : public Planner {
   PlanningModel planningModel() const override { return model_; }
 
   Budget ownBudget() const override { return budget_; }
+  /// The cost is the trajectory's length, whichever front and back end made it.
+  std::string costObjective() const override { return "trajectory length"; }
 
  private:
   FrontEndSettings front_end_settings_;

@@ -1,6 +1,8 @@
 #pragma once
 
 #include <cmath>
+#include <functional>
+#include <stdexcept>
 #include <string>
 #include <string_view>
 #include <utility>
@@ -10,6 +12,9 @@
 namespace kinolab {
 
 enum class MetricType { kReal, kInteger, kBoolean, kText };
+
+/// Which way a metric is better, for tests and figures that rank planners.
+enum class MetricDirection { kNone, kLower, kHigher };
 
 /// One metric or statistic a run can carry, declared once: everything that stores, prints or
 /// reads results (the plan command's JSON, the worker's JSON, the SQLite tables, the Python
@@ -26,9 +31,16 @@ struct MetricSpec {
   /// A progress series (MetricSpecs::series): values over the planning time, reported as
   /// PlanResult::progress and stored in the `progress` table, never as one value.
   bool series = false;
+  MetricDirection direction = MetricDirection::kNone;
+  /// It means the same for every planner and flight (the independent checker's evaluation of
+  /// the trajectory itself): a report may test it across planners. A planner's own figures
+  /// (its cost, its counters) are not: they are compared only where their planners agree.
+  bool comparable = false;
 
   /// "real", "integer", "boolean" or "text".
   std::string typeName() const;
+  /// "lower", "higher" or "".
+  std::string directionName() const;
 };
 
 /// A declared list of metrics, built fluently (as ParameterSpecs):
@@ -53,6 +65,11 @@ class MetricSpecs {
   MetricSpecs& series(std::string name, std::string unit, std::string doc);
   /// Appends another list; a name declared twice is an error.
   MetricSpecs& include(const MetricSpecs& other);
+  /// The last declared metric is better lower (higher), and comparable across planners:
+  /// `.real("length", "m", "...").lower().comparable()`.
+  MetricSpecs& lower();
+  MetricSpecs& higher();
+  MetricSpecs& comparable();
 
   const std::vector<MetricSpec>& all() const { return specs_; }
   const MetricSpec* find(std::string_view name) const;
@@ -83,5 +100,51 @@ using Progress = std::vector<ProgressSample>;
 inline MetricValue numberOrNone(double value) {
   return std::isfinite(value) ? MetricValue(value) : MetricValue();
 }
+
+/// A result kind's metrics declared once with how each is read from a result: the
+/// declarations (specs()) make the schema, the docs and what readers know of each column;
+/// values() reads a result in declaration order.
+template <typename Result>
+class MetricList {
+ public:
+  using Getter = std::function<MetricValue(const Result&)>;
+
+  /// Declares the one metric `spec` holds (built fluently: `MetricSpecs().real(...).lower()`),
+  /// read by `get`.
+  MetricList& add(const MetricSpecs& spec, Getter get) {
+    if (spec.all().size() != 1) throw std::logic_error("MetricList::add: declare one metric");
+    specs_.include(spec);
+    getters_.push_back(std::move(get));
+    return *this;
+  }
+  /// Declares every metric of `other`, read from the part of a result `part` returns (none
+  /// for each when it returns null).
+  template <typename Part, typename Projection>
+  MetricList& include(const MetricList<Part>& other, Projection part) {
+    specs_.include(other.specs());
+    for (const auto& get : other.getters()) {
+      getters_.push_back([get, part](const Result& result) -> MetricValue {
+        const Part* piece = part(result);
+        return piece ? get(*piece) : MetricValue{};
+      });
+    }
+    return *this;
+  }
+
+  const MetricSpecs& specs() const { return specs_; }
+  const std::vector<Getter>& getters() const { return getters_; }
+  MetricValues values(const Result& result) const {
+    MetricValues values;
+    values.reserve(getters_.size());
+    for (std::size_t i = 0; i < getters_.size(); ++i) {
+      values.emplace_back(specs_.all()[i].name, getters_[i](result));
+    }
+    return values;
+  }
+
+ private:
+  MetricSpecs specs_;
+  std::vector<Getter> getters_;
+};
 
 }  // namespace kinolab

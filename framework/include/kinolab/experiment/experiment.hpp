@@ -43,7 +43,14 @@ struct QuerySpec {
                                   std::uint64_t seed) const;
   /// Exact text of everything that determines the queries.
   std::string canonicalText() const;
+  /// Exact text of everything that determines query `index` (make()'s order): a fixed
+  /// query's points; a random query's rule and its place in the draws (not how many follow,
+  /// so that more random queries leave the first ones' runs as they are); an across query's
+  /// rule, place and the random draws before it.
+  std::string queryText(int index) const;
 };
+
+struct ExperimentBudget;
 
 /// One planner of an experiment: its registry key, its parameters and (for planners that
 /// declare one) its sampler, all resolved and validated.
@@ -55,6 +62,10 @@ struct ExperimentPlanner {
   std::string sampler;      ///< the sampler's key, "" for planners without one
   /// Everything that determines its behaviour, as text.
   std::string canonicalText() const;
+  /// Whether the entry sets its own `time_limit` (else the experiment's budget.time is its
+  /// time limit), and the time limit of each of its plans.
+  bool ownTimeLimit() const;
+  double timeLimit(const ExperimentBudget& budget) const;
 };
 
 struct ExperimentWorld {

@@ -22,8 +22,10 @@ const MetricSpecs& runnerMetrics();
 /// The version of the results database layout this kinolab writes (meta `schema_version`).
 /// Version 2 derives the runs table and the `metrics` table from the declared metrics;
 /// version 6 adds the `progress` table (anytime progress series); version 7 the runs' load
-/// average and the meta table's machine (CPU model, cores).
-inline constexpr int kResultsSchemaVersion = 7;
+/// average and the meta table's machine (CPU model, cores); version 8 the checker's
+/// evaluation of every trajectory, the runs' objective and time limit, the metrics' direction
+/// and comparability, and the `planned` table (the run hashes of the experiment as last run).
+inline constexpr int kResultsSchemaVersion = 8;
 
 /// One finished run as stored: what defines it, then the values of resultMetrics() and
 /// runnerMetrics() (by name; a missing or none value is NULL) and the planner's statistics.
@@ -103,6 +105,9 @@ class ResultsStore {
   /// The hashes of every stored run.
   std::set<std::string> runHashes() const;
   long long runCount() const;
+  /// Records the run hashes of the experiment as it is now: stored runs not among them are of
+  /// an earlier configuration of it (kept, never pooled with these by the report).
+  void setPlanned(const std::vector<std::string>& run_hashes);
   void insert(const RunRecord& record);
   /// Stores a world's views once (a world already stored is left as it is).
   void insertWorld(const WorldRecord& world);

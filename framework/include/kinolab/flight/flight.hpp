@@ -187,6 +187,9 @@ struct FlightResult {
   std::vector<FlightReplan> replans;
   double time_to_goal = 0.0;   ///< s (NaN unless reached)
   double min_clearance = 0.0;  ///< m: to the ground truth's cubes, less the body radius
+  /// The flown trajectory as the checker measures every trajectory, on the ground truth.
+  TrajectoryEvaluation evaluation;
+  double distance_to_goal = NAN;  ///< m: from where the flight ended to the goal
   /// The body came nearer the ground truth than the planning margin: tracking took it inside
   /// the clearance it was planned with (min_clearance < planning_margin).
   bool inside_margin = false;
@@ -240,18 +243,21 @@ PlannerFactory plannerFactory(const std::string& type, std::vector<ParameterAssi
 FlightResult fly(const std::shared_ptr<const World>& truth, const PlannerFactory& planner,
                  const PlanningQuery& query, const FlightSetup& setup);
 
-/// The metrics of a flight (`kinolab list metrics`; the JSON summary of `kinolab fly`):
-/// status, success (reached), time to goal, flown length, mean speed, replans and failed
-/// replans, replan planning time (median, p95, max), minimum clearance to the ground truth,
-/// the plans' D (median, max), jerk integral, frames and the per-frame sensing, map and
-/// window times.
+/// A flight's run metrics, declared once with how each is read from the flight: the columns
+/// it shares with every planning run (status, success, planning time = the replans' median,
+/// D at the end, the checker's evaluation of the flown trajectory on the ground truth, the
+/// verdict).
+const MetricList<FlightResult>& flightRunMetrics();
+/// The metrics of a flight (`kinolab list metrics`; the JSON summary of `kinolab fly`): its
+/// run metrics, then its statistics (flightStatistics()).
 const MetricSpecs& flightMetrics();
 /// Every replan of a flight as CSV: replan, time, reason, start and local goal (x, y, z),
 /// status, planning_time_ms, distance_to_goal, accepted.
 std::string replansCsv(const FlightResult& result);
-/// The numeric ones (every flight metric but status, message and success): a flight run's
-/// statistics in the runner's database.
+/// The flight's own figures (time to goal, replans, tracking, difficulty, frames): a flight
+/// run's statistics in the runner's database.
 const MetricSpecs& flightStatistics();
+/// The values of flightMetrics() for a flight, in declaration order.
 MetricValues flightValues(const FlightResult& result);
 
 }  // namespace kinolab

@@ -10,9 +10,12 @@ namespace kinolab {
 struct PlanResult;
 enum class PlanStatus;
 
-/// The metrics of every planning result, whatever the planner: status, message, success,
-/// planning time, cost, D, trajectory duration, length and jerk, clearances and the
-/// independent checker's verdict.
+/// The metrics of every planning result, whatever the planner, declared once with how each
+/// is read from a result: status, message, success, planning time, the planner's own cost and
+/// its objective, D, the checker's evaluation of the trajectory (evaluationMetrics()) and its
+/// verdict.
+const MetricList<PlanResult>& planMetrics();
+/// Their declarations.
 const MetricSpecs& resultMetrics();
 /// The statistics Planner::plan() adds to every planner's own (the checker's time).
 const MetricSpecs& commonStatistics();

@@ -58,6 +58,12 @@ struct PlanningModel {
   double collision_tolerance = MotionDefaults::kCollisionTolerance;
 };
 
+/// Why `position` cannot be a start or goal for `model`, or "" when it can: not finite,
+/// outside the map, or closer to the occupied cubes than the body may come (its radius less
+/// the collision tolerance, the rule every edge and the checker hold to).
+std::string positionProblem(const World& world, const Eigen::Vector3d& position,
+                            const PlanningModel& model);
+
 /// One edge of a planner's search tree or graph, for figures (the paper's Fig. 6).
 struct SearchTreeEdge {
   enum class State { kPartial, kFull, kCertified, kRejected };
@@ -82,8 +88,11 @@ using Statistics = std::vector<std::pair<std::string, double>>;
 
 struct PlanResult {
   PlanStatus status = PlanStatus::kNoSolution;
-  Trajectory trajectory;               ///< empty when there is none
-  double cost = INFINITY;              ///< the planner's own cost of the trajectory
+  Trajectory trajectory;   ///< empty when there is none
+  double cost = INFINITY;  ///< the planner's own cost of the trajectory
+  /// What `cost` measures (Planner::objective()): costs are comparable only between results
+  /// of equal objectives.
+  std::string objective;
   double distance_to_goal = INFINITY;  ///< D: from the trajectory's closest point (or start)
   double planning_time_ms = 0.0;  ///< the planner's work only (no checking), on the budget's clock
   Statistics statistics;
@@ -124,6 +133,12 @@ class Planner {
   /// caller times against.
   Budget budgetFor(const Budget& budget) const;
 
+  /// What the planner's `cost` measures, as text: two planners' costs mean the same only
+  /// when their objectives are equal (eager and lazy MP-A* at equal weights). A planner that
+  /// does not say (costObjective() empty) has its type and every parameter as its objective:
+  /// its cost compares only with its own configuration's.
+  std::string objective() const;
+
   bool isSetup() const { return world_ != nullptr; }
   const World& world() const;
   PlanningModel model() const { return planningModel(); }
@@ -145,6 +160,8 @@ class Planner {
   /// validation see it), a configuration that cannot work with its control sampler, as a
   /// ParameterConflict naming the parameter to change; nothing by default.
   virtual void doCheck(const ControlSampler* /*sampler*/) const {}
+  /// What the cost measures (objective()); "" by default.
+  virtual std::string costObjective() const { return ""; }
 
  private:
   friend ConfiguredPlanner configurePlanner(std::string_view,
@@ -159,6 +176,8 @@ class Planner {
   /// registration's declaration (declaredStatistics()), and errors name the plugin.
   std::string key_;
   std::optional<MetricSpecs> declared_statistics_;
+  /// The objective of a planner that does not declare one: its type and parameters.
+  std::string configuration_;
 };
 
 template <>

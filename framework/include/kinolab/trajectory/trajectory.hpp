@@ -51,9 +51,18 @@ class Trajectory {
   /// Arc length, by Gauss-Legendre quadrature of the speed per segment (8 sub-intervals of
   /// 5 points each).
   double length() const;
-  /// The integral of |jerk|^2 over the trajectory, exact (polynomial products). Zero for
-  /// piecewise quadratic (acceleration-controlled) trajectories: their jerk is impulsive.
-  double jerkIntegral() const;
+  /// The integral of the squared norm of the `derivative`-th derivative over the segments,
+  /// exact (polynomial products). It is the trajectory's integral only where the derivative
+  /// below it is continuous at every joint (jumps(derivative - 1) finds none): a jump there
+  /// makes this derivative impulsive, and its square has no finite integral.
+  double squaredIntegral(int derivative) const;
+  /// The jumps of the `derivative`-th derivative at the joints: how many exceed `tolerance`
+  /// relative to the larger side (and absolute below 1), and the sum of their squared norms.
+  struct Jumps {
+    int count = 0;
+    double squared_sum = 0.0;
+  };
+  Jumps jumps(int derivative, double tolerance = 1e-6) const;
   /// The smallest distance from a trajectory point (sampled at `step`) to `point`.
   double closestDistance(const Eigen::Vector3d& point, double step) const;
 

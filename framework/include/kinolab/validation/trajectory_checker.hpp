@@ -6,6 +6,7 @@
 #include <utility>
 #include <vector>
 
+#include "kinolab/core/metric_specs.hpp"
 #include "kinolab/dynamics/integrator_chain.hpp"
 #include "kinolab/trajectory/trajectory.hpp"
 #include "kinolab/world/world.hpp"
@@ -37,6 +38,46 @@ struct CheckQuery {
   bool require_goal = true;
 };
 
+/// What the checker measures of every trajectory, whoever planned or flew it, from the
+/// trajectory itself: the same figures mean the same for every planner. A figure that is not
+/// defined for a trajectory is NaN, with the reason in `undefined`.
+struct TrajectoryEvaluation {
+  double duration = NAN;  ///< s
+  double length = NAN;    ///< m
+  /// Integral of |a|^2 (m^2/s^3); undefined where the velocity jumps at a joint.
+  double acceleration_integral = NAN;
+  /// Integral of |j|^2 (m^2/s^5); undefined where the acceleration jumps at a joint (a
+  /// piecewise-constant acceleration: its jerk is impulsive).
+  double jerk_integral = NAN;
+  /// Sum of the squared acceleration jumps at the joints (m^2/s^4): 0 for a trajectory whose
+  /// acceleration is continuous; the finite measure where jerk_integral is undefined.
+  double acceleration_jumps = NAN;
+  /// Curvature |v x a| / |v|^3 (1/m) at the samples moving at least kCurvatureMinSpeed: the
+  /// largest, and the turning per metre (the integral of curvature over arc length, over
+  /// the length of those samples).
+  double max_curvature = NAN;
+  double mean_curvature = NAN;
+  /// The exact distance from the position samples to the occupied voxel cubes, less the robot
+  /// radius: the least and the mean.
+  double min_clearance = NAN;
+  double mean_clearance = NAN;
+  double peak_speed = NAN;         ///< largest |v|, m/s
+  double peak_acceleration = NAN;  ///< largest |a|, m/s^2
+  /// Largest per-axis |v| (|a|) over its limit: above 1 is beyond the limit.
+  double speed_limit_ratio = NAN;
+  double acceleration_limit_ratio = NAN;
+  /// "NAME: REASON" for each undefined figure, one a line.
+  std::string undefined;
+
+  /// Below this speed (m/s) the direction of travel, and so the curvature, is not defined:
+  /// hovering, starting and stopping.
+  static constexpr double kCurvatureMinSpeed = 0.1;
+};
+
+/// The evaluation's metrics, declared once (name, unit, doc, direction, comparable): every
+/// run's, plan or flight.
+const MetricList<TrajectoryEvaluation>& evaluationMetrics();
+
 /// The checker's verdict: valid, or the first violation found (checks in the order start,
 /// limits, bounds, collision, goal; within a check, the earliest time).
 struct CheckResult {
@@ -45,12 +86,8 @@ struct CheckResult {
   std::string detail;  ///< what was violated, in words
   double time = 0.0;   ///< when, seconds from the trajectory's start
   Eigen::Vector3d position = Eigen::Vector3d::Zero();
-  /// The least exact distance from a position sample to the occupied cubes (0 in one), minus
-  /// the robot radius.
-  double min_clearance = 0.0;
-  /// The mean over the position samples of the exact distance to the occupied cubes
-  /// (Esdf::exactDistance), minus the robot radius.
-  double mean_clearance = 0.0;
+  /// The trajectory's figures, measured whatever the verdict (none for an empty trajectory).
+  TrajectoryEvaluation evaluation;
   int samples = 0;           ///< position samples checked
   double body_radius = 0.0;  ///< the sphere tested against the cubes (radius - tolerance)
 };
@@ -73,7 +110,11 @@ class TrajectoryChecker {
   const CheckerSettings& settings() const { return settings_; }
   double spacing() const { return spacing_; }
 
+  /// The verdict, with the trajectory's evaluation.
   CheckResult check(const Trajectory& trajectory, const CheckQuery& query) const;
+  /// The figures of a trajectory at the checker's position samples (clearance from the
+  /// world's exact distance) and from its polynomials (the integrals, exact).
+  TrajectoryEvaluation evaluate(const Trajectory& trajectory) const;
 
   /// True when the body at `position` touches an occupied voxel cube.
   bool collides(const Eigen::Vector3d& position) const;
