@@ -231,13 +231,12 @@ void addListCommand(CLI::App& app) {
       "List the registered plugins (built-in and loaded with --plugin) and their parameters");
   std::vector<std::string> kind_names;
   for (const auto& kind : allKinds()) kind_names.push_back(kind.name);
+  const std::string description = "Only this kind of plugin (" + join(kind_names, ", ") +
+                                  "), `flight` (the parameters of kinolab fly) or `metrics`: "
+                                  "every metric and statistic a run or flight can carry";
   kind_names.push_back("flight");
   kind_names.push_back("metrics");
-  command
-      ->add_option("kind", options->kind,
-                   "Only this kind of plugin (planners, samplers, heuristics, lower_bounds, "
-                   "worlds, sensors, search_spaces), `flight` (the parameters of kinolab fly) "
-                   "or `metrics`: every metric and statistic a run or flight can carry")
+  command->add_option("kind", options->kind, description)
       ->check(CLI::Validator(
           [kind_names](const std::string& kind) -> std::string {
             if (std::find(kind_names.begin(), kind_names.end(), kind) != kind_names.end()) {
