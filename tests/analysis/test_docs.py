@@ -1,7 +1,7 @@
 """The README and the pages under docs/: the README stays a short front door whose first
 commands are the two a new user and CI run, every relative link and image resolves to a file,
-every #anchor to a heading of its target (GitHub's slug rule), and no page points at documents
-a user does not have."""
+every #anchor to a heading of its target (GitHub's slug rule), no page points at documents
+a user does not have, and the pages run the installed `kinolab` from the PATH."""
 
 import os
 import re
@@ -13,6 +13,13 @@ import pytest
 SOURCE_DIR = Path(os.environ.get("KINOLAB_SOURCE_DIR", Path(__file__).resolve().parents[2]))
 README = SOURCE_DIR / "README.md"
 MAX_README_LINES = 260
+
+# The pages that run the build tree's kinolab on purpose, and why; every other page runs the
+# installed `kinolab` from the PATH.
+BUILD_TREE_COMMAND = {
+    "docs/README.md": "what to run when kinolab is built but not installed",
+    "docs/adding_a_planner.md": "a new plugin is in the build tree's kinolab before an install",
+}
 
 FENCE = re.compile(r"^ {0,3}(`{3,}|~{3,})")
 HEADING = re.compile(r"^ {0,3}(#{1,6})[ \t]+(.*?)(?:[ \t]+#+)?[ \t]*$")
@@ -136,3 +143,13 @@ def test_no_private_documents(path: Path):
     text = path.read_text(encoding="utf-8")
     mentioned = [name for name in ("DESIGN.md", "STYLE.md") if name in text]
     assert not mentioned, f"{path.relative_to(SOURCE_DIR)} mentions {', '.join(mentioned)}"
+
+
+@pytest.mark.parametrize("path", markdown_files(), ids=lambda p: str(p.relative_to(SOURCE_DIR)))
+def test_commands_run_kinolab_from_the_path(path: Path):
+    name = str(path.relative_to(SOURCE_DIR))
+    text = path.read_text(encoding="utf-8")
+    lines = [number for number, line in enumerate(text.split("\n"), 1)
+             if "build/framework/kinolab" in line]
+    assert not lines or name in BUILD_TREE_COMMAND, \
+        f"{name}:{lines[0]}: runs build/framework/kinolab; use `kinolab` from the PATH"
