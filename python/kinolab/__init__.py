@@ -1,7 +1,7 @@
 """kinolab from Python: worlds, planners, experiments and the 3D viewer.
 
     import kinolab
-    world = kinolab.World.from_file("configs/worlds/dense_forest.yaml")
+    world = kinolab.World.from_file("configs/worlds/dense_forest.yaml")   # see data_path
     lazy = kinolab.Planner("lazy_mp_astar", world, heuristic_weight=1.0)
     result = lazy.plan(start=(2, 2, 1.5), goal=(14, 12, 1.5), time_limit=1.0, tree=True)
     result.status, result.cost, result.metrics["expansions"]
@@ -38,8 +38,28 @@ InvalidArgument.__doc__ = "An argument out of its domain (a NaN, a wrong shape, 
 
 __version__ = _core.__version__
 __all__ = ["World", "Planner", "Result", "Scene", "plugins", "plugin_kinds", "planners", "samplers", "metrics",
-           "load_plugin", "run_experiment", "load_results", "Error", "ConfigError",
+           "load_plugin", "run_experiment", "load_results", "data_path", "Error", "ConfigError",
            "ParameterConflict", "FileError", "PluginError", "InvalidArgument"]
+
+try:  # written at install (python/CMakeLists.txt); the build tree's package has none
+    from ._installed import DATA_DIRECTORY as _DATA_FROM_PACKAGE
+    _DATA_DIRECTORY: Path | None = (Path(__file__).parent / _DATA_FROM_PACKAGE).resolve()
+except ImportError:
+    _DATA_DIRECTORY = None
+
+
+def data_path(path: str | os.PathLike) -> Path:
+    """The file kinolab reads for `path`: `path` itself when it is absolute or names a file
+    from the current directory; otherwise the file of that name installed with kinolab, when
+    there is one (<prefix>/share/kinolab holds the clone's configs/, experiments/ and
+    data/maps/). So data_path("configs/worlds/forest.yaml") names the spec in the clone and,
+    once kinolab is installed, anywhere else. World.from_file and run_experiment read their
+    paths through it."""
+    path = Path(path)
+    if path.is_absolute() or path.exists() or _DATA_DIRECTORY is None:
+        return path
+    installed = _DATA_DIRECTORY / path
+    return installed if installed.exists() else path
 
 
 class World:
@@ -56,9 +76,11 @@ class World:
     @classmethod
     def from_file(cls, path: str | os.PathLike, cache: bool = True,
                   cache_dir: str | os.PathLike | None = None) -> "World":
-        """Builds a world from a spec file (configs/worlds/*.yaml), or loads it from the world
-        cache (the one `kinolab` uses, keyed by the spec's hash) when it was built before."""
-        return cls(_core.world_from_file(os.fspath(path), cache, os.fspath(cache_dir or "")))
+        """Builds a world from a spec file (configs/worlds/*.yaml, found by data_path), or
+        loads it from the world cache (the one `kinolab` uses, keyed by the spec's hash) when
+        it was built before."""
+        return cls(_core.world_from_file(os.fspath(data_path(path)), cache,
+                                         os.fspath(cache_dir or "")))
 
     @classmethod
     def from_spec(cls, spec: Mapping[str, Any], cache: bool = True,
@@ -171,9 +193,9 @@ class Planner:
 
 
 def plugins(kind: str) -> list[dict]:
-    """Every registered plugin of a kind (as `kinolab list KIND`: planners, samplers,
-    heuristics, lower_bounds, worlds, sensors, search_spaces): key, description, origin,
-    parameters (name, type, default, range, doc) and the statistics it reports."""
+    """Every registered plugin of a kind (one of plugin_kinds(), as `kinolab list KIND`):
+    key, description, origin, parameters (name, type, default, range, doc) and the statistics
+    it reports."""
     return _core.plugins(kind)
 
 
@@ -235,15 +257,16 @@ def run_experiment(path: str | os.PathLike, out: str | os.PathLike, jobs: int = 
                    resume: bool = False, shard: str | None = None,
                    cache_dir: str | os.PathLike | None = None,
                    progress: bool | Callable[[int, int, int, float], None] = True) -> dict:
-    """Runs an experiment file with kinolab's runner (isolated worker processes, the results
-    database OUT/results.sqlite, resume) and returns its summary. `progress` is True (a bar
-    on stdout), False, or a callable(done, total, unsolved, seconds). Ctrl-C stops it as it
-    stops `kinolab run` (resumable) and raises KeyboardInterrupt."""
+    """Runs an experiment file (found by data_path) with kinolab's runner (isolated worker
+    processes, the results database OUT/results.sqlite, resume) and returns its summary.
+    `progress` is True (a bar on stdout), False, or a callable(done, total, unsolved,
+    seconds). Ctrl-C stops it as it stops `kinolab run` (resumable) and raises
+    KeyboardInterrupt."""
     if isinstance(jobs, bool) or not isinstance(jobs, int) or not 1 <= jobs <= 1024:
         raise InvalidArgument(f"jobs: expected a whole number in [1, 1024], got {jobs!r}")
     callback = _Progress() if progress is True else (progress or None)
-    summary = _core.run_experiment(os.fspath(path), os.fspath(out), jobs, resume, shard or "",
-                                   os.fspath(cache_dir or ""), callback)
+    summary = _core.run_experiment(os.fspath(data_path(path)), os.fspath(out), jobs, resume,
+                                   shard or "", os.fspath(cache_dir or ""), callback)
     if summary["interrupted"]:
         raise KeyboardInterrupt(f"the experiment was interrupted; run_experiment(..., "
                                 f"resume=True) goes on from {summary['database']}")
