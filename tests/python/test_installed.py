@@ -14,7 +14,7 @@ BUILD_DIR = Path(os.environ.get("KINOLAB_PYTHON_DIR", SOURCE_DIR / "build" / "py
 SCRIPT = """
 import kinolab
 print(kinolab.__file__)
-print(kinolab.World.from_file("configs/worlds/geb079.yaml", cache=False).name)  # its map: ../../data
+print(kinolab.World.from_file("configs/worlds/geb079.yaml", cache=False).name)  # map: ../../data
 print(kinolab.data_path("experiments/quick.yaml"))
 try:
     kinolab.World.from_file("configs/worlds/nowhere.yaml")
