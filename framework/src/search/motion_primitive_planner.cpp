@@ -216,14 +216,21 @@ void MotionPrimitivePlanner::doReset() {
 std::string MotionPrimitivePlanner::costObjective() const {
   const EdgeEvaluatorSettings& edges = config_.settings.edges;
   const CostWeights& w = edges.weights;
-  const bool spaced = edges.sampling.mode == EdgeSampling::Mode::kSpacing;
-  return "motion-primitive cost: order " + std::to_string(edges.order) + ", per s " +
-         formatNumber(w.duration) + ", per m " + formatNumber(w.length) + ", control " +
-         formatNumber(w.control_effort) + ", obstacle " + formatNumber(w.obstacle) + " within " +
-         formatNumber(edges.safety_distance) + " m of radius " + formatNumber(edges.robot_radius) +
-         ", " +
-         (spaced ? "samples every " + formatNumber(edges.sampling.spacing) + " m"
-                 : std::to_string(edges.sampling.samples) + " samples an edge");
+  std::string text = "motion-primitive cost: order " + std::to_string(edges.order) + ", per s " +
+                     formatNumber(w.duration) + ", control " + formatNumber(w.control_effort);
+  if (w.length > 0.0) text += ", per m " + formatNumber(w.length);
+  if (w.obstacle > 0.0) {
+    text += ", obstacle " + formatNumber(w.obstacle) + " within " +
+            formatNumber(edges.safety_distance) + " m of radius " +
+            formatNumber(edges.robot_radius);
+  }
+  // The quadrature reads the length and obstacle terms only: without them the cost is exact.
+  if (w.length > 0.0 || w.obstacle > 0.0) {
+    text += edges.sampling.mode == EdgeSampling::Mode::kSpacing
+                ? ", samples every " + formatNumber(edges.sampling.spacing) + " m"
+                : ", " + std::to_string(edges.sampling.samples) + " samples an edge";
+  }
+  return text;
 }
 
 PlanningModel MotionPrimitivePlanner::planningModel() const {

@@ -127,10 +127,13 @@ class HybridBsplinePlanner final : public MotionPrimitivePlanner {
     smoother_.emplace(context.world, smoother_settings_);
   }
 
-  /// The smoothed trajectory's cost is the shot policy's reading of the edge cost, not the
-  /// search's sum over primitives: another objective than the front end's.
+  /// The smoothed trajectory's cost is the shot's (duration and control effort, exact): the
+  /// front end's objective where that has no length or obstacle term, another one elsewhere.
   std::string costObjective() const override {
-    return "B-spline smoothed, " + MotionPrimitivePlanner::costObjective();
+    const CostWeights& w = config().settings.edges.weights;
+    const std::string front_end = MotionPrimitivePlanner::costObjective();
+    return w.length == 0.0 && w.obstacle == 0.0 ? front_end
+                                                : "shot cost without obstacles, " + front_end;
   }
 
   PlanResult doPlan(const PlanningQuery& query, StopCondition& stop) override {

@@ -63,8 +63,8 @@ class MotionPrimitivePlanner : public Planner {
   void doReset() override;
   PlanningModel planningModel() const override;
   Budget ownBudget() const override { return config_.budget; }
-  /// The edge cost's function: the chain's order, the weights, the body, the safety band and
-  /// the obstacle term's quadrature (the search's heuristic, keys and rules do not change it).
+  /// The edge cost's function: the chain's order, the weights, and where they count, the
+  /// body, the safety band and the quadrature (the heuristic, keys and rules do not change it).
   std::string costObjective() const override;
   /// A lattice that cannot move is refused: with the sampler's set for seed 1 here, and with
   /// the set of the run's own seed at setup.
