@@ -11,7 +11,7 @@
   // the goal's), none an edge state's.
   const PALETTE = ["#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b", "#e377c2",
                    "#bcbd22", "#17becf", "#393b79", "#637939", "#e7ba52", "#843c39", "#7b4173",
-                   "#aec7e8", "#98df8a", "#ff9896", "#c5b0d5", "#f7b6d2", "#9edae5"];
+                   "#dd1c77", "#006d2c", "#b15928", "#6a3d9a", "#a6761d", "#01665e"];
   const START_COLOUR = "#000000";
   const GOAL_COLOUR = "#6c757d";
   // A tree's edge states in the colours of the report's search-tree figure (the paper's
@@ -458,6 +458,8 @@
   window.kinolabViewer = {
     scene: scene,
     layers: () => Object.keys(layers),
+    // The line segments a tree layer draws (after thinning).
+    segments: (id) => layers[id].group.children[0].geometry.attributes.position.count / 2,
     paintedPixels: paintedPixels,
     screenOf: screenOf,
     setTime: setTime,

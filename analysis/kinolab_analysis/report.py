@@ -35,6 +35,8 @@ th { border-bottom: 2px solid #444; }
 img { max-width: 100%; }
 .note { color: #555; font-size: 0.9em; }
 .wide { overflow-x: auto; max-width: 100%; }
+.parts { display: flex; flex-wrap: wrap; align-items: flex-start; gap: 0 3em; }
+.part { min-width: 0; max-width: 100%; }
 .ci { color: #666; font-size: 0.85em; white-space: nowrap; }
 .warning { background: #fff3cd; border-left: 4px solid #d39e00; padding: 0.5em 0.8em; }
 dl { display: grid; grid-template-columns: max-content auto; gap: 0.2em 1em; font-size: 0.85em; }
@@ -45,14 +47,12 @@ dt { font-weight: bold; }
 <p class="note">{{ databases }} &middot; config {{ meta.get('config_hash', '?') }} &middot;
 written by kinolab {{ meta.get('provenance.kinolab_version', '?') }}</p>
 
-{#- A table and the parts tables.split made of it ("summary", "summary-time", ...), each
-    with its notes (undefined metrics and why). -#}
-{% macro show(name, heading) -%}
-{% for key in tables if key == name or key.startswith(name ~ '-') %}
-{% if key != name %}<h3>{{ heading }}: {{ key.split('-', 1)[1].replace('_', ' ') }}</h3>{% endif %}
-{{ tables[key] }}
-{% for note in notes.get(key, []) %}<p class="note">{{ note }}</p>
-{% endfor %}{% endfor %}
+{#- A table (whole, or in parts each with its heading) and its notes: the metrics undefined
+    for its runs, and why. -#}
+{% macro show(name) -%}
+{{ tables[name] }}
+{% for note in notes.get(name, []) %}<p class="note">{{ note }}</p>
+{% endfor %}
 {%- endmacro %}
 {% for warning in warnings %}<p class="warning">{{ warning }}</p>
 {% endfor %}
@@ -138,7 +138,7 @@ then per group of metrics the medians over its successful runs with bootstrap 95
 "cost (own objective)" is each planner's own objective: it compares only between planners of
 one objective. A metric undefined for a trajectory (the jerk of piecewise-constant
 acceleration) reads "undefined", with the reason under its table.</p>
-{{ show('summary', 'Per planner') }}
+{{ show('summary') }}
 
 {% if 'which_planner' in tables %}
 <h2>Which planner when</h2>
@@ -149,7 +149,7 @@ bootstrap 95 % intervals, all measured the same way for every planner by the ind
 checker; each paired against {{ field_reference }} on the cases both ran (McNemar on success,
 Wilcoxon signed-rank on each metric over cases both solved), p-values Holm-corrected over the
 table. The figures "Time against quality" plot each world.</p>
-{{ show('which_planner', 'Which planner when') }}
+{{ show('which_planner') }}
 {% endif %}
 
 <h2>Paired comparisons</h2>
@@ -184,7 +184,7 @@ both solved (Holm-corrected).</p>
 
 <h2>Means per planner</h2>
 <p class="note">Means of successful runs with bootstrap 95 % intervals.</p>
-{{ show('means', 'Means per planner') }}
+{{ show('means') }}
 {% if 'statistics' in tables %}
 <h2>Planner statistics</h2>
 <p class="note">Every statistic each planner declares (kinolab list metrics), median over all
@@ -194,7 +194,7 @@ its runs with bootstrap 95 % intervals; clock figures vary from run to run.</p>
 {% for key, title in [('per_world', 'Per world'), ('per_sampler', 'Per sampler'),
                       ('sweep', 'Per sweep value'), ('sweep_winners', 'Where each wins')] %}{% if key in tables %}
 <h2>{{ title }}</h2>
-{{ show(key, title) }}
+{{ show(key) }}
 {% endif %}{% endfor %}
 
 <script>
@@ -237,6 +237,18 @@ class Report:
     notes: dict[str, list[str]] = field(default_factory=dict)
 
 
+def _parts(name: str, table: pd.DataFrame) -> str:
+    """A report table as HTML: whole, or in SPLIT's parts, each with its heading and each row
+    once (compare repeats its side-by-side columns on every test)."""
+    if name not in SPLIT:
+        return _html(table)
+    heading, keys, first, groups = SPLIT[name]
+    parts = tables.split(table, [key for key in keys if key in table], groups)
+    return '<div class="parts">' + "".join(
+        f'<div class="part"><h3>{html.escape(heading)}: {html.escape(group or first)}</h3>'
+        + _html(part.drop_duplicates()) + "</div>" for group, part in parts.items()) + "</div>"
+
+
 def _html(table: pd.DataFrame) -> str:
     """A table as HTML: cells as tables.text, an interval's bounds on a second line, headings
     that may break after an underscore (planning_time_ms), and a scrolling box should it
@@ -276,15 +288,24 @@ def _summary_columns(summary: pd.DataFrame, statistic: str = "median") -> pd.Dat
     return summary[keep].rename(columns={c: c.replace(f"{statistic} ", "") for c in keep})
 
 
-def _add_split(report: Report, name: str, table: pd.DataFrame, keys: list[str],
-               runs: pd.DataFrame) -> None:
-    """A wide table as tables.split's parts (name, name-time, name-path, ...), each with a note
-    per metric of it that is undefined for some of the runs it summarises."""
-    for group, part in tables.split(table, keys).items():
-        key = f"{name}-{group.replace(' ', '_')}" if group else name
-        report.tables[key] = part
-        if notes := tables.undefined_notes(runs, [str(c) for c in part.columns]):
-            report.notes[key] = notes
+def _undefined_notes(report: Report, name: str, runs: pd.DataFrame) -> None:
+    """The notes under a table: each metric of it undefined for some of its runs, and why."""
+    if notes := tables.undefined_notes(runs, [str(c) for c in report.tables[name].columns]):
+        report.notes[name] = notes
+
+
+# Tables shown in parts (tables.split), each under "HEADING: GROUP", side by side where the
+# page is wide enough and none wider than the page: name -> (heading, key columns, the name of
+# the part of no group's columns, groups; None: tables.GROUPS). Their Markdown and LaTeX stay
+# whole.
+SPLIT = {"summary": ("Per planner", ["planner"], "runs", None),
+         "means": ("Means per planner", ["planner"], "runs", None),
+         "which_planner": ("Which planner when", ["world", "planner"], "runs", None),
+         "paper_table2": ("Table II", ["variant", "world", "planner"], "runs",
+                          {"planning time T": ["T"], "expansions N": ["N"],
+                           "distance to goal D": ["D"]}),
+         "compare": ("Compared", ["planner"], "tests",
+                     {"success and planning time side by side": ["A", "B"]})}
 
 
 def _slug(text: str) -> str:
@@ -393,10 +414,11 @@ def _tables(report: Report, results, paths: list[Path], compare: Path | None,
     if runs["time_limit"].notna().any():
         budgets = tables.budgets(runs)
         full_summary.insert(1, "time budget", full_summary["planner"].map(budgets))
-    _add_split(report, "summary", _summary_columns(full_summary), ["planner"], runs)
-    _add_split(report, "means", _summary_columns(full_summary.drop(
-        columns=["time budget", "runs", *tables.OUTCOMES], errors="ignore"), "mean"),
-        ["planner"], runs)
+    report.tables["summary"] = _summary_columns(full_summary)
+    report.tables["means"] = _summary_columns(full_summary.drop(
+        columns=["time budget", "runs", *tables.OUTCOMES], errors="ignore"), "mean")
+    for name in ("summary", "means"):
+        _undefined_notes(report, name, runs)
     if runs["sampler"].fillna("").nunique() > 1:
         report.tables["per_sampler"] = _summary_columns(
             tables.summary(runs, by=["sampler", "planner"],
@@ -420,10 +442,10 @@ def _tables(report: Report, results, paths: list[Path], compare: Path | None,
                                                                     tables.PAIRED))
     # The field: three planners or more, each against the paper's lazy planner.
     if runs["planner"].nunique() >= 3 and "time_to_goal" not in runs.columns:
-        _add_split(report, "which_planner", tables.which_planner(
+        report.tables["which_planner"] = tables.which_planner(
             runs, tables.reference_planner(runs),
-            tables.comparable(results.metrics, tables.FIELD_METRICS)), ["world", "planner"],
-            runs)
+            tables.comparable(results.metrics, tables.FIELD_METRICS))
+        _undefined_notes(report, "which_planner", runs)
     if not results.stale.empty:
         report.tables["stale"] = tables.status_counts(results.stale).reset_index()
     if reproduced:
@@ -588,7 +610,7 @@ def _write_page(report: Report, results, out: Path, compare_name: str,
     html = jinja2.Environment(autoescape=True).from_string(TEMPLATE).render(
         name=results.meta.get("name", "results"), meta=results.meta,
         databases=", ".join(str(p) for p in results.paths), provenance=provenance,
-        tables={k: jinja2.utils.markupsafe.Markup(_html(v)) for k, v in report.tables.items()},
+        tables={k: jinja2.utils.markupsafe.Markup(_parts(k, v)) for k, v in report.tables.items()},
         figures=report.figures, views=report.views, warnings=report.warnings,
         notes=report.notes, paired_metrics=", ".join(
             metric for metric in tables.comparable(results.metrics, tables.PAIRED)
@@ -758,10 +780,10 @@ def terminal_summary(report: Report) -> str:
         lines += ["  " + line for line in tables.to_markdown(table2[columns]).splitlines()]
     else:
         lines.append("per planner (medians, 95 % intervals):")
-        for name in ("summary", "summary-time"):
-            if name in report.tables:
-                lines += ["  " + line
-                          for line in tables.to_markdown(report.tables[name]).splitlines()]
+        parts = tables.split(report.tables["summary"], ["planner"])
+        for part in (parts[""], parts.get("time")):
+            if part is not None:
+                lines += ["  " + line for line in tables.to_markdown(part).splitlines()]
     lines.append(f"{len(report.figures)} figures (PNG and SVG) in {report.out / 'figures'}; "
                  f"tables (Markdown, LaTeX) in {report.out / 'tables'}")
     return "\n".join(lines)

@@ -41,7 +41,6 @@ GROUPS = {
                ("replan_time_max_ms", "replan max"), ("frame_time_ms", "frame time")],
 }
 SUMMARISED = [metric for group in GROUPS.values() for metric in group]
-GROUP_OF = {column: group for group, entries in GROUPS.items() for column, _ in entries}
 
 # What a run came to, the columns of every table that counts runs: success (exact and
 # accepted by the checker), approximate (a trajectory towards the goal at a budget stop),
@@ -197,18 +196,20 @@ def summary(runs: pd.DataFrame, by: list[str] | None = None,
     return pd.DataFrame(rows)
 
 
-def split(table: pd.DataFrame, keys: list[str]) -> dict[str, pd.DataFrame]:
+def split(table: pd.DataFrame, keys: list[str],
+          groups: dict[str, list[str]] | None = None) -> dict[str, pd.DataFrame]:
     """A wide table as narrow ones that each fit the page: "" with the keys and every column
-    of no metric (the run counts), then one per GROUPS entry with the keys and the columns of
-    its metrics ("T", "p T vs lazy", ...); a part without such columns is left out."""
-    def metric_of(column: str) -> str | None:
-        words = column.split(" ")
-        return next((word for word in words if word in GROUP_OF), None)
-    parts: dict[str, list[str]] = {group: [] for group in ["", *GROUPS]}
+    of no group's metric (the run counts), then one per group (default: GROUPS) with the keys
+    and the columns that name one of its metrics as a word ("planning_time_ms",
+    "p planning_time_ms vs lazy", "kinolab T (ms)"); a part without such columns is left out."""
+    groups = groups or {group: [column for column, _ in entries]
+                        for group, entries in GROUPS.items()}
+    group_of = {metric: group for group, names in groups.items() for metric in names}
+    parts: dict[str, list[str]] = {group: [] for group in ["", *groups]}
     for column in table.columns:
         if column not in keys:
-            metric = metric_of(str(column))
-            parts[GROUP_OF[metric] if metric else ""].append(column)
+            metric = next((word for word in str(column).split(" ") if word in group_of), None)
+            parts[group_of[metric] if metric else ""].append(column)
     return {group: table[keys + columns] for group, columns in parts.items() if columns}
 
 
