@@ -10,8 +10,8 @@
   // tests keep them equal) for a scene that brings none: none black or grey (the start's and
   // the goal's), none an edge state's.
   const PALETTE = ["#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b", "#e377c2",
-                   "#bcbd22", "#17becf", "#393b79", "#637939", "#e7ba52", "#843c39", "#7b4173",
-                   "#dd1c77", "#006d2c", "#b15928", "#6a3d9a", "#a6761d", "#01665e"];
+                   "#17becf", "#000080", "#bcbd22", "#637939", "#a6761d", "#01665e", "#f99379",
+                   "#dd1c77", "#393b79", "#1b9e77", "#800000", "#e6ab02", "#b3446c"];
   const START_COLOUR = "#000000";
   const GOAL_COLOUR = "#6c757d";
   // A tree's edge states in the colours of the report's search-tree figure (the paper's

@@ -19,12 +19,13 @@ from .tables import SPEEDUP_COLUMNS
 
 COLOURS = plt.rcParams["axes.prop_cycle"].by_key()["color"]
 
-# Planners' colours (planner_colours): 20 saturated hues, none black or grey (the
-# start and goal markers') and none the search tree's edge states (data.EDGE_COLOURS).
+# Planners' colours (planner_colours): 20 colours far apart (CIE Lab distance 25 or more, so
+# that two planners never look alike), none black, grey or pale (the start and goal markers',
+# the page's), none the search tree's edge states (data.EDGE_COLOURS).
 # viewer/viewer.js holds the same list for scenes that bring no colours (tests keep them equal).
 PALETTE = ["#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b", "#e377c2",
-           "#bcbd22", "#17becf", "#393b79", "#637939", "#e7ba52", "#843c39", "#7b4173",
-           "#dd1c77", "#006d2c", "#b15928", "#6a3d9a", "#a6761d", "#01665e"]
+           "#17becf", "#000080", "#bcbd22", "#637939", "#a6761d", "#01665e", "#f99379",
+           "#dd1c77", "#393b79", "#1b9e77", "#800000", "#e6ab02", "#b3446c"]
 # The query's start and goal in every figure: colours no planner has, shapes of their own.
 START = {"marker": "o", "color": "black", "ms": 7, "linestyle": "none"}
 GOAL = {"marker": "*", "color": "#6c757d", "ms": 12, "markeredgecolor": "black",

@@ -211,11 +211,25 @@ def test_every_planner_keeps_one_colour_in_every_report():
     for colour in plots.PALETTE:  # and none is a grey
         r, g, b = (int(colour[i:i + 2], 16) for i in (1, 3, 5))
         assert max(r, g, b) - min(r, g, b) > 30, colour
+    # No two alike: CIE76 distances in Lab of 25 or more.
+    distances = [np.linalg.norm(lab(a) - lab(b))
+                 for i, a in enumerate(plots.PALETTE) for b in plots.PALETTE[i + 1:]]
+    assert min(distances) >= 25
     # The figures draw each planner in it.
     runs = field()
     figure = plots.ecdf(runs)
     drawn = {line.get_label().split(" ")[0]: line.get_color() for line in figure.axes[0].lines}
     assert drawn == plots.planner_colours(runs["planner"])
+
+
+def lab(colour: str) -> np.ndarray:
+    """An sRGB colour (#rrggbb) in CIE Lab (D65)."""
+    c = np.array([int(colour[i:i + 2], 16) / 255 for i in (1, 3, 5)])
+    c = np.where(c > 0.04045, ((c + 0.055) / 1.055) ** 2.4, c / 12.92)
+    xyz = np.array([[0.4124, 0.3576, 0.1805], [0.2126, 0.7152, 0.0722],
+                    [0.0193, 0.1192, 0.9505]]) @ c / np.array([0.95047, 1.0, 1.08883])
+    f = np.where(xyz > 0.008856, np.cbrt(xyz), 7.787 * xyz + 16 / 116)
+    return np.array([116 * f[1] - 16, 500 * (f[0] - f[1]), 200 * (f[1] - f[2])])
 
 
 def test_the_viewer_holds_the_reports_palette_and_edge_colours():
