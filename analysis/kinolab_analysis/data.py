@@ -305,9 +305,11 @@ def load(paths: str | Path | list[str | Path], allow_mixed: bool = False) -> Res
                  if row.get("boxes") is not None else None),
                 int(row["box_stride"]) if pd.notna(row.get("box_stride")) else 1)
     if all(frame.empty for frame in frames):
-        raise ValueError(f"{', '.join(map(str, files))}: no run of the experiment as last run "
-                         "has ended yet (an experiment stopped before its first run ended, or "
-                         "only runs of an earlier configuration are stored): nothing to report")
+        raise ValueError(f"{', '.join(map(str, files))}: " + (
+            "no run has ended yet (an experiment stopped before its first run ended)"
+            if all(frame.empty for frame in stale) else "every stored run is of an earlier "
+            "configuration of the experiment (none of the experiment as last run has ended)")
+            + ": nothing to report")
     runs = pd.concat([frame for frame in frames if not frame.empty], ignore_index=True)
     for column in ("planning_time_min_ms", "planning_time_cold_ms", "line_blocked",
                    "time_limit", "time_limit_own", "undefined"):

@@ -275,8 +275,8 @@ def success_grid(runs: pd.DataFrame, by: str = "planner") -> plt.Figure | None:
                     isinstance(x, str) for x in xs) else np.argsort(xs)
                 axis.errorbar([xs[i] for i in order], [estimates[i] for i in order],
                               yerr=[[low[i] for i in order], [high[i] for i in order]],
-                              marker=marker, capsize=3, linestyle=style, color=colours[str(planner)],
-                              label=f"{planner}, {line_name} {line}")
+                              marker=marker, capsize=3, linestyle=style,
+                              color=colours[str(planner)], label=f"{planner}, {line_name} {line}")
         axis.set_xlabel(x_name)
         axis.set_ylim(-0.02, 1.02)
         axis.grid(alpha=0.3)

@@ -488,7 +488,7 @@ def _summary_figures(report: Report, results, sampling_csv: Path | None,
     if "which_planner" in report.tables:
         for world in dict.fromkeys(runs["world"]):
             if (figure := plots.pareto(runs, world)) is not None:
-                _save(figure, report, f"pareto_{world}", f"Time against quality: {world}",
+                _save(figure, report, f"pareto_{_slug(world)}", f"Time against quality: {world}",
                       "Median planning time against median trajectory duration of the "
                       "successful runs (bars: interquartile ranges), success (exact and "
                       "checker-valid) in the legend; "
@@ -610,7 +610,8 @@ def _write_page(report: Report, results, out: Path, compare_name: str,
     html = jinja2.Environment(autoescape=True).from_string(TEMPLATE).render(
         name=results.meta.get("name", "results"), meta=results.meta,
         databases=", ".join(str(p) for p in results.paths), provenance=provenance,
-        tables={k: jinja2.utils.markupsafe.Markup(_parts(k, v)) for k, v in report.tables.items()},
+        tables={name: jinja2.utils.markupsafe.Markup(_parts(name, table))
+                for name, table in report.tables.items()},
         figures=report.figures, views=report.views, warnings=report.warnings,
         notes=report.notes, paired_metrics=", ".join(
             metric for metric in tables.comparable(results.metrics, tables.PAIRED)
