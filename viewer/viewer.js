@@ -1,28 +1,31 @@
 // kinolab's 3D viewer: draws a kinolab scene (docs/viewer.md) with three.js: the world's
 // obstacles, per query the planners' trajectories, search trees and flights replayed with the
-// known map growing, each planner in one hue (a tree's edge states are shades of it). Orbit,
-// pan, zoom, and a toggle per layer. `window.kinolabViewer` is the page's handle for scripts
-// and tests.
+// known map growing, each planner in its colour of the report's figures, a tree's edge states
+// in the figures' colours. Orbit, pan, zoom, and a toggle per layer. `window.kinolabViewer` is
+// the page's handle for scripts and tests.
 (function () {
   "use strict";
   const BACKGROUND = 0xf4f6f8;
-  // Planners: none is the start's green or the goal's red.
-  const PLANNER_COLOURS = ["#1f77b4", "#9467bd", "#8c564b", "#e377c2", "#bcbd22", "#17becf",
-                           "#7f7f7f", "#000000"];
-  // A tree's edge states as shades of its planner's hue (the report's search-tree figure, the
-  // paper's Fig. 6, uses one colour per state): lazy's cheap partial edges pale and
-  // translucent, full ones lighter than the trajectory, certified ones darker, rejected ones
-  // dashed.
+  // Planners' colours, as the report's (kinolab_analysis.plots.PALETTE and planner_colours;
+  // tests keep them equal) for a scene that brings none: none black or grey (the start's and
+  // the goal's), none an edge state's.
+  const PALETTE = ["#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b", "#e377c2",
+                   "#17becf", "#000080", "#bcbd22", "#637939", "#a6761d", "#01665e", "#f99379",
+                   "#dd1c77", "#393b79", "#1b9e77", "#800000", "#e6ab02", "#b3446c"];
+  const START_COLOUR = "#000000";
+  const GOAL_COLOUR = "#6c757d";
+  // A tree's edge states in the colours of the report's search-tree figure (the paper's
+  // Fig. 6; kinolab_analysis.data.EDGE_COLOURS, tests keep them equal): lazy's cheap partial
+  // edges translucent, rejected ones dashed.
   const EDGE_STATES = {
-    partial: {towards: 0xffffff, by: 0.6, opacity: 0.4},
-    full: {towards: 0xffffff, by: 0.3, opacity: 0.7},
-    certified: {towards: 0x000000, by: 0.45, opacity: 1},
-    rejected: {towards: 0x000000, by: 0.2, opacity: 1, dashed: true},
+    partial: {colour: "#f4a261", opacity: 0.35},
+    full: {colour: "#2a9d8f", opacity: 0.8},
+    certified: {colour: "#264653", opacity: 1},
+    rejected: {colour: "#e63946", opacity: 1, dashed: true},
   };
-  function edgeShade(planner, state) {
-    const look = EDGE_STATES[state];
-    return new THREE.Color(colourOf(planner)).lerp(new THREE.Color(look.towards), look.by).getStyle();
-  }
+  // At most this many edges of one state are drawn, evenly chosen: tens of thousands of lazy
+  // partial edges would haze over the trajectory. The legend says how many there are.
+  const MAX_EDGES = 3000;
 
   const scene = JSON.parse(document.getElementById("kinolab-scene").textContent);
   document.getElementById("title").textContent = scene.title || "kinolab";
@@ -43,12 +46,43 @@
   sun.position.set(0.4, -0.6, 1.0);
   world3d.add(sun);
 
-  const plannerColour = {};
-  function colourOf(planner) {
-    if (!(planner in plannerColour)) {
-      plannerColour[planner] = PLANNER_COLOURS[Object.keys(plannerColour).length % PLANNER_COLOURS.length];
+  // Each planner's colour: the scene's (a report's), else its palette slot, FNV-1a of its
+  // name, the later of two on one slot (in name order) taking the next free one.
+  const plannerColour = Object.assign({}, scene.colours || {});
+  (function assignColours() {
+    const names = new Set();
+    for (const query of scene.queries || []) {
+      for (const item of [...query.trajectories, ...query.trees, ...query.flights]) names.add(item.planner);
     }
-    return plannerColour[planner];
+    const taken = new Set(Object.values(plannerColour));
+    for (const name of [...names].sort()) {
+      if (name in plannerColour) continue;
+      let hash = 0x811c9dc5;
+      for (const byte of new TextEncoder().encode(name)) hash = Math.imul(hash ^ byte, 16777619) >>> 0;
+      let slot = hash % PALETTE.length;
+      for (let step = 0; step < PALETTE.length && taken.has(PALETTE[slot]); ++step) slot = (slot + 1) % PALETTE.length;
+      plannerColour[name] = PALETTE[slot];
+      taken.add(PALETTE[slot]);
+    }
+  })();
+  function colourOf(planner) { return plannerColour[planner]; }
+
+  // A state's segments (flat point pairs; an edge's segments follow one another) as at most
+  // MAX_EDGES edges, evenly chosen: a segment that starts where the one before ended continues
+  // its edge.
+  function thinned(flat) {
+    const edges = [];
+    for (let i = 0; i + 5 < flat.length; i += 6) {
+      const continues = i > 0 && flat[i] === flat[i - 3] && flat[i + 1] === flat[i - 2] && flat[i + 2] === flat[i - 1];
+      if (!continues) edges.push([]);
+      edges[edges.length - 1].push(i);
+    }
+    if (edges.length <= MAX_EDGES) return {points: flat, drawn: edges.length, total: edges.length};
+    const points = [];
+    for (let k = 0; k < MAX_EDGES; ++k) {
+      for (const i of edges[Math.floor(k * edges.length / MAX_EDGES)]) points.push(...flat.slice(i, i + 6));
+    }
+    return {points: points, drawn: MAX_EDGES, total: edges.length};
   }
 
   function vectors(flat) {
@@ -168,11 +202,12 @@
     querySelect.appendChild(option);
     const layerGroups = [];
     const markers = new THREE.Group();
+    // Black ball, grey diamond: colours and shapes no planner has.
     const startMarker = new THREE.Mesh(new THREE.SphereBufferGeometry(0.25, 16, 12),
-                                       new THREE.MeshLambertMaterial({color: "#2b9348"}));
+                                       new THREE.MeshLambertMaterial({color: START_COLOUR}));
     startMarker.position.fromArray(query.start);
-    const goalMarker = new THREE.Mesh(new THREE.SphereBufferGeometry(0.25, 16, 12),
-                                      new THREE.MeshLambertMaterial({color: "#d00000"}));
+    const goalMarker = new THREE.Mesh(new THREE.OctahedronBufferGeometry(0.35),
+                                      new THREE.MeshLambertMaterial({color: GOAL_COLOUR}));
     goalMarker.position.fromArray(query.goal);
     for (const marker of [startMarker, goalMarker]) {
       // Over trees and obstacles, like the trajectories (three.js draws transparent objects
@@ -181,7 +216,8 @@
       marker.renderOrder = 11;
     }
     markers.add(startMarker, goalMarker);
-    layerGroups.push(["q" + index + "-markers", "start and goal", "#2b9348", markers]);
+    layerGroups.push(["q" + index + "-markers", "start (black ball) and goal (grey diamond)",
+                      START_COLOUR, markers]);
     // A trajectory identical to an earlier one (lazy's and eager's, at equal cost) lies exactly
     // under it: the legend says so, since toggling it changes no pixel.
     const firstWith = {};
@@ -210,20 +246,21 @@
         const flat = tree.edges[state] || [];
         if (!flat.length) continue;
         const look = EDGE_STATES[state];
-        const colour = edgeShade(tree.planner, state);
+        const {points, drawn, total} = thinned(flat);
         const geometry = new THREE.BufferGeometry();
-        geometry.setAttribute("position", new THREE.Float32BufferAttribute(flat, 3));
+        geometry.setAttribute("position", new THREE.Float32BufferAttribute(points, 3));
         const material = look.dashed
-            ? new THREE.LineDashedMaterial({color: colour, dashSize: 0.08, gapSize: 0.06})
-            : new THREE.LineBasicMaterial({color: colour, transparent: look.opacity < 1, opacity: look.opacity});
+            ? new THREE.LineDashedMaterial({color: look.colour, dashSize: 0.08, gapSize: 0.06})
+            : new THREE.LineBasicMaterial({color: look.colour, transparent: look.opacity < 1, opacity: look.opacity});
         const lines = new THREE.LineSegments(geometry, material);
         if (look.dashed) lines.computeLineDistances();
         const group = new THREE.Group();
         group.add(lines);
+        const count = drawn < total ? drawn.toLocaleString("en") + " of " + total.toLocaleString("en") + " drawn"
+                                    : total.toLocaleString("en");
         layerGroups.push(["q" + index + "-tree-" + tree.planner + "-" + state,
-                          tree.planner + ": " + state + " edges (" + flat.length / 6 + " segments" +
-                              (look.dashed ? ", dashed" : "") + ")",
-                          colour, group, planners.size === 1]);
+                          tree.planner + ": " + state + " edges (" + count + (look.dashed ? ", dashed" : "") + ")",
+                          look.colour, group, planners.size === 1]);
       }
     }
     for (const flight of query.flights) {
@@ -421,6 +458,8 @@
   window.kinolabViewer = {
     scene: scene,
     layers: () => Object.keys(layers),
+    // The line segments a tree layer draws (after thinning).
+    segments: (id) => layers[id].group.children[0].geometry.attributes.position.count / 2,
     paintedPixels: paintedPixels,
     screenOf: screenOf,
     setTime: setTime,

@@ -10,14 +10,18 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from . import stats
+from . import stats, tables
 
 # The results database layout this package reads (meta `schema_version`); version 1
 # databases (written before the schema was declared) are upgraded in memory by `load`;
 # version 2 lacks the timing protocol's and the query's columns (version 3), read as missing;
 # version 4 added the flights table, version 5 the worlds' obstacle boxes (for the 3D view),
 # version 6 the progress table (anytime progress series; empty in older databases), version 7
-# the runs' load_average and the meta table's machine and cores (missing in older ones).
+# the runs' load_average and the meta table's machine and cores (missing in older ones),
+# version 8 the checker's evaluation of every trajectory (with `undefined`), the runs'
+# objective and time limit, the metrics' direction and comparability, and the planned table
+# (older ones: cost is an own objective per planner type, every other result metric compares,
+# and every run is current).
 SCHEMA_VERSION = 8
 
 # A stored search tree's edge states (the trees table's `state`), each with the colour every
@@ -44,6 +48,12 @@ class World:
     # at a stride of box_stride voxels; None in databases before schema version 5.
     boxes: np.ndarray | None = None
     box_stride: int = 1
+    # What the report calls it: its id, or with its sweep values when a sweep varies the world
+    # (world_labels).
+    label: str = ""
+
+    def __post_init__(self) -> None:
+        self.label = self.label or self.id
 
 
 @dataclass
@@ -55,11 +65,14 @@ class Results:
     meta: dict[str, str]               # of the first database
     worlds: dict[str, World] = field(default_factory=dict)
     # The declaration of every column and statistic (name, kind, planner_type, type, unit,
-    # doc, clock), as `kinolab list metrics` prints it.
+    # doc, clock, direction, comparable), as `kinolab list metrics` prints it.
     metrics: pd.DataFrame = field(default_factory=pd.DataFrame)
     # Every sample of the planners' progress series (run_hash, name, time_ms, value).
     progress: pd.DataFrame = field(default_factory=lambda: pd.DataFrame(
         columns=["run_hash", "name", "time_ms", "value"]))
+    # Runs of an earlier configuration of the same directory (their hashes are not in the
+    # planned table): kept in the file, never pooled with `runs`.
+    stale: pd.DataFrame = field(default_factory=pd.DataFrame)
 
     def series(self) -> pd.DataFrame:
         """The declared progress series (the metrics table's kind 'progress'): name,
@@ -182,16 +195,52 @@ def experiment_label(meta: dict[str, str]) -> str:
     return f"{meta.get('name', '?')}@{meta.get('config_hash', '?')[:8]}"
 
 
+def _comparability(metrics: pd.DataFrame) -> pd.DataFrame:
+    """The metrics declarations of a database before version 8 with the columns version 8
+    added: no direction, and comparable across planners for every declared result metric but
+    the planner's own cost (tables.same_objective then pairs cost by planner type)."""
+    metrics = metrics.copy()
+    metrics["direction"] = ""
+    metrics["comparable"] = ((metrics["kind"] == "result") & (metrics["name"] != "cost")
+                             & (metrics["type"] != "text")).astype(int)
+    return metrics
+
+
+def world_labels(runs: pd.DataFrame) -> dict[str, str]:
+    """Per world hash, the world's name in a report: its id, or, when a sweep varies the world
+    (one id, several hashes), the id with the values of the sweep's keys of that world
+    ("forest (density=0.2)"), so that each variant is its own world in every table, figure
+    and heading, never pooled with the others."""
+    labels: dict[str, str] = {}
+    known = runs.dropna(subset=["world_hash"])
+    for world, group in known.groupby("world", sort=False):
+        variants = group.drop_duplicates("world_hash")
+        axes = {}
+        for world_hash, sweep in zip(variants["world_hash"], variants["sweep"].fillna("")):
+            own = [part for part in str(sweep).split(", ") if part.startswith(f"worlds.{world}.")]
+            axes[world_hash] = tables.sweep_axes(", ".join(own))
+        frame = pd.DataFrame.from_dict(axes, orient="index", dtype=object).fillna("")
+        varying = [axis for axis in frame.columns if frame[axis].nunique() > 1]
+        for world_hash in variants["world_hash"]:
+            values = ", ".join(f"{axis}={frame.at[world_hash, axis]}" for axis in varying)
+            labels[world_hash] = (str(world) if len(variants) == 1
+                                  else f"{world} ({values or world_hash[:8]})")
+    return labels
+
+
 def load(paths: str | Path | list[str | Path], allow_mixed: bool = False) -> Results:
     """Loads results databases (directories or files) into one Results. Columns are read by
     name; what they mean comes from the database's `metrics` table. The databases must hold
     one experiment (one config hash: its shards or resumed runs) unless `allow_mixed`; then
     every planner is labelled with its experiment ("eager (name@hash)"), so that runs of
-    different experiments are never pooled. Databases without a run ended are refused."""
+    different experiments are never pooled. Runs of an earlier configuration of a directory
+    (not in its planned table) go to `stale`, apart. A world a sweep varies is one world per
+    variant (world_labels). Databases without a run ended are refused."""
     if isinstance(paths, (str, Path)):
         paths = [paths]
     files = [database_path(p) for p in paths]
     frames = []
+    stale = []
     meta: dict[str, str] = {}
     worlds: dict[str, World] = {}
     metrics = []
@@ -203,13 +252,17 @@ def load(paths: str | Path | list[str | Path], allow_mixed: bool = False) -> Res
                 statistics = pd.read_sql("SELECT run_hash, name, value FROM statistics", db)
                 this_meta = dict(db.execute("SELECT key, value FROM meta").fetchall())
                 world_rows = pd.read_sql("SELECT * FROM worlds", db)
-                tables = {row[0] for row in
-                          db.execute("SELECT name FROM sqlite_master WHERE type = 'table'")}
-                if "metrics" in tables:
-                    metrics.append(pd.read_sql("SELECT * FROM metrics", db))
-                if "progress" in tables:
+                tables_in = {row[0] for row in
+                             db.execute("SELECT name FROM sqlite_master WHERE type = 'table'")}
+                if "metrics" in tables_in:
+                    declared = pd.read_sql("SELECT * FROM metrics", db)
+                    metrics.append(declared if "comparable" in declared
+                                   else _comparability(declared))
+                if "progress" in tables_in:
                     progress.append(pd.read_sql(
                         "SELECT run_hash, name, time_ms, value FROM progress", db))
+                planned = ({row[0] for row in db.execute("SELECT run_hash FROM planned")}
+                           if "planned" in tables_in else set())
             except (sqlite3.DatabaseError, pd.errors.DatabaseError) as error:
                 raise ValueError(f"{file}: not a kinolab results database ({error})") from error
         version = int(this_meta.get("schema_version", "1"))
@@ -219,6 +272,8 @@ def load(paths: str | Path | list[str | Path], allow_mixed: bool = False) -> Res
                              "wrote it")
         if version == 1:
             runs = _upgrade_v1(runs)
+        if "objective" not in runs:  # before version 8: a planner type's cost is its own
+            runs["objective"] = runs["planner_type"]
         if index == 0:
             meta = this_meta
         elif this_meta.get("config_hash") != meta.get("config_hash") and not allow_mixed:
@@ -235,7 +290,10 @@ def load(paths: str | Path | list[str | Path], allow_mixed: bool = False) -> Res
             wide = wide[[c for c in wide.columns if c not in runs.columns]]
             runs = runs.merge(wide, left_on="run_hash", right_index=True, how="left")
         runs["database"] = str(file)
-        frames.append(runs)
+        # No planned table (before version 8), or an empty one: every run is current.
+        current = runs["run_hash"].isin(planned) if planned else pd.Series(True, runs.index)
+        frames.append(runs[current])
+        stale.append(runs[~current])
         for _, row in world_rows.iterrows():
             nx, ny, nz = int(row["nx"]), int(row["ny"]), int(row["nz"])
             worlds[row["world_hash"]] = World(
@@ -247,19 +305,29 @@ def load(paths: str | Path | list[str | Path], allow_mixed: bool = False) -> Res
                  if row.get("boxes") is not None else None),
                 int(row["box_stride"]) if pd.notna(row.get("box_stride")) else 1)
     if all(frame.empty for frame in frames):
-        raise ValueError(f"{', '.join(map(str, files))}: no run has ended yet (an experiment "
-                         "stopped before its first run ended): nothing to report")
+        raise ValueError(f"{', '.join(map(str, files))}: " + (
+            "no run has ended yet (an experiment stopped before its first run ended)"
+            if all(frame.empty for frame in stale) else "every stored run is of an earlier "
+            "configuration of the experiment (none of the experiment as last run has ended)")
+            + ": nothing to report")
     runs = pd.concat([frame for frame in frames if not frame.empty], ignore_index=True)
-    for column in ("planning_time_min_ms", "planning_time_cold_ms", "line_blocked"):
+    for column in ("planning_time_min_ms", "planning_time_cold_ms", "line_blocked",
+                   "time_limit", "time_limit_own", "undefined"):
         if column not in runs.columns:
             runs[column] = np.nan
     runs = runs.drop_duplicates("run_hash")
     if allow_mixed and runs["experiment"].nunique() > 1:
         runs["planner"] = runs["planner"] + " (" + runs["experiment"] + ")"
     runs["success"] = runs["success"].fillna(0).astype(bool)
+    labels = world_labels(runs)
+    runs["world"] = runs["world_hash"].map(labels).fillna(runs["world"])
+    for world_hash, world in worlds.items():
+        world.label = labels.get(world_hash, world.id)
+    stale_runs = pd.concat(stale, ignore_index=True)
     results = Results(files, runs, meta, worlds,
                       pd.concat(metrics, ignore_index=True).drop_duplicates(["name", "planner_type"])
-                      if metrics else pd.DataFrame())
+                      if metrics else pd.DataFrame(),
+                      stale=stale_runs[~stale_runs["run_hash"].isin(runs["run_hash"])])
     if progress:
         samples = pd.concat(progress, ignore_index=True)
         results.progress = samples[samples["run_hash"].isin(runs["run_hash"])].drop_duplicates(

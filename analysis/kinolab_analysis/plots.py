@@ -19,23 +19,64 @@ from .tables import SPEEDUP_COLUMNS
 
 COLOURS = plt.rcParams["axes.prop_cycle"].by_key()["color"]
 
+# Planners' colours (planner_colours): 20 colours far apart (CIE Lab distance 25 or more, so
+# that two planners never look alike), none black, grey or pale (the start and goal markers',
+# the page's), none the search tree's edge states (data.EDGE_COLOURS).
+# viewer/viewer.js holds the same list for scenes that bring no colours (tests keep them equal).
+PALETTE = ["#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b", "#e377c2",
+           "#17becf", "#000080", "#bcbd22", "#637939", "#a6761d", "#01665e", "#f99379",
+           "#dd1c77", "#393b79", "#1b9e77", "#800000", "#e6ab02", "#b3446c"]
+# The query's start and goal in every figure: colours no planner has, shapes of their own.
+START = {"marker": "o", "color": "black", "ms": 7, "linestyle": "none"}
+GOAL = {"marker": "*", "color": "#6c757d", "ms": 12, "markeredgecolor": "black",
+        "linestyle": "none"}
+
 
 def _colour(index: int) -> str:
+    """A series' colour that is not a planner's (samplers, a single line)."""
     return COLOURS[index % len(COLOURS)]
 
 
+def _slot(name: str) -> int:
+    """The planner's own place in PALETTE: FNV-1a of its UTF-8 bytes (viewer.js computes the
+    same), so that its colour depends on its id alone, not on the other planners."""
+    digest = 0x811C9DC5
+    for byte in str(name).encode("utf-8"):
+        digest = ((digest ^ byte) * 0x01000193) & 0xFFFFFFFF
+    return digest % len(PALETTE)
+
+
+def planner_colours(planners) -> dict[str, str]:
+    """One colour per planner id, the same in every figure of every report: its PALETTE slot
+    (_slot). Two of these planners on one slot: in id order, the later takes the next free
+    slot (all taken: its own again), so one report never draws two planners alike."""
+    taken: set[int] = set()
+    colours = {}
+    for name in sorted(set(map(str, planners))):
+        slot = _slot(name)
+        for step in range(len(PALETTE)):
+            if (slot + step) % len(PALETTE) not in taken:
+                slot = (slot + step) % len(PALETTE)
+                break
+        taken.add(slot)
+        colours[name] = PALETTE[slot]
+    return colours
+
+
 def ecdf(runs: pd.DataFrame, by: str = "planner") -> plt.Figure:
-    """Time-to-solve ECDFs: failures count as never solved, so a curve ends at its
-    planner's success rate."""
+    """Time-to-solve ECDFs: every run but a success (exact and checker-valid) counts as never
+    solved, approximate answers and timeouts included, so a curve ends at its planner's
+    success rate."""
+    colours = planner_colours(runs[by])
     figure, axis = plt.subplots(figsize=(6, 4))
-    for index, (name, group) in enumerate(runs.groupby(by, sort=False)):
+    for name, group in runs.groupby(by, sort=False):
         x, y = stats.ecdf_unsolved(group["planning_time_ms"], group["success"])
         if x.size:
             axis.step(np.concatenate([[x[0]], x]), np.concatenate([[0], y]), where="post",
-                      label=f"{name} ({y[-1]:.0%})", color=_colour(index))
+                      label=f"{name} ({y[-1]:.0%})", color=colours[str(name)])
     axis.set_xscale("log")
     axis.set_xlabel("planning time (ms)")
-    axis.set_ylabel("share of runs solved")
+    axis.set_ylabel("share of runs solved exactly")
     axis.set_ylim(0, 1.02)
     axis.grid(alpha=0.3)
     axis.legend(fontsize=8)
@@ -50,10 +91,13 @@ def boxes(runs: pd.DataFrame, metrics: list[tuple[str, str, str]],
     metrics = [m for m in metrics if m[0] in runs.columns]
     figure, axes = plt.subplots(1, len(metrics), figsize=(3.2 * len(metrics), 3.6), squeeze=False)
     names = list(dict.fromkeys(runs[by]))
+    colours = planner_colours(names)
     ok = runs[runs["success"]]
     for axis, (column, label, unit) in zip(axes[0], metrics):
         data = [ok.loc[ok[by] == name, column].dropna().to_numpy(dtype=float) for name in names]
-        axis.boxplot(data, labels=names, showfliers=True)
+        drawn = axis.boxplot(data, labels=names, showfliers=True, patch_artist=True)
+        for box, name in zip(drawn["boxes"], names):
+            box.set(facecolor=colours[str(name)], alpha=0.6)
         axis.set_title(f"{label} ({unit})" if unit else label, fontsize=10)
         axis.tick_params(axis="x", labelrotation=45, labelsize=8)
         if column == "planning_time_ms":
@@ -64,9 +108,11 @@ def boxes(runs: pd.DataFrame, metrics: list[tuple[str, str, str]],
 
 
 def per_world(runs: pd.DataFrame, by: str = "planner") -> plt.Figure:
-    """Success rate (Wilson interval) and median planning time per world and planner."""
+    """Success rate (exact and checker-valid, Wilson interval) and median planning time of
+    the successful runs per world and planner."""
     worlds = list(dict.fromkeys(runs["world"]))
     names = list(dict.fromkeys(runs[by]))
+    colours = planner_colours(names)
     figure, (left, right) = plt.subplots(1, 2, figsize=(10, 3.8))
     width = 0.8 / max(1, len(names))
     for index, name in enumerate(names):
@@ -80,9 +126,10 @@ def per_world(runs: pd.DataFrame, by: str = "planner") -> plt.Figure:
             solved = group.loc[group["success"], "planning_time_ms"]
             times.append(float(solved.median()) if len(solved) else math.nan)
         x = np.arange(len(worlds)) + (index - (len(names) - 1) / 2) * width
-        left.bar(x, rates, width, yerr=errors, label=name, color=_colour(index), capsize=2)
-        right.bar(x, times, width, label=name, color=_colour(index))
-    for axis, title in ((left, "success rate (95 % Wilson)"), (right, "median planning time (ms)")):
+        left.bar(x, rates, width, yerr=errors, label=name, color=colours[str(name)], capsize=2)
+        right.bar(x, times, width, label=name, color=colours[str(name)])
+    for axis, title in ((left, "success: exact, checker-valid (95 % Wilson)"),
+                        (right, "median planning time (ms)")):
         axis.set_xticks(np.arange(len(worlds)), worlds)
         axis.set_title(title, fontsize=10)
         axis.grid(alpha=0.3, axis="y")
@@ -99,8 +146,9 @@ def _over_sweep(runs: pd.DataFrame, by: str, interval_of, ylabel: str,
     labels = list(dict.fromkeys(runs["sweep"].fillna("")))
     if len(labels) < 2:
         return None
+    colours = planner_colours(runs[by])
     figure, axis = plt.subplots(figsize=(7, 4))
-    for index, (name, group) in enumerate(runs.groupby(by, sort=False)):
+    for name, group in runs.groupby(by, sort=False):
         estimates, low, high, xs = [], [], [], []
         for position, label in enumerate(labels):
             interval = interval_of(group[group["sweep"].fillna("") == label])
@@ -112,7 +160,7 @@ def _over_sweep(runs: pd.DataFrame, by: str, interval_of, ylabel: str,
             high.append(max(0.0, interval.high - interval.estimate))
         if xs:
             axis.errorbar(xs, estimates, yerr=[low, high], marker="o", capsize=3, label=name,
-                          color=_colour(index))
+                          color=colours[str(name)])
     short = [re.sub(r"[^,=]*\.", "", label) for label in labels]
     axis.set_xticks(range(len(labels)), short, rotation=30, ha="right", fontsize=8)
     axis.set_ylabel(ylabel)
@@ -139,7 +187,8 @@ def sweep_success(runs: pd.DataFrame, by: str = "planner") -> plt.Figure | None:
     def rate(variant: pd.DataFrame):
         outcomes = variant["success"]
         return None if outcomes.empty else stats.wilson(int(outcomes.sum()), len(outcomes))
-    figure = _over_sweep(runs, by, rate, "success rate", "Success over the sweep")
+    figure = _over_sweep(runs, by, rate, "success rate (exact, checker-valid)",
+                         "Success over the sweep")
     if figure is not None:
         figure.axes[0].set_ylim(-0.02, 1.02)
     return figure
@@ -201,9 +250,10 @@ def success_grid(runs: pd.DataFrame, by: str = "planner") -> plt.Figure | None:
     figure, axes = plt.subplots(1, len(panels), figsize=(4.2 * len(panels) + 0.6, 3.8),
                                 sharey=True, squeeze=False)
     planners = list(dict.fromkeys(runs[by]))
+    colours = planner_colours(planners)
     for column, panel in enumerate(panels):
         axis = axes[0][column]
-        for index, planner in enumerate(planners):
+        for planner in planners:
             for (style, marker), line in zip(styles * len(lines), lines):
                 xs, estimates, low, high = [], [], [], []
                 for label in labels:
@@ -225,25 +275,27 @@ def success_grid(runs: pd.DataFrame, by: str = "planner") -> plt.Figure | None:
                     isinstance(x, str) for x in xs) else np.argsort(xs)
                 axis.errorbar([xs[i] for i in order], [estimates[i] for i in order],
                               yerr=[[low[i] for i in order], [high[i] for i in order]],
-                              marker=marker, capsize=3, linestyle=style, color=_colour(index),
-                              label=f"{planner}, {line_name} {line}")
+                              marker=marker, capsize=3, linestyle=style,
+                              color=colours[str(planner)], label=f"{planner}, {line_name} {line}")
         axis.set_xlabel(x_name)
         axis.set_ylim(-0.02, 1.02)
         axis.grid(alpha=0.3)
         if panel_name:
             axis.set_title(f"{panel_name} {panel}", fontsize=9)
-    axes[0][0].set_ylabel("success rate (Wilson 95 %)")
+    axes[0][0].set_ylabel("success: exact, checker-valid\n(Wilson 95 %)")
     axes[0][-1].legend(fontsize=7)
     figure.suptitle(f"Success over {x_name}, per planner and {line_name}", fontsize=10)
     figure.tight_layout()
     return figure
 
 
-def sweep_winners(table: pd.DataFrame, metric: str = "planning_time_ms") -> plt.Figure | None:
+def sweep_winners(table: pd.DataFrame, metric: str = "planning_time_ms",
+                  colours: dict[str, str] | None = None) -> plt.Figure | None:
     """Where each planner wins: one cell per sweep value (the first two axes with more than one
     value as columns and rows), coloured by the planner with the least median `metric` on the
     cases all solved, with the runner-up's ratio; hatched where the two are not told apart
-    (paired Wilcoxon, Holm, p >= 0.05). None without a sweep of two or more values."""
+    (paired Wilcoxon, Holm, p >= 0.05); `colours`: the report's planner_colours. None
+    without a sweep of two or more values."""
     if table.empty or "winner" not in table or len(table) < 2:
         return None
     axes = [column for column in table.columns
@@ -256,9 +308,8 @@ def sweep_winners(table: pd.DataFrame, metric: str = "planning_time_ms") -> plt.
     down = axes[1] if len(axes) > 1 else None
     columns = list(dict.fromkeys(table[across]))
     rows = list(dict.fromkeys(table[down])) if down else [""]
-    planners = list(dict.fromkeys(table["winner"].dropna()))
-    order = {name: index for index, name in enumerate(dict.fromkeys(
-        list(planners) + list(table["runner-up"].dropna())))}
+    colours = colours or planner_colours([*table["winner"].dropna(),
+                                          *table["runner-up"].dropna()])
     figure, axis = plt.subplots(figsize=(1.9 * len(columns) + 1.6, 1.1 * len(rows) + 1.4))
     for _, row in table.iterrows():
         x = columns.index(row[across])
@@ -268,7 +319,7 @@ def sweep_winners(table: pd.DataFrame, metric: str = "planning_time_ms") -> plt.
             continue
         tied = not (row.get("p (Holm)", math.nan) < 0.05)
         axis.add_patch(plt.Rectangle((x - 0.48, y - 0.48), 0.96, 0.96,
-                                     facecolor=_colour(order[row["winner"]]), alpha=0.35,
+                                     facecolor=colours[row["winner"]], alpha=0.35,
                                      hatch="//" if tied else None, edgecolor="0.5"))
         axis.text(x, y, f"{row['winner']}\n{row['winner median']:.3g} {_unit(metric)}\n"
                   f"{row['runner-up']} x{row['ratio']:.2g}\n"
@@ -294,11 +345,12 @@ def trajectories(results: Results, world: World, query: int) -> plt.Figure | Non
     trajectory of every planner that stored one."""
     runs = results.runs
     chosen = runs[(runs["world_hash"] == world.world_hash) & (runs["query"] == query)]
+    colours = planner_colours(runs["planner"])
     paths = []
-    for index, (_, run) in enumerate(chosen.iterrows()):
+    for _, run in chosen.iterrows():
         trajectory = results.trajectory(run["run_hash"])
         if trajectory is not None and len(trajectory):
-            paths.append((run["planner"], run["success"], trajectory, _colour(index)))
+            paths.append((run["planner"], run["success"], trajectory, colours[run["planner"]]))
     if not paths:
         return None
     r = world.resolution
@@ -318,8 +370,8 @@ def trajectories(results: Results, world: World, query: int) -> plt.Figure | Non
         side.plot(trajectory["x"], trajectory["z"], style, color=colour, lw=1.5)
     run = chosen.iloc[0]
     for axis, (a, b) in ((top, ("x", "y")), (side, ("x", "z"))):
-        axis.plot(run[f"start_{a}"], run[f"start_{b}"], "o", color="green", ms=7)
-        axis.plot(run[f"goal_{a}"], run[f"goal_{b}"], "*", color="red", ms=11)
+        axis.plot(run[f"start_{a}"], run[f"start_{b}"], **START, label="start")
+        axis.plot(run[f"goal_{a}"], run[f"goal_{b}"], **GOAL, label="goal")
         axis.set_xlabel(f"{a} (m)")
         axis.set_ylabel(f"{b} (m)")
     # Zoomed to the trajectories, 3 m around them, within the map.
@@ -328,7 +380,7 @@ def trajectories(results: Results, world: World, query: int) -> plt.Figure | Non
     top.set_xlim(max(extent_top[0], xs.min() - 3), min(extent_top[1], xs.max() + 3))
     top.set_ylim(max(extent_top[2], ys.min() - 3), min(extent_top[3], ys.max() + 3))
     side.set_xlim(*top.get_xlim())
-    top.set_title(f"{world.id}, query {query}: top view (darker = taller)")
+    top.set_title(f"{world.label}, query {query}: top view (darker = taller)")
     side.set_title("side view (obstacles projected along y)")
     top.legend(fontsize=8, loc="upper left")
     figure.tight_layout()
@@ -386,13 +438,14 @@ def anytime(runs: pd.DataFrame, samples: pd.DataFrame, name: str, unit: str,
     figure, (axis, solved_axis) = plt.subplots(
         2, 1, figsize=(6, 5), sharex=True, gridspec_kw={"height_ratios": [3, 1]})
     with_samples = runs[runs["run_hash"].isin(samples["run_hash"])][by].unique()
-    for index, (label, group) in enumerate(runs.groupby(by, sort=False)):
+    colours = planner_colours(runs[by])
+    for label, group in runs.groupby(by, sort=False):
         if label not in with_samples:
             continue
         table = stats.step_values(samples, group["run_hash"].tolist(), times)
         median = np.quantile(table, 0.5, axis=0, method="inverted_cdf")
         low_q, high_q = np.quantile(table, [0.25, 0.75], axis=0, method="inverted_cdf")
-        colour = _colour(index)
+        colour = colours[str(label)]
         shown = np.isfinite(median)
         axis.step(times[shown], median[shown], where="post", color=colour,
                   label=f"{label} (n = {len(group)})")
@@ -421,9 +474,10 @@ def pareto(runs: pd.DataFrame, world: str, quality: str = "duration",
     chosen = runs[(runs["world"] == world) & runs["success"]]
     if chosen.empty:
         return None
+    colours = planner_colours(runs[by])
     figure, axis = plt.subplots(figsize=(6.5, 4.5))
     points = []
-    for index, (name, group) in enumerate(runs[runs["world"] == world].groupby(by, sort=False)):
+    for name, group in runs[runs["world"] == world].groupby(by, sort=False):
         solved = group[group["success"]]
         if solved.empty:
             continue
@@ -432,8 +486,8 @@ def pareto(runs: pd.DataFrame, world: str, quality: str = "duration",
         x, y = float(np.median(t)), float(np.median(q))
         axis.errorbar(x, y, xerr=[[x - np.percentile(t, 25)], [np.percentile(t, 75) - x]],
                       yerr=[[y - np.percentile(q, 25)], [np.percentile(q, 75) - y]],
-                      fmt="o", color=_colour(index), capsize=3,
-                      label=f"{name} ({100.0 * len(solved) / len(group):.0f} % solved)")
+                      fmt="o", color=colours[str(name)], capsize=3,
+                      label=f"{name} ({100.0 * len(solved) / len(group):.0f} % success)")
         points.append((x, y))
     front = sorted(p for p in points
                    if not any(o[0] <= p[0] and o[1] <= p[1] and o != p for o in points))
@@ -585,19 +639,21 @@ def speeds(results: Results, world: World, query: int) -> plt.Figure | None:
     trajectory of one query, one line per planner; None without trajectories."""
     runs = results.runs
     chosen = runs[(runs["world_hash"] == world.world_hash) & (runs["query"] == query)]
+    colours = planner_colours(runs["planner"])
     figure, (speed_axis, clearance_axis) = plt.subplots(2, 1, figsize=(7, 5.2), sharex=True)
     drawn = 0
-    for index, (_, run) in enumerate(chosen.iterrows()):
+    for _, run in chosen.iterrows():
         trajectory = results.trajectory(run["run_hash"])
         if trajectory is None or not len(trajectory):
             continue
         style = "-" if run["success"] else "--"
         speed = np.linalg.norm(trajectory[["vx", "vy", "vz"]].to_numpy(dtype=float), axis=1)
-        speed_axis.plot(trajectory["t"], speed, style, color=_colour(index), label=run["planner"])
+        speed_axis.plot(trajectory["t"], speed, style, color=colours[run["planner"]],
+                        label=run["planner"])
         clearance = results.clearance(run["run_hash"])
         if clearance is not None:
             clearance_axis.plot(clearance["t"], clearance["clearance"], style,
-                                color=_colour(index))
+                                color=colours[run["planner"]])
         drawn += 1
     if not drawn:
         plt.close(figure)
@@ -609,7 +665,7 @@ def speeds(results: Results, world: World, query: int) -> plt.Figure | None:
     for axis in (speed_axis, clearance_axis):
         axis.grid(alpha=0.3)
     speed_axis.legend(fontsize=8)
-    speed_axis.set_title(f"{world.id}, query {query}: speed and clearance over time")
+    speed_axis.set_title(f"{world.label}, query {query}: speed and clearance over time")
     figure.tight_layout()
     return figure
 
@@ -625,6 +681,7 @@ def known_maps(results: Results, world: World, query: int) -> plt.Figure | None:
         return None
     figure, axes = plt.subplots(1, len(maps), figsize=(4.2 * len(maps), 4.4), squeeze=False)
     colours = matplotlib.colors.ListedColormap(["#bbbbbb", "#ffffff", "#000000"])
+    planners = planner_colours(runs["planner"])
     for axis, (run, (grid, origin, resolution)) in zip(axes[0], maps):
         extent = [origin[0], origin[0] + grid.shape[0] * resolution,
                   origin[1], origin[1] + grid.shape[1] * resolution]
@@ -632,9 +689,9 @@ def known_maps(results: Results, world: World, query: int) -> plt.Figure | None:
                     interpolation="nearest")
         trajectory = results.trajectory(run["run_hash"])
         if trajectory is not None and len(trajectory):
-            axis.plot(trajectory["x"], trajectory["y"], color=_colour(0), lw=1.5)
-        axis.plot(run["start_x"], run["start_y"], "o", color="green", ms=6)
-        axis.plot(run["goal_x"], run["goal_y"], "*", color="red", ms=10)
+            axis.plot(trajectory["x"], trajectory["y"], color=planners[run["planner"]], lw=1.5)
+        axis.plot(run["start_x"], run["start_y"], **START)
+        axis.plot(run["goal_x"], run["goal_y"], **GOAL)
         axis.set_title(f"{run['planner']}: {run['status']}", fontsize=9)
         axis.set_xlabel("x (m)")
         axis.set_ylabel("y (m)")
@@ -642,9 +699,9 @@ def known_maps(results: Results, world: World, query: int) -> plt.Figure | None:
     return figure
 
 
-def replan_times(replans: pd.DataFrame) -> plt.Figure | None:
-    """Histogram of every replan's planning time per planner (log scale); None without
-    replans."""
+def replan_times(replans: pd.DataFrame, colours: dict[str, str]) -> plt.Figure | None:
+    """Histogram of every replan's planning time per planner (log scale; `colours`: the
+    report's planner_colours); None without replans."""
     times = replans[replans["planning_time_ms"] > 0] if len(replans) else replans
     if not len(times):
         return None
@@ -652,9 +709,9 @@ def replan_times(replans: pd.DataFrame) -> plt.Figure | None:
     low = max(1e-3, float(times["planning_time_ms"].min()))
     high = float(times["planning_time_ms"].max())
     bins = np.logspace(np.log10(low), np.log10(max(high, low * 10)), 40)
-    for index, (name, group) in enumerate(times.groupby("planner", sort=False)):
+    for name, group in times.groupby("planner", sort=False):
         axis.hist(group["planning_time_ms"], bins=bins, histtype="step", lw=1.5,
-                  color=_colour(index), label=f"{name} ({len(group)} replans)")
+                  color=colours[name], label=f"{name} ({len(group)} replans)")
     axis.set_xscale("log")
     axis.set_xlabel("replan planning time (ms)")
     axis.set_ylabel("replans")
@@ -681,8 +738,9 @@ def flight_animation(results: Results, run: pd.Series) -> bytes | None:
     figure, axis = plt.subplots(figsize=(4.6, 4.6))
     image = axis.imshow(first.T, origin="lower", extent=extent, cmap=colours, vmin=0, vmax=2,
                         interpolation="nearest")
-    (path,) = axis.plot([], [], color=_colour(0), lw=1.5)
-    axis.plot(run["goal_x"], run["goal_y"], "*", color="red", ms=10)
+    (path,) = axis.plot([], [], color=planner_colours(results.runs["planner"])[run["planner"]],
+                        lw=1.5)
+    axis.plot(run["goal_x"], run["goal_y"], **GOAL)
     axis.set_xlabel("x (m)")
     axis.set_ylabel("y (m)")
 

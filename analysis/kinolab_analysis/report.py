@@ -24,8 +24,10 @@ TEMPLATE = """<!DOCTYPE html>
 <html lang="en"><head><meta charset="utf-8">
 <title>kinolab report: {{ name }}</title>
 <style>
-body { font-family: sans-serif; max-width: 1100px; margin: 2em auto; color: #222; }
+body { font-family: sans-serif; max-width: 1600px; margin: 2em auto; padding: 0 1.5em;
+       color: #222; }
 table { border-collapse: collapse; margin: 1em 0; font-size: 0.85em; }
+th { vertical-align: bottom; }
 iframe.view3d { width: 100%; height: 620px; border: 1px solid #ccc; box-sizing: border-box; }
 th, td { border-bottom: 1px solid #ccc; padding: 0.25em 0.6em; text-align: right; }
 th:first-child, td:first-child { text-align: left; }
@@ -33,6 +35,8 @@ th { border-bottom: 2px solid #444; }
 img { max-width: 100%; }
 .note { color: #555; font-size: 0.9em; }
 .wide { overflow-x: auto; max-width: 100%; }
+.parts { display: flex; flex-wrap: wrap; align-items: flex-start; gap: 0 3em; }
+.part { min-width: 0; max-width: 100%; }
 .ci { color: #666; font-size: 0.85em; white-space: nowrap; }
 .warning { background: #fff3cd; border-left: 4px solid #d39e00; padding: 0.5em 0.8em; }
 dl { display: grid; grid-template-columns: max-content auto; gap: 0.2em 1em; font-size: 0.85em; }
@@ -43,6 +47,13 @@ dt { font-weight: bold; }
 <p class="note">{{ databases }} &middot; config {{ meta.get('config_hash', '?') }} &middot;
 written by kinolab {{ meta.get('provenance.kinolab_version', '?') }}</p>
 
+{#- A table (whole, or in parts each with its heading) and its notes: the metrics undefined
+    for its runs, and why. -#}
+{% macro show(name) -%}
+{{ tables[name] }}
+{% for note in notes.get(name, []) %}<p class="note">{{ note }}</p>
+{% endfor %}
+{%- endmacro %}
 {% for warning in warnings %}<p class="warning">{{ warning }}</p>
 {% endfor %}
 <h2>Experiment and provenance</h2>
@@ -61,8 +72,16 @@ blocked for the planners' body (Wilson 95 %), and the median straight-line lengt
 
 <h2>Runs by status</h2>
 <p class="note">Every run is counted: failures, crashes and timeouts included. Success =
-exact status and accepted by the independent checker.</p>
+exact status and accepted by the independent checker, in every table and figure; approximate
+answers, timeouts and failures are counted apart.</p>
 {{ tables['status_counts'] }}
+{% if 'stale' in tables %}
+<h3>Runs of an earlier configuration (not reported)</h3>
+<p class="note">Stored in this directory by an earlier configuration of the experiment (a
+planner's parameters changed, then <code>--resume</code>): kept in the file, counted here, and
+pooled into no other table or figure.</p>
+{{ tables['stale'] }}
+{% endif %}
 {% if 'failure_reasons' in tables %}
 <h3>Why runs did not succeed</h3>
 <p class="note">Per planner and status, the runs' messages grouped (numbers read as #), with
@@ -112,32 +131,42 @@ for orientation, without tests: the paper's numbers come from another setting. R
 {% endif %}
 
 <h2>Per planner</h2>
-<p class="note">Success rate with Wilson 95 % intervals; medians of successful runs with
-bootstrap 95 % intervals.</p>
-{{ tables['summary'] }}
+<p class="note">Per planner its time budget per plan (the experiment's
+<code>budget.time</code>, or "own" where the planner's entry sets its own
+<code>time_limit</code>), its runs by outcome with the success rate's Wilson 95 % interval,
+then per group of metrics the medians over its successful runs with bootstrap 95 % intervals.
+"cost (own objective)" is each planner's own objective: it compares only between planners of
+one objective. A metric undefined for a trajectory (the jerk of piecewise-constant
+acceleration) reads "undefined", with the reason under its table.</p>
+{{ show('summary') }}
 
 {% if 'which_planner' in tables %}
 <h2>Which planner when</h2>
-<p class="note">Per world, every planner: success with Wilson 95 % intervals; over its successful
-runs the median planning time, trajectory duration, jerk integral and clearance with bootstrap
-95 % intervals; each paired against {{ field_reference }} on the cases both ran (McNemar on
-success, Wilcoxon signed-rank on each metric over cases both solved), p-values Holm-corrected
-over the table. The figures "Time against quality" plot each world.</p>
-{{ tables['which_planner'] }}
+<p class="note">Per world, every planner: its runs by outcome, success with Wilson 95 %
+intervals; over its successful runs the median planning time, trajectory duration,
+acceleration integral (integral of |a|^2, defined for every trajectory) and clearance with
+bootstrap 95 % intervals, all measured the same way for every planner by the independent
+checker; each paired against {{ field_reference }} on the cases both ran (McNemar on success,
+Wilcoxon signed-rank on each metric over cases both solved), p-values Holm-corrected over the
+table. The figures "Time against quality" plot each world.</p>
+{{ show('which_planner') }}
 {% endif %}
 
 <h2>Paired comparisons</h2>
 <p class="note">Planners on the cases both ran (same world, query, repetition and sweep
-value): McNemar (exact) on success, Wilcoxon signed-rank on planning time, expansions (N) and cost over
-cases both solved, with the matched-pairs rank-biserial correlation as effect size (> 0: a
-larger); p-values Holm-corrected over the whole table.</p>
+value): McNemar (exact) on success, Wilcoxon signed-rank over cases both solved on the
+metrics that mean the same for every planner ({{ paired_metrics }}) and on cost only between
+two planners of one objective (never across planner families), with the matched-pairs
+rank-biserial correlation as effect size (> 0: a larger); p-values Holm-corrected over the
+whole table.</p>
 {{ tables['paired'] }}
 
 {% if 'compare' in tables %}
 <h2>Compared with {{ compare_name }}</h2>
 <p class="note">Each planner on the cases both result sets ran (A: this one, B: the other):
 success rates and median planning times side by side, McNemar on success and Wilcoxon
-signed-rank on planning time and cost over cases both solved (Holm-corrected).</p>
+signed-rank on planning time, and on cost where A's and B's objectives are equal, over cases
+both solved (Holm-corrected).</p>
 {{ tables['compare'] }}
 {% endif %}
 
@@ -155,7 +184,7 @@ signed-rank on planning time and cost over cases both solved (Holm-corrected).</
 
 <h2>Means per planner</h2>
 <p class="note">Means of successful runs with bootstrap 95 % intervals.</p>
-{{ tables['means'] }}
+{{ show('means') }}
 {% if 'statistics' in tables %}
 <h2>Planner statistics</h2>
 <p class="note">Every statistic each planner declares (kinolab list metrics), median over all
@@ -165,7 +194,7 @@ its runs with bootstrap 95 % intervals; clock figures vary from run to run.</p>
 {% for key, title in [('per_world', 'Per world'), ('per_sampler', 'Per sampler'),
                       ('sweep', 'Per sweep value'), ('sweep_winners', 'Where each wins')] %}{% if key in tables %}
 <h2>{{ title }}</h2>
-{{ tables[key] }}
+{{ show(key) }}
 {% endif %}{% endfor %}
 
 <script>
@@ -204,11 +233,26 @@ class Report:
     figures: list[Figure] = field(default_factory=list)
     views: list[View] = field(default_factory=list)
     warnings: list[str] = field(default_factory=list)
+    # Under a table (by its name): the metrics undefined for its runs, and why.
+    notes: dict[str, list[str]] = field(default_factory=dict)
+
+
+def _parts(name: str, table: pd.DataFrame) -> str:
+    """A report table as HTML: whole, or in SPLIT's parts, each with its heading and each row
+    once (compare repeats its side-by-side columns on every test)."""
+    if name not in SPLIT:
+        return _html(table)
+    heading, keys, first, groups = SPLIT[name]
+    parts = tables.split(table, [key for key in keys if key in table], groups)
+    return '<div class="parts">' + "".join(
+        f'<div class="part"><h3>{html.escape(heading)}: {html.escape(group or first)}</h3>'
+        + _html(part.drop_duplicates()) + "</div>" for group, part in parts.items()) + "</div>"
 
 
 def _html(table: pd.DataFrame) -> str:
-    """A table as HTML: cells as tables.text, an interval's bounds on a second line, and a
-    scrolling box when it is still wider than the page."""
+    """A table as HTML: cells as tables.text, an interval's bounds on a second line, headings
+    that may break after an underscore (planning_time_ms), and a scrolling box should it
+    still be wider than the page."""
     def cell(column):
         def formatted(value):
             text = html.escape(tables.text(value, column=column))
@@ -220,7 +264,7 @@ def _html(table: pd.DataFrame) -> str:
     frame = table.copy()
     for column in frame.columns:
         frame[column] = frame[column].map(cell(column))
-    frame.columns = [tables.header(c) for c in frame.columns]
+    frame.columns = [html.escape(tables.header(c)).replace("_", "_<wbr>") for c in frame.columns]
     return ('<div class="wide">' + frame.to_html(index=False, escape=False, border=0) +
             "</div>")
 
@@ -237,10 +281,36 @@ def _save(figure: plt.Figure, report: Report, name: str, title: str, caption: st
                                  base64.b64encode(buffer.getvalue()).decode("ascii")))
 
 
-def _summary_columns(summary: pd.DataFrame) -> pd.DataFrame:
-    keep = [c for c in summary.columns if not c.startswith("mean ")]
-    renamed = {c: c.replace("median ", "") for c in keep}
-    return summary[keep].rename(columns=renamed)
+def _summary_columns(summary: pd.DataFrame, statistic: str = "median") -> pd.DataFrame:
+    """A tables.summary with its medians (or means) only, named by their metrics."""
+    other = "mean " if statistic == "median" else "median "
+    keep = [c for c in summary.columns if not c.startswith(other)]
+    return summary[keep].rename(columns={c: c.replace(f"{statistic} ", "") for c in keep})
+
+
+def _undefined_notes(report: Report, name: str, runs: pd.DataFrame) -> None:
+    """The notes under a table: each metric of it undefined for some of its runs, and why."""
+    if notes := tables.undefined_notes(runs, [str(c) for c in report.tables[name].columns]):
+        report.notes[name] = notes
+
+
+# Tables shown in parts (tables.split), each under "HEADING: GROUP", side by side where the
+# page is wide enough and none wider than the page: name -> (heading, key columns, the name of
+# the part of no group's columns, groups; None: tables.GROUPS). Their Markdown and LaTeX stay
+# whole.
+SPLIT = {"summary": ("Per planner", ["planner"], "runs", None),
+         "means": ("Means per planner", ["planner"], "runs", None),
+         "which_planner": ("Which planner when", ["world", "planner"], "runs", None),
+         "paper_table2": ("Table II", ["variant", "world", "planner"], "runs",
+                          {"planning time T": ["T"], "expansions N": ["N"],
+                           "distance to goal D": ["D"]}),
+         "compare": ("Compared", ["planner"], "tests",
+                     {"success and planning time side by side": ["A", "B"]})}
+
+
+def _slug(text: str) -> str:
+    """A world's label as part of a file name ("forest (density=0.2)": forest_density=0.2)."""
+    return re.sub(r"[^\w.=-]+", "_", text).strip("_")
 
 
 def _tree_run(results: Results) -> pd.Series | None:
@@ -291,10 +361,7 @@ def _lazy_regime(report: Report, results: Results, directory: Path) -> str:
                    "Median eager T / lazy T over the cases both answered at the same cost, "
                    "bootstrap 95 % interval and range; dashed: parity"
                    + (f"; dotted: {reference[0]}." if reference else ".")))
-        axes = [c for c in table.columns if c not in tables.SPEEDUP_COLUMNS]
-        values = [", ".join(f"{a}={row[a]}" for a in axes) or row["sweep"]
-                  for _, row in table.iterrows()]
-        parts.append(table.assign(experiment=name, value=values)[
+        parts.append(table.assign(experiment=name, value=table["sweep"].map(tables.sweep_name))[
             ["experiment", "value", *tables.SPEEDUP_COLUMNS[1:]]])
     if parts:
         report.tables["lazy_regime"] = pd.concat(parts, ignore_index=True)
@@ -308,14 +375,16 @@ def _view(report: Report, results, world, queries: list[int]) -> None:
     if world.boxes is None or template is None:
         return
     page = view.page(view.scene(results, world, queries), template)
-    name = f"view_{world.id}.html"
+    name = f"view_{_slug(world.label)}.html"
     (report.out / name).write_text(page)
     report.views.append(View(
-        f"{world.id} in 3D", f"Queries {', '.join(map(str, queries))}: the obstacles, every "
-        "planner's stored trajectory, search tree (partial, full, certified and rejected edges) "
-        "and flight (replayed with its known map growing); drag to orbit, right-drag to pan, "
-        "wheel to zoom, a checkbox per layer.", name,
-        jinja2.utils.markupsafe.Markup(view.iframe(page, world.id))))
+        f"{world.label} in 3D", f"Queries {', '.join(map(str, queries))}: the obstacles, every "
+        "planner's stored trajectory in its colour of the figures, search tree (partial, full, "
+        "certified and rejected edges in the search-tree figure's colours; a dense tree thinned, "
+        "its legend says how far) and flight (replayed with its known map growing); start: black "
+        "ball, goal: grey diamond; drag to orbit, right-drag to pan, wheel to zoom, a checkbox "
+        "per layer.", name,
+        jinja2.utils.markupsafe.Markup(view.iframe(page, world.label))))
 
 
 def find_sampling_study(directory: Path) -> Path | None:
@@ -342,9 +411,14 @@ def _tables(report: Report, results, paths: list[Path], compare: Path | None,
         report.tables["paper_table2"] = paper.table2(runs, reproduced_paper,
                                                      results.paper_setting())
     full_summary = tables.summary(runs)
+    if runs["time_limit"].notna().any():
+        budgets = tables.budgets(runs)
+        full_summary.insert(1, "time budget", full_summary["planner"].map(budgets))
     report.tables["summary"] = _summary_columns(full_summary)
-    report.tables["means"] = full_summary[["planner"] + [c for c in full_summary.columns
-                                                         if c.startswith("mean ")]]
+    report.tables["means"] = _summary_columns(full_summary.drop(
+        columns=["time budget", "runs", *tables.OUTCOMES], errors="ignore"), "mean")
+    for name in ("summary", "means"):
+        _undefined_notes(report, name, runs)
     if runs["sampler"].fillna("").nunique() > 1:
         report.tables["per_sampler"] = _summary_columns(
             tables.summary(runs, by=["sampler", "planner"],
@@ -355,19 +429,25 @@ def _tables(report: Report, results, paths: list[Path], compare: Path | None,
             tables.summary(runs, by=["world", "planner"],
                            metrics=tables.metrics(results.metrics, ("planning_time_ms",))))
     if runs["sweep"].fillna("").nunique() > 1:
-        report.tables["sweep"] = _summary_columns(
+        sweep = _summary_columns(
             tables.summary(runs, by=["sweep", "planner"],
                            metrics=tables.metrics(results.metrics,
                                                   ("planning_time_ms", "expansions", "cost"))))
+        report.tables["sweep"] = sweep.assign(sweep=sweep["sweep"].map(tables.sweep_name))
         if runs["planner"].nunique() >= 2:
             report.tables["sweep_winners"] = tables.sweep_winners(runs)
     if not (statistics := tables.statistics(runs, results.metrics)).empty:
         report.tables["statistics"] = statistics
-    report.tables["paired"] = tables.paired(runs)
+    report.tables["paired"] = tables.paired(runs, tables.comparable(results.metrics,
+                                                                    tables.PAIRED))
     # The field: three planners or more, each against the paper's lazy planner.
     if runs["planner"].nunique() >= 3 and "time_to_goal" not in runs.columns:
         report.tables["which_planner"] = tables.which_planner(
-            runs, tables.reference_planner(runs))
+            runs, tables.reference_planner(runs),
+            tables.comparable(results.metrics, tables.FIELD_METRICS))
+        _undefined_notes(report, "which_planner", runs)
+    if not results.stale.empty:
+        report.tables["stale"] = tables.status_counts(results.stale).reset_index()
     if reproduced:
         sampling_csv = sampling_csv or find_sampling_study(paths[0] if paths[0].is_dir()
                                                            else paths[0].parent)
@@ -394,35 +474,42 @@ def _summary_figures(report: Report, results, sampling_csv: Path | None,
     """The figures over all runs: time to solve, metrics, worlds, sweep, the sampling study."""
     runs = results.runs
     _save(plots.ecdf(runs), report, "ecdf_planning_time", "Time to solve",
-          "ECDF of planning time per planner; failed runs count as never solved.")
+          "ECDF of planning time per planner; every run but a success (exact and "
+          "checker-valid) counts as never solved: approximate answers and timeouts too.")
     _save(plots.boxes(runs, tables.metrics(results.metrics,
                                            ("planning_time_ms", "expansions", "duration",
-                                            "length", "jerk_integral"))),
-          report, "metrics", "Metrics per planner", "Box plots over successful runs.")
+                                            "length", "acceleration_integral"))),
+          report, "metrics", "Metrics per planner",
+          "Box plots over successful runs (N is each planner's own count of expansions).")
     if runs["world"].nunique() > 1:
-        _save(plots.per_world(runs), report, "per_world", "Per world",
-              "Success rate (Wilson 95 %) and median planning time per world.")
+        _save(plots.per_world(runs), report, "per_world", "Success and planning time per world",
+              "Success rate (exact and checker-valid; approximate answers and timeouts are not "
+              "successes; Wilson 95 %) and median planning time per world.")
     if "which_planner" in report.tables:
         for world in dict.fromkeys(runs["world"]):
             if (figure := plots.pareto(runs, world)) is not None:
-                _save(figure, report, f"pareto_{world}", f"Time against quality: {world}",
+                _save(figure, report, f"pareto_{_slug(world)}", f"Time against quality: {world}",
                       "Median planning time against median trajectory duration of the "
-                      "successful runs (bars: interquartile ranges), success in the legend; "
+                      "successful runs (bars: interquartile ranges), success (exact and "
+                      "checker-valid) in the legend; "
                       "dashed: the Pareto front (no planner both faster and shorter).")
     if (figure := plots.sweep(runs)) is not None:
-        _save(figure, report, "sweep", "Sweep", "Median planning time (bootstrap 95 %) "
-              "against the swept value.")
+        _save(figure, report, "sweep", "Planning time over the sweep", "Median planning time "
+              "of the successful runs (bootstrap 95 %) against the swept value.")
     if (figure := plots.sweep_success(runs)) is not None:
         _save(figure, report, "sweep_success", "Success over the sweep",
-              "Success rate (Wilson 95 %) per planner against the swept value.")
+              "Success rate (exact and checker-valid; approximate answers and timeouts are "
+              "not successes; Wilson 95 %) per planner against the swept value.")
     if (figure := plots.success_grid(runs)) is not None:
         _save(figure, report, "success_grid", "Success over the sweep's dimensions",
-              "Success rate (Wilson 95 %) against the sweep's first dimension of three values or "
+              "Success rate (exact and checker-valid, Wilson 95 %) against the sweep's first "
+              "dimension of three values or "
               "more, a line per planner and value of the next, a panel per value of the third "
               "(flights: over density, per planner and speed, a panel per camera range).")
-    if "sweep_winners" in report.tables and (
-            figure := plots.sweep_winners(report.tables["sweep_winners"])) is not None:
-        _save(figure, report, "sweep_winners", "Where each wins",
+    if "sweep_winners" in report.tables and (figure := plots.sweep_winners(
+            report.tables["sweep_winners"], colours=plots.planner_colours(runs["planner"]))
+            ) is not None:
+        _save(figure, report, "sweep_winners", "Where each wins, by sweep value",
               "Per sweep value, the planner with the least median planning time over the "
               "cases every planner solved, its median, the runner-up and the ratio of the "
               "runner-up's median to it. Hatched: the two are not told apart (paired Wilcoxon, "
@@ -433,7 +520,7 @@ def _summary_figures(report: Report, results, sampling_csv: Path | None,
     if readings is not None:
         _save(plots.sampling_readings(readings, paper.load(results.reproduces()[0]).samplers),
               report, "sampling_readings",
-              "Table I under every reading",
+              "Table I under every reading: alpha and L",
               "Per reading (distance, propagation, pooling): alpha against the threshold for "
               "each sampler and M, and L against M; stars and dashed lines: the paper's "
               "figures. With one Euler step the end position p + v tau does not depend on the "
@@ -456,16 +543,19 @@ def _case_figures(report: Report, results, out: Path) -> None:
             [int(tree_run["query"])] if tree_run is not None
             and tree_run["world_hash"] == world.world_hash and tree_run["query"] != query else []))
         if (figure := plots.trajectories(results, world, query)) is not None:
-            _save(figure, report, f"trajectories_{world.id}", f"Trajectories in {world.id}",
+            _save(figure, report, f"trajectories_{_slug(world.label)}",
+                  f"Trajectories in {world.label}",
                   f"Query {query}: every planner's trajectory (dashed: not a success) from "
-                  "above and from the side; start green, goal red.")
+                  "above and from the side; start: black circle, goal: grey star.")
         if "time_to_goal" in runs.columns and (
                 figure := plots.speeds(results, world, query)) is not None:
-            _save(figure, report, f"speeds_{world.id}", f"Speed and clearance in {world.id}",
+            _save(figure, report, f"speeds_{_slug(world.label)}",
+                  f"Speed and clearance in {world.label}",
                   f"Query {query}: each planner's flight, its speed and its clearance to the "
                   "ground truth (the ESDF less the body's radius) against time.")
         if (figure := plots.known_maps(results, world, query)) is not None:
-            _save(figure, report, f"known_maps_{world.id}", f"Known maps in {world.id}",
+            _save(figure, report, f"known_maps_{_slug(world.label)}",
+                  f"Known maps in {world.label}",
                   f"Query {query}: what each flight had seen at its end, from above in the "
                   "band of its heights (black: obstacle, white: known free, grey: unknown), "
                   "and its flown path.")
@@ -483,7 +573,8 @@ def _case_figures(report: Report, results, out: Path) -> None:
                                      "growing from above (black: obstacle, white: known free, "
                                      "grey: unknown) and the path flown so far.",
                                      base64.b64encode(gif).decode("ascii"), "image/gif"))
-    if (figure := plots.replan_times(results.replans())) is not None:
+    if (figure := plots.replan_times(results.replans(),
+                                     plots.planner_colours(runs["planner"]))) is not None:
         _save(figure, report, "replan_times", "Replan times",
               "Every replan of every flight: its planning time, per planner.")
     if (run := tree_run) is not None:
@@ -519,8 +610,12 @@ def _write_page(report: Report, results, out: Path, compare_name: str,
     html = jinja2.Environment(autoescape=True).from_string(TEMPLATE).render(
         name=results.meta.get("name", "results"), meta=results.meta,
         databases=", ".join(str(p) for p in results.paths), provenance=provenance,
-        tables={k: jinja2.utils.markupsafe.Markup(_html(v)) for k, v in report.tables.items()},
+        tables={name: jinja2.utils.markupsafe.Markup(_parts(name, table))
+                for name, table in report.tables.items()},
         figures=report.figures, views=report.views, warnings=report.warnings,
+        notes=report.notes, paired_metrics=", ".join(
+            metric for metric in tables.comparable(results.metrics, tables.PAIRED)
+            if metric in runs and metric != "cost"),
         compare_name=compare_name,
         timing_protocol=timing_protocol(results.meta), readings_verdict=readings_verdict,
         regime_sources=f": {regime_sources}" if regime_sources else "",
@@ -546,8 +641,13 @@ def _progress_figures(report: Report, results: Results) -> None:
         figure = plots.anytime(results.runs, results.progress, name, unit)
         if figure is None:
             continue
-        _save(figure, report, f"progress_{name}", f"Anytime progress: {name}",
-              f"{declared['doc'].iloc[0]}. Per planner, the median (line) and interquartile "
+        own = name not in tables.comparable(results.metrics, (name,))
+        _save(figure, report, f"progress_{name}",
+              f"Anytime progress: {name}" + (" (own objective)" if own else ""),
+              f"{declared['doc'].iloc[0]}" + (
+                  ": each planner's own quantity, to be set side by side only between planners "
+                  "of one objective" if own else "") +
+              ". Per planner, the median (line) and interquartile "
               "range (band) over all its runs, each read as a step function of its planning "
               "time: before a run's first value it counts as infinite (unsolved), after its "
               "last one it keeps that value, so no run drops out. Below: the share of runs "
@@ -561,6 +661,7 @@ def write(paths: list[Path], out: Path, compare: Path | None = None,
     results = load(paths, allow_mixed)
     report = Report(out)
     report.warnings += load_warnings(results.runs, results.meta)
+    report.warnings += stale_warnings(results.stale)
     if "experiment" in results.runs and results.runs["experiment"].nunique() > 1:
         counts = results.runs["experiment"].value_counts().sort_index()
         report.warnings.append(
@@ -578,6 +679,19 @@ def write(paths: list[Path], out: Path, compare: Path | None = None,
     _progress_figures(report, results)
     _write_page(report, results, out, compare_name, readings_verdict, regime_sources)
     return report
+
+
+def stale_warnings(stale: pd.DataFrame) -> list[str]:
+    """A warning when the directory holds runs of an earlier configuration of the experiment
+    (data.load keeps them apart): how many, of which planners."""
+    if stale.empty:
+        return []
+    counts = stale["planner"].value_counts().sort_index()
+    return [f"{len(stale):,} stored runs are of an earlier configuration of this experiment "
+            "(a planner's parameters changed, then --resume): "
+            + ", ".join(f"{planner} {count:,}" for planner, count in counts.items())
+            + ". They stay in the file and are left out of every table and figure but the "
+            "count under \"Runs by status\"."]
 
 
 def load_warnings(runs: pd.DataFrame, meta: dict[str, str]) -> list[str]:
@@ -667,7 +781,10 @@ def terminal_summary(report: Report) -> str:
         lines += ["  " + line for line in tables.to_markdown(table2[columns]).splitlines()]
     else:
         lines.append("per planner (medians, 95 % intervals):")
-        lines += ["  " + line for line in tables.to_markdown(report.tables["summary"]).splitlines()]
+        parts = tables.split(report.tables["summary"], ["planner"])
+        for part in (parts[""], parts.get("time")):
+            if part is not None:
+                lines += ["  " + line for line in tables.to_markdown(part).splitlines()]
     lines.append(f"{len(report.figures)} figures (PNG and SVG) in {report.out / 'figures'}; "
                  f"tables (Markdown, LaTeX) in {report.out / 'tables'}")
     return "\n".join(lines)

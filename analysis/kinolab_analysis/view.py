@@ -13,6 +13,7 @@ import numpy as np
 import pandas as pd
 
 from .data import EDGE_STATES as STATES, Results, World
+from .plots import planner_colours
 
 
 def template_path() -> Path | None:
@@ -52,12 +53,14 @@ def _known(results: Results, run_hash: str) -> dict | None:
 
 
 def scene(results: Results, world: World, queries: list[int]) -> dict:
-    """The scene of one world: its obstacles and the given queries' stored runs."""
+    """The scene of one world (a sweep's variant: its label) with its obstacles and the given
+    queries' stored runs, each planner in its colour of every figure of the report."""
     r = world.resolution
+    colours = planner_colours(results.runs["planner"])
     document = {
         "format": "kinolab-scene", "version": 1,
-        "title": f"{results.meta.get('name', 'results')}: {world.id}",
-        "world": {"name": world.id, "spec_hash": world.world_hash, "resolution": r,
+        "title": f"{results.meta.get('name', 'results')}: {world.label}",
+        "world": {"name": world.label, "spec_hash": world.world_hash, "resolution": r,
                   "origin": _flat(world.origin), "dims": list(map(int, world.dims)),
                   "stride": int(world.box_stride),
                   "boxes": world.boxes.ravel().astype(int).tolist()},
@@ -89,6 +92,9 @@ def scene(results: Results, world: World, queries: list[int]) -> dict:
             if tree is not None and len(tree):
                 entry["trees"].append({"planner": run["planner"], "edges": _tree_edges(tree)})
         document["queries"].append(entry)
+    drawn = {item["planner"] for query in document["queries"]
+             for kind in ("trajectories", "trees", "flights") for item in query[kind]}
+    document["colours"] = {name: colours[name] for name in sorted(drawn)}
     return document
 
 

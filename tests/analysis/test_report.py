@@ -226,3 +226,119 @@ def test_the_lazy_regime_and_table_one_readings_beside_a_reproduction(results, t
     assert "the paper&#39;s ranking random &lt; uniform &lt; normal holds for alpha in" in html
     assert "Warm: in each run&#39;s worker, 1 discarded plan(s)" in html
     assert (out / "tables" / "worlds.md").read_text().count("| small |") == 1
+
+
+FAMILIES = """kind: planning
+name: families
+seed: 3
+worlds:
+  - id: small
+    spec:
+SPEC
+queries:
+  random: {count: 3, min_distance: 4, max_distance: 9}
+planners:
+  - {id: lazy, type: lazy_mp_astar}
+  - {id: hybrid, type: hybrid_astar}
+  - {id: bit, type: ompl_geometric, params: {time_limit: LIMIT}}
+budget: {time: 3}
+timing: {warmup: 0, repeats: 1}
+store: {trajectories: true}
+sweep:
+  grid:
+    worlds.small.spec.generators.0.density: [0.05, 0.15]
+""".replace("SPEC\n", textwrap.indent(
+    (SOURCE_DIR / "tests/support/small_forest.yaml").read_text(), " " * 6))
+
+
+@pytest.fixture(scope="module")
+def families(tmp_path_factory):
+    """Three planners of three families (three objectives) on a sweep over the world's
+    density, one planner with its own time limit: the results directory and its report."""
+    base = tmp_path_factory.mktemp("families")
+    (base / "families.yaml").write_text(FAMILIES.replace("LIMIT", "1"))
+    run = kinolab("run", base / "families.yaml", "--out", base / "out", "-j", "2",
+                  cache=base / "cache")
+    assert run.returncode == 0, run.stderr
+    report = kinolab("report", base / "out", cache=base / "cache")
+    assert report.returncode == 0, report.stderr
+    return base, base / "out" / "report"
+
+
+def test_a_study_of_planner_families_reports_what_a_reviewer_accepts(families):
+    base, report = families
+    html = (report / "index.html").read_text()
+    # Each world variant of the sweep is its own world, in tables, figures and 3D views, and
+    # no two sections share a heading.
+    worlds = (report / "tables" / "worlds.md").read_text()
+    assert worlds.count("| small (density=0.05) |") == 1, worlds
+    assert worlds.count("| small (density=0.15) |") == 1, worlds
+    headings = re.findall(r"<h[23]>(.*?)</h[23]>", html)
+    assert len(headings) == len(set(headings)), sorted(headings)
+    assert {"Trajectories in small (density=0.05)", "Trajectories in small (density=0.15)",
+            "small (density=0.05) in 3D"} <= set(headings)
+    # The budget each planner ran under, its own where its entry set one.
+    summary = (report / "tables" / "summary.md").read_text()
+    assert "| bit | 1 s (own time_limit) | 6 |" in summary, summary
+    assert "| lazy | 3 s | 6 |" in summary, summary
+    # Success is exact; approximate answers, timeouts and failures have their own columns.
+    assert "| runs | success | approximate | timeout | failed |" in summary, summary
+    # Cost is each planner's own objective: three objectives here, so no test of cost.
+    with sqlite3.connect(base / "out" / "results.sqlite") as db:
+        objectives = dict(db.execute("SELECT planner, objective FROM runs"))
+    assert len(set(objectives.values())) == 3, objectives
+    paired = (report / "tables" / "paired.md").read_text()
+    assert "cost" not in paired and "acceleration_integral" in paired, paired
+    assert "cost (own objective)" in summary
+    # The motion primitives' jerk is undefined, never 0, and the note says why.
+    assert re.search(r"\| lazy \|[^\n]*\| undefined \|", summary), summary
+    assert "jerk_integral is undefined for 6 of 6 successful runs of lazy, not 0" in html
+
+
+def test_runs_of_an_earlier_configuration_are_counted_not_pooled(families, tmp_path):
+    """bit's time limit changed, then --resume into the same directory: its earlier runs
+    stay in the file, counted apart, never pooled with the new ones."""
+    base, _ = families
+    shutil.copytree(base / "out", tmp_path / "out", ignore=shutil.ignore_patterns("report"))
+    (tmp_path / "families.yaml").write_text(FAMILIES.replace("LIMIT", "0.5"))
+    run = kinolab("run", tmp_path / "families.yaml", "--out", tmp_path / "out", "--resume",
+                  "-j", "2", cache=base / "cache")
+    assert run.returncode == 0, run.stderr
+    report = kinolab("report", tmp_path / "out", cache=base / "cache")
+    assert report.returncode == 0, report.stderr
+    assert "6 stored runs are of an earlier configuration of this experiment" in report.stdout
+    tables = tmp_path / "out" / "report" / "tables"
+    assert "| bit | 6 | 6 |" in (tables / "stale.md").read_text()
+    assert "| bit | 0.5 s (own time_limit) | 6 |" in (tables / "summary.md").read_text()
+    assert sum(int(line.split("|")[-2]) for line in
+               (tables / "status_counts.md").read_text().splitlines()[2:]) == 18
+
+
+def test_a_version_7_database_keeps_cost_within_a_planner_type(families, tmp_path):
+    """Before schema 8 (no objective, no comparability, no planned table): cost is each
+    planner type's own objective, every other result metric compares, every run is current."""
+    import pandas as pd
+    from kinolab_analysis import data, tables
+
+    base, _ = families
+    old = tmp_path / "old.sqlite"
+    shutil.copy(base / "out" / "results.sqlite", old)
+    with sqlite3.connect(old) as db:
+        db.execute("UPDATE meta SET value = '7' WHERE key = 'schema_version'")
+        db.execute("DROP TABLE planned")
+        for column in ("objective", "time_limit", "time_limit_own", "undefined"):
+            db.execute(f"ALTER TABLE runs DROP COLUMN {column}")
+        for column in ("direction", "comparable"):
+            db.execute(f"ALTER TABLE metrics DROP COLUMN {column}")
+    results = data.load(old)
+    assert len(results.runs) == 18 and results.stale.empty
+    assert (results.runs["objective"] == results.runs["planner_type"]).all()
+    assert tables.comparable(results.metrics, ("cost", "duration", "expansions")) == (
+        "cost", "duration")
+    # lazy2, a copy of lazy: the one pair of one planner type, so the one cost test.
+    runs = results.runs
+    twin = pd.concat([runs, runs[runs["planner"] == "lazy"].assign(planner="lazy2")])
+    paired = tables.paired(twin, tables.comparable(results.metrics, tables.PAIRED))
+    tested = paired[paired["metric"] == tables.OWN_COST]
+    assert list(zip(tested["a"], tested["b"])) == [("lazy", "lazy2")]
+    assert tables.budgets(results.runs)["bit"] == ""

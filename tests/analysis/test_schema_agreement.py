@@ -31,8 +31,9 @@ def test_the_schema_version_read_is_the_one_written(schema):
 
 
 def test_edge_states_are_kinolabs_in_the_report_and_the_viewer(schema):
-    # The report colours each state (data.EDGE_COLOURS); the viewer shades its planner's hue
-    # per state (EDGE_STATES in viewer.js): both know exactly kinolab's states, in order.
+    # The report colours each state (data.EDGE_COLOURS) and the viewer draws it in the same
+    # colour (EDGE_STATES in viewer.js; test_comparisons holds the colours equal): both know
+    # exactly kinolab's states, in order.
     assert list(data.EDGE_STATES) == schema["edge_states"]
     assert list(data.EDGE_COLOURS) == schema["edge_states"]
     viewer = (SOURCE / "viewer" / "viewer.js").read_text()

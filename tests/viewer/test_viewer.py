@@ -1,10 +1,14 @@
 """The 3D viewer in headless Chromium (Debian's chromium and chromedriver, through
 Selenium): the page kinolab writes renders a canvas that is not blank, each layer's
-checkbox toggles what is drawn, and a flight's replay grows its known map."""
+checkbox toggles what is drawn, a flight's replay grows its known map, planners and tree
+edge states have the report's colours, dense trees are thinned; and a report reads at
+1,100 and 1,600 px."""
 
 import os
+import re
 import shutil
 import subprocess
+import sys
 from pathlib import Path
 
 import pytest
@@ -16,6 +20,8 @@ from selenium.webdriver.support.ui import WebDriverWait
 SOURCE_DIR = Path(os.environ.get("KINOLAB_SOURCE_DIR", Path(__file__).resolve().parents[2]))
 BINARY = os.environ.get("KINOLAB_BIN", str(SOURCE_DIR / "build" / "framework" / "kinolab"))
 WORLD = SOURCE_DIR / "tests" / "support" / "small_forest.yaml"
+sys.path.insert(0, str(SOURCE_DIR / "analysis"))
+from kinolab_analysis import data, plots, view  # noqa: E402  (the source tree's package)
 
 
 def kinolab(*args, tmp_path):
@@ -78,12 +84,17 @@ def test_a_plans_view_renders_and_every_layer_toggles(browser, tmp_path):
         hidden = click(browser, layer)
         assert hidden[0] <= everything[0] and hidden[1] != everything[1], f"hiding {layer}"
         assert click(browser, layer) == everything, f"showing {layer} again changed the view"
-    # One planner alone: its tree is shown, every state a shade of the trajectory's hue.
+    # One planner alone: its tree is shown, each edge state in the 2D figures' colour, the
+    # trajectory in the report's colour of the planner (the page's scene brings none: the
+    # viewer computes the same).
     checked = browser.execute_script(
         "return [...document.querySelectorAll('#layers input[type=checkbox]')]"
         ".filter(i => i.id.includes('-tree-')).map(i => i.checked)")
     assert checked and all(checked)
-    assert same_hue(hues(browser, "q0-tree-lazy_mp_astar-"), hues(browser, "q0-trajectory-")[0])
+    for state in ("partial", "full"):
+        assert swatches(browser, f"q0-tree-lazy_mp_astar-{state}") == [data.EDGE_COLOURS[state]]
+    assert swatches(browser, "q0-trajectory-") == [
+        plots.planner_colours(["lazy_mp_astar"])["lazy_mp_astar"]]
     # Without obstacles or trees, only the trajectory over the floor remains; then the floor.
     for layer in layers:
         if layer != "q0-trajectory-lazy_mp_astar":
@@ -93,24 +104,41 @@ def test_a_plans_view_renders_and_every_layer_toggles(browser, tmp_path):
     assert click(browser, "q0-trajectory-lazy_mp_astar")[0] < alone
 
 
-def hues(browser, prefix):
-    """The hues (0-359) of the legend swatches of the layers whose ids start with `prefix`."""
+def swatches(browser, prefix):
+    """The legend swatch colours (#rrggbb) of the layers whose ids start with `prefix`."""
     values = browser.execute_script(
         "return [...document.querySelectorAll('#layers input')].filter(i => i.id.startsWith("
         "'layer-' + arguments[0])).map(i => getComputedStyle(i.nextSibling).backgroundColor)",
         prefix)
-    def hue(css):
-        import colorsys
-        r, g, b = (int(v) / 255 for v in css[css.index("(") + 1:css.index(")")].split(",")[:3])
-        return round(colorsys.rgb_to_hsv(r, g, b)[0] * 360) % 360
-    found = [hue(v) for v in values]
-    assert found, f"no layer starts with {prefix}"
-    return found
+    return ["#%02x%02x%02x" % tuple(int(v) for v in re.findall(r"\d+", css)[:3])
+            for css in values]
 
 
-def same_hue(shades, hue):
-    """Every shade within 3 degrees of `hue` (8-bit channels round a shade's hue a little)."""
-    return all(min(abs(h - hue), 360 - abs(h - hue)) <= 3 for h in shades)
+def test_a_dense_tree_is_thinned_and_the_legend_says_so(browser, tmp_path):
+    """10,000 partial edges of five segments: 3,000 drawn, evenly chosen, whole."""
+    template = Path(os.environ.get("KINOLAB_VIEWER") or
+                    Path(BINARY).resolve().parents[1] / "share" / "kinolab" / "viewer.html")
+    edges = []
+    for k in range(10_000):
+        x, y = k % 100 * 0.1, k // 100 * 0.1
+        points = [(x, y + 0.02 * i, 1.0) for i in range(6)]
+        edges += [c for a, b in zip(points, points[1:]) for c in (*a, *b)]
+    scene = {"format": "kinolab-scene", "version": 1, "title": "dense",
+             "world": {"name": "w", "spec_hash": "h", "resolution": 0.1, "origin": [0, 0, 0],
+                       "dims": [100, 100, 30], "stride": 1, "boxes": [0, 0, 0, 1, 1, 1]},
+             "queries": [{"name": "q", "start": [0, 0, 1], "goal": [9, 9, 1],
+                          "trajectories": [{"planner": "lazy", "points": [0, 0, 1, 9, 9, 1]}],
+                          "trees": [{"planner": "lazy", "edges": {
+                              "partial": edges, "full": edges[:60], "certified": [],
+                              "rejected": []}}], "flights": []}]}
+    (tmp_path / "dense.html").write_text(view.page(scene, template))
+    open_view(browser, tmp_path / "dense.html")
+    legend = browser.execute_script("return document.body.innerText")
+    assert "lazy: partial edges (3,000 of 10,000 drawn)" in legend, legend
+    assert "lazy: full edges (2)" in legend, legend
+    segments = browser.execute_script(
+        "return ['partial', 'full'].map(s => kinolabViewer.segments('q0-tree-lazy-' + s))")
+    assert segments == [3000 * 5, 2 * 5]
 
 
 def test_the_query_is_framed_clear_of_the_panel(browser, tmp_path):
@@ -200,9 +228,12 @@ def test_a_python_scene_with_two_results_of_one_name_keeps_both_layers(browser, 
 REPORT_EXPERIMENT = """kind: planning
 name: wide
 seed: 3
-worlds: [{{id: forest, spec: {world}}}]
+worlds:
+  - id: forest
+    spec:
+SPEC
 queries:
-  random: {{count: 6, min_distance: 3, max_distance: 8}}
+  random: {count: 6, min_distance: 3, max_distance: 8}
 planners:
   - id: eager
     type: eager_mp_astar
@@ -210,53 +241,65 @@ planners:
     type: lazy_mp_astar
   - id: tgk
     type: rrtstar_ceres
-reproduces: {{paper: lazy_mp_astar_paper, rows: {{eager: MP-A*, lazy: Lazy, tgk: TGK}}}}
-budget: {{time: 5, memory_mb: 2048}}
-timing: {{warmup: 0, repeats: 1}}
-store: {{trajectories: true, trees: 1}}
+reproduces: {paper: lazy_mp_astar_paper, rows: {eager: MP-A*, lazy: Lazy, tgk: TGK}}
+budget: {time: 5, memory_mb: 2048}
+timing: {warmup: 0, repeats: 1}
+store: {trajectories: true, trees: 1}
 sweep:
   grid:
     planners.lazy.params.edge_samples: [2, 20]
+    worlds.forest.spec.generators.0.density: [0.05, 0.1]
 """
 
 
-def test_a_report_fits_a_1100_pixel_window(browser, tmp_path):
-    """The report of a three-planner sweep with the paper's table (its widest tables) read at
-    1,100 px: the page never scrolls sideways; a table still wider than its column scrolls in
-    its own box."""
+def test_a_report_reads_at_1100_pixels_and_uses_the_width_at_1600(browser, tmp_path):
+    """The report of a three-planner sweep over a planner's and the world's parameters with
+    the paper's table (its widest tables) at 1,100 and 1,600 px: no table is wider than its
+    box (no column hidden behind a scroll), the page never scrolls sideways, and at 1,600 px
+    the page is wider than 1,300 px."""
     config = tmp_path / "wide.yaml"
-    config.write_text(REPORT_EXPERIMENT.format(world=WORLD))
+    config.write_text(REPORT_EXPERIMENT.replace("SPEC\n", "".join(
+        " " * 6 + line for line in WORLD.read_text().splitlines(keepends=True))))
     kinolab("run", config, "--out", tmp_path / "out", "-j", "2", tmp_path=tmp_path)
     kinolab("report", tmp_path / "out", tmp_path=tmp_path)
     size = browser.get_window_size()
+    states = {}
     try:
-        browser.set_window_size(1100, 900)
-        browser.get((tmp_path / "out" / "report" / "index.html").resolve().as_uri())
-        WebDriverWait(browser, 60).until(
-            lambda b: b.execute_script("return document.readyState") == "complete")
-        state = browser.execute_script(
-            "const page = document.documentElement;"
-            "return {page: page.scrollWidth, view: page.clientWidth,"
-            " tables: document.querySelectorAll('table').length,"
-            " loose: [...document.querySelectorAll('table')]"
-            "   .filter(t => !t.closest('.wide') && t.getBoundingClientRect().right >"
-            "     page.clientWidth).length};")
+        for width in (1100, 1600):
+            browser.set_window_size(width, 900)
+            browser.get((tmp_path / "out" / "report" / "index.html").resolve().as_uri())
+            WebDriverWait(browser, 60).until(
+                lambda b: b.execute_script("return document.readyState") == "complete")
+            states[width] = browser.execute_script(
+                "const page = document.documentElement;"
+                "return {page: page.scrollWidth, view: page.clientWidth,"
+                " body: document.body.getBoundingClientRect().width,"
+                " tables: document.querySelectorAll('table').length,"
+                " hiding: [...document.querySelectorAll('table')]"
+                "   .filter(t => t.scrollWidth > t.parentElement.clientWidth)"
+                "   .map(t => [t.rows[0].innerText, t.scrollWidth, t.parentElement.clientWidth])};")
     finally:
         browser.set_window_size(size["width"], size["height"])
-    assert state["tables"] >= 8
-    assert state["page"] <= state["view"], state
-    assert state["loose"] == 0, state
-    # Its 3D view: lazy's trajectory is eager's (equal cost), and the legend says so.
-    open_view(browser, tmp_path / "out" / "report" / "view_forest.html")
+    for width, state in states.items():
+        assert state["tables"] >= 12, (width, state)
+        assert state["page"] <= state["view"], (width, state)
+        assert state["hiding"] == [], (width, state["hiding"])
+    assert states[1600]["body"] > 1300 and states[1100]["body"] < 1100, states
+    # A 3D view per world variant; lazy's trajectory is eager's (equal cost), and the legend
+    # says so.
+    views = sorted(p.name for p in (tmp_path / "out" / "report").glob("view_*.html"))
+    assert views == ["view_forest_density=0.05.html", "view_forest_density=0.1.html"], views
+    open_view(browser, tmp_path / "out" / "report" / views[0])
     legend = browser.execute_script("return document.body.innerText")
+    assert legend.startswith("wide: forest (density=0.05)\n"), legend
     assert "lazy: trajectory (the same as eager's)" in legend, legend
-    # Three planners share the view: one hue each, their trees' shades included, and no
-    # tree shown until asked for.
-    trajectory_hues = {planner: hues(browser, f"q0-trajectory-{planner}")[0]
-                       for planner in ("eager", "lazy", "tgk")}
-    assert len(set(trajectory_hues.values())) == 3, trajectory_hues
+    # Three planners share the view, each in its colour of the report's figures; the trees'
+    # edge states in the figures' colours, and no tree shown until asked for.
+    colours = plots.planner_colours(["eager", "lazy", "tgk"])
+    for planner in ("eager", "lazy", "tgk"):
+        assert swatches(browser, f"q0-trajectory-{planner}") == [colours[planner]]
     for planner in ("eager", "lazy"):
-        assert same_hue(hues(browser, f"q0-tree-{planner}-"), trajectory_hues[planner])
+        assert swatches(browser, f"q0-tree-{planner}-full") == [data.EDGE_COLOURS["full"]]
     trees = browser.execute_script(
         "return [...document.querySelectorAll('#layers input')].filter(i => i.id.includes("
         "'-tree-')).map(i => i.checked)")
