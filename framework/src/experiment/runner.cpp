@@ -215,12 +215,18 @@ namespace {
 
 /// Refuses a query whose start or goal no planner of `variant` could plan from or to (outside
 /// the map, or in collision for the planner's body), naming the world, the query and why:
-/// the run would otherwise end invalid_start or invalid_goal for every such planner.
+/// the run would otherwise end invalid_start or invalid_goal for every such planner. The body
+/// is read from the planner's parameters (`robot_radius`, `collision_tolerance`; a point
+/// without them): no plugin code runs in the runner's own process.
 void requireValidQueries(const ExperimentVariant& variant, const ExperimentWorld& world,
                          const World& built, const std::vector<PlanningQuery>& queries) {
   for (const ExperimentPlanner& planner : variant.planners) {
-    const PlanningModel model =
-        configurePlanner(planner.type, planner.assignments).planner->model();
+    const ParameterSet& parameters = planner.parameters;
+    PlanningModel model;
+    model.robot_radius = parameters.has("robot_radius") ? parameters.real("robot_radius") : 0.0;
+    if (parameters.has("collision_tolerance")) {
+      model.collision_tolerance = parameters.real("collision_tolerance");
+    }
     for (std::size_t q = 0; q < queries.size(); ++q) {
       for (const auto& [what, position] :
            {std::pair<const char*, Eigen::Vector3d>{"start", queries[q].start.col(0)},
@@ -295,7 +301,8 @@ std::string describeRuns(const Experiment& experiment, const std::vector<RunSpec
 
 namespace {
 
-/// Checks the shard's database: refuses another experiment (another name), another shard,
+/// Checks the shard's database: refuses another experiment (another name or master seed: its
+/// cases are others), another shard,
 /// another schema and (without --resume) one that holds runs; records the meta, the metric
 /// declarations and the runs planned now. With --resume the experiment may have grown or
 /// changed (planners, queries, repetitions, sweep values added; parameters changed): the runs
@@ -305,9 +312,11 @@ void prepareStore(ResultsStore& store, const Experiment& experiment, const Runne
   const std::string shard = options.shard.text();
   if (const auto stored = store.meta("config_hash")) {
     const std::string name = store.meta("name").value_or("");
-    if (name != experiment.name) {
-      throw ConfigError(store.path() + " holds another experiment ('" + name + "', this one is '" +
-                        experiment.name + "'); choose another --out directory");
+    const std::string seed = store.meta("seed").value_or("");
+    if (name != experiment.name || seed != std::to_string(experiment.seed)) {
+      throw ConfigError(store.path() + " holds another experiment ('" + name + "', seed " + seed +
+                        "; this one is '" + experiment.name + "', seed " +
+                        std::to_string(experiment.seed) + "); choose another --out directory");
     }
     if (*stored != experiment.config_hash && !options.resume) {
       throw ConfigError(store.path() + " holds runs of experiment '" + name +
@@ -333,6 +342,7 @@ void prepareStore(ResultsStore& store, const Experiment& experiment, const Runne
   }
   std::map<std::string, std::string> meta = {
       {"name", experiment.name},
+      {"seed", std::to_string(experiment.seed)},
       {"source", experiment.source},
       {"config", experiment.canonical},
       {"config_hash", experiment.config_hash},
