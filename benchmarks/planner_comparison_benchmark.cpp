@@ -32,7 +32,7 @@ void compare(benchmark::State& state, const std::string& planner,
       if (result.status != PlanStatus::kExact || !result.check.valid) continue;
       durations.push_back(result.trajectory.duration());
       lengths.push_back(result.trajectory.length());
-      efforts.push_back(result.check.evaluation.acceleration_integral);
+      efforts.push_back(result.evaluation.acceleration_integral);
     }
   }
   state.counters["success_pct"] = 100.0 * static_cast<double>(durations.size()) / runs;

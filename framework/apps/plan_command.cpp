@@ -76,7 +76,7 @@ void runPlan(const PlanOptions& options) {
   if (!result.trajectory.empty()) {
     if (result.check.valid) {
       std::printf("  checker    valid (min clearance %.3f m)\n",
-                  result.check.evaluation.min_clearance);
+                  result.evaluation.min_clearance);
     } else {
       std::printf("  checker    INVALID, %s check: %s\n", result.check.check.c_str(),
                   result.check.detail.c_str());

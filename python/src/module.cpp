@@ -280,7 +280,9 @@ py::object treeArrays(const PyResult& self) {
   return dict;
 }
 
-py::dict checkDict(const CheckResult& check) {
+/// The checker's verdict and its evaluation of the trajectory.
+py::dict checkDict(const PlanResult& result) {
+  const CheckResult& check = result.check;
   py::dict dict;
   dict["valid"] = check.valid;
   dict["check"] = check.check;
@@ -289,7 +291,7 @@ py::dict checkDict(const CheckResult& check) {
   dict["position"] = py::make_tuple(check.position.x(), check.position.y(), check.position.z());
   // The evaluation, typed as every run's (evaluationMetrics()).
   const MetricList<TrajectoryEvaluation>& evaluation = evaluationMetrics();
-  for (const auto& [name, value] : evaluation.values(check.evaluation)) {
+  for (const auto& [name, value] : evaluation.values(result.evaluation)) {
     if (const auto* number = std::get_if<double>(&value)) {
       dict[py::str(name)] = *number;
     } else if (const auto* text = std::get_if<std::string>(&value)) {
@@ -517,7 +519,7 @@ void bindResult(py::module_& m) {
           "duration", [](const PyResult& r) { return r.result.trajectory.duration(); },
           "the trajectory's duration, seconds")
       .def_property_readonly(
-          "check", [](const PyResult& r) { return checkDict(r.result.check); },
+          "check", [](const PyResult& r) { return checkDict(r.result); },
           "the independent checker's verdict: valid, check, detail, min_clearance, ...")
       .def_property_readonly("metrics", &metricsDict,
                              "every metric of the schema and the planner's statistics, by name")

@@ -49,7 +49,7 @@ TEST(TrajectoryChecker, AcceptsAFreeLineAndReportsClearance) {
   EXPECT_GT(result.samples, 200);
   // Nearest obstacle: the box top (its face at z = 2), 0.7 below; radius 0.25. Exact: the
   // samples at x in [5, 5.4] are straight above the face.
-  EXPECT_NEAR(result.evaluation.min_clearance, 0.45, 1e-9);
+  EXPECT_NEAR(checker.evaluate(over).min_clearance, 0.45, 1e-9);
   EXPECT_DOUBLE_EQ(result.body_radius, 0.24);  // radius less the collision tolerance
 }
 
@@ -69,8 +69,9 @@ TEST(TrajectoryChecker, MinClearanceIsTheExactDistanceToTheCubes) {
                               p.z() - 2.0);
     least = std::min(least, gap.norm());
   }
-  EXPECT_GE(result.evaluation.min_clearance + 0.25, least - 1e-9);
-  EXPECT_LE(result.evaluation.min_clearance + 0.25, least + 0.0125);
+  const double min_clearance = checker.evaluate(past).min_clearance;
+  EXPECT_GE(min_clearance + 0.25, least - 1e-9);
+  EXPECT_LE(min_clearance + 0.25, least + 0.0125);
 }
 
 TEST(TrajectoryChecker, MeanClearanceIsTheMeanExactDistanceAtItsSamples) {
@@ -93,7 +94,7 @@ TEST(TrajectoryChecker, MeanClearanceIsTheMeanExactDistanceAtItsSamples) {
     sum += box(p);
     trilinear += room()->esdf().distance(p);
   }
-  EXPECT_NEAR(result.evaluation.mean_clearance, sum / result.samples - 0.25, 1e-9);
+  EXPECT_NEAR(checker.evaluate(past).mean_clearance, sum / result.samples - 0.25, 1e-9);
   EXPECT_GT(std::abs(trilinear - sum) / result.samples, 1e-4);  // the test can tell them apart
 }
 
@@ -114,7 +115,7 @@ TEST(TrajectoryChecker, EvaluatesPiecewiseConstantAccelerationWithoutAJerkOfZero
   const TrajectoryChecker checker(room(), {});
   const CheckResult result = checker.check(turn, queryFor(turn));
   ASSERT_TRUE(result.valid) << result.check << ": " << result.detail;
-  const TrajectoryEvaluation& e = result.evaluation;
+  const TrajectoryEvaluation e = checker.evaluate(turn);
   EXPECT_DOUBLE_EQ(e.duration, 2.0);
   EXPECT_TRUE(std::isnan(e.jerk_integral));
   EXPECT_NE(e.undefined.find("jerk_integral: the acceleration jumps at 1 joint"), std::string::npos)

@@ -815,17 +815,16 @@ class FlightLoop {
     check_query.goal = query_.goal;
     check_query.require_goal = false;
     const CheckResult check = checker_.check(result_.flown, check_query);
-    result_.evaluation = check.evaluation;
     if (!check.valid && check.check == "collision") {
       result_.status = "collision";
       result_.message =
           "the flown trajectory hits the ground truth at t = " + std::to_string(check.time) +
           " s: " + check.detail;
       result_.flown = slice(result_.flown, check.time);
-      result_.evaluation = checker_.evaluate(result_.flown);
     } else if (!check.valid) {
       result_.message = "the checker: " + check.check + ": " + check.detail;
     }
+    result_.evaluation = checker_.evaluate(result_.flown);
     result_.min_clearance = result_.evaluation.min_clearance;
     result_.inside_margin = result_.min_clearance < settings_.planning_margin;
     if (!result_.flown.empty()) {

@@ -54,7 +54,7 @@ const MetricList<PlanResult>& planMetrics() {
                    .comparable(),
                number(&R::distance_to_goal))
           .include(evaluationMetrics(),
-                   [](const R& r) { return r.trajectory.empty() ? nullptr : &r.check.evaluation; })
+                   [](const R& r) { return r.trajectory.empty() ? nullptr : &r.evaluation; })
           .add(MetricSpecs()
                    .boolean("checker_valid", "the independent checker accepts the trajectory")
                    .higher()

@@ -171,6 +171,7 @@ PlanResult Planner::plan(const PlanningQuery& query, const Budget& budget, Searc
   check_query.require_goal = result.status == PlanStatus::kExact;
   const auto check_begin = std::chrono::steady_clock::now();
   result.check = checker_->check(result.trajectory, check_query);
+  result.evaluation = checker_->evaluate(result.trajectory);
   result.statistics.emplace_back(
       "time_check_ms",
       std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - check_begin)

@@ -301,7 +301,6 @@ CheckResult TrajectoryChecker::check(const Trajectory& trajectory, const CheckQu
     violation(result, "empty", 0.0, query.start.col(0), "no trajectory");
     return result;
   }
-  result.evaluation = evaluate(trajectory);
   result.valid = checkStart(trajectory, query, result) && checkLimits(trajectory, result) &&
                  checkCollision(trajectory, result) && checkGoal(trajectory, query, result);
   return result;

@@ -70,8 +70,8 @@ TEST(HybridAstar, TheBsplineBackEndSmoothsWithinTheLimitsOrKeepsTheFrontEnd) {
       ++smoothed;
       // A B-spline: continuous acceleration, so a finite jerk integral (the front end's
       // piecewise-constant accelerations have none between their jumps).
-      EXPECT_GT(result.check.evaluation.jerk_integral, 0.0);
-      EXPECT_EQ(result.check.evaluation.undefined, "");
+      EXPECT_GT(result.evaluation.jerk_integral, 0.0);
+      EXPECT_EQ(result.evaluation.undefined, "");
     }
     EXPECT_TRUE(std::isfinite(statistic(result, "front_end_cost")));
   }

@@ -100,6 +100,8 @@ struct PlanResult {
   /// series in time order from the start of its work.
   Progress progress;
   CheckResult check;    ///< the independent checker's verdict on the trajectory
+  /// The checker's figures of the trajectory (empty: none), the same for every planner.
+  TrajectoryEvaluation evaluation;
   std::string message;  ///< why, for statuses other than exact
 };
 

@@ -86,8 +86,6 @@ struct CheckResult {
   std::string detail;  ///< what was violated, in words
   double time = 0.0;   ///< when, seconds from the trajectory's start
   Eigen::Vector3d position = Eigen::Vector3d::Zero();
-  /// The trajectory's figures, measured whatever the verdict (none for an empty trajectory).
-  TrajectoryEvaluation evaluation;
   int samples = 0;           ///< position samples checked
   double body_radius = 0.0;  ///< the sphere tested against the cubes (radius - tolerance)
 };
@@ -110,10 +108,12 @@ class TrajectoryChecker {
   const CheckerSettings& settings() const { return settings_; }
   double spacing() const { return spacing_; }
 
-  /// The verdict, with the trajectory's evaluation.
+  /// The verdict: fast, for planners that check inside their own work (a smoother's time
+  /// reallocation, a shot) as for the final check.
   CheckResult check(const Trajectory& trajectory, const CheckQuery& query) const;
-  /// The figures of a trajectory at the checker's position samples (clearance from the
-  /// world's exact distance) and from its polynomials (the integrals, exact).
+  /// The figures of a trajectory, whatever its verdict, at the checker's position samples
+  /// (clearance from the world's exact distance) and from its polynomials (the integrals,
+  /// exact): what every run reports, measured once, after the planner's clock stopped.
   TrajectoryEvaluation evaluate(const Trajectory& trajectory) const;
 
   /// True when the body at `position` touches an occupied voxel cube.
