@@ -206,6 +206,22 @@ def _comparability(metrics: pd.DataFrame) -> pd.DataFrame:
     return metrics
 
 
+def _undefined_zero_jerk(runs: pd.DataFrame) -> pd.DataFrame:
+    """Before version 8 the jerk integral of a piecewise-constant acceleration (order-2
+    motion primitives, stop-and-go paths) was stored as 0, where it is undefined (the jerk is
+    impulsive at the joints): such a 0 reads as undefined, with that reason."""
+    if "jerk_integral" not in runs:
+        return runs
+    runs = runs.copy()
+    zero = runs["jerk_integral"] == 0
+    runs.loc[zero, "jerk_integral"] = np.nan
+    reason = ("jerk_integral: stored as 0 before schema version 8, where a piecewise-constant "
+              "acceleration's impulsive jerk read 0")
+    previous = runs["undefined"].fillna("") if "undefined" in runs else pd.Series("", runs.index)
+    runs["undefined"] = previous.where(~zero, (previous + "\n" + reason).str.lstrip("\n"))
+    return runs
+
+
 def world_labels(runs: pd.DataFrame) -> dict[str, str]:
     """Per world hash, the world's name in a report: its id, or, when a sweep varies the world
     (one id, several hashes), the id with the values of the sweep's keys of that world
@@ -274,6 +290,8 @@ def load(paths: str | Path | list[str | Path], allow_mixed: bool = False) -> Res
             runs = _upgrade_v1(runs)
         if "objective" not in runs:  # before version 8: a planner type's cost is its own
             runs["objective"] = runs["planner_type"]
+        if version < 8:
+            runs = _undefined_zero_jerk(runs)
         if index == 0:
             meta = this_meta
         elif this_meta.get("config_hash") != meta.get("config_hash") and not allow_mixed:

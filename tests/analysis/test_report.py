@@ -330,7 +330,12 @@ def test_a_version_7_database_keeps_cost_within_a_planner_type(families, tmp_pat
             db.execute(f"ALTER TABLE runs DROP COLUMN {column}")
         for column in ("direction", "comparable"):
             db.execute(f"ALTER TABLE metrics DROP COLUMN {column}")
+        # Version 7 stored a piecewise-constant acceleration's jerk integral as 0.
+        db.execute("UPDATE runs SET jerk_integral = 0 WHERE planner = 'lazy'")
     results = data.load(old)
+    lazy = results.runs[results.runs["planner"] == "lazy"]
+    assert lazy["jerk_integral"].isna().all()
+    assert lazy["undefined"].str.contains("jerk_integral: stored as 0 before schema").all()
     assert len(results.runs) == 18 and results.stale.empty
     assert (results.runs["objective"] == results.runs["planner_type"]).all()
     assert tables.comparable(results.metrics, ("cost", "duration", "expansions")) == (

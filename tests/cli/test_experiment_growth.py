@@ -53,6 +53,9 @@ def test_the_experiments_budget_is_every_planners_budget(kinolab, tmp_path):
   - id: bit_own
     type: ompl_geometric
     params: {time_limit: 0.2}
+  - id: bit_none
+    type: ompl_geometric
+    params: {time_limit: 0, max_iterations: 2000}
 """
     path = write_experiment(tmp_path, planners, queries=1, extra="budget: {time: 2}\n")
     result = kinolab("run", path, "--out", tmp_path / "out")
@@ -65,6 +68,9 @@ def test_the_experiments_budget_is_every_planners_budget(kinolab, tmp_path):
     assert time >= 1500.0, "BIT* stopped at its own default, not at the experiment's budget"
     limit, own, _ = stored["bit_own"]
     assert (limit, own) == (0.2, 1)
+    # An own time_limit of 0 ("none") leaves the experiment's budget as its budget.
+    limit, own, _ = stored["bit_none"]
+    assert (limit, own) == (2.0, 0)
 
 
 def test_an_experiment_grows_in_place_with_resume(kinolab, tmp_path):
@@ -104,6 +110,10 @@ def test_an_experiment_grows_in_place_with_resume(kinolab, tmp_path):
     assert len(final) == 9 and len(stale) == 3  # the old lazy runs, kept apart
     assert {row[0] for row in rows(database, "SELECT planner FROM runs WHERE run_hash IN ("
                                    + ",".join(f"'{h}'" for h in stale) + ")")} == {"lazy"}
+
+    # --retry reruns only what the experiment still plans: the old lazy runs stay.
+    assert kinolab("run", changed, "--out", out, "--resume", "--retry", "exact").returncode == 0
+    assert stale <= {row[0] for row in rows(database, "SELECT run_hash FROM runs")}
 
     other = write_experiment(tmp_path, EAGER, queries=2, name="other")
     result = kinolab("run", other, "--out", out, "--resume")

@@ -160,6 +160,28 @@ TEST(TrajectoryChecker, EvaluatesASmoothTrajectoryInFull) {
   }
 }
 
+TEST(TrajectoryChecker, ACornerTurnedInPlaceHasNoMaximumCurvatureAndNoJerkOfZero) {
+  // A polyline flown at constant speed: 1 m along x, then 1 m along y. Its velocity jumps at
+  // the corner, so neither |a|^2 nor |j|^2 has a finite integral (both would read 0 from the
+  // polynomials), and its curvature there is unbounded; its turning per metre is the corner's
+  // right angle over the 2 m.
+  Trajectory corner;
+  corner.append(line({1, 1, 2.5}, {1, 0, 0}, 1.0).segments().front());
+  corner.append(line({2, 1, 2.5}, {0, 1, 0}, 1.0).segments().front());
+  const TrajectoryChecker checker(room(), {});
+  const TrajectoryEvaluation e = checker.evaluate(corner);
+  EXPECT_TRUE(std::isnan(e.acceleration_integral));
+  EXPECT_TRUE(std::isnan(e.jerk_integral));
+  EXPECT_TRUE(std::isnan(e.acceleration_jumps));
+  EXPECT_TRUE(std::isnan(e.max_curvature));
+  EXPECT_NEAR(e.mean_curvature, (M_PI / 2) / 2.0, 0.02);
+  for (const char* name : {"acceleration_integral", "acceleration_per_metre", "jerk_integral",
+                           "jerk_per_metre", "acceleration_jumps", "max_curvature"}) {
+    EXPECT_NE(e.undefined.find(std::string(name) + ": "), std::string::npos) << name;
+  }
+  EXPECT_NE(e.undefined.find("the velocity jumps at 1 joint"), std::string::npos) << e.undefined;
+}
+
 TEST(TrajectoryChecker, AnEmptyOrNonFiniteTrajectoryHasNoFigures) {
   const TrajectoryChecker checker(room(), {});
   EXPECT_TRUE(std::isnan(checker.evaluate(Trajectory()).length));

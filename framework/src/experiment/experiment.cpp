@@ -232,16 +232,6 @@ std::string acrossRule(const QuerySpec::Across& across) {
 
 }  // namespace
 
-std::string QuerySpec::canonicalText() const {
-  std::string text;
-  for (const auto& [start, goal] : fixed) {
-    text += "fixed " + formatPoint(start) + " " + formatPoint(goal) + ";";
-  }
-  text += "random " + std::to_string(random.count) + " " + randomRule(random) + ";";
-  text += "across " + std::to_string(across.count) + " " + acrossRule(across);
-  return text;
-}
-
 std::string QuerySpec::queryText(int index) const {
   const int fixed_count = static_cast<int>(fixed.size());
   if (index < fixed_count) {
@@ -263,14 +253,14 @@ std::string ExperimentPlanner::canonicalText() const {
 }
 
 bool ExperimentPlanner::ownTimeLimit() const {
+  // An own limit of 0 ("none") leaves the experiment's budget as the planner's.
   return std::any_of(assignments.begin(), assignments.end(),
-                     [](const ParameterAssignment& a) { return a.name == "time_limit"; });
+                     [](const ParameterAssignment& a) { return a.name == "time_limit"; }) &&
+         parameters.real("time_limit") > 0.0;
 }
 
 double ExperimentPlanner::timeLimit(const ExperimentBudget& budget) const {
-  // An own limit of 0 ("none") still runs within the experiment's budget.
-  const double own = ownTimeLimit() ? parameters.real("time_limit") : 0.0;
-  return own > 0.0 ? own : budget.time;
+  return ownTimeLimit() ? parameters.real("time_limit") : budget.time;
 }
 
 // ---- the experiment -------------------------------------------------------------------------

@@ -377,12 +377,16 @@ long long ResultsStore::removeRuns(const std::set<std::string>& statuses) {
       for (const char* table : {"statistics", "progress", "trajectories", "trees", "flights"}) {
         Statement remove(db_,
                          std::string("DELETE FROM ") + table +
-                             " WHERE run_hash IN (SELECT run_hash FROM runs WHERE status = ?)",
+                             " WHERE run_hash IN (SELECT run_hash FROM runs WHERE status = ? AND "
+                             "run_hash IN (SELECT run_hash FROM planned))",
                          path_);
         remove.add(status);
         remove.step(path_);
       }
-      Statement remove(db_, "DELETE FROM runs WHERE status = ?", path_);
+      // Only runs the experiment still plans: one it no longer plans would never run again.
+      Statement remove(
+          db_, "DELETE FROM runs WHERE status = ? AND run_hash IN (SELECT run_hash FROM planned)",
+          path_);
       remove.add(status);
       remove.step(path_);
       removed += sqlite3_changes(db_);
@@ -405,6 +409,13 @@ void ResultsStore::setPlanned(const std::vector<std::string>& run_hashes) {
 
 long long ResultsStore::runCount() const {
   Statement query(db_, "SELECT COUNT(*) FROM runs", path_);
+  query.step(path_);
+  return query.integer(0);
+}
+
+long long ResultsStore::plannedRunCount() const {
+  Statement query(db_, "SELECT COUNT(*) FROM runs WHERE run_hash IN (SELECT run_hash FROM planned)",
+                  path_);
   query.step(path_);
   return query.integer(0);
 }
@@ -572,7 +583,7 @@ ShardSet checkShards(const std::vector<std::string>& inputs, bool partial) {
     if (!set.indices.insert(parsed.index).second) {
       throw ConfigError("merge: shard " + *which + " is given twice (" + input + ")");
     }
-    const long long stored = shard.runCount();
+    const long long stored = shard.plannedRunCount();  // runs it no longer plans do not count
     set.planned += std::stoll(*planned);
     if (stored < std::stoll(*planned)) set.incomplete.push_back(parsed.text());
     if (!partial && stored < std::stoll(*planned)) {

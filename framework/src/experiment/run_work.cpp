@@ -79,8 +79,8 @@ std::string planRun(const Experiment& experiment, const RunSpec& run,
         experiment.store_tree_queries < 0 || run.query < experiment.store_tree_queries;
     // The timing protocol (TimingProtocol): warm-up plans, then timed ones; every plan of a
     // case repeats the same work (planners are deterministic in their seed and the query).
-    // A plan that spends the whole time budget it has (the tighter of the experiment's and the
-    // planner's own, Planner::budgetFor) would spend it again: it is the only one timed.
+    // A plan that spends the whole time budget it has (time_limit above, as the planner sees it
+    // through Planner::budgetFor) would spend it again: it is the only one timed.
     const double limit_ms = 1000.0 * configured.planner->budgetFor(budget).time_limit;
     const int plans = variant.timing.warmup + variant.timing.repeats;
     std::vector<double> timed;

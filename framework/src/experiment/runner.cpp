@@ -310,6 +310,13 @@ namespace {
 void prepareStore(ResultsStore& store, const Experiment& experiment, const RunnerOptions& options,
                   const std::vector<RunSpec>& runs) {
   const std::string shard = options.shard.text();
+  // Another schema first: its meta may lack what tells experiments apart.
+  if (const auto version = store.schemaVersion(); version && *version != kResultsSchemaVersion) {
+    throw ConfigError(store.path() + " holds results of schema version " +
+                      std::to_string(*version) + "; this kinolab writes version " +
+                      std::to_string(kResultsSchemaVersion) +
+                      ": run into a new --out directory (kinolab report still reads the old one)");
+  }
   if (const auto stored = store.meta("config_hash")) {
     const std::string name = store.meta("name").value_or("");
     const std::string seed = store.meta("seed").value_or("");
@@ -328,12 +335,6 @@ void prepareStore(ResultsStore& store, const Experiment& experiment, const Runne
     if (store.meta("shard").value_or(shard) != shard) {
       throw ConfigError(store.path() + " holds shard " + *store.meta("shard") + ", not " + shard);
     }
-  }
-  if (const auto version = store.schemaVersion(); version && *version != kResultsSchemaVersion) {
-    throw ConfigError(store.path() + " holds results of schema version " +
-                      std::to_string(*version) + "; this kinolab writes version " +
-                      std::to_string(kResultsSchemaVersion) +
-                      ": run into a new --out directory (kinolab report still reads the old one)");
   }
   if (const long long stored = store.runCount(); stored > 0 && !options.resume) {
     throw ConfigError(store.path() + " already holds " + std::to_string(stored) +

@@ -5,8 +5,10 @@
 
 #include <algorithm>
 #include <cmath>
+#include <initializer_list>
 #include <map>
 #include <mutex>
+#include <utility>
 
 #include "kinolab/core/error.hpp"
 #include "kinolab/core/text.hpp"
@@ -284,7 +286,10 @@ bool violation(CheckResult& result, std::string check, double time, const Eigen:
 void sampleTimes(const TrajectorySegment& segment, double segment_start, double speed_bound,
                  double spacing, std::vector<std::pair<double, double>>& times) {
   const double path = speed_bound * segment.duration;
-  const int steps = std::clamp(static_cast<int>(std::ceil(path / spacing)), 1, 1000000);
+  // Clamped before the cast: a diverged trajectory's path overflows an int.
+  const double wanted = std::ceil(path / spacing);
+  const int steps =
+      std::isfinite(wanted) ? static_cast<int>(std::clamp(wanted, 1.0, 1000000.0)) : 1000000;
   times.clear();
   for (int i = 0; i <= steps; ++i) {
     const double local = segment.duration * i / steps;
@@ -306,31 +311,59 @@ CheckResult TrajectoryChecker::check(const Trajectory& trajectory, const CheckQu
   return result;
 }
 
+namespace {
+
+/// "NAME: REASON" for each name, a line each (what the report reads per metric).
+void markUndefined(std::vector<std::string>& lines, std::initializer_list<const char*> names,
+                   const std::string& reason) {
+  for (const char* name : names) lines.push_back(std::string(name) + ": " + reason);
+}
+
+}  // namespace
+
 TrajectoryEvaluation TrajectoryChecker::evaluate(const Trajectory& trajectory) const {
   TrajectoryEvaluation result;
   if (trajectory.empty()) return result;
+  std::vector<std::string> undefined;
   for (const TrajectorySegment& segment : trajectory.segments()) {
     if (!std::isfinite(segment.duration) || !segment.coefficients.allFinite()) {
-      result.undefined = "every figure: the trajectory is not finite";
+      for (const MetricSpec& spec : evaluationMetrics().specs().all()) {
+        if (spec.type == MetricType::kReal) {
+          undefined.push_back(spec.name + ": the trajectory is not finite");
+        }
+      }
+      result.undefined = join(undefined, "\n");
       return result;
     }
   }
   result.duration = trajectory.duration();
   result.length = trajectory.length();
-  std::vector<std::string> undefined;
-  // A jump of derivative k - 1 at a joint makes derivative k impulsive: its squared
-  // integral is not finite, whatever the polynomials' own figure says.
-  const auto integral = [&](int derivative, const char* name, const char* below) {
-    const Trajectory::Jumps jumps = trajectory.jumps(derivative - 1);
-    if (jumps.count == 0) return trajectory.squaredIntegral(derivative);
-    undefined.push_back(std::string(name) + ": the " + below + " jumps at " +
-                        std::to_string(jumps.count) + " joint" + (jumps.count > 1 ? "s" : "") +
-                        ", so the " + kDerivatives[derivative] + " is impulsive there");
+  // A jump of any derivative below k at a joint makes derivative k impulsive there (a jump of
+  // the position, a teleport, makes every derivative so): its squared integral is not finite,
+  // whatever the polynomials' own figure says.
+  const auto firstJump = [&](int below) -> std::pair<int, Trajectory::Jumps> {
+    for (int d = 0; d < below; ++d) {
+      if (const Trajectory::Jumps jumps = trajectory.jumps(d); jumps.count > 0) return {d, jumps};
+    }
+    return {-1, {}};
+  };
+  const auto jumpReason = [](int d, const Trajectory::Jumps& jumps) {
+    return std::string("the ") + kDerivatives[d] + " jumps at " + std::to_string(jumps.count) +
+           " joint" + (jumps.count > 1 ? "s" : "") + ", so what is above it is impulsive there";
+  };
+  const auto integral = [&](int derivative, const char* name, const char* per_metre) {
+    const auto [d, jumps] = firstJump(derivative);
+    if (d < 0) return trajectory.squaredIntegral(derivative);
+    markUndefined(undefined, {name, per_metre}, jumpReason(d, jumps));
     return static_cast<double>(NAN);
   };
-  result.acceleration_integral = integral(2, "acceleration_integral", "velocity");
-  result.jerk_integral = integral(3, "jerk_integral", "acceleration");
-  result.acceleration_jumps = trajectory.jumps(2).squared_sum;
+  result.acceleration_integral = integral(2, "acceleration_integral", "acceleration_per_metre");
+  result.jerk_integral = integral(3, "jerk_integral", "jerk_per_metre");
+  if (const auto [d, jumps] = firstJump(2); d < 0) {
+    result.acceleration_jumps = trajectory.jumps(2).squared_sum;
+  } else {
+    markUndefined(undefined, {"acceleration_jumps"}, jumpReason(d, jumps));
+  }
 
   const World& world = *world_;
   const DynamicLimits& limits = settings_.limits;
@@ -343,12 +376,18 @@ TrajectoryEvaluation TrajectoryChecker::evaluate(const Trajectory& trajectory) c
   double speed_ratio = 0.0;
   double acceleration_ratio = 0.0;
   double max_curvature = 0.0;
-  double turning = 0.0;  // integral of curvature over the arc length of the moving samples
+  double turning = 0.0;  // curvature over arc length of the moving samples, plus the corners
   double moving_length = 0.0;
+  // The direction of travel at the last moving sample; a change of it across a stretch too
+  // slow to have a direction, or across a joint, is a corner: turned in place.
+  Eigen::Vector3d last_direction = Eigen::Vector3d::Zero();
+  bool across = false;  // a slow stretch or a joint lies since the last moving sample
+  int corners = 0;
   double segment_start = 0.0;
   std::vector<std::pair<double, double>> times;
   for (const auto& segment : trajectory.segments()) {
     sampleTimes(segment, segment_start, speedBound(segment), spacing_, times);
+    across = true;
     for (std::size_t i = 0; i < times.size(); ++i) {
       const double local = times[i].second;
       const Eigen::Vector3d position = segment.evaluate(local);
@@ -368,7 +407,20 @@ TrajectoryEvaluation TrajectoryChecker::evaluate(const Trajectory& trajectory) c
         acceleration_ratio =
             std::max(acceleration_ratio, std::abs(acceleration[axis]) / limits.bound[2][axis]);
       }
-      if (speed < TrajectoryEvaluation::kCurvatureMinSpeed) continue;
+      if (speed < TrajectoryEvaluation::kCurvatureMinSpeed) {
+        across = true;
+        continue;
+      }
+      const Eigen::Vector3d direction = velocity / speed;
+      if (across && last_direction.squaredNorm() > 0.0) {
+        const double angle = std::acos(std::clamp(direction.dot(last_direction), -1.0, 1.0));
+        if (angle > 1e-3) {  // a milliradian: rounding at a smooth joint stays far below
+          turning += angle;
+          ++corners;
+        }
+      }
+      last_direction = direction;
+      across = false;
       const double curvature = velocity.cross(acceleration).norm() / (speed * speed * speed);
       max_curvature = std::max(max_curvature, curvature);
       // The sample's share of the segment's time (half of each neighbouring interval).
@@ -386,13 +438,22 @@ TrajectoryEvaluation TrajectoryChecker::evaluate(const Trajectory& trajectory) c
   result.peak_acceleration = peak_acceleration;
   result.speed_limit_ratio = speed_ratio;
   result.acceleration_limit_ratio = acceleration_ratio;
-  if (moving_length > 0.0) {
-    result.max_curvature = max_curvature;
-    result.mean_curvature = turning / moving_length;
+  if (moving_length <= 0.0) {
+    markUndefined(undefined, {"max_curvature", "mean_curvature"},
+                  "the trajectory never moves faster than " +
+                      formatNumber(TrajectoryEvaluation::kCurvatureMinSpeed) +
+                      " m/s, so its direction is not defined");
   } else {
-    undefined.push_back("max_curvature, mean_curvature: the trajectory never moves faster than " +
-                        formatNumber(TrajectoryEvaluation::kCurvatureMinSpeed) +
-                        " m/s, so its direction is not defined");
+    result.mean_curvature = turning / moving_length;
+    if (corners == 0) {
+      result.max_curvature = max_curvature;
+    } else {
+      markUndefined(undefined, {"max_curvature"},
+                    "the path turns " + std::to_string(corners) + " corner" +
+                        (corners > 1 ? "s" : "") +
+                        " in place (at rest, or where the velocity jumps), where its curvature "
+                        "is unbounded; mean_curvature counts their angles");
+    }
   }
   result.undefined = join(undefined, "\n");
   return result;
@@ -447,14 +508,16 @@ const MetricList<TrajectoryEvaluation>& evaluationMetrics() {
                of(&E::acceleration_jumps))
           .add(MetricSpecs()
                    .real("max_curvature", "1/m",
-                         "largest curvature |v x a| / |v|^3 where the speed is at least 0.1 m/s")
+                         "largest curvature |v x a| / |v|^3 where the speed is at least 0.1 m/s; "
+                         "undefined where the path turns a corner in place")
                    .lower()
                    .comparable(),
                of(&E::max_curvature))
           .add(MetricSpecs()
                    .real("mean_curvature", "1/m",
-                         "turning per metre: curvature integrated over arc length, over the "
-                         "length (where the speed is at least 0.1 m/s)")
+                         "turning per metre: curvature integrated over arc length (where the "
+                         "speed is at least 0.1 m/s) plus the corners turned in place, over the "
+                         "length")
                    .lower()
                    .comparable(),
                of(&E::mean_curvature))

@@ -41,8 +41,6 @@ struct QuerySpec {
   /// query that cannot be placed in 100000 draws is a ConfigError naming `world_id`.
   std::vector<PlanningQuery> make(const World& world, const std::string& world_id,
                                   std::uint64_t seed) const;
-  /// Exact text of everything that determines the queries.
-  std::string canonicalText() const;
   /// Exact text of everything that determines query `index` (make()'s order): a fixed
   /// query's points; a random query's rule and its place in the draws (not how many follow,
   /// so that more random queries leave the first ones' runs as they are); an across query's

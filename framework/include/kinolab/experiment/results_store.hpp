@@ -99,12 +99,15 @@ class ResultsStore {
   std::map<std::string, std::string> allMeta() const;
   void setMeta(const std::map<std::string, std::string>& values);
 
-  /// Deletes the stored runs whose status is one of `statuses` (with their statistics,
-  /// trajectories and trees), in one transaction; returns how many.
+  /// Deletes the stored runs whose status is one of `statuses` and that the experiment still
+  /// plans (with their statistics, trajectories and trees), in one transaction; returns how
+  /// many.
   long long removeRuns(const std::set<std::string>& statuses);
   /// The hashes of every stored run.
   std::set<std::string> runHashes() const;
   long long runCount() const;
+  /// The stored runs the experiment plans now (the `planned` table's).
+  long long plannedRunCount() const;
   /// Records the run hashes of the experiment as it is now: stored runs not among them are of
   /// an earlier configuration of it (kept, never pooled with these by the report).
   void setPlanned(const std::vector<std::string>& run_hashes);

@@ -44,17 +44,19 @@ struct CheckQuery {
 struct TrajectoryEvaluation {
   double duration = NAN;  ///< s
   double length = NAN;    ///< m
-  /// Integral of |a|^2 (m^2/s^3); undefined where the velocity jumps at a joint.
+  /// Integral of |a|^2 (m^2/s^3); undefined where the position or velocity jumps at a joint.
   double acceleration_integral = NAN;
-  /// Integral of |j|^2 (m^2/s^5); undefined where the acceleration jumps at a joint (a
+  /// Integral of |j|^2 (m^2/s^5); undefined where any lower derivative jumps at a joint (a
   /// piecewise-constant acceleration: its jerk is impulsive).
   double jerk_integral = NAN;
   /// Sum of the squared acceleration jumps at the joints (m^2/s^4): 0 for a trajectory whose
-  /// acceleration is continuous; the finite measure where jerk_integral is undefined.
+  /// acceleration is continuous; the finite measure where jerk_integral is undefined
+  /// (undefined itself where the position or velocity jumps).
   double acceleration_jumps = NAN;
   /// Curvature |v x a| / |v|^3 (1/m) at the samples moving at least kCurvatureMinSpeed: the
-  /// largest, and the turning per metre (the integral of curvature over arc length, over
-  /// the length of those samples).
+  /// largest (undefined where the path turns a corner in place: at rest, as a stop-and-go
+  /// path does, or where the velocity jumps), and the turning per metre (the integral of
+  /// curvature over arc length plus the corners' angles, over the length of those samples).
   double max_curvature = NAN;
   double mean_curvature = NAN;
   /// The exact distance from the position samples to the occupied voxel cubes, less the robot
