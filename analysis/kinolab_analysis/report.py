@@ -304,6 +304,8 @@ SPLIT = {"summary": ("Per planner", ["planner"], "runs", None),
          "paper_table2": ("Table II", ["variant", "world", "planner"], "runs",
                           {"planning time T": ["T"], "expansions N": ["N"],
                            "distance to goal D": ["D"]}),
+         "lazy_regime": ("Where lazy pays off", ["experiment", "value"], "cases",
+                         {"planning time and speedup": ["T", "speedup"]}),
          "compare": ("Compared", ["planner"], "tests",
                      {"success and planning time side by side": ["A", "B"]})}
 

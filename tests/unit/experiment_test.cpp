@@ -269,9 +269,12 @@ TEST_F(ExperimentTest, MergeRefusesMixedRepeatedIncompleteAndOldShards) {
                    {"shard", which},
                    {"runs_planned", std::to_string(planned)},
                    {"schema_version", version}});
+    std::vector<std::string> hashes;
+    for (int i = 0; i < planned; ++i) hashes.push_back(name + std::to_string(i));
+    store.setPlanned(hashes);  // as the runner records them
     for (int i = 0; i < stored; ++i) {
       RunRecord record;
-      record.run_hash = name + std::to_string(i);
+      record.run_hash = hashes[static_cast<std::size_t>(i)];
       record.metrics = {{"status", std::string("exact")}, {"success", 1.0}};
       store.insert(record);
     }
