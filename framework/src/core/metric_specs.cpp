@@ -30,21 +30,23 @@ std::string MetricSpec::directionName() const {
   return "";
 }
 
+MetricSpec& MetricSpecs::last(const char* modifier) {
+  if (specs_.empty()) throw InvalidArgument(std::string(modifier) + ": no metric declared yet");
+  return specs_.back();
+}
+
 MetricSpecs& MetricSpecs::lower() {
-  if (specs_.empty()) throw InvalidArgument("lower(): no metric declared yet");
-  specs_.back().direction = MetricDirection::kLower;
+  last("lower()").direction = MetricDirection::kLower;
   return *this;
 }
 
 MetricSpecs& MetricSpecs::higher() {
-  if (specs_.empty()) throw InvalidArgument("higher(): no metric declared yet");
-  specs_.back().direction = MetricDirection::kHigher;
+  last("higher()").direction = MetricDirection::kHigher;
   return *this;
 }
 
 MetricSpecs& MetricSpecs::comparable() {
-  if (specs_.empty()) throw InvalidArgument("comparable(): no metric declared yet");
-  specs_.back().comparable = true;
+  last("comparable()").comparable = true;
   return *this;
 }
 

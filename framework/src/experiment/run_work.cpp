@@ -139,11 +139,8 @@ std::string flyRun(const Experiment& experiment, const RunSpec& run,
     metrics.emplace_back("line_blocked", lineBlocked(*world, query, flight.model));
     out["metrics"] = nlohmann::json::parse(toJson(metrics, workerMetrics(true)));
     const double radius = flight.model.robot_radius;
-    MetricValues statistics;
-    for (const auto& [name, item] : flightValues(flight)) {
-      if (flightStatistics().find(name)) statistics.emplace_back(name, item);
-    }
-    out["statistics"] = nlohmann::json::parse(toJson(statistics, flightStatistics()));
+    out["statistics"] =
+        nlohmann::json::parse(toJson(flightStatisticValues(flight), flightStatistics()));
     if (flown && experiment.store_trajectories) {
       out["trajectory"] = trajectoryCsv(flight.flown, 0.05);
     }

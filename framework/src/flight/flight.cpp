@@ -1029,7 +1029,7 @@ std::string replansCsv(const FlightResult& result) {
   return csv;
 }
 
-MetricValues flightValues(const FlightResult& result) {
+MetricValues flightStatisticValues(const FlightResult& result) {
   std::vector<double> distances;
   int failed = 0;
   for (const FlightReplan& replan : result.replans) {
@@ -1043,8 +1043,7 @@ MetricValues flightValues(const FlightResult& result) {
       result.frames > 0
           ? (result.time_sense_ms + result.time_map_ms + result.time_window_ms) / result.frames
           : NAN;
-  MetricValues values = flightRunMetrics().values(result);
-  const MetricValues statistics = {
+  return {
       {"time_to_goal", numberOrNone(result.time_to_goal)},
       {"mean_speed", numberOrNone(duration > 0.0 ? length / duration : NAN)},
       {"replans", static_cast<double>(result.replans.size())},
@@ -1072,6 +1071,11 @@ MetricValues flightValues(const FlightResult& result) {
       {"frame_time_ms", numberOrNone(per_frame)},
       {"guide_time_ms",
        numberOrNone(result.replans.empty() ? NAN : result.time_guide_ms / result.replans.size())}};
+}
+
+MetricValues flightValues(const FlightResult& result) {
+  MetricValues values = flightRunMetrics().values(result);
+  const MetricValues statistics = flightStatisticValues(result);
   values.insert(values.end(), statistics.begin(), statistics.end());
   return values;
 }

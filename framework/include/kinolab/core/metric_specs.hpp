@@ -77,6 +77,8 @@ class MetricSpecs {
 
  private:
   MetricSpecs& add(MetricSpec spec);
+  /// The last declared metric, for a modifier (its name in the error without one).
+  MetricSpec& last(const char* modifier);
 
   std::vector<MetricSpec> specs_;
 };

@@ -257,6 +257,8 @@ std::string replansCsv(const FlightResult& result);
 /// The flight's own figures (time to goal, replans, tracking, difficulty, frames): a flight
 /// run's statistics in the runner's database.
 const MetricSpecs& flightStatistics();
+/// The values of flightStatistics() for a flight, in declaration order.
+MetricValues flightStatisticValues(const FlightResult& result);
 /// The values of flightMetrics() for a flight, in declaration order.
 MetricValues flightValues(const FlightResult& result);
 
