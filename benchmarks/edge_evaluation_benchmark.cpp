@@ -35,7 +35,7 @@ struct Workload {
     while (starts.size() < 8192) {
       ChainState start = ChainState::Zero();
       start.col(0) = Eigen::Vector3d(rng.uniform(1, 39), rng.uniform(1, 39), rng.uniform(0.8, 2.5));
-      if (!world.isFree(start.col(0), evaluator.settings().robot_radius)) continue;
+      if (!world.isFree(start.col(0), evaluator.settings().body.radius)) continue;
       start.col(1) =
           Eigen::Vector3d(rng.uniform(-2, 2), rng.uniform(-2, 2), rng.uniform(-0.5, 0.5));
       for (int x = -2; x <= 2; ++x) {
@@ -66,7 +66,7 @@ EdgeEvaluatorSettings benchmarkSettings(bool spacing) {
   settings.order = 2;
   settings.duration = 0.4;
   settings.limits = DynamicLimits::uniform(3.0, 3.0);
-  settings.robot_radius = 0.25;
+  settings.body.radius = 0.25;
   settings.sampling.samples = 10;
   if (spacing) {
     settings.sampling.mode = EdgeSampling::Mode::kSpacing;

@@ -17,7 +17,7 @@ void compare(benchmark::State& state, const std::string& planner,
              const std::vector<std::string>& items) {
   registerBuiltinPlugins();
   ConfiguredPlanner configured = configurePlanner(planner, parseAssignments(items, "benchmark"));
-  configured.planner->setup({bench::forest(), configured.sampler, 1});
+  configured.planner->setup({bench::forest(), 1});
   std::vector<double> times;
   std::vector<double> durations;
   std::vector<double> lengths;

@@ -78,7 +78,7 @@ void BM_WorldScale(benchmark::State& state) {
         10, rng, "scale");
     ConfiguredPlanner lazy = configurePlanner(
         "lazy_mp_astar", parseAssignments({"time_limit=0", "max_expansions=500000"}, "benchmark"));
-    lazy.planner->setup({world, lazy.sampler, 1});
+    lazy.planner->setup({world, 1});
     std::vector<double> times;
     int solved = 0;
     for (const PlanningQuery& query : queries) {

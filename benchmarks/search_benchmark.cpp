@@ -82,7 +82,7 @@ void planSideBySide(benchmark::State& state, const Problem& problem) {
   std::vector<ConfiguredPlanner> planners;
   for (const Variant& variant : problem.variants) {
     planners.push_back(configurePlanner(variant.planner, variant.assignments));
-    planners.back().planner->setup({problem.world, planners.back().sampler, 1});
+    planners.back().planner->setup({problem.world, 1});
   }
   const std::size_t n = problem.queries.size();
   const std::size_t v = planners.size();
@@ -139,7 +139,7 @@ void BM_GeodesicHeuristicPerQuery(benchmark::State& state) {
   EdgeEvaluatorSettings edges;
   edges.duration = 1.0;
   edges.limits = DynamicLimits::uniform(2.0, 1.0);
-  edges.robot_radius = 0.0;
+  edges.body.radius = 0.0;
   const auto heuristic = heuristicFor("geodesic", edges, 0.01);
   std::size_t query = 0;
   for (auto _ : state) {
@@ -160,16 +160,16 @@ void BM_CheckForestTrajectories(benchmark::State& state) {
   const Problem& problem = forestProblem();
   ConfiguredPlanner eager =
       configurePlanner("eager_mp_astar", problem.variants.front().assignments);
-  eager.planner->setup({problem.world, eager.sampler, 1});
+  eager.planner->setup({problem.world, 1});
   std::vector<std::pair<Trajectory, CheckQuery>> plans;
   for (const PlanningQuery& query : problem.queries) {
     const PlanResult result = eager.planner->plan(query, Budget{});
     if (result.status == PlanStatus::kExact) {
       plans.emplace_back(result.trajectory,
-                         CheckQuery{query.start, query.goal, eager.planner->model().goal_radius});
+                         CheckQuery{query.start, query.goal, eager.planner->limits().goal_radius});
     }
   }
-  const TrajectoryChecker checker(problem.world, checkerSettings(eager.planner->model()));
+  const TrajectoryChecker checker(problem.world, checkerSettings(eager.planner->body(), eager.planner->limits()));
   double samples = 0.0;
   for (auto _ : state) {
     for (const auto& [trajectory, query] : plans) {

@@ -67,12 +67,11 @@ void runFly(const FlyOptions& options) {
   const std::vector<ParameterAssignment> assignments =
       parseAssignments(options.assignments, "--set");
   // Validated before anything runs: the planner, its parameters and the flight's.
-  const ConfiguredPlanner probe = configurePlanner(options.planner, assignments);
+  const ConfiguredPlanner configured = configurePlanner(options.planner, assignments);
   FlightSetup setup = flightSetup(
       flightParameters().resolve(parseAssignments(options.flight, "--flight"), "flight"));
   const WorldSpec spec = WorldSpec::fromFile(options.world_path);
   const WorldLoad load = WorldCache(options.cache_dir).loadOrBuild(spec);
-  const PlannerFactory factory = plannerFactory(options.planner, assignments, options.seed);
   // The 3D view replays the known map growing: a snapshot every half second.
   setup.settings.seed = options.seed;
   // A replan that does not return within its budget and the grace stops the flight.
@@ -88,7 +87,7 @@ void runFly(const FlyOptions& options) {
   if (!options.out_dir.empty() && setup.settings.snapshot_period <= 0.0) {
     setup.settings.snapshot_period = 0.5;
   }
-  const FlightResult result = fly(load.world, factory, query, setup);
+  const FlightResult result = fly(load.world, *configured.planner, options.seed, query, setup);
 
   std::printf("flight of %s through world %s, seed %llu\n", options.planner.c_str(),
               load.world->name().c_str(), static_cast<unsigned long long>(options.seed));

@@ -46,7 +46,7 @@ void runPlan(const PlanOptions& options) {
   const WorldSpec spec = WorldSpec::fromFile(options.world_path);
   const WorldLoad load = WorldCache(options.cache_dir).loadOrBuild(spec);
   Planner& planner = *configured.planner;
-  planner.setup({load.world, configured.sampler, options.seed});
+  planner.setup({load.world, options.seed});
 
   PlanningQuery query;
   query.start.col(0) = start;

@@ -479,7 +479,7 @@ void bindPlanner(py::module_& m) {
                              })
       .def("setup",
            [](PyPlanner& p, const PyWorld& world, std::uint64_t seed) {
-             p.configured.planner->setup({world.world, p.configured.sampler, seed});
+             p.configured.planner->setup({world.world, seed});
              p.world = world.world;
            })
       .def("reset", [](PyPlanner& p) { p.configured.planner->reset(); })

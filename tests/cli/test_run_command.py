@@ -327,7 +327,7 @@ MALFORMED = [
     ("planners: [{id: a, type: lazy_mp_astar, sampler: {type: gauss}}]", "unknown sampler 'gauss'"),
     ("planners: [{id: a, type: lazy_mp_astar, sampler: {type: normal, params: {sigmaa: 1}}}]",
      "did you mean 'sigma'"),
-    ("planners: [{id: a, type: rrtstar, sampler: {type: normal}}]", "unknown parameter 'sampler'"),
+    ("planners: [{id: a, type: rrtstar, sampler: {type: normal}}]", "unknown key 'sampler'"),
     ("planners: [{id: a, type: lazy_mp_astar}, {id: a, type: eager_mp_astar}]",
      "duplicate planner id"),
     ("planners: [{type: lazy_mp_astar}]", "missing required key 'id'"),

@@ -155,8 +155,8 @@ TEST_P(LowerBoundConformance, LazySearchWithItReturnsEagersCost) {
   lazy_items.push_back("lower_bound=" + GetParam());
   ConfiguredPlanner lazy = configurePlanner("lazy_mp_astar", test::assignments(lazy_items));
   ConfiguredPlanner eager = configurePlanner("eager_mp_astar", test::assignments(common));
-  lazy.planner->setup({world, lazy.sampler, 1});
-  eager.planner->setup({world, eager.sampler, 1});
+  lazy.planner->setup({world, 1});
+  eager.planner->setup({world, 1});
   for (const PlanningQuery& query : queries) {
     const PlanResult a = lazy.planner->plan(query, Budget{});
     const PlanResult b = eager.planner->plan(query, Budget{});
@@ -195,7 +195,7 @@ TEST_P(SearchSpaceConformance, KeysDependOnTheStateOnlyAndTrajectoriesPassTheChe
   ConfiguredPlanner planner = configurePlanner(
       "eager_mp_astar",
       test::assignments({"sampler.samples_per_axis=3", "tau=0.5", "search_space=" + GetParam()}));
-  planner.planner->setup({world, planner.sampler, 1});
+  planner.planner->setup({world, 1});
   int exact = 0;
   for (const PlanningQuery& query : test::randomQueries(*world, 4, 7, 4.0, 9.0, 0.5)) {
     const PlanResult result = planner.planner->plan(query, Budget{});

@@ -28,7 +28,7 @@ ConfiguredPlanner makePlanner(const std::string& key) {
   // Work-bounded instead, where a planner counts its work (one without a time limit must).
   if (specs.find("max_iterations")) items.push_back("max_iterations=20000");
   ConfiguredPlanner configured = configurePlanner(key, test::assignments(items));
-  configured.planner->setup({test::smallWorld("forest"), configured.sampler, 7});
+  configured.planner->setup({test::smallWorld("forest"), 7});
   return configured;
 }
 
@@ -61,7 +61,7 @@ TEST_P(PlannerConformance, SolvesAndSolvesAgainTheSameAfterReset) {
   const PlanResult first = planner.plan(query, kBudget);
   ASSERT_EQ(first.status, PlanStatus::kExact) << first.message;
   EXPECT_TRUE(first.check.valid) << first.check.check << ": " << first.check.detail;
-  EXPECT_LE(first.distance_to_goal, planner.model().goal_radius + 1e-9);
+  EXPECT_LE(first.distance_to_goal, planner.limits().goal_radius + 1e-9);
   EXPECT_TRUE(std::isfinite(first.cost));
   EXPECT_GT(first.planning_time_ms, 0.0);
   planner.reset();
@@ -106,7 +106,7 @@ TEST_P(PlannerConformance, AStartInsideTheGoalRegionIsSolvedByStayingPut) {
   const PlanResult result = configured.planner->plan(query, kBudget);
   EXPECT_EQ(result.status, PlanStatus::kExact) << result.message;
   EXPECT_TRUE(result.check.valid) << result.check.detail;
-  EXPECT_LE(result.distance_to_goal, configured.planner->model().goal_radius);
+  EXPECT_LE(result.distance_to_goal, configured.planner->limits().goal_radius);
   if (result.trajectory.empty()) {
     EXPECT_EQ(result.cost, 0.0);  // nothing to fly costs nothing, never infinity
   } else {

@@ -61,7 +61,7 @@ Outcome outcomeOf(const PlanResult& result) {
 Outcome run(const std::string& key, const std::vector<std::string>& items,
             const std::shared_ptr<const World>& world, const PlanningQuery& query) {
   ConfiguredPlanner configured = configurePlanner(key, test::assignments(items));
-  configured.planner->setup({world, configured.sampler, 1});
+  configured.planner->setup({world, 1});
   return outcomeOf(configured.planner->plan(query, Budget{}));
 }
 
@@ -167,7 +167,7 @@ double statisticOf(const std::string& key, const std::vector<std::string>& items
                    const std::shared_ptr<const World>& world, const PlanningQuery& query,
                    const std::string& name, Outcome& outcome) {
   ConfiguredPlanner configured = configurePlanner(key, test::assignments(items));
-  configured.planner->setup({world, configured.sampler, 1});
+  configured.planner->setup({world, 1});
   const PlanResult result = configured.planner->plan(query, Budget{});
   outcome = outcomeOf(result);
   return test::statistic(result.statistics, name);
@@ -388,7 +388,7 @@ TEST(SparseLayout, ATruncationShorterThanWhatTheCostReadsIsRefusedAtSetup) {
       "."));
   ConfiguredPlanner refused = configurePlanner("eager_mp_astar", test::assignments({}));
   try {
-    refused.planner->setup({world, refused.sampler, 1});
+    refused.planner->setup({world, 1});
     ADD_FAILURE() << "a truncation of 0.5 m was accepted";
   } catch (const InvalidArgument& error) {
     EXPECT_NE(std::string(error.what()).find("exact to 0.5 m"), std::string::npos) << error.what();
@@ -396,7 +396,7 @@ TEST(SparseLayout, ATruncationShorterThanWhatTheCostReadsIsRefusedAtSetup) {
   }
   ConfiguredPlanner accepted =
       configurePlanner("eager_mp_astar", test::assignments({"weight_obstacle=0"}));
-  EXPECT_NO_THROW(accepted.planner->setup({world, accepted.sampler, 1}));
+  EXPECT_NO_THROW(accepted.planner->setup({world, 1}));
 }
 
 TEST(ExactVerdict, AOneMetreCorridorOnAHalfMetreGridIsPlannedExact) {

@@ -55,7 +55,7 @@ class MisbehavingPlanner final : public Planner {
     result.statistics = {{"sleep_ms", sleep_ms_}};
     return result;
   }
-  PlanningModel planningModel() const override { return {}; }
+  PlannerLimits plannerLimits() const override { return {}; }
 
  private:
   Misbehaviour what_;
@@ -77,7 +77,7 @@ class MetricPlanner final : public Planner {
     if (undeclared_) result.statistics.emplace_back("probe_undeclared", 1.0);
     return result;
   }
-  PlanningModel planningModel() const override { return {}; }
+  PlannerLimits plannerLimits() const override { return {}; }
 
  private:
   bool undeclared_;

@@ -97,8 +97,8 @@ TEST(EdgeEvaluator, ObstaclePenaltyIsAQuadratureOverTheSamples) {
       "generators: [{type: box_list, boxes: [{min: [5, 0, 0], max: [10, 10, 3]}]}]\n");
   EdgeEvaluatorSettings settings;
   settings.duration = 0.5;
-  settings.robot_radius = 0.2;
-  settings.safety_distance = 0.5;
+  settings.body.radius = 0.2;
+  settings.body.safety_band = 0.5;
   settings.weights = {0.0, 0.0, 0.0, 4.0};
   settings.sampling.samples = 5;
   const EdgeEvaluator evaluator(world, settings);
@@ -138,8 +138,8 @@ void checkAgainstDenseChecking(const EdgeEvaluatorSettings& settings, int* dense
   const EdgeEvaluator evaluator(world, settings);
   const IntegratorChain& chain = evaluator.chain();
   CheckerSettings body;
-  body.robot_radius = settings.robot_radius;
-  body.collision_tolerance = settings.collision_tolerance;
+  body.body.radius = settings.body.radius;
+  body.body.tolerance = settings.body.tolerance;
   const TrajectoryChecker exact(world, body);
   Rng rng(17);
   *dense_collisions = 0;
@@ -149,7 +149,7 @@ void checkAgainstDenseChecking(const EdgeEvaluatorSettings& settings, int* dense
     do {
       start.col(0) =
           Eigen::Vector3d(rng.uniform(0.5, 9.5), rng.uniform(0.5, 9.5), rng.uniform(0.5, 2.5));
-    } while (!world->isFree(start.col(0), settings.robot_radius));
+    } while (!world->isFree(start.col(0), settings.body.radius));
     for (int k = 1; k < settings.order; ++k) {
       for (int axis = 0; axis < 3; ++axis) start(axis, k) = rng.uniform(-1.5, 1.5);
     }
@@ -197,7 +197,7 @@ TEST(EdgeEvaluator, FullEvaluationFindsEveryDenseCollision) {
     for (const double radius : {0.25, 0.05, 0.0}) {
       if (!coarse && radius == 0.25) continue;  // the default, above
       EdgeEvaluatorSettings small;
-      small.robot_radius = radius;
+      small.body.radius = radius;
       int dense = 0;
       int missed = 0;
       checkAgainstDenseChecking(small, &dense, &missed, coarse);
@@ -225,8 +225,8 @@ TEST(EdgeEvaluator, TheVerdictIsExactBothWays) {
     settings.limits = DynamicLimits::uniform(2.0, 3.0, 6.0);
     const EdgeEvaluator evaluator(world, settings);
     CheckerSettings inner;
-    inner.robot_radius = settings.robot_radius;
-    inner.collision_tolerance = settings.collision_tolerance;
+    inner.body.radius = settings.body.radius;
+    inner.body.tolerance = settings.body.tolerance;
     const TrajectoryChecker within_tolerance(world, inner);
     Rng rng(23);
     int colliding = 0;
@@ -261,9 +261,9 @@ TEST(EdgeEvaluator, TheVerdictIsExactBothWays) {
       if (collides) {
         ++colliding;
         EXPECT_FALSE(full.collision_free) << "trial " << trial << ": a collision accepted";
-      } else if (nearest >= settings.robot_radius + 0.5 * gap) {
+      } else if (nearest >= settings.body.radius + 0.5 * gap) {
         ++clear;
-        rescued += least_bound < settings.robot_radius;
+        rescued += least_bound < settings.body.radius;
         EXPECT_TRUE(full.collision_free) << "trial " << trial << ": a clear edge refused";
         EXPECT_TRUE(evaluator.partial(start, control).collision_free) << "trial " << trial;
       }
@@ -297,7 +297,7 @@ TEST(EdgeEvaluator, TheVerdictDoesNotDependOnSampling) {
     const ChainState start =
         stateAt({rng.uniform(0.5, 9.5), rng.uniform(0.5, 9.5), rng.uniform(0.5, 2.5)},
                 {rng.uniform(-1.5, 1.5), rng.uniform(-1.5, 1.5), rng.uniform(-1, 1)});
-    if (!world->isFree(start.col(0), sparse.robot_radius)) continue;
+    if (!world->isFree(start.col(0), sparse.body.radius)) continue;
     const Eigen::Vector3d control(rng.uniform(-3, 3), rng.uniform(-3, 3), rng.uniform(-3, 3));
     const EdgeEvaluation ea = a.full(start, control);
     if (!ea.within_limits) continue;
@@ -315,8 +315,8 @@ TEST(EdgeEvaluator, ARadiusOfZeroIsAPointRobot) {
       "resolution: 0.1\nbounds: {min: [0, 0, 0], max: [10, 10, 3]}\n"
       "generators: [{type: box_list, boxes: [{min: [5, 0, 0], max: [10, 10, 3]}]}]\n");
   EdgeEvaluatorSettings settings;
-  settings.robot_radius = 0.0;
-  settings.collision_tolerance = 0.005;
+  settings.body.radius = 0.0;
+  settings.body.tolerance = 0.005;
   const EdgeEvaluator evaluator(world, settings);
   EXPECT_TRUE(evaluator.full(stateAt({4.95, 2.05, 1.55}, {0, 0, 0.5}), Eigen::Vector3d::Zero())
                   .collision_free);
@@ -331,7 +331,7 @@ TEST(EdgeEvaluator, RejectsBadSettings) {
   settings.sampling.spacing = 0.0;
   EXPECT_THROW(EdgeEvaluator(world, settings), InvalidArgument);
   settings = {};
-  settings.collision_tolerance = 0.0;  // tracing would never finish
+  settings.body.tolerance = 0.0;  // tracing would never finish
   EXPECT_THROW(EdgeEvaluator(world, settings), InvalidArgument);
   settings = {};
   settings.sampling.samples = 0;

@@ -33,9 +33,9 @@ std::shared_ptr<const World> worldOf(
 /// within the planning window of a vehicle on the line y = 3).
 const char* kWall = "  - type: box_list\n    boxes: [{min: [10, 0, 0], max: [10.4, 5, 3]}]\n";
 
-PlannerFactory lazyPlanner(const std::vector<ParameterAssignment>& assignments = {}) {
+ConfiguredPlanner lazyPlanner(const std::vector<ParameterAssignment>& assignments = {}) {
   registerBuiltinPlugins();
-  return plannerFactory("lazy_mp_astar", assignments, 1);
+  return configurePlanner("lazy_mp_astar", assignments);
 }
 
 struct Flight {
@@ -48,7 +48,7 @@ struct Flight {
     PlanningQuery query;
     query.start.col(0) = start;
     query.goal = goal;
-    return kinolab::fly(world, lazyPlanner(planner), query, setup);
+    return kinolab::fly(world, *lazyPlanner(planner).planner, 1, query, setup);
   }
 };
 
@@ -1235,7 +1235,7 @@ TEST(FlightTest, EveryLimitFliesOutOfACorridorOrIsRefusedWithAFixThatFlies) {
           test::assignments({"max_velocity=" + formatNumber(velocity),
                              "max_acceleration=" + formatNumber(acceleration)});
       try {
-        lazyPlanner(limits)(corridor, 0.0);
+        lazyPlanner(limits).planner->setup({corridor, 1});
       } catch (const ConfigError& error) {
         // Refused when configured (no world is needed to know it), blaming tau, located at
         // the limit's assignment.
@@ -1265,14 +1265,13 @@ TEST(FlightTest, EveryLimitFliesOutOfACorridorOrIsRefusedWithAFixThatFlies) {
 /// TGK analogue's start margin does), to test the flight's recovery.
 class MarginPlanner : public Planner {
  public:
-  explicit MarginPlanner(double margin) : margin_(margin) {}
+  explicit MarginPlanner(double margin)
+      : margin_(margin), inner_((registerBuiltinPlugins(), configurePlanner("lazy_mp_astar", {}))
+                                    .planner) {}
 
  protected:
   void doSetup(const PlannerContext& context) override {
-    registerBuiltinPlugins();
-    ConfiguredPlanner configured = configurePlanner("lazy_mp_astar", {});
-    inner_ = std::move(configured.planner);
-    inner_->setup({context.world, configured.sampler, context.seed});
+    inner_->setup({context.world, context.seed});
   }
   PlanResult doPlan(const PlanningQuery& query, StopCondition&) override {
     if (inner_->world().clearance(query.start.col(0)) < margin_) {
@@ -1283,7 +1282,7 @@ class MarginPlanner : public Planner {
     }
     return inner_->plan(query, Budget{});
   }
-  PlanningModel planningModel() const override { return inner_->model(); }
+  PlannerLimits plannerLimits() const override { return inner_->limits(); }
 
  private:
   double margin_;
@@ -1301,19 +1300,12 @@ TEST(FlightTest, APlannerThatRefusesTheStartIsBackedOffFromTheWall) {
   PlanningQuery query;
   query.start.col(0) = Eigen::Vector3d(3.68, 2.0, 1.5);
   query.goal = Eigen::Vector3d(7.5, 2.0, 1.5);
-  // Perfect tracking: this planner keeps its own margin, not the flight's planning margin,
-  // and only the recovery is under test.
-  const FlightSetup setup =
-      flightSetup(flightParameters().resolve({{"tracking", "perfect", "test"}}, "flight"));
-  const FlightResult result = fly(
-      world,
-      [](std::shared_ptr<const World> window,
-         double /*margin: this test's own*/) -> std::unique_ptr<Planner> {
-        auto planner = std::make_unique<MarginPlanner>(0.45);
-        planner->setup({std::move(window), nullptr, 1});
-        return planner;
-      },
-      query, setup);
+  // Perfect tracking and no planning margin: this planner keeps its own margin, and only the
+  // recovery is under test.
+  const FlightSetup setup = flightSetup(flightParameters().resolve(
+      {{"tracking", "perfect", "test"}, {"planning_margin", "0", "test"}}, "flight"));
+  MarginPlanner planner(0.45);
+  const FlightResult result = fly(world, planner, 1, query, setup);
   EXPECT_EQ(result.status, "reached") << result.message;
   ASSERT_FALSE(result.replans.empty());
   EXPECT_EQ(result.replans.front().status, "invalid_start");

@@ -402,7 +402,7 @@ void expectAMemoryBudgetStop(const std::string& lookahead) {
   ConfiguredPlanner capped = configurePlanner(
       "lazy_mp_astar", test::assignments({"sampler.samples_per_axis=3", "time_limit=0",
                                           "lookahead=" + lookahead, "memory_limit_mb=1"}));
-  capped.planner->setup({walls, capped.sampler, 1});
+  capped.planner->setup({walls, 1});
   const PlanResult result = capped.planner->plan(far, Budget{});
   EXPECT_TRUE(result.status == PlanStatus::kApproximate || result.status == PlanStatus::kTimeout)
       << result.message;
@@ -419,7 +419,7 @@ TEST(LazySp, ABudgetStopReturnsTheEvaluatedStartOfTheLastLazyPath) {
     ConfiguredPlanner configured = configurePlanner(
         "lazy_mp_astar",
         test::assignments({"sampler.samples_per_axis=3", "time_limit=0", "lookahead=inf", budget}));
-    configured.planner->setup({world, configured.sampler, 1});
+    configured.planner->setup({world, 1});
     return configured.planner->plan(query, Budget{});
   };
   const auto statistic = [](const PlanResult& result, const std::string& name) {
@@ -459,7 +459,7 @@ TEST(LraStar, ABudgetStopReturnsACheckedStartAndBadLookaheadsAreRefused) {
     std::vector<std::string> items = {"sampler.samples_per_axis=3", "time_limit=0", "lookahead=4"};
     items.insert(items.end(), extra.begin(), extra.end());
     ConfiguredPlanner configured = configurePlanner("lazy_mp_astar", test::assignments(items));
-    configured.planner->setup({world, configured.sampler, 1});
+    configured.planner->setup({world, 1});
     return configured.planner->plan(query, Budget{});
   };
   const auto statistic = [](const PlanResult& result, const std::string& name) {
@@ -510,7 +510,7 @@ TEST(Planner, StartsAreHeldToTheCollisionRuleEdgesUse) {
   ConfiguredPlanner configured = configurePlanner(
       "lazy_mp_astar",
       test::assignments({"sampler.samples_per_axis=3", "time_limit=0", "max_expansions=2000"}));
-  configured.planner->setup({world, configured.sampler, 1});
+  configured.planner->setup({world, 1});
   PlanningQuery near = query;
   near.start.col(0) = at(0.245);
   ASSERT_GE(world->clearance(near.start.col(0)), 0.245);
@@ -530,7 +530,7 @@ TEST(MotionPrimitiveSearch, BudgetStopReturnsThePathToTheNearestState) {
       "lazy_mp_astar",
       test::assignments({"sampler.samples_per_axis=3", "time_limit=0", "max_expansions=40"}));
   const auto world = test::smallWorld("forest");
-  configured.planner->setup({world, configured.sampler, 1});
+  configured.planner->setup({world, 1});
   const auto query = test::randomQueries(*world, 1, 21, 8.0, 11.0, 0.5).front();
   const PlanResult result = configured.planner->plan(query, Budget{});
   ASSERT_EQ(result.status, PlanStatus::kApproximate) << result.message;
@@ -546,7 +546,7 @@ TEST(MotionPrimitiveSearch, TreesForFiguresAreCappedAndKeepEveryKindOfEdge) {
       "lazy_mp_astar", test::assignments({"sampler.samples_per_axis=5", "time_limit=0",
                                           "max_expansions=800", "lower_bound=lipschitz"}));
   const auto world = test::smallWorld("forest");
-  configured.planner->setup({world, configured.sampler, 1});
+  configured.planner->setup({world, 1});
   const auto query = test::randomQueries(*world, 1, 21, 8.0, 11.0, 0.5).front();
   SearchTree full_tree;
   configured.planner->plan(query, Budget{}, &full_tree);
@@ -581,12 +581,12 @@ class SlowTreePlanner final : public Planner {
     std::this_thread::sleep_for(std::chrono::milliseconds(300));
     return SearchTree(3);
   }
-  PlanningModel planningModel() const override { return {}; }
+  PlannerLimits plannerLimits() const override { return {}; }
 };
 
 TEST(Planner, BuildingTheTreeForFiguresIsNotPlanningTime) {
   SlowTreePlanner planner;
-  planner.setup({test::smallWorld("forest"), nullptr, 1});
+  planner.setup({test::smallWorld("forest"), 1});
   PlanningQuery query;
   query.start.col(0) = Eigen::Vector3d(0.6, 0.6, 1.0);
   query.goal = Eigen::Vector3d(0.7, 0.6, 1.0);
@@ -608,7 +608,7 @@ TEST(Planner, ABudgetOnTheCpuClockIsNotSpentByWaiting) {
     EXPECT_EQ(stop.elapsed() >= 0.1, clock == BudgetClock::kWall) << stop.elapsed();
   }
   SlowTreePlanner planner;
-  planner.setup({test::smallWorld("forest"), nullptr, 1});
+  planner.setup({test::smallWorld("forest"), 1});
   EXPECT_EQ(planner.budgetFor(Budget{1.0, 5, BudgetClock::kCpu}).clock, BudgetClock::kCpu);
 }
 
@@ -618,7 +618,7 @@ TEST(MotionPrimitiveSearch, NoSearchOutgrowsItsMemoryBudgetEvenWithoutATimeLimit
       "eager_mp_astar",
       test::assignments({"sampler.samples_per_axis=5", "time_limit=0", "memory_limit_mb=2"}));
   const auto world = test::smallWorld("forest");
-  configured.planner->setup({world, configured.sampler, 1});
+  configured.planner->setup({world, 1});
   const auto query = test::randomQueries(*world, 1, 21, 8.0, 11.0, 0.5).front();
   const PlanResult result = configured.planner->plan(query, Budget{});
   ASSERT_EQ(result.status, PlanStatus::kApproximate) << result.message;
@@ -647,7 +647,7 @@ TEST(MotionPrimitiveSearch, AnEnclosedGoalExhaustsTheSearch) {
   ConfiguredPlanner configured = configurePlanner(
       "lazy_mp_astar", test::assignments({"sampler.samples_per_axis=3", "time_limit=0",
                                           "max_velocity=1", "tau=0.3"}));
-  configured.planner->setup({world, configured.sampler, 1});
+  configured.planner->setup({world, 1});
   PlanningQuery query;
   query.start.col(0) = Eigen::Vector3d(0.8, 0.8, 1.0);
   query.goal = Eigen::Vector3d(3.2, 3.2, 1.0);
@@ -665,7 +665,7 @@ std::shared_ptr<const SearchHeuristic> geodesicSteps(double tau, double robot_ra
   edges.duration = tau;
   edges.limits = DynamicLimits::uniform(2.0, 3.0);
   edges.weights = {1.0, 0.0, 0.0, 0.0};
-  edges.robot_radius = robot_radius;
+  edges.body.radius = robot_radius;
   return pluginRegistry<HeuristicBuilder>()
       .create("geodesic",
               test::assignments({"time_optimal=off", "memory_limit_mb=" + memory_limit_mb}))
@@ -802,7 +802,7 @@ TEST(GeodesicHeuristic, AnEnclosedGoalEndsTheSearchAtItsStart) {
                                       "max_velocity=1", "tau=0.3", "heuristic=geodesic"};
     if (*lookahead) items.push_back(std::string("lookahead=") + lookahead);
     ConfiguredPlanner configured = configurePlanner(planner, test::assignments(items));
-    configured.planner->setup({world, configured.sampler, 1});
+    configured.planner->setup({world, 1});
     PlanningQuery query;
     query.start.col(0) = Eigen::Vector3d(0.8, 0.8, 1.0);
     query.goal = Eigen::Vector3d(3.2, 3.2, 1.0);
@@ -895,7 +895,7 @@ void expectTimeOptimalsCostsWithFewerExpansions(const std::vector<std::string>& 
                                         "max_expansions=200000"};
       items.insert(items.end(), chosen.begin(), chosen.end());
       ConfiguredPlanner configured = configurePlanner(type, test::assignments(items));
-      configured.planner->setup({world, configured.sampler, 1});
+      configured.planner->setup({world, 1});
       return configured;
     };
     ConfiguredPlanner reference = planner("eager_mp_astar", {"heuristic=time_optimal"});

@@ -256,9 +256,9 @@ TEST(TrajectoryChecker, CollisionIsExactAgainstTheCubesAtAnyRadius) {
   const auto world = test::smallWorld("forest");
   for (const double radius : {0.25, 0.05, 0.0}) {
     CheckerSettings settings;
-    settings.robot_radius = radius;
+    settings.body.radius = radius;
     const TrajectoryChecker checker(world, settings);
-    const double body = std::max(radius - settings.collision_tolerance, 0.0);
+    const double body = std::max(radius - settings.body.tolerance, 0.0);
     Rng rng(9);
     int hits = 0;
     int ties = 0;
@@ -321,8 +321,8 @@ std::shared_ptr<const World> worldFrom(const std::string& text, const std::strin
 /// collision tolerance of 0.05 m).
 TrajectoryChecker bodyChecker(std::shared_ptr<const World> world, double body) {
   CheckerSettings settings;
-  settings.robot_radius = body + 0.05;
-  settings.collision_tolerance = 0.05;
+  settings.body.radius = body + 0.05;
+  settings.body.tolerance = 0.05;
   return TrajectoryChecker(std::move(world), settings);
 }
 
@@ -331,7 +331,7 @@ TrajectoryChecker bodyChecker(std::shared_ptr<const World> world, double body) {
 template <typename Draw>
 CollisionCounts expectCollisionsExact(const TrajectoryChecker& checker, const VoxelGrid& grid,
                                       double near, int bodies, Draw&& draw) {
-  const double radius = checker.settings().robot_radius - checker.settings().collision_tolerance;
+  const double radius = checker.settings().body.radius - checker.settings().body.tolerance;
   CollisionCounts counts;
   for (int i = 0; i < bodies; ++i) {
     const Eigen::Vector3d p = draw(i);
@@ -443,8 +443,8 @@ TEST(TrajectoryCheckerTest, APointOnTheMapsOwnFaceIsInTheVoxelInsideOnly) {
                              "faces.yaml"),
       "."));
   CheckerSettings settings;
-  settings.robot_radius = 0.29;
-  settings.collision_tolerance = 0.05;
+  settings.body.radius = 0.29;
+  settings.body.tolerance = 0.05;
   const TrajectoryChecker checker(world, settings);
   EXPECT_FALSE(checker.collides({1.25, 1.25, 3.0}));  // the top face, 0.5 m above the voxel
   EXPECT_TRUE(checker.collides({1.25, 1.25, 2.5}));   // on its top face

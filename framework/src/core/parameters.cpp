@@ -249,9 +249,6 @@ ParameterSpecs& ParameterSpecs::add(ParameterSpec spec) {
   if (spec.name.empty() || spec.name.find('.') != std::string::npos) {
     throw InvalidArgument("parameter '" + spec.name + "': a name without '.' (it nests)");
   }
-  if (spec.type == ParameterType::kPlugin && spec.kind == "sampler" && samplerParameter()) {
-    throw InvalidArgument("parameter '" + spec.name + "': a plugin takes at most one sampler");
-  }
   // A declared default must itself be acceptable.
   if (spec.type != ParameterType::kGroupList && spec.type != ParameterType::kPath) {
     parseValue(spec, formatParameterValue(spec.default_value), "default of '" + spec.name + "'");
@@ -336,11 +333,6 @@ ParameterSpecs& ParameterSpecs::plugin(std::string kind, std::string name,
   return add(std::move(spec));
 }
 
-ParameterSpecs& ParameterSpecs::sampler(std::string name, std::string default_value,
-                                        std::string doc) {
-  return plugin("sampler", std::move(name), std::move(default_value), std::move(doc));
-}
-
 ParameterSpecs& ParameterSpecs::group(std::string name, ParameterSpecs members, std::string doc) {
   ParameterSpec spec = declare(std::move(name), ParameterType::kGroup, false, std::move(doc));
   spec.members = std::make_shared<const ParameterSpecs>(std::move(members));
@@ -363,13 +355,6 @@ ParameterSpecs& ParameterSpecs::required() {
 ParameterSpecs& ParameterSpecs::include(const ParameterSpecs& group) {
   for (const ParameterSpec& spec : group.specs_) add(spec);
   return *this;
-}
-
-const ParameterSpec* ParameterSpecs::samplerParameter() const {
-  for (const auto& spec : specs_) {
-    if (spec.type == ParameterType::kPlugin && spec.kind == "sampler") return &spec;
-  }
-  return nullptr;
 }
 
 const ParameterSpec* ParameterSpecs::find(std::string_view name) const {

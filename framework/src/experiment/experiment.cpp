@@ -85,39 +85,33 @@ ExperimentPlanner readPlanner(const YamlReader& node) {
   if (const auto params = node.optional("params")) {
     planner.assignments = assignmentsFromYaml(*params);
   }
-  if (const auto sampler = node.optional("sampler")) {
-    // `sampler:` sets the planner's declared sampler parameter, whatever its name.
-    std::string name = "sampler";
-    if (const auto& planners = pluginRegistry<Planner>(); planners.contains(planner.type)) {
-      if (const ParameterSpec* spec = planners.info(planner.type).parameters.samplerParameter()) {
-        name = spec->name;
+  // A plugin parameter of the planner (its `sampler`, `heuristic`, ...) may be written as a
+  // block, `NAME: {type: KEY, params: {...}}`: the same as `params: {NAME: KEY, NAME.P: ...}`.
+  if (const auto& planners = pluginRegistry<Planner>(); planners.contains(planner.type)) {
+    for (const ParameterSpec& spec : planners.info(planner.type).parameters.all()) {
+      const auto block = spec.type == ParameterType::kPlugin ? node.optional(spec.name)
+                                                             : std::optional<YamlReader>();
+      if (!block) continue;
+      const YamlReader type = (*block)["type"];
+      planner.assignments.push_back({spec.name, type.as<std::string>(), type.where()});
+      if (const auto params = block->optional("params")) {
+        for (ParameterAssignment assignment : assignmentsFromYaml(*params)) {
+          assignment.name = spec.name + "." + assignment.name;
+          planner.assignments.push_back(std::move(assignment));
+        }
       }
+      block->finish();
     }
-    const YamlReader type = (*sampler)["type"];
-    planner.assignments.push_back({name, type.as<std::string>(), type.where()});
-    if (const auto params = sampler->optional("params")) {
-      for (ParameterAssignment assignment : assignmentsFromYaml(*params)) {
-        assignment.name = name + "." + assignment.name;
-        planner.assignments.push_back(std::move(assignment));
-      }
-    }
-    sampler->finish();
   }
   node.finish();
   try {
-    ConfiguredPlanner configured = configurePlanner(planner.type, planner.assignments);
-    planner.parameters = std::move(configured.parameters);
-    planner.sampler = configured.sampler_key;
+    planner.parameters = configurePlanner(planner.type, planner.assignments).parameters;
   } catch (const PluginCodeError&) {
     // The planner's own code threw (its factory or its check): each of its runs records that
     // as its error when it makes the planner, and the experiment's other planners go on.
     planner.parameters = pluginRegistry<Planner>().resolve(planner.type, planner.assignments);
-    if (const ParameterSpec* sampler =
-            pluginRegistry<Planner>().info(planner.type).parameters.samplerParameter()) {
-      planner.sampler = planner.parameters.text(sampler->name);
-    }
   } catch (const PluginError& error) {
-    // An unknown planner or sampler key: the registry cannot know where it was written.
+    // An unknown planner or plugin key: the registry cannot know where it was written.
     // (Errors about assignments are ConfigErrors that carry their own position.)
     node.fail(error.what());
   }
@@ -245,6 +239,17 @@ std::string QuerySpec::queryText(int index) const {
   index -= random.count;
   return "across #" + std::to_string(index) + " " + acrossRule(across) + " after random " +
          std::to_string(random.count) + " " + randomRule(random);
+}
+
+std::string ExperimentPlanner::sampler() const {
+  const auto& planners = pluginRegistry<Planner>();
+  if (!planners.contains(type)) return "";
+  for (const ParameterSpec& spec : planners.info(type).parameters.all()) {
+    if (spec.type == ParameterType::kPlugin && spec.kind == "sampler") {
+      return parameters.text(spec.name);
+    }
+  }
+  return "";
 }
 
 std::string ExperimentPlanner::canonicalText() const {

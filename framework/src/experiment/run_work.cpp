@@ -27,8 +27,8 @@ const MetricSpecs& workerMetrics(bool flight) {
 
 /// Whether the straight line from start to goal collides for the body: the query needs a
 /// detour.
-double lineBlocked(const World& world, const PlanningQuery& query, const PlanningModel& model) {
-  return world.segmentFree(query.start.col(0), query.goal, model.robot_radius) ? 0.0 : 1.0;
+double lineBlocked(const World& world, const PlanningQuery& query, const Body& body) {
+  return world.segmentFree(query.start.col(0), query.goal, body.radius) ? 0.0 : 1.0;
 }
 
 /// Runs `work`, which fills a run's JSON ({"metrics": {...}, "statistics": {...},
@@ -71,7 +71,7 @@ std::string planRun(const Experiment& experiment, const RunSpec& run,
       assignments.push_back({"time_limit", formatNumber(time_limit), "budget.time"});
     }
     ConfiguredPlanner configured = configurePlanner(spec.type, assignments);
-    configured.planner->setup({world, configured.sampler, run.seed});
+    configured.planner->setup({world, run.seed});
     Budget budget{time_limit, std::numeric_limits<long long>::max()};
     if (variant.budget.iterations > 0) budget.max_iterations = variant.budget.iterations;
     SearchTree tree;
@@ -100,7 +100,7 @@ std::string planRun(const Experiment& experiment, const RunSpec& run,
     MetricValues metrics = resultValues(result);
     metrics.emplace_back("planning_time_min_ms", timed.front());
     metrics.emplace_back("planning_time_cold_ms", cold_ms);
-    metrics.emplace_back("line_blocked", lineBlocked(*world, query, configured.planner->model()));
+    metrics.emplace_back("line_blocked", lineBlocked(*world, query, configured.planner->body()));
     metrics.emplace_back("time_limit", time_limit);
     metrics.emplace_back("time_limit_own", spec.ownTimeLimit() ? 1.0 : 0.0);
     out["metrics"] = nlohmann::json::parse(toJson(metrics, workerMetrics(false)));
@@ -132,13 +132,13 @@ std::string flyRun(const Experiment& experiment, const RunSpec& run,
     const bool keep_map =
         experiment.store_tree_queries < 0 || run.query < experiment.store_tree_queries;
     if (keep_map) settings.snapshot_period = 2.0;
-    const PlannerFactory factory = plannerFactory(spec.type, spec.assignments, run.seed);
-    const FlightResult flight = fly(world, factory, query, setup);
+    ConfiguredPlanner configured = configurePlanner(spec.type, spec.assignments);
+    const FlightResult flight = fly(world, *configured.planner, run.seed, query, setup);
     const bool flown = !flight.flown.empty();
     MetricValues metrics = flightRunMetrics().values(flight);
-    metrics.emplace_back("line_blocked", lineBlocked(*world, query, flight.model));
+    metrics.emplace_back("line_blocked", lineBlocked(*world, query, flight.body));
     out["metrics"] = nlohmann::json::parse(toJson(metrics, workerMetrics(true)));
-    const double radius = flight.model.robot_radius;
+    const double radius = flight.body.radius;
     out["statistics"] =
         nlohmann::json::parse(toJson(flightStatisticValues(flight), flightStatistics()));
     if (flown && experiment.store_trajectories) {
@@ -179,7 +179,7 @@ RunRecord recordOf(const Experiment& experiment, const RunSpec& run, const Worke
   record.query = run.query;
   record.planner = planner.id;
   record.planner_type = planner.type;
-  record.sampler = planner.sampler;
+  record.sampler = planner.sampler();
   record.repetition = run.repetition;
   record.seed = toHex(run.seed);
   for (int axis = 0; axis < 3; ++axis) {

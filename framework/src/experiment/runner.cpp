@@ -216,27 +216,22 @@ namespace {
 /// Refuses a query whose start or goal no planner of `variant` could plan from or to (outside
 /// the map, or in collision for the planner's body), naming the world, the query and why:
 /// the run would otherwise end invalid_start or invalid_goal for every such planner. The body
-/// is read from the planner's parameters (`robot_radius`, `collision_tolerance`; a point
-/// without them): no plugin code runs in the runner's own process.
+/// is read from the planner's parameters (bodyFrom): no plugin code runs in the runner's own
+/// process.
 void requireValidQueries(const ExperimentVariant& variant, const ExperimentWorld& world,
                          const World& built, const std::vector<PlanningQuery>& queries) {
   for (const ExperimentPlanner& planner : variant.planners) {
-    const ParameterSet& parameters = planner.parameters;
-    PlanningModel model;
-    model.robot_radius = parameters.has("robot_radius") ? parameters.real("robot_radius") : 0.0;
-    if (parameters.has("collision_tolerance")) {
-      model.collision_tolerance = parameters.real("collision_tolerance");
-    }
+    const Body body = bodyFrom(planner.parameters);
     for (std::size_t q = 0; q < queries.size(); ++q) {
       for (const auto& [what, position] :
            {std::pair<const char*, Eigen::Vector3d>{"start", queries[q].start.col(0)},
             {"goal", queries[q].goal}}) {
-        if (const std::string problem = positionProblem(built, position, model); !problem.empty()) {
+        if (const std::string problem = positionProblem(built, position, body); !problem.empty()) {
           throw ConfigError("queries: world '" + world.id + "'" +
                             (variant.label.empty() ? "" : " (sweep " + variant.label + ")") +
                             ", query " + std::to_string(q) + ": the " + what + " " + problem +
                             " (planner '" + planner.id + "', robot_radius " +
-                            formatNumber(model.robot_radius) +
+                            formatNumber(body.radius) +
                             "); move it, or raise the random queries' clearance");
         }
       }
@@ -416,7 +411,7 @@ SharedInputs shareInputs(const Experiment& experiment, PlacedInputs placed, Resu
                    toHex(world.spec.hash()).c_str());
       store.insertWorld(worldRecord(*built->second, world.id));
       CheckerSettings settings;
-      settings.robot_radius = 1e3;
+      settings.body.radius = 1e3;
       const TrajectoryChecker& checker = inputs.checkers.emplace_back(built->second, settings);
       // A dense world's model is made once, here, and inherited by every worker; a sparse
       // world is made for size (a 400 m city's whole model took 45 s and 1.1 GB), so each

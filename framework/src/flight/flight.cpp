@@ -103,14 +103,14 @@ bool everySample(double begin, double end, double spacing, double speed, Visit&&
 /// from a trunk by less than the bound's slack was refused at every cut, replan after
 /// replan, and a vehicle stood 3.5 m from its goal until it was stuck.
 bool freeFrom(const Trajectory& trajectory, double t, const Box& map, const World& window,
-              const PlanningModel& model) {
-  const double radius = model.robot_radius - model.collision_tolerance;
+              const Body& body, const DynamicLimits& limits) {
+  const double radius = body.keptRadius();
   const auto free = [&](const Eigen::Vector3d& p) {
     return map.contains(p) &&
            !(window.bounds().contains(p) && window.clearanceFor(p, radius) < radius);
   };
   // A sample every 2 cm of path at the speed limit.
-  return everySample(t, trajectory.duration(), 0.02, model.limits.bound[1].norm(),
+  return everySample(t, trajectory.duration(), 0.02, limits.bound[1].norm(),
                      [&](double s) { return free(trajectory.evaluate(s)); }) &&
          free(trajectory.endPosition());
 }
@@ -207,16 +207,11 @@ bool localGoal(const Eigen::Vector3d& from, const Eigen::Vector3d& goal,
 
 constexpr double kDegree = M_PI / 180.0;
 
-/// `model` with its robot radius grown by `margin`.
-PlanningModel withMargin(PlanningModel model, double margin) {
-  model.robot_radius += margin;
-  return model;
-}
-
 /// The flown trajectory's checker: the planner's body; its limits only when tracking is
 /// perfect (a tracking vehicle's excursions are its controller's, not the planner's).
-CheckerSettings flownCheckerSettings(const PlanningModel& model, const TrackingModel& tracking) {
-  CheckerSettings settings = checkerSettings(model);
+CheckerSettings flownCheckerSettings(const Body& body, const PlannerLimits& limits,
+                                    const TrackingModel& tracking) {
+  CheckerSettings settings = checkerSettings(body, limits);
   if (tracking.kind != TrackingKind::kPerfect) {
     settings.limits = DynamicLimits::uniform(INFINITY, INFINITY);
     settings.max_derivative = 1;
@@ -225,22 +220,6 @@ CheckerSettings flownCheckerSettings(const PlanningModel& model, const TrackingM
 }
 
 }  // namespace
-
-PlannerFactory plannerFactory(const std::string& type, std::vector<ParameterAssignment> assignments,
-                              std::uint64_t seed) {
-  // The body's radius as configured, read once; a margin adds to it.
-  const double body = configurePlanner(type, assignments).planner->model().robot_radius;
-  return [type, assignments = std::move(assignments), seed, body](
-             std::shared_ptr<const World> world, double margin) {
-    std::vector<ParameterAssignment> grown = assignments;
-    if (margin > 0.0) {
-      grown.push_back({"robot_radius", formatNumber(body + margin), "flight: planning_margin"});
-    }
-    ConfiguredPlanner configured = configurePlanner(type, grown);
-    configured.planner->setup({std::move(world), configured.sampler, seed});
-    return std::move(configured.planner);
-  };
-}
 
 const ParameterSpecs& flightParameters() {
   static const ParameterSpecs specs =
@@ -338,21 +317,23 @@ namespace {
 /// One flight, step by step (fly()): the committed trajectory, the known map and the record.
 class FlightLoop {
  public:
-  FlightLoop(const std::shared_ptr<const World>& truth, const PlannerFactory& make_planner,
+  FlightLoop(const std::shared_ptr<const World>& truth, Planner& planner, std::uint64_t seed,
              const PlanningQuery& query, const FlightSetup& setup)
       : truth_(truth),
-        make_planner_(make_planner),
+        planner_(planner),
+        planner_seed_(seed),
         query_(query),
         sensor_(*setup.sensor),
         map_model_(setup.map),
         settings_(setup.settings),
         guard_replan_(setup.guard_replan),
         map_(setup.make_map()),
-        // The body and limits every replan plans for (the planner's model on any world).
-        model_(make_planner(truth, 0.0)->model()),
-        planning_model_(withMargin(model_, setup.settings.planning_margin)),
-        checker_(truth, flownCheckerSettings(model_, setup.tracking)),
-        brake_rate_(std::min(settings_.brake_acceleration, model_.limits.bound[2].minCoeff())),
+        // The body and limits every replan plans for.
+        body_(planner.configuredBody()),
+        planning_body_(body_.grown(setup.settings.planning_margin)),
+        limits_(planner.limits()),
+        checker_(truth, flownCheckerSettings(body_, limits_, setup.tracking)),
+        brake_rate_(std::min(settings_.brake_acceleration, limits_.limits.bound[2].minCoeff())),
         dt_(1.0 / sensor_.frameRate()),
         // Snapshots: the map from above over the query's heights, widened by 0.5 m.
         z_band_low_(std::min(query.start(2, 0), query.goal.z()) - 0.5),
@@ -364,22 +345,23 @@ class FlightLoop {
     if (setup.tracking.kind == TrackingKind::kQuadrotor) {
       tracker_.emplace(setup.tracking, query.start.col(0), settings_.seed);
     }
-    map_model_.reach = planning_model_.robot_radius;  // the window sees what the body reaches
+    map_model_.reach = planning_body_.radius;  // the window sees what the body reaches
     map_model_.inset = settings_.planning_margin;     // room for tracking error at the map's end
     map_->setup(truth->bounds(), map_model_);
     result_.map = map_;
-    result_.model = model_;
+    result_.body = body_;
+    result_.limits = limits_;
   }
 
   FlightResult run() {
     const Eigen::Vector3d start = query_.start.col(0);
-    if (!truth_->isFree(start, model_.robot_radius)) {
+    if (!truth_->isFree(start, body_.radius)) {
       return end("invalid_start", "the start is outside the map or in collision");
     }
-    if (!truth_->isFree(query_.goal, model_.robot_radius)) {
+    if (!truth_->isFree(query_.goal, body_.radius)) {
       return end("invalid_goal", "the goal is outside the map or in collision");
     }
-    result_.difficulty = scenarioDifficulty(*truth_, query_, model_.robot_radius);
+    result_.difficulty = scenarioDifficulty(*truth_, query_, body_.radius);
     // The committed trajectory from t = 0; at rest at its end (a hover at the start at first).
     committed_.append(hold(start, dt_));
     intended_ = committed_;
@@ -420,7 +402,7 @@ class FlightLoop {
       snapshot();
     }
     const std::shared_ptr<const World> window = sense(now);
-    committed_free_ = freeFrom(committed_, t_, truth_->bounds(), *window, planning_model_);
+    committed_free_ = freeFrom(committed_, t_, truth_->bounds(), *window, planning_body_, limits_.limits);
     if (!committed_free_) {
       reason_ = "collision";
       next_replan_ = t_;
@@ -518,7 +500,7 @@ class FlightLoop {
     map_->insert(sensed, sensor_.maxRange());
     // Where the vehicle is, nothing is: its body is known free, with two voxels to spare for
     // the ESDF's conservative clearance (so that a cautious map still lets it start).
-    map_->markFree(now.col(0), model_.robot_radius + 2.0 * map_model_.resolution);
+    map_->markFree(now.col(0), body_.radius + 2.0 * map_model_.resolution);
     result_.time_map_ms += millisecondsSince(begin);
     begin = std::chrono::steady_clock::now();
     std::shared_ptr<const World> window = map_->window(now.col(0));
@@ -546,16 +528,16 @@ class FlightLoop {
     from.z() = std::clamp(from.z(), std::min(query_.start(2, 0), query_.goal.z()),
                           std::max(query_.start(2, 0), query_.goal.z()));
     const std::vector<Eigen::Vector3d> guide =
-        map_->guide(from, query_.goal, planning_model_.robot_radius, z_low, z_high);
+        map_->guide(from, query_.goal, planning_body_.radius, z_low, z_high);
     result_.time_guide_ms += millisecondsSince(begin);
     bool accepted = false;
     if (localGoal(local.start.col(0), query_.goal, guide, settings_.horizon, window,
-                  planning_model_.robot_radius, &local.goal)) {
+                  planning_body_.radius, &local.goal)) {
       replan.local_goal = local.goal;
-      std::unique_ptr<Planner> planner = make_planner_(shared_window, settings_.planning_margin);
+      planner_.setup({shared_window, planner_seed_, settings_.planning_margin});
       const std::shared_ptr<void> guard =
           guard_replan_ ? guard_replan_(settings_.replan_budget) : nullptr;
-      const PlanResult plan = planner->plan(
+      const PlanResult plan = planner_.plan(
           local,
           Budget{settings_.replan_budget, std::numeric_limits<long long>::max(), settings_.clock});
       replan.status = std::string(toString(plan.status));
@@ -576,7 +558,7 @@ class FlightLoop {
     }
     result_.replans.push_back(std::move(replan));
     // (A kept plan's committed trajectory is clear for the planning margin, so for the body.)
-    if (!settled && !freeFrom(committed_, t_, truth_->bounds(), window, model_)) {
+    if (!settled && !freeFrom(committed_, t_, truth_->bounds(), window, body_, limits_.limits)) {
       // Nothing safe to fly on (for the body: inside the planning margin it goes on): stop
       // now.
       const ChainState here = stateAt(committed_, t_);
@@ -629,7 +611,7 @@ class FlightLoop {
     const double seen = seenUntil(plan.trajectory);
     for (double cut = std::min(plan.trajectory.duration(), seen); cut > 0.0; cut -= 0.1) {
       Trajectory spliced = splice(committed_, t_start, slice(plan.trajectory, cut), brake_rate_);
-      if (freeFrom(spliced, t_start, truth_->bounds(), window, planning_model_) &&
+      if (freeFrom(spliced, t_start, truth_->bounds(), window, planning_body_, limits_.limits) &&
           seenUntil(spliced, t_start + cut) >= spliced.duration()) {
         replan.trajectory = plan.trajectory;
         intended_ = splice(committed_, t_start, plan.trajectory, brake_rate_);
@@ -656,7 +638,7 @@ class FlightLoop {
     const double reach = (plan.endPosition() - goal).norm() + 1e-9;
     const double by = std::min(committed_.duration(), t_start + plan.duration());
     const auto far = [&](double s) { return (committed_.evaluate(s) - goal).norm() > reach; };
-    return !everySample(t_start, by, 0.5 * map_model_.resolution, model_.limits.bound[1].norm(),
+    return !everySample(t_start, by, 0.5 * map_model_.resolution, limits_.limits.bound[1].norm(),
                         far) ||
            !far(by);
   }
@@ -673,7 +655,7 @@ class FlightLoop {
     const double radius = 0.5 * spacing;
     double last = from;
     const bool seen = everySample(from, trajectory.duration(), spacing,
-                                  model_.limits.bound[1].norm(), [&](double s) {
+                                  limits_.limits.bound[1].norm(), [&](double s) {
                                     if (!map_->seenAround(trajectory.evaluate(s), radius)) {
                                       return false;
                                     }
@@ -704,7 +686,7 @@ class FlightLoop {
     const bool seen_only = settings_.commit == CommitSpace::kSeen;
     std::optional<Eigen::Vector2d> first;
     std::optional<Eigen::Vector2d> unseen;
-    everySample(t, intended_.duration(), spacing, model_.limits.bound[1].norm(), [&](double s) {
+    everySample(t, intended_.duration(), spacing, limits_.limits.bound[1].norm(), [&](double s) {
       const Eigen::Vector3d p = intended_.evaluate(s);
       const Eigen::Vector2d away = (p - here).head<2>();
       if (away.norm() < kNearestLook) return true;
@@ -737,7 +719,7 @@ class FlightLoop {
       return;
     }
     if (replan.status == "at_local_goal" && (replan.local_goal - here.col(0)).norm() > 0.05 &&
-        moveStraight(here.col(0), replan.local_goal - here.col(0), window, planning_model_)) {
+        moveStraight(here.col(0), replan.local_goal - here.col(0), window, planning_body_)) {
       replan.recovery = "approach";
       return;
     }
@@ -755,19 +737,19 @@ class FlightLoop {
     window.esdf().distanceWithGradient(position, &gradient);
     gradient.z() = 0.0;
     if (gradient.norm() < 1e-6) return false;
-    return moveStraight(position, 0.3 * gradient.normalized(), window, model_);
+    return moveStraight(position, 0.3 * gradient.normalized(), window, body_);
   }
 
   /// A straight rest-to-rest move from `position` by `offset` (half the braking rate, half
   /// the speed limit), committed when it stays free for `body` in the window (and, with
   /// commit: seen, keeps the centre in seen space); the next replan waits for its end.
   bool moveStraight(const Eigen::Vector3d& position, const Eigen::Vector3d& offset,
-                    const World& window, const PlanningModel& body) {
+                    const World& window, const Body& body) {
     const auto move =
-        straightMove(position, offset, 0.5 * brake_rate_, 0.5 * model_.limits.bound[1].minCoeff());
+        straightMove(position, offset, 0.5 * brake_rate_, 0.5 * limits_.limits.bound[1].minCoeff());
     Trajectory moved = slice(committed_, t_);
     for (const TrajectorySegment& segment : move) moved.append(segment);
-    if (!freeFrom(moved, t_, truth_->bounds(), window, body) ||
+    if (!freeFrom(moved, t_, truth_->bounds(), window, body, limits_.limits) ||
         seenUntil(moved, t_) < moved.duration()) {
       return false;
     }
@@ -834,7 +816,8 @@ class FlightLoop {
   }
 
   const std::shared_ptr<const World>& truth_;
-  const PlannerFactory& make_planner_;
+  Planner& planner_;
+  std::uint64_t planner_seed_;
   const PlanningQuery& query_;
   const Sensor& sensor_;
   MapModel map_model_;  // the flight's, its reach set to the planning radius
@@ -842,8 +825,9 @@ class FlightLoop {
   const std::function<std::shared_ptr<void>(double)>& guard_replan_;
   FlightResult result_;
   std::shared_ptr<VehicleMap> map_;
-  PlanningModel model_;           // the vehicle's body and limits: what is judged
-  PlanningModel planning_model_;  // the body grown by the planning margin: what is planned
+  Body body_;           // the vehicle's body: what is judged
+  Body planning_body_;  // the body grown by the planning margin: what is planned
+  PlannerLimits limits_;
   TrajectoryChecker checker_;
   double brake_rate_;
   double dt_;
@@ -872,9 +856,9 @@ class FlightLoop {
 
 }  // namespace
 
-FlightResult fly(const std::shared_ptr<const World>& truth, const PlannerFactory& make_planner,
+FlightResult fly(const std::shared_ptr<const World>& truth, Planner& planner, std::uint64_t seed,
                  const PlanningQuery& query, const FlightSetup& setup) {
-  return FlightLoop(truth, make_planner, query, setup).run();
+  return FlightLoop(truth, planner, seed, query, setup).run();
 }
 
 const MetricSpecs& flightStatistics() {

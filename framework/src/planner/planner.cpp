@@ -6,7 +6,6 @@
 
 #include "kinolab/core/error.hpp"
 #include "kinolab/core/text.hpp"
-#include "kinolab/primitives/control_sampler.hpp"
 
 namespace kinolab {
 
@@ -45,20 +44,20 @@ std::string_view toString(SearchTreeEdge::State state) {
 }
 
 std::string positionProblem(const World& world, const Eigen::Vector3d& position,
-                            const PlanningModel& model) {
-  const double radius = model.robot_radius - model.collision_tolerance;
+                            const Body& body) {
   if (!position.allFinite()) return "is not finite";
   if (!world.bounds().contains(position)) {
     const Box& b = world.bounds();
     return formatPoint(position) + " is outside the map " + formatPoint(b.min) + " .. " +
            formatPoint(b.max);
   }
+  const double radius = body.keptRadius();
   const double clearance = world.clearanceFor(position, radius);
   if (clearance < radius) {
     return formatPoint(position) + " is in collision: an occupied voxel cube is " +
            formatNumber(std::max(clearance, 0.0)) + " m from it, less than the robot radius " +
-           formatNumber(model.robot_radius) + " m less the collision tolerance " +
-           formatNumber(model.collision_tolerance) + " m";
+           formatNumber(body.radius) + " m less the collision tolerance " +
+           formatNumber(body.tolerance) + " m";
   }
   return "";
 }
@@ -78,12 +77,17 @@ std::string Planner::pluginName() const {
 
 void Planner::setup(const PlannerContext& context) {
   if (!context.world) throw InvalidArgument("planner: setup without a world");
+  if (!(context.body_margin >= 0.0 && std::isfinite(context.body_margin))) {
+    throw InvalidArgument("planner: a body margin must be finite and >= 0, got " +
+                          formatNumber(context.body_margin));
+  }
+  body_ = configured_body_.grown(context.body_margin);
   try {
     doSetup(context);
   } catch (...) {
     rethrowFromPlugin(pluginName(), "setup()");
   }
-  checker_ = std::make_unique<TrajectoryChecker>(context.world, checkerSettings(planningModel()));
+  checker_ = std::make_unique<TrajectoryChecker>(context.world, checkerSettings(body_, limits()));
   world_ = context.world;
 }
 
@@ -99,33 +103,40 @@ Budget Planner::budgetFor(const Budget& budget) const {
           std::min(budget.max_iterations, own.max_iterations), budget.clock};
 }
 
-PlanResult Planner::plan(const PlanningQuery& query, const Budget& budget, SearchTree* tree) {
+std::optional<PlanResult> Planner::refusal(const PlanningQuery& query) const {
   const World& map = world();
-  const PlanningModel model = planningModel();
+  const PlannerLimits own = limits();
   PlanResult result;
   const Eigen::Vector3d start = query.start.col(0);
   result.distance_to_goal = (start - query.goal).norm();
-  if (std::string problem = positionProblem(map, start, model); !problem.empty()) {
+  if (std::string problem = positionProblem(map, start, body_); !problem.empty()) {
     result.status = PlanStatus::kInvalidStart;
     result.message = "start " + problem;
     return result;
   }
-  for (int k = 1; k < model.limited_derivatives; ++k) {
-    const Eigen::Vector3d excess = query.start.col(k).cwiseAbs() - model.limits.bound[k];
+  for (int k = 1; k < own.limited_derivatives; ++k) {
+    const Eigen::Vector3d excess = query.start.col(k).cwiseAbs() - own.limits.bound[k];
     if (excess.maxCoeff() > 0.0) {
       result.status = PlanStatus::kInvalidStart;
       result.message = "start derivative " + std::to_string(k) + " " +
                        formatPoint(query.start.col(k)) + " exceeds the limit " +
-                       formatPoint(model.limits.bound[k]);
+                       formatPoint(own.limits.bound[k]);
       return result;
     }
   }
-  if (std::string problem = positionProblem(map, query.goal, model); !problem.empty()) {
+  if (std::string problem = positionProblem(map, query.goal, body_); !problem.empty()) {
     result.status = PlanStatus::kInvalidGoal;
     result.message = "goal " + problem;
     return result;
   }
+  return std::nullopt;
+}
 
+PlanResult Planner::plan(const PlanningQuery& query, const Budget& budget, SearchTree* tree) {
+  if (std::optional<PlanResult> refused = refusal(query)) return *std::move(refused);
+  const PlannerLimits own = limits();
+  const Eigen::Vector3d start = query.start.col(0);
+  PlanResult result;
   StopCondition stop(budgetFor(budget));
   try {
     result = doPlan(query, stop);
@@ -155,7 +166,7 @@ PlanResult Planner::plan(const PlanningQuery& query, const Budget& budget, Searc
     result.distance_to_goal = (start - query.goal).norm();
     if (result.status == PlanStatus::kExact) {
       // Nothing to fly is a valid answer only when the start is already in the goal region.
-      result.check.valid = result.distance_to_goal <= model.goal_radius;
+      result.check.valid = result.distance_to_goal <= own.goal_radius;
       if (result.check.valid) result.cost = 0.0;  // nothing to fly costs nothing
       result.check.check = result.check.valid ? "" : "empty";
       result.check.detail = result.check.valid ? "the start is inside the goal region"
@@ -167,7 +178,7 @@ PlanResult Planner::plan(const PlanningQuery& query, const Budget& budget, Searc
   CheckQuery check_query;
   check_query.start = query.start;
   check_query.goal = query.goal;
-  check_query.goal_radius = model.goal_radius;
+  check_query.goal_radius = own.goal_radius;
   check_query.require_goal = result.status == PlanStatus::kExact;
   const auto check_begin = std::chrono::steady_clock::now();
   result.check = checker_->check(result.trajectory, check_query);
@@ -204,23 +215,30 @@ ParameterSpecs motionParameters(double default_time_limit) {
       .real("time_limit", default_time_limit, 0.0, 1e6, "planning time budget, s (0: none)");
 }
 
-PlanningModel planningModelFrom(const ParameterSet& parameters) {
-  PlanningModel model;
-  model.robot_radius = parameters.real("robot_radius");
-  model.limits =
+PlannerLimits plannerLimitsFrom(const ParameterSet& parameters) {
+  PlannerLimits limits;
+  limits.limits =
       DynamicLimits::uniform(parameters.real("max_velocity"), parameters.real("max_acceleration"));
-  model.limited_derivatives = 2;
-  model.goal_radius = parameters.real("goal_radius");
-  model.collision_tolerance = parameters.real("collision_tolerance");
-  return model;
+  limits.limited_derivatives = 2;
+  limits.goal_radius = parameters.real("goal_radius");
+  return limits;
 }
 
-CheckerSettings checkerSettings(const PlanningModel& model) {
+Body bodyFrom(const ParameterSet& parameters) {
+  Body body;
+  body.radius = parameters.has("robot_radius") ? parameters.real("robot_radius") : 0.0;
+  if (parameters.has("collision_tolerance")) {
+    body.tolerance = parameters.real("collision_tolerance");
+  }
+  if (parameters.has("safety_distance")) body.safety_band = parameters.real("safety_distance");
+  return body;
+}
+
+CheckerSettings checkerSettings(const Body& body, const PlannerLimits& limits) {
   CheckerSettings settings;
-  settings.robot_radius = model.robot_radius;
-  settings.limits = model.limits;
-  settings.max_derivative = model.limited_derivatives;
-  settings.collision_tolerance = model.collision_tolerance;
+  settings.body = body;
+  settings.limits = limits.limits;
+  settings.max_derivative = limits.limited_derivatives;
   return settings;
 }
 
@@ -239,14 +257,11 @@ ConfiguredPlanner configurePlanner(std::string_view key,
   const PluginRegistry<Planner>& planners = pluginRegistry<Planner>();
   ConfiguredPlanner configured;
   configured.parameters = planners.resolve(key, assignments);
-  if (const ParameterSpec* sampler = planners.info(key).parameters.samplerParameter()) {
-    configured.sampler_key = configured.parameters.text(sampler->name);
-    configured.sampler =
-        pluginRegistry<ControlSampler>().createChosen(configured.parameters, sampler->name);
-  }
   try {
     configured.planner = planners.createResolved(key, configured.parameters);
-    configured.planner->doCheck(configured.sampler.get());
+    configured.planner->configured_body_ = bodyFrom(configured.parameters);
+    configured.planner->body_ = configured.planner->configured_body_;
+    configured.planner->doCheck();
   } catch (const ParameterConflict& conflict) {
     // Where the blamed parameter was set (the last assignment wins), else where the first of
     // the others taking part was, else the blamed one's default.

@@ -47,9 +47,9 @@ EdgeEvaluator::EdgeEvaluator(std::shared_ptr<const World> world, EdgeEvaluatorSe
   require(world_ != nullptr, "no world");
   require(std::isfinite(settings_.duration) && settings_.duration > 0.0,
           "duration (tau) must be positive");
-  require(settings_.robot_radius >= 0.0, "robot_radius must be >= 0");
-  require(settings_.safety_distance > 0.0, "safety_distance must be positive");
-  require(settings_.collision_tolerance > 0.0, "collision_tolerance must be positive");
+  require(settings_.body.radius >= 0.0, "the body's radius must be >= 0");
+  require(settings_.body.safety_band > 0.0, "the body's safety band must be positive");
+  require(settings_.body.tolerance > 0.0, "the body's collision tolerance must be positive");
   const CostWeights& w = settings_.weights;
   require(w.duration >= 0 && w.length >= 0 && w.control_effort >= 0 && w.obstacle >= 0,
           "cost weights must be non-negative");
@@ -64,7 +64,7 @@ EdgeEvaluator::EdgeEvaluator(std::shared_ptr<const World> world, EdgeEvaluatorSe
   } else {
     require(settings_.sampling.spacing > 0.0, "spacing must be positive");
   }
-  inverse_safety_distance_ = 1.0 / settings_.safety_distance;
+  inverse_safety_band_ = 1.0 / settings_.body.safety_band;
   // A sparse world's distances are exact up to its truncation T. The verdicts read them up to
   // the radius; the obstacle cost's trilinear values below the band's edge B read voxel
   // centres up to B + 2 sqrt(3) voxels away (each centre within sqrt(3) voxels of the point,
@@ -73,7 +73,7 @@ EdgeEvaluator::EdgeEvaluator(std::shared_ptr<const World> world, EdgeEvaluatorSe
   // within the tolerance band the two may differ (tracing steps follow the clamped clearance).
   world_->requireExactDistancesTo(
       w.obstacle > 0.0
-          ? world_->obstacleCostReach(settings_.robot_radius + settings_.safety_distance)
+          ? world_->obstacleCostReach(settings_.body.costReach())
           : verdictRadius(),
       w.obstacle > 0.0 ? "edge evaluator (obstacle cost)" : "edge evaluator (collision verdict)");
   const auto choose = [](int n, int k) {
@@ -280,7 +280,7 @@ void EdgeEvaluator::integrate(const ChainState& start, const Eigen::Vector3d& co
   const bool length_term = settings_.weights.length > 0.0;
   double penalty_sum = 0.0;
   if (obstacle_term || length_term) {
-    const double band = settings_.robot_radius + settings_.safety_distance;
+    const double band = settings_.body.costReach();
     const double lipschitz_per_second = std::sqrt(3.0) / seconds_per_metre;
     Eigen::Vector3d previous = start.col(0);
     int next_traced = 0;
@@ -326,7 +326,7 @@ bool EdgeEvaluator::certify(const ChainState& start, double start_clearance,
     if (!std::isfinite(evaluation.end_distance)) return false;
     const double lower =
         0.5 * (start_clearance + evaluation.end_distance - std::sqrt(3.0) * path_bound);
-    if (lower < settings_.robot_radius + settings_.safety_distance) return false;
+    if (lower < settings_.body.costReach()) return false;
   }
   evaluation.obstacle_cost = 0.0;
   if (settings_.weights.length > 0.0) {

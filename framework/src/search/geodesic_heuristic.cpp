@@ -361,12 +361,9 @@ class GeodesicHeuristic final : public SearchHeuristic {
 
   std::shared_ptr<const SearchHeuristic> forQuery(const World& world, const Eigen::Vector3d& goal,
                                                   StopCondition& stop) const override {
-    // Where a valid edge's points can be: at least radius - tolerance from every cube (the
-    // evaluator's verdict radius less the tolerance sphere tracing allows).
-    const double threshold =
-        std::max(edges_.robot_radius, edges_.collision_tolerance) - edges_.collision_tolerance;
+    // Where a valid edge's points can be: at least the body's kept radius from every cube.
     return std::make_shared<GeodesicQueryHeuristic>(
-        HopField(world, threshold, goal, goal_radius_, memory_bytes_, stop), edges_, time_optimal_);
+        HopField(world, edges_.body.keptRadius(), goal, goal_radius_, memory_bytes_, stop), edges_, time_optimal_);
   }
 
  private:

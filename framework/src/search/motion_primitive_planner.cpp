@@ -66,8 +66,8 @@ void requireAMovingControl(const std::vector<Eigen::Vector3d>& controls,
 
 ParameterSpecs motionPrimitiveParameters() {
   return ParameterSpecs()
-      .sampler("sampler", "uniform",
-               "control sampler (kinolab list samplers); set its parameters as sampler.NAME")
+      .plugin("sampler", "sampler", "uniform",
+              "control sampler (kinolab list samplers); set its parameters as sampler.NAME")
       .integer("order", 2, 2, 4, "integrator chain order: 2 acceleration, 3 jerk, 4 snap control")
       .real("tau", 0.6, 0.01, 5.0, "primitive duration, s")
       .include(motionParameters(10.0))
@@ -131,32 +131,28 @@ std::shared_ptr<const SearchHeuristic> heuristicFor(const std::string& key,
 MotionPrimitiveConfig MotionPrimitiveConfig::fromParameters(const ParameterSet& parameters) {
   MotionPrimitiveConfig config;
   SearchSettings& settings = config.settings;
-  const PlanningModel model = planningModelFrom(parameters);
+  const PlannerLimits limits = plannerLimitsFrom(parameters);
   EdgeEvaluatorSettings& edges = settings.edges;
   edges.order = static_cast<int>(parameters.integer("order"));
   edges.duration = parameters.real("tau");
-  edges.limits = DynamicLimits::uniform(model.limits.bound[1].x(), model.limits.bound[2].x(),
+  edges.limits = DynamicLimits::uniform(limits.limits.bound[1].x(), limits.limits.bound[2].x(),
                                         parameters.real("max_jerk"), parameters.real("max_snap"));
   edges.weights.duration = parameters.real("weight_duration");
   edges.weights.length = parameters.real("weight_length");
   edges.weights.control_effort = parameters.real("weight_control");
   edges.weights.obstacle = parameters.real("weight_obstacle");
-  edges.robot_radius = model.robot_radius;
-  edges.safety_distance = parameters.real("safety_distance");
-  edges.collision_tolerance = model.collision_tolerance;
   const double spacing = parameters.real("edge_spacing");
   edges.sampling.mode = spacing > 0.0 ? EdgeSampling::Mode::kSpacing : EdgeSampling::Mode::kCount;
   edges.sampling.samples = static_cast<int>(parameters.integer("edge_samples"));
   if (spacing > 0.0) edges.sampling.spacing = spacing;
   settings.heuristic_weight = parameters.real("heuristic_weight");
-  settings.goal_radius = model.goal_radius;
+  settings.goal_radius = limits.goal_radius;
   settings.memory_limit_mb = parameters.real("memory_limit_mb");
 
   config.policies.edges = std::make_shared<FullEvaluationPolicy>();
-  config.policies.heuristic = pluginRegistry<HeuristicBuilder>()
-                                  .createChosen(parameters, "heuristic")
-                                  ->build({edges, settings.goal_radius});
+  config.heuristic = pluginRegistry<HeuristicBuilder>().createChosen(parameters, "heuristic");
   config.policies.space = pluginRegistry<SearchSpace>().createChosen(parameters, "search_space");
+  config.sampler = pluginRegistry<ControlSampler>().createChosen(parameters, "sampler");
   config.budget = timeBudgetFrom(parameters);
   if (const long long limit = parameters.integer("max_expansions"); limit > 0) {
     config.budget.max_iterations = limit;
@@ -166,9 +162,12 @@ MotionPrimitiveConfig MotionPrimitiveConfig::fromParameters(const ParameterSet& 
 
 MotionPrimitivePlanner::MotionPrimitivePlanner(MotionPrimitiveConfig config)
     : config_(std::move(config)) {
-  if (!config_.policies.edges || !config_.policies.heuristic || !config_.policies.space) {
+  if (!config_.policies.edges || !config_.heuristic || !config_.policies.space) {
     throw InvalidArgument(
         "motion-primitive planner: an edge policy, a heuristic and a search space are needed");
+  }
+  if (!config_.sampler && config_.controls.empty()) {
+    throw InvalidArgument("motion-primitive planner: neither a control sampler nor controls");
   }
 }
 
@@ -177,31 +176,38 @@ const MotionPrimitiveSearch& MotionPrimitivePlanner::search() const {
   return *search_;
 }
 
-void MotionPrimitivePlanner::doSetup(const PlannerContext& context) {
-  if (!context.sampler && config_.controls.empty()) {
-    throw InvalidArgument("motion-primitive planner: set up without a control sampler");
-  }
-  const EdgeEvaluatorSettings& edges = config_.settings.edges;
-  auto controls = config_.controls.empty()
-                      ? context.sampler->sample(edges.limits.bound[edges.order], context.seed)
-                      : config_.controls;
-  requireAMovingControl(controls, edges);
-  search_ = std::make_unique<MotionPrimitiveSearch>(context.world, std::move(controls),
-                                                    config_.settings, config_.policies);
+SearchSettings MotionPrimitivePlanner::settingsFor(const Body& body) const {
+  SearchSettings settings = config_.settings;
+  settings.edges.body = body;
+  return settings;
 }
 
-void MotionPrimitivePlanner::doCheck(const ControlSampler* sampler) const {
+std::vector<Eigen::Vector3d> MotionPrimitivePlanner::controlsFor(std::uint64_t seed) const {
   const EdgeEvaluatorSettings& edges = config_.settings.edges;
-  const std::vector<Eigen::Vector3d> controls =
-      !config_.controls.empty() ? config_.controls
-                                : (sampler ? sampler->sample(edges.limits.bound[edges.order], 1)
-                                           : std::vector<Eigen::Vector3d>());
+  return config_.controls.empty() ? config_.sampler->sample(edges.limits.bound[edges.order], seed)
+                                  : config_.controls;
+}
+
+void MotionPrimitivePlanner::doSetup(const PlannerContext& context) {
+  const SearchSettings settings = settingsFor(body());
+  auto controls = controlsFor(context.seed);
+  requireAMovingControl(controls, settings.edges);
+  SearchPolicies policies = config_.policies;
+  policies.heuristic = config_.heuristic->build({settings.edges, settings.goal_radius});
+  search_ = std::make_unique<MotionPrimitiveSearch>(context.world, std::move(controls), settings,
+                                                    std::move(policies));
+}
+
+void MotionPrimitivePlanner::doCheck() const {
+  const SearchSettings settings = settingsFor(body());
+  const std::vector<Eigen::Vector3d> controls = controlsFor(1);
   if (controls.empty()) return;
-  requireAMovingControl(controls, edges);
+  requireAMovingControl(controls, settings.edges);
   // A heuristic that reads the control set (`lattice`) refuses one it cannot serve here, where
   // the configuration names the heuristic, not when a worker sets the planner up.
   try {
-    heuristicForControls(config_.policies.heuristic, controls);
+    heuristicForControls(config_.heuristic->build({settings.edges, settings.goal_radius}),
+                         controls);
   } catch (const ParameterConflict&) {
     throw;
   } catch (const InvalidArgument& error) {
@@ -221,8 +227,7 @@ std::string MotionPrimitivePlanner::costObjective() const {
   if (w.length > 0.0) text += ", per m " + formatNumber(w.length);
   if (w.obstacle > 0.0) {
     text += ", obstacle " + formatNumber(w.obstacle) + " within " +
-            formatNumber(edges.safety_distance) + " m of radius " +
-            formatNumber(edges.robot_radius);
+            formatNumber(body().safety_band) + " m of radius " + formatNumber(body().radius);
   }
   // The quadrature reads the length and obstacle terms only: without them the cost is exact.
   if (w.length > 0.0 || w.obstacle > 0.0) {
@@ -233,14 +238,12 @@ std::string MotionPrimitivePlanner::costObjective() const {
   return text;
 }
 
-PlanningModel MotionPrimitivePlanner::planningModel() const {
-  PlanningModel model;
-  model.robot_radius = config_.settings.edges.robot_radius;
-  model.limits = config_.settings.edges.limits;
-  model.limited_derivatives = config_.settings.edges.order;
-  model.goal_radius = config_.settings.goal_radius;
-  model.collision_tolerance = config_.settings.edges.collision_tolerance;
-  return model;
+PlannerLimits MotionPrimitivePlanner::plannerLimits() const {
+  PlannerLimits limits;
+  limits.limits = config_.settings.edges.limits;
+  limits.limited_derivatives = config_.settings.edges.order;
+  limits.goal_radius = config_.settings.goal_radius;
+  return limits;
 }
 
 PlanResult MotionPrimitivePlanner::resultOf(MotionPrimitiveSearch::Outcome outcome,

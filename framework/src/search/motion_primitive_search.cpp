@@ -38,6 +38,7 @@ MotionPrimitiveSearch::MotionPrimitiveSearch(std::shared_ptr<const World> world,
     : world_(std::move(world)),
       controls_(std::move(controls)),
       settings_(settings),
+      given_policies_(policies),
       policies_(std::move(policies)),
       evaluator_(world_, settings_.edges) {
   if (controls_.empty()) throw InvalidArgument("motion-primitive search: no controls");
@@ -61,10 +62,9 @@ MotionPrimitiveSearch::MotionPrimitiveSearch(std::shared_ptr<const World> world,
   if (policies_.shot) {
     // A shot is held to what the search's edges are: its limits, body and tolerance.
     CheckerSettings check;
-    check.robot_radius = settings_.edges.robot_radius;
+    check.body = settings_.edges.body;
     check.limits = settings_.edges.limits;
     check.max_derivative = settings_.edges.order;
-    check.collision_tolerance = settings_.edges.collision_tolerance;
     shot_checker_ = std::make_unique<TrajectoryChecker>(world_, check);
   }
 }

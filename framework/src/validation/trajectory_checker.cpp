@@ -216,18 +216,18 @@ struct TrajectoryChecker::Fcl {
 TrajectoryChecker::TrajectoryChecker(std::shared_ptr<const World> world, CheckerSettings settings)
     : world_(std::move(world)), settings_(std::move(settings)) {
   if (!world_) throw InvalidArgument("trajectory checker: no world");
-  if (!(settings_.robot_radius >= 0.0)) {
-    throw InvalidArgument("trajectory checker: robot_radius must be >= 0");
+  if (!(settings_.body.radius >= 0.0)) {
+    throw InvalidArgument("trajectory checker: the body's radius must be >= 0");
   }
   if (settings_.max_derivative < 1 || settings_.max_derivative > 4) {
     throw InvalidArgument("trajectory checker: max_derivative must be in [1, 4]");
   }
-  if (!(settings_.collision_tolerance >= 0.0)) {
-    throw InvalidArgument("trajectory checker: collision_tolerance must be >= 0");
+  if (!(settings_.body.tolerance >= 0.0)) {
+    throw InvalidArgument("trajectory checker: the body's collision tolerance must be >= 0");
   }
   const double voxel = world_->esdf().resolution();
   spacing_ = settings_.spacing > 0.0 ? settings_.spacing : std::min(0.25 * voxel, 0.025);
-  body_radius_ = std::max(settings_.robot_radius - settings_.collision_tolerance, 0.0);
+  body_radius_ = settings_.body.keptRadius();
   if (body_radius_ > 0.0) fcl_ = std::make_unique<Fcl>(*world_, body_radius_);
 }
 
@@ -432,8 +432,8 @@ TrajectoryEvaluation TrajectoryChecker::evaluate(const Trajectory& trajectory) c
     }
     segment_start += segment.duration;
   }
-  result.min_clearance = least - settings_.robot_radius;
-  result.mean_clearance = clearance_sum / samples - settings_.robot_radius;
+  result.min_clearance = least - settings_.body.radius;
+  result.mean_clearance = clearance_sum / samples - settings_.body.radius;
   result.peak_speed = peak_speed;
   result.peak_acceleration = peak_acceleration;
   result.speed_limit_ratio = speed_ratio;

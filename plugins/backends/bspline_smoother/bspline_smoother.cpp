@@ -190,7 +190,7 @@ class BudgetCallback final : public ceres::IterationCallback {
 
 CheckerSettings clearanceCheck(const SmootherSettings& settings) {
   CheckerSettings check;
-  check.robot_radius = settings.robot_radius;
+  check.body = settings.body;
   check.limits = settings.limits;
   check.max_derivative = 2;
   return check;
@@ -203,7 +203,7 @@ BsplineSmoother::BsplineSmoother(std::shared_ptr<const World> world,
     : world_(world), settings_(settings), checker_(world, clearanceCheck(settings)) {
   // The obstacle cost reads the trilinear distance and its gradient out to the band's edge.
   world_->requireExactDistancesTo(
-      world_->obstacleCostReach(settings_.robot_radius + settings_.safety_distance),
+      world_->obstacleCostReach(settings_.body.costReach()),
       "bspline smoother (obstacle cost)");
 }
 
@@ -217,7 +217,7 @@ void BsplineSmoother::addCosts(ceres::Problem& problem, Eigen::Matrix3Xd& contro
   const auto block = [&](int i) { return control.col(i).data(); };
   const double smooth_scale = std::sqrt(settings_.weight_smoothness);
   const double obstacle_scale = std::sqrt(weight_obstacle / settings_.obstacle_samples);
-  const double threshold = settings_.robot_radius + settings_.safety_distance;
+  const double threshold = settings_.body.costReach();
   for (int i = 0; i + 3 < count; ++i) {
     problem.AddResidualBlock(new ceres::AutoDiffCostFunction<SmoothnessCost, 3, 3, 3, 3, 3>(
                                  new SmoothnessCost{smooth_scale}),

@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "kinolab/core/stop_condition.hpp"
+#include "kinolab/dynamics/body.hpp"
 #include "kinolab/dynamics/integrator_chain.hpp"
 #include "kinolab/planner/planner.hpp"
 #include "kinolab/trajectory/uniform_bspline.hpp"
@@ -24,8 +25,9 @@ namespace kinolab::smoothing {
 struct SmootherSettings {
   double knot_spacing = 0.5;   ///< control points along the path this far apart at first, m
   double initial_speed = 0.7;  ///< first time allocation: this fraction of the speed limit
-  double robot_radius = 0.25;
-  double safety_distance = 0.25;  ///< the obstacle penalty acts below radius + this, m
+  /// The planner's body (set at its setup); its safety band is the smoother's own
+  /// `safety_distance`: the obstacle penalty acts below the radius and this, m.
+  Body body{MotionDefaults::kRobotRadius, MotionDefaults::kCollisionTolerance, 0.25};
   DynamicLimits limits = DynamicLimits::uniform(2.0, 3.0);
   double weight_smoothness = 1.0;    ///< on sum |P_{i+3} - 3 P_{i+2} + 3 P_{i+1} - P_i|^2
   double weight_obstacle = 10.0;     ///< on sum (radius + safety - d)^2 over span samples
@@ -36,13 +38,14 @@ struct SmootherSettings {
   int max_rounds = 4;                ///< re-solves after a collision (denser, heavier)
   double budget_share = 0.25;  ///< of a time budget kept for smoothing (the path gets the rest)
 
-  /// Its parameters (core/fields.hpp); the radius and limits are the planner's.
+  /// Its parameters (core/fields.hpp); the body's radius and tolerance and the limits are the
+  /// planner's.
   template <typename Fields>
   void fields(Fields& f) {
     f.real("knot_spacing", knot_spacing, 0.02, 10.0, "B-spline control points along the path, m");
     f.real("initial_speed", initial_speed, 0.05, 1.0,
            "first time allocation: this share of max_velocity");
-    f.real("safety_distance", safety_distance, 0.0, 10.0,
+    f.real("safety_distance", body.safety_band, 0.0, 10.0,
            "the obstacle penalty acts below the radius plus this, m");
     f.real("weight_smoothness", weight_smoothness, 0.0, 1e6,
            "weight of the jerk (third difference) term");

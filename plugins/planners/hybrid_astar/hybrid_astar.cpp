@@ -85,21 +85,21 @@ MetricSpecs hybridBsplineStatistics() {
 /// The motion-primitive configuration of the hybrid front end.
 MotionPrimitiveConfig hybridConfig(const ParameterSet& parameters) {
   const HybridSettings hybrid = readFields<HybridSettings>(parameters);
-  const PlanningModel model = planningModelFrom(parameters);
+  const PlannerLimits limits = plannerLimitsFrom(parameters);
   MotionPrimitiveConfig config;
   SearchSettings& settings = config.settings;
   EdgeEvaluatorSettings& edges = settings.edges;
   edges.order = 2;
   edges.duration = hybrid.tau;
-  edges.limits = model.limits;
+  edges.limits = limits.limits;
   edges.weights = hybrid.weights;
-  edges.robot_radius = model.robot_radius;
-  edges.collision_tolerance = model.collision_tolerance;
   settings.heuristic_weight = hybrid.heuristic_weight;
-  settings.goal_radius = model.goal_radius;
+  settings.goal_radius = limits.goal_radius;
   settings.memory_limit_mb = hybrid.memory_limit_mb;
   config.policies.edges = std::make_shared<FullEvaluationPolicy>();
-  config.policies.heuristic = std::make_shared<ObvpHeuristic>(edges, settings.goal_radius);
+  config.heuristic = std::make_shared<HeuristicBuilder>([](const HeuristicContext& context) {
+    return std::make_shared<ObvpHeuristic>(context.edges, context.goal_radius);
+  });
   config.policies.space =
       std::make_shared<CellSpace>(CellSpace::Cells{hybrid.cell_size, hybrid.velocity_resolution});
   config.policies.shot = std::make_shared<ObvpShot>(edges, hybrid.shot_distance);
@@ -124,7 +124,9 @@ class HybridBsplinePlanner final : public MotionPrimitivePlanner {
  protected:
   void doSetup(const PlannerContext& context) override {
     MotionPrimitivePlanner::doSetup(context);
-    smoother_.emplace(context.world, smoother_settings_);
+    SmootherSettings settings = smoother_settings_;
+    settings.body = body();
+    smoother_.emplace(context.world, settings);
   }
 
   /// The smoothed trajectory's cost is the shot's (duration and control effort, exact): the
@@ -162,7 +164,6 @@ class HybridBsplinePlanner final : public MotionPrimitivePlanner {
       : MotionPrimitivePlanner(config),
         smoother_settings_(readFields<SmootherSettings>(parameters)),
         shot_(config.settings.edges, 1.0) {
-    smoother_settings_.robot_radius = config.settings.edges.robot_radius;
     smoother_settings_.limits = config.settings.edges.limits;
   }
 

@@ -22,7 +22,7 @@ PlanResult planWith(const std::string& planner, const std::string& world,
                     const PlanningQuery& query, const std::vector<std::string>& settings = {}) {
   test::loadTestPlugins();
   ConfiguredPlanner configured = configurePlanner(planner, test::assignments(settings));
-  configured.planner->setup({test::smallWorld(world), configured.sampler, 1});
+  configured.planner->setup({test::smallWorld(world), 1});
   return configured.planner->plan(query, Budget{});
 }
 

@@ -23,11 +23,12 @@ class LazyFamilyPlanner final : public MotionPrimitivePlanner {
   void doSetup(const PlannerContext& context) override {
     MotionPrimitivePlanner::doSetup(context);
     if (lookahead_ == 0) {
-      lazy_ = std::make_unique<LazySpSearch>(context.world, search().controls(), config().settings,
-                                             config().policies, selector_);
+      lazy_ = std::make_unique<LazySpSearch>(context.world, search().controls(),
+                                             search().settings(), search().policies(), selector_);
     } else {
-      lazy_ = std::make_unique<LraStarSearch>(context.world, search().controls(), config().settings,
-                                              config().policies, lookahead_, selector_);
+      lazy_ = std::make_unique<LraStarSearch>(context.world, search().controls(),
+                                              search().settings(), search().policies(), lookahead_,
+                                              selector_);
     }
   }
 

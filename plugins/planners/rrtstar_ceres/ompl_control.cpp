@@ -162,7 +162,8 @@ Eigen::Vector3d controlOf(const oc::Control* control) {
 struct ControlProblem {
   std::shared_ptr<const World> world;
   ControlSettings settings;
-  PlanningModel model;
+  PlannerLimits limits;
+  Body body;
   std::shared_ptr<ob::RealVectorStateSpace> space;
   oc::SpaceInformationPtr si;
   std::uint32_t seed = 0;  // of the samplers the next solve allocates
@@ -180,8 +181,8 @@ void buildSpaces(ControlProblem& p) {
     bounds.setLow(axis, box.min[axis]);
     bounds.setHigh(axis, box.max[axis]);
     for (int k = 1; k < order; ++k) {
-      bounds.setLow(3 * k + axis, -p.model.limits.bound[k][axis]);
-      bounds.setHigh(3 * k + axis, p.model.limits.bound[k][axis]);
+      bounds.setLow(3 * k + axis, -p.limits.limits.bound[k][axis]);
+      bounds.setHigh(3 * k + axis, p.limits.limits.bound[k][axis]);
     }
   }
   p.space->setBounds(bounds);
@@ -195,8 +196,8 @@ void buildSpaces(ControlProblem& p) {
   auto controls = std::make_shared<oc::RealVectorControlSpace>(p.space, 3);
   ob::RealVectorBounds control_bounds(3);
   for (int axis = 0; axis < 3; ++axis) {
-    control_bounds.setLow(axis, -p.model.limits.bound[order][axis]);
-    control_bounds.setHigh(axis, p.model.limits.bound[order][axis]);
+    control_bounds.setLow(axis, -p.limits.limits.bound[order][axis]);
+    control_bounds.setHigh(axis, p.limits.limits.bound[order][axis]);
   }
   controls->setBounds(control_bounds);
   controls->setControlSamplerAllocator([shared](const oc::ControlSpace* space) {
@@ -223,7 +224,7 @@ void setUpPropagation(ControlProblem& p) {
   // quadratic within a step and can exceed its endpoints' by j_max step^2 / 8: the states keep that
   // much below the limit.
   const double step = p.settings.step;
-  const double margin = 0.5 * std::sqrt(3.0) * p.model.limits.bound[1].maxCoeff() * step;
+  const double margin = 0.5 * std::sqrt(3.0) * p.limits.limits.bound[1].maxCoeff() * step;
   const double velocity_slack = order == 3 ? p.settings.max_jerk * step * step / 8.0 : 0.0;
   // The same margin inside the map's box keeps the motion inside it.
   const Box& box = p.world->bounds();
@@ -233,13 +234,13 @@ void setUpPropagation(ControlProblem& p) {
       [shared, order, margin, velocity_slack, low, high](const ob::State* state) {
         ++shared->validity_checks;
         const ChainState chain = chainOf(state, order);
-        const Eigen::Vector3d& bound = shared->model.limits.bound[1];
+        const Eigen::Vector3d& bound = shared->limits.limits.bound[1];
         if ((chain.col(1).cwiseAbs() - bound).maxCoeff() > -velocity_slack) return false;
         if ((chain.col(0) - low).minCoeff() < 0.0 || (high - chain.col(0)).minCoeff() < 0.0) {
           return false;
         }
         return shared->si->satisfiesBounds(state) &&
-               shared->world->isFree(chain.col(0), shared->model.robot_radius + margin);
+               shared->world->isFree(chain.col(0), shared->body.radius + margin);
       });
   p.si->setPropagationStepSize(step);
   p.si->setMinMaxControlDuration(static_cast<unsigned>(p.settings.min_steps),
@@ -285,7 +286,7 @@ class OmplControlPlanner final : public Planner {
  public:
   explicit OmplControlPlanner(const ParameterSet& parameters)
       : settings_(readFields<ControlSettings>(parameters)),
-        model_(planningModelFrom(parameters)),
+        limits_(plannerLimitsFrom(parameters)),
         budget_(timeBudgetFrom(parameters)) {
     if (settings_.max_steps < settings_.min_steps) {
       throw ConfigError("ompl_control: max_steps " + std::to_string(settings_.max_steps) +
@@ -297,10 +298,10 @@ class OmplControlPlanner final : public Planner {
           "ompl_control: time_limit 0 (none) needs max_iterations > 0: the planners stop only "
           "at their budget");
     }
-    const Eigen::Vector3d& v = model_.limits.bound[1];
-    const Eigen::Vector3d& a = model_.limits.bound[2];
-    model_.limits = DynamicLimits::uniform(v.x(), a.x(), settings_.max_jerk);
-    model_.limited_derivatives = static_cast<int>(settings_.order);
+    const Eigen::Vector3d& v = limits_.limits.bound[1];
+    const Eigen::Vector3d& a = limits_.limits.bound[2];
+    limits_.limits = DynamicLimits::uniform(v.x(), a.x(), settings_.max_jerk);
+    limits_.limited_derivatives = static_cast<int>(settings_.order);
   }
 
  protected:
@@ -309,7 +310,8 @@ class OmplControlPlanner final : public Planner {
     problem_ = std::make_unique<ControlProblem>();
     problem_->world = context.world;
     problem_->settings = settings_;
-    problem_->model = model_;
+    problem_->limits = limits_;
+    problem_->body = body();
     buildSpaces(*problem_);
     setUpPropagation(*problem_);
     seed_ = context.seed;
@@ -318,13 +320,13 @@ class OmplControlPlanner final : public Planner {
   PlanResult doPlan(const PlanningQuery& query, StopCondition& stop) override;
 
   SearchTree doTree(std::size_t max_edges) const override;
-  PlanningModel planningModel() const override { return model_; }
+  PlannerLimits plannerLimits() const override { return limits_; }
   Budget ownBudget() const override { return budget_; }
   std::string costObjective() const override { return "trajectory length"; }
 
  private:
   ControlSettings settings_;
-  PlanningModel model_;
+  PlannerLimits limits_;
   Budget budget_;
   std::uint64_t seed_ = 0;
   std::unique_ptr<ControlProblem> problem_;
@@ -350,7 +352,7 @@ PlanResult OmplControlPlanner::doPlan(const PlanningQuery& query, StopCondition&
     return result;
   }
   definition->addStartState(start);
-  definition->setGoal(std::make_shared<PositionGoal>(p.si, query.goal, model_.goal_radius));
+  definition->setGoal(std::make_shared<PositionGoal>(p.si, query.goal, limits_.goal_radius));
   definition->setOptimizationObjective(std::make_shared<PositionLength>(p.si));
   const ob::PlannerPtr planner = allocate(p, static_cast<std::uint32_t>(seed >> 32));
   planner->setProblemDefinition(definition);

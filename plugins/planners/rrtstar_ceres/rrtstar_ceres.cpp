@@ -119,11 +119,10 @@ class RrtStarPlanner final : public Planner {
                  OmplPlanner planner = OmplPlanner::kRrtStar, bool stop_at_first = false)
       : front_end_settings_(readFields<FrontEndSettings>(parameters)),
         checks_(readFields<RrtChecks>(parameters)),
-        model_(planningModelFrom(parameters)),
+        limits_(plannerLimitsFrom(parameters)),
         budget_(timeBudgetFrom(parameters)) {
     if (checks_.max_iterations > 0) budget_.max_iterations = checks_.max_iterations;
-    front_end_settings_.clearance = model_.robot_radius + checks_.clearance_margin;
-    front_end_settings_.goal_radius = model_.goal_radius;
+    front_end_settings_.goal_radius = limits_.goal_radius;
     front_end_settings_.planner = planner;
     front_end_settings_.stop_at_first = stop_at_first;
     // RRT*'s loop stops at its vertex cap; the others only at the budget.
@@ -134,20 +133,23 @@ class RrtStarPlanner final : public Planner {
           "only at its budget");
     }
     if (smooth) {
-      SmootherSettings& s = smoother_settings_.emplace(readFields<SmootherSettings>(parameters));
-      s.robot_radius = model_.robot_radius;
-      s.limits = model_.limits;
+      smoother_settings_.emplace(readFields<SmootherSettings>(parameters)).limits = limits_.limits;
     }
   }
 
  protected:
   void doSetup(const PlannerContext& context) override {
     FrontEndSettings settings = front_end_settings_;
+    settings.clearance = body().radius + checks_.clearance_margin;
     settings.motion_resolution = checks_.motion_resolution * context.world->esdf().resolution();
     front_end_ = std::make_unique<RrtFrontEnd>(context.world, settings);
     clearance_ = settings.clearance;
     seed_ = context.seed;
-    if (smoother_settings_) smoother_.emplace(context.world, *smoother_settings_);
+    if (smoother_settings_) {
+      SmootherSettings smoothing = *smoother_settings_;
+      smoothing.body = body();
+      smoother_.emplace(context.world, smoothing);
+    }
   }
 
   PlanResult doPlan(const PlanningQuery& query, StopCondition& stop) override {
@@ -203,7 +205,7 @@ class RrtStarPlanner final : public Planner {
       if (!smoothed.valid) result.message = "smoothing failed: " + smoothed.problem;
       result.trajectory = std::move(smoothed.trajectory);
     } else if (path.path_length > 0.0) {
-      result.trajectory = stopAndGo(path.path, model_.limits);
+      result.trajectory = stopAndGo(path.path, limits_.limits);
     }
     result.cost = result.trajectory.empty() ? INFINITY : result.trajectory.length();
     return result;
@@ -213,7 +215,7 @@ class RrtStarPlanner final : public Planner {
     return front_end_ ? front_end_->tree(max_edges) : SearchTree{};
   }
 
-  PlanningModel planningModel() const override { return model_; }
+  PlannerLimits plannerLimits() const override { return limits_; }
 
   Budget ownBudget() const override { return budget_; }
   /// The cost is the trajectory's length, whichever front and back end made it.
@@ -222,7 +224,7 @@ class RrtStarPlanner final : public Planner {
  private:
   FrontEndSettings front_end_settings_;
   RrtChecks checks_;
-  PlanningModel model_;
+  PlannerLimits limits_;
   Budget budget_;
   std::optional<SmootherSettings> smoother_settings_;
   std::uint64_t seed_ = 0;

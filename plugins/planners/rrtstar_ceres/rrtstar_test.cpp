@@ -16,7 +16,7 @@ ConfiguredPlanner makePlanner(const std::string& key, const std::string& world, 
   items.push_back("time_limit=0");  // iteration-bounded: the same on every machine
   items.push_back("max_iterations=20000");
   ConfiguredPlanner configured = configurePlanner(key, test::assignments(items));
-  configured.planner->setup({test::smallWorld(world), nullptr, seed});
+  configured.planner->setup({test::smallWorld(world), seed});
   return configured;
 }
 
@@ -212,7 +212,7 @@ TEST(RrtStar, WithoutATimeOrIterationLimitTheTreeSizeStillBoundsTheSearch) {
   ConfiguredPlanner configured = configurePlanner(
       "rrtstar",
       test::assignments({"time_limit=0", "max_iterations=0", "max_vertices=150", "goal_bias=0"}));
-  configured.planner->setup({test::smallWorld("walls"), nullptr, 3});
+  configured.planner->setup({test::smallWorld("walls"), 3});
   const PlanResult result = configured.planner->plan(query, Budget{});
   EXPECT_LE(statistic(result, "tree_size"), 150.0);
   EXPECT_GE(statistic(result, "tree_size"), 100.0);  // it ran until the cap (or solved)
@@ -308,7 +308,7 @@ TEST(OmplControl, EveryPlannerReturnsTrajectoriesTheCheckerAccepts) {
       ConfiguredPlanner configured = configurePlanner(
           "ompl_control", test::assignments({"planner=" + planner, "order=" + order, "time_limit=0",
                                              "max_iterations=20000", "stop_at_first=true"}));
-      configured.planner->setup({test::smallWorld("forest"), nullptr, 3});
+      configured.planner->setup({test::smallWorld("forest"), 3});
       const PlanResult result = configured.planner->plan(query, Budget{});
       ASSERT_TRUE(result.status == PlanStatus::kExact || result.status == PlanStatus::kApproximate)
           << result.message;
@@ -324,7 +324,7 @@ TEST(OmplControl, SstRefinesAnytimeAndRepeatsBitForBit) {
   const auto plan = [&] {
     ConfiguredPlanner configured = configurePlanner(
         "ompl_control", test::assignments({"planner=sst", "time_limit=0", "max_iterations=30000"}));
-    configured.planner->setup({test::smallWorld("forest"), nullptr, 5});
+    configured.planner->setup({test::smallWorld("forest"), 5});
     return configured.planner->plan(query, Budget{});
   };
   const PlanResult a = plan();

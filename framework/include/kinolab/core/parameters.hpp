@@ -143,16 +143,11 @@ class ParameterSpecs {
   /// `pluginRegistry<Interface>().createChosen(parameters, NAME)`.
   ParameterSpecs& plugin(std::string kind, std::string name, std::string default_value,
                          std::string doc);
-  /// The control sampler the plugin draws its controls from (a plugin parameter of kind
-  /// "sampler", at most one per plugin).
-  ParameterSpecs& sampler(std::string name, std::string default_value, std::string doc);
   /// Appends a declared group (e.g. motionParameters()); a name declared twice is an error.
   ParameterSpecs& include(const ParameterSpecs& group);
 
   const std::vector<ParameterSpec>& all() const { return specs_; }
   const ParameterSpec* find(std::string_view name) const;
-  /// The sampler parameter, or null for a plugin that takes no sampler.
-  const ParameterSpec* samplerParameter() const;
 
   /// The defaults with `assignments` applied in order. An unknown name, a value of the wrong
   /// type or out of range, an unknown plugin key or a wrong nested parameter throws

@@ -50,14 +50,16 @@ struct QuerySpec {
 
 struct ExperimentBudget;
 
-/// One planner of an experiment: its registry key, its parameters and (for planners that
-/// declare one) its sampler, all resolved and validated.
+/// One planner of an experiment: its registry key and its parameters (its plugin parameters'
+/// own nested), all resolved and validated.
 struct ExperimentPlanner {
   std::string id;
   std::string type;
-  std::vector<ParameterAssignment> assignments;  ///< own and `sampler.NAME` ones
-  ParameterSet parameters;  ///< the sampler's own nested (parameters.nested(its name))
-  std::string sampler;      ///< the sampler's key, "" for planners without one
+  std::vector<ParameterAssignment> assignments;  ///< own and `PLUGIN.NAME` ones
+  ParameterSet parameters;  ///< a plugin parameter's own nested (parameters.nested(its name))
+  /// The key of its control sampler (its plugin parameter of kind "sampler"), "" for a
+  /// planner without one: the runs table's `sampler`.
+  std::string sampler() const;
   /// Everything that determines its behaviour, as text.
   std::string canonicalText() const;
   /// Whether the entry sets its own `time_limit` (else the experiment's budget.time is its

@@ -182,7 +182,8 @@ struct FlightResult {
   /// reached (within goal_tolerance), collision, stuck, timeout, invalid_start, invalid_goal
   std::string status;
   std::string message;
-  PlanningModel model;  ///< the planner's body and limits the flight was judged with
+  Body body;            ///< the planner's body the flight was judged with
+  PlannerLimits limits;  ///< and its limits
   Trajectory flown;     ///< from t = 0 to the end of the flight (or the collision)
   std::vector<FlightReplan> replans;
   double time_to_goal = 0.0;   ///< s (NaN unless reached)
@@ -215,16 +216,6 @@ struct FlightResult {
 /// FlightResult::known_voxels as CSV `t,x,y,z` (the runner's flights table).
 std::string knownVoxelsCsv(const FlightResult& result);
 
-/// Makes a planner set up on a world (one per replan window) that keeps `margin` metres more
-/// than the vehicle's body from the obstacles (its robot_radius raised by it; 0: the body).
-using PlannerFactory =
-    std::function<std::unique_ptr<Planner>(std::shared_ptr<const World>, double margin)>;
-
-/// The factory of a registered planner: `type` configured with `assignments` (a ConfigError
-/// names a bad one), a margin added to its robot_radius, set up with `seed`.
-PlannerFactory plannerFactory(const std::string& type, std::vector<ParameterAssignment> assignments,
-                              std::uint64_t seed);
-
 /// Flies `query` through `truth`, seeing it only through the setup's sensor into a new map of
 /// its kind: simulated time, a replan
 /// at every `replan_period` and whenever the committed trajectory collides in the updated
@@ -240,7 +231,7 @@ PlannerFactory plannerFactory(const std::string& type, std::vector<ParameterAssi
 /// turns 90 degrees per failed replan to look for a way. A `stuck` flight's message says why:
 /// the plans taken since its last progress (how far apart their local goals lie, how near the
 /// goal the nearest) and the failed replans by status, with the first reason of each.
-FlightResult fly(const std::shared_ptr<const World>& truth, const PlannerFactory& planner,
+FlightResult fly(const std::shared_ptr<const World>& truth, Planner& planner, std::uint64_t seed,
                  const PlanningQuery& query, const FlightSetup& setup);
 
 /// A flight's run metrics, declared once with how each is read from the flight: the columns

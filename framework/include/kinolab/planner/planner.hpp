@@ -13,6 +13,7 @@
 #include "kinolab/core/parameters.hpp"
 #include "kinolab/core/plugin_registry.hpp"
 #include "kinolab/core/stop_condition.hpp"
+#include "kinolab/dynamics/body.hpp"
 #include "kinolab/dynamics/integrator_chain.hpp"
 #include "kinolab/planner/metrics.hpp"
 #include "kinolab/trajectory/trajectory.hpp"
@@ -21,7 +22,6 @@
 
 namespace kinolab {
 
-class ControlSampler;
 struct ConfiguredPlanner;
 
 /// How a planning call ended.
@@ -46,23 +46,19 @@ struct PlanningQuery {
   Eigen::Vector3d goal = Eigen::Vector3d::Zero();
 };
 
-/// The body, limits and goal tolerance a planner plans for: what the checker holds its
-/// output to.
-struct PlanningModel {
-  double robot_radius = MotionDefaults::kRobotRadius;
+/// The limits and goal region a planner plans for (with its body(): what the checker holds
+/// its output to).
+struct PlannerLimits {
   DynamicLimits limits;
   int limited_derivatives = 2;  ///< limits apply to derivatives 1..this
   double goal_radius = MotionDefaults::kGoalRadius;
-  /// The planner keeps robot_radius less this from every occupied cube; the checker holds
-  /// it to that.
-  double collision_tolerance = MotionDefaults::kCollisionTolerance;
 };
 
-/// Why `position` cannot be a start or goal for `model`, or "" when it can: not finite,
-/// outside the map, or closer to the occupied cubes than the body may come (its radius less
-/// the collision tolerance, the rule every edge and the checker hold to).
+/// Why `position` cannot be a start or goal for `body`, or "" when it can: not finite,
+/// outside the map, or closer to the occupied cubes than the body's keptRadius() (the rule
+/// every edge and the checker hold to).
 std::string positionProblem(const World& world, const Eigen::Vector3d& position,
-                            const PlanningModel& model);
+                            const Body& body);
 
 /// One edge of a planner's search tree or graph, for figures (the paper's Fig. 6).
 struct SearchTreeEdge {
@@ -105,12 +101,13 @@ struct PlanResult {
   std::string message;  ///< why, for statuses other than exact
 };
 
-/// What a planner is set up with: the world, its control sampler (for planners that declare
-/// a sampler parameter, ParameterSpecs::sampler()) and the seed of its random streams.
+/// What a planner is set up with: the world, the seed of its random streams, and how much
+/// more than its body it keeps from the obstacles (a flight's planning margin: the body it
+/// plans for is its configured body grown by this).
 struct PlannerContext {
   std::shared_ptr<const World> world;
-  std::shared_ptr<const ControlSampler> sampler;
   std::uint64_t seed = 0;
+  double body_margin = 0.0;  ///< m
 };
 
 /// The planner contract. A planner is configured from its parameters (by its factory), set
@@ -143,7 +140,14 @@ class Planner {
 
   bool isSetup() const { return world_ != nullptr; }
   const World& world() const;
-  PlanningModel model() const { return planningModel(); }
+  /// The body the planner plans for: the one configurePlanner() read from its parameters
+  /// (bodyFrom(); the default Body for a planner made otherwise), grown by the last setup's
+  /// body_margin. Its edges, heuristic and the independent checker all take it.
+  const Body& body() const { return body_; }
+  /// The body as configured, before any margin.
+  const Body& configuredBody() const { return configured_body_; }
+  /// Its limits and goal region.
+  PlannerLimits limits() const { return plannerLimits(); }
 
  protected:
   virtual void doSetup(const PlannerContext& context) = 0;
@@ -154,14 +158,14 @@ class Planner {
   /// edges, decimated evenly beyond that. Called after the clock stopped; none by default.
   virtual SearchTree doTree(std::size_t /*max_edges*/) const { return {}; }
   virtual void doReset() {}
-  virtual PlanningModel planningModel() const = 0;
+  virtual PlannerLimits plannerLimits() const = 0;
   /// The planner's own budget (from its parameters); plan() uses the tighter of this and
   /// the caller's.
   virtual Budget ownBudget() const { return {}; }
   /// Refuses, when configured (before any world: `run --dry-run` and an experiment's
-  /// validation see it), a configuration that cannot work with its control sampler, as a
-  /// ParameterConflict naming the parameter to change; nothing by default.
-  virtual void doCheck(const ControlSampler* /*sampler*/) const {}
+  /// validation see it), a configuration that cannot work (a control set that cannot move),
+  /// as a ParameterConflict naming the parameter to change; nothing by default.
+  virtual void doCheck() const {}
   /// What the cost measures (objective()); "" by default.
   virtual std::string costObjective() const { return ""; }
 
@@ -171,8 +175,13 @@ class Planner {
 
   /// How errors from its own code name it: "plugin LIB (planner 'KEY')" (from key_).
   std::string pluginName() const;
+  /// The result of a query the planner must refuse (a start or goal outside the map or in
+  /// collision, a start beyond the limits), or none.
+  std::optional<PlanResult> refusal(const PlanningQuery& query) const;
 
   std::shared_ptr<const World> world_;
+  Body configured_body_;
+  Body body_;
   std::unique_ptr<TrajectoryChecker> checker_;
   /// Set for planners made by configurePlanner(): plan() holds their statistics to the
   /// registration's declaration (declaredStatistics()), and errors name the plugin.
@@ -186,14 +195,17 @@ template <>
 PluginRegistry<Planner>& pluginRegistry<Planner>();
 
 /// The motion parameters most planners share, declared once: `robot_radius`,
-/// `max_velocity`, `max_acceleration` (per axis), `goal_radius` and `time_limit` (with the
-/// planner's own default). Include them with ParameterSpecs::include().
+/// `collision_tolerance`, `max_velocity`, `max_acceleration` (per axis), `goal_radius` and
+/// `time_limit` (with the planner's own default). Include them with ParameterSpecs::include().
 ParameterSpecs motionParameters(double default_time_limit);
-/// The body, velocity and acceleration limits and goal region of motionParameters().
-PlanningModel planningModelFrom(const ParameterSet& parameters);
-/// What the independent checker holds a planner of this model to: its body, limits and
-/// collision tolerance.
-CheckerSettings checkerSettings(const PlanningModel& model);
+/// The velocity and acceleration limits and goal region of motionParameters().
+PlannerLimits plannerLimitsFrom(const ParameterSet& parameters);
+/// The body a planner's parameters declare: `robot_radius` (0, a point, when it has none),
+/// `collision_tolerance` and `safety_distance` (Body's defaults when it has none).
+/// configurePlanner() reads it once.
+Body bodyFrom(const ParameterSet& parameters);
+/// What the independent checker holds a planner of this body and these limits to.
+CheckerSettings checkerSettings(const Body& body, const PlannerLimits& limits);
 /// The `time_limit` of motionParameters() as a budget (0: none).
 Budget timeBudgetFrom(const ParameterSet& parameters);
 
@@ -201,16 +213,12 @@ Budget timeBudgetFrom(const ParameterSet& parameters);
 /// commonStatistics().
 MetricSpecs declaredStatistics(const PluginInfo& planner);
 
-/// A planner created from its registered key and assignments. A planner that declares a
-/// sampler parameter (ParameterSpecs::sampler(), e.g. `sampler`) gets that sampler,
-/// configured by its nested parameters (`sampler.NAME`); every assignment is validated before
-/// anything is created.
+/// A planner created from its registered key and assignments (every one validated before
+/// anything is created), its body read from them (bodyFrom()).
 struct ConfiguredPlanner {
   std::unique_ptr<Planner> planner;
   const PluginInfo* info = nullptr;  ///< its registration: key, parameters, statistics
   ParameterSet parameters;
-  std::shared_ptr<const ControlSampler> sampler;  ///< null for planners without one
-  std::string sampler_key;  ///< its key (its parameters: parameters.nested(the parameter))
 };
 ConfiguredPlanner configurePlanner(std::string_view key,
                                    const std::vector<ParameterAssignment>& assignments);

@@ -6,6 +6,7 @@
 #include <memory>
 #include <vector>
 
+#include "kinolab/dynamics/body.hpp"
 #include "kinolab/dynamics/integrator_chain.hpp"
 #include "kinolab/world/world.hpp"
 
@@ -36,13 +37,11 @@ struct EdgeEvaluatorSettings {
   DynamicLimits limits =
       DynamicLimits::uniform(MotionDefaults::kMaxVelocity, MotionDefaults::kMaxAcceleration);
   CostWeights weights;
-  double robot_radius =
-      MotionDefaults::kRobotRadius;  ///< the body: a sphere of this radius (0: a point)
-  double safety_distance = 0.5;      ///< obstacle penalty band beyond the radius, metres
+  /// The body: an edge called free keeps its keptRadius() from every occupied voxel cube
+  /// (each sphere-tracing step gains at least its tolerance); the obstacle cost counts within
+  /// its safety band.
+  Body body;
   EdgeSampling sampling;
-  /// The collision verdict is exact to this (m): an edge called free keeps robot_radius less
-  /// this from every occupied voxel cube; each sphere-tracing step gains at least this.
-  double collision_tolerance = MotionDefaults::kCollisionTolerance;
 };
 
 /// The result of evaluating one primitive, fully or partially.
@@ -72,7 +71,7 @@ struct EdgeEvaluation {
 ///    the position polynomial's Bernstein coefficients per axis (exact-conservative);
 ///  - obstacles: sphere tracing on the distance to every occupied voxel cube. At each traced
 ///    point the clearance C (Esdf::clearance, a proven lower bound) is looked up; where
-///    C < R (robot_radius, or the tolerance tol when larger) the exact distance decides
+///    C < R (the body's radius, or its tolerance tol when larger) the exact distance decides
 ///    instead (Esdf::exactDistance). A point at distance D >= R covers the next (D - R + tol)
 ///    metres of path (the distance is 1-Lipschitz), converted to time with the primitive's
 ///    speed bound; the end is always traced too. The edge collides when a traced point is
@@ -153,29 +152,29 @@ class EdgeEvaluator {
   double secondsPerMetre(double path_bound) const {
     return path_bound > 0.0 ? settings_.duration / path_bound : INFINITY;
   }
-  /// The radius a traced point must keep from every cube: robot_radius, or the tolerance
+  /// The radius a traced point must keep from every cube: the body's radius, or its tolerance
   /// when that is larger (so a step is never shorter than the tolerance, and the body a step
   /// keeps, this less the tolerance, is never below 0: a point robot never enters a cube).
   double verdictRadius() const {
-    return std::max(settings_.robot_radius, settings_.collision_tolerance);
+    return std::max(settings_.body.radius, settings_.body.tolerance);
   }
   /// The path length one tracing step from a point of clearance `clearance` covers.
   double tracingReach(double clearance) const {
-    return clearance - verdictRadius() + settings_.collision_tolerance;
+    return clearance - verdictRadius() + settings_.body.tolerance;
   }
   /// Position of sample k (1..samples) of a primitive whose end position is `end`.
   Eigen::Vector3d samplePosition(const ChainState& start, const Eigen::Vector3d& control,
                                  const Eigen::Vector3d& end, int k, int samples) const;
   /// phi of the clearance at an ESDF distance (inline: once per sample).
   double penalty(double distance) const {
-    const double depth = 1.0 - (distance - settings_.robot_radius) * inverse_safety_distance_;
+    const double depth = 1.0 - (distance - settings_.body.radius) * inverse_safety_band_;
     return depth > 0.0 ? depth * depth : 0.0;
   }
 
   std::shared_ptr<const World> world_;
   EdgeEvaluatorSettings settings_;
   IntegratorChain chain_;
-  double inverse_safety_distance_;
+  double inverse_safety_band_;
   /// tau^m / m!, m = 0..order.
   std::array<double, 5> end_powers_;
   /// For the fixed-count mode: t_k^m / m! per sample k (rows), the last row is end_powers_.

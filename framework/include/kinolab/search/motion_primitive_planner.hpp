@@ -5,6 +5,7 @@
 
 #include "kinolab/core/parameters.hpp"
 #include "kinolab/planner/planner.hpp"
+#include "kinolab/primitives/control_sampler.hpp"
 #include "kinolab/search/motion_primitive_search.hpp"
 
 namespace kinolab {
@@ -29,11 +30,18 @@ std::shared_ptr<const SearchHeuristic> heuristicFor(const std::string& key,
 /// rule, cost weight 1. A plugin then sets what its own parameters choose: a lazy edge policy
 /// (e.g. from a `lower_bound` plugin parameter), another duplicate rule or cost weight.
 struct MotionPrimitiveConfig {
+  /// The search's settings; the edges' body is the planner's body(), set at setup.
   SearchSettings settings;
+  /// The edge policy, search space and shot; the heuristic is built at setup (below).
   SearchPolicies policies;
+  /// Builds the heuristic for the edges of the body set up with.
+  std::shared_ptr<const HeuristicBuilder> heuristic;
   Budget budget;
-  /// A fixed control set: when not empty, used instead of drawing one from the planner's
-  /// sampler at setup (a planner whose controls are its own parameters).
+  /// The control sampler (the `sampler` plugin parameter) the control set is drawn from at
+  /// setup, with the setup's seed.
+  std::shared_ptr<const ControlSampler> sampler;
+  /// A fixed control set: when not empty, used instead of the sampler's (a planner whose
+  /// controls are its own parameters).
   std::vector<Eigen::Vector3d> controls;
 
   static MotionPrimitiveConfig fromParameters(const ParameterSet& parameters);
@@ -61,16 +69,21 @@ class MotionPrimitivePlanner : public Planner {
   PlanResult doPlan(const PlanningQuery& query, StopCondition& stop) override;
   SearchTree doTree(std::size_t max_edges) const override;
   void doReset() override;
-  PlanningModel planningModel() const override;
+  PlannerLimits plannerLimits() const override;
   Budget ownBudget() const override { return config_.budget; }
   /// The edge cost's function: the chain's order, the weights, and where they count, the
   /// body, the safety band and the quadrature (the heuristic, keys and rules do not change it).
   std::string costObjective() const override;
   /// A lattice that cannot move is refused: with the sampler's set for seed 1 here, and with
   /// the set of the run's own seed at setup.
-  void doCheck(const ControlSampler* sampler) const override;
+  void doCheck() const override;
 
  private:
+  /// The configured settings with the edges' body `body`.
+  SearchSettings settingsFor(const Body& body) const;
+  /// The control set for `seed`: the fixed one, or the sampler's.
+  std::vector<Eigen::Vector3d> controlsFor(std::uint64_t seed) const;
+
   MotionPrimitiveConfig config_;
   std::unique_ptr<MotionPrimitiveSearch> search_;
 };

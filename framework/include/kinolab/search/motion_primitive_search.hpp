@@ -88,6 +88,8 @@ class MotionPrimitiveSearch {
   MotionPrimitiveSearch& operator=(const MotionPrimitiveSearch&) = delete;
 
   const SearchSettings& settings() const { return settings_; }
+  /// The policies it runs with (the heuristic as given, before its control set's).
+  const SearchPolicies& policies() const { return given_policies_; }
   const EdgeEvaluator& evaluator() const { return evaluator_; }
   const std::vector<Eigen::Vector3d>& controls() const { return controls_; }
 
@@ -176,6 +178,7 @@ class MotionPrimitiveSearch {
   std::shared_ptr<const World> world_;
   std::vector<Eigen::Vector3d> controls_;
   SearchSettings settings_;
+  SearchPolicies given_policies_;
   SearchPolicies policies_;
   EdgeEvaluator evaluator_;
 

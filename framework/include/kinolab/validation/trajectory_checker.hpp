@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "kinolab/core/metric_specs.hpp"
+#include "kinolab/dynamics/body.hpp"
 #include "kinolab/dynamics/integrator_chain.hpp"
 #include "kinolab/trajectory/trajectory.hpp"
 #include "kinolab/world/world.hpp"
@@ -15,7 +16,9 @@ namespace kinolab {
 
 /// What the checker holds a trajectory to: the body and the limits a planner claims to respect.
 struct CheckerSettings {
-  double robot_radius = MotionDefaults::kRobotRadius;
+  /// The body: the checker holds every sample to its keptRadius() (its radius less the
+  /// collision tolerance the planners' verdict is exact to); clearances are of its radius.
+  Body body;
   /// Per-axis limits on derivatives 1..max_derivative (velocity, acceleration, jerk, ...).
   DynamicLimits limits =
       DynamicLimits::uniform(MotionDefaults::kMaxVelocity, MotionDefaults::kMaxAcceleration);
@@ -24,9 +27,6 @@ struct CheckerSettings {
   double spacing = 0.0;
   /// Relative slack on limits and absolute slack (m, m/s) on the start state, for rounding.
   double tolerance = 1e-6;
-  /// The body may come this much closer than robot_radius to an occupied cube (m): the
-  /// planners' collision verdict is exact to this tolerance (their `collision_tolerance`).
-  double collision_tolerance = MotionDefaults::kCollisionTolerance;
 };
 
 /// The query a trajectory should answer.
@@ -94,7 +94,7 @@ struct CheckResult {
 
 /// The independent check every planner's output goes through. It shares nothing with the
 /// planners but the world's occupancy: it samples the trajectory itself at a fine spacing and
-/// tests the body, a sphere of robot_radius - collision_tolerance, against the occupied
+/// tests the body, a sphere of its keptRadius(), against the occupied
 /// voxels' cubes exactly at every sample, at any resolution: through FCL (the sphere against
 /// OctoMap OcTrees of the occupied voxels with a free neighbour, whose leaves are exactly the
 /// grid's cubes, one per tile of 256 x 256 voxels made when a check first reaches it, with the
