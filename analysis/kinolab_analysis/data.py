@@ -262,66 +262,113 @@ def load(paths: str | Path | list[str | Path], allow_mixed: bool = False) -> Res
     metrics = []
     progress = []
     for index, file in enumerate(files):
-        with sqlite3.connect(file) as db:
-            try:
-                runs = pd.read_sql("SELECT * FROM runs", db)
-                statistics = pd.read_sql("SELECT run_hash, name, value FROM statistics", db)
-                this_meta = dict(db.execute("SELECT key, value FROM meta").fetchall())
-                world_rows = pd.read_sql("SELECT * FROM worlds", db)
-                tables_in = {row[0] for row in
-                             db.execute("SELECT name FROM sqlite_master WHERE type = 'table'")}
-                if "metrics" in tables_in:
-                    declared = pd.read_sql("SELECT * FROM metrics", db)
-                    metrics.append(declared if "comparable" in declared
-                                   else _comparability(declared))
-                if "progress" in tables_in:
-                    progress.append(pd.read_sql(
-                        "SELECT run_hash, name, time_ms, value FROM progress", db))
-                planned = ({row[0] for row in db.execute("SELECT run_hash FROM planned")}
-                           if "planned" in tables_in else set())
-            except (sqlite3.DatabaseError, pd.errors.DatabaseError) as error:
-                raise ValueError(f"{file}: not a kinolab results database ({error})") from error
-        version = int(this_meta.get("schema_version", "1"))
-        if version > SCHEMA_VERSION:
-            raise ValueError(f"{file}: results schema version {version} is newer than this "
-                             f"analysis package reads ({SCHEMA_VERSION}); use the kinolab that "
-                             "wrote it")
-        if version == 1:
-            runs = _upgrade_v1(runs)
-        if "objective" not in runs:  # before version 8: a planner type's cost is its own
-            runs["objective"] = runs["planner_type"]
-        if version < 8:
-            runs = _undefined_zero_jerk(runs)
+        database = _read_database(file)
+        if database.metrics is not None:
+            metrics.append(database.metrics)
+        if database.progress is not None:
+            progress.append(database.progress)
         if index == 0:
-            meta = this_meta
-        elif this_meta.get("config_hash") != meta.get("config_hash") and not allow_mixed:
-            raise ValueError(
-                f"{file} holds experiment {experiment_label(this_meta)}, {files[0]} holds "
-                f"{experiment_label(meta)}: one report pools one experiment's runs (its shards "
-                "and resumed runs); --allow-mixed reports them side by side, each planner "
-                "labelled with its experiment")
-        if allow_mixed:
-            runs["experiment"] = experiment_label(this_meta)
-        if not statistics.empty:
-            wide = statistics.pivot_table(index="run_hash", columns="name", values="value",
-                                          aggfunc="first")
-            wide = wide[[c for c in wide.columns if c not in runs.columns]]
-            runs = runs.merge(wide, left_on="run_hash", right_index=True, how="left")
-        runs["database"] = str(file)
+            meta = database.meta
+        runs = _runs_of(database, file, meta, files[0], allow_mixed)
         # No planned table (before version 8), or an empty one: every run is current.
-        current = runs["run_hash"].isin(planned) if planned else pd.Series(True, runs.index)
+        current = (runs["run_hash"].isin(database.planned) if database.planned
+                   else pd.Series(True, runs.index))
         frames.append(runs[current])
         stale.append(runs[~current])
-        for _, row in world_rows.iterrows():
-            nx, ny, nz = int(row["nx"]), int(row["ny"]), int(row["nz"])
-            worlds[row["world_hash"]] = World(
-                row["world_hash"], row["id"], float(row["resolution"]),
-                np.array([row["origin_x"], row["origin_y"], row["origin_z"]]), (nx, ny, nz),
-                np.frombuffer(row["top"], dtype="<u2").reshape(nx, ny),
-                np.frombuffer(row["side"], dtype=np.uint8).reshape(nx, nz),
-                (np.frombuffer(row["boxes"], dtype="<i4").reshape(-1, 6)
-                 if row.get("boxes") is not None else None),
-                int(row["box_stride"]) if pd.notna(row.get("box_stride")) else 1)
+        for _, row in database.worlds.iterrows():
+            worlds[row["world_hash"]] = _world(row)
+    return _pooled(files, frames, stale, meta, worlds, metrics, progress, allow_mixed)
+
+
+@dataclass
+class _Database:
+    """One results database's tables as stored (metrics and progress: None when absent)."""
+
+    runs: pd.DataFrame
+    statistics: pd.DataFrame
+    meta: dict[str, str]
+    worlds: pd.DataFrame
+    metrics: pd.DataFrame | None
+    progress: pd.DataFrame | None
+    planned: set[str]
+
+
+def _read_database(file: Path) -> _Database:
+    """The tables of one results database; refuses a file that is not one."""
+    metrics = progress = None
+    with sqlite3.connect(file) as db:
+        try:
+            runs = pd.read_sql("SELECT * FROM runs", db)
+            statistics = pd.read_sql("SELECT run_hash, name, value FROM statistics", db)
+            meta = dict(db.execute("SELECT key, value FROM meta").fetchall())
+            world_rows = pd.read_sql("SELECT * FROM worlds", db)
+            tables_in = {row[0] for row in
+                         db.execute("SELECT name FROM sqlite_master WHERE type = 'table'")}
+            if "metrics" in tables_in:
+                declared = pd.read_sql("SELECT * FROM metrics", db)
+                metrics = declared if "comparable" in declared else _comparability(declared)
+            if "progress" in tables_in:
+                progress = pd.read_sql("SELECT run_hash, name, time_ms, value FROM progress", db)
+            planned = ({row[0] for row in db.execute("SELECT run_hash FROM planned")}
+                       if "planned" in tables_in else set())
+        except (sqlite3.DatabaseError, pd.errors.DatabaseError) as error:
+            raise ValueError(f"{file}: not a kinolab results database ({error})") from error
+    return _Database(runs, statistics, meta, world_rows, metrics, progress, planned)
+
+
+def _runs_of(database: _Database, file: Path, meta: dict[str, str], first: Path,
+             allow_mixed: bool) -> pd.DataFrame:
+    """One database's runs in this package's schema, its statistics as extra columns; refuses
+    a newer schema, and (unless `allow_mixed`) another experiment than the first database's
+    (`meta`, of `first`)."""
+    runs = database.runs
+    version = int(database.meta.get("schema_version", "1"))
+    if version > SCHEMA_VERSION:
+        raise ValueError(f"{file}: results schema version {version} is newer than this "
+                         f"analysis package reads ({SCHEMA_VERSION}); use the kinolab that "
+                         "wrote it")
+    if version == 1:
+        runs = _upgrade_v1(runs)
+    if "objective" not in runs:  # before version 8: a planner type's cost is its own
+        runs["objective"] = runs["planner_type"]
+    if version < 8:
+        runs = _undefined_zero_jerk(runs)
+    if database.meta.get("config_hash") != meta.get("config_hash") and not allow_mixed:
+        raise ValueError(
+            f"{file} holds experiment {experiment_label(database.meta)}, {first} holds "
+            f"{experiment_label(meta)}: one report pools one experiment's runs (its shards "
+            "and resumed runs); --allow-mixed reports them side by side, each planner "
+            "labelled with its experiment")
+    if allow_mixed:
+        runs["experiment"] = experiment_label(database.meta)
+    statistics = database.statistics
+    if not statistics.empty:
+        wide = statistics.pivot_table(index="run_hash", columns="name", values="value",
+                                      aggfunc="first")
+        wide = wide[[c for c in wide.columns if c not in runs.columns]]
+        runs = runs.merge(wide, left_on="run_hash", right_index=True, how="left")
+    runs["database"] = str(file)
+    return runs
+
+
+def _world(row: pd.Series) -> World:
+    """A World from its row of the worlds table."""
+    nx, ny, nz = int(row["nx"]), int(row["ny"]), int(row["nz"])
+    return World(
+        row["world_hash"], row["id"], float(row["resolution"]),
+        np.array([row["origin_x"], row["origin_y"], row["origin_z"]]), (nx, ny, nz),
+        np.frombuffer(row["top"], dtype="<u2").reshape(nx, ny),
+        np.frombuffer(row["side"], dtype=np.uint8).reshape(nx, nz),
+        (np.frombuffer(row["boxes"], dtype="<i4").reshape(-1, 6)
+         if row.get("boxes") is not None else None),
+        int(row["box_stride"]) if pd.notna(row.get("box_stride")) else 1)
+
+
+def _pooled(files: list[Path], frames: list[pd.DataFrame], stale: list[pd.DataFrame],
+            meta: dict[str, str], worlds: dict[str, World], metrics: list[pd.DataFrame],
+            progress: list[pd.DataFrame], allow_mixed: bool) -> Results:
+    """The databases' current runs (`frames`) pooled into one Results, `stale` apart; refuses
+    databases without a current run ended."""
     if all(frame.empty for frame in frames):
         raise ValueError(f"{', '.join(map(str, files))}: " + (
             "no run has ended yet (an experiment stopped before its first run ended)"
