@@ -6,8 +6,8 @@
 #include <charconv>
 
 #include "kinolab/core/plugin.hpp"
-#include "kinolab/search/lazy_family.hpp"
 #include "kinolab/search/motion_primitive_planner.hpp"
+#include "lazy_family.hpp"
 
 namespace kinolab {
 namespace {
@@ -26,9 +26,9 @@ class LazyFamilyPlanner final : public MotionPrimitivePlanner {
       lazy_ = std::make_unique<LazySpSearch>(context.world, search().controls(),
                                              search().settings(), search().policies(), selector_);
     } else {
-      lazy_ = std::make_unique<LraStarSearch>(context.world, search().controls(),
-                                              search().settings(), search().policies(), lookahead_,
-                                              selector_);
+      lazy_ =
+          std::make_unique<LraStarSearch>(context.world, search().controls(), search().settings(),
+                                          search().policies(), lookahead_, selector_);
     }
   }
 

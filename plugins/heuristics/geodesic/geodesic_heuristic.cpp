@@ -363,7 +363,8 @@ class GeodesicHeuristic final : public SearchHeuristic {
                                                   StopCondition& stop) const override {
     // Where a valid edge's points can be: at least the body's kept radius from every cube.
     return std::make_shared<GeodesicQueryHeuristic>(
-        HopField(world, edges_.body.keptRadius(), goal, goal_radius_, memory_bytes_, stop), edges_, time_optimal_);
+        HopField(world, edges_.body.keptRadius(), goal, goal_radius_, memory_bytes_, stop), edges_,
+        time_optimal_);
   }
 
  private:
@@ -373,8 +374,11 @@ class GeodesicHeuristic final : public SearchHeuristic {
   std::shared_ptr<const TimeOptimalHeuristic> time_optimal_;
 };
 
-void registerBuiltins() {
-  PluginRegistrar registrar("built-in (framework)");
+}  // namespace
+}  // namespace kinolab
+
+KINOLAB_REGISTER_PLUGINS(registrar) {
+  using namespace kinolab;
   registrar.add<HeuristicBuilder>(
       "geodesic",
       "w_T tau ceil(H / m): H the voxel steps to the goal through the free space (a search over "
@@ -385,10 +389,4 @@ void registerBuiltins() {
           return std::make_shared<GeodesicHeuristic>(context, options);
         });
       });
-  registrar.commit();
 }
-
-[[maybe_unused]] const bool builtins_registered = (registerBuiltins(), true);
-
-}  // namespace
-}  // namespace kinolab

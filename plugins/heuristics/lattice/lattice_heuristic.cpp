@@ -136,116 +136,23 @@ class AxisTable {
       : unit_velocity_(controls.step * costs.tau), horizon_(horizon) {
     // (A drifting lattice may be cut into one cell a w too: exact is the start's velocity.)
     exact_ = wholeSteps(start_velocity / unit_velocity_);
-    const int sub = cellsPerStep(controls, costs, start_velocity);
-    cell_ = latticeStep(controls, costs) / sub;
+    Moves moves{controls, {}, {0}, cellsPerStep(controls, costs, start_velocity)};
+    cell_ = latticeStep(controls, costs) / moves.sub;
     // The cells a primitive's end may lie beyond its move: none, or the drift's four.
-    std::vector<long long> shifts = {0};
     if (exact_) {
       phase_ = start_offset / cell_ - std::floor(start_offset / cell_);
     } else {
       velocity_origin_ = start_velocity;
       const auto drift = static_cast<long long>(std::floor(start_velocity * costs.tau / cell_));
-      shifts = {drift - 1, drift, drift + 1, drift + 2};
+      moves.shifts = {drift - 1, drift, drift + 1, drift + 2};
     }
-    const double limit = costs.max_velocity * (1.0 + 1e-9) + 1e-12;
-    lowest_ = static_cast<int>(std::ceil((-limit - velocity_origin_) / unit_velocity_));
-    const int highest = static_cast<int>(std::floor((limit - velocity_origin_) / unit_velocity_));
-    width_ = std::max(highest - lowest_ + 1, 0);
-    first_cell_ = static_cast<long long>(std::floor(low / cell_ - phase_)) - 1;
-    cells_ = static_cast<long long>(std::ceil(high / cell_ - phase_)) + 2 - first_cell_;
-    const auto states = static_cast<std::size_t>(cells_ * width_);
-    effort_.assign(states * static_cast<std::size_t>(horizon_ + 1), INFINITY);
-    first_.assign(states, kNever);
-    const double reach = costs.goal_radius * (1.0 + 1e-9) + 1e-12;
-    for (long long c = 0; c < cells_; ++c) {
-      // The lattice point (exact) or the lower end of the cell (a moving start).
-      const double edge = (static_cast<double>(c + first_cell_) + phase_) * cell_;
-      // A point of the lattice inside [-R, R] (exact), or a cell meeting it.
-      if (exact_ ? std::abs(edge) > reach : (edge > reach || edge + cell_ < -reach)) continue;
-      for (int j = 0; j < width_; ++j) {
-        effort_[static_cast<std::size_t>(c * width_ + j)] = 0.0;
-        first_[static_cast<std::size_t>(c * width_ + j)] = 0;
-      }
-    }
-    std::vector<double> move_effort;
     for (const int m : controls.moves) {
       const double u = controls.step * m;
-      move_effort.push_back(costs.weight_control * u * u * costs.tau);
+      moves.effort.push_back(costs.weight_control * u * u * costs.tau);
     }
-    // The move in cells of control k from velocity step j: sub (2 j + m) + a shift.
-    const auto move = [&](int j, int m) { return static_cast<long long>(sub) * (2 * j + m); };
-    // The least cost in any number of primitives, time included (a backward Dijkstra from
-    // the goal interval): +infinity where the axis never meets it.
-    alone_.assign(states, INFINITY);
-    using Entry = std::pair<double, std::size_t>;
-    std::priority_queue<Entry, std::vector<Entry>, std::greater<>> open;
-    for (std::size_t state = 0; state < states; ++state) {
-      if (first_[state] != 0) continue;
-      alone_[state] = 0.0;
-      open.emplace(0.0, state);
-    }
-    const double step_cost = costs.weight_duration * costs.tau;
-    while (!open.empty()) {
-      const auto [value, state] = open.top();
-      open.pop();
-      if (value > alone_[state]) continue;
-      const auto c_after = static_cast<long long>(state) / width_;
-      const int j_after = static_cast<int>(static_cast<long long>(state) % width_) + lowest_;
-      for (std::size_t k = 0; k < controls.moves.size(); ++k) {
-        const int m = controls.moves[k];
-        const int j = j_after - m;
-        if (j < lowest_ || j >= lowest_ + width_) continue;
-        const double candidate = value + step_cost + move_effort[k];
-        for (const long long shift : shifts) {
-          const long long c = c_after - move(j, m) - shift;
-          if (c < 0 || c >= cells_) continue;
-          const auto before = static_cast<std::size_t>(c * width_ + j - lowest_);
-          if (candidate < alone_[before]) {
-            alone_[before] = candidate;
-            open.emplace(candidate, before);
-          }
-        }
-      }
-    }
-    // Each layer from the one before. The shifts are consecutive, so a primitive reads the
-    // least of that layer over a window of cells: least[s + window - 1] is it for the window
-    // starting at cell s (made once a layer, for every window that meets the table).
-    const long long lowest_shift = shifts.front();
-    const auto window = static_cast<long long>(shifts.size());
-    const long long starts = cells_ + window - 1;
-    std::vector<double> least(static_cast<std::size_t>(starts * width_));
-    for (int n = 1; n <= horizon_; ++n) {
-      const double* before = &effort_[(n - 1) * states];
-      double* now = &effort_[n * states];
-      for (long long i = 0; i < starts; ++i) {
-        const long long from = std::max(i - (window - 1), 0LL);
-        const long long to = std::min(i + 1, cells_);
-        for (int j = 0; j < width_; ++j) {
-          double value = INFINITY;
-          for (long long t = from; t < to; ++t) value = std::min(value, before[t * width_ + j]);
-          least[static_cast<std::size_t>(i * width_ + j)] = value;
-        }
-      }
-      for (long long c = 0; c < cells_; ++c) {
-        for (int j = lowest_; j < lowest_ + width_; ++j) {
-          double best = INFINITY;
-          for (std::size_t k = 0; k < controls.moves.size(); ++k) {
-            const int m = controls.moves[k];
-            const int j_after = j + m;
-            const long long start = c + move(j, m) + lowest_shift;
-            if (j_after < lowest_ || j_after >= lowest_ + width_ || start + window <= 0 ||
-                start >= cells_) {
-              continue;
-            }
-            const auto i = static_cast<std::size_t>(start + window - 1);
-            best = std::min(best, move_effort[k] + least[i * width_ + j_after - lowest_]);
-          }
-          const auto state = static_cast<std::size_t>(c * width_ + j - lowest_);
-          now[state] = best;
-          if (best < INFINITY && first_[state] == kNever) first_[state] = n;
-        }
-      }
-    }
+    layOut(costs, low, high);
+    fillAlone(moves, costs.weight_duration * costs.tau);
+    fillLayers(moves);
   }
 
   static constexpr int kNever = std::numeric_limits<int>::max();
@@ -296,6 +203,121 @@ class AxisTable {
   }
 
  private:
+  /// The moves of an axis's controls: their control effort, the cells a primitive's end may
+  /// lie beyond its move (`shifts`), and the cells a velocity step takes (`sub`).
+  struct Moves {
+    const AxisControls& controls;
+    std::vector<double> effort;
+    std::vector<long long> shifts;
+    int sub = 1;
+    /// The move in cells of control m from velocity step j: sub (2 j + m) (and a shift).
+    long long move(int j, int m) const { return static_cast<long long>(sub) * (2 * j + m); }
+  };
+
+  /// The table's cells and velocities over [low, high], every layer +infinity but for the
+  /// states inside the goal interval (0 from layer 0 on).
+  void layOut(const AxisCosts& costs, double low, double high) {
+    const double limit = costs.max_velocity * (1.0 + 1e-9) + 1e-12;
+    lowest_ = static_cast<int>(std::ceil((-limit - velocity_origin_) / unit_velocity_));
+    const int highest = static_cast<int>(std::floor((limit - velocity_origin_) / unit_velocity_));
+    width_ = std::max(highest - lowest_ + 1, 0);
+    first_cell_ = static_cast<long long>(std::floor(low / cell_ - phase_)) - 1;
+    cells_ = static_cast<long long>(std::ceil(high / cell_ - phase_)) + 2 - first_cell_;
+    const auto states = static_cast<std::size_t>(cells_ * width_);
+    effort_.assign(states * static_cast<std::size_t>(horizon_ + 1), INFINITY);
+    first_.assign(states, kNever);
+    const double reach = costs.goal_radius * (1.0 + 1e-9) + 1e-12;
+    for (long long c = 0; c < cells_; ++c) {
+      // The lattice point (exact) or the lower end of the cell (a moving start).
+      const double edge = (static_cast<double>(c + first_cell_) + phase_) * cell_;
+      // A point of the lattice inside [-R, R] (exact), or a cell meeting it.
+      if (exact_ ? std::abs(edge) > reach : (edge > reach || edge + cell_ < -reach)) continue;
+      for (int j = 0; j < width_; ++j) {
+        effort_[static_cast<std::size_t>(c * width_ + j)] = 0.0;
+        first_[static_cast<std::size_t>(c * width_ + j)] = 0;
+      }
+    }
+  }
+
+  /// The least cost in any number of primitives, time (`step_cost` each) included: a
+  /// backward Dijkstra from the goal interval; +infinity where the axis never meets it.
+  void fillAlone(const Moves& moves, double step_cost) {
+    const auto states = static_cast<std::size_t>(cells_ * width_);
+    alone_.assign(states, INFINITY);
+    using Entry = std::pair<double, std::size_t>;
+    std::priority_queue<Entry, std::vector<Entry>, std::greater<>> open;
+    for (std::size_t state = 0; state < states; ++state) {
+      if (first_[state] != 0) continue;
+      alone_[state] = 0.0;
+      open.emplace(0.0, state);
+    }
+    while (!open.empty()) {
+      const auto [value, state] = open.top();
+      open.pop();
+      if (value > alone_[state]) continue;
+      const auto c_after = static_cast<long long>(state) / width_;
+      const int j_after = static_cast<int>(static_cast<long long>(state) % width_) + lowest_;
+      for (std::size_t k = 0; k < moves.controls.moves.size(); ++k) {
+        const int m = moves.controls.moves[k];
+        const int j = j_after - m;
+        if (j < lowest_ || j >= lowest_ + width_) continue;
+        const double candidate = value + step_cost + moves.effort[k];
+        for (const long long shift : moves.shifts) {
+          const long long c = c_after - moves.move(j, m) - shift;
+          if (c < 0 || c >= cells_) continue;
+          const auto before = static_cast<std::size_t>(c * width_ + j - lowest_);
+          if (candidate < alone_[before]) {
+            alone_[before] = candidate;
+            open.emplace(candidate, before);
+          }
+        }
+      }
+    }
+  }
+
+  /// Each layer from the one before. The shifts are consecutive, so a primitive reads the
+  /// least of that layer over a window of cells: least[s + window - 1] is it for the window
+  /// starting at cell s (made once a layer, for every window that meets the table).
+  void fillLayers(const Moves& moves) {
+    const auto states = static_cast<std::size_t>(cells_ * width_);
+    const long long lowest_shift = moves.shifts.front();
+    const auto window = static_cast<long long>(moves.shifts.size());
+    const long long starts = cells_ + window - 1;
+    std::vector<double> least(static_cast<std::size_t>(starts * width_));
+    for (int n = 1; n <= horizon_; ++n) {
+      const double* before = &effort_[(n - 1) * states];
+      double* now = &effort_[n * states];
+      for (long long i = 0; i < starts; ++i) {
+        const long long from = std::max(i - (window - 1), 0LL);
+        const long long to = std::min(i + 1, cells_);
+        for (int j = 0; j < width_; ++j) {
+          double value = INFINITY;
+          for (long long t = from; t < to; ++t) value = std::min(value, before[t * width_ + j]);
+          least[static_cast<std::size_t>(i * width_ + j)] = value;
+        }
+      }
+      for (long long c = 0; c < cells_; ++c) {
+        for (int j = lowest_; j < lowest_ + width_; ++j) {
+          double best = INFINITY;
+          for (std::size_t k = 0; k < moves.controls.moves.size(); ++k) {
+            const int m = moves.controls.moves[k];
+            const int j_after = j + m;
+            const long long start = c + moves.move(j, m) + lowest_shift;
+            if (j_after < lowest_ || j_after >= lowest_ + width_ || start + window <= 0 ||
+                start >= cells_) {
+              continue;
+            }
+            const auto i = static_cast<std::size_t>(start + window - 1);
+            best = std::min(best, moves.effort[k] + least[i * width_ + j_after - lowest_]);
+          }
+          const auto state = static_cast<std::size_t>(c * width_ + j - lowest_);
+          now[state] = best;
+          if (best < INFINITY && first_[state] == kNever) first_[state] = n;
+        }
+      }
+    }
+  }
+
   double unit_velocity_;  ///< q tau
   int horizon_;
   bool exact_ = true;             ///< v_0 = 0: the cells are the lattice's points
@@ -448,8 +470,11 @@ class LatticeHeuristic final : public SearchHeuristic {
   std::shared_ptr<const TimeOptimalHeuristic> time_optimal_;
 };
 
-void registerBuiltins() {
-  PluginRegistrar registrar("built-in (framework)");
+}  // namespace
+}  // namespace kinolab
+
+KINOLAB_REGISTER_PLUGINS(registrar) {
+  using namespace kinolab;
   registrar.add<HeuristicBuilder>(
       "lattice",
       "the exact cost to the goal of the control grid's lattice with no obstacles (time and "
@@ -472,10 +497,4 @@ void registerBuiltins() {
           return std::make_shared<LatticeHeuristic>(context, horizon);
         });
       });
-  registrar.commit();
 }
-
-[[maybe_unused]] const bool builtins_registered = (registerBuiltins(), true);
-
-}  // namespace
-}  // namespace kinolab

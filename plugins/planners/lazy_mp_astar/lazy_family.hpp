@@ -1,5 +1,6 @@
 #pragma once
 
+#include <chrono>
 #include <cstdint>
 #include <functional>
 #include <memory>
@@ -10,6 +11,11 @@
 #include "kinolab/search/motion_primitive_search.hpp"
 
 namespace kinolab {
+
+/// Seconds from `begin` to now (the family's clocks).
+inline double secondsSince(std::chrono::steady_clock::time_point begin) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - begin).count();
+}
 
 /// Which edge of the lazy shortest path LazySP evaluates next (Dellin and Srinivasa, "A Unifying
 /// Formalism for Shortest Path Problems with Expensive Edge Evaluations via Lazy Best-First
