@@ -188,14 +188,20 @@ std::vector<Eigen::Vector3d> MotionPrimitivePlanner::controlsFor(std::uint64_t s
                                   : config_.controls;
 }
 
+MotionPrimitivePlanner::SearchParts MotionPrimitivePlanner::searchParts(
+    const PlannerContext& context) const {
+  SearchParts parts{controlsFor(context.seed), settingsFor(body()), config_.policies};
+  requireAMovingControl(parts.controls, parts.settings.edges);
+  parts.policies.heuristic =
+      config_.heuristic->build({parts.settings.edges, parts.settings.goal_radius});
+  return parts;
+}
+
 void MotionPrimitivePlanner::doSetup(const PlannerContext& context) {
-  const SearchSettings settings = settingsFor(body());
-  auto controls = controlsFor(context.seed);
-  requireAMovingControl(controls, settings.edges);
-  SearchPolicies policies = config_.policies;
-  policies.heuristic = config_.heuristic->build({settings.edges, settings.goal_radius});
-  search_ = std::make_unique<MotionPrimitiveSearch>(context.world, std::move(controls), settings,
-                                                    std::move(policies));
+  SearchParts parts = searchParts(context);
+  search_ =
+      std::make_unique<MotionPrimitiveSearch>(context.world, std::move(parts.controls),
+                                              std::move(parts.settings), std::move(parts.policies));
 }
 
 void MotionPrimitivePlanner::doCheck() const {

@@ -7,20 +7,11 @@
 #include "kinolab/core/error.hpp"
 
 namespace kinolab {
-namespace {
-
-using Clock = std::chrono::steady_clock;
-
-double secondsSince(Clock::time_point begin) {
-  return std::chrono::duration<double>(Clock::now() - begin).count();
-}
-
-}  // namespace
 
 std::uint64_t MotionPrimitiveSearch::hashOf(const Key& key) const {
   // SplitMix64-style mixing of the packed components the order uses (3 per derivative).
   std::uint64_t hash = 0x9E3779B97F4A7C15ull;
-  const std::size_t used = 3 * static_cast<std::size_t>(settings_.edges.order);
+  const std::size_t used = 3 * static_cast<std::size_t>(graph_.settings().edges.order);
   for (std::size_t i = 0; i < used; i += 2) {
     std::uint64_t word = (static_cast<std::uint64_t>(static_cast<std::uint32_t>(key[i])) << 32) |
                          static_cast<std::uint32_t>(key[i + 1]);
@@ -35,37 +26,18 @@ std::uint64_t MotionPrimitiveSearch::hashOf(const Key& key) const {
 MotionPrimitiveSearch::MotionPrimitiveSearch(std::shared_ptr<const World> world,
                                              std::vector<Eigen::Vector3d> controls,
                                              SearchSettings settings, SearchPolicies policies)
-    : world_(std::move(world)),
-      controls_(std::move(controls)),
-      settings_(settings),
-      given_policies_(policies),
-      policies_(std::move(policies)),
-      evaluator_(world_, settings_.edges) {
-  if (controls_.empty()) throw InvalidArgument("motion-primitive search: no controls");
-  if (!policies_.edges || !policies_.heuristic || !policies_.space) {
-    throw InvalidArgument(
-        "motion-primitive search: an edge policy, a heuristic and a search space are needed");
-  }
-  if (!(settings_.heuristic_weight >= 1.0)) {
-    throw InvalidArgument("motion-primitive search: heuristic_weight must be >= 1");
-  }
-  if (!(settings_.cost_weight >= 0.0)) {
-    throw InvalidArgument("motion-primitive search: cost_weight must be >= 0");
-  }
-  if (controls_.size() >= (std::size_t{1} << 30)) {
-    throw InvalidArgument("motion-primitive search: at most 2^30 controls, got " +
-                          std::to_string(controls_.size()));
-  }
-  policies_.heuristic = heuristicForControls(policies_.heuristic, controls_);
-  evaluations_.resize(controls_.size());
-  estimates_.resize(controls_.size());
-  if (policies_.shot) {
+    : graph_("motion-primitive search", std::move(world), std::move(controls), std::move(settings),
+             std::move(policies)) {
+  evaluations_.resize(graph_.controls().size());
+  estimates_.resize(graph_.controls().size());
+  if (graph_.policies().shot) {
     // A shot is held to what the search's edges are: its limits, body and tolerance.
+    const EdgeEvaluatorSettings& edges = graph_.settings().edges;
     CheckerSettings check;
-    check.body = settings_.edges.body;
-    check.limits = settings_.edges.limits;
-    check.max_derivative = settings_.edges.order;
-    shot_checker_ = std::make_unique<TrajectoryChecker>(world_, check);
+    check.body = edges.body;
+    check.limits = edges.limits;
+    check.max_derivative = edges.order;
+    shot_checker_ = std::make_unique<TrajectoryChecker>(graph_.sharedWorld(), check);
   }
 }
 
@@ -73,18 +45,20 @@ MotionPrimitiveSearch::~MotionPrimitiveSearch() = default;
 
 bool MotionPrimitiveSearch::tryShot(int node) {
   const ChainState& state = candidates_[node].state;
-  Trajectory shot = policies_.shot->shoot(state, goal_);
+  const GoalShot& policy = *graph_.policies().shot;
+  Trajectory shot = policy.shoot(state, graph_.goal());
   if (shot.empty()) return false;
-  ++counters_.shots;
+  SearchCounters& counters = graph_.counters();
+  ++counters.shots;
   CheckQuery query;
   query.start = state;
-  query.goal = goal_;
-  query.goal_radius = settings_.goal_radius;
+  query.goal = graph_.goal();
+  query.goal_radius = graph_.settings().goal_radius;
   if (!shot_checker_->check(shot, query).valid) {
-    ++counters_.shots_rejected;
+    ++counters.shots_rejected;
     return false;
   }
-  shot_cost_ = policies_.shot->cost(shot);
+  shot_cost_ = policy.cost(shot);
   shot_ = std::move(shot);
   return true;
 }
@@ -100,7 +74,7 @@ int MotionPrimitiveSearch::slotOf(const ChainState& state) {
       table_[position] = static_cast<int>(i);
     }
   }
-  const Key key = policies_.space->key(state, start_, settings_.edges.order);
+  const Key key = graph_.key(state);
   const std::uint64_t hash = hashOf(key);
   const std::size_t mask = table_.size() - 1;
   for (std::size_t position = hash & mask;; position = (position + 1) & mask) {
@@ -115,22 +89,19 @@ int MotionPrimitiveSearch::slotOf(const ChainState& state) {
   }
 }
 
-double MotionPrimitiveSearch::priority(double g, double h) const {
-  return settings_.cost_weight * g + settings_.heuristic_weight * h;
-}
-
 void MotionPrimitiveSearch::push(const HeapEntry& entry) {
   heap_.push_back(entry);
   std::push_heap(heap_.begin(), heap_.end(), HeapEntry::Later{});
-  counters_.open_peak =
-      std::max<long long>(counters_.open_peak, static_cast<long long>(heap_.size()));
+  SearchCounters& counters = graph_.counters();
+  counters.open_peak =
+      std::max<long long>(counters.open_peak, static_cast<long long>(heap_.size()));
 }
 
 bool MotionPrimitiveSearch::queueCandidate(const Candidate& candidate, double h) {
   if (h == INFINITY) return false;  // the goal is out of reach from this state
-  const double f = priority(candidate.g, h);
+  const double f = graph_.priority(candidate.g, h);
   Slot& slot = slots_[candidate.slot];
-  if (settings_.duplicate_rule == DuplicateRule::kLwa) {
+  if (graph_.settings().duplicate_rule == DuplicateRule::kLwa) {
     // A candidate queued behind an evaluated one of the same state would be dropped when
     // popped, as that one closes the state first: it is not queued at all. Equal priorities
     // are kept: the tie-break decides.
@@ -163,7 +134,6 @@ void MotionPrimitiveSearch::prepare() {
   heap_.clear();
   goal_candidate_ = -1;
   nearest_candidate_ = -1;
-  counters_ = {};
   shot_ = Trajectory();
   shot_cost_ = 0.0;
 }
@@ -172,9 +142,8 @@ void MotionPrimitiveSearch::evaluatePopped(const HeapEntry& entry) {
   const ChainState& parent_state = candidates_[entry.node].state;
   const double parent_g = candidates_[entry.node].g;
   const double parent_clearance = candidates_[entry.node].clearance;
-  const Eigen::Vector3d& control = controls_[entry.control];
   Candidate candidate;
-  candidate.state = evaluator_.endState(parent_state, control);
+  candidate.state = graph_.endState(parent_state, static_cast<int>(entry.control));
   candidate.slot = slotOf(candidate.state);
   if (slots_[candidate.slot].closed >= 0) return;  // stale: closed by a cheaper candidate
   candidate.parent = entry.node;
@@ -183,54 +152,32 @@ void MotionPrimitiveSearch::evaluatePopped(const HeapEntry& entry) {
     candidate.g = entry.g;
     candidate.evaluation = Evaluation::kCertified;
   } else {
-    const auto begin = Clock::now();
-    const EdgeEvaluation full = evaluator_.full(parent_state, control, parent_clearance);
-    counters_.evaluation_seconds += secondsSince(begin);
-    ++counters_.full_evaluations;
-    counters_.esdf_queries += full.esdf_queries;
+    const EdgeEvaluation full =
+        graph_.evaluate(parent_state, static_cast<int>(entry.control), parent_clearance);
     if (!full.valid()) {
       // Kept (never queued) so that figures show where lazy search found a collision.
       candidate.evaluation = Evaluation::kRejected;
       candidates_.push_back(candidate);
-      ++counters_.rejected_edges;
       return;
     }
     candidate.g = parent_g + full.cost;
     candidate.evaluation = Evaluation::kFull;
   }
-  queueCandidate(candidate, heuristic_->estimate(candidate.state, goal_));
+  queueCandidate(candidate, graph_.h(candidate.state));
 }
 
 void MotionPrimitiveSearch::expand(int node) {
-  ++counters_.expansions;
+  SearchCounters& counters = graph_.counters();
+  ++counters.expansions;
   // Copies: candidates_ may grow (and move) while the node is expanded.
   const ChainState parent_state = candidates_[node].state;
   const double parent_g = candidates_[node].g;
-  const double parent_clearance = world_->clearance(parent_state.col(0));
+  const double parent_clearance = graph_.clearance(parent_state.col(0));
   candidates_[node].clearance = parent_clearance;  // for its lazy edges, when popped
-  ++counters_.esdf_queries;
-  const EdgeEvaluationPolicy& policy = *policies_.edges;
-  const SearchHeuristic& heuristic = *heuristic_;
-  const bool seed_rule = settings_.duplicate_rule == DuplicateRule::kSeed;
+  const bool seed_rule = graph_.settings().duplicate_rule == DuplicateRule::kSeed;
   // Evaluate every primitive first (timed as evaluation), then queue them.
-  const auto begin = Clock::now();
-  for (std::size_t i = 0; i < controls_.size(); ++i) {
-    EdgeEvaluation& evaluation = evaluations_[i];
-    const EdgeEstimate estimate =
-        policy.evaluate(evaluator_, parent_state, parent_clearance, controls_[i], evaluation);
-    estimates_[i] = estimate;
-    counters_.esdf_queries += evaluation.esdf_queries;
-    if (estimate == EdgeEstimate::kFull) {
-      ++counters_.full_evaluations;
-      if (evaluation.within_limits && !evaluation.collision_free) ++counters_.rejected_edges;
-    } else {
-      ++counters_.partial_evaluations;
-      counters_.certified_edges += estimate == EdgeEstimate::kCertified;
-    }
-  }
-  counters_.evaluation_seconds += secondsSince(begin);
-
-  for (std::size_t i = 0; i < controls_.size(); ++i) {
+  graph_.estimateAll(parent_state, parent_clearance, evaluations_, estimates_);
+  for (std::size_t i = 0; i < evaluations_.size(); ++i) {
     const EdgeEvaluation& evaluation = evaluations_[i];
     const EdgeEstimate estimate = estimates_[i];
     if (!evaluation.valid()) continue;
@@ -252,17 +199,16 @@ void MotionPrimitiveSearch::expand(int node) {
         candidate.parent = node;
         candidate.control = static_cast<int>(i);
         candidate.slot = slot_index;
-        counters_.candidates +=
-            queueCandidate(candidate, heuristic.estimate(evaluation.end, goal_));
+        counters.candidates += queueCandidate(candidate, graph_.h(evaluation.end));
         continue;
       }
     }
     // A lower bound (or a certified cost): queue the parent and control; the end state's key
     // and table probe wait until the edge is popped.
-    const double h = heuristic.estimate(evaluation.end, goal_);
+    const double h = graph_.h(evaluation.end);
     if (h == INFINITY) continue;  // the goal is out of reach from its end
-    ++counters_.candidates;
-    push({priority(g, h), g, node, static_cast<std::uint32_t>(i),
+    ++counters.candidates;
+    push({graph_.priority(g, h), g, node, static_cast<std::uint32_t>(i),
           estimate == EdgeEstimate::kCertified ? kCertified : kLowerBound});
   }
 }
@@ -270,38 +216,29 @@ void MotionPrimitiveSearch::expand(int node) {
 MotionPrimitiveSearch::Outcome MotionPrimitiveSearch::search(const ChainState& start,
                                                              const Eigen::Vector3d& goal,
                                                              StopCondition& stop) {
-  const auto begin = std::chrono::steady_clock::now();
+  graph_.beginQuery(start, goal, stop);
   prepare();
-  start_ = start;
-  goal_ = goal;
-  heuristic_ = heuristicForQuery(policies_.heuristic, *world_, goal, stop);
+  SearchCounters& counters = graph_.counters();
   Candidate root;
   root.state = start;
   root.slot = slotOf(start);
   candidates_.push_back(root);
-  counters_.start_heuristic = heuristic_->estimate(start, goal_);
-  const double root_f = priority(0.0, counters_.start_heuristic);
+  const double root_f = graph_.priority(0.0, counters.start_heuristic);
   slots_[root.slot].best_f = root_f;
   slots_[root.slot].seen = true;
   push({root_f, 0.0, 0, 0, kCandidate});
 
   double nearest = INFINITY;
   Outcome outcome = Outcome::kExhausted;
-  const double memory_limit = settings_.memory_limit_mb * 1024.0 * 1024.0;
   while (!heap_.empty()) {
-    if (stop.expired(counters_.expansions)) {
-      outcome = Outcome::kBudget;
-      break;
-    }
-    if (memoryBytes() > memory_limit) {
-      counters_.memory_limited = true;
+    if (graph_.stopHere(stop, counters.expansions, memoryBytes())) {
       outcome = Outcome::kBudget;
       break;
     }
     std::pop_heap(heap_.begin(), heap_.end(), HeapEntry::Later{});
     const HeapEntry entry = heap_.back();
     heap_.pop_back();
-    ++counters_.pops;
+    ++counters.pops;
     if (entry.kind != kCandidate) {
       evaluatePopped(entry);
       continue;
@@ -311,20 +248,19 @@ MotionPrimitiveSearch::Outcome MotionPrimitiveSearch::search(const ChainState& s
     // Stale: the state was closed by a cheaper candidate.
     if (slots_[candidate.slot].closed >= 0) continue;
     slots_[candidate.slot].closed = index;
-    const double distance = (candidate.state.col(0) - goal_).norm();
+    const double distance = (candidate.state.col(0) - graph_.goal()).norm();
     if (distance < nearest) {
       nearest = distance;
       nearest_candidate_ = index;
     }
-    if (distance <= settings_.goal_radius || (policies_.shot && tryShot(index))) {
+    if (distance <= graph_.settings().goal_radius || (graph_.policies().shot && tryShot(index))) {
       goal_candidate_ = index;
       outcome = Outcome::kGoal;
       break;
     }
     expand(index);
   }
-  counters_.search_seconds =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - begin).count();
+  graph_.endQuery();
   return outcome;
 }
 
@@ -335,9 +271,10 @@ Trajectory MotionPrimitiveSearch::trajectory() const {
   Trajectory trajectory;
   for (auto it = path.rbegin(); it != path.rend(); ++it) {
     const Candidate& candidate = candidates_[*it];
-    trajectory.append(TrajectorySegment::primitive(
-        candidates_[candidate.parent].state, controls_[candidate.control], settings_.edges.order,
-        settings_.edges.duration));
+    const EdgeEvaluatorSettings& edges = graph_.settings().edges;
+    trajectory.append(TrajectorySegment::primitive(candidates_[candidate.parent].state,
+                                                   graph_.controls()[candidate.control],
+                                                   edges.order, edges.duration));
   }
   if (goal_candidate_ >= 0) {
     for (const TrajectorySegment& segment : shot_.segments()) trajectory.append(segment);
@@ -353,38 +290,32 @@ double MotionPrimitiveSearch::cost() const {
 
 Statistics MotionPrimitiveSearch::statistics() const {
   const auto value = [](long long count) { return static_cast<double>(count); };
-  Statistics statistics = {
-      {"expansions", value(counters_.expansions)},
-      {"pops", value(counters_.pops)},
-      {"partial_evaluations", value(counters_.partial_evaluations)},
-      {"full_evaluations", value(counters_.full_evaluations)},
-      {"certified_edges", value(counters_.certified_edges)},
-      {"rejected_edges", value(counters_.rejected_edges)},
-      {"esdf_queries", value(counters_.esdf_queries)},
-      {"open_peak", value(counters_.open_peak)},
-      {"candidates", value(counters_.candidates)},
-      {"closed_states",
-       value(static_cast<long long>(std::count_if(
-           slots_.begin(), slots_.end(), [](const Slot& slot) { return slot.closed >= 0; })))},
-      {"time_evaluation_ms", 1e3 * counters_.evaluation_seconds},
-      {"time_search_ms", 1e3 * (counters_.search_seconds - counters_.evaluation_seconds)},
-      {"start_heuristic", counters_.start_heuristic}};
-  if (policies_.shot) {
-    statistics.emplace_back("shots", value(counters_.shots));
-    statistics.emplace_back("shots_rejected", value(counters_.shots_rejected));
+  const SearchCounters& counters = graph_.counters();
+  Statistics statistics = graph_.statistics();
+  statistics.emplace_back("pops", value(counters.pops));
+  statistics.emplace_back("open_peak", value(counters.open_peak));
+  statistics.emplace_back("candidates", value(counters.candidates));
+  statistics.emplace_back(
+      "closed_states",
+      value(static_cast<long long>(std::count_if(
+          slots_.begin(), slots_.end(), [](const Slot& slot) { return slot.closed >= 0; }))));
+  if (graph_.policies().shot) {
+    statistics.emplace_back("shots", value(counters.shots));
+    statistics.emplace_back("shots_rejected", value(counters.shots_rejected));
   }
   return statistics;
 }
 
 SearchTree MotionPrimitiveSearch::tree(std::size_t max_edges, int points_per_edge) const {
-  const IntegratorChain& chain = evaluator_.chain();
-  const double tau = settings_.edges.duration;
+  const IntegratorChain& chain = graph_.evaluator().chain();
+  const double tau = graph_.settings().edges.duration;
   const auto edgeOf = [&](int parent, int control, SearchTreeEdge::State state, bool closed) {
     SearchTreeEdge edge;
     edge.points.reserve(static_cast<std::size_t>(points_per_edge));
     for (int p = 0; p < points_per_edge; ++p) {
       const double t = tau * p / (points_per_edge - 1);
-      edge.points.push_back(chain.stateAt(candidates_[parent].state, controls_[control], t).col(0));
+      edge.points.push_back(
+          chain.stateAt(candidates_[parent].state, graph_.controls()[control], t).col(0));
     }
     edge.state = state;
     edge.closed = closed;

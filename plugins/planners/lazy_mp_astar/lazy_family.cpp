@@ -1,7 +1,6 @@
 #include "lazy_family.hpp"
 
 #include <algorithm>
-#include <chrono>
 #include <cmath>
 #include <queue>
 
@@ -18,93 +17,25 @@ std::size_t LatticeKeyHash::operator()(const SearchSpace::Key& key) const {
   return static_cast<std::size_t>(hash ^ (hash >> 29));
 }
 
-LazyEdgeWork::LazyEdgeWork(std::shared_ptr<const World> world, const SearchSettings& settings,
-                           std::shared_ptr<const EdgeEvaluationPolicy> policy)
-    : world_(std::move(world)), policy_(std::move(policy)), evaluator_(world_, settings.edges) {}
-
-void LazyEdgeWork::reset() {
-  partial_evaluations_ = full_evaluations_ = rejected_edges_ = esdf_queries_ = 0;
-  evaluation_seconds_ = 0.0;
-}
-
-double LazyEdgeWork::clearance(const Eigen::Vector3d& position) {
-  ++esdf_queries_;
-  return world_->clearance(position);
-}
-
-bool LazyEdgeWork::estimate(const ChainState& parent, double parent_clearance,
-                            const Eigen::Vector3d& control, EdgeEvaluation& estimate) {
-  const auto begin = std::chrono::steady_clock::now();
-  const bool exact = policy_->evaluate(evaluator_, parent, parent_clearance, control, estimate) !=
-                     EdgeEstimate::kLowerBound;
-  evaluation_seconds_ += secondsSince(begin);
-  esdf_queries_ += estimate.esdf_queries;
-  if (exact) {  // the policy evaluated it exactly (full, or a certified bound)
-    ++full_evaluations_;
-    rejected_edges_ += !estimate.valid();
-  } else {
-    ++partial_evaluations_;
-  }
-  return exact;
-}
-
-EdgeEvaluation LazyEdgeWork::evaluate(const ChainState& parent, const Eigen::Vector3d& control) {
-  const auto begin = std::chrono::steady_clock::now();
-  EdgeEvaluation full = evaluator_.full(parent, control, world_->clearance(parent.col(0)));
-  evaluation_seconds_ += secondsSince(begin);
-  ++full_evaluations_;
-  esdf_queries_ += full.esdf_queries + 1;  // and the parent's clearance
-  rejected_edges_ += !full.valid();
-  return full;
-}
-
-void LazyEdgeWork::addStatistics(Statistics& statistics, double total_seconds) const {
-  const auto value = [](long long count) { return static_cast<double>(count); };
-  statistics.emplace_back("partial_evaluations", value(partial_evaluations_));
-  statistics.emplace_back("full_evaluations", value(full_evaluations_));
-  statistics.emplace_back("rejected_edges", value(rejected_edges_));
-  statistics.emplace_back("esdf_queries", value(esdf_queries_));
-  statistics.emplace_back("time_evaluation_ms", 1e3 * evaluation_seconds_);
-  statistics.emplace_back("time_search_ms", 1e3 * (total_seconds - evaluation_seconds_));
-}
-
 LazyFamilySearch::LazyFamilySearch(const char* name, std::shared_ptr<const World> world,
                                    std::vector<Eigen::Vector3d> controls, SearchSettings settings,
                                    SearchPolicies policies, EdgeSelector selector)
-    : world_(std::move(world)),
-      controls_(std::move(controls)),
-      settings_(settings),
-      policies_(std::move(policies)),
-      selector_(selector),
-      work_(world_, settings_, policies_.edges) {
-  const std::string who(name);
-  if (controls_.empty()) throw InvalidArgument(who + ": no controls");
-  if (!policies_.edges || !policies_.heuristic || !policies_.space) {
-    throw InvalidArgument(who + ": an edge policy, a heuristic and a search space are needed");
-  }
-  if (!(settings_.heuristic_weight >= 1.0)) {
-    throw InvalidArgument(who + ": heuristic_weight must be >= 1");
-  }
-  policies_.heuristic = heuristicForControls(policies_.heuristic, controls_);
-}
+    : graph_(name, std::move(world), std::move(controls), std::move(settings), std::move(policies)),
+      selector_(selector) {}
 
 void LazyFamilySearch::reset(const ChainState& start, const Eigen::Vector3d& goal,
                              StopCondition& stop) {
-  start_ = start;
-  goal_ = goal;
-  heuristic_ = heuristicForQuery(policies_.heuristic, *world_, goal, stop);
-  start_heuristic_ = heuristic_->estimate(start, goal);
+  graph_.beginQuery(start, goal, stop);
   path_.clear();
-  solved_ = memory_limited_ = reverse_next_ = false;
-  expansions_ = 0;
-  work_.reset();
+  solved_ = reverse_next_ = false;
 }
 
 Trajectory LazyFamilySearch::trajectory() const {
   Trajectory trajectory;
   for (const LazyPathStep& step : path_) {
-    trajectory.append(TrajectorySegment::primitive(
-        step.parent, controls_[step.control], settings_.edges.order, settings_.edges.duration));
+    const EdgeEvaluatorSettings& edges = graph_.settings().edges;
+    trajectory.append(TrajectorySegment::primitive(step.parent, graph_.controls()[step.control],
+                                                   edges.order, edges.duration));
   }
   return trajectory;
 }
@@ -117,10 +48,8 @@ double LazyFamilySearch::cost() const {
 }
 
 Statistics LazyFamilySearch::statistics() const {
-  Statistics statistics{{"expansions", static_cast<double>(expansions_)},
-                        {"start_heuristic", start_heuristic_}};
+  Statistics statistics = graph_.statistics();
   for (auto& entry : ownStatistics()) statistics.push_back(std::move(entry));
-  work_.addStatistics(statistics, total_seconds_);
   return statistics;
 }
 
@@ -165,7 +94,7 @@ LazySpSearch::LazySpSearch(std::shared_ptr<const World> world,
 
 LazySpSearch::Edge& LazySpSearch::edgeOf(Slot& slot, const ChainState& parent, double& clearance,
                                          int control) {
-  if (slot.empty()) slot.resize(controls_.size());
+  if (slot.empty()) slot.resize(graph_.controls().size());
   std::unique_ptr<Edge>& edge = slot[control];
   // An edge's records hold for its continuous parent: routes to one lattice key agree up to
   // rounding, and another parent of the key is evaluated afresh.
@@ -174,8 +103,9 @@ LazySpSearch::Edge& LazySpSearch::edgeOf(Slot& slot, const ChainState& parent, d
     edge = std::make_unique<Edge>();
     edge->parent = parent;
     // The parent's clearance once per expansion, and only when an edge is new.
-    if (std::isnan(clearance)) clearance = work_.clearance(parent.col(0));
-    edge->evaluated = work_.estimate(parent, clearance, controls_[control], edge->bound);
+    if (std::isnan(clearance)) clearance = graph_.clearance(parent.col(0));
+    edge->evaluated =
+        graph_.estimate(parent, clearance, control, edge->bound) != EdgeEstimate::kLowerBound;
     if (edge->evaluated) edge->full = edge->bound;
   }
   return *edge;
@@ -190,38 +120,35 @@ double LazySpSearch::memoryBytes() const {
 int LazySpSearch::lazySearch(StopCondition& stop, bool& stopped) {
   ++lazy_searches_;
   nodes_.clear();
-  nodes_.push_back({start_, 0.0, -1, -1, nullptr});
+  nodes_.push_back({graph_.start(), 0.0, -1, -1, nullptr});
   std::unordered_map<Key, int, LatticeKeyHash> closed;
   std::unordered_map<Key, double, LatticeKeyHash> best_g;
   using Entry = std::tuple<double, double, int>;  // f, -g (deeper first among equal f), node
   std::priority_queue<Entry, std::vector<Entry>, std::greater<>> open;
   const auto h = [&](const ChainState& state) {
-    return settings_.heuristic_weight * heuristic_->estimate(state, goal_);
+    return graph_.settings().heuristic_weight * graph_.h(state);
   };
-  open.emplace(h(start_), 0.0, 0);
-  const int order = settings_.edges.order;
-  const double memory_limit = settings_.memory_limit_mb * 1024.0 * 1024.0;
+  open.emplace(h(graph_.start()), 0.0, 0);
+  SearchCounters& counters = graph_.counters();
   while (!open.empty()) {
-    const double bytes = memoryBytes();
-    if (stop.expired(expansions_) || bytes > memory_limit) {
-      memory_limited_ = bytes > memory_limit;
+    if (graph_.stopHere(stop, counters.expansions, memoryBytes())) {
       stopped = true;
       return -1;
     }
     const int node = std::get<2>(open.top());
     open.pop();
-    const Key key = policies_.space->key(nodes_[node].state, start_, order);
+    const Key key = graph_.key(nodes_[node].state);
     if (!closed.emplace(key, node).second) continue;
-    if ((nodes_[node].state.col(0) - goal_).norm() <= settings_.goal_radius) return node;
-    ++expansions_;
+    if (graph_.inGoal(nodes_[node].state)) return node;
+    ++counters.expansions;
     // The node's edge records, by its key (the closed-set key): one look-up per expansion.
     Slot& slot = edges_[key];
     double clearance = NAN;
-    for (int control = 0; control < static_cast<int>(controls_.size()); ++control) {
+    for (int control = 0; control < static_cast<int>(graph_.controls().size()); ++control) {
       Edge& edge = edgeOf(slot, nodes_[node].state, clearance, control);
       const EdgeEvaluation& known = edge.known();
       if (!known.valid()) continue;
-      const Key child_key = policies_.space->key(known.end, start_, order);
+      const Key child_key = graph_.key(known.end);
       if (closed.count(child_key)) continue;
       const double g = nodes_[node].g + known.cost;
       const auto [best, inserted] = best_g.emplace(child_key, g);
@@ -231,7 +158,7 @@ int LazySpSearch::lazySearch(StopCondition& stop, bool& stopped) {
       if (estimate == INFINITY) continue;  // the goal is out of its reach
       nodes_.push_back({known.end, g, node, control, &edge});
       const int child = static_cast<int>(nodes_.size()) - 1;
-      open.emplace(settings_.cost_weight * g + estimate, -g, child);
+      open.emplace(graph_.settings().cost_weight * g + estimate, -g, child);
     }
   }
   return -1;
@@ -257,11 +184,11 @@ bool LazySpSearch::evaluateOnPath(int goal_node) {
   const auto clearance = [&](int node) {
     const EdgeEvaluation& bound = nodes_[node].edge->bound;
     return std::isfinite(bound.end_clearance) ? bound.end_clearance
-                                              : world_->clearance(bound.end.col(0));
+                                              : graph_.world().clearance(bound.end.col(0));
   };
   const int chosen = selectorOrder(unevaluated, clearance).front();
   Edge& edge = *nodes_[chosen].edge;
-  edge.full = work_.evaluate(edge.parent, controls_[nodes_[chosen].control]);
+  edge.full = graph_.evaluate(edge.parent, nodes_[chosen].control);
   edge.evaluated = true;
   return true;
 }
@@ -269,7 +196,6 @@ bool LazySpSearch::evaluateOnPath(int goal_node) {
 MotionPrimitiveSearch::Outcome LazySpSearch::search(const ChainState& start,
                                                     const Eigen::Vector3d& goal,
                                                     StopCondition& stop) {
-  const auto begin = std::chrono::steady_clock::now();
   reset(start, goal, stop);
   edges_.clear();
   edge_records_ = 0;
@@ -292,7 +218,7 @@ MotionPrimitiveSearch::Outcome LazySpSearch::search(const ChainState& start,
       break;
     }
   }
-  total_seconds_ = secondsSince(begin);
+  graph_.endQuery();
   return outcome;
 }
 

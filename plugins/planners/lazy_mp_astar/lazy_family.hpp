@@ -1,6 +1,5 @@
 #pragma once
 
-#include <chrono>
 #include <cstdint>
 #include <functional>
 #include <memory>
@@ -9,13 +8,9 @@
 #include <vector>
 
 #include "kinolab/search/motion_primitive_search.hpp"
+#include "kinolab/search/primitive_graph.hpp"
 
 namespace kinolab {
-
-/// Seconds from `begin` to now (the family's clocks).
-inline double secondsSince(std::chrono::steady_clock::time_point begin) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - begin).count();
-}
 
 /// Which edge of the lazy shortest path LazySP evaluates next (Dellin and Srinivasa, "A Unifying
 /// Formalism for Shortest Path Problems with Expensive Edge Evaluations via Lazy Best-First
@@ -25,38 +20,6 @@ enum class EdgeSelector {
   kReverse,    ///< the last one (nearest the goal)
   kAlternate,  ///< forward and reverse in turn
   kFailFast,   ///< the one most likely to collide: the least clearance at its end
-};
-
-/// Evaluates the family's edges and counts the Dellin-style breakdown every member reports:
-/// partial evaluations (lower bounds), full evaluations, rejected edges, ESDF queries and the
-/// time spent evaluating.
-class LazyEdgeWork {
- public:
-  LazyEdgeWork(std::shared_ptr<const World> world, const SearchSettings& settings,
-               std::shared_ptr<const EdgeEvaluationPolicy> policy);
-
-  void reset();
-  /// The map's clearance at `position` (counted as one ESDF query).
-  double clearance(const Eigen::Vector3d& position);
-  /// The policy's estimate of `control` from `parent` into `estimate`; true when it is exact
-  /// (fully evaluated or certified), false for a lower bound.
-  bool estimate(const ChainState& parent, double parent_clearance, const Eigen::Vector3d& control,
-                EdgeEvaluation& estimate);
-  /// The full evaluation of `control` from `parent`.
-  EdgeEvaluation evaluate(const ChainState& parent, const Eigen::Vector3d& control);
-  /// partial_evaluations, full_evaluations, rejected_edges, esdf_queries, time_evaluation_ms
-  /// and time_search_ms (`total_seconds` less the evaluations).
-  void addStatistics(Statistics& statistics, double total_seconds) const;
-
- private:
-  std::shared_ptr<const World> world_;
-  std::shared_ptr<const EdgeEvaluationPolicy> policy_;
-  EdgeEvaluator evaluator_;
-  long long partial_evaluations_ = 0;
-  long long full_evaluations_ = 0;
-  long long rejected_edges_ = 0;
-  long long esdf_queries_ = 0;
-  double evaluation_seconds_ = 0.0;
 };
 
 /// One edge of a lazy path, by value (it outlives the search that found it).
@@ -71,8 +34,9 @@ struct LatticeKeyHash {
   std::size_t operator()(const SearchSpace::Key& key) const;
 };
 
-/// What the lazy-search family's searches above lookahead 1 share: the lattice's controls,
-/// settings and policies, the edge work, the selector and the path a search returns.
+/// What the lazy-search family's searches above lookahead 1 share: the primitive graph they
+/// run on (PrimitiveGraph: successors, keys, heuristic, counters, memory budget), the
+/// selector and the path a search returns.
 class LazyFamilySearch {
  public:
   virtual ~LazyFamilySearch() = default;
@@ -88,11 +52,10 @@ class LazyFamilySearch {
   Trajectory trajectory() const;
   double cost() const;
   /// The last search stopped at memory_limit_mb.
-  bool memoryLimited() const { return memory_limited_; }
-  /// expansions, the member's own counters, then LazyEdgeWork's breakdown:
-  /// partial_evaluations (lower bounds), full_evaluations, rejected_edges, esdf_queries,
-  /// time_evaluation_ms (lower bounds and full evaluations, as the core search counts them)
-  /// and time_search_ms (the rest).
+  bool memoryLimited() const { return graph_.counters().memory_limited; }
+  const PrimitiveGraph& graph() const { return graph_; }
+  /// The graph's counters (PrimitiveGraph::statistics(): expansions, the evaluations by kind,
+  /// Dellin's time breakdown, start_heuristic), then the member's own.
   Statistics statistics() const;
 
  protected:
@@ -100,8 +63,8 @@ class LazyFamilySearch {
   LazyFamilySearch(const char* name, std::shared_ptr<const World> world,
                    std::vector<Eigen::Vector3d> controls, SearchSettings settings,
                    SearchPolicies policies, EdgeSelector selector);
-  /// Starts a search: forgets the last one's path, flags and counters.
-  /// Starts a query (the query's heuristic made here).
+  /// Starts a query (the graph's: counters, the query's heuristic) and forgets the last
+  /// one's path and flags.
   void reset(const ChainState& start, const Eigen::Vector3d& goal, StopCondition& stop);
   /// The member's own counters, after expansions.
   virtual Statistics ownStatistics() const = 0;
@@ -110,22 +73,11 @@ class LazyFamilySearch {
   std::vector<int> selectorOrder(std::vector<int> band,
                                  const std::function<double(int)>& clearance);
 
-  std::shared_ptr<const World> world_;
-  std::vector<Eigen::Vector3d> controls_;
-  SearchSettings settings_;
-  SearchPolicies policies_;
+  PrimitiveGraph graph_;
   EdgeSelector selector_;
-  LazyEdgeWork work_;
 
-  ChainState start_;
-  Eigen::Vector3d goal_;
-  std::shared_ptr<const SearchHeuristic> heuristic_;  ///< the query's (SearchHeuristic::forQuery)
-  double start_heuristic_ = 0.0;                      ///< its estimate at the start
   std::vector<LazyPathStep> path_;  ///< the final path, or the last one's evaluated valid start
   bool solved_ = false;
-  bool memory_limited_ = false;
-  long long expansions_ = 0;
-  double total_seconds_ = 0.0;
 
  private:
   bool reverse_next_ = false;  ///< alternate's turn
@@ -283,6 +235,8 @@ class LraStarSearch final : public LazyFamilySearch {
   int lookahead_;
   std::vector<Vertex> vertices_;
   std::vector<Arc> arcs_;
+  std::vector<EdgeEvaluation> evaluations_;  // scratch: a vertex's arcs, one per control
+  std::vector<EdgeEstimate> estimates_;
   std::unordered_map<Key, int, LatticeKeyHash> index_;
   Heap extend_;
   Heap frontier_;

@@ -21,14 +21,15 @@ class LazyFamilyPlanner final : public MotionPrimitivePlanner {
 
  protected:
   void doSetup(const PlannerContext& context) override {
-    MotionPrimitivePlanner::doSetup(context);
+    SearchParts parts = searchParts(context);
     if (lookahead_ == 0) {
-      lazy_ = std::make_unique<LazySpSearch>(context.world, search().controls(),
-                                             search().settings(), search().policies(), selector_);
+      lazy_ = std::make_unique<LazySpSearch>(context.world, std::move(parts.controls),
+                                             std::move(parts.settings), std::move(parts.policies),
+                                             selector_);
     } else {
-      lazy_ =
-          std::make_unique<LraStarSearch>(context.world, search().controls(), search().settings(),
-                                          search().policies(), lookahead_, selector_);
+      lazy_ = std::make_unique<LraStarSearch>(context.world, std::move(parts.controls),
+                                              std::move(parts.settings), std::move(parts.policies),
+                                              lookahead_, selector_);
     }
   }
 
@@ -38,7 +39,8 @@ class LazyFamilyPlanner final : public MotionPrimitivePlanner {
                                  std::string(lazy_->memoryLimited() ? "memory budget" : "budget") +
                                      " spent: the evaluated start of the last lazy path");
     result.statistics = lazy_->statistics();
-    result.statistics.emplace_back("controls", static_cast<double>(search().controls().size()));
+    result.statistics.emplace_back("controls",
+                                   static_cast<double>(lazy_->graph().controls().size()));
     result.statistics.emplace_back("heuristic_weight", config().settings.heuristic_weight);
     return result;
   }

@@ -2,7 +2,6 @@
 // a lazy band of at most `lookahead` unevaluated edges, rewired below the best remaining
 // parents when an evaluated edge is invalid or dearer than its bound.
 #include <algorithm>
-#include <chrono>
 #include <cmath>
 #include <queue>
 
@@ -27,15 +26,15 @@ LraStarSearch::LraStarSearch(std::shared_ptr<const World> world,
 }
 
 int LraStarSearch::vertexOf(const ChainState& state) {
-  const Key key = policies_.space->key(state, start_, settings_.edges.order);
+  const Key key = graph_.key(state);
   const auto [found, inserted] = index_.emplace(key, static_cast<int>(vertices_.size()));
   if (inserted) {
     // A key's state is fixed when it is first reached (routes to one lattice key agree up to
     // rounding), so its edge records hold for every later parent.
     Vertex vertex;
     vertex.state = state;
-    vertex.h = settings_.heuristic_weight * heuristic_->estimate(state, goal_);
-    vertex.goal = (state.col(0) - goal_).norm() <= settings_.goal_radius;
+    vertex.h = graph_.settings().heuristic_weight * graph_.h(state);
+    vertex.goal = graph_.inGoal(state);
     vertices_.push_back(std::move(vertex));
   }
   return found->second;
@@ -44,15 +43,15 @@ int LraStarSearch::vertexOf(const ChainState& state) {
 LraStarSearch::Arc& LraStarSearch::arcOf(int vertex, int control) {
   if (vertices_[vertex].first_arc < 0) {
     const ChainState parent = vertices_[vertex].state;  // vertexOf below may move vertices_
-    const double clearance = work_.clearance(parent.col(0));
+    const double clearance = graph_.clearance(parent.col(0));
     const int first = static_cast<int>(arcs_.size());
     vertices_[vertex].first_arc = first;
-    arcs_.resize(arcs_.size() + controls_.size());
-    EdgeEvaluation estimate;
-    for (std::size_t c = 0; c < controls_.size(); ++c) {
-      const bool exact = work_.estimate(parent, clearance, controls_[c], estimate);
+    graph_.estimateAll(parent, clearance, evaluations_, estimates_);
+    arcs_.resize(arcs_.size() + evaluations_.size());
+    for (std::size_t c = 0; c < evaluations_.size(); ++c) {
+      const EdgeEvaluation& estimate = evaluations_[c];
       Arc& arc = arcs_[first + c];
-      arc.evaluated = exact;
+      arc.evaluated = estimates_[c] != EdgeEstimate::kLowerBound;
       arc.valid = estimate.valid();
       arc.bound_cost = arc.cost = estimate.cost;
       if (!arc.valid) continue;
@@ -61,7 +60,7 @@ LraStarSearch::Arc& LraStarSearch::arcOf(int vertex, int control) {
       if (selector_ == EdgeSelector::kFailFast) {
         arc.end_clearance = static_cast<float>(std::isfinite(estimate.end_clearance)
                                                    ? estimate.end_clearance
-                                                   : world_->clearance(estimate.end.col(0)));
+                                                   : graph_.world().clearance(estimate.end.col(0)));
       }
     }
   }
@@ -73,7 +72,7 @@ void LraStarSearch::enqueue(int vertex) {
   ++v.stamp;
   v.queue = v.goal || v.budget >= lookahead_ ? Queue::kFrontier : Queue::kExtend;
   (v.queue == Queue::kFrontier ? frontier_ : extend_)
-      .push({settings_.cost_weight * v.g + v.h, v.g, vertex, v.stamp});
+      .push({graph_.settings().cost_weight * v.g + v.h, v.g, vertex, v.stamp});
 }
 
 const LraStarSearch::Entry* LraStarSearch::top(Heap& heap, Queue queue) {
@@ -119,8 +118,8 @@ void LraStarSearch::discardBelow(int vertex, bool inclusive, std::vector<int>* r
 }
 
 void LraStarSearch::extend(int vertex) {
-  ++expansions_;
-  for (int control = 0; control < static_cast<int>(controls_.size()); ++control) {
+  ++graph_.counters().expansions;
+  for (int control = 0; control < static_cast<int>(graph_.controls().size()); ++control) {
     const Arc& arc = arcOf(vertex, control);
     if (!arc.valid) continue;
     const Vertex& u = vertices_[vertex];
@@ -184,7 +183,7 @@ void LraStarSearch::rewire(int vertex) {
     vertices_[v.parent].children.push_back(child);
     enqueue(child);
     if (v.first_arc < 0) continue;
-    for (int control = 0; control < static_cast<int>(controls_.size()); ++control) {
+    for (int control = 0; control < static_cast<int>(graph_.controls().size()); ++control) {
       const Arc& arc = arcs_[vertices_[child].first_arc + control];
       if (arc.valid) offer(child, control, arc.child);
     }
@@ -220,7 +219,7 @@ void LraStarSearch::evaluateBand(int vertex) {
   for (const int v : selectorOrder(band, clearance)) {
     Arc& arc = treeArc(v);
     const EdgeEvaluation full =
-        work_.evaluate(vertices_[vertices_[v].parent].state, controls_[vertices_[v].control]);
+        graph_.evaluate(vertices_[vertices_[v].parent].state, vertices_[v].control);
     arc.evaluated = true;
     arc.valid = full.valid();
     arc.cost = full.cost;
@@ -245,7 +244,6 @@ double LraStarSearch::memoryBytes() const {
 MotionPrimitiveSearch::Outcome LraStarSearch::search(const ChainState& start,
                                                      const Eigen::Vector3d& goal,
                                                      StopCondition& stop) {
-  const auto begin = std::chrono::steady_clock::now();
   reset(start, goal, stop);
   vertices_.clear();
   arcs_.clear();
@@ -257,13 +255,10 @@ MotionPrimitiveSearch::Outcome LraStarSearch::search(const ChainState& start,
   vertices_[root].g = 0.0;
   vertices_[root].in_tree = true;
   enqueue(root);
-  const double memory_limit = settings_.memory_limit_mb * 1024.0 * 1024.0;
   auto outcome = MotionPrimitiveSearch::Outcome::kExhausted;
   int best = -1;  // the last frontier vertex taken
   for (;;) {
-    const double bytes = memoryBytes();
-    if (stop.expired(expansions_) || bytes > memory_limit) {
-      memory_limited_ = bytes > memory_limit;
+    if (graph_.stopHere(stop, graph_.counters().expansions, memoryBytes())) {
       outcome = MotionPrimitiveSearch::Outcome::kBudget;
       break;
     }
@@ -301,7 +296,7 @@ MotionPrimitiveSearch::Outcome LraStarSearch::search(const ChainState& start,
       path_.push_back({vertices_[vertices_[v].parent].state, vertices_[v].control, arc.cost});
     }
   }
-  total_seconds_ = secondsSince(begin);
+  graph_.endQuery();
   return outcome;
 }
 

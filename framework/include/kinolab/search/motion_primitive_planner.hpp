@@ -65,6 +65,17 @@ class MotionPrimitivePlanner : public Planner {
   static PlanResult resultOf(MotionPrimitiveSearch::Outcome outcome, Trajectory trajectory,
                              double cost, const std::string& budget_spent);
 
+  /// What a search of this planner is made of at setup: the control set (the sampler's for
+  /// the setup's seed, or the fixed one), the settings for the planner's body() and the
+  /// policies with the heuristic built for them. A planner with another search on the same
+  /// graph (the lazy family) makes it from these.
+  struct SearchParts {
+    std::vector<Eigen::Vector3d> controls;
+    SearchSettings settings;
+    SearchPolicies policies;
+  };
+  SearchParts searchParts(const PlannerContext& context) const;
+
   void doSetup(const PlannerContext& context) override;
   PlanResult doPlan(const PlanningQuery& query, StopCondition& stop) override;
   SearchTree doTree(std::size_t max_edges) const override;

@@ -8,62 +8,14 @@
 
 #include "kinolab/core/stop_condition.hpp"
 #include "kinolab/planner/planner.hpp"
-#include "kinolab/primitives/edge_evaluator.hpp"
-#include "kinolab/search/search_policies.hpp"
+#include "kinolab/search/primitive_graph.hpp"
 #include "kinolab/validation/trajectory_checker.hpp"
 
 namespace kinolab {
 
-/// Which candidates of the same state the search keeps.
-enum class DuplicateRule {
-  kLwa,   ///< every candidate cheaper than the state's best evaluated one (optimal)
-  kSeed,  ///< the paper's Algorithm 1 read literally: the first candidate only (lazy)
-};
-
-struct SearchSettings {
-  EdgeEvaluatorSettings edges;
-  DuplicateRule duplicate_rule = DuplicateRule::kLwa;
-  double heuristic_weight = 1.0;  ///< epsilon >= 1: cost within epsilon times the optimum
-  double cost_weight = 1.0;       ///< weight of g in the priority; 0 = greedy best-first
-  double goal_radius = MotionDefaults::kGoalRadius;
-  /// The search's memory (candidates, states, open list): once past this it stops as on any
-  /// budget, so that no search, not even one without a time limit, exhausts the machine (a
-  /// container that has just doubled may hold up to twice the limit).
-  double memory_limit_mb = 2048.0;
-};
-
-/// The policies a plugin gives the search (kinolab/search/search_policies.hpp).
-struct SearchPolicies {
-  /// How edges are evaluated at expansion: full (eager) or a lower bound (lazy).
-  std::shared_ptr<const EdgeEvaluationPolicy> edges;
-  std::shared_ptr<const SearchHeuristic> heuristic;
-  /// How states are told apart (LatticeSpace: exact on a control grid's lattice).
-  std::shared_ptr<const SearchSpace> space;
-  /// An analytic expansion to the goal from each closed state (hybrid A*), or none.
-  std::shared_ptr<const GoalShot> shot;
-};
-
-/// Counters of one search; see statistics() for their names.
-struct SearchCounters {
-  long long expansions = 0;
-  long long pops = 0;
-  long long partial_evaluations = 0;
-  long long full_evaluations = 0;
-  long long certified_edges = 0;
-  long long rejected_edges = 0;  ///< full evaluations that found a collision or limit breach
-  long long esdf_queries = 0;
-  long long open_peak = 0;
-  long long candidates = 0;
-  double evaluation_seconds = 0.0;
-  double search_seconds = 0.0;   ///< the whole search (evaluation included)
-  bool memory_limited = false;   ///< stopped by memory_limit_mb
-  long long shots = 0;           ///< analytic expansions tried (SearchPolicies::shot)
-  long long shots_rejected = 0;  ///< of those, refused by the checker
-  double start_heuristic = 0.0;  ///< the heuristic's estimate at the start (unweighted)
-};
-
 /// The motion-primitive A* core shared by the lazy and eager planners and by any new
-/// search-based plugin. The open list holds edges: an evaluated edge is a candidate (state,
+/// search-based plugin, on a PrimitiveGraph (successors, keys, heuristic, counters, memory
+/// budget). The open list holds edges: an evaluated edge is a candidate (state,
 /// parent, control, cost) in one array addressed by index; an edge queued with a lower bound
 /// (lazy) is only its heap entry (parent, control, lower-bound cost: 24 bytes), and its end
 /// state, key and table probe are computed when it is popped. A state is closed only when an
@@ -87,11 +39,11 @@ class MotionPrimitiveSearch {
   MotionPrimitiveSearch(const MotionPrimitiveSearch&) = delete;
   MotionPrimitiveSearch& operator=(const MotionPrimitiveSearch&) = delete;
 
-  const SearchSettings& settings() const { return settings_; }
+  const SearchSettings& settings() const { return graph_.settings(); }
   /// The policies it runs with (the heuristic as given, before its control set's).
-  const SearchPolicies& policies() const { return given_policies_; }
-  const EdgeEvaluator& evaluator() const { return evaluator_; }
-  const std::vector<Eigen::Vector3d>& controls() const { return controls_; }
+  const SearchPolicies& policies() const { return graph_.givenPolicies(); }
+  const EdgeEvaluator& evaluator() const { return graph_.evaluator(); }
+  const std::vector<Eigen::Vector3d>& controls() const { return graph_.controls(); }
 
   /// Searches from `start` (assumed valid) towards `goal`.
   Outcome search(const ChainState& start, const Eigen::Vector3d& goal, StopCondition& stop);
@@ -101,9 +53,10 @@ class MotionPrimitiveSearch {
   Trajectory trajectory() const;
   /// Cost of that path (sum of its edges' full costs, and the shot's).
   double cost() const;
-  const SearchCounters& counters() const { return counters_; }
-  /// The counters by name, for results: expansions, pops, partial_evaluations, ... (and
-  /// shots, shots_rejected with a shot policy).
+  const SearchCounters& counters() const { return graph_.counters(); }
+  /// The counters by name, for results: the graph's (PrimitiveGraph::statistics()), then
+  /// pops, open_peak, candidates, closed_states (and shots, shots_rejected with a shot
+  /// policy).
   Statistics statistics() const;
   /// The edges of the last search for figures: every evaluated, certified or rejected edge,
   /// then the lower-bound edges still queued (lower-bound edges popped after their state was
@@ -158,8 +111,6 @@ class MotionPrimitiveSearch {
   };
 
   std::uint64_t hashOf(const Key& key) const;
-  /// f = cost_weight g + heuristic_weight h.
-  double priority(double g, double h) const;
   int slotOf(const ChainState& state);
   /// Empties the containers of the last search, keeping their memory.
   void prepare();
@@ -175,17 +126,9 @@ class MotionPrimitiveSearch {
   /// (full evaluation for a lower bound) and queues the candidate.
   void evaluatePopped(const HeapEntry& entry);
 
-  std::shared_ptr<const World> world_;
-  std::vector<Eigen::Vector3d> controls_;
-  SearchSettings settings_;
-  SearchPolicies given_policies_;
-  SearchPolicies policies_;
-  EdgeEvaluator evaluator_;
+  PrimitiveGraph graph_;
 
   // The last search.
-  ChainState start_;
-  Eigen::Vector3d goal_;
-  std::shared_ptr<const SearchHeuristic> heuristic_;  ///< the query's (SearchHeuristic::forQuery)
   std::vector<Candidate> candidates_;
   std::vector<Slot> slots_;
   /// Open addressing over slots_ (linear probing, power-of-two size, at most half full):
@@ -200,7 +143,6 @@ class MotionPrimitiveSearch {
   std::unique_ptr<TrajectoryChecker> shot_checker_;  ///< with a shot policy
   Trajectory shot_;                                  ///< the accepted shot
   double shot_cost_ = 0.0;
-  SearchCounters counters_;
 };
 
 }  // namespace kinolab
