@@ -386,5 +386,33 @@ TEST(QuerySampler, ALatticePutsXAndYOnItsPointsAndARegionWithoutOneIsRefused) {
                ConfigError);
 }
 
+TEST_F(ExperimentTest, AnyPluginParameterOfAPlannerMayBeWrittenAsABlock) {
+  // `NAME: {type: KEY, params: {...}}` in a planner's entry is `params: {NAME: KEY, NAME.P:
+  // ...}` for any plugin parameter, the sampler no different from the heuristic.
+  const Experiment e = Experiment::fromFile(write("blocks.yaml", R"(kind: planning
+name: blocks
+worlds: [{id: small, spec: small_forest.yaml}]
+queries: {random: {count: 1, min_distance: 3}}
+planners:
+  - id: a
+    type: eager_mp_astar
+    sampler: {type: normal, params: {sigma: 0.4}}
+    heuristic: {type: geodesic, params: {time_optimal: off}}
+)"));
+  const ExperimentPlanner& planner = e.variants.front().planners.front();
+  EXPECT_EQ(planner.parameters.text("sampler"), "normal");
+  EXPECT_EQ(planner.parameters.nested("sampler").real("sigma"), 0.4);
+  EXPECT_EQ(planner.parameters.text("heuristic"), "geodesic");
+  EXPECT_EQ(planner.sampler(), "normal");
+  // A block for a parameter that is not a plugin, or that the planner lacks, is refused.
+  EXPECT_THROW(Experiment::fromFile(write("tau.yaml", R"(kind: planning
+name: tau
+worlds: [{id: small, spec: small_forest.yaml}]
+queries: {random: {count: 1, min_distance: 3}}
+planners: [{id: a, type: eager_mp_astar, tau: {type: x}}]
+)")),
+               ConfigError);
+}
+
 }  // namespace
 }  // namespace kinolab

@@ -52,6 +52,13 @@ std::string positionProblem(const World& world, const Eigen::Vector3d& position,
            formatPoint(b.max);
   }
   const double radius = body.keptRadius();
+  // A body that keeps nothing (a point, or one thinner than its tolerance) collides inside a
+  // closed occupied cube, as the checker's point does.
+  if (radius == 0.0 && world.esdf().exactDistance(position, world.esdf().resolution()) <= 0.0) {
+    return formatPoint(position) + " is inside an occupied voxel cube (robot radius " +
+           formatNumber(body.radius) + " m, collision tolerance " + formatNumber(body.tolerance) +
+           " m: the body keeps 0 m)";
+  }
   const double clearance = world.clearanceFor(position, radius);
   if (clearance < radius) {
     return formatPoint(position) + " is in collision: an occupied voxel cube is " +
