@@ -252,22 +252,96 @@ double RayCaster::cast(const Eigen::Vector3d& origin, const Eigen::Vector3d& dir
   return INFINITY;
 }
 
-void RayCaster::startDistances(const Eigen::Vector3d& origin, double yaw, const PixelGrid& pixels,
-                               double max_range, std::vector<float>& starts) const {
-  starts.clear();
-  const VoxelGrid& grid = world_->grid();
-  // Points in view nearer the camera's plane than kNear are within kNear times the image's
-  // corner ray's length of the camera: with no obstacle there, a brick is projected clipped
-  // to ahead >= kNear.
-  constexpr double kNear = 0.05;
+namespace {
+
+// Points in view nearer the camera's plane than kNear are within kNear times the image's
+// corner ray's length of the camera (nearReach()): with no obstacle there, a brick is
+// projected clipped to ahead >= kNear.
+constexpr double kNear = 0.05;
+
+/// The farthest a point in view of `pixels` nearer the camera's plane than kNear can be from
+/// the camera: kNear times the length of the image's corner ray (1, u, v).
+double nearReach(const PixelGrid& pixels) {
   const double corner_u = std::max(std::abs(pixels.column_offset + 0.5),
                                    std::abs(pixels.columns - 0.5 - pixels.column_offset)) /
                           std::abs(pixels.column_scale);
   const double corner_v =
       std::max(std::abs(pixels.row_offset + 0.5), std::abs(pixels.rows - 0.5 - pixels.row_offset)) /
       std::abs(pixels.row_scale);
-  const double near = kNear * std::sqrt(1.0 + corner_u * corner_u + corner_v * corner_v);
-  if (!(world_->clearance(origin) > near + grid.resolution())) return;
+  return kNear * std::sqrt(1.0 + corner_u * corner_u + corner_v * corner_v);
+}
+
+/// A box on the image plane: the (u, v) = (left, up) / ahead of the points added; empty (no
+/// point added) when u_low > u_high.
+struct ImageBox {
+  double u_low = INFINITY;
+  double u_high = -INFINITY;
+  double v_low = INFINITY;
+  double v_high = -INFINITY;
+
+  /// Adds `q` (ahead, left, up; ahead > 0).
+  void add(const Eigen::Vector3d& q) {
+    const double u = q.y() / q.x();
+    const double v = q.z() / q.x();
+    u_low = std::min(u_low, u);
+    u_high = std::max(u_high, u);
+    v_low = std::min(v_low, v);
+    v_high = std::max(v_high, v);
+  }
+  bool empty() const { return !(u_low <= u_high); }
+};
+
+/// The image box of the part ahead of kNear of the box [lo, hi] (world frame) seen by a camera
+/// at `origin` heading (cos, sin) = (c, s) about z.
+ImageBox projectBox(const Eigen::Vector3d& lo, const Eigen::Vector3d& hi,
+                    const Eigen::Vector3d& origin, double c, double s) {
+  // The box's corners in the camera's frame (ahead, left, up), then its part ahead of kNear:
+  // the corners there and where its edges cross ahead = kNear.
+  std::array<Eigen::Vector3d, 8> corners;
+  for (int k = 0; k < 8; ++k) {
+    const Eigen::Vector3d d =
+        Eigen::Vector3d(k & 1 ? hi.x() : lo.x(), k & 2 ? hi.y() : lo.y(), k & 4 ? hi.z() : lo.z()) -
+        origin;
+    corners[k] = Eigen::Vector3d(c * d.x() + s * d.y(), -s * d.x() + c * d.y(), d.z());
+  }
+  ImageBox box;
+  for (int k = 0; k < 8; ++k) {
+    if (corners[k].x() >= kNear) box.add(corners[k]);
+    for (int bit = 1; bit < 8; bit <<= 1) {  // the edges from this corner, once each
+      if ((k & bit) != 0) continue;
+      const Eigen::Vector3d& p = corners[k];
+      const Eigen::Vector3d& q = corners[k | bit];
+      if ((p.x() < kNear) != (q.x() < kNear)) {
+        box.add(p + (kNear - p.x()) / (q.x() - p.x()) * (q - p));
+      }
+    }
+  }
+  return box;
+}
+
+/// Lowers `starts` (a distance per used pixel, row by row) to `nearest` (m) at the used pixels
+/// whose rays' (u, v) lie in `box` (scales may be negative), with a hundredth of a pixel to
+/// spare for rounding.
+void lowerStarts(const PixelGrid& pixels, const ImageBox& box, double nearest,
+                 std::vector<float>& starts) {
+  const auto [column_from, column_to] = pixels.columnsIn(box.u_low, box.u_high);
+  const auto [row_from, row_to] = pixels.rowsIn(box.v_low, box.v_high);
+  // Rounded down, so that it stays a lower bound at any distance.
+  auto bound = static_cast<float>(nearest);
+  if (static_cast<double>(bound) > nearest) bound = std::nextafter(bound, 0.0f);
+  for (int r = row_from; r <= row_to; ++r) {
+    float* line = starts.data() + static_cast<std::size_t>(r) * pixels.columns;
+    for (int k = column_from; k <= column_to; ++k) line[k] = std::min(line[k], bound);
+  }
+}
+
+}  // namespace
+
+void RayCaster::startDistances(const Eigen::Vector3d& origin, double yaw, const PixelGrid& pixels,
+                               double max_range, std::vector<float>& starts) const {
+  starts.clear();
+  const VoxelGrid& grid = world_->grid();
+  if (!(world_->clearance(origin) > nearReach(pixels) + grid.resolution())) return;
   starts.assign(static_cast<std::size_t>(pixels.columns) * pixels.rows, INFINITY);
   const double c = std::cos(yaw);
   const double s = std::sin(yaw);
@@ -298,51 +372,9 @@ void RayCaster::startDistances(const Eigen::Vector3d& origin, double yaw, const 
             grid.origin() + grid.resolution() * (corner + set_high).cast<double>();
         const double nearest = (origin.cwiseMax(lo).cwiseMin(hi) - origin).norm();
         if (nearest > max_range) continue;
-        // The brick's corners in the camera's frame (ahead, left, up), then its part ahead of
-        // kNear: the corners there and where its edges cross ahead = kNear.
-        std::array<Eigen::Vector3d, 8> corners;
-        for (int k = 0; k < 8; ++k) {
-          const Eigen::Vector3d d =
-              Eigen::Vector3d(k & 1 ? hi.x() : lo.x(), k & 2 ? hi.y() : lo.y(),
-                              k & 4 ? hi.z() : lo.z()) -
-              origin;
-          corners[k] = Eigen::Vector3d(c * d.x() + s * d.y(), -s * d.x() + c * d.y(), d.z());
-        }
-        double u_low = INFINITY;
-        double u_high = -INFINITY;
-        double v_low = INFINITY;
-        double v_high = -INFINITY;
-        const auto add = [&](const Eigen::Vector3d& q) {
-          const double u = q.y() / q.x();
-          const double v = q.z() / q.x();
-          u_low = std::min(u_low, u);
-          u_high = std::max(u_high, u);
-          v_low = std::min(v_low, v);
-          v_high = std::max(v_high, v);
-        };
-        for (int k = 0; k < 8; ++k) {
-          if (corners[k].x() >= kNear) add(corners[k]);
-          for (int bit = 1; bit < 8; bit <<= 1) {  // the edges from this corner, once each
-            if ((k & bit) != 0) continue;
-            const Eigen::Vector3d& p = corners[k];
-            const Eigen::Vector3d& q = corners[k | bit];
-            if ((p.x() < kNear) != (q.x() < kNear)) {
-              add(p + (kNear - p.x()) / (q.x() - p.x()) * (q - p));
-            }
-          }
-        }
-        if (!(u_low <= u_high)) continue;  // wholly behind
-        // The used pixels whose rays' (u, v) lie in that box (scales may be negative), with a
-        // hundredth of a pixel to spare for rounding.
-        const auto [column_from, column_to] = pixels.columnsIn(u_low, u_high);
-        const auto [row_from, row_to] = pixels.rowsIn(v_low, v_high);
-        // Rounded down, so that it stays a lower bound at any distance.
-        auto bound = static_cast<float>(nearest);
-        if (static_cast<double>(bound) > nearest) bound = std::nextafter(bound, 0.0f);
-        for (int r = row_from; r <= row_to; ++r) {
-          float* line = starts.data() + static_cast<std::size_t>(r) * pixels.columns;
-          for (int k = column_from; k <= column_to; ++k) line[k] = std::min(line[k], bound);
-        }
+        const ImageBox box = projectBox(lo, hi, origin, c, s);
+        if (box.empty()) continue;  // wholly behind
+        lowerStarts(pixels, box, nearest, starts);
       }
     }
   }

@@ -5,32 +5,22 @@
 
 #include <algorithm>
 #include <cmath>
-#include <initializer_list>
 #include <map>
 #include <mutex>
 #include <utility>
 
 #include "kinolab/core/error.hpp"
 #include "kinolab/core/text.hpp"
+#include "trajectory_samples.hpp"
 
 namespace kinolab {
 namespace {
 
+using checker_detail::kDerivatives;
+using checker_detail::sampleTimes;
+using checker_detail::speedBound;
+
 const char* kAxes[] = {"x", "y", "z"};
-const char* kDerivatives[] = {"position", "velocity", "acceleration", "jerk", "snap"};
-
-/// An upper bound on the speed over a segment: sum_k k |c_k| T^(k-1) per axis.
-double speedBound(const TrajectorySegment& segment) {
-  Eigen::Array3d bound = Eigen::Array3d::Zero();
-  for (int k = 1; k < segment.coefficients.cols(); ++k) {
-    bound += k * segment.coefficients.col(k).array().abs() * std::pow(segment.duration, k - 1);
-  }
-  return bound.matrix().norm();
-}
-
-}  // namespace
-
-namespace {
 
 /// Whether an occupied voxel has a free one among its 26 neighbours in the grid.
 bool onSurface(const VoxelGrid& grid, const VoxelIndex& voxel) {
@@ -281,22 +271,6 @@ bool violation(CheckResult& result, std::string check, double time, const Eigen:
   return false;
 }
 
-/// The sample times of a segment `spacing` apart along its path (a bound of it), at least
-/// its two ends: (global time, local time).
-void sampleTimes(const TrajectorySegment& segment, double segment_start, double speed_bound,
-                 double spacing, std::vector<std::pair<double, double>>& times) {
-  const double path = speed_bound * segment.duration;
-  // Clamped before the cast: a diverged trajectory's path overflows an int.
-  const double wanted = std::ceil(path / spacing);
-  const int steps =
-      std::isfinite(wanted) ? static_cast<int>(std::clamp(wanted, 1.0, 1000000.0)) : 1000000;
-  times.clear();
-  for (int i = 0; i <= steps; ++i) {
-    const double local = segment.duration * i / steps;
-    times.emplace_back(segment_start + local, local);
-  }
-}
-
 }  // namespace
 
 CheckResult TrajectoryChecker::check(const Trajectory& trajectory, const CheckQuery& query) const {
@@ -309,254 +283,6 @@ CheckResult TrajectoryChecker::check(const Trajectory& trajectory, const CheckQu
   result.valid = checkStart(trajectory, query, result) && checkLimits(trajectory, result) &&
                  checkCollision(trajectory, result) && checkGoal(trajectory, query, result);
   return result;
-}
-
-namespace {
-
-/// "NAME: REASON" for each name, a line each (what the report reads per metric).
-void markUndefined(std::vector<std::string>& lines, std::initializer_list<const char*> names,
-                   const std::string& reason) {
-  for (const char* name : names) lines.push_back(std::string(name) + ": " + reason);
-}
-
-}  // namespace
-
-TrajectoryEvaluation TrajectoryChecker::evaluate(const Trajectory& trajectory) const {
-  TrajectoryEvaluation result;
-  if (trajectory.empty()) return result;
-  std::vector<std::string> undefined;
-  for (const TrajectorySegment& segment : trajectory.segments()) {
-    if (!std::isfinite(segment.duration) || !segment.coefficients.allFinite()) {
-      for (const MetricSpec& spec : evaluationMetrics().specs().all()) {
-        if (spec.type == MetricType::kReal) {
-          undefined.push_back(spec.name + ": the trajectory is not finite");
-        }
-      }
-      result.undefined = join(undefined, "\n");
-      return result;
-    }
-  }
-  result.duration = trajectory.duration();
-  result.length = trajectory.length();
-  // A jump of any derivative below k at a joint makes derivative k impulsive there (a jump of
-  // the position, a teleport, makes every derivative so): its squared integral is not finite,
-  // whatever the polynomials' own figure says.
-  const auto firstJump = [&](int below) -> std::pair<int, Trajectory::Jumps> {
-    for (int d = 0; d < below; ++d) {
-      if (const Trajectory::Jumps jumps = trajectory.jumps(d); jumps.count > 0) return {d, jumps};
-    }
-    return {-1, {}};
-  };
-  const auto jumpReason = [](int d, const Trajectory::Jumps& jumps) {
-    return std::string("the ") + kDerivatives[d] + " jumps at " + std::to_string(jumps.count) +
-           " joint" + (jumps.count > 1 ? "s" : "") + ", so what is above it is impulsive there";
-  };
-  const auto integral = [&](int derivative, const char* name, const char* per_metre) {
-    const auto [d, jumps] = firstJump(derivative);
-    if (d < 0) return trajectory.squaredIntegral(derivative);
-    markUndefined(undefined, {name, per_metre}, jumpReason(d, jumps));
-    return static_cast<double>(NAN);
-  };
-  result.acceleration_integral = integral(2, "acceleration_integral", "acceleration_per_metre");
-  result.jerk_integral = integral(3, "jerk_integral", "jerk_per_metre");
-  if (const auto [d, jumps] = firstJump(2); d < 0) {
-    result.acceleration_jumps = trajectory.jumps(2).squared_sum;
-  } else {
-    markUndefined(undefined, {"acceleration_jumps"}, jumpReason(d, jumps));
-  }
-
-  const World& world = *world_;
-  const DynamicLimits& limits = settings_.limits;
-  const double cap = std::min(world.esdf().maxDistance(), world.esdf().truncation());
-  double least = INFINITY;
-  double clearance_sum = 0.0;
-  int samples = 0;
-  double peak_speed = 0.0;
-  double peak_acceleration = 0.0;
-  double speed_ratio = 0.0;
-  double acceleration_ratio = 0.0;
-  double max_curvature = 0.0;
-  double turning = 0.0;  // curvature over arc length of the moving samples, plus the corners
-  double moving_length = 0.0;
-  // The direction of travel at the last moving sample; a change of it across a stretch too
-  // slow to have a direction, or across a joint, is a corner: turned in place.
-  Eigen::Vector3d last_direction = Eigen::Vector3d::Zero();
-  bool across = false;  // a slow stretch or a joint lies since the last moving sample
-  int corners = 0;
-  double segment_start = 0.0;
-  std::vector<std::pair<double, double>> times;
-  for (const auto& segment : trajectory.segments()) {
-    sampleTimes(segment, segment_start, speedBound(segment), spacing_, times);
-    across = true;
-    for (std::size_t i = 0; i < times.size(); ++i) {
-      const double local = times[i].second;
-      const Eigen::Vector3d position = segment.evaluate(local);
-      const Eigen::Vector3d velocity = segment.evaluate(local, 1);
-      const Eigen::Vector3d acceleration = segment.evaluate(local, 2);
-      // The exact distance, up to the map's diagonal or a truncated field's truncation (a
-      // sparse world's clearance figures are capped there: exact below it).
-      const double distance = std::max(world.esdf().exactDistance(position, cap), 0.0);
-      least = std::min(least, distance);
-      clearance_sum += distance;
-      ++samples;
-      const double speed = velocity.norm();
-      peak_speed = std::max(peak_speed, speed);
-      peak_acceleration = std::max(peak_acceleration, acceleration.norm());
-      for (int axis = 0; axis < 3; ++axis) {
-        speed_ratio = std::max(speed_ratio, std::abs(velocity[axis]) / limits.bound[1][axis]);
-        acceleration_ratio =
-            std::max(acceleration_ratio, std::abs(acceleration[axis]) / limits.bound[2][axis]);
-      }
-      if (speed < TrajectoryEvaluation::kCurvatureMinSpeed) {
-        across = true;
-        continue;
-      }
-      const Eigen::Vector3d direction = velocity / speed;
-      if (across && last_direction.squaredNorm() > 0.0) {
-        const double angle = std::acos(std::clamp(direction.dot(last_direction), -1.0, 1.0));
-        if (angle > 1e-3) {  // a milliradian: rounding at a smooth joint stays far below
-          turning += angle;
-          ++corners;
-        }
-      }
-      last_direction = direction;
-      across = false;
-      const double curvature = velocity.cross(acceleration).norm() / (speed * speed * speed);
-      max_curvature = std::max(max_curvature, curvature);
-      // The sample's share of the segment's time (half of each neighbouring interval).
-      const double before = i > 0 ? local - times[i - 1].second : 0.0;
-      const double after = i + 1 < times.size() ? times[i + 1].second - local : 0.0;
-      const double arc = 0.5 * (before + after) * speed;
-      turning += curvature * arc;
-      moving_length += arc;
-    }
-    segment_start += segment.duration;
-  }
-  result.min_clearance = least - settings_.body.radius;
-  result.mean_clearance = clearance_sum / samples - settings_.body.radius;
-  result.peak_speed = peak_speed;
-  result.peak_acceleration = peak_acceleration;
-  result.speed_limit_ratio = speed_ratio;
-  result.acceleration_limit_ratio = acceleration_ratio;
-  if (moving_length <= 0.0) {
-    markUndefined(undefined, {"max_curvature", "mean_curvature"},
-                  "the trajectory never moves faster than " +
-                      formatNumber(TrajectoryEvaluation::kCurvatureMinSpeed) +
-                      " m/s, so its direction is not defined");
-  } else {
-    result.mean_curvature = turning / moving_length;
-    if (corners == 0) {
-      result.max_curvature = max_curvature;
-    } else {
-      markUndefined(undefined, {"max_curvature"},
-                    "the path turns " + std::to_string(corners) + " corner" +
-                        (corners > 1 ? "s" : "") +
-                        " in place (at rest, or where the velocity jumps), where its curvature "
-                        "is unbounded; mean_curvature counts their angles");
-    }
-  }
-  result.undefined = join(undefined, "\n");
-  return result;
-}
-
-const MetricList<TrajectoryEvaluation>& evaluationMetrics() {
-  using E = TrajectoryEvaluation;
-  const auto of = [](double E::*field) {
-    return [field](const E& e) { return numberOrNone(e.*field); };
-  };
-  // Per metre of path: a long detour and a short direct flight compared on one scale
-  // (FlightBench's energy measures).
-  const auto perMetre = [](double E::*field) {
-    return [field](const E& e) { return numberOrNone(e.length > 0.0 ? e.*field / e.length : NAN); };
-  };
-  static const MetricList<E> list =
-      MetricList<E>()
-          .add(MetricSpecs().real("duration", "s", "trajectory duration").lower().comparable(),
-               of(&E::duration))
-          .add(MetricSpecs().real("length", "m", "trajectory length").lower().comparable(),
-               of(&E::length))
-          .add(MetricSpecs()
-                   .real("acceleration_integral", "m^2/s^3",
-                         "integral of |a|^2 over the trajectory (undefined where the velocity "
-                         "jumps)")
-                   .lower()
-                   .comparable(),
-               of(&E::acceleration_integral))
-          .add(MetricSpecs()
-                   .real("acceleration_per_metre", "m/s^3", "acceleration_integral per metre")
-                   .lower()
-                   .comparable(),
-               perMetre(&E::acceleration_integral))
-          .add(MetricSpecs()
-                   .real("jerk_integral", "m^2/s^5",
-                         "integral of |j|^2 over the trajectory; undefined (never 0) where the "
-                         "acceleration jumps: see acceleration_jumps")
-                   .lower()
-                   .comparable(),
-               of(&E::jerk_integral))
-          .add(MetricSpecs()
-                   .real("jerk_per_metre", "m/s^5", "jerk_integral per metre")
-                   .lower()
-                   .comparable(),
-               perMetre(&E::jerk_integral))
-          .add(MetricSpecs()
-                   .real("acceleration_jumps", "m^2/s^4",
-                         "sum of the squared acceleration jumps at the joints (0: continuous "
-                         "acceleration)")
-                   .lower()
-                   .comparable(),
-               of(&E::acceleration_jumps))
-          .add(MetricSpecs()
-                   .real("max_curvature", "1/m",
-                         "largest curvature |v x a| / |v|^3 where the speed is at least 0.1 m/s; "
-                         "undefined where the path turns a corner in place")
-                   .lower()
-                   .comparable(),
-               of(&E::max_curvature))
-          .add(MetricSpecs()
-                   .real("mean_curvature", "1/m",
-                         "turning per metre: curvature integrated over arc length (where the "
-                         "speed is at least 0.1 m/s) plus the corners turned in place, over the "
-                         "length")
-                   .lower()
-                   .comparable(),
-               of(&E::mean_curvature))
-          .add(MetricSpecs()
-                   .real("min_clearance", "m",
-                         "least exact distance from the trajectory's checked positions to the "
-                         "occupied voxel cubes, less the robot radius")
-                   .higher()
-                   .comparable(),
-               of(&E::min_clearance))
-          .add(MetricSpecs()
-                   .real("mean_clearance", "m",
-                         "mean exact distance from the trajectory's checked positions to the "
-                         "occupied voxel cubes, less the robot radius")
-                   .higher()
-                   .comparable(),
-               of(&E::mean_clearance))
-          .add(MetricSpecs().real("peak_speed", "m/s", "largest speed |v|").comparable(),
-               of(&E::peak_speed))
-          .add(MetricSpecs()
-                   .real("peak_acceleration", "m/s^2", "largest acceleration |a|")
-                   .comparable(),
-               of(&E::peak_acceleration))
-          .add(MetricSpecs()
-                   .real("speed_limit_ratio", "",
-                         "largest per-axis speed over its limit (above 1: beyond the limit)")
-                   .comparable(),
-               of(&E::speed_limit_ratio))
-          .add(MetricSpecs()
-                   .real("acceleration_limit_ratio", "",
-                         "largest per-axis acceleration over its limit (above 1: beyond the "
-                         "limit)")
-                   .comparable(),
-               of(&E::acceleration_limit_ratio))
-          .add(MetricSpecs().text("undefined",
-                                  "the figures not defined for this trajectory, NAME: REASON a "
-                                  "line (never stored as 0)"),
-               [](const E& e) -> MetricValue { return e.undefined; });
-  return list;
 }
 
 bool TrajectoryChecker::checkStart(const Trajectory& trajectory, const CheckQuery& query,
@@ -623,11 +349,11 @@ bool TrajectoryChecker::checkCollision(const Trajectory& trajectory, CheckResult
       }
       if (collides(position)) {
         return violation(result, "collision", time, position,
-                         body_radius_ > 0.0
-                             ? "a sphere of radius " + formatNumber(body_radius_) +
-                                   " m (robot_radius less the collision tolerance) touches an "
-                                   "occupied voxel cube (FCL)"
-                             : "the point is inside an occupied voxel cube");
+                         body_radius_ > 0.0 ? "a sphere of radius " + formatNumber(body_radius_) +
+                                                  " m (the body's kept radius: its radius less the "
+                                                  "collision tolerance) touches an "
+                                                  "occupied voxel cube (FCL)"
+                                            : "the point is inside an occupied voxel cube");
       }
     }
     segment_start += segment.duration;

@@ -208,30 +208,14 @@ class Esdf {
                         : values_[x * strides_[0] + y * strides_[1] + z * strides_[2]];
   }
 
-  /// The trilinear value; with `gradient`, its gradient; with `spread`, voxel^2 sum_i
-  /// t_i (1 - t_i) for clearance().
-  template <bool kWithGradient>
-  double interpolate(const Eigen::Vector3d& point, Eigen::Vector3d* gradient,
-                     double* spread) const {
-    double fraction[3];
-    double scale[3];
-    std::size_t corners[3];
-    std::size_t base = 0;
-    for (int axis = 0; axis < 3; ++axis) {
-      const double raw = point[axis] * inverse_resolution_ - shift_[axis];
-      // max(0, x) first maps a NaN coordinate to 0, never to an index.
-      const double scaled = std::min(std::max(0.0, raw), upper_[axis]);
-      // Along a clamped axis the field is constant, so that gradient component is zero.
-      if constexpr (kWithGradient) scale[axis] = raw == scaled ? gradient_scale_[axis] : 0.0;
-      // The lower corner stays one below the last centre so that corner + 1 exists; on a
-      // one-voxel axis the step is zero and both corners are the same voxel.
-      // scaled >= 0, so truncation is floor (and needs no libm call); converted back from a
-      // signed integer, which takes one instruction (an unsigned one takes a branch).
-      const auto corner = static_cast<std::int64_t>(std::min(scaled, lower_corner_[axis]));
-      fraction[axis] = scaled - static_cast<double>(corner);
-      corners[axis] = static_cast<std::size_t>(corner);
-      base += corners[axis] * strides_[axis];
-    }
+  /// The values at the 8 corners of a cell, cXYZ the corner (lower 0, upper 1) per axis.
+  struct Corners {
+    double c000, c001, c010, c011, c100, c101, c110, c111;
+  };
+  /// The corners of the cell whose lower corner is voxel `corners` (`base` its dense index).
+  /// Always inlined: a step of interpolate(), on the hot path of every query.
+  [[gnu::always_inline]] Corners cornerValues(std::size_t base,
+                                              const std::size_t corners[3]) const {
     double c000, c001, c010, c011, c100, c101, c110, c111;
     if (!brick_table_) {
       const float* v = values_.data() + base;
@@ -260,6 +244,34 @@ class Esdf {
       c110 = brickValue(x1, y1, z0);
       c111 = brickValue(x1, y1, z1);
     }
+    return {c000, c001, c010, c011, c100, c101, c110, c111};
+  }
+
+  /// The trilinear value; with `gradient`, its gradient; with `spread`, voxel^2 sum_i
+  /// t_i (1 - t_i) for clearance().
+  template <bool kWithGradient>
+  double interpolate(const Eigen::Vector3d& point, Eigen::Vector3d* gradient,
+                     double* spread) const {
+    double fraction[3];
+    double scale[3];
+    std::size_t corners[3];
+    std::size_t base = 0;
+    for (int axis = 0; axis < 3; ++axis) {
+      const double raw = point[axis] * inverse_resolution_ - shift_[axis];
+      // max(0, x) first maps a NaN coordinate to 0, never to an index.
+      const double scaled = std::min(std::max(0.0, raw), upper_[axis]);
+      // Along a clamped axis the field is constant, so that gradient component is zero.
+      if constexpr (kWithGradient) scale[axis] = raw == scaled ? gradient_scale_[axis] : 0.0;
+      // The lower corner stays one below the last centre so that corner + 1 exists; on a
+      // one-voxel axis the step is zero and both corners are the same voxel.
+      // scaled >= 0, so truncation is floor (and needs no libm call); converted back from a
+      // signed integer, which takes one instruction (an unsigned one takes a branch).
+      const auto corner = static_cast<std::int64_t>(std::min(scaled, lower_corner_[axis]));
+      fraction[axis] = scaled - static_cast<double>(corner);
+      corners[axis] = static_cast<std::size_t>(corner);
+      base += corners[axis] * strides_[axis];
+    }
+    const Corners v = cornerValues(base, corners);
     const double tx = fraction[0];
     const double ty = fraction[1];
     const double tz = fraction[2];
@@ -269,10 +281,10 @@ class Esdf {
     // Interpolate along z, then y, then x, the two x sides at once (lanes x0, x1 of a pair: the
     // same operations, in the same order, as one side at a time).
     using Pair = double __attribute__((vector_size(16)));
-    const Pair a00 = {c000, c100};
-    const Pair a01 = {c001, c101};
-    const Pair a10 = {c010, c110};
-    const Pair a11 = {c011, c111};
+    const Pair a00 = {v.c000, v.c100};
+    const Pair a01 = {v.c001, v.c101};
+    const Pair a10 = {v.c010, v.c110};
+    const Pair a11 = {v.c011, v.c111};
     const Pair dz_low = a01 - a00;       // c001 - c000, c101 - c100
     const Pair dz_high = a11 - a10;      // c011 - c010, c111 - c110
     const Pair e0 = a00 + dz_low * tz;   // c00, c10

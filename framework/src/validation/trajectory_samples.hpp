@@ -1,0 +1,45 @@
+// Private to the validation code: where the checker samples a trajectory, shared by its checks
+// (trajectory_checker.cpp) and its evaluation (trajectory_evaluation.cpp), which measure the
+// same samples.
+#pragma once
+
+#include <Eigen/Core>
+#include <algorithm>
+#include <cmath>
+#include <utility>
+#include <vector>
+
+#include "kinolab/trajectory/trajectory.hpp"
+
+namespace kinolab::checker_detail {
+
+/// The derivatives' names, by order.
+inline constexpr const char* kDerivatives[] = {"position", "velocity", "acceleration", "jerk",
+                                               "snap"};
+
+/// An upper bound on the speed over a segment: sum_k k |c_k| T^(k-1) per axis.
+inline double speedBound(const TrajectorySegment& segment) {
+  Eigen::Array3d bound = Eigen::Array3d::Zero();
+  for (int k = 1; k < segment.coefficients.cols(); ++k) {
+    bound += k * segment.coefficients.col(k).array().abs() * std::pow(segment.duration, k - 1);
+  }
+  return bound.matrix().norm();
+}
+
+/// The sample times of a segment `spacing` apart along its path (a bound of it), at least
+/// its two ends: (global time, local time).
+inline void sampleTimes(const TrajectorySegment& segment, double segment_start, double speed_bound,
+                        double spacing, std::vector<std::pair<double, double>>& times) {
+  const double path = speed_bound * segment.duration;
+  // Clamped before the cast: a diverged trajectory's path overflows an int.
+  const double wanted = std::ceil(path / spacing);
+  const int steps =
+      std::isfinite(wanted) ? static_cast<int>(std::clamp(wanted, 1.0, 1000000.0)) : 1000000;
+  times.clear();
+  for (int i = 0; i <= steps; ++i) {
+    const double local = segment.duration * i / steps;
+    times.emplace_back(segment_start + local, local);
+  }
+}
+
+}  // namespace kinolab::checker_detail
