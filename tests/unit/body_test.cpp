@@ -70,8 +70,12 @@ TEST(Body, TheStartRuleAndTheCheckerKeepTheSameRadiusEvenBelowTheTolerance) {
       // The box's face is at x = 2 (no x sits on a kept radius, where touching is a tie):
       // a start is refused exactly within the kept radius.
       const double distance = std::max(2.0 - x, 0.0);
-      if (distance > body.keptRadius() + 1e-9) EXPECT_TRUE(problem.empty());
-      if (distance < body.keptRadius() - 1e-9 || x >= 2.0) EXPECT_FALSE(problem.empty());
+      if (distance > body.keptRadius() + 1e-9) {
+        EXPECT_TRUE(problem.empty());
+      }
+      if (distance < body.keptRadius() - 1e-9 || x >= 2.0) {
+        EXPECT_FALSE(problem.empty());
+      }
     }
   }
 }
