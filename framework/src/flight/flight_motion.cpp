@@ -1,0 +1,168 @@
+#include "flight_motion.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+namespace kinolab::flight_motion {
+
+double millisecondsSince(std::chrono::steady_clock::time_point begin) {
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - begin)
+      .count();
+}
+
+ChainState stateAt(const Trajectory& trajectory, double t) {
+  ChainState state = ChainState::Zero();
+  const double clamped = std::clamp(t, 0.0, trajectory.duration());
+  for (int k = 0; k < 3; ++k) state.col(k) = trajectory.evaluate(clamped, k);
+  return state;
+}
+
+TrajectorySegment hold(const Eigen::Vector3d& position, double duration) {
+  TrajectorySegment segment;
+  segment.duration = duration;
+  segment.coefficients = Eigen::Matrix<double, 3, Eigen::Dynamic>::Zero(3, 1);
+  segment.coefficients.col(0) = position;
+  return segment;
+}
+
+Trajectory slice(const Trajectory& trajectory, double end) {
+  Trajectory out;
+  double t = 0.0;
+  for (const TrajectorySegment& segment : trajectory.segments()) {
+    if (t >= end) break;
+    TrajectorySegment piece = segment;
+    piece.duration = std::min(segment.duration, end - t);
+    if (piece.duration > 0.0) out.append(piece);
+    t += segment.duration;
+  }
+  if (end > t + 1e-12 && !trajectory.empty()) out.append(hold(trajectory.endPosition(), end - t));
+  return out;
+}
+
+TrajectorySegment brake(const ChainState& state, double acceleration) {
+  const Eigen::Vector3d v = state.col(1);
+  const double largest = v.cwiseAbs().maxCoeff();
+  TrajectorySegment segment;
+  segment.coefficients = Eigen::Matrix<double, 3, Eigen::Dynamic>::Zero(3, 3);
+  segment.coefficients.col(0) = state.col(0);
+  if (largest < 1e-9) return segment;
+  // The axis with the largest speed brakes at the full rate; the others in proportion.
+  segment.duration = largest / acceleration;
+  segment.coefficients.col(1) = v;
+  segment.coefficients.col(2) = -0.5 * v / segment.duration;
+  return segment;
+}
+
+Trajectory splice(const Trajectory& committed, double t, const Trajectory& plan,
+                  double acceleration) {
+  Trajectory out = slice(committed, t);
+  for (const TrajectorySegment& segment : plan.segments()) out.append(segment);
+  const TrajectorySegment stop = brake(stateAt(out, out.duration()), acceleration);
+  if (stop.duration > 0.0) out.append(stop);
+  return out;
+}
+
+bool freeFrom(const Trajectory& trajectory, double t, const Box& map, const World& window,
+              const Body& body, const DynamicLimits& limits) {
+  const double radius = body.keptRadius();
+  const auto free = [&](const Eigen::Vector3d& p) {
+    return map.contains(p) &&
+           !(window.bounds().contains(p) && window.clearanceFor(p, radius) < radius);
+  };
+  // A sample every 2 cm of path at the speed limit.
+  return everySample(t, trajectory.duration(), 0.02, limits.bound[1].norm(),
+                     [&](double s) { return free(trajectory.evaluate(s)); }) &&
+         free(trajectory.endPosition());
+}
+
+std::vector<TrajectorySegment> straightMove(const Eigen::Vector3d& from,
+                                            const Eigen::Vector3d& offset, double acceleration,
+                                            double speed) {
+  const double length = offset.norm();
+  // Half the way each: a t^2 / 2 = length / 2, with the peak speed a t within `speed`.
+  const double a = std::min(acceleration, speed * speed / length);
+  const double half = std::sqrt(length / a);
+  const Eigen::Vector3d push = a * offset / length;
+  ChainState state = ChainState::Zero();
+  state.col(0) = from;
+  const TrajectorySegment speeding_up = TrajectorySegment::primitive(state, push, 2, half);
+  state.col(0) = speeding_up.evaluate(half);
+  state.col(1) = speeding_up.evaluate(half, 1);
+  return {speeding_up, TrajectorySegment::primitive(state, -push, 2, half)};
+}
+
+Eigen::Vector3d pointAlong(const std::vector<Eigen::Vector3d>& way, double s) {
+  double along = 0.0;
+  for (std::size_t i = 1; i < way.size(); ++i) {
+    const double step = (way[i] - way[i - 1]).norm();
+    if (along + step > s) return way[i - 1] + (way[i] - way[i - 1]) * ((s - along) / step);
+    along += step;
+  }
+  return way.back();
+}
+
+bool localGoal(const Eigen::Vector3d& from, const Eigen::Vector3d& goal,
+               const std::vector<Eigen::Vector3d>& guide, double horizon, const World& window,
+               double radius, Eigen::Vector3d* out) {
+  const Box box = window.bounds();
+  const Eigen::Vector3d margin = Eigen::Vector3d::Constant(0.5);
+  const Eigen::Vector3d inner_min = (box.min + margin).cwiseMin(box.max);
+  const Eigen::Vector3d inner_max = (box.max - margin).cwiseMax(box.min);
+  const auto inside = [&](const Eigen::Vector3d& p) {
+    return (p.array() >= inner_min.array()).all() && (p.array() <= inner_max.array()).all();
+  };
+  std::vector<Eigen::Vector3d> way = guide;
+  if (way.size() < 2) way = {from, goal};
+  for (Eigen::Vector3d& point : way) {
+    point.z() = std::clamp(point.z(), inner_min.z(), inner_max.z());
+  }
+  // Along the way to the horizon, stopping before the first point outside the window.
+  Eigen::Vector3d target = way.front();
+  double travelled = 0.0;
+  for (std::size_t i = 1; i < way.size() && travelled < horizon; ++i) {
+    travelled += (way[i] - way[i - 1]).norm();
+    const Eigen::Vector3d next = travelled > horizon ? pointAlong(way, horizon) : way[i];
+    if (!inside(next) && !(next - goal).isZero()) break;
+    target = next;
+  }
+  if ((target - from).norm() < 0.5) {
+    // The way leaves the window at once (the vehicle at its side): the horizon point along
+    // it, clamped into the window.
+    target = pointAlong(way, horizon).cwiseMax(inner_min).cwiseMin(inner_max);
+  }
+  // The goal within the horizon is taken as it is (no margin: nothing lies beyond it), brought
+  // into the window's domain when it lies less than 0.5 m outside (at the map's end).
+  const Eigen::Vector3d goal_inside = goal.cwiseMax(box.min).cwiseMin(box.max);
+  const bool at_goal = (goal - from).norm() <= horizon && (goal_inside - goal).norm() < 0.5;
+  if (at_goal) target = goal_inside;
+  // Back along the way, then around, in 0.25 m steps, until a free point.
+  const Eigen::Vector3d back = (from - target).normalized();
+  for (int k = 0; k <= 12; ++k) {
+    for (int around = 0; around < (k == 0 ? 1 : 8); ++around) {
+      const double angle = 2.0 * M_PI * around / 8.0;
+      const Eigen::Vector3d side(std::cos(angle), std::sin(angle), 0.0);
+      const Eigen::Vector3d candidate = k == 0 && at_goal
+                                            ? target
+                                            : (target + 0.25 * k * (around == 0 ? back : side))
+                                                  .cwiseMax(inner_min)
+                                                  .cwiseMin(inner_max);
+      if (window.isFree(candidate, radius)) {
+        *out = candidate;
+        return true;
+      }
+    }
+  }
+  return false;
+}
+
+CheckerSettings flownCheckerSettings(const Body& body, const PlannerLimits& limits,
+                                     const TrackingModel& tracking) {
+  CheckerSettings settings = checkerSettings(body, limits);
+  if (tracking.kind != TrackingKind::kPerfect) {
+    settings.limits = DynamicLimits::uniform(INFINITY, INFINITY);
+    settings.max_derivative = 1;
+  }
+  return settings;
+}
+
+}  // namespace kinolab::flight_motion

@@ -1,0 +1,89 @@
+// The flight loop's motion helpers (flight.cpp's FlightLoop): slicing and splicing the
+// committed trajectory, braking, straight moves, free-space checks along a trajectory and the
+// local goal on the guide. Private to framework/src/flight.
+#pragma once
+
+#include <Eigen/Core>
+#include <chrono>
+#include <cmath>
+#include <vector>
+
+#include "kinolab/flight/flight.hpp"
+#include "kinolab/validation/trajectory_checker.hpp"
+
+namespace kinolab::flight_motion {
+
+double millisecondsSince(std::chrono::steady_clock::time_point begin);
+
+/// The trajectory's state at time t (clamped to its span), derivatives 0..2.
+ChainState stateAt(const Trajectory& trajectory, double t);
+
+/// At rest at `position` for `duration` seconds.
+TrajectorySegment hold(const Eigen::Vector3d& position, double duration);
+
+/// The part of `trajectory` before time `end` (whole segments, the last one shortened);
+/// past its end the vehicle rests where it ended (every committed trajectory ends at rest).
+Trajectory slice(const Trajectory& trajectory, double end);
+
+/// A stop from `state` at constant deceleration along the velocity, each axis within
+/// `acceleration`; empty when already at rest.
+TrajectorySegment brake(const ChainState& state, double acceleration);
+
+/// The committed trajectory up to `t`, then `plan` (which starts at the state at `t`), then
+/// a stop.
+Trajectory splice(const Trajectory& committed, double t, const Trajectory& plan,
+                  double acceleration);
+
+/// Calls `visit(s)` at times s from `begin` (at least 0) to `end` (excluded), a sample every
+/// `spacing` metres of path at `speed` (at least 0.1 m/s; 10,000 samples when the speed is
+/// unlimited), at most 100,000, until it returns false; whether every call returned true.
+template <typename Visit>
+bool everySample(double begin, double end, double spacing, double speed, Visit&& visit) {
+  begin = std::max(0.0, begin);
+  const double span = end - begin;
+  if (!(span > 0.0)) return true;
+  const double wanted = std::isfinite(speed) ? span * std::max(0.1, speed) / spacing : 1e4;
+  const long long samples = std::clamp(std::llround(std::ceil(wanted)), 1LL, 100000LL);
+  for (long long i = 0; i < samples; ++i) {
+    if (!visit(begin + span * static_cast<double>(i) / static_cast<double>(samples))) return false;
+  }
+  return true;
+}
+
+/// True when the trajectory from t on stays inside the map's box and the body keeps its
+/// radius (less the tolerance) from the window's known obstacles (samples every 2 cm of path
+/// at most, and the end). The verdict at each sample is exact (World::clearanceFor), as the
+/// planners' is: with the ESDF's lower bound alone, a plan that kept the planner's radius
+/// from a trunk by less than the bound's slack was refused at every cut, replan after
+/// replan, and a vehicle stood 3.5 m from its goal until it was stuck.
+bool freeFrom(const Trajectory& trajectory, double t, const Box& map, const World& window,
+              const Body& body, const DynamicLimits& limits);
+
+/// A straight move at rest at both ends from `from` by `offset`: two primitives (order 2),
+/// accelerating then decelerating along it, at most `acceleration` and `speed`.
+std::vector<TrajectorySegment> straightMove(const Eigen::Vector3d& from,
+                                            const Eigen::Vector3d& offset, double acceleration,
+                                            double speed);
+
+/// The point `s` metres along the polyline `way` (its end when it is shorter).
+Eigen::Vector3d pointAlong(const std::vector<Eigen::Vector3d>& way, double s);
+
+/// The local goal: the goal when it is within `horizon` and the window, else the point
+/// `horizon` metres along the guide (the known map's shortest way; the straight line when it
+/// is empty), stopping where the guide would leave the window in x and y (0.5 m inside its
+/// sides; the guide's heights are only interpolated, so they are brought into the window's,
+/// 0.5 m inside its floor and ceiling); then moved off the window's known obstacles (the goal
+/// itself is taken where it is, brought into the window's domain when it lies less than
+/// 0.5 m outside). False when no free point is found.
+bool localGoal(const Eigen::Vector3d& from, const Eigen::Vector3d& goal,
+               const std::vector<Eigen::Vector3d>& guide, double horizon, const World& window,
+               double radius, Eigen::Vector3d* out);
+
+constexpr double kDegree = M_PI / 180.0;
+
+/// The flown trajectory's checker: the planner's body; its limits only when tracking is
+/// perfect (a tracking vehicle's excursions are its controller's, not the planner's).
+CheckerSettings flownCheckerSettings(const Body& body, const PlannerLimits& limits,
+                                     const TrackingModel& tracking);
+
+}  // namespace kinolab::flight_motion
