@@ -18,9 +18,15 @@ struct Body {
   double tolerance = MotionDefaults::kCollisionTolerance;
   double safety_band = kSafetyBand;  ///< m beyond the radius (0: no obstacle cost band)
 
-  /// The clearance every collision verdict keeps from the occupied cubes: the radius less the
-  /// tolerance, never below 0 (a point body, or one thinner than the tolerance, keeps 0).
-  double keptRadius() const { return std::max(radius - tolerance, 0.0); }
+  /// The radius a verdict tests a point against: the radius, or the tolerance when that is
+  /// larger (sphere tracing then steps at least the tolerance, and a point never enters a
+  /// cube).
+  double verdictRadius() const { return std::max(radius, tolerance); }
+  /// The clearance every collision verdict keeps from the occupied cubes: the verdict radius
+  /// less the tolerance, the radius less the tolerance and never below 0 (a point body, or
+  /// one thinner than its tolerance, keeps 0). The one expression of it: the start rule, the
+  /// edges, the heuristics and the checker all call this.
+  double keptRadius() const { return verdictRadius() - tolerance; }
   /// Where the obstacle cost ends: the radius and the safety band.
   double costReach() const { return radius + safety_band; }
   /// This body with its radius grown by `margin` (a flight's planning margin).

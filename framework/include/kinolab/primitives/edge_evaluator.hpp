@@ -155,9 +155,7 @@ class EdgeEvaluator {
   /// The radius a traced point must keep from every cube: the body's radius, or its tolerance
   /// when that is larger (so a step is never shorter than the tolerance, and the body a step
   /// keeps, this less the tolerance, is never below 0: a point robot never enters a cube).
-  double verdictRadius() const {
-    return std::max(settings_.body.radius, settings_.body.tolerance);
-  }
+  double verdictRadius() const { return settings_.body.verdictRadius(); }
   /// The path length one tracing step from a point of clearance `clearance` covers.
   double tracingReach(double clearance) const {
     return clearance - verdictRadius() + settings_.body.tolerance;
