@@ -49,8 +49,31 @@ void requireOrderTwo(const HeuristicContext& context) {
   }
 }
 
-void registerBuiltins() {
-  PluginRegistrar registrar("built-in (framework)");
+/// The `max` heuristic's factory: its two parts, each left out where it does not serve the
+/// planner's order.
+std::unique_ptr<HeuristicBuilder> maxOfParts(const ParameterSet& p) {
+  std::vector<std::shared_ptr<const HeuristicBuilder>> parts;
+  for (const char* name : {"first", "second"}) {
+    parts.push_back(pluginRegistry<HeuristicBuilder>().createChosen(p, name));
+  }
+  return std::make_unique<HeuristicBuilder>(
+      [parts](const HeuristicContext& context) -> std::shared_ptr<const SearchHeuristic> {
+        std::vector<std::shared_ptr<const SearchHeuristic>> made;
+        std::optional<ParameterConflict> declined;
+        for (const auto& part : parts) {
+          try {
+            made.push_back(part->build(context));
+          } catch (const ParameterConflict& conflict) {
+            if (!declined) declined = conflict;
+          }
+        }
+        if (made.empty()) throw *declined;
+        if (made.size() == 1) return made.front();
+        return std::make_shared<MaxHeuristic>(std::move(made));
+      });
+}
+
+void registerHeuristics(PluginRegistrar& registrar) {
   registrar.add<HeuristicBuilder>("euclidean", "w_T |d| / |v_max| + w_L |d| (straight line)",
                                   ParameterSpecs(), plainHeuristic<EuclideanHeuristic>());
   registrar.add<HeuristicBuilder>("min_time", "w_T max_i |d_i| / v_max_i + w_L |d| (MPL's)",
@@ -84,28 +107,10 @@ void registerBuiltins() {
           .plugin("heuristic", "first", "time_optimal",
                   "one part (kinolab list heuristics); its parameters as first.NAME")
           .plugin("heuristic", "second", "obvp", "the other part; its parameters as second.NAME"),
-      [](const ParameterSet& p) {
-        std::vector<std::shared_ptr<const HeuristicBuilder>> parts;
-        for (const char* name : {"first", "second"}) {
-          parts.push_back(pluginRegistry<HeuristicBuilder>().createChosen(p, name));
-        }
-        return std::make_unique<HeuristicBuilder>(
-            [parts](const HeuristicContext& context) -> std::shared_ptr<const SearchHeuristic> {
-              std::vector<std::shared_ptr<const SearchHeuristic>> made;
-              std::optional<ParameterConflict> declined;
-              for (const auto& part : parts) {
-                try {
-                  made.push_back(part->build(context));
-                } catch (const ParameterConflict& conflict) {
-                  if (!declined) declined = conflict;
-                }
-              }
-              if (made.empty()) throw *declined;
-              if (made.size() == 1) return made.front();
-              return std::make_shared<MaxHeuristic>(std::move(made));
-            });
-      });
+      maxOfParts);
+}
 
+void registerPoliciesAndSpaces(PluginRegistrar& registrar) {
   registrar.add<EdgeEvaluationPolicy>("full", "every edge fully evaluated at expansion (eager)",
                                       ParameterSpecs(), plainPolicy<FullEvaluationPolicy>());
   registrar.add<EdgeEvaluationPolicy>(
@@ -128,6 +133,12 @@ void registerBuiltins() {
       declareFields<CellSpace::Cells>(), [](const ParameterSet& p) {
         return std::make_unique<CellSpace>(readFields<CellSpace::Cells>(p));
       });
+}
+
+void registerBuiltins() {
+  PluginRegistrar registrar("built-in (framework)");
+  registerHeuristics(registrar);
+  registerPoliciesAndSpaces(registrar);
   registrar.commit();
 }
 
