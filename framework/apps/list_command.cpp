@@ -7,6 +7,8 @@
 #include <nlohmann/json.hpp>
 
 #include "commands.hpp"
+#include "kinolab/core/fields.hpp"
+#include "kinolab/experiment/experiment.hpp"
 #include "kinolab/experiment/results_store.hpp"
 #include "kinolab/flight/flight.hpp"
 #include "kinolab/planner/planner.hpp"
@@ -104,6 +106,37 @@ const PluginInfo& flightInfo() {
                                "(kinolab fly --flight NAME=VALUE)",
                                flightParameters(), "built-in", MetricSpecs()};
   return info;
+}
+
+/// The experiment file's own keys and a world spec's (their field lists), listed like a plugin's
+/// parameters; the keys that name plugins (worlds, planners, generators, flight) have their
+/// own kinds.
+const PluginInfo& experimentInfo() {
+  static const PluginInfo info = [] {
+    ParameterSpecs keys = declareFields<Experiment>();
+    keys.include(declareFields<ExperimentVariant>());
+    return PluginInfo{"experiment",
+                      "the experiment file's keys (kinolab run FILE) beside worlds, planners, "
+                      "flight, plugins, extends, sweep and reproduces (docs/experiments.md)",
+                      std::move(keys), "built-in", MetricSpecs()};
+  }();
+  return info;
+}
+
+const PluginInfo& worldSpecInfo() {
+  static const PluginInfo info{"world_spec",
+                               "a world spec's keys (configs/worlds/*.yaml, or inline in an "
+                               "experiment) beside its generators (kinolab list worlds)",
+                               declareFields<WorldSpec>(), "built-in", MetricSpecs()};
+  return info;
+}
+
+/// The kinds `kinolab list` shows beside the plugin kinds.
+const std::vector<Kind>& fileKinds() {
+  static const std::vector<Kind> kinds = {{"flight", {&flightInfo()}},
+                                          {"experiment", {&experimentInfo()}},
+                                          {"world_spec", {&worldSpecInfo()}}};
+  return kinds;
 }
 
 nlohmann::json toJson(const ParameterSpecs& specs) {
@@ -206,7 +239,7 @@ struct ListOptions {
 void runList(const ListOptions& options) {
   if (options.kind == "metrics") return listMetrics(options.json);
   std::vector<Kind> kinds = allKinds();
-  kinds.push_back({"flight", {&flightInfo()}});
+  kinds.insert(kinds.end(), fileKinds().begin(), fileKinds().end());
   if (!options.kind.empty()) {
     std::erase_if(kinds, [&](const Kind& kind) { return kind.name != options.kind; });
   }
@@ -231,10 +264,11 @@ void addListCommand(CLI::App& app) {
       "List the registered plugins (built-in and loaded with --plugin) and their parameters");
   std::vector<std::string> kind_names;
   for (const auto& kind : allKinds()) kind_names.push_back(kind.name);
-  const std::string description = "Only this kind of plugin (" + join(kind_names, ", ") +
-                                  "), `flight` (the parameters of kinolab fly) or `metrics`: "
-                                  "every metric and statistic a run or flight can carry";
-  kind_names.push_back("flight");
+  const std::string description =
+      "Only this kind of plugin (" + join(kind_names, ", ") +
+      "), `flight` (the parameters of kinolab fly), `experiment` or `world_spec` (the keys of "
+      "those files) or `metrics`: every metric and statistic a run or flight can carry";
+  for (const Kind& kind : fileKinds()) kind_names.push_back(kind.name);
   kind_names.push_back("metrics");
   command->add_option("kind", options->kind, description)
       ->check(CLI::Validator(

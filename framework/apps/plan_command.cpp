@@ -38,6 +38,54 @@ struct PlanOptions {
   std::string cache_dir = WorldCache::defaultDirectory();
 };
 
+/// The result in a few lines for a reader.
+void printSummary(const PlanOptions& options, const World& world, const PlanResult& result) {
+  std::printf("planner %s on world %s (%s), seed %llu\n", options.planner.c_str(),
+              world.name().c_str(), toHex(world.specHash()).c_str(),
+              static_cast<unsigned long long>(options.seed));
+  std::printf("  status     %s%s%s\n", std::string(toString(result.status)).c_str(),
+              result.message.empty() ? "" : ": ", result.message.c_str());
+  std::printf("  time       %.3f ms, cost %s, D %.3f m\n", result.planning_time_ms,
+              formatNumber(result.cost).c_str(), result.distance_to_goal);
+  if (!result.trajectory.empty()) {
+    if (result.check.valid) {
+      std::printf("  checker    valid (min clearance %.3f m)\n",
+                  result.evaluation.min_clearance);
+    } else {
+      std::printf("  checker    INVALID, %s check: %s\n", result.check.check.c_str(),
+                  result.check.detail.c_str());
+    }
+  }
+}
+
+/// trajectory.csv, tree.csv, result.json and view.html in --out.
+void writeOutputs(const PlanOptions& options, const World& world, const Eigen::Vector3d& start,
+                  const Eigen::Vector3d& goal, const PlanResult& result, const SearchTree& tree,
+                  const nlohmann::ordered_json& json) {
+  // trajectory.csv is bounded: a tiny step on a long trajectory would fill memory and disk.
+  constexpr double kMaxRows = 1e6;
+  if (const double rows = result.trajectory.duration() / options.sample_step; rows > kMaxRows) {
+    throw ConfigError("--sample-step " + formatNumber(options.sample_step) + " s gives " +
+                      formatNumber(std::ceil(rows)) + " rows of trajectory.csv for a " +
+                      formatNumber(result.trajectory.duration()) +
+                      " s trajectory; at most 1000000: use a larger step");
+  }
+  std::filesystem::create_directories(options.out_dir);
+  const std::filesystem::path out(options.out_dir);
+  writeFileAtomically((out / "trajectory.csv").string(),
+                      trajectoryCsv(result.trajectory, options.sample_step));
+  writeFileAtomically((out / "tree.csv").string(), treeCsv(tree));
+  writeFileAtomically((out / "result.json").string(), json.dump(2) + "\n");
+  view::Scene scene(options.planner + " in " + world.name());
+  scene.setWorld(world);
+  const int index = scene.addQuery(options.start + " to " + options.goal, start, goal);
+  scene.addTrajectory(index, options.planner, result.trajectory);
+  scene.addTree(index, options.planner, tree);
+  const bool viewed = writeView((out / "view.html").string(), scene);
+  std::printf("  wrote      %s/{trajectory.csv, tree.csv, result.json%s}\n",
+              options.out_dir.c_str(), viewed ? ", view.html" : "");
+}
+
 void runPlan(const PlanOptions& options) {
   const Eigen::Vector3d start = parsePoint(options.start, "--start");
   const Eigen::Vector3d goal = parsePoint(options.goal, "--goal");
@@ -66,22 +114,7 @@ void runPlan(const PlanOptions& options) {
     result = planner.plan(query, budget, options.out_dir.empty() ? nullptr : &tree);
   }
 
-  std::printf("planner %s on world %s (%s), seed %llu\n", options.planner.c_str(),
-              load.world->name().c_str(), toHex(load.world->specHash()).c_str(),
-              static_cast<unsigned long long>(options.seed));
-  std::printf("  status     %s%s%s\n", std::string(toString(result.status)).c_str(),
-              result.message.empty() ? "" : ": ", result.message.c_str());
-  std::printf("  time       %.3f ms, cost %s, D %.3f m\n", result.planning_time_ms,
-              formatNumber(result.cost).c_str(), result.distance_to_goal);
-  if (!result.trajectory.empty()) {
-    if (result.check.valid) {
-      std::printf("  checker    valid (min clearance %.3f m)\n",
-                  result.evaluation.min_clearance);
-    } else {
-      std::printf("  checker    INVALID, %s check: %s\n", result.check.check.c_str(),
-                  result.check.detail.c_str());
-    }
-  }
+  printSummary(options, *load.world, result);
 
   // Every result metric, then every statistic, by their declared names and types, then the
   // progress series as [name, time_ms, value] samples.
@@ -94,28 +127,7 @@ void runPlan(const PlanOptions& options) {
     json["progress"] = nlohmann::json::parse(progressToJson(result.progress));
 
   if (!options.out_dir.empty()) {
-    // trajectory.csv is bounded: a tiny step on a long trajectory would fill memory and disk.
-    constexpr double kMaxRows = 1e6;
-    if (const double rows = result.trajectory.duration() / options.sample_step; rows > kMaxRows) {
-      throw ConfigError("--sample-step " + formatNumber(options.sample_step) + " s gives " +
-                        formatNumber(std::ceil(rows)) + " rows of trajectory.csv for a " +
-                        formatNumber(result.trajectory.duration()) +
-                        " s trajectory; at most 1000000: use a larger step");
-    }
-    std::filesystem::create_directories(options.out_dir);
-    const std::filesystem::path out(options.out_dir);
-    writeFileAtomically((out / "trajectory.csv").string(),
-                        trajectoryCsv(result.trajectory, options.sample_step));
-    writeFileAtomically((out / "tree.csv").string(), treeCsv(tree));
-    writeFileAtomically((out / "result.json").string(), json.dump(2) + "\n");
-    view::Scene scene(options.planner + " in " + load.world->name());
-    scene.setWorld(*load.world);
-    const int index = scene.addQuery(options.start + " to " + options.goal, start, goal);
-    scene.addTrajectory(index, options.planner, result.trajectory);
-    scene.addTree(index, options.planner, tree);
-    const bool viewed = writeView((out / "view.html").string(), scene);
-    std::printf("  wrote      %s/{trajectory.csv, tree.csv, result.json%s}\n",
-                options.out_dir.c_str(), viewed ? ", view.html" : "");
+    writeOutputs(options, *load.world, start, goal, result, tree, json);
   }
   std::cout << json.dump() << std::endl;
   // A query the planner cannot start from or reach is bad input: the result is printed, and

@@ -28,13 +28,13 @@ void runSamplingStudyCommand(const SamplingStudyOptions& options) {
   const SamplingStudyConfig config = SamplingStudyConfig::fromFile(options.config_path);
   const auto rows = runSamplingStudy(config);
   const auto summaries = summarizeSamplingStudy(config, rows);
-  const int states = (config.rest_state ? 1 : 0) + config.moving_states;
+  const int states = (config.states.rest ? 1 : 0) + config.states.moving;
 
   std::printf(
       "sampling study '%s': order %d, tau %.3g s, threshold %.3g m, %d states (%s%d moving, "
       "%.2g-%.2g m/s)\n\n",
-      config.name.c_str(), config.order, config.duration, config.threshold, states,
-      config.rest_state ? "rest + " : "", config.moving_states, config.min_speed, config.max_speed);
+      config.name.c_str(), config.dynamics.order, config.dynamics.duration, config.threshold, states,
+      config.states.rest ? "rest + " : "", config.states.moving, config.states.speed[0], config.states.speed[1]);
   std::printf("%-16s %-8s %6s  %-15s %-17s %9s %10s  %7s %7s\n", "sampler", "type", "M",
               "alpha (sd)", "L m (sd)", "breaking", "alpha_feas", "paper a", "paper L");
   for (const auto& s : summaries) {

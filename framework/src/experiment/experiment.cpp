@@ -13,6 +13,7 @@
 #include "kinolab/core/plugin.hpp"
 #include "kinolab/core/random.hpp"
 #include "kinolab/core/text.hpp"
+#include "kinolab/core/yaml_fields.hpp"
 #include "kinolab/core/yaml_reader.hpp"
 #include "kinolab/experiment/query_sampler.hpp"
 #include "kinolab/flight/flight.hpp"
@@ -25,58 +26,6 @@ namespace fs = std::filesystem;
 using namespace experiment_document;
 
 // ---- reading one variant -----------------------------------------------------------------
-
-std::array<double, 2> height(const YamlReader& node) {
-  return node.getInterval("height", std::array<double, 2>{1.0, 2.0}, -1e4, 1e4);
-}
-
-QuerySpec readQueries(const YamlReader& node) {
-  QuerySpec spec;
-  if (const auto fixed = node.optional("fixed")) {
-    for (const YamlReader& item : fixed->items()) {
-      const auto start = item.getVector3("start");
-      const auto goal = item.getVector3("goal");
-      spec.fixed.emplace_back(Eigen::Vector3d(start[0], start[1], start[2]),
-                              Eigen::Vector3d(goal[0], goal[1], goal[2]));
-      item.finish();
-    }
-  }
-  if (const auto random = node.optional("random")) {
-    QuerySpec::Random& r = spec.random;
-    r.count = static_cast<int>(random->getInteger("count", std::nullopt, 1, 1000000));
-    r.min_distance = random->getNumber("min_distance", 5.0, 0.0, 1e6);
-    r.max_distance = random->getNumber("max_distance", 1e6, 0.0, 1e6);
-    if (r.max_distance < r.min_distance) {
-      (*random)["max_distance"].fail("max_distance is below min_distance");
-    }
-    r.clearance = random->getNumber("clearance", 0.6, 0.0, 100.0);
-    const auto h = height(*random);
-    r.height[0] = h[0];
-    r.height[1] = h[1];
-    if (const auto lattice = random->optional("lattice")) {
-      r.lattice_step = lattice->getNumber("step", std::nullopt, 1e-3, 1e4);
-      r.lattice_offset = lattice->getNumber("offset", 0.0, -1e4, 1e4);
-      lattice->finish();
-    }
-    random->finish();
-  }
-  if (const auto across = node.optional("across")) {
-    QuerySpec::Across& a = spec.across;
-    a.count = static_cast<int>(across->getInteger("count", std::nullopt, 1, 1000000));
-    const std::string axis = across->get<std::string>("axis", "x");
-    if (axis != "x" && axis != "y") (*across)["axis"].fail("expected x or y, got '" + axis + "'");
-    a.axis = axis == "x" ? 0 : 1;
-    a.margin = across->getNumber("margin", 1.0, 0.0, 1e4);
-    a.clearance = across->getNumber("clearance", 0.6, 0.0, 100.0);
-    const auto h = height(*across);
-    a.height[0] = h[0];
-    a.height[1] = h[1];
-    across->finish();
-  }
-  node.finish();
-  if (spec.count() == 0) node.fail("no queries: give fixed, random or across");
-  return spec;
-}
 
 ExperimentPlanner readPlanner(const YamlReader& node) {
   ExperimentPlanner planner;
@@ -133,29 +82,21 @@ ExperimentVariant readVariant(const YamlReader& root, const std::string& directo
     variant.worlds.push_back(std::move(world));
   }
   if (variant.worlds.empty()) root["worlds"].fail("no worlds");
-  variant.queries = readQueries(root["queries"]);
+  readYamlFields(root, variant);
+  if (variant.queries.random.max_distance < variant.queries.random.min_distance) {
+    root["queries"]["random"]["max_distance"].fail("max_distance is below min_distance");
+  }
+  if (variant.queries.count() == 0) root["queries"].fail("no queries: give fixed, random or across");
   for (const YamlReader& item : root["planners"].items()) {
     ExperimentPlanner planner = readPlanner(item);
     if (!ids.insert("planner " + planner.id).second) item["id"].fail("duplicate planner id");
     variant.planners.push_back(std::move(planner));
   }
   if (variant.planners.empty()) root["planners"].fail("no planners");
-  variant.repetitions = static_cast<int>(root.getInteger("repetitions", 1, 1, 100000));
-  if (const auto budget = root.optional("budget")) {
-    variant.budget.time = budget->getNumber("time", 10.0, 0.001, 1e6);
-    variant.budget.memory_mb = budget->getInteger("memory_mb", 4096, 16, 1 << 24);
-    variant.budget.iterations = budget->getInteger("iterations", 0, 0, 1LL << 50);
-    budget->finish();
-  }
   if (const auto flight = root.optional("flight")) {
     variant.flight = flightParameters().resolve(assignmentsFromYaml(*flight), "flight");
   } else {
     variant.flight = flightParameters().resolve({}, "flight");
-  }
-  if (const auto timing = root.optional("timing")) {
-    variant.timing.warmup = static_cast<int>(timing->getInteger("warmup", 1, 0, 100));
-    variant.timing.repeats = static_cast<int>(timing->getInteger("repeats", 3, 1, 100));
-    timing->finish();
   }
   return variant;
 }
@@ -167,24 +108,28 @@ ExperimentVariant readVariant(const YamlReader& root, const std::string& directo
 std::vector<PlanningQuery> QuerySpec::make(const World& world, const std::string& world_id,
                                            std::uint64_t seed) const {
   std::vector<PlanningQuery> queries;
-  for (const auto& [start, goal] : fixed) {
+  for (const Fixed& item : fixed) {
     PlanningQuery query;
-    query.start.col(0) = start;
-    query.goal = goal;
+    query.start.col(0) = item.start;
+    query.goal = item.goal;
     queries.push_back(query);
   }
   const Box& box = world.bounds();
   Rng rng = Rng::derive(seed, "queries/" + world_id);
   // Heights are above the map's floor, within the map.
-  const auto region = [&](const double(&h)[2]) {
+  const auto region = [&](const std::array<double, 2>& h) {
     Box inside = box;
     inside.min.z() = std::max(box.min.z(), box.min.z() + h[0]);
     inside.max.z() = std::min(box.max.z(), box.min.z() + h[1]);
     return inside;
   };
   if (random.count > 0) {
-    const FreeQueryRegion spec{region(random.height), random.clearance,    random.min_distance,
-                               random.max_distance,   random.lattice_step, random.lattice_offset};
+    const FreeQueryRegion spec{region(random.height),
+                               random.clearance,
+                               random.min_distance,
+                               random.max_distance,
+                               random.lattice ? random.lattice->step : 0.0,
+                               random.lattice ? random.lattice->offset : 0.0};
     const auto drawn = sampleFreeQueries(world, spec, random.count, rng, world_id);
     queries.insert(queries.end(), drawn.begin(), drawn.end());
   }
@@ -209,28 +154,16 @@ std::vector<PlanningQuery> QuerySpec::make(const World& world, const std::string
 
 namespace {
 
-std::string randomRule(const QuerySpec::Random& random) {
-  return formatNumber(random.min_distance) + " " + formatNumber(random.max_distance) + " " +
-         formatNumber(random.clearance) + " " + formatNumber(random.height[0]) + " " +
-         formatNumber(random.height[1]) +
-         (random.lattice_step > 0.0 ? " lattice " + formatNumber(random.lattice_step) + " " +
-                                          formatNumber(random.lattice_offset)
-                                    : std::string());
-}
-
-std::string acrossRule(const QuerySpec::Across& across) {
-  return std::to_string(across.axis) + " " + formatNumber(across.margin) + " " +
-         formatNumber(across.clearance) + " " + formatNumber(across.height[0]) + " " +
-         formatNumber(across.height[1]);
-}
+// A query's rule: its fields' values alone ("5 1000000 0.6 1 2 lattice 0.5 0.05").
+std::string randomRule(const QuerySpec::Random& random) { return canonicalFields(random); }
+std::string acrossRule(const QuerySpec::Across& across) { return canonicalFields(across); }
 
 }  // namespace
 
 std::string QuerySpec::queryText(int index) const {
   const int fixed_count = static_cast<int>(fixed.size());
   if (index < fixed_count) {
-    const auto& [start, goal] = fixed[static_cast<std::size_t>(index)];
-    return "fixed " + formatPoint(start) + " " + formatPoint(goal);
+    return "fixed " + canonicalFields(fixed[static_cast<std::size_t>(index)]);
   }
   index -= fixed_count;
   // Random queries are drawn one after the other from one stream: the i-th depends on the
@@ -239,6 +172,13 @@ std::string QuerySpec::queryText(int index) const {
   index -= random.count;
   return "across #" + std::to_string(index) + " " + acrossRule(across) + " after random " +
          std::to_string(random.count) + " " + randomRule(random);
+}
+
+std::string ExperimentVariant::budgetText(bool flights) const {
+  // "10/4096/0/timing 1+3", then a flight's parameters.
+  return canonicalFields(budget, {.separator = "/"}) + "/timing " +
+         canonicalFields(timing, {.separator = "+"}) +
+         (flights ? "/flight " + flight.canonical() : std::string());
 }
 
 std::string ExperimentPlanner::sampler() const {
@@ -335,15 +275,14 @@ YAML::Node loadDocument(const std::string& path, std::string& source,
 
 namespace {
 
-/// `plugins:` (each loaded now, so that the rest of the file can name their keys) and
-/// `store:`.
+/// The top-level fields (kind, name, seed, store) and `plugins:` (each loaded now, so that the
+/// rest of the file can name their keys).
 void readHeader(const YamlReader& root, const std::string& directory, Experiment& experiment) {
-  const std::string kind = root.get<std::string>("kind", "planning");
-  if (kind != "planning" && kind != "flight") {
-    root["kind"].fail("expected 'planning' or 'flight' (kinolab run), got '" + kind +
-                      "'; sampling studies run with kinolab sampling-study");
+  if (const auto kind = root.optional("kind"); kind && kind->as<std::string>() == "sampling_study") {
+    kind->fail("sampling studies run with kinolab sampling-study; kinolab run takes 'planning' or "
+               "'flight'");
   }
-  experiment.flights = kind == "flight";
+  readYamlFields(root, experiment);
   if (!experiment.flights && root.optional("flight")) {
     root["flight"].fail("flight parameters belong to 'kind: flight' experiments");
   }
@@ -351,7 +290,6 @@ void readHeader(const YamlReader& root, const std::string& directory, Experiment
     root["timing"].fail("a flight is flown once: the timing protocol is for 'kind: planning'");
   }
   experiment.name = readName(root["name"]);
-  experiment.seed = static_cast<std::uint64_t>(root.getInteger("seed", 1, 0, 1LL << 62));
   if (const auto plugins = root.optional("plugins")) {
     for (const YamlReader& item : plugins->items()) {
       std::string file = item.as<std::string>();
@@ -360,19 +298,6 @@ void readHeader(const YamlReader& root, const std::string& directory, Experiment
       loadPluginLibrary(file);
       experiment.plugins.push_back(file);
     }
-  }
-  if (const auto store = root.optional("store")) {
-    experiment.store_trajectories = store->get<bool>("trajectories", false);
-    // trees: true (every run), false, or N (the first N queries of each world: trees are big).
-    if (const auto trees = store->optional("trees")) {
-      const std::string text = trees->as<std::string>();
-      if (text == "true" || text == "false") {
-        experiment.store_tree_queries = text == "true" ? -1 : 0;
-      } else {
-        experiment.store_tree_queries = static_cast<int>(store->getInteger("trees", 0, 0, 1000000));
-      }
-    }
-    store->finish();
   }
 }
 
@@ -520,11 +445,7 @@ std::vector<RunSpec> Experiment::runs() const {
   std::vector<RunSpec> runs;
   for (std::size_t v = 0; v < variants.size(); ++v) {
     const ExperimentVariant& variant = variants[v];
-    const std::string budget =
-        formatNumber(variant.budget.time) + "/" + std::to_string(variant.budget.memory_mb) + "/" +
-        std::to_string(variant.budget.iterations) + "/timing " +
-        std::to_string(variant.timing.warmup) + "+" + std::to_string(variant.timing.repeats) +
-        (flights ? "/flight " + variant.flight.canonical() : std::string());
+    const std::string budget = variant.budgetText(flights);
     for (std::size_t w = 0; w < variant.worlds.size(); ++w) {
       const ExperimentWorld& world = variant.worlds[w];
       const std::string world_text = world.id + ":" + toHex(world.spec.hash());

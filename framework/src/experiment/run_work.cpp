@@ -76,7 +76,7 @@ std::string planRun(const Experiment& experiment, const RunSpec& run,
     if (variant.budget.iterations > 0) budget.max_iterations = variant.budget.iterations;
     SearchTree tree;
     const bool store_tree =
-        experiment.store_tree_queries < 0 || run.query < experiment.store_tree_queries;
+        experiment.store.tree_queries < 0 || run.query < experiment.store.tree_queries;
     // The timing protocol (TimingProtocol): warm-up plans, then timed ones; every plan of a
     // case repeats the same work (planners are deterministic in their seed and the query).
     // A plan that spends the whole time budget it has (time_limit above, as the planner sees it
@@ -109,7 +109,7 @@ std::string planRun(const Experiment& experiment, const RunSpec& run,
     // The anytime progress of the last plan (a clock figure, as its planning time).
     if (!result.progress.empty())
       out["progress"] = nlohmann::json::parse(progressToJson(result.progress));
-    if (!result.trajectory.empty() && experiment.store_trajectories) {
+    if (!result.trajectory.empty() && experiment.store.trajectories) {
       out["trajectory"] = trajectoryCsv(result.trajectory, 0.05);
     }
     if (store_tree) out["tree"] = treeCsv(tree);
@@ -130,7 +130,7 @@ std::string flyRun(const Experiment& experiment, const RunSpec& run,
     settings.seed = run.seed;
     // The known map's growth for the queries whose trees a planning experiment would store.
     const bool keep_map =
-        experiment.store_tree_queries < 0 || run.query < experiment.store_tree_queries;
+        experiment.store.tree_queries < 0 || run.query < experiment.store.tree_queries;
     if (keep_map) settings.snapshot_period = 2.0;
     ConfiguredPlanner configured = configurePlanner(spec.type, spec.assignments);
     const FlightResult flight = fly(world, *configured.planner, run.seed, query, setup);
@@ -141,7 +141,7 @@ std::string flyRun(const Experiment& experiment, const RunSpec& run,
     const double radius = flight.body.radius;
     out["statistics"] =
         nlohmann::json::parse(toJson(flightStatisticValues(flight), flightStatistics()));
-    if (flown && experiment.store_trajectories) {
+    if (flown && experiment.store.trajectories) {
       out["trajectory"] = trajectoryCsv(flight.flown, 0.05);
     }
     out["replans"] = replansCsv(flight);

@@ -445,6 +445,27 @@ class StopSignals {
   struct sigaction old_term_ {};
 };
 
+/// Starts `run` in a worker tagged `tag`, with its budgets: the time of all its plans (each the
+/// planner's time limit: the experiment's budget unless its entry sets its own; a flight has
+/// the experiment's, on its replans' clock) plus the grace, and the experiment's memory.
+void startRun(ProcessPool& pool, std::size_t tag, const Experiment& experiment,
+              const RunSpec& run, const SharedInputs& inputs, double grace_seconds) {
+  const ExperimentVariant& variant = experiment.variants[run.variant];
+  const double time_limit = experiment.flights
+                                ? variant.budget.time
+                                : variant.planners[run.planner].timeLimit(variant.budget);
+  // Every plan of the timing protocol has the time budget.
+  const double plans =
+      experiment.flights ? 1.0 : variant.timing.warmup + variant.timing.repeats;
+  // A flight's limit is on its replans' clock (CPU time by default: load does not end it).
+  const BudgetClock clock = experiment.flights ? readFields<FlightSettings>(variant.flight).clock
+                                               : BudgetClock::kWall;
+  pool.start(tag, plans * time_limit + grace_seconds, clock, variant.budget.memory_mb, [&] {
+    return (experiment.flights ? flyRun : planRun)(experiment, run, inputs.world(experiment, run),
+                                                   inputs.query(run));
+  });
+}
+
 }  // namespace
 
 RunnerSummary runExperiment(const Experiment& experiment, const RunnerOptions& options) {
@@ -487,26 +508,8 @@ RunnerSummary runExperiment(const Experiment& experiment, const RunnerOptions& o
   std::size_t next = 0;
   while ((next < pending.size() && !g_stop_signal) || !pool.empty()) {
     while (!g_stop_signal && next < pending.size() && !pool.full()) {
-      const RunSpec& run = *pending[next];
-      const ExperimentVariant& variant = experiment.variants[run.variant];
-      // A planning run's plans each have the planner's time limit (the experiment's budget
-      // unless its entry sets its own); a flight has the experiment's.
-      const double time_limit = experiment.flights
-                                    ? variant.budget.time
-                                    : variant.planners[run.planner].timeLimit(variant.budget);
-      // Every plan of the timing protocol has the time budget.
-      const TimingProtocol& timing = experiment.variants[run.variant].timing;
-      const double plans = experiment.flights ? 1.0 : timing.warmup + timing.repeats;
-      // A flight's limit is on its replans' clock (CPU time by default: load does not end it).
-      const BudgetClock clock =
-          experiment.flights
-              ? readFields<FlightSettings>(experiment.variants[run.variant].flight).clock
-              : BudgetClock::kWall;
-      pool.start(next++, plans * time_limit + options.grace_seconds, clock,
-                 variant.budget.memory_mb, [&] {
-                   return (experiment.flights ? flyRun : planRun)(
-                       experiment, run, inputs.world(experiment, run), inputs.query(run));
-                 });
+      startRun(pool, next, experiment, *pending[next], inputs, options.grace_seconds);
+      ++next;
     }
     if (g_stop_signal) {
       pool.killAll();  // runs in flight are not recorded: the database stays resumable

@@ -8,6 +8,7 @@
 #include "kinolab/core/error.hpp"
 #include "kinolab/core/random.hpp"
 #include "kinolab/core/text.hpp"
+#include "kinolab/core/yaml_fields.hpp"
 #include "kinolab/core/yaml_reader.hpp"
 #include "kinolab/primitives/control_sampler.hpp"
 
@@ -55,46 +56,33 @@ void spreadOf(const std::vector<double>& nearest, double threshold, int* useful,
 
 namespace {
 
-/// `dynamics: {order, duration, propagation, euler_steps, limits}`.
-void readDynamics(const YamlReader& root, SamplingStudyConfig& config) {
-  const YamlReader dynamics = root["dynamics"];
-  config.order = static_cast<int>(dynamics.getInteger("order", 2, 2, 4));
-  config.duration = dynamics.getNumber("duration", std::nullopt, 1e-6, 100.0);
-  const std::string propagation = dynamics.get<std::string>("propagation", "exact");
-  if (propagation == "euler") {
-    config.propagation = Propagation::kEuler;
-  } else if (propagation != "exact") {
-    dynamics["propagation"].fail("expected exact or euler, got '" + propagation + "'");
+/// The checks across fields of `dynamics:` and `states:`, and the limits on every axis.
+void checkDynamicsAndStates(const YamlReader& root, SamplingStudyConfig& config) {
+  const SamplingStudyConfig::Dynamics::Limits& limits = config.dynamics.limits;
+  const std::pair<const char*, double> bounds[] = {{"velocity", limits.velocity},
+                                                   {"acceleration", limits.acceleration},
+                                                   {"jerk", limits.jerk},
+                                                   {"snap", limits.snap}};
+  // Every derivative below the control needs a bound, and so does the control itself.
+  for (int k = 1; k <= config.dynamics.order; ++k) {
+    const auto& [name, value] = bounds[k - 1];
+    if (std::isinf(value)) {
+      root["dynamics"]["limits"].fail("missing required key '" + std::string(name) +
+                                      "' (order " + std::to_string(config.dynamics.order) +
+                                      " limits every derivative up to the control)");
+    }
   }
-  config.euler_steps = static_cast<int>(dynamics.getInteger("euler_steps", 1, 1, 10000));
-  const YamlReader limits = dynamics["limits"];
-  const char* names[] = {"", "velocity", "acceleration", "jerk", "snap"};
-  for (int k = 1; k <= 4; ++k) {
-    // Every derivative below the control needs a bound, and so does the control itself.
-    const bool required = k <= config.order;
-    const auto value = required ? limits.getNumber(names[k], std::nullopt, 1e-9, 1e9)
-                                : limits.getNumber(names[k], INFINITY, 1e-9, INFINITY);
-    config.limits.bound[k].setConstant(value);
-  }
-  limits.finish();
-  dynamics.finish();
-}
-
-/// `states: {rest, moving, speed}` (absent: the defaults).
-void readStates(const YamlReader& root, SamplingStudyConfig& config) {
-  // An absent `states:` means the defaults; an empty mapping reads the same way.
-  const YamlReader states = root.optional("states").value_or(
-      YamlReader::loadString("{}", config.source + " (default states)"));
-  config.rest_state = states.get<bool>("rest", true);
-  config.moving_states = static_cast<int>(states.getInteger("moving", 20, 0, 100000));
-  const auto speed = states.getInterval("speed", std::array<double, 2>{0.5, 2.0}, 0.0, 1e6);
-  config.min_speed = speed[0];
-  config.max_speed = speed[1];
-  states.finish();
-  if (!config.rest_state && config.moving_states == 0) states.fail("no initial states");
-  if (config.max_speed > config.limits.bound[1].x()) {
-    states["speed"].fail("initial speeds must not exceed the velocity limit " +
-                         std::to_string(config.limits.bound[1].x()));
+  config.limits =
+      DynamicLimits::uniform(limits.velocity, limits.acceleration, limits.jerk, limits.snap);
+  const SamplingStudyConfig::States& states = config.states;
+  const YamlReader at = root.optional("states").value_or(root);  // the defaults: the file
+  if (!states.rest && states.moving == 0) at.fail("no initial states");
+  if (states.speed[1] > config.limits.bound[1].x()) {
+    const auto speed = at.optional("speed");
+    (speed ? *speed : at)
+        .fail("initial speeds must not exceed the velocity limit " +
+              std::to_string(config.limits.bound[1].x()) +
+              (speed ? std::string() : " (the default speeds: 0.5 to 2 m/s; set states.speed)"));
   }
 }
 
@@ -168,13 +156,8 @@ SamplingStudyConfig SamplingStudyConfig::fromFile(const std::string& path) {
     root["kind"].fail("expected 'sampling_study' (this command runs sampling studies), got '" +
                       kind + "'");
   }
-  config.name = root.get<std::string>("name");
-  config.seed = static_cast<std::uint64_t>(
-      root.getInteger("seed", 1, 0, std::numeric_limits<long long>::max()));
-  config.threshold = root.getNumber("threshold", 0.1, 1e-9, 100.0);
-
-  readDynamics(root, config);
-  readStates(root, config);
+  readYamlFields(root, config);
+  checkDynamicsAndStates(root, config);
   readSamplers(root, config);
   if (const auto readings = root.optional("readings")) readReadings(*readings, config);
   root.finish();
@@ -183,16 +166,16 @@ SamplingStudyConfig SamplingStudyConfig::fromFile(const std::string& path) {
 
 std::vector<ChainState> samplingStudyStates(const SamplingStudyConfig& config) {
   std::vector<ChainState> states;
-  if (config.rest_state) states.push_back(ChainState::Zero());
+  if (config.states.rest) states.push_back(ChainState::Zero());
   Rng rng = Rng::derive(config.seed, "sampling_study_states");
-  for (int i = 0; i < config.moving_states; ++i) {
+  for (int i = 0; i < config.states.moving; ++i) {
     ChainState state = ChainState::Zero();
     // A uniformly random direction (normalised Gaussian) at a uniformly random speed.
     auto direction = drawLastFirst<Eigen::Vector3d>([&](int) { return rng.normal(); });
     direction.normalize();
-    state.col(1) = direction * rng.uniform(config.min_speed, config.max_speed);
+    state.col(1) = direction * rng.uniform(config.states.speed[0], config.states.speed[1]);
     // Derivatives between velocity and the control: within half their limit.
-    for (int k = 2; k < config.order; ++k) {
+    for (int k = 2; k < config.dynamics.order; ++k) {
       for (int axis = 0; axis < 3; ++axis) {
         const double half = 0.5 * config.limits.bound[k][axis];
         state(axis, k) = rng.uniform(-half, half);
@@ -297,7 +280,7 @@ std::vector<SamplingReadingRow> runSamplingReadings(const SamplingStudyConfig& c
   std::vector<SamplingReadingRow> rows;
   if (readings.thresholds.empty()) return rows;
   const std::vector<ChainState> states = samplingStudyStates(config);
-  const Eigen::Vector3d u_max = config.limits.bound[config.order];
+  const Eigen::Vector3d u_max = config.limits.bound[config.dynamics.order];
   const auto& registry = pluginRegistry<ControlSampler>();
   for (const auto& entry : config.samplers) {
     const std::uint64_t seed = Rng::derive(config.seed, "sampler:" + entry.id).nextU64();
@@ -308,13 +291,13 @@ std::vector<SamplingReadingRow> runSamplingReadings(const SamplingStudyConfig& c
           registry.createResolved(entry.type, registry.resolve(entry.type, assignments));
       const std::vector<Eigen::Vector3d> controls = sampler->sample(u_max, seed);
       for (const Propagation propagation : readings.propagations) {
-        const IntegratorChain chain(config.order, propagation, config.euler_steps);
+        const IntegratorChain chain(config.dynamics.order, propagation, config.dynamics.euler_steps);
         // Displacements (position, velocity) of every primitive from every state.
         std::vector<std::vector<Eigen::Matrix<double, 6, 1>>> per_state;
         for (const ChainState& state : states) {
           auto& ends = per_state.emplace_back();
           for (const auto& control : controls) {
-            const ChainState end = chain.propagate(state, control, config.duration);
+            const ChainState end = chain.propagate(state, control, config.dynamics.duration);
             Eigen::Matrix<double, 6, 1> point;
             point << end.col(0) - state.col(0), end.col(1) - state.col(1);
             ends.push_back(point);
@@ -375,9 +358,9 @@ void endpointSpread(const std::vector<Eigen::Vector3d>& endpoints, double thresh
 }
 
 std::vector<SamplingStudyRow> runSamplingStudy(const SamplingStudyConfig& config) {
-  const IntegratorChain chain(config.order, config.propagation, config.euler_steps);
+  const IntegratorChain chain(config.dynamics.order, config.dynamics.propagation, config.dynamics.euler_steps);
   const std::vector<ChainState> states = samplingStudyStates(config);
-  const Eigen::Vector3d u_max = config.limits.bound[config.order];
+  const Eigen::Vector3d u_max = config.limits.bound[config.dynamics.order];
   std::vector<SamplingStudyRow> rows;
   for (const auto& entry : config.samplers) {
     const auto sampler =
@@ -394,8 +377,8 @@ std::vector<SamplingStudyRow> runSamplingStudy(const SamplingStudyConfig& config
       std::vector<Eigen::Vector3d> endpoints;
       std::vector<bool> feasible;
       for (const auto& control : controls) {
-        endpoints.push_back(chain.propagate(states[s], control, config.duration).col(0));
-        feasible.push_back(chain.withinLimits(states[s], control, config.duration, config.limits));
+        endpoints.push_back(chain.propagate(states[s], control, config.dynamics.duration).col(0));
+        feasible.push_back(chain.withinLimits(states[s], control, config.dynamics.duration, config.limits));
         row.limit_breaking += feasible.back() ? 0 : 1;
       }
       double mean_nearest = 0.0;

@@ -9,6 +9,7 @@
 #include "kinolab/core/error.hpp"
 #include "kinolab/core/hash.hpp"
 #include "kinolab/core/text.hpp"
+#include "kinolab/core/yaml_fields.hpp"
 #include "kinolab/core/yaml_reader.hpp"
 
 namespace kinolab {
@@ -158,41 +159,30 @@ WorldSpec WorldSpec::fromText(const std::string& text, const std::string& source
 WorldSpec WorldSpec::fromYaml(const YamlReader& node, const std::string& spec_directory) {
   if (!node.isMap()) node.fail("expected a world spec (a mapping with resolution and generators)");
   WorldSpec spec;
-  spec.name = node.get<std::string>("name", "");
-  spec.seed = static_cast<std::uint64_t>(node.getInteger("seed", 0, 0, (1LL << 62)));
-  spec.resolution = node.getNumber("resolution", std::nullopt, 1e-3, 100.0);
+  readYamlFields(node, spec);
   for (const YamlReader& entry : node["generators"].items()) {
     spec.generators.push_back(readGenerator(entry, spec_directory));
   }
   if (spec.generators.empty()) node["generators"].fail("expected at least one generator");
-  if (const auto layout = node.optional("layout")) {
-    const auto value = layout->as<std::string>();
-    if (value != "dense" && value != "sparse") {
-      layout->fail("unknown layout '" + value + "'" + didYouMean(value, {"dense", "sparse"}) +
-                   "; expected dense or sparse");
-    }
-    spec.layout = value == "sparse" ? GridLayout::kBricked : GridLayout::kDense;
-  }
+  // At most 90 voxels of truncation: a voxel keeps its squared distance in half voxels in 16
+  // bits.
+  const double most = 90.0 * spec.resolution;
   if (const auto truncation = node.optional("truncation")) {
     if (spec.layout != GridLayout::kBricked) {
       truncation->fail("truncation applies to a sparse world only (layout: sparse)");
     }
-    // At most 90 voxels: a voxel keeps its squared distance in half voxels in 16 bits.
-    spec.truncation =
-        node.getNumber("truncation", std::nullopt, spec.resolution, 90.0 * spec.resolution);
-  }
-  if (spec.layout == GridLayout::kBricked &&
-      !(spec.truncation >= spec.resolution && spec.truncation <= 90.0 * spec.resolution)) {
+    if (!(spec.truncation >= spec.resolution && spec.truncation <= most)) {
+      truncation->fail("expected a number in [" + formatNumber(spec.resolution) + ", " +
+                       formatNumber(most) + "], got " + formatNumber(spec.truncation));
+    }
+  } else if (spec.layout == GridLayout::kBricked &&
+             !(spec.truncation >= spec.resolution && spec.truncation <= most)) {
     node["layout"].fail("the default truncation of " + formatNumber(spec.truncation) +
                         " m is not between one voxel and 90 voxels (" +
-                        formatNumber(spec.resolution) + " to " +
-                        formatNumber(90.0 * spec.resolution) + " m): set `truncation`");
+                        formatNumber(spec.resolution) + " to " + formatNumber(most) +
+                        " m): set `truncation`");
   }
-  if (auto bounds = node.optional("bounds")) {
-    const auto min = bounds->getVector3("min");
-    const auto max = bounds->getVector3("max");
-    bounds->finish();
-    spec.bounds = {{min[0], min[1], min[2]}, {max[0], max[1], max[2]}};
+  if (const auto bounds = node.optional("bounds")) {
     if (!((spec.bounds.max - spec.bounds.min).minCoeff() >= spec.resolution)) {
       bounds->fail("expected finite bounds with max - min >= resolution on every axis");
     }
@@ -218,22 +208,17 @@ WorldSpec WorldSpec::fromYaml(const YamlReader& node, const std::string& spec_di
 }
 
 std::string WorldSpec::canonicalText() const {
-  std::ostringstream out;
-  out << "kinolab-world generators=" << kGeneratorVersion << " seed=" << seed << std::hexfloat
-      << " resolution=" << resolution << " min=" << bounds.min.x() << ',' << bounds.min.y() << ','
-      << bounds.min.z() << " max=" << bounds.max.x() << ',' << bounds.max.y() << ','
-      << bounds.max.z();
-  // Dense worlds keep the keys they had before layouts existed (and their cache files).
-  if (layout == GridLayout::kBricked) out << " layout=sparse truncation=" << truncation;
-  out << std::defaultfloat << '\n';
+  std::string text = "kinolab-world generators=" + std::to_string(kGeneratorVersion) + " " +
+                     canonicalFields(*this, {.names = true, .hex = true}) + "\n";
   for (const auto& entry : generators) {
+    std::ostringstream out;
     out << entry.type
         << withoutPaths(pluginRegistry<WorldGenerator>().info(entry.type).parameters,
                         entry.parameters);
     entry.generator->writeContentKey(out);
-    out << '\n';
+    text += out.str() + '\n';
   }
-  return out.str();
+  return text;
 }
 
 std::uint64_t WorldSpec::hash() const { return hashString(canonicalText()); }

@@ -1,6 +1,9 @@
 #pragma once
 
+#include <array>
+#include <cmath>
 #include <cstdint>
+#include <limits>
 #include <optional>
 #include <string>
 #include <vector>
@@ -25,19 +28,60 @@ struct SamplingStudyConfig {
     std::optional<double> paper_l;
   };
 
+  /// `dynamics:`: the integrator chain, the primitives' duration and a limit per derivative.
+  struct Dynamics {
+    /// `limits:`, the same on every axis; every derivative up to the order needs one (checked
+    /// after the read: it depends on the order).
+    struct Limits {
+      double velocity = INFINITY;
+      double acceleration = INFINITY;
+      double jerk = INFINITY;
+      double snap = INFINITY;
+      template <typename Fields>
+      void fields(Fields& f) {
+        f.real("velocity", velocity, 1e-9, 1e9, "m/s");
+        f.real("acceleration", acceleration, 1e-9, 1e9, "m/s^2");
+        f.real("jerk", jerk, 1e-9, 1e9, "m/s^3");
+        f.real("snap", snap, 1e-9, 1e9, "m/s^4");
+      }
+    };
+    int order = 2;
+    double duration = 0.4;
+    Propagation propagation = Propagation::kExact;
+    int euler_steps = 1;
+    Limits limits;
+    template <typename Fields>
+    void fields(Fields& f) {
+      f.integer("order", order, 2, 4, "2: acceleration, 3: jerk, 4: snap control");
+      f.real("duration", duration, 1e-6, 100.0, "tau, s", {.required = true});
+      f.choice("propagation", propagation,
+               {{"exact", Propagation::kExact}, {"euler", Propagation::kEuler}},
+               "closed form, or the paper's Euler step");
+      f.integer("euler_steps", euler_steps, 1, 10000, "Euler steps over tau");
+      f.group("limits", limits, "a limit per derivative, the same on every axis",
+              {.required = true});
+    }
+  };
+  /// `states: {rest, moving, speed}`.
+  struct States {
+    bool rest = true;
+    int moving = 20;
+    std::array<double, 2> speed = {0.5, 2.0};  ///< m/s
+    template <typename Fields>
+    void fields(Fields& f) {
+      f.boolean("rest", rest, "include the state at rest");
+      f.integer("moving", moving, 0, 100000, "moving states in seeded random directions");
+      f.interval("speed", speed, 0.0, 1e6, "the moving states' speeds, m/s");
+    }
+  };
+
   std::string name;
   std::string source;  ///< the file it was read from
   std::uint64_t seed = 1;
-  int order = 2;
-  double duration = 0.4;
-  DynamicLimits limits;
-  Propagation propagation = Propagation::kExact;
-  int euler_steps = 1;
   double threshold = 0.1;
-  bool rest_state = true;
-  int moving_states = 20;
-  double min_speed = 0.5;
-  double max_speed = 2.0;
+  Dynamics dynamics;
+  DynamicLimits limits;  ///< dynamics.limits on every axis
+  States states;
   std::vector<Sampler> samplers;
 
   /// Table I under every reading (`readings:`, optional): each combination of the lists
@@ -50,6 +94,16 @@ struct SamplingStudyConfig {
     std::vector<int> samples_per_axis;      ///< M = this^3 (the samplers' own parameter)
   };
   Readings readings;
+
+  /// The keys read from the field list (`samplers:` and `readings:` are read by hand).
+  template <typename Fields>
+  void fields(Fields& f) {
+    f.text("name", name, "the study's name", {.required = true});
+    f.integer("seed", seed, 0, std::numeric_limits<long long>::max(), "seed of the states");
+    f.real("threshold", threshold, 1e-9, 100.0, "useful: no other endpoint this close, m");
+    f.group("dynamics", dynamics, "the chain and its limits", {.required = true});
+    f.group("states", states, "the initial states");
+  }
 
   /// Reads and validates a `kind: sampling_study` file (unknown keys, types, ranges, sampler
   /// types and parameters are ConfigErrors with file, line and key path).

@@ -20,6 +20,13 @@ struct Box {
     return (point.array() >= min.array()).all() && (point.array() <= max.array()).all();
   }
   Eigen::Vector3d size() const { return max - min; }
+
+  /// As a mapping `{min: [x, y, z], max: [x, y, z]}` (core/fields.hpp).
+  template <typename Fields>
+  void fields(Fields& f) {
+    f.point("min", min, "lowest corner, m", {.required = true});
+    f.point("max", max, "highest corner, m", {.required = true});
+  }
 };
 
 /// How a VoxelGrid stores its occupancy.

@@ -1,5 +1,6 @@
 #pragma once
 
+#include <cmath>
 #include <cstdint>
 #include <memory>
 #include <string>
@@ -45,6 +46,24 @@ struct WorldSpec {
   double truncation = kDefaultTruncation;
   static constexpr double kDefaultTruncation = 2.0;
   std::vector<WorldGeneratorEntry> generators;
+
+  /// The keys read from the field list (`generators:` is read by hand: its entries name
+  /// plugins), in the order of the canonical text.
+  template <typename Fields>
+  void fields(Fields& f) {
+    f.text("name", name, "the world's name (a spec file's: its file name)", {.identity = false});
+    f.integer("seed", seed, 0, 1LL << 62, "seed of the generators' random draws");
+    f.real("resolution", resolution, 1e-3, 100.0, "voxel edge, m", {.required = true});
+    f.group("bounds", bounds, "the world's box (a map-file world: the map's, when absent)");
+    // Dense worlds keep the keys they had before layouts existed (and their cache files).
+    const bool sparse = layout == GridLayout::kBricked;
+    f.choice("layout", layout, {{"dense", GridLayout::kDense}, {"sparse", GridLayout::kBricked}},
+             "every voxel held (dense), or bricks near obstacles only (sparse)",
+             {.identity = sparse});
+    // One to 90 voxels: checked once the resolution is known (fromYaml()).
+    f.real("truncation", truncation, 0.0, INFINITY,
+           "sparse: distances exact up to this far, m (1 to 90 voxels)", {.identity = sparse});
+  }
 
   /// Loads and validates a spec file; errors name the file, line and key path.
   static WorldSpec fromFile(const std::string& path);
