@@ -10,6 +10,7 @@
 #include "kinolab/core/random.hpp"
 #include "kinolab/flight/sensor.hpp"
 #include "kinolab/flight/vehicle_map.hpp"
+#include "kinolab/plugins/lidar.hpp"
 #include "kinolab/primitives/control_sampler.hpp"
 #include "kinolab/search/motion_primitive_planner.hpp"
 #include "kinolab/world/world_generator.hpp"

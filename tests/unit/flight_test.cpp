@@ -14,6 +14,8 @@
 #include "kinolab/builtin_plugins.hpp"
 #include "kinolab/core/random.hpp"
 #include "kinolab/core/yaml_reader.hpp"
+#include "kinolab/plugins/depth_camera.hpp"
+#include "kinolab/plugins/lidar.hpp"
 #include "kinolab/world/world_spec.hpp"
 #include "support/planning.hpp"
 
@@ -1266,8 +1268,8 @@ TEST(FlightTest, EveryLimitFliesOutOfACorridorOrIsRefusedWithAFixThatFlies) {
 class MarginPlanner : public Planner {
  public:
   explicit MarginPlanner(double margin)
-      : margin_(margin), inner_((registerBuiltinPlugins(), configurePlanner("lazy_mp_astar", {}))
-                                    .planner) {}
+      : margin_(margin),
+        inner_((registerBuiltinPlugins(), configurePlanner("lazy_mp_astar", {})).planner) {}
 
  protected:
   void doSetup(const PlannerContext& context) override {

@@ -6,6 +6,8 @@
 #include "kinolab/core/fields.hpp"
 #include "kinolab/core/yaml_reader.hpp"
 #include "kinolab/flight/flight.hpp"
+#include "kinolab/plugins/depth_camera.hpp"
+#include "kinolab/plugins/lidar.hpp"
 
 namespace kinolab {
 namespace {

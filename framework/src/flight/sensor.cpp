@@ -4,87 +4,16 @@
 #include <cmath>
 #include <limits>
 
-#include "cell_walk.hpp"
 #include "kinolab/core/fields.hpp"
 #include "kinolab/core/plugin.hpp"
 #include "kinolab/core/random.hpp"
+#include "kinolab/flight/cell_walk.hpp"
 #include "kinolab/world/world.hpp"
 
 namespace kinolab {
 
 KINOLAB_DEFINE_PLUGIN_REGISTRY(Sensor, "sensor", "sensors",
                                "range sensors of closed-loop flights (the flight's `sensor`)", 6)
-
-namespace {
-
-void registerBuiltins() {
-  PluginRegistrar registrar("built-in (framework)");
-  registrar.add<Sensor>("depth_camera", "a pinhole depth camera looking along the heading",
-                        declareFields<DepthCamera>(), [](const ParameterSet& p) {
-                          return std::make_unique<DepthCamera>(readFields<DepthCamera>(p));
-                        });
-  registrar.add<Sensor>(
-      "lidar", "a 360-degree lidar: beams around, channels up and down", declareFields<Lidar>(),
-      [](const ParameterSet& p) { return std::make_unique<Lidar>(readFields<Lidar>(p)); });
-  registrar.commit();
-}
-
-[[maybe_unused]] const bool builtins_registered = (registerBuiltins(), true);
-
-}  // namespace
-
-std::vector<Eigen::Vector3d> DepthCamera::rayDirections() const {
-  // A pinhole: pixel centres on the image plane at x = 1, every pixel_skip-th one.
-  std::vector<Eigen::Vector3d> directions;
-  const double half_w = std::tan(0.5 * fov_horizontal);
-  const double half_h = std::tan(0.5 * fov_vertical);
-  directions.reserve(rayCount());
-  for (int row = 0; row < height; row += pixel_skip) {
-    const double v = half_h * (1.0 - 2.0 * (row + 0.5) / height);
-    for (int column = 0; column < width; column += pixel_skip) {
-      const double u = half_w * (1.0 - 2.0 * (column + 0.5) / width);
-      directions.push_back(Eigen::Vector3d(1.0, u, v).normalized());
-    }
-  }
-  return directions;
-}
-
-std::optional<PixelGrid> DepthCamera::pixelGrid() const {
-  // rayDirections()'s u = half_w (1 - 2 (skip j + 1/2) / width) for used column j, inverted.
-  const double half_w = std::tan(0.5 * fov_horizontal);
-  const double half_h = std::tan(0.5 * fov_vertical);
-  PixelGrid grid;
-  grid.columns = (width + pixel_skip - 1) / pixel_skip;
-  grid.rows = (height + pixel_skip - 1) / pixel_skip;
-  grid.column_scale = -0.5 * width / (half_w * pixel_skip);
-  grid.column_offset = (0.5 * width - 0.5) / pixel_skip;
-  grid.row_scale = -0.5 * height / (half_h * pixel_skip);
-  grid.row_offset = (0.5 * height - 0.5) / pixel_skip;
-  return grid;
-}
-
-std::size_t DepthCamera::rayCount() const {
-  const auto used = [&](int pixels) {
-    return static_cast<std::size_t>((pixels + pixel_skip - 1) / pixel_skip);
-  };
-  return used(width) * used(height);
-}
-
-std::size_t Lidar::rayCount() const { return static_cast<std::size_t>(beams) * channels; }
-
-std::vector<Eigen::Vector3d> Lidar::rayDirections() const {
-  std::vector<Eigen::Vector3d> directions;
-  directions.reserve(static_cast<std::size_t>(beams) * channels);
-  for (int channel = 0; channel < channels; ++channel) {
-    const double elevation = channels > 1 ? fov_vertical * (channel / (channels - 1.0) - 0.5) : 0.0;
-    for (int beam = 0; beam < beams; ++beam) {
-      const double azimuth = 2.0 * M_PI * beam / beams;
-      directions.emplace_back(std::cos(elevation) * std::cos(azimuth),
-                              std::cos(elevation) * std::sin(azimuth), std::sin(elevation));
-    }
-  }
-  return directions;
-}
 
 double castRay(const VoxelGrid& grid, const Eigen::Vector3d& origin,
                const Eigen::Vector3d& direction, double max_range) {

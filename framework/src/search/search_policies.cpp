@@ -5,8 +5,22 @@
 #include <cmath>
 
 #include "kinolab/core/error.hpp"
+#include "kinolab/core/plugin.hpp"
 
 namespace kinolab {
+
+KINOLAB_DEFINE_PLUGIN_REGISTRY(HeuristicBuilder, "heuristic", "heuristics",
+                               "estimates of the cost to the goal, consistent with the edges' "
+                               "lower bounds (a motion-primitive planner's `heuristic`)",
+                               3)
+KINOLAB_DEFINE_PLUGIN_REGISTRY(EdgeEvaluationPolicy, "lower_bound", "lower_bounds",
+                               "how an edge is evaluated when its parent is expanded (a lazy "
+                               "planner's `lower_bound`)",
+                               4)
+KINOLAB_DEFINE_PLUGIN_REGISTRY(SearchSpace, "search_space", "search_spaces",
+                               "how a motion-primitive search tells states apart (its "
+                               "`search_space`)",
+                               7)
 
 double ballDistance(const Eigen::Vector3d& position, const Eigen::Vector3d& goal, double radius) {
   return std::max((position - goal).norm() - radius, 0.0);

@@ -8,11 +8,17 @@
 
 #include "kinolab/core/error.hpp"
 #include "kinolab/core/hash.hpp"
+#include "kinolab/core/plugin.hpp"
 #include "kinolab/core/text.hpp"
 #include "kinolab/core/yaml_fields.hpp"
 #include "kinolab/core/yaml_reader.hpp"
+#include "kinolab/world/world_generator.hpp"
 
 namespace kinolab {
+
+KINOLAB_DEFINE_PLUGIN_REGISTRY(WorldGenerator, "world", "worlds",
+                               "world generators: the `type:` of a world spec's `generators:`", 5)
+
 namespace {
 
 // Bump when a generator's output for the same parameters changes, so old caches go stale.

@@ -79,8 +79,8 @@ struct PixelGrid {
 
 /// A range sensor ray-cast into the ground-truth grid (kind "sensor", `kinolab list sensors`;
 /// a flight's `sensor` parameter chooses one, `sensor.NAME` sets its parameters). Built-in:
-/// `depth_camera` and `lidar`; a plugin adds another by registering a factory for this
-/// interface.
+/// `depth_camera` and `lidar` (plugins/sensors/); a plugin adds another by registering a
+/// factory for this interface.
 class Sensor {
  public:
   virtual ~Sensor() = default;
@@ -112,78 +112,6 @@ inline constexpr std::size_t kMaxRaysPerFrame = 1000000;
 /// machine), so about a second a frame. A 128-channel lidar of 1,024 beams at 100 m on a 0.1 m
 /// map is 1.3e8. Beyond either cap a flight is refused with the estimate, before it starts.
 inline constexpr double kMaxVoxelStepsPerFrame = 4e8;
-
-/// A pinhole depth camera looking along the vehicle's heading. The defaults are a common
-/// stereo depth camera's (Intel RealSense D435: 640 x 480 at 30 Hz, 87 x 58 degrees, depth from
-/// 0.2 m), used to 10 m with every fourth pixel as real mapping stacks do (Fast-Planner's
-/// skip_pixel); range noise as measured for a structured-light depth camera (Nguyen, Izadi and
-/// Lovell 2012: 1.2 mm + 1.9 mm/m^2 times range^2), 2 % of pixels lost, a frame 30 +- 10 ms old.
-struct DepthCamera final : Sensor {
-  double range = 10.0;
-  double rate = 30.0;
-  double fov_horizontal = 87.0 * M_PI / 180.0;  ///< rad (declared in degrees)
-  double fov_vertical = 58.0 * M_PI / 180.0;    ///< rad
-  int width = 640;
-  int height = 480;
-  int pixel_skip = 4;
-  SensorNoise errors{.min_range = 0.2,
-                     .sigma_base = 0.0012,
-                     .sigma_quadratic = 0.0019,
-                     .dropout = 0.02,
-                     .latency = 0.03,
-                     .latency_jitter = 0.01};
-
-  /// Its parameters (core/fields.hpp).
-  template <typename Fields>
-  void fields(Fields& f) {
-    f.real("range", range, 0.1, 100.0, "sensor range, m");
-    f.real("rate", rate, 0.5, 100.0, "frames per second (the flight loop's step)");
-    f.real("fov_horizontal", fov_horizontal, 1.0, 170.0, "horizontal field of view, degrees",
-           M_PI / 180.0);
-    f.real("fov_vertical", fov_vertical, 1.0, 170.0, "vertical field of view, degrees",
-           M_PI / 180.0);
-    f.integer("width", width, 1, 4096, "pixels across");
-    f.integer("height", height, 1, 4096, "pixels down");
-    f.integer("pixel_skip", pixel_skip, 1, 4096,
-              "every this-th pixel across and down is used (1: all of them)");
-    errors.fields(f);
-  }
-
-  double maxRange() const override { return range; }
-  double frameRate() const override { return rate; }
-  std::vector<Eigen::Vector3d> rayDirections() const override;
-  std::size_t rayCount() const override;
-  SensorNoise noise() const override { return errors; }
-  std::optional<PixelGrid> pixelGrid() const override;
-};
-
-/// A 360-degree lidar: `beams` around, `channels` spread over the vertical field of view.
-struct Lidar final : Sensor {
-  double range = 5.0;
-  double rate = 10.0;
-  double fov_vertical = M_PI / 3;  ///< rad (declared in degrees)
-  int beams = 360;
-  int channels = 16;
-  SensorNoise errors;  ///< none by default
-
-  /// Its parameters (core/fields.hpp).
-  template <typename Fields>
-  void fields(Fields& f) {
-    f.real("range", range, 0.1, 100.0, "sensor range, m");
-    f.real("rate", rate, 0.5, 100.0, "revolutions per second (the flight loop's step)");
-    f.real("fov_vertical", fov_vertical, 1.0, 170.0,
-           "vertical field of view of the channels, degrees", M_PI / 180.0);
-    f.integer("beams", beams, 1, 100000, "beams per revolution");
-    f.integer("channels", channels, 1, 1024, "channels");
-    errors.fields(f);
-  }
-
-  double maxRange() const override { return range; }
-  double frameRate() const override { return rate; }
-  std::vector<Eigen::Vector3d> rayDirections() const override;
-  std::size_t rayCount() const override;
-  SensorNoise noise() const override { return errors; }
-};
 
 /// One frame: where it was taken, the hit points (on the struck cube's face, nudged inside it,
 /// then moved along the ray by the range noise) and the ends of rays that struck nothing

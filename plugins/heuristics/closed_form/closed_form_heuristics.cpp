@@ -1,6 +1,5 @@
-// The registries of the search's policies (heuristics and lower bounds) and the framework's
-// own entries in them, registered when the library loads: every planner, in tree or out,
-// finds them by key.
+// The closed-form heuristics: euclidean, min_time, time_optimal (the default), obvp and max
+// (the larger of two others).
 #include <optional>
 
 #include "kinolab/core/error.hpp"
@@ -9,19 +8,6 @@
 #include "kinolab/search/search_policies.hpp"
 
 namespace kinolab {
-
-KINOLAB_DEFINE_PLUGIN_REGISTRY(HeuristicBuilder, "heuristic", "heuristics",
-                               "estimates of the cost to the goal, consistent with the edges' "
-                               "lower bounds (a motion-primitive planner's `heuristic`)",
-                               3)
-KINOLAB_DEFINE_PLUGIN_REGISTRY(EdgeEvaluationPolicy, "lower_bound", "lower_bounds",
-                               "how an edge is evaluated when its parent is expanded (a lazy "
-                               "planner's `lower_bound`)",
-                               4)
-KINOLAB_DEFINE_PLUGIN_REGISTRY(SearchSpace, "search_space", "search_spaces",
-                               "how a motion-primitive search tells states apart (its "
-                               "`search_space`)",
-                               7)
 
 namespace {
 
@@ -34,11 +20,6 @@ PluginFactory<HeuristicBuilder> plainHeuristic() {
       return std::make_shared<Heuristic>(context.edges, context.goal_radius);
     });
   };
-}
-
-template <typename Policy>
-PluginFactory<EdgeEvaluationPolicy> plainPolicy() {
-  return [](const ParameterSet&) { return std::make_unique<Policy>(); };
 }
 
 void requireOrderTwo(const HeuristicContext& context) {
@@ -110,39 +91,7 @@ void registerHeuristics(PluginRegistrar& registrar) {
       maxOfParts);
 }
 
-void registerPoliciesAndSpaces(PluginRegistrar& registrar) {
-  registrar.add<EdgeEvaluationPolicy>("full", "every edge fully evaluated at expansion (eager)",
-                                      ParameterSpecs(), plainPolicy<FullEvaluationPolicy>());
-  registrar.add<EdgeEvaluationPolicy>(
-      "endpoint", "the end sample's collision test and obstacle share (the paper's)",
-      ParameterSpecs(), plainPolicy<EndpointBoundPolicy>());
-  registrar.add<EdgeEvaluationPolicy>("control_only",
-                                      "time, length and control terms only (no map query)",
-                                      ParameterSpecs(), plainPolicy<ControlOnlyBoundPolicy>());
-  registrar.add<EdgeEvaluationPolicy>(
-      "lipschitz", "endpoint, and exact when the ESDF's Lipschitz bound certifies the edge clear",
-      ParameterSpecs(), plainPolicy<LipschitzBoundPolicy>());
-  registrar.add<SearchSpace>(
-      "lattice", "every derivative rounded finely: exact on a control grid's lattice (optimal)",
-      declareFields<LatticeSpace::Resolution>(), [](const ParameterSet& p) {
-        return std::make_unique<LatticeSpace>(readFields<LatticeSpace::Resolution>(p));
-      });
-  registrar.add<SearchSpace>(
-      "cells",
-      "one state per position cell and velocity bin, as hybrid A* keeps them (not optimal)",
-      declareFields<CellSpace::Cells>(), [](const ParameterSet& p) {
-        return std::make_unique<CellSpace>(readFields<CellSpace::Cells>(p));
-      });
-}
-
-void registerBuiltins() {
-  PluginRegistrar registrar("built-in (framework)");
-  registerHeuristics(registrar);
-  registerPoliciesAndSpaces(registrar);
-  registrar.commit();
-}
-
-[[maybe_unused]] const bool builtins_registered = (registerBuiltins(), true);
-
 }  // namespace
 }  // namespace kinolab
+
+KINOLAB_REGISTER_PLUGINS(registrar) { kinolab::registerHeuristics(registrar); }

@@ -242,11 +242,12 @@ class OctomapGenerator final : public WorldGenerator {
 
 }  // namespace
 
-void registerOctomapGenerator(PluginRegistrar& registrar) {
-  registrar.add<WorldGenerator>("octomap", "occupied leaves of an OctoMap .bt or .ot file",
-                                OctomapGenerator::declared(), [](const ParameterSet& parameters) {
-                                  return std::make_unique<OctomapGenerator>(parameters);
-                                });
-}
-
 }  // namespace kinolab
+
+KINOLAB_REGISTER_PLUGINS(registrar) {
+  registrar.add<kinolab::WorldGenerator>(
+      "octomap", "occupied leaves of an OctoMap .bt or .ot file",
+      kinolab::OctomapGenerator::declared(), [](const kinolab::ParameterSet& parameters) {
+        return std::make_unique<kinolab::OctomapGenerator>(parameters);
+      });
+}

@@ -1,5 +1,5 @@
-// The built-in world generators: empty, forest, boxes, walls (a maze of walls with gaps),
-// box_list and city. The OctoMap generator lives in octomap_generator.cpp.
+// The procedural world generators: empty, forest, boxes, walls (a maze of walls with gaps),
+// box_list and city. The OctoMap file generator is plugins/worlds/octomap.
 #include <algorithm>
 #include <cmath>
 #include <functional>
@@ -12,12 +12,6 @@
 #include "kinolab/world/world_generator.hpp"
 
 namespace kinolab {
-
-KINOLAB_DEFINE_PLUGIN_REGISTRY(WorldGenerator, "world", "worlds",
-                               "world generators: the `type:` of a world spec's `generators:`", 5)
-
-/// Registers the `octomap` generator (octomap_generator.cpp).
-void registerOctomapGenerator(PluginRegistrar& registrar);
 
 namespace {
 
@@ -572,8 +566,11 @@ PluginFactory<WorldGenerator> factoryOf() {
   return [](const ParameterSet& parameters) { return std::make_unique<Generator>(parameters); };
 }
 
-void registerBuiltins() {
-  PluginRegistrar registrar("built-in (framework)");
+}  // namespace
+}  // namespace kinolab
+
+KINOLAB_REGISTER_PLUGINS(registrar) {
+  using namespace kinolab;
   registrar.add<WorldGenerator>("empty", "nothing (free space)", ParameterSpecs(),
                                 factoryOf<EmptyGenerator>());
   registrar.add<WorldGenerator>(
@@ -588,11 +585,4 @@ void registerBuiltins() {
   registrar.add<WorldGenerator>(
       "city", "a street grid of blocks of buildings of varied heights, with street trees",
       CityGenerator::declared(), factoryOf<CityGenerator>());
-  registerOctomapGenerator(registrar);
-  registrar.commit();
 }
-
-[[maybe_unused]] const bool builtins_registered = (registerBuiltins(), true);
-
-}  // namespace
-}  // namespace kinolab

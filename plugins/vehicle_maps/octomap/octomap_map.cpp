@@ -84,11 +84,10 @@ class OctomapVehicleMap final : public VehicleMap {
 };
 
 }  // namespace
+}  // namespace kinolab
 
-namespace {
-
-void registerBuiltins() {
-  PluginRegistrar registrar("built-in (framework)");
+KINOLAB_REGISTER_PLUGINS(registrar) {
+  using namespace kinolab;
   registrar.add<VehicleMap>(
       "octomap",
       "OctoMap's probabilistic sensor model: per voxel log-odds that a hit raises and a passing "
@@ -96,11 +95,4 @@ void registerBuiltins() {
       declareFields<OctomapModel>(), [](const ParameterSet& p) {
         return std::make_unique<OctomapVehicleMap>(readFields<OctomapModel>(p));
       });
-  registrar.commit();
 }
-
-[[maybe_unused]] const bool builtins_registered = (registerBuiltins(), true);
-
-}  // namespace
-
-}  // namespace kinolab

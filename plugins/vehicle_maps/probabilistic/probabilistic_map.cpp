@@ -6,11 +6,11 @@
 #include <cstdint>
 #include <vector>
 
-#include "cell_walk.hpp"
 #include "kinolab/core/error.hpp"
 #include "kinolab/core/fields.hpp"
 #include "kinolab/core/plugin.hpp"
 #include "kinolab/core/text.hpp"
+#include "kinolab/flight/cell_walk.hpp"
 #include "kinolab/flight/vehicle_map.hpp"
 
 namespace kinolab {
@@ -479,8 +479,11 @@ class ProbabilisticVehicleMap final : public VehicleMap {
   std::vector<Counts> block_;
 };
 
-void registerBuiltins() {
-  PluginRegistrar registrar("built-in (framework)");
+}  // namespace
+}  // namespace kinolab
+
+KINOLAB_REGISTER_PLUGINS(registrar) {
+  using namespace kinolab;
   registrar.add<VehicleMap>(
       "probabilistic",
       "a dense log-odds grid updated by ray casting, each voxel once a frame (the local maps of "
@@ -504,10 +507,4 @@ void registerBuiltins() {
         }
         return std::make_unique<ProbabilisticVehicleMap>(model);
       });
-  registrar.commit();
 }
-
-[[maybe_unused]] const bool builtins_registered = (registerBuiltins(), true);
-
-}  // namespace
-}  // namespace kinolab

@@ -1,5 +1,5 @@
-// Private to the flight code: the voxel traversal that the simulated camera (sensor.cpp) and
-// the probabilistic map (probabilistic_map.cpp) step through most of a frame's time.
+// The voxel traversal that the simulated camera (flight/sensor.cpp) and the probabilistic
+// vehicle map (plugins/vehicle_maps/probabilistic) step through most of a frame's time.
 #pragma once
 
 #include <Eigen/Core>
