@@ -11,6 +11,7 @@
 //    (60 pillars, order 2, tau 1, 27 controls, point robot), with that file's parameters.
 #include <benchmark/benchmark.h>
 
+#include <array>
 #include <map>
 
 #include "forest_queries.hpp"
@@ -151,6 +152,22 @@ void BM_GeodesicHeuristicPerQuery(benchmark::State& state) {
   state.counters["voxels"] = static_cast<double>(problem.world->grid().size());
 }
 BENCHMARK(BM_GeodesicHeuristicPerQuery)->Unit(benchmark::kMillisecond);
+
+// A planner's setup on the MPL problem's world: the controls sampled and the heuristic built
+// and prepared for them (the lattice heuristic's tables), what validation, each worker and
+// each flight replan pay before the first query. The argument picks the heuristic.
+void BM_PlannerSetup(benchmark::State& state) {
+  registerBuiltinPlugins();
+  const Problem& problem = mplProblem();
+  static const std::array<const char*, 3> kHeuristics = {"time_optimal", "lattice", "max"};
+  const char* heuristic = kHeuristics.at(static_cast<std::size_t>(state.range(0)));
+  auto items = problem.variants.front().assignments;
+  items.push_back({"heuristic", heuristic, "benchmark"});
+  const ConfiguredPlanner planner = configurePlanner("lazy_mp_astar", items);
+  for (auto _ : state) planner.planner->setup({problem.world, 1});
+  state.SetLabel(heuristic);
+}
+BENCHMARK(BM_PlannerSetup)->DenseRange(0, 2)->Unit(benchmark::kMicrosecond);
 
 // The independent check of every forest trajectory eager plans (the check every run pays
 // after planning, outside its planning time): time per trajectory, and position samples

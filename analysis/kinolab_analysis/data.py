@@ -9,6 +9,7 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
+import yaml
 
 from . import stats, tables
 
@@ -316,6 +317,41 @@ def _read_database(file: Path) -> _Database:
     return _Database(runs, statistics, meta, world_rows, metrics, progress, planned)
 
 
+def _listed_ids(config: dict, key: str) -> list[str]:
+    """The `id`s of the experiment file's list `key` (planners, worlds) in the file's order."""
+    items = config.get(key)
+    if not isinstance(items, list):
+        return []
+    return [str(item["id"]) for item in items if isinstance(item, dict) and "id" in item]
+
+
+def _in_experiment_order(runs: pd.DataFrame, config_text: str | None) -> pd.DataFrame:
+    """The runs in the order the experiment plans them, whatever order its workers finished
+    in: variant, sweep, world (as the experiment file lists them), query, repetition, planner
+    (as listed), so every table and figure that lists planners or worlds by first appearance
+    lists them as the file does. Ids the file does not list (or a config that is not YAML)
+    come after the listed ones, by name."""
+    try:
+        config = yaml.safe_load(config_text) if config_text else None
+    except yaml.YAMLError:
+        config = None
+    config = config if isinstance(config, dict) else {}
+    ranks = {}
+    for column, listed in (("world", "worlds"), ("planner", "planners")):
+        if column in runs:
+            order = {name: rank for rank, name in enumerate(_listed_ids(config, listed))}
+            ranks[f"_rank_{column}"] = runs[column].map(order).fillna(len(order))
+    by = [c for c in ("variant", "sweep", "_rank_world", "world", "query", "repetition",
+                      "_rank_planner", "planner", "run_hash") if c in runs or c in ranks]
+    ranked = runs.assign(**ranks)
+    try:
+        ordered = ranked.sort_values(by, kind="stable", na_position="last")
+    except TypeError:  # a column of mixed types (a hand-edited database): by their text
+        ordered = ranked.sort_values(by, kind="stable", na_position="last",
+                                     key=lambda c: c.astype(str) if c.dtype == object else c)
+    return ordered.drop(columns=list(ranks)).reset_index(drop=True)
+
+
 def _runs_of(database: _Database, file: Path, meta: dict[str, str], first: Path,
              allow_mixed: bool) -> pd.DataFrame:
     """One database's runs in this package's schema, its statistics as extra columns; refuses
@@ -333,6 +369,7 @@ def _runs_of(database: _Database, file: Path, meta: dict[str, str], first: Path,
         runs["objective"] = runs["planner_type"]
     if version < 8:
         runs = _undefined_zero_jerk(runs)
+    runs = _in_experiment_order(runs, database.meta.get("config"))
     if database.meta.get("config_hash") != meta.get("config_hash") and not allow_mixed:
         raise ValueError(
             f"{file} holds experiment {experiment_label(database.meta)}, {first} holds "

@@ -190,6 +190,36 @@ def test_a_version_1_database_loads_with_one_success_definition(results, tmp_pat
     assert loaded.loc[~killed, "success"].equals(stored.loc[loaded.index[~killed], "success"])
 
 
+def test_runs_load_in_the_experiments_order_whatever_order_workers_finished_in(results,
+                                                                             tmp_path):
+    """The runs table holds runs in the order parallel workers finished them; loaded, they are
+    in the experiment's order (queries, then planners as the file lists them), so tables and
+    figures list planners as the file does, the same from any run of the experiment. A config
+    that is not YAML leaves the order by name, not an error."""
+    sys.path.insert(0, str(SOURCE_DIR / "analysis"))
+    from kinolab_analysis.data import load
+
+    stored = load(results[2]).runs
+    assert list(dict.fromkeys(stored["planner"])) == ["eager", "lazy", "tgk"]
+    assert stored["query"].is_monotonic_increasing
+    shuffled = tmp_path / "shuffled.sqlite"
+    shutil.copy(results[2] / "results.sqlite", shuffled)
+    with sqlite3.connect(shuffled) as db:
+        db.execute("CREATE TABLE runs_copy AS SELECT * FROM runs ORDER BY planner DESC, "
+                   "query DESC")
+        db.execute("DELETE FROM runs")
+        db.execute("INSERT INTO runs SELECT * FROM runs_copy")
+        db.execute("DROP TABLE runs_copy")
+        assert db.execute("SELECT planner FROM runs LIMIT 1").fetchone()[0] == "tgk"
+    loaded = load(shuffled).runs
+    assert loaded["run_hash"].tolist() == stored["run_hash"].tolist()
+    with sqlite3.connect(shuffled) as db:
+        db.execute("UPDATE meta SET value = ': [not yaml' WHERE key = 'config'")
+    by_name = load(shuffled).runs
+    assert list(dict.fromkeys(by_name["planner"])) == ["eager", "lazy", "tgk"]
+    assert sorted(by_name["run_hash"]) == sorted(stored["run_hash"])
+
+
 def test_the_lazy_regime_and_table_one_readings_beside_a_reproduction(results, tmp_path):
     """A reproduction's directory with lazy-regime experiments and a sampling study with
     readings beside it: the report has the speedup table and one figure per sweep, the
