@@ -187,7 +187,8 @@ its runs with bootstrap 95 % intervals; clock figures vary from run to run.</p>
 {{ tables['statistics'] }}
 {% endif %}
 {% for key, title in [('per_world', 'Per world'), ('per_sampler', 'Per sampler'),
-                      ('sweep', 'Per sweep value'), ('sweep_winners', 'Where each wins')] %}{% if key in tables %}
+                      ('sweep', 'Per sweep value'), ('sweep_winners', 'Where each wins'),
+                      ('back_ends', 'Front end x back end')] %}{% if key in tables %}
 <h2>{{ title }}</h2>
 {{ show(key) }}
 {% endif %}{% endfor %}

@@ -31,6 +31,24 @@ def find_sampling_study(directory: Path) -> Path | None:
     return found[0] if found else None
 
 
+# The front end x back end matrix's figures (docs/back_ends.md), over the successful runs.
+BACK_END_METRICS = [("time_front_end_ms", "front T", ""), ("time_back_end_ms", "back T", ""),
+                    ("duration", "duration", ""), ("jerk_integral", "jerk", ""),
+                    ("min_clearance", "min clearance", "")]
+
+
+def back_end_matrix(runs: pd.DataFrame) -> pd.DataFrame | None:
+    """Front ends (planners) x back ends, when the sweep's variants choose the back end
+    (`back_end=NAME` among a variant's axes, as experiments/back_ends.yaml does): per pair the
+    runs, success and the medians of BACK_END_METRICS; None otherwise."""
+    back_ends = runs["sweep"].fillna("").map(lambda label: tables.sweep_axes(label).get("back_end"))
+    if back_ends.isna().any() or back_ends.nunique() < 2:
+        return None
+    matrix = tables.summary(runs.assign(**{"back end": back_ends}), by=["planner", "back end"],
+                            metrics=BACK_END_METRICS)
+    return matrix.rename(columns={"planner": "front end"})
+
+
 def add_tables(report: Report, results, paths: list[Path], compare: Path | None,
                sampling_csv: Path | None) -> tuple[Path | None, pd.DataFrame | None, str, str]:
     """The report's tables; returns the sampling study's CSV, its readings and their verdict,
@@ -75,6 +93,9 @@ def add_tables(report: Report, results, paths: list[Path], compare: Path | None,
         report.tables["sweep"] = sweep.assign(sweep=sweep["sweep"].map(tables.sweep_name))
         if runs["planner"].nunique() >= 2:
             report.tables["sweep_winners"] = tables.sweep_winners(runs)
+    if (matrix := back_end_matrix(runs)) is not None:
+        report.tables["back_ends"] = _summary_columns(matrix)
+        _undefined_notes(report, "back_ends", runs)
     if not (statistics := tables.statistics(runs, results.metrics)).empty:
         report.tables["statistics"] = statistics
     report.tables["paired"] = tables.paired(runs, tables.comparable(results.metrics,

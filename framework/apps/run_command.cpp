@@ -105,7 +105,7 @@ void addRunCommand(CLI::App& app) {
       ->capture_default_str();
   command->footer(
       "A run's status is its planner's (exact, approximate, no_solution, timeout, "
-      "invalid_start, invalid_goal, invalid_trajectory) or the runner's: crash (the worker "
+      "invalid_start, invalid_goal, invalid_trajectory, back_end_failed) or the runner's: crash (the worker "
       "died), killed (past its time budget), oom (memory budget), error (an exception).\n"
       "Exit status 0 when every run finished (whatever their statuses); 1 for bad input or a "
       "fault outside kinolab (a full disk, a directory in use, an unwritable --out: the "

@@ -192,8 +192,8 @@ void bindResult(py::module_& m) {
                        "metric, the trajectory and (when asked for) the search tree")
       .def_property_readonly(
           "status", [](const PyResult& r) { return std::string(toString(r.result.status)); },
-          "exact, approximate, no_solution, timeout, invalid_start, invalid_goal or "
-          "invalid_trajectory")
+          "exact, approximate, no_solution, timeout, invalid_start, invalid_goal, "
+          "invalid_trajectory or back_end_failed")
       .def_property_readonly(
           "message", [](const PyResult& r) { return r.result.message; },
           "why the planner stopped where it did, in words")

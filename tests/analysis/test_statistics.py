@@ -514,3 +514,28 @@ def test_the_flight_timing_protocol_names_the_timing_each_variant_ran_with():
                       "- flight.timing=deterministic\n")
     both = timing_protocol(meta)
     assert "real time" in both and "deterministic" in both and "reported apart" in both
+
+
+def test_the_back_end_matrix_crosses_front_ends_with_the_back_ends_the_sweep_chose():
+    from kinolab_analysis.report_tables import back_end_matrix
+    rows = []
+    for back_end, back_ms, ok in (("none", 0.01, 4), ("bspline", 30.0, 3), ("corridor_minco", 5.0, 2)):
+        label = (f"planners.lazy.params.back_end={back_end}, "
+                 f"planners.bitstar.params.back_end={back_end}")
+        for planner in ("lazy", "bitstar"):
+            for query in range(4):
+                success = query < ok
+                rows.append({"sweep": label, "planner": planner, "query": query,
+                             "status": "exact" if success else "back_end_failed",
+                             "checker_valid": 1 if success else 0, "success": success,
+                             "time_front_end_ms": 2.0 if planner == "lazy" else 100.0,
+                             "time_back_end_ms": back_ms, "duration": 5.0 + query,
+                             "jerk_integral": 1.0, "min_clearance": 0.3})
+    matrix = back_end_matrix(pd.DataFrame(rows)).set_index(["front end", "back end"])
+    assert len(matrix) == 6  # two front ends x three back ends, each named by its own value
+    assert matrix.loc[("lazy", "corridor_minco"), "success"].estimate == pytest.approx(0.5)
+    assert matrix.loc[("bitstar", "bspline"), "median time_back_end_ms"].estimate == 30.0
+    assert matrix.loc[("bitstar", "none"), "median time_front_end_ms"].estimate == 100.0
+    assert matrix.loc[("lazy", "bspline"), "median duration"].estimate == pytest.approx(6.0)
+    # A sweep that does not choose back ends has no matrix.
+    assert back_end_matrix(pd.DataFrame(rows).assign(sweep="planners.lazy.params.x=1")) is None

@@ -1,6 +1,6 @@
 # Configures a copy of the source tree without the folders that use OMPL or Ceres
-# (plugins/planners/rrtstar_ceres, plugins/planners/hybrid_astar and the B-spline back end they
-# share). The build must configure, and find neither library.
+# (plugins/planners/rrtstar_ceres and the B-spline back end, plugins/back_ends/bspline). The
+# build must configure, and find neither library.
 # Run with cmake -P -DSOURCE_DIR=... -DWORK_DIR=...
 file(REMOVE_RECURSE "${WORK_DIR}")
 set(copy "${WORK_DIR}/source")
@@ -11,7 +11,7 @@ endforeach()
 if(NOT EXISTS "${copy}/plugins/planners/rrtstar_ceres/CMakeLists.txt")
   message(FATAL_ERROR "the copy has no rrtstar_ceres folder to remove: is SOURCE_DIR right?")
 endif()
-foreach(folder planners/rrtstar_ceres planners/hybrid_astar backends/bspline_smoother)
+foreach(folder planners/rrtstar_ceres back_ends/bspline)
   file(REMOVE_RECURSE "${copy}/plugins/${folder}")
 endforeach()
 execute_process(

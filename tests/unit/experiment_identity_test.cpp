@@ -96,7 +96,7 @@ store: {trajectories: true, trees: 3}
             "across #0 1 1.5 0.3 1.7 1.7 after random 2 3 8.5 0.4 1.1 2.3 lattice 0.5 0.05\n"
             "across #1 1 1.5 0.3 1.7 1.7 after random 2 3 8.5 0.4 1.1 2.3 lattice 0.5 0.05\n");
   EXPECT_EQ(e.config_hash, "617a865abea4f959");
-  EXPECT_EQ(runsDigest(e), "5bf9898d6dba8c5a");
+  EXPECT_EQ(runsDigest(e), "69d5a778d7e7ae89");
 }
 
 TEST_F(ExperimentIdentityTest, DefaultsKeepTheirText) {
@@ -115,7 +115,7 @@ planners:
   EXPECT_EQ(queries,
             "random #0 5 1e+06 0.6 1 2\n"
             "across #0 0 1 0.6 1 2 after random 1 5 1e+06 0.6 1 2\n");
-  EXPECT_EQ(runsDigest(e), "d916807ee0d7a6f2");
+  EXPECT_EQ(runsDigest(e), "cf69d1e18219aaf9");
 }
 
 TEST_F(ExperimentIdentityTest, AFlightsBudgetKeepsItsText) {
@@ -130,7 +130,7 @@ planners:
 budget: {time: 30}
 flight: {window: 8}
 )");
-  EXPECT_EQ(runsDigest(e), "bbbbb21e26426892");
+  EXPECT_EQ(runsDigest(e), "0a2b04379780a320");
 }
 
 TEST(WorldSpecIdentityTest, DenseAndSparseSpecsKeepTheirText) {
@@ -190,39 +190,39 @@ TEST(ExperimentFilesIdentityTest, ShippedExperimentsKeepTheirRunHashes) {
   std::string sorted;
   for (const std::string& line : lines) sorted += line + "\n";
   EXPECT_EQ(sorted,
-            "experiments/ablations/edge_samples.yaml 9d8513f9820ad851\n"
-            "experiments/ablations/esdf_resolution.yaml f5cc2d05d1b826a3\n"
-            "experiments/ablations/heuristic_weight.yaml 9285ff32b2b9791c\n"
-            "experiments/ablations/lazy_duplicate_rule.yaml 0a9dd23060b58ec2\n"
-            "experiments/ablations/lazy_lower_bound.yaml 268132eda6795b20\n"
-            "experiments/ablations/sampler.yaml b9fc6c69f99f30a2\n"
-            "experiments/city_500m.yaml 75576844e04c8242\n"
-            "experiments/field.yaml ba80149b1f7288e0\n"
-            "experiments/flight_benchmark.yaml c9e4909588fed1c6\n"
-            "experiments/flight_densest_cell.yaml 99d15890d45781e4\n"
-            "experiments/flight_forest.yaml a2c5b54548ad98c0\n"
-            "experiments/flight_forest_2ms.yaml 10dc35b11eb1cba4\n"
-            "experiments/flight_geb079.yaml 5dec584c6ddf8180\n"
-            "experiments/flight_speeds.yaml 75c07863027821ff\n"
-            "experiments/flight_speeds_tgk.yaml 772f01eea77ebd2c\n"
-            "experiments/heuristics/city.yaml fee95801a85f1165\n"
-            "experiments/heuristics/geb079_fine.yaml 3cb6f1fb8b4e1299\n"
-            "experiments/heuristics/maps.yaml cdc8750cf5058560\n"
-            "experiments/heuristics/mpl.yaml 571b76d5b2beb680\n"
-            "experiments/hybrid_astar.yaml 985e0f33965ce93f\n"
-            "experiments/lazy_families.yaml f7f5087765eeface\n"
-            "experiments/lazy_family.yaml 63025c7b6ecffe25\n"
-            "experiments/lazy_regime/controls.yaml fbc523eabf805f30\n"
-            "experiments/lazy_regime/density.yaml 6711383265421a67\n"
-            "experiments/lazy_regime/edge_cost.yaml 0b8b98ca9d62e468\n"
-            "experiments/lazy_regime/edge_cost_density.yaml d7111a60466abc78\n"
-            "experiments/lazy_regime/epsilon.yaml 01145cef708377a0\n"
-            "experiments/lazy_regime/esdf_resolution.yaml d269cad815f6f91b\n"
-            "experiments/lazy_regime/order.yaml 9de0af6a886bf9ac\n"
-            "experiments/mpl_benchmark.yaml e1f24170c5929905\n"
-            "experiments/paper_table2_planners.yaml 8991b20b996aa777\n"
-            "experiments/quick.yaml e9aeacaec546bcc2\n"
-            "experiments/sampler_planning.yaml 8be44d52bca9d78e\n");
+            "experiments/ablations/edge_samples.yaml 6fe37c686fced621\n"
+            "experiments/ablations/esdf_resolution.yaml 2d55a8358788ec86\n"
+            "experiments/ablations/heuristic_weight.yaml e18c6b3f57034c30\n"
+            "experiments/ablations/lazy_duplicate_rule.yaml c932647ba725df09\n"
+            "experiments/ablations/lazy_lower_bound.yaml 3956bfab88fb1fc0\n"
+            "experiments/ablations/sampler.yaml 5b97b9a98f408f1e\n"
+            "experiments/city_500m.yaml 0f4b2a9cc7722753\n"
+            "experiments/field.yaml ecdea6f5d326f1e9\n"
+            "experiments/flight_benchmark.yaml f3d85b4f1f19d9f5\n"
+            "experiments/flight_densest_cell.yaml 28e3bd0c96c92b01\n"
+            "experiments/flight_forest.yaml 96f5b38d7236a5ef\n"
+            "experiments/flight_forest_2ms.yaml 50d54b8675ee9b59\n"
+            "experiments/flight_geb079.yaml 30b801b7a3ad9803\n"
+            "experiments/flight_speeds.yaml 1aa493c35ef9dd09\n"
+            "experiments/flight_speeds_tgk.yaml 22136760a2e68909\n"
+            "experiments/heuristics/city.yaml 8b491ceb0326d216\n"
+            "experiments/heuristics/geb079_fine.yaml 261616b0276bdd9b\n"
+            "experiments/heuristics/maps.yaml c14c6ecef7689e5e\n"
+            "experiments/heuristics/mpl.yaml 7c45ed2673ce4a15\n"
+            "experiments/hybrid_astar.yaml b7be599ae44e32b6\n"
+            "experiments/lazy_families.yaml 0a5189356a573001\n"
+            "experiments/lazy_family.yaml 00f867bf3f0cbb7e\n"
+            "experiments/lazy_regime/controls.yaml 557cb8469133964c\n"
+            "experiments/lazy_regime/density.yaml 6d06493f2f6ef0b5\n"
+            "experiments/lazy_regime/edge_cost.yaml eb9ba3255c90a754\n"
+            "experiments/lazy_regime/edge_cost_density.yaml de0db4e496354066\n"
+            "experiments/lazy_regime/epsilon.yaml a1159f74bb6cb7f9\n"
+            "experiments/lazy_regime/esdf_resolution.yaml 965cb376dc37aed5\n"
+            "experiments/lazy_regime/order.yaml 03f3a72fda8c9480\n"
+            "experiments/mpl_benchmark.yaml 04c1599ec8f93399\n"
+            "experiments/paper_table2_planners.yaml 2031b2e1ae30efca\n"
+            "experiments/quick.yaml 667d0a8b5cf14271\n"
+            "experiments/sampler_planning.yaml bc9b3f9c017e4144\n");
 }
 
 }  // namespace

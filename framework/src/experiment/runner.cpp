@@ -204,7 +204,8 @@ std::vector<std::string> runStatuses() {
   std::vector<std::string> statuses;
   for (const PlanStatus status :
        {PlanStatus::kExact, PlanStatus::kApproximate, PlanStatus::kNoSolution, PlanStatus::kTimeout,
-        PlanStatus::kInvalidStart, PlanStatus::kInvalidGoal, PlanStatus::kInvalidTrajectory}) {
+        PlanStatus::kInvalidStart, PlanStatus::kInvalidGoal, PlanStatus::kInvalidTrajectory,
+        PlanStatus::kBackEndFailed}) {
     statuses.emplace_back(toString(status));
   }
   for (const char* runner : {"crash", "killed", "oom", "error"}) statuses.emplace_back(runner);
@@ -448,18 +449,17 @@ class StopSignals {
 /// Starts `run` in a worker tagged `tag`, with its budgets: the time of all its plans (each the
 /// planner's time limit: the experiment's budget unless its entry sets its own; a flight has
 /// the experiment's, on its replans' clock) plus the grace, and the experiment's memory.
-void startRun(ProcessPool& pool, std::size_t tag, const Experiment& experiment,
-              const RunSpec& run, const SharedInputs& inputs, double grace_seconds) {
+void startRun(ProcessPool& pool, std::size_t tag, const Experiment& experiment, const RunSpec& run,
+              const SharedInputs& inputs, double grace_seconds) {
   const ExperimentVariant& variant = experiment.variants[run.variant];
   const double time_limit = experiment.flights
                                 ? variant.budget.time
                                 : variant.planners[run.planner].timeLimit(variant.budget);
   // Every plan of the timing protocol has the time budget.
-  const double plans =
-      experiment.flights ? 1.0 : variant.timing.warmup + variant.timing.repeats;
+  const double plans = experiment.flights ? 1.0 : variant.timing.warmup + variant.timing.repeats;
   // A flight's limit is on its replans' clock (CPU time by default: load does not end it).
-  const BudgetClock clock = experiment.flights ? readFields<FlightSettings>(variant.flight).clock
-                                               : BudgetClock::kWall;
+  const BudgetClock clock =
+      experiment.flights ? readFields<FlightSettings>(variant.flight).clock : BudgetClock::kWall;
   pool.start(tag, plans * time_limit + grace_seconds, clock, variant.budget.memory_mb, [&] {
     return (experiment.flights ? flyRun : planRun)(experiment, run, inputs.world(experiment, run),
                                                    inputs.query(run));

@@ -9,6 +9,16 @@ KINOLAB_DEFINE_PLUGIN_REGISTRY(BackEnd, "back_end", "back_ends",
                                "planner's `back_end`)",
                                9)
 
+const MetricSpecs& backEndStatistics() {
+  static const MetricSpecs specs =
+      MetricSpecs()
+          .real("front_end_cost", "",
+                "the front end's own cost (its objective), before the back end")
+          .clock("time_front_end_ms", "the front end's time (the planner before its back end)")
+          .clock("time_back_end_ms", "the back end's time");
+  return specs;
+}
+
 std::vector<Eigen::Vector3d> backEndPath(const std::vector<Eigen::Vector3d>& path,
                                          const Trajectory& trajectory) {
   if (!path.empty() || trajectory.empty()) return path;

@@ -21,7 +21,8 @@ const MetricList<PlanResult>& planMetrics() {
           .add(MetricSpecs().text(
                    "status",
                    "exact, approximate, no_solution, timeout (the planner spent its budget), "
-                   "invalid_start, invalid_goal, invalid_trajectory; from the runner: crash, "
+                   "invalid_start, invalid_goal, invalid_trajectory, back_end_failed (the "
+                   "front end's path, no trajectory from its back end); from the runner: crash, "
                    "killed (past its budget), oom, error"),
                [](const R& r) -> MetricValue { return std::string(toString(r.status)); })
           .add(MetricSpecs().text("message", "why, for statuses other than exact"),

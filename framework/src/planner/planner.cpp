@@ -6,6 +6,7 @@
 
 #include "kinolab/core/error.hpp"
 #include "kinolab/core/text.hpp"
+#include "kinolab/planner/back_end.hpp"
 
 namespace kinolab {
 
@@ -25,6 +26,8 @@ std::string_view toString(PlanStatus status) {
       return "invalid_goal";
     case PlanStatus::kInvalidTrajectory:
       return "invalid_trajectory";
+    case PlanStatus::kBackEndFailed:
+      return "back_end_failed";
   }
   return "unknown";
 }
@@ -43,8 +46,7 @@ std::string_view toString(SearchTreeEdge::State state) {
   return "unknown";
 }
 
-std::string positionProblem(const World& world, const Eigen::Vector3d& position,
-                            const Body& body) {
+std::string positionProblem(const World& world, const Eigen::Vector3d& position, const Body& body) {
   if (!position.allFinite()) return "is not finite";
   if (!world.bounds().contains(position)) {
     const Box& b = world.bounds();
@@ -72,6 +74,9 @@ std::string positionProblem(const World& world, const Eigen::Vector3d& position,
 KINOLAB_DEFINE_PLUGIN_REGISTRY(Planner, "planner", "planners",
                                "planners: the contract of kinolab/planner/planner.hpp", 1)
 
+Planner::Planner() = default;
+Planner::~Planner() = default;
+
 const World& Planner::world() const {
   if (!world_) throw InvalidArgument("planner: setup() was not called");
   return *world_;
@@ -94,11 +99,20 @@ void Planner::setup(const PlannerContext& context) {
   } catch (...) {
     rethrowFromPlugin(pluginName(), "setup()");
   }
+  if (back_end_) {
+    try {
+      back_end_->setup(context.world, body_, limits());
+    } catch (...) {
+      rethrowFromPlugin(describePlugin("back_end", pluginRegistry<BackEnd>().info(back_end_key_)),
+                        "setup()");
+    }
+  }
   checker_ = std::make_unique<TrajectoryChecker>(context.world, checkerSettings(body_, limits()));
   world_ = context.world;
 }
 
 std::string Planner::objective() const {
+  if (refinesFrontEnd()) return "trajectory length";
   std::string own = costObjective();
   if (!own.empty()) return own;
   return configuration_.empty() ? "planner-specific" : configuration_;
@@ -139,16 +153,64 @@ std::optional<PlanResult> Planner::refusal(const PlanningQuery& query) const {
   return std::nullopt;
 }
 
+Budget Planner::frontEndBudget(const Budget& budget) const {
+  Budget front = budget;
+  if (back_end_ && std::isfinite(budget.time_limit)) {
+    front.time_limit = (1.0 - back_end_->budgetShare()) * budget.time_limit;
+  }
+  return front;
+}
+
+void Planner::runBackEnd(const PlanningQuery& query, PlanResult& result,
+                         StopCondition& stop) const {
+  const double front_end_ms = 1e3 * stop.elapsed();
+  result.statistics.emplace_back("front_end_cost", result.cost);
+  BackEndProblem problem;
+  problem.start = query.start;
+  problem.goal = query.goal;
+  problem.path = backEndPath(result.path, result.trajectory);
+  problem.front = result.trajectory.empty() ? nullptr : &result.trajectory;
+  BackEndResult refined;
+  try {
+    refined = back_end_->refine(problem, stop);
+  } catch (...) {
+    rethrowFromPlugin(describePlugin("back_end", pluginRegistry<BackEnd>().info(back_end_key_)),
+                      "refine()");
+  }
+  result.statistics.emplace_back("time_front_end_ms", front_end_ms);
+  result.statistics.emplace_back("time_back_end_ms", 1e3 * stop.elapsed() - front_end_ms);
+  result.statistics.insert(result.statistics.end(), refined.statistics.begin(),
+                           refined.statistics.end());
+  if (refined.trajectory.empty()) {
+    result.status = PlanStatus::kBackEndFailed;
+    result.message = "back end " + back_end_key_ + ": " +
+                     (refined.failure.empty() ? "no trajectory" : refined.failure);
+    result.trajectory = Trajectory();
+    result.cost = INFINITY;
+    return;
+  }
+  if (!refinesFrontEnd()) return;  // `none`: the front end's trajectory and cost stand
+  result.trajectory = std::move(refined.trajectory);
+  result.cost = result.trajectory.length();
+}
+
 PlanResult Planner::plan(const PlanningQuery& query, const Budget& budget, SearchTree* tree) {
   if (std::optional<PlanResult> refused = refusal(query)) return *std::move(refused);
   const PlannerLimits own = limits();
   const Eigen::Vector3d start = query.start.col(0);
   PlanResult result;
+  // The whole call's budget, and the front end's: its share of the time, the same start.
   StopCondition stop(budgetFor(budget));
+  StopCondition front_stop(frontEndBudget(stop.budget()));
   try {
-    result = doPlan(query, stop);
+    result = doPlan(query, front_stop);
   } catch (...) {
     rethrowFromPlugin(pluginName(), "plan()");
+  }
+  const bool answered =
+      result.status == PlanStatus::kExact || result.status == PlanStatus::kApproximate;
+  if (back_end_ && answered && (!result.trajectory.empty() || !result.path.empty())) {
+    runBackEnd(query, result, stop);
   }
   result.planning_time_ms = 1e3 * stop.elapsed();
   result.objective = objective();
@@ -204,7 +266,7 @@ PlanResult Planner::plan(const PlanningQuery& query, const Budget& budget, Searc
   return result;
 }
 
-ParameterSpecs motionParameters(double default_time_limit) {
+ParameterSpecs motionParameters(double default_time_limit, const std::string& default_back_end) {
   return ParameterSpecs()
       .real("robot_radius", MotionDefaults::kRobotRadius, 0.0, 10.0,
             "body radius (0: a point); the obstacles are the occupied voxel cubes, and a "
@@ -219,7 +281,11 @@ ParameterSpecs motionParameters(double default_time_limit) {
             "per-axis acceleration limit, m/s^2")
       .real("goal_radius", MotionDefaults::kGoalRadius, 0.001, 100.0,
             "goal region: positions this close to the goal, m")
-      .real("time_limit", default_time_limit, 0.0, 1e6, "planning time budget, s (0: none)");
+      .real("time_limit", default_time_limit, 0.0, 1e6, "planning time budget, s (0: none)")
+      .plugin("back_end", "back_end", default_back_end,
+              "the optimisation back end run on the front end's path within the same budget "
+              "(kinolab list back_ends; none: the front end's trajectory); its parameters "
+              "back_end.NAME");
 }
 
 PlannerLimits plannerLimitsFrom(const ParameterSet& parameters) {
@@ -256,7 +322,12 @@ Budget timeBudgetFrom(const ParameterSet& parameters) {
 }
 
 MetricSpecs declaredStatistics(const PluginInfo& planner) {
-  return MetricSpecs(commonStatistics()).include(planner.statistics);
+  MetricSpecs specs = MetricSpecs(commonStatistics()).include(planner.statistics);
+  const ParameterSpec* back_end = planner.parameters.find("back_end");
+  if (!back_end || back_end->type != ParameterType::kPlugin) return specs;
+  specs.include(backEndStatistics());
+  for (const PluginInfo* info : pluginRegistry<BackEnd>().list()) specs.include(info->statistics);
+  return specs;
 }
 
 ConfiguredPlanner configurePlanner(std::string_view key,
@@ -285,6 +356,11 @@ ConfiguredPlanner configurePlanner(std::string_view key,
     }
     if (where.empty()) where = "the default of '" + conflict.parameter() + "'";
     throw ConfigError(where + ": planner '" + std::string(key) + "': " + conflict.what());
+  }
+  if (configured.parameters.has("back_end")) {
+    configured.planner->back_end_key_ = configured.parameters.text("back_end");
+    configured.planner->back_end_ =
+        pluginRegistry<BackEnd>().createChosen(configured.parameters, "back_end");
   }
   configured.info = &planners.info(key);
   configured.planner->key_ = configured.info->key;

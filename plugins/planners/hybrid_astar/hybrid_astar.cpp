@@ -4,13 +4,11 @@
 // axis) applied for one duration, states kept one per position cell (the first to close a
 // cell closes it), the OBVP heuristic weighted by lambda, and an analytic expansion (the
 // least-effort cubic to rest at the goal) from closed states near the goal, accepted when the
-// independent checker accepts it. `hybrid_astar_bspline` then smooths the result with the
-// Ceres uniform B-spline back end (smoothness, ESDF clearance, feasibility, time
-// re-allocation) shared with rrtstar_ceres. Neither is optimal. docs/hybrid_astar.md.
+// independent checker accepts it. `hybrid_astar_bspline` is the same planner with the
+// `bspline` back end by default (Fast-Planner's pairing: the Ceres uniform B-spline of
+// rrtstar_ceres; plugins/back_ends/bspline). Neither is optimal. docs/hybrid_astar.md.
 #include <cmath>
-#include <optional>
 
-#include "bspline_smoother.hpp"
 #include "kinolab/core/fields.hpp"
 #include "kinolab/core/plugin.hpp"
 #include "kinolab/primitives/control_sampler.hpp"
@@ -18,9 +16,6 @@
 
 namespace kinolab {
 namespace {
-
-using smoothing::BsplineSmoother;
-using smoothing::SmootherSettings;
 
 /// The front end's own parameters; the body, limits, goal region and time limit are
 /// motionParameters().
@@ -58,28 +53,14 @@ struct HybridSettings {
   }
 };
 
-ParameterSpecs hybridParameters() {
-  return declareFields<HybridSettings>().include(motionParameters(10.0));
-}
-
-ParameterSpecs hybridBsplineParameters() {
-  return hybridParameters().include(declareFields<SmootherSettings>());
+ParameterSpecs hybridParameters(const std::string& back_end) {
+  return declareFields<HybridSettings>().include(motionParameters(10.0, back_end));
 }
 
 MetricSpecs hybridStatistics() {
   return motionPrimitiveStatistics()
       .counter("shots", "analytic expansions tried")
       .counter("shots_rejected", "analytic expansions the checker refused");
-}
-
-MetricSpecs hybridBsplineStatistics() {
-  return hybridStatistics()
-      .real("front_end_cost", "", "the front end's cost (the search's, before smoothing)")
-      .clock("time_front_end_ms", "front end (hybrid A*) time")
-      .include(smoothing::smootherStatistics())
-      .boolean("smoothing_valid",
-               "the smoothed trajectory passed the smoother's own check (else the front end's "
-               "trajectory is returned)");
 }
 
 /// The motion-primitive configuration of the hybrid front end.
@@ -114,85 +95,21 @@ MotionPrimitiveConfig hybridConfig(const ParameterSet& parameters) {
   return config;
 }
 
-/// The front end, then the B-spline back end on its path; the front end's trajectory when
-/// the smoother fails its own check.
-class HybridBsplinePlanner final : public MotionPrimitivePlanner {
- public:
-  explicit HybridBsplinePlanner(const ParameterSet& parameters)
-      : HybridBsplinePlanner(hybridConfig(parameters), parameters) {}
-
- protected:
-  void doSetup(const PlannerContext& context) override {
-    MotionPrimitivePlanner::doSetup(context);
-    SmootherSettings settings = smoother_settings_;
-    settings.body = body();
-    smoother_.emplace(context.world, settings);
-  }
-
-  /// The smoothed trajectory's cost is the shot's (duration and control effort, exact): the
-  /// front end's objective where that has no length or obstacle term, another one elsewhere.
-  std::string costObjective() const override {
-    const CostWeights& w = config().settings.edges.weights;
-    const std::string front_end = MotionPrimitivePlanner::costObjective();
-    return w.length == 0.0 && w.obstacle == 0.0 ? front_end
-                                                : "shot cost without obstacles, " + front_end;
-  }
-
-  PlanResult doPlan(const PlanningQuery& query, StopCondition& stop) override {
-    PlanResult result = MotionPrimitivePlanner::doPlan(query, stop);
-    result.statistics.emplace_back("front_end_cost", result.cost);
-    result.statistics.emplace_back("time_front_end_ms", 1e3 * stop.elapsed());
-    if (result.status != PlanStatus::kExact) return result;
-    // The path: the front end's positions every 0.05 s.
-    std::vector<Eigen::Vector3d> path;
-    for (const TrajectorySample& sample : result.trajectory.sample(0.05)) {
-      path.push_back(sample.position);
-    }
-    smoothing::SmootherResult smoothed = smoother_->smooth(query.start, path, stop);
-    result.statistics.insert(result.statistics.end(), smoothed.statistics.begin(),
-                             smoothed.statistics.end());
-    result.statistics.emplace_back("smoothing_valid", smoothed.valid ? 1.0 : 0.0);
-    if (smoothed.valid) {
-      result.trajectory = std::move(smoothed.trajectory);
-      result.cost = shot_.cost(result.trajectory);
-    }
-    return result;
-  }
-
- private:
-  HybridBsplinePlanner(const MotionPrimitiveConfig& config, const ParameterSet& parameters)
-      : MotionPrimitivePlanner(config),
-        smoother_settings_(readFields<SmootherSettings>(parameters)),
-        shot_(config.settings.edges, 1.0) {
-    smoother_settings_.limits = config.settings.edges.limits;
-  }
-
-  SmootherSettings smoother_settings_;
-  ObvpShot shot_;  // its cost functional: w_T T + w_U |a|^2 + w_L length
-  std::optional<BsplineSmoother> smoother_;
-};
-
 }  // namespace
 }  // namespace kinolab
 
 KINOLAB_REGISTER_PLUGINS(registrar) {
   using namespace kinolab;
-  registrar.library("ceres", smoothing::ceresVersion());
+  const auto make = [](const ParameterSet& parameters) {
+    return std::make_unique<MotionPrimitivePlanner>(hybridConfig(parameters));
+  };
   registrar.add<Planner>(
       "hybrid_astar",
       "Fast-Planner's kinodynamic A*: position cells, OBVP heuristic, analytic shot to the goal "
       "(not optimal)",
-      hybridParameters(),
-      [](const ParameterSet& parameters) {
-        return std::make_unique<MotionPrimitivePlanner>(hybridConfig(parameters));
-      },
-      hybridStatistics());
+      hybridParameters("none"), make, hybridStatistics());
   registrar.add<Planner>(
       "hybrid_astar_bspline",
-      "hybrid_astar, then the Ceres uniform B-spline back end (smoothness, ESDF, limits)",
-      hybridBsplineParameters(),
-      [](const ParameterSet& parameters) {
-        return std::make_unique<HybridBsplinePlanner>(parameters);
-      },
-      hybridBsplineStatistics());
+      "hybrid_astar with the bspline back end by default (Fast-Planner's front and back end)",
+      hybridParameters("bspline"), make, hybridStatistics());
 }

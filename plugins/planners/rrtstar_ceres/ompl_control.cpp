@@ -395,7 +395,7 @@ PlanResult OmplControlPlanner::doPlan(const PlanningQuery& query, StopCondition&
   result.statistics = {{"propagations", static_cast<double>(p.propagations)},
                        {"validity_checks", static_cast<double>(p.validity_checks)},
                        {"termination_checks", static_cast<double>(calls)},
-                       {"time_front_end_ms", planning_ms}};
+                       {"time_ompl_ms", planning_ms}};
   return result;
 }
 
@@ -415,7 +415,7 @@ MetricSpecs omplControlStatistics() {
       .counter("propagations", "exact propagations of a control")
       .counter("validity_checks", "state validity checks")
       .counter("termination_checks", "calls of the termination condition (the iteration budget)")
-      .clock("time_front_end_ms", "the OMPL planner's time")
+      .clock("time_ompl_ms", "the OMPL planner's own time")
       .series("anytime_cost", "m",
               "SST's best cost over its planning time: its own objective, the summed straight "
               "distances between the ends of its controls (at most the flown length)");

@@ -350,7 +350,7 @@ FrontEndResult RrtFrontEnd::planOther(const std::shared_ptr<ob::ProblemDefinitio
                                           : std::isfinite(best) ? planning_ms
                                                                 : NAN);
   stats.emplace_back("best_cost", best);
-  stats.emplace_back("time_front_end_ms", planning_ms);
+  stats.emplace_back("time_ompl_ms", planning_ms);
   result.progress = std::move(monitor.progress);
   return result;
 }

@@ -1,27 +1,23 @@
 // `rrtstar_ceres`: the TGK analogue. OMPL's RRT* plans a geometric path on the ESDF
 // (states need the robot radius plus a margin of clearance), OMPL's simplifier shortens it,
-// and Ceres turns it into a uniform cubic B-spline trajectory: smoothness (jerk), an ESDF
-// obstacle penalty with its analytic gradient, velocity and acceleration penalties, then
-// time re-allocation until the limits hold. `rrtstar` is the front end alone, flown
-// stop-and-go along the path (for ablations).
+// and its back end, `bspline` by default (plugins/back_ends/bspline), turns it into a
+// uniform cubic B-spline trajectory with Ceres. `rrtstar` is the same with no back end: the
+// path flown stop-and-go (for ablations). `ompl_geometric` runs OMPL's geometric planners
+// by name with any back end.
 #include <cmath>
 
-#include "bspline_smoother.hpp"
 #include "kinolab/core/fields.hpp"
 #include "kinolab/core/hash.hpp"
 #include "kinolab/core/plugin.hpp"
 #include "kinolab/core/text.hpp"
+#include "kinolab/trajectory/uniform_bspline.hpp"
 #include "ompl_control.hpp"
 #include "rrt_front_end.hpp"
 
 namespace kinolab::rrt {
 namespace {
 
-using smoothing::BsplineSmoother;
-using smoothing::SmootherResult;
-using smoothing::SmootherSettings;
-
-/// What the planner adds to the front end's and smoother's fields.
+/// What the planner adds to the front end's fields.
 struct RrtChecks {
   double clearance_margin = 0.1;   ///< m beyond the body radius
   double motion_resolution = 0.5;  ///< voxels between checked states of a motion
@@ -37,20 +33,15 @@ struct RrtChecks {
   }
 };
 
-ParameterSpecs frontEndParameters(double time_limit = 5.0) {
+ParameterSpecs frontEndParameters(double time_limit, const std::string& back_end) {
   return declareFields<FrontEndSettings>()
-      .include(motionParameters(time_limit))
+      .include(motionParameters(time_limit, back_end))
       .include(declareFields<RrtChecks>());
 }
 
-ParameterSpecs smoothingParameters() {
-  return frontEndParameters().include(declareFields<SmootherSettings>());
-}
-
-/// ompl_geometric's choices: which OMPL planner, and which back end.
+/// ompl_geometric's choices: which OMPL planner.
 struct GeometricChoice {
   OmplPlanner planner = OmplPlanner::kBitStar;
-  bool bspline = false;
   bool stop_at_first = false;
 
   template <typename Fields>
@@ -65,17 +56,13 @@ struct GeometricChoice {
               {"lazyprmstar", OmplPlanner::kLazyPrmStar}},
              "OMPL's geometric planner (rrtstar: kinolab's seeded RRT* loop, as rrtstar and "
              "rrtstar_ceres)");
-    f.choice("back_end", bspline, {{"none", false}, {"bspline", true}},
-             "none: the path flown stop-and-go; bspline: the Ceres B-spline smoother");
     f.boolean("stop_at_first", stop_at_first,
               "stop at the first exact solution (else refine to the budget; not rrtstar)");
   }
 };
 
 ParameterSpecs geometricParameters() {
-  return declareFields<GeometricChoice>()
-      .include(frontEndParameters(1.0))
-      .include(declareFields<SmootherSettings>());
+  return declareFields<GeometricChoice>().include(frontEndParameters(1.0, "none"));
 }
 
 MetricSpecs frontEndStatistics() {
@@ -94,29 +81,18 @@ MetricSpecs frontEndStatistics() {
       .clock("first_solution_ms", "time to the first exact solution")
       .real("first_solution_cost", "m", "path length of the first exact solution")
       .real("best_cost", "m", "RRT*'s best path length")
-      .clock("time_rrt_ms", "RRT* (front end) time");
+      .clock("time_rrt_ms", "RRT* time (rrtstar, rrtstar_ceres)")
+      .clock("time_ompl_ms", "the OMPL planner's own time (ompl_geometric other than rrtstar)");
   specs.series("anytime_cost", "m",
                "RRT*'s best path length over its planning time (a sample at every "
                "improvement)");
   return specs;
 }
 
-MetricSpecs smoothingStatistics() {
-  return frontEndStatistics()
-      .include(smoothing::smootherStatistics())
-      .boolean("smoothing_valid", "the smoothed trajectory passed the smoother's own check");
-}
-
-MetricSpecs geometricStatistics() {
-  MetricSpecs specs = smoothingStatistics();
-  specs.clock("time_front_end_ms", "the OMPL planner's time (planners other than rrtstar)");
-  return specs;
-}
-
 class RrtStarPlanner final : public Planner {
  public:
-  RrtStarPlanner(const ParameterSet& parameters, bool smooth,
-                 OmplPlanner planner = OmplPlanner::kRrtStar, bool stop_at_first = false)
+  explicit RrtStarPlanner(const ParameterSet& parameters,
+                          OmplPlanner planner = OmplPlanner::kRrtStar, bool stop_at_first = false)
       : front_end_settings_(readFields<FrontEndSettings>(parameters)),
         checks_(readFields<RrtChecks>(parameters)),
         limits_(plannerLimitsFrom(parameters)),
@@ -132,9 +108,6 @@ class RrtStarPlanner final : public Planner {
           "ompl_geometric: time_limit 0 (none) needs max_iterations > 0: this planner stops "
           "only at its budget");
     }
-    if (smooth) {
-      smoother_settings_.emplace(readFields<SmootherSettings>(parameters)).limits = limits_.limits;
-    }
   }
 
  protected:
@@ -145,22 +118,17 @@ class RrtStarPlanner final : public Planner {
     front_end_ = std::make_unique<RrtFrontEnd>(context.world, settings);
     clearance_ = settings.clearance;
     seed_ = context.seed;
-    if (smoother_settings_) {
-      SmootherSettings smoothing = *smoother_settings_;
-      smoothing.body = body();
-      smoother_.emplace(context.world, smoothing);
-    }
   }
 
   PlanResult doPlan(const PlanningQuery& query, StopCondition& stop) override {
     PlanResult result;
     const Eigen::Vector3d start = query.start.col(0);
     const bool at_rest = query.start.col(1).isZero() && query.start.col(2).isZero();
-    if (!smoother_ && !at_rest) {
+    if (backEnd() == "none" && !at_rest) {
       result.status = PlanStatus::kInvalidStart;
       result.message =
-          "rrtstar flies its path stop-and-go, so it starts at rest (use "
-          "rrtstar_ceres for a moving start)";
+          "with back_end none the path is flown stop-and-go, so it starts at rest (choose a "
+          "back end, e.g. back_end=bspline, for a moving start)";
       return result;
     }
     if (const double clearance = world().clearance(start); clearance < clearance_) {
@@ -173,16 +141,8 @@ class RrtStarPlanner final : public Planner {
     // The run's seed and the query decide OMPL's random streams: the same case repeats.
     std::uint64_t seed = hashBytes(query.goal.data(), 3 * sizeof(double), seed_);
     seed = hashBytes(query.start.data(), sizeof(ChainState), seed);
-    // With a smoother, the path search stops where the smoothing's share of the time budget
-    // begins.
-    Budget search = stop.budget();
-    if (smoother_ && std::isfinite(search.time_limit)) {
-      search.time_limit = std::max(
-          0.0, (1.0 - smoother_settings_->budget_share) * search.time_limit - stop.elapsed());
-    }
-    StopCondition search_stop(search);
     FrontEndResult path =
-        front_end_->plan(start, query.goal, static_cast<std::uint32_t>(seed), search_stop);
+        front_end_->plan(start, query.goal, static_cast<std::uint32_t>(seed), stop);
     result.statistics = std::move(path.statistics);
     result.progress = std::move(path.progress);
     if (path.outcome == FrontEndResult::Outcome::kNone) {
@@ -196,18 +156,13 @@ class RrtStarPlanner final : public Planner {
       result.message = "budget spent after " + std::to_string(path.iterations) +
                        " iterations: the path to the vertex closest to the goal";
     }
-    // A path of length 0 (the start is in the goal region) leaves nothing to fly.
-    if (smoother_ && path.path_length > 0.0) {
-      SmootherResult smoothed = smoother_->smooth(query.start, path.path, stop);
-      result.statistics.insert(result.statistics.end(), smoothed.statistics.begin(),
-                               smoothed.statistics.end());
-      result.statistics.emplace_back("smoothing_valid", smoothed.valid ? 1.0 : 0.0);
-      if (!smoothed.valid) result.message = "smoothing failed: " + smoothed.problem;
-      result.trajectory = std::move(smoothed.trajectory);
-    } else if (path.path_length > 0.0) {
-      result.trajectory = stopAndGo(path.path, limits_.limits);
+    // A path of length 0 (the start is in the goal region) leaves nothing to fly. From a
+    // moving start there is only the path: the back end makes the trajectory.
+    if (path.path_length > 0.0) {
+      result.path = std::move(path.path);
+      if (at_rest) result.trajectory = stopAndGo(result.path, limits_.limits);
     }
-    result.cost = result.trajectory.empty() ? INFINITY : result.trajectory.length();
+    result.cost = result.trajectory.empty() ? path.path_length : result.trajectory.length();
     return result;
   }
 
@@ -226,11 +181,9 @@ class RrtStarPlanner final : public Planner {
   RrtChecks checks_;
   PlannerLimits limits_;
   Budget budget_;
-  std::optional<SmootherSettings> smoother_settings_;
   std::uint64_t seed_ = 0;
   double clearance_ = 0.0;
   std::unique_ptr<RrtFrontEnd> front_end_;
-  std::optional<BsplineSmoother> smoother_;
 };
 
 }  // namespace
@@ -239,26 +192,23 @@ class RrtStarPlanner final : public Planner {
 KINOLAB_REGISTER_PLUGINS(registrar) {
   using namespace kinolab;
   registrar.library("ompl", rrt::omplVersion());
-  registrar.library("ceres", smoothing::ceresVersion());
+  const auto rrtStar = [](const ParameterSet& parameters) {
+    return std::make_unique<rrt::RrtStarPlanner>(parameters);
+  };
   registrar.add<Planner>(
       "rrtstar_ceres",
-      "TGK analogue: OMPL RRT* path, Ceres-smoothed uniform cubic B-spline (jerk, ESDF, limits)",
-      rrt::smoothingParameters(),
-      [](const ParameterSet& parameters) {
-        return std::make_unique<rrt::RrtStarPlanner>(parameters, true);
-      },
-      rrt::smoothingStatistics());
+      "TGK analogue: OMPL RRT* path, then the bspline back end by default (Ceres uniform cubic "
+      "B-spline: jerk, ESDF, limits)",
+      rrt::frontEndParameters(5.0, "bspline"), rrtStar, rrt::frontEndStatistics());
   registrar.add<Planner>(
-      "rrtstar", "OMPL RRT* path alone, flown stop-and-go at the limits (ablation of the smoother)",
-      rrt::frontEndParameters(),
-      [](const ParameterSet& parameters) {
-        return std::make_unique<rrt::RrtStarPlanner>(parameters, false);
-      },
-      rrt::frontEndStatistics());
+      "rrtstar",
+      "OMPL RRT* path, no back end by default: flown stop-and-go at the limits (ablation of the "
+      "smoother)",
+      rrt::frontEndParameters(5.0, "none"), rrtStar, rrt::frontEndStatistics());
   registrar.add<Planner>(
       "ompl_geometric",
       "OMPL's geometric planners by name (RRT-Connect, RRT*, Informed RRT*, BIT*, ABIT*, AIT*, "
-      "LazyPRM*) on the ESDF, with or without the B-spline back end",
+      "LazyPRM*) on the ESDF, with any back end",
       rrt::geometricParameters(),
       [](const ParameterSet& parameters) {
         const auto choice = readFields<rrt::GeometricChoice>(parameters);
@@ -270,10 +220,10 @@ KINOLAB_REGISTER_PLUGINS(registrar) {
               "performForwardSearchIteration) on 2 of 4 forest queries tried; use bitstar or "
               "abitstar (OMPL 1.6 rewrote AIT*)");
         }
-        return std::make_unique<rrt::RrtStarPlanner>(parameters, choice.bspline, choice.planner,
+        return std::make_unique<rrt::RrtStarPlanner>(parameters, choice.planner,
                                                      choice.stop_at_first);
       },
-      rrt::geometricStatistics());
+      rrt::frontEndStatistics());
   registrar.add<Planner>(
       "ompl_control",
       "OMPL's kinodynamic planners by name (SST, KPIECE1, RRT, EST, PDST) over the integrator "

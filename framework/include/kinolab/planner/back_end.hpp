@@ -10,12 +10,10 @@
 #include "kinolab/dynamics/body.hpp"
 #include "kinolab/dynamics/integrator_chain.hpp"
 #include "kinolab/planner/metrics.hpp"
+#include "kinolab/planner/planner.hpp"
 #include "kinolab/trajectory/trajectory.hpp"
 
 namespace kinolab {
-
-class World;
-struct PlannerLimits;
 
 /// What a back end refines: the query and the front end's answer to it.
 struct BackEndProblem {
@@ -63,6 +61,10 @@ class BackEnd {
 
 template <>
 PluginRegistry<BackEnd>& pluginRegistry<BackEnd>();
+
+/// The statistics Planner::plan() reports for every planner with a back end:
+/// `front_end_cost`, `time_front_end_ms`, `time_back_end_ms`.
+const MetricSpecs& backEndStatistics();
 
 /// The time step of BackEndProblem::path sampled from a front end's trajectory, s.
 inline constexpr double kBackEndPathStep = 0.05;

@@ -23,6 +23,7 @@
 namespace kinolab {
 
 struct ConfiguredPlanner;
+class BackEnd;
 
 /// How a planning call ended.
 enum class PlanStatus {
@@ -33,10 +34,11 @@ enum class PlanStatus {
   kInvalidStart,       ///< the start is outside the map, in collision or beyond the limits
   kInvalidGoal,        ///< the goal is outside the map or in collision
   kInvalidTrajectory,  ///< the planner returned a trajectory the checker rejects
+  kBackEndFailed,      ///< the front end found a path; its back end made no trajectory of it
 };
 
 /// "exact", "approximate", "no_solution", "timeout", "invalid_start", "invalid_goal",
-/// "invalid_trajectory".
+/// "invalid_trajectory", "back_end_failed".
 std::string_view toString(PlanStatus status);
 
 /// One planning problem. The goal is a position; the region around it is the planner's
@@ -57,8 +59,7 @@ struct PlannerLimits {
 /// Why `position` cannot be a start or goal for `body`, or "" when it can: not finite,
 /// outside the map, or closer to the occupied cubes than the body's keptRadius() (the rule
 /// every edge and the checker hold to).
-std::string positionProblem(const World& world, const Eigen::Vector3d& position,
-                            const Body& body);
+std::string positionProblem(const World& world, const Eigen::Vector3d& position, const Body& body);
 
 /// One edge of a planner's search tree or graph, for figures (the paper's Fig. 6).
 struct SearchTreeEdge {
@@ -84,7 +85,10 @@ using Statistics = std::vector<std::pair<std::string, double>>;
 
 struct PlanResult {
   PlanStatus status = PlanStatus::kNoSolution;
-  Trajectory trajectory;   ///< empty when there is none
+  Trajectory trajectory;  ///< empty when there is none
+  /// A geometric front end's path (waypoints from the start, every straight piece free for
+  /// its collision model), for its back end; empty for a front end that plans trajectories.
+  std::vector<Eigen::Vector3d> path;
   double cost = INFINITY;  ///< the planner's own cost of the trajectory
   /// What `cost` measures (Planner::objective()): costs are comparable only between results
   /// of equal objectives.
@@ -95,7 +99,7 @@ struct PlanResult {
   /// Anytime progress: samples of the planner's declared series (MetricSpecs::series), each
   /// series in time order from the start of its work.
   Progress progress;
-  CheckResult check;    ///< the independent checker's verdict on the trajectory
+  CheckResult check;  ///< the independent checker's verdict on the trajectory
   /// The checker's figures of the trajectory (empty: none), the same for every planner.
   TrajectoryEvaluation evaluation;
   std::string message;  ///< why, for statuses other than exact
@@ -112,11 +116,14 @@ struct PlannerContext {
 
 /// The planner contract. A planner is configured from its parameters (by its factory), set
 /// up once per world, then asked to plan queries. plan() is the same for every planner: it
-/// rejects invalid starts and goals, times the planner's own work, and runs the independent
-/// checker on what it returns; a plugin implements the protected steps.
+/// rejects invalid starts and goals, times the planner's own work, runs its back end (the
+/// `back_end` parameter of motionParameters(); kinolab/planner/back_end.hpp) on the front
+/// end's answer, and runs the independent checker on what comes out; a plugin implements the
+/// protected steps (the front end).
 class Planner {
  public:
-  virtual ~Planner() = default;
+  Planner();
+  virtual ~Planner();
 
   void setup(const PlannerContext& context);
   /// Plans one query within `budget`. With `tree`, the planner's search tree is written there,
@@ -135,8 +142,12 @@ class Planner {
   /// What the planner's `cost` measures, as text: two planners' costs mean the same only
   /// when their objectives are equal (eager and lazy MP-A* at equal weights). A planner that
   /// does not say (costObjective() empty) has its type and every parameter as its objective:
-  /// its cost compares only with its own configuration's.
+  /// its cost compares only with its own configuration's. After a back end (other than
+  /// `none`) the cost is the trajectory's length, whatever the front end: "trajectory length".
   std::string objective() const;
+  /// The key of its back end ("none" keeps the front end's trajectory); "" for a planner
+  /// without the `back_end` parameter.
+  const std::string& backEnd() const { return back_end_key_; }
 
   bool isSetup() const { return world_ != nullptr; }
   const World& world() const;
@@ -178,6 +189,13 @@ class Planner {
   /// The result of a query the planner must refuse (a start or goal outside the map or in
   /// collision, a start beyond the limits), or none.
   std::optional<PlanResult> refusal(const PlanningQuery& query) const;
+  /// True when a back end other than `none` replaces the front end's trajectory.
+  bool refinesFrontEnd() const { return back_end_ && back_end_key_ != "none"; }
+  /// The front end's budget within the call's: the time less the back end's share.
+  Budget frontEndBudget(const Budget& budget) const;
+  /// Runs the back end on the front end's answer within `stop` (the whole call's budget):
+  /// its trajectory and length replace the front end's, or the status is back_end_failed.
+  void runBackEnd(const PlanningQuery& query, PlanResult& result, StopCondition& stop) const;
 
   std::shared_ptr<const World> world_;
   Body configured_body_;
@@ -189,15 +207,20 @@ class Planner {
   std::optional<MetricSpecs> declared_statistics_;
   /// The objective of a planner that does not declare one: its type and parameters.
   std::string configuration_;
+  std::unique_ptr<BackEnd> back_end_;  ///< the chosen back end (none without the parameter)
+  std::string back_end_key_;
 };
 
 template <>
 PluginRegistry<Planner>& pluginRegistry<Planner>();
 
 /// The motion parameters most planners share, declared once: `robot_radius`,
-/// `collision_tolerance`, `max_velocity`, `max_acceleration` (per axis), `goal_radius` and
-/// `time_limit` (with the planner's own default). Include them with ParameterSpecs::include().
-ParameterSpecs motionParameters(double default_time_limit);
+/// `collision_tolerance`, `max_velocity`, `max_acceleration` (per axis), `goal_radius`,
+/// `time_limit` (with the planner's own default) and `back_end` (the back end run after the
+/// planner, `none` by default; its parameters `back_end.NAME`). Include them with
+/// ParameterSpecs::include().
+ParameterSpecs motionParameters(double default_time_limit,
+                                const std::string& default_back_end = "none");
 /// The velocity and acceleration limits and goal region of motionParameters().
 PlannerLimits plannerLimitsFrom(const ParameterSet& parameters);
 /// The body a planner's parameters declare: `robot_radius` (0, a point, when it has none),
@@ -209,8 +232,8 @@ CheckerSettings checkerSettings(const Body& body, const PlannerLimits& limits);
 /// The `time_limit` of motionParameters() as a budget (0: none).
 Budget timeBudgetFrom(const ParameterSet& parameters);
 
-/// Every statistic a registered planner may report: its registration's and
-/// commonStatistics().
+/// Every statistic a registered planner may report: its registration's, commonStatistics(),
+/// and, when it has the `back_end` parameter, every registered back end's.
 MetricSpecs declaredStatistics(const PluginInfo& planner);
 
 /// A planner created from its registered key and assignments (every one validated before

@@ -3,7 +3,6 @@
 #include <ceres/ceres.h>
 
 #include <algorithm>
-#include <chrono>
 #include <cmath>
 #include <optional>
 #include <tuple>
@@ -202,9 +201,8 @@ BsplineSmoother::BsplineSmoother(std::shared_ptr<const World> world,
                                  const SmootherSettings& settings)
     : world_(world), settings_(settings), checker_(world, clearanceCheck(settings)) {
   // The obstacle cost reads the trilinear distance and its gradient out to the band's edge.
-  world_->requireExactDistancesTo(
-      world_->obstacleCostReach(settings_.body.costReach()),
-      "bspline smoother (obstacle cost)");
+  world_->requireExactDistancesTo(world_->obstacleCostReach(settings_.body.costReach()),
+                                  "bspline smoother (obstacle cost)");
 }
 
 void BsplineSmoother::addCosts(ceres::Problem& problem, Eigen::Matrix3Xd& control, double interval,
@@ -326,7 +324,6 @@ bool BsplineSmoother::reallocateTime(const ChainState& start, Eigen::Matrix3Xd& 
 SmootherResult BsplineSmoother::smooth(const ChainState& start,
                                        const std::vector<Eigen::Vector3d>& path,
                                        StopCondition& stop) const {
-  const auto begin = std::chrono::steady_clock::now();
   SmootherResult result;
   // The profile starts at the start's speed along the path's first leg (none backwards).
   const Eigen::Vector3d lead =
@@ -393,10 +390,7 @@ SmootherResult BsplineSmoother::smooth(const ChainState& start,
                        {"ceres_final_cost", tally.final_cost},
                        {"time_reallocations", tally.reallocations},
                        {"control_points", tally.control_points},
-                       {"knot_interval", tally.knot_interval},
-                       {"time_smooth_ms", std::chrono::duration<double, std::milli>(
-                                              std::chrono::steady_clock::now() - begin)
-                                              .count()}};
+                       {"knot_interval", tally.knot_interval}};
   return result;
 }
 
@@ -408,8 +402,7 @@ MetricSpecs smootherStatistics() {
       .real("ceres_final_cost", "", "objective after the last solve")
       .counter("time_reallocations", "time re-allocations until the limits hold")
       .counter("control_points", "B-spline control points")
-      .real("knot_interval", "s", "B-spline knot interval")
-      .clock("time_smooth_ms", "Ceres smoothing (back end) time");
+      .real("knot_interval", "s", "B-spline knot interval");
 }
 
 std::string ceresVersion() { return CERES_VERSION_STRING; }

@@ -25,7 +25,7 @@ namespace kinolab::smoothing {
 struct SmootherSettings {
   double knot_spacing = 0.5;   ///< control points along the path this far apart at first, m
   double initial_speed = 0.7;  ///< first time allocation: this fraction of the speed limit
-  /// The planner's body (set at its setup); its safety band is the smoother's own
+  /// The planner's body (set at the back end's setup); its safety band is the smoother's own
   /// `safety_distance`: the obstacle penalty acts below the radius and this, m.
   Body body{MotionDefaults::kRobotRadius, MotionDefaults::kCollisionTolerance, 0.25};
   DynamicLimits limits = DynamicLimits::uniform(2.0, 3.0);
@@ -38,8 +38,8 @@ struct SmootherSettings {
   int max_rounds = 4;                ///< re-solves after a collision (denser, heavier)
   double budget_share = 0.25;  ///< of a time budget kept for smoothing (the path gets the rest)
 
-  /// Its parameters (core/fields.hpp); the body's radius and tolerance and the limits are the
-  /// planner's.
+  /// Its parameters (core/fields.hpp), set as `back_end.NAME`; the body's radius and tolerance
+  /// and the limits are the planner's.
   template <typename Fields>
   void fields(Fields& f) {
     f.real("knot_spacing", knot_spacing, 0.02, 10.0, "B-spline control points along the path, m");
@@ -112,8 +112,8 @@ class BsplineSmoother {
   TrajectoryChecker checker_;
 };
 
-/// The statistics smooth() reports (SmootherResult::statistics), for a planner's declaration;
-/// the planner adds `smoothing_valid` itself.
+/// The statistics smooth() reports (SmootherResult::statistics), for the back end's
+/// registration.
 MetricSpecs smootherStatistics();
 
 /// The Ceres release this plugin was built against, for provenance.
