@@ -8,6 +8,7 @@
 
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <set>
 #include <utility>
 #include <vector>
@@ -330,6 +331,29 @@ TEST_F(ExperimentTest, MergeRefusesMixedRepeatedIncompleteAndOldShards) {
   EXPECT_EQ(ResultsStore(partial).meta("shard"), "partial");
   EXPECT_EQ(ResultsStore(partial).meta("merged_from"), "1 of 2 shards; missing 2/2");
   EXPECT_EQ(ResultsStore(out).meta("merged_from"), "2 of 2 shards");
+}
+
+TEST(DirectoryLock, ALockFileThatIsALinkIsRefusedAndWhatItNamesIsUntouched) {
+  const fs::path directory =
+      fs::temp_directory_path() / ("kinolab_lock_link_" + std::to_string(getpid()));
+  fs::remove_all(directory);
+  fs::create_directories(directory / "out");
+  const fs::path victim = directory / "victim.txt";
+  std::ofstream(victim) << "precious";
+  fs::create_symlink(victim, directory / "out" / ".kinolab.lock");
+  try {
+    const DirectoryLock lock((directory / "out").string(), "a test");
+    ADD_FAILURE() << "a linked lock file was accepted";
+  } catch (const FileError& error) {
+    EXPECT_NE(std::string(error.what()).find("symbolic link"), std::string::npos) << error.what();
+  }
+  std::ifstream in(victim);
+  const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  EXPECT_EQ(text, "precious");
+  fs::remove(directory / "out" / ".kinolab.lock");
+  fs::create_directory(directory / "out" / ".kinolab.lock");  // nor a directory
+  EXPECT_THROW(DirectoryLock((directory / "out").string(), "a test"), FileError);
+  fs::remove_all(directory);
 }
 
 TEST(QuerySampler, PairsAreFreeInTheRegionAtTheirDistancesAndImpossibleOnesAreRefused) {

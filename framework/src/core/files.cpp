@@ -3,6 +3,7 @@
 #include <dlfcn.h>
 #include <fcntl.h>
 #include <sys/file.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <cerrno>
@@ -73,9 +74,21 @@ DirectoryLock::DirectoryLock(const std::string& directory, const std::string& pu
     throw FileError(directory + ": cannot create the directory (" + error.message() + ")");
   }
   const std::string path = (std::filesystem::path(directory) / ".kinolab.lock").string();
-  fd_ = open(path.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
+  // Never through a link: a planted .kinolab.lock pointing elsewhere would have the lock's
+  // text written into whatever it names.
+  fd_ = open(path.c_str(), O_RDWR | O_CREAT | O_CLOEXEC | O_NOFOLLOW, 0644);
+  if (fd_ < 0 && errno == ELOOP) {
+    throw FileError(path +
+                    ": the lock file is a symbolic link; kinolab does not write through "
+                    "links: remove it, or choose another directory");
+  }
   if (fd_ < 0) {
     throw FileError(path + ": cannot open the lock file (" + std::strerror(errno) + ")");
+  }
+  struct stat status {};
+  if (fstat(fd_, &status) != 0 || !S_ISREG(status.st_mode)) {
+    close(fd_);
+    throw FileError(path + ": the lock file is not a regular file: remove it");
   }
   if (flock(fd_, LOCK_EX | LOCK_NB) != 0) {
     const int reason = errno;
