@@ -1,6 +1,7 @@
 // The `kinolab` command: one binary, one subcommand per job.
 #include <filesystem>
 #include <iostream>
+#include <new>
 #include <string>
 #include <vector>
 
@@ -8,6 +9,7 @@
 #include "kinolab/builtin_plugins.hpp"
 #include "kinolab/core/error.hpp"
 #include "kinolab/core/plugin.hpp"
+#include "kinolab/core/process.hpp"
 #include "kinolab/core/text.hpp"
 #include "kinolab/core/version.hpp"
 
@@ -90,6 +92,16 @@ int main(int argc, char** argv) {
   } catch (const std::filesystem::filesystem_error& error) {
     // A path the system refuses (too long, through a file, not permitted): the user's input.
     std::cerr << "kinolab: error: " << error.what() << '\n';
+    return 1;
+  } catch (const std::bad_alloc&) {
+    // Sizes from input are checked before they are allocated; what is left is a plan or a
+    // build larger than this process may use.
+    const std::string doing = kinolab::Activity::current();
+    std::cerr << "kinolab: error: out of memory" << (doing.empty() ? "" : " while " + doing)
+              << ": this process may use "
+              << kinolab::formatNumber(kinolab::processMemoryLimit() / (1 << 30))
+              << " GiB (the least of the machine's memory, ulimit -v and its control group's "
+                 "limit)\n";
     return 1;
   } catch (const std::exception& error) {
     std::cerr << "kinolab: unexpected error: " << error.what() << '\n';

@@ -64,3 +64,24 @@ def test_a_directory_where_the_cache_file_should_be_costs_a_rebuild(kinolab, tmp
     again = kinolab("world", WORLD)
     assert again.returncode == 0, again.stderr
     assert "not a regular file" in again.stdout + again.stderr
+
+
+def test_a_world_larger_than_the_process_may_use_is_refused_before_it_is_built(tmp_path):
+    """The up-front size check reads the process's limit (ulimit -v here; a Slurm job's or a
+    container's control group likewise), not the machine's memory."""
+    import resource
+    from conftest import BINARY
+    spec = tmp_path / "big.yaml"
+    spec.write_text("name: big\nseed: 1\nresolution: 0.05\n"
+                    "bounds: {min: [0, 0, 0], max: [100, 100, 5]}\ngenerators: [{type: empty}]\n")
+    limit = 3 * 1024 ** 3  # 3 GiB of address space; the world needs about 6 to build
+
+    def limited():
+        resource.setrlimit(resource.RLIMIT_AS, (limit, limit))
+
+    result = subprocess.run([BINARY, "world", str(spec), "--out", str(tmp_path / "out")],
+                            capture_output=True, text=True, preexec_fn=limited, timeout=120)
+    assert result.returncode == 1, result.stdout + result.stderr
+    assert "this process may use 3 GiB" in result.stderr, result.stderr
+    assert "resolution" in result.stderr and "big.yaml:3" in result.stderr
+    assert not (tmp_path / "out").exists() or not any((tmp_path / "out").iterdir())

@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "kinolab/core/error.hpp"
+#include "kinolab/core/process.hpp"
 
 namespace kinolab {
 namespace {
@@ -173,6 +174,26 @@ TEST(ProcessPool, KillAllLeavesNothingRunning) {
   pool.killAll();
   EXPECT_TRUE(pool.empty());
   EXPECT_TRUE(pool.poll(0).empty());
+}
+
+}  // namespace
+}  // namespace kinolab
+
+namespace kinolab {
+namespace {
+
+TEST(Activity, TheInnermostLivingActivityNamesWhatRanOutOfMemory) {
+  EXPECT_EQ(Activity::current(), "");
+  {
+    const Activity outer("building the world 'a'");
+    {
+      const Activity inner("planning with planner 'b'");
+      EXPECT_EQ(Activity::current(), "planning with planner 'b'");
+    }
+    EXPECT_EQ(Activity::current(), "building the world 'a'");
+  }
+  EXPECT_EQ(Activity::current(), "");
+  EXPECT_GT(processMemoryLimit(), 0.0);
 }
 
 }  // namespace

@@ -2,10 +2,14 @@
 
 #include <poll.h>
 #include <signal.h>
+#include <sys/resource.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
+#include <fstream>
+#include <limits>
 
 #include "kinolab/core/error.hpp"
 
@@ -64,5 +68,53 @@ CommandOutput runCommand(const std::vector<std::string>& arguments, int timeout_
   }
   return result;
 }
+
+namespace {
+
+/// A control group's memory limit from a file holding bytes or "max"; infinity when there is
+/// none or it cannot be read.
+double cgroupLimit(const std::string& path) {
+  std::ifstream in(path);
+  std::string text;
+  if (!(in >> text) || text == "max") return std::numeric_limits<double>::infinity();
+  try {
+    const double bytes = std::stod(text);
+    // cgroup v1 writes "no limit" as a page-rounded 2^63.
+    return bytes > 0.0 && bytes < 1e18 ? bytes : std::numeric_limits<double>::infinity();
+  } catch (const std::exception&) {
+    return std::numeric_limits<double>::infinity();
+  }
+}
+
+/// This process's control group (v2: "0::/path" in /proc/self/cgroup), "" when unknown.
+std::string ownCgroup() {
+  std::ifstream in("/proc/self/cgroup");
+  for (std::string line; std::getline(in, line);) {
+    if (line.rfind("0::", 0) == 0) return line.substr(3);
+  }
+  return "";
+}
+
+thread_local std::vector<std::string> activities;
+
+}  // namespace
+
+double processMemoryLimit() {
+  double limit = static_cast<double>(sysconf(_SC_PHYS_PAGES)) * sysconf(_SC_PAGESIZE);
+  if (!(limit > 0.0)) limit = std::numeric_limits<double>::infinity();
+  rlimit address_space{};
+  if (getrlimit(RLIMIT_AS, &address_space) == 0 && address_space.rlim_cur != RLIM_INFINITY) {
+    limit = std::min(limit, static_cast<double>(address_space.rlim_cur));
+  }
+  limit = std::min(limit, cgroupLimit("/sys/fs/cgroup" + ownCgroup() + "/memory.max"));
+  limit = std::min(limit, cgroupLimit("/sys/fs/cgroup/memory/memory.limit_in_bytes"));
+  return limit;
+}
+
+Activity::Activity(std::string what) { activities.push_back(std::move(what)); }
+
+Activity::~Activity() { activities.pop_back(); }
+
+std::string Activity::current() { return activities.empty() ? "" : activities.back(); }
 
 }  // namespace kinolab

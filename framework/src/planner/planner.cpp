@@ -5,6 +5,7 @@
 #include <cmath>
 
 #include "kinolab/core/error.hpp"
+#include "kinolab/core/process.hpp"
 #include "kinolab/core/text.hpp"
 #include "kinolab/planner/back_end.hpp"
 
@@ -196,6 +197,7 @@ void Planner::runBackEnd(const PlanningQuery& query, PlanResult& result,
 
 PlanResult Planner::plan(const PlanningQuery& query, const Budget& budget, SearchTree* tree) {
   if (std::optional<PlanResult> refused = refusal(query)) return *std::move(refused);
+  const Activity planning("planning with " + pluginName());
   const PlannerLimits own = limits();
   const Eigen::Vector3d start = query.start.col(0);
   PlanResult result;

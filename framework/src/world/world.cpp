@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include "kinolab/core/error.hpp"
+#include "kinolab/core/process.hpp"
 #include "kinolab/core/text.hpp"
 #include "kinolab/world/world_spec.hpp"
 
@@ -47,6 +48,7 @@ VoxelGrid World::buildGrid(const WorldSpec& spec) {
 }
 
 std::shared_ptr<const World> World::build(const WorldSpec& spec) {
+  const Activity building("building the world '" + spec.name + "'");
   VoxelGrid grid = buildGrid(spec);
   Esdf esdf =
       spec.layout == GridLayout::kBricked ? Esdf::truncated(grid, spec.truncation) : Esdf(grid);

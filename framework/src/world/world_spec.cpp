@@ -1,7 +1,5 @@
 #include "kinolab/world/world_spec.hpp"
 
-#include <unistd.h>
-
 #include <cmath>
 #include <filesystem>
 #include <sstream>
@@ -9,6 +7,7 @@
 #include "kinolab/core/error.hpp"
 #include "kinolab/core/hash.hpp"
 #include "kinolab/core/plugin.hpp"
+#include "kinolab/core/process.hpp"
 #include "kinolab/core/text.hpp"
 #include "kinolab/core/yaml_fields.hpp"
 #include "kinolab/core/yaml_reader.hpp"
@@ -107,7 +106,7 @@ void checkGridSize(const WorldSpec& spec, const YamlReader& node) {
   }
   const Eigen::Vector3d dims = (extent / spec.resolution).array().ceil();
   const double voxels = dims.prod();
-  const double memory = static_cast<double>(sysconf(_SC_PHYS_PAGES)) * sysconf(_SC_PAGESIZE);
+  const double memory = processMemoryLimit();
   if (spec.layout == GridLayout::kBricked) {
     // Per brick of 512 voxels: its occupancy state (4 bytes) and its distances' pointer (8);
     // the bricks near obstacles come on top (64 bytes of occupancy, 1 KiB of distances). A
@@ -123,7 +122,7 @@ void checkGridSize(const WorldSpec& spec, const YamlReader& node) {
     if (memory > 0.0 && voxels / 512.0 * 12.0 > 0.6 * memory) {
       node["resolution"].fail("the sparse world's brick tables alone need " +
                               formatNumber(std::ceil(voxels / 512.0 * 12.0 / (1 << 30))) +
-                              " GiB; this machine has " +
+                              " GiB; this process may use " +
                               formatNumber(std::floor(memory / (1 << 30))) + " GiB");
     }
     return;
@@ -144,13 +143,13 @@ void checkGridSize(const WorldSpec& spec, const YamlReader& node) {
   }
   // Building holds the occupancy (1 byte), the ESDF (4) and one squared-distance field (4) per
   // voxel at once, and writing or reading the cache file the world and its buffer (5 + 5):
-  // 14 bytes a voxel leaves room for the rest, and at most 60 % of the machine's memory for
+  // 14 bytes a voxel leaves room for the rest, and at most 60 % of the process's memory for
   // one world.
   const double bytes = voxels * 14.0;
   if (memory > 0.0 && bytes > 0.6 * memory) {
     node["resolution"].fail(
         formatNumber(voxels) + " voxels need about " + formatNumber(std::ceil(bytes / (1 << 30))) +
-        " GiB to build; this machine has " + formatNumber(std::floor(memory / (1 << 30))) +
+        " GiB to build; this process may use " + formatNumber(std::floor(memory / (1 << 30))) +
         " GiB: use a coarser resolution or a smaller world");
   }
 }

@@ -18,4 +18,21 @@ struct CommandOutput {
 /// server is down) and the status is 124, as coreutils' `timeout` reports it.
 CommandOutput runCommand(const std::vector<std::string>& arguments, int timeout_seconds = 0);
 
+/// The memory this process may use, in bytes: the least of the machine's memory, its
+/// address-space limit (`ulimit -v`) and its control group's limit (a container's, a Slurm
+/// job's). Sizes read from input are checked against it before anything is allocated.
+double processMemoryLimit();
+
+/// What the current thread is doing, for the message when memory runs out ("building the
+/// world 'city'"): an Activity names it while it lives, the innermost one wins.
+class Activity {
+ public:
+  explicit Activity(std::string what);
+  ~Activity();
+  Activity(const Activity&) = delete;
+  Activity& operator=(const Activity&) = delete;
+  /// The innermost living activity's words, or "" when none.
+  static std::string current();
+};
+
 }  // namespace kinolab
