@@ -94,6 +94,18 @@ TEST(YamlReaderTest, AliasesMayRepeatABlockButNotExpandWithoutBound) {
   EXPECT_NE(message.find("expands to more than 1000000 YAML nodes"), std::string::npos) << message;
 }
 
+TEST(YamlReaderTest, ALargeFileWithoutAliasesIsReadAndDeepNestingIsNamed) {
+  // 100,000 boxes written out (1.1 million nodes, no alias): the bound is on repetition.
+  std::string boxes = "boxes:\n";
+  for (int k = 0; k < 100000; ++k) boxes += "  - {min: [0, 0, 0], max: [1, 1, 1]}\n";
+  EXPECT_EQ(YamlReader::loadString(boxes, "boxes.yaml")["boxes"].items().size(), 100000u);
+  // Nesting deeper than the reader follows says so, where it happens.
+  const std::string deep = "a: " + std::string(5000, '[') + "1" + std::string(5000, ']') + "\n";
+  const std::string message = errorOf([&] { YamlReader::loadString(deep, "deep.yaml"); });
+  EXPECT_NE(message.find("deep.yaml:1:"), std::string::npos) << message;
+  EXPECT_NE(message.find("lists or mappings deep"), std::string::npos) << message;
+}
+
 TEST(YamlReaderTest, OnlyUtf8TextWithoutControlCharactersIsRead) {
   EXPECT_NE(errorOf([] {
               YamlReader::loadString(std::string("name: a\0b\n", 10), "n.yaml");

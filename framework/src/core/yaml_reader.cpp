@@ -1,10 +1,13 @@
 #include "kinolab/core/yaml_reader.hpp"
 
+#include <yaml-cpp/depthguard.h>
+
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <set>
 #include <sstream>
 
 #include "kinolab/core/files.hpp"
@@ -30,31 +33,44 @@ YamlReader::YamlReader(YAML::Node node, std::shared_ptr<const std::string> sourc
 
 namespace {
 
-/// At most this many nodes in a file, every alias expanded: aliases may share a block
+/// At most this many nodes repeated through aliases: aliases may share a block
 /// (experiments/mpl_benchmark.yaml does), but nested ones ("billion laughs") would make every
-/// reader of the file walk an exponential tree.
+/// reader of the file walk an exponential tree. Nodes written out in the file cost nothing
+/// (a file's own size bounds them).
 constexpr std::size_t kMaxExpandedNodes = 1000000;
+
+/// The walk of checkKeys(): the alias budget and the nodes met so far (by their place in the
+/// text: an alias's expansion is the anchored node again, at the anchor's place).
+struct KeyWalk {
+  std::string source;
+  std::size_t budget = kMaxExpandedNodes;
+  std::set<int> seen;
+  int repeating = 0;  ///< > 0 inside a node met before: every node there is an expansion
+};
 
 /// Every mapping key is a plain value, and no mapping has the same key twice (an error at
 /// the second one: YAML readers disagree on which value wins, yaml-cpp the first, PyYAML
-/// the last); the file expands to at most kMaxExpandedNodes nodes (`budget` counts down).
-void checkKeys(const YAML::Node& node, const std::string& source, std::size_t& budget) {
-  if (budget-- == 0) {
+/// the last); aliases repeat at most kMaxExpandedNodes nodes (`walk.budget` counts down).
+void checkKeys(const YAML::Node& node, KeyWalk& walk) {
+  const int position = node.Mark().pos;
+  const bool again = position >= 0 && !walk.seen.insert(position).second;
+  walk.repeating += again ? 1 : 0;
+  if (walk.repeating > 0 && walk.budget-- == 0) {
     const YAML::Mark mark = node.Mark();
-    throw ConfigError(source + ":" + std::to_string(mark.line + 1) + ":" +
+    throw ConfigError(walk.source + ":" + std::to_string(mark.line + 1) + ":" +
                       std::to_string(mark.column + 1) + ": the file expands to more than " +
                       std::to_string(kMaxExpandedNodes) +
                       " YAML nodes through its aliases (*name): expected aliases that are not "
                       "nested in what they repeat; write the repeated parts out");
   }
   if (node.IsSequence()) {
-    for (const YAML::Node& item : node) checkKeys(item, source, budget);
+    for (const YAML::Node& item : node) checkKeys(item, walk);
   } else if (node.IsMap()) {
     std::map<std::string, YAML::Mark> seen;
     for (const auto& entry : node) {
       const YAML::Mark mark = entry.first.Mark();
       const std::string at =
-          source + ":" + std::to_string(mark.line + 1) + ":" + std::to_string(mark.column + 1);
+          walk.source + ":" + std::to_string(mark.line + 1) + ":" + std::to_string(mark.column + 1);
       if (!entry.first.IsScalar()) {
         throw ConfigError(at + ": a mapping key must be a plain value, not a list or mapping");
       }
@@ -63,9 +79,10 @@ void checkKeys(const YAML::Node& node, const std::string& source, std::size_t& b
         throw ConfigError(at + ": duplicate key '" + entry.first.Scalar() + "' (first at line " +
                           std::to_string(found->second.line + 1) + ")");
       }
-      checkKeys(entry.second, source, budget);
+      checkKeys(entry.second, walk);
     }
   }
+  walk.repeating -= again ? 1 : 0;
 }
 
 }  // namespace
@@ -115,12 +132,19 @@ YamlReader YamlReader::loadString(const std::string& text, const std::string& so
   YAML::Node root;
   try {
     root = YAML::Load(text);
+  } catch (const YAML::DeepRecursion& error) {
+    throw ConfigError(source + ":" + std::to_string(error.mark.line + 1) + ":" +
+                      std::to_string(error.mark.column + 1) + ": the YAML nests more than " +
+                      std::to_string(error.depth() - 1) +
+                      " lists or mappings deep, more than the reader follows: expected a "
+                      "flatter file");
   } catch (const YAML::ParserException& error) {
     throw ConfigError(source + ":" + std::to_string(error.mark.line + 1) + ":" +
                       std::to_string(error.mark.column + 1) + ": malformed YAML: " + error.msg);
   }
-  std::size_t budget = kMaxExpandedNodes;
-  checkKeys(root, source, budget);
+  KeyWalk walk;
+  walk.source = source;
+  checkKeys(root, walk);
   return YamlReader(root, std::make_shared<const std::string>(source), "");
 }
 
