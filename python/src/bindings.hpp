@@ -8,6 +8,7 @@
 #include <pybind11/stl.h>
 
 #include <memory>
+#include <mutex>
 #include <string>
 
 #include "kinolab/core/parameters.hpp"
@@ -30,6 +31,9 @@ struct PyWorld {
 struct PyPlanner {
   ConfiguredPlanner configured;
   std::shared_ptr<const World> world;
+  /// Held (with the GIL released) by setup, reset and plan: a Planner shared by threads
+  /// serves one call at a time, never two on the same search state.
+  std::unique_ptr<std::mutex> busy = std::make_unique<std::mutex>();
 };
 
 /// Three finite numbers (a point or a vector), named `name` in errors.

@@ -1,6 +1,8 @@
 // kinolab._core's planners and their results: configuring and setting up a planner, planning
 // (the GIL released), a result's status, metrics, trajectory and search tree as Python and
 // NumPy objects, and a 3D scene of results for the viewer.
+#include <cmath>
+#include <mutex>
 #include <string>
 #include <vector>
 
@@ -54,6 +56,7 @@ PyResult plan(PyPlanner& self, const py::object& start, const py::object& goal,
   out.planner = self.configured.info;
   {
     py::gil_scoped_release release;
+    const std::lock_guard lock(*self.busy);
     out.result = self.configured.planner->plan(query, Budget{time_limit, max_iterations},
                                                tree ? &out.tree : nullptr);
   }
@@ -62,7 +65,9 @@ PyResult plan(PyPlanner& self, const py::object& start, const py::object& goal,
 }
 
 py::dict trajectorySamples(const Trajectory& trajectory, double step) {
-  if (!(step > 0.0)) throw InvalidArgument("step: expected a positive number of seconds");
+  if (!(step > 0.0 && std::isfinite(step))) {
+    throw InvalidArgument("step: expected a finite positive number of seconds");
+  }
   if (trajectory.duration() / step > 1e7) {
     throw InvalidArgument("step: more than 10,000,000 samples; use a larger step");
   }
@@ -174,10 +179,18 @@ void bindPlanner(py::module_& m) {
                              })
       .def("setup",
            [](PyPlanner& p, const PyWorld& world, std::uint64_t seed) {
-             p.configured.planner->setup({world.world, seed});
-             p.world = world.world;
+             const std::shared_ptr<const World> map = world.world;
+             py::gil_scoped_release release;
+             const std::lock_guard lock(*p.busy);
+             p.configured.planner->setup({map, seed});
+             p.world = map;
            })
-      .def("reset", [](PyPlanner& p) { p.configured.planner->reset(); })
+      .def("reset",
+           [](PyPlanner& p) {
+             py::gil_scoped_release release;
+             const std::lock_guard lock(*p.busy);
+             p.configured.planner->reset();
+           })
       .def("plan", &plan);
 
   py::class_<ParameterAssignment>(m, "Assignment")

@@ -1,6 +1,7 @@
 // kinolab._core's worlds: built or loaded from the cache, their grid and ESDF as read-only
 // NumPy views, and distance queries over NumPy arrays (the GIL released).
 #include <chrono>
+#include <cmath>
 #include <span>
 #include <vector>
 
@@ -48,6 +49,12 @@ py::array_t<double, py::array::c_style | py::array::forcecast> points3(const py:
   if (!array ||
       !((array.ndim() == 2 && array.shape(1) == 3) || (array.ndim() == 1 && array.shape(0) == 3))) {
     throw InvalidArgument("points: expected an array of shape (n, 3) or (3,) (metres)");
+  }
+  const double* values = array.data();
+  for (py::ssize_t i = 0; i < array.size(); ++i) {
+    if (!std::isfinite(values[i])) {
+      throw InvalidArgument("points: row " + std::to_string(i / 3) + " is not finite");
+    }
   }
   return array;
 }

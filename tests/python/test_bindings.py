@@ -58,8 +58,11 @@ def test_a_spec_dict_builds_the_same_world_as_its_file_and_the_cache_serves_it_a
 
 
 def test_nan_and_negative_inputs_never_give_a_distance_or_a_verdict(forest):
-    distances = forest.distance(np.array([[1.0, math.nan, 1.0], [1.0, 1.0, math.inf]]))
-    assert np.isnan(distances).all()
+    for query in (forest.distance, forest.distance_with_gradient):
+        with pytest.raises(kinolab.InvalidArgument, match="row 1 is not finite"):
+            query(np.array([[1.0, 1.0, 1.0], [1.0, math.nan, 1.0]]))
+        with pytest.raises(kinolab.InvalidArgument, match="row 0 is not finite"):
+            query(np.array([1.0, 1.0, math.inf]))
     for radius in (math.nan, -1.0, math.inf):
         with pytest.raises(kinolab.InvalidArgument, match="radius"):
             forest.segment_free((1, 1, 1), (8, 8, 1), radius)
@@ -236,6 +239,34 @@ def test_planning_releases_the_gil(forest):
     assert window["result"].planning_time_ms > 300  # the plan took long enough to tell
     inside = [t for t in ticks if window["begin"] + 0.05 < t < window["end"] - 0.05]
     assert len(inside) > 50  # with the GIL held there would be none
+
+
+def test_one_planner_shared_by_threads_serves_one_call_at_a_time(forest):
+    """Two threads planning with the same Planner object neither hang nor race: each call
+    gets the cost the planner gives alone (before: the interpreter hung)."""
+    planner = kinolab.Planner("lazy_mp_astar", forest)
+    reference = planner.plan(START, GOAL).cost
+    costs = []
+
+    def plan_several():
+        for _ in range(5):
+            costs.append(planner.plan(START, GOAL).cost)
+            planner.reset()
+
+    threads = [threading.Thread(target=plan_several) for _ in range(2)]
+    for thread in threads:
+        thread.start()
+    for thread in threads:
+        thread.join(timeout=120)
+    assert not any(thread.is_alive() for thread in threads)
+    assert costs == [reference] * 10
+
+
+def test_a_trajectory_is_sampled_only_at_a_finite_step(forest):
+    result = kinolab.Planner("lazy_mp_astar", forest).plan(START, GOAL)
+    for step in (math.inf, math.nan, 0.0):
+        with pytest.raises(kinolab.InvalidArgument, match="step"):
+            result.trajectory(step=step)
 
 
 def test_two_threads_plan_at_once_and_agree_with_one(forest):
