@@ -48,6 +48,22 @@ def test_fly_refuses_bad_input_naming_it(kinolab, world):
     assert blocked.returncode == 0 and last_json(blocked)["status"] == "invalid_start"
 
 
+def test_in_range_flight_settings_end_as_a_status_or_a_refusal_naming_the_setting(kinolab, world):
+    """A margin that leaves nothing of the map to plan in is refused naming it; wind that
+    blows the vehicle off the map ends the flight as left_map (before: an abort on the
+    planning window's box)."""
+    base = ["fly", "--world", world, "--planner", "lazy_mp_astar", "--start", "1,1,1.5",
+            "--goal", "8.5,8,1.5"]
+    margin = kinolab(*base, "--flight", "planning_margin=10")
+    assert margin.returncode == 1, margin.stdout
+    assert "planning_margin 10 m" in margin.stderr and "1.5 m" in margin.stderr, margin.stderr
+    windy = kinolab(*base, "--flight", "wind_sigma=100", "--flight", "timing=deterministic")
+    assert windy.returncode == 0, windy.stderr
+    summary = last_json(windy)
+    assert summary["status"] == "left_map" and summary["success"] is False, summary
+    assert "left the map" in summary["message"]
+
+
 @pytest.mark.skipif(not os.environ.get("KINOLAB_MISBEHAVING"),
                     reason="needs the test plugin library (CTest)")
 def test_a_replan_is_timed_on_the_cpu_unless_the_wall_clock_is_asked_for(kinolab, world,

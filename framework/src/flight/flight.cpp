@@ -8,6 +8,7 @@
 #include <unordered_map>
 
 #include "flight_motion.hpp"
+#include "kinolab/core/error.hpp"
 #include "kinolab/core/fields.hpp"
 #include "kinolab/core/random.hpp"
 #include "kinolab/core/text.hpp"
@@ -92,7 +93,13 @@ class FlightLoop {
     if (tracker_) tracker_->advance(committed_, t_);
     const Trajectory& path = flownPath();
     for (double s = from; frame > 0 && s <= t_; s += 0.01) {
-      if (checker_.collides(path.evaluate(std::min(s, path.duration())))) {
+      const Eigen::Vector3d position = path.evaluate(std::min(s, path.duration()));
+      if (!truth_->bounds().contains(position)) {  // blown or flown off the map: no world there
+        t_ = s;
+        left_map_ = position;
+        return false;
+      }
+      if (checker_.collides(position)) {
         t_ = s;
         collided_ = true;
         return false;
@@ -498,18 +505,24 @@ class FlightLoop {
                        [](const auto& a, const auto& b) { return a.first < b.first; });
     }
     if (collided_) result_.status = "collision";
+    if (left_map_) {
+      result_.status = "left_map";
+      result_.message = "the vehicle left the map at " + formatPoint(*left_map_) +
+                        ", t = " + formatNumber(t_) + " s (the tracking error: wind, a late plan)";
+    }
     CheckQuery check_query;
     check_query.start = query_.start;
     check_query.goal = query_.goal;
     check_query.require_goal = false;
     const CheckResult check = checker_.check(result_.flown, check_query);
-    if (!check.valid && check.check == "collision") {
+    // A vehicle that left the map: said above (the checker's bounds finding is the same fact).
+    if (!left_map_ && !check.valid && check.check == "collision") {
       result_.status = "collision";
       result_.message =
           "the flown trajectory hits the ground truth at t = " + std::to_string(check.time) +
           " s: " + check.detail;
       result_.flown = slice(result_.flown, check.time);
-    } else if (!check.valid) {
+    } else if (!left_map_ && !check.valid) {
       result_.message = "the checker: " + check.check + ": " + check.detail;
     }
     result_.evaluation = checker_.evaluate(result_.flown);
@@ -547,6 +560,7 @@ class FlightLoop {
   double best_time_ = 0.0;
   std::string reason_ = "start";
   bool collided_ = false;
+  std::optional<Eigen::Vector3d> left_map_;  ///< where the vehicle left the map, if it did
   // This frame's verdict: the committed trajectory is clear of the window's known obstacles
   // for the planning margin (freeFrom; a replan on collision when not).
   bool committed_free_ = true;
@@ -564,6 +578,16 @@ class FlightLoop {
 
 FlightResult fly(const std::shared_ptr<const World>& truth, Planner& planner, std::uint64_t seed,
                  const PlanningQuery& query, const FlightSetup& setup) {
+  // Plans keep planning_margin inside the map's box on every side: a margin of half the
+  // box's thinnest side leaves nothing to plan in.
+  const Eigen::Vector3d extent = truth->bounds().max - truth->bounds().min;
+  if (2.0 * setup.settings.planning_margin >= extent.minCoeff()) {
+    throw ConfigError("flight planning_margin " + formatNumber(setup.settings.planning_margin) +
+                      " m: plans keep it inside the map's box on every side, and world '" +
+                      truth->name() + "' is " + formatPoint(extent) +
+                      " m: expected less than half its thinnest side, " +
+                      formatNumber(0.5 * extent.minCoeff()) + " m");
+  }
   return FlightLoop(truth, planner, seed, query, setup).run();
 }
 

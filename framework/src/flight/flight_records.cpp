@@ -79,7 +79,8 @@ const MetricList<FlightResult>& flightRunMetrics() {
   static const MetricList<F> list =
       MetricList<F>()
           .add(MetricSpecs().text("status",
-                                  "reached, collision (with the ground truth), stuck, timeout, "
+                                  "reached, collision (with the ground truth), left_map (the "
+                                  "vehicle left the world's box), stuck, timeout, "
                                   "invalid_start, invalid_goal"),
                [](const F& f) -> MetricValue { return f.status; })
           .add(MetricSpecs().text("message", "why, for statuses other than reached"),
