@@ -226,6 +226,10 @@ void setUpPropagation(ControlProblem& p) {
   const double step = p.settings.step;
   const double margin = 0.5 * std::sqrt(3.0) * p.limits.limits.bound[1].maxCoeff() * step;
   const double velocity_slack = order == 3 ? p.settings.max_jerk * step * step / 8.0 : 0.0;
+  // A sparse world's truncated distances would read as the clearance: refused at setup.
+  p.world->requireExactDistancesTo(p.body.radius + margin,
+                                   "ompl_control (its states keep the robot radius plus half a "
+                                   "propagation step's travel clear)");
   // The same margin inside the map's box keeps the motion inside it.
   const Box& box = p.world->bounds();
   const Eigen::Vector3d low = box.min.array() + margin;

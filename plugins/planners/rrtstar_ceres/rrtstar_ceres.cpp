@@ -115,6 +115,10 @@ class RrtStarPlanner final : public Planner {
     FrontEndSettings settings = front_end_settings_;
     settings.clearance = body().radius + checks_.clearance_margin;
     settings.motion_resolution = checks_.motion_resolution * context.world->esdf().resolution();
+    // A sparse world's truncated distances would read as the clearance: refused at setup.
+    context.world->requireExactDistancesTo(
+        settings.clearance,
+        "the OMPL front end (its states keep robot_radius + clearance_margin clear)");
     front_end_ = std::make_unique<RrtFrontEnd>(context.world, settings);
     clearance_ = settings.clearance;
     seed_ = context.seed;

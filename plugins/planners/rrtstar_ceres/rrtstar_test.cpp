@@ -4,8 +4,11 @@
 
 #include <cstdio>
 
+#include "kinolab/core/error.hpp"
 #include "kinolab/core/random.hpp"
+#include "kinolab/core/yaml_reader.hpp"
 #include "kinolab/planner/planner.hpp"
+#include "kinolab/world/world_spec.hpp"
 #include "support/planning.hpp"
 
 namespace kinolab {
@@ -337,6 +340,34 @@ TEST(OmplControl, SstRefinesAnytimeAndRepeatsBitForBit) {
   EXPECT_EQ(a.trajectory.duration(), b.trajectory.duration());
   for (std::size_t i = 1; i < a.progress.size(); ++i) {
     EXPECT_LT(a.progress[i].value, a.progress[i - 1].value);
+  }
+}
+
+}  // namespace
+}  // namespace kinolab
+
+namespace kinolab {
+namespace {
+
+TEST(OmplPlanners, ASparseWorldTruncatedBelowTheClearanceTheyNeedIsRefusedAtSetup) {
+  // Truncated at 0.1 m, the ESDF reads 0.1 m wherever the truth is more: RRT*'s states need
+  // 0.35 m, so every start would look in collision (before: invalid_start 1.4 m clear).
+  const auto sparse = World::build(WorldSpec::fromYaml(
+      YamlReader::loadString("name: sparse\nseed: 1\nresolution: 0.1\n"
+                             "bounds: {min: [0, 0, 0], max: [12, 12, 3]}\nlayout: sparse\n"
+                             "truncation: 0.1\ngenerators: [{type: forest, density: 0.05}]\n",
+                             "sparse.yaml"),
+      "."));
+  for (const std::string key : {"rrtstar", "ompl_geometric", "ompl_control"}) {
+    ConfiguredPlanner configured =
+        configurePlanner(key, test::assignments({"time_limit=0", "max_iterations=100"}));
+    try {
+      configured.planner->setup({sparse, 1});
+      ADD_FAILURE() << key << " accepted the truncated world";
+    } catch (const Error& error) {
+      EXPECT_NE(std::string(error.what()).find("distances exact to 0.1 m"), std::string::npos)
+          << key << ": " << error.what();
+    }
   }
 }
 
