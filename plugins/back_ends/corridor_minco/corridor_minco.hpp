@@ -12,12 +12,12 @@ namespace kinolab::minco {
 /// The back end's parameters (core/fields.hpp): declared, read and written from this one list.
 struct CorridorMincoSettings {
   int order = 3;                   ///< s: 3 minimum jerk, 4 minimum snap
-  double weight_time = 50.0;       ///< rho
-  double weight_corridor = 1e4;    ///< corridor penalty weight
+  double weight_time = 500.0;      ///< rho
+  double weight_corridor = 1e6;    ///< corridor penalty weight
   double weight_velocity = 1e4;    ///< velocity penalty weight
   double weight_acceleration = 1e4;  ///< acceleration penalty weight
   double box_half_size = 1.0;      ///< corridor box around its segment, m
-  double piece_length = 2.0;       ///< pieces per corridor: its segment's length over this, m
+  double piece_length = 1.0;       ///< pieces per corridor: its segment's length over this, m
   int samples = 16;                ///< penalty samples (trapezoid intervals) per piece
   int max_iterations = 200;        ///< L-BFGS iterations per round
   int max_rounds = 3;              ///< solves: after a check fails, again with heavier penalties

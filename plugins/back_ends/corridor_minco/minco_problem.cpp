@@ -78,55 +78,62 @@ double MincoProblem::piecePenalty(int piece, Eigen::MatrixX3d& gradient_coeffici
   const int n = 2 * minco_.s();
   const int samples = weights_.samples;
   const double duration = durations_(piece);
+  const Eigen::MatrixX3d coefficients = minco_.coefficients(piece);
+  Eigen::MatrixX4d basis(n, 4);  // row k, column d: the d-th derivative of t^k
   double total = 0.0;
   for (int j = 0; j <= samples; ++j) {
     const double fraction = static_cast<double>(j) / samples;
     const double t = fraction * duration;
-    // The trapezoid rule's weight of this sample.
-    const double weight = (j == 0 || j == samples ? 0.5 : 1.0) * duration / samples;
-    Eigen::Matrix<double, 3, 4> state = Eigen::Matrix<double, 3, 4>::Zero();  // p, v, a, j
-    for (int d = 0; d < 4; ++d) state.col(d) = minco_.evaluate(piece, t, d);
-    Eigen::Matrix<double, 3, 3> gradient = Eigen::Matrix<double, 3, 3>::Zero();  // d/dp, v, a
-    double value = 0.0;
-    const Eigen::VectorXd excess = polytope.normals.transpose() * state.col(0) - polytope.offsets;
-    for (int h = 0; h < polytope.size(); ++h) {
-      const auto [cost, slope] = cubic(excess(h) + weights_.corridor_margin);
-      value += weights_.corridor * cost;
-      gradient.col(0) += weights_.corridor * slope * polytope.normals.col(h);
-      if (violations != nullptr) violations->corridor = std::max(violations->corridor, excess(h));
-    }
-    for (int axis = 0; axis < 3; ++axis) {
-      const double v = state(axis, 1);
-      const double a = state(axis, 2);
-      const auto [v_cost, v_slope] = cubic(v * v - std::pow(weights_.max_velocity(axis), 2));
-      const auto [a_cost, a_slope] = cubic(a * a - std::pow(weights_.max_acceleration(axis), 2));
-      value += weights_.velocity * v_cost + weights_.acceleration * a_cost;
-      gradient(axis, 1) += weights_.velocity * v_slope * 2.0 * v;
-      gradient(axis, 2) += weights_.acceleration * a_slope * 2.0 * a;
-      if (violations != nullptr) {
-        violations->velocity =
-            std::max(violations->velocity, std::abs(v) - weights_.max_velocity(axis));
-        violations->acceleration =
-            std::max(violations->acceleration, std::abs(a) - weights_.max_acceleration(axis));
-      }
-    }
-    if (value == 0.0) continue;
-    total += weight * value;
+    basis.setZero();
     for (int k = 0; k < n; ++k) {
-      Eigen::Vector3d row = Eigen::Vector3d::Zero();
-      for (int d = 0; d < 3 && d <= k; ++d) {
-        double basis = 1.0;
-        for (int i = 0; i < d; ++i) basis *= k - i;
-        row += basis * std::pow(t, k - d) * gradient.col(d);
+      for (int d = 0; d < 4 && d <= k; ++d) {
+        basis(k, d) = d == 0 ? (k == 0 ? 1.0 : basis(k - 1, 0) * t) : k * basis(k - 1, d - 1);
       }
-      gradient_coefficients.row(2 * minco_.s() * piece + k) += weight * row.transpose();
     }
+    const Eigen::Matrix<double, 3, 4> state = coefficients.transpose() * basis;  // p, v, a, j
+    const Penalty penalty = samplePenalty(polytope, state, violations);
+    if (penalty.value == 0.0) continue;
+    // The trapezoid rule's weight of this sample.
+    const double share = (j == 0 || j == samples ? 0.5 : 1.0) / samples;
+    total += share * duration * penalty.value;
+    gradient_coefficients.middleRows(n * piece, n) +=
+        share * duration * basis.leftCols<3>() * penalty.gradient.transpose();
     // The sample moves with T (t = fraction T) and so does its weight.
-    const double along = (gradient.cwiseProduct(state.rightCols<3>())).sum();
-    gradient_durations(piece) += value / samples * (j == 0 || j == samples ? 0.5 : 1.0) +
-                                 weight * along * fraction;
+    const double along = penalty.gradient.cwiseProduct(state.rightCols<3>()).sum();
+    gradient_durations(piece) += share * (penalty.value + duration * along * fraction);
   }
   return total;
+}
+
+MincoProblem::Penalty MincoProblem::samplePenalty(const Polytope& polytope,
+                                                  const Eigen::Matrix<double, 3, 4>& state,
+                                                  Violations* violations) const {
+  Penalty penalty;
+  const Eigen::VectorXd excess = polytope.normals.transpose() * state.col(0) - polytope.offsets;
+  for (int h = 0; h < polytope.size(); ++h) {
+    const auto [cost, slope] = cubic(excess(h) + weights_.corridor_margin);
+    if (cost == 0.0) continue;
+    penalty.value += weights_.corridor * cost;
+    penalty.gradient.col(0) += weights_.corridor * slope * polytope.normals.col(h);
+  }
+  for (int axis = 0; axis < 3; ++axis) {
+    const double v = state(axis, 1);
+    const double a = state(axis, 2);
+    const auto [v_cost, v_slope] = cubic(v * v - std::pow(weights_.max_velocity(axis), 2));
+    const auto [a_cost, a_slope] = cubic(a * a - std::pow(weights_.max_acceleration(axis), 2));
+    penalty.value += weights_.velocity * v_cost + weights_.acceleration * a_cost;
+    penalty.gradient(axis, 1) += weights_.velocity * v_slope * 2.0 * v;
+    penalty.gradient(axis, 2) += weights_.acceleration * a_slope * 2.0 * a;
+  }
+  if (violations != nullptr) {
+    violations->corridor = std::max(violations->corridor, excess.maxCoeff());
+    violations->velocity = std::max(
+        violations->velocity, (state.col(1).cwiseAbs() - weights_.max_velocity).maxCoeff());
+    violations->acceleration =
+        std::max(violations->acceleration,
+                 (state.col(2).cwiseAbs() - weights_.max_acceleration).maxCoeff());
+  }
+  return penalty;
 }
 
 double MincoProblem::cost(const Eigen::VectorXd& x, Eigen::VectorXd& gradient) {

@@ -69,10 +69,21 @@ class MincoProblem {
                    long long iterations_before);
 
  private:
+  /// A sample's penalty and its gradient with respect to its position, velocity and
+  /// acceleration (columns).
+  struct Penalty {
+    double value = 0.0;
+    Eigen::Matrix3d gradient = Eigen::Matrix3d::Zero();
+  };
+
   void unpack(const Eigen::VectorXd& x);
   /// Adds the penalties of `piece` and their gradients; returns their sum.
   double piecePenalty(int piece, Eigen::MatrixX3d& gradient_coefficients,
                       Eigen::VectorXd& gradient_durations, Violations* violations) const;
+  /// The penalty of one sample (state: position, velocity, acceleration, jerk), and its worst
+  /// excesses into `violations` when given.
+  Penalty samplePenalty(const Polytope& polytope, const Eigen::Matrix<double, 3, 4>& state,
+                        Violations* violations) const;
 
   Minco minco_;
   std::vector<Polytope> corridors_;
