@@ -19,7 +19,8 @@ double Polytope::excess(const Eigen::Vector3d& point) const {
   return (normals.transpose() * point - offsets).maxCoeff();
 }
 
-std::vector<Eigen::Vector3d> shortcutPath(const World& world, const std::vector<Eigen::Vector3d>& path,
+std::vector<Eigen::Vector3d> shortcutPath(const World& world,
+                                          const std::vector<Eigen::Vector3d>& path,
                                           const Body& body) {
   std::vector<Eigen::Vector3d> kept;
   if (path.empty()) return kept;
@@ -96,7 +97,8 @@ std::vector<Cube> surfaceCubes(const VoxelGrid& grid, const Box& box, const Eige
   const double resolution = grid.resolution();
   const auto voxelOf = [&](const Eigen::Vector3d& point) {
     const Eigen::Vector3d local = (point - grid.origin()) / resolution;
-    return VoxelIndex(static_cast<int>(std::floor(local.x())), static_cast<int>(std::floor(local.y())),
+    return VoxelIndex(static_cast<int>(std::floor(local.x())),
+                      static_cast<int>(std::floor(local.y())),
                       static_cast<int>(std::floor(local.z())));
   };
   const Eigen::Vector3d reach = Eigen::Vector3d::Constant(radius);

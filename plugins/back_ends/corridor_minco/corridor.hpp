@@ -26,7 +26,8 @@ struct Polytope {
 /// The path with its points skipped wherever the straight line between two kept ones keeps
 /// the body's keptRadius() from the occupied cubes (greedy, from the start): a search's dense
 /// polyline becomes a few segments, each the seed of one corridor.
-std::vector<Eigen::Vector3d> shortcutPath(const World& world, const std::vector<Eigen::Vector3d>& path,
+std::vector<Eigen::Vector3d> shortcutPath(const World& world,
+                                          const std::vector<Eigen::Vector3d>& path,
                                           const Body& body);
 
 /// What corridorAround() did, for the statistics.

@@ -126,8 +126,7 @@ bool strengthen(ProblemWeights& weights, const std::string& failed_check, double
     weights.acceleration *= 10.0;
     const double share = 1.0 - limit_margin;
     weights.max_velocity = weights.max_velocity.cwiseMin(share * limits.bound[1]) * share;
-    weights.max_acceleration =
-        weights.max_acceleration.cwiseMin(share * limits.bound[2]) * share;
+    weights.max_acceleration = weights.max_acceleration.cwiseMin(share * limits.bound[2]) * share;
     return true;
   }
   return false;
@@ -149,9 +148,12 @@ BackEndResult CorridorMinco::refine(const BackEndProblem& problem, StopCondition
   const Eigen::Vector3d& max_velocity = limits_.limits.bound[1];
   const Pieces pieces = initialPieces(corridors.path, settings_.piece_length,
                                       settings_.initial_speed * max_velocity.minCoeff());
-  ProblemWeights weights{settings_.weight_time, settings_.weight_corridor,
-                         settings_.weight_velocity, settings_.weight_acceleration,
-                         settings_.samples, settings_.safety_margin,
+  ProblemWeights weights{settings_.weight_time,
+                         settings_.weight_corridor,
+                         settings_.weight_velocity,
+                         settings_.weight_acceleration,
+                         settings_.samples,
+                         settings_.safety_margin,
                          (1.0 - settings_.limit_margin) * max_velocity,
                          (1.0 - settings_.limit_margin) * limits_.limits.bound[2]};
   MincoProblem minco(settings_.order, problem.start, corridors.path.back(), corridors.polytopes,
@@ -164,54 +166,57 @@ BackEndResult CorridorMinco::refine(const BackEndProblem& problem, StopCondition
   query.start = problem.start;
   query.goal = corridors.path.back();
   query.goal_radius = limits_.goal_radius;
-  long long iterations = 0;
-  double check_ms = 0.0;
-  int rounds = 0;
-  double final_cost = initial_cost;
-  Trajectory trajectory;
-  std::string failure;
-  while (rounds < settings_.max_rounds) {
-    ++rounds;
-    const MincoProblem::Outcome outcome =
-        minco.optimise(x, settings_.max_iterations, stop, iterations);
-    iterations += outcome.iterations;
-    final_cost = minco.cost(x, gradient);
-    trajectory = minco.trajectory(x);
-    const Clock::time_point check_begin = Clock::now();
-    const CheckResult check = checker_->check(trajectory, query);
-    check_ms += millisecondsSince(check_begin);
-    if (check.valid) {
-      failure.clear();
-      break;
-    }
-    failure = "corridor_minco round " + std::to_string(rounds) + ": " + check.check +
-              " check at t = " + formatNumber(check.time) + " s: " + check.detail;
-    if (outcome.status == 1 && stop.expired(iterations)) break;  // the budget is spent
-    if (!strengthen(minco.weights(), check.check, settings_.safety_margin,
-                    settings_.limit_margin, limits_.limits)) {
-      break;
-    }
-  }
+  Rounds rounds = solve(minco, x, query, stop);
   const Violations violations = trueViolations(minco, x, limits_.limits);
-  if (failure.empty()) {
-    result.trajectory = std::move(trajectory);
+  if (rounds.failure.empty()) {
+    result.trajectory = std::move(rounds.trajectory);
   } else {
-    result.failure = failure;
+    result.failure = rounds.failure;
   }
-  result.statistics = {{"minco_iterations", static_cast<double>(iterations)},
-                       {"minco_rounds", rounds},
-                       {"minco_corridors", static_cast<double>(corridors.polytopes.size())},
-                       {"minco_pieces", minco.pieces()},
-                       {"minco_halfspaces", corridors.tally.halfspaces},
-                       {"minco_corridor_violation", violations.corridor},
-                       {"minco_velocity_violation", violations.velocity},
-                       {"minco_acceleration_violation", violations.acceleration},
-                       {"minco_initial_cost", initial_cost},
-                       {"minco_final_cost", final_cost},
-                       {"minco_time_corridor_ms", corridor_ms},
-                       {"minco_time_optimise_ms", millisecondsSince(begin) - corridor_ms - check_ms},
-                       {"minco_time_check_ms", check_ms}};
+  result.statistics = {
+      {"minco_iterations", static_cast<double>(rounds.iterations)},
+      {"minco_rounds", rounds.rounds},
+      {"minco_corridors", static_cast<double>(corridors.polytopes.size())},
+      {"minco_pieces", minco.pieces()},
+      {"minco_halfspaces", corridors.tally.halfspaces},
+      {"minco_corridor_violation", violations.corridor},
+      {"minco_velocity_violation", violations.velocity},
+      {"minco_acceleration_violation", violations.acceleration},
+      {"minco_initial_cost", initial_cost},
+      {"minco_final_cost", rounds.final_cost},
+      {"minco_time_corridor_ms", corridor_ms},
+      {"minco_time_optimise_ms", millisecondsSince(begin) - corridor_ms - rounds.check_ms},
+      {"minco_time_check_ms", rounds.check_ms}};
   return result;
+}
+
+CorridorMinco::Rounds CorridorMinco::solve(MincoProblem& minco, Eigen::VectorXd& x,
+                                           const CheckQuery& query, StopCondition& stop) const {
+  Rounds rounds;
+  while (rounds.rounds < settings_.max_rounds) {
+    ++rounds.rounds;
+    const MincoProblem::Outcome outcome = minco.optimise(
+        x, settings_.max_iterations, settings_.relative_tolerance, stop, rounds.iterations);
+    rounds.iterations += outcome.iterations;
+    Eigen::VectorXd gradient;
+    rounds.final_cost = minco.cost(x, gradient);
+    rounds.trajectory = minco.trajectory(x);
+    const Clock::time_point check_begin = Clock::now();
+    const CheckResult check = checker_->check(rounds.trajectory, query);
+    rounds.check_ms += millisecondsSince(check_begin);
+    if (check.valid) {
+      rounds.failure.clear();
+      break;
+    }
+    rounds.failure = "corridor_minco round " + std::to_string(rounds.rounds) + ": " + check.check +
+                     " check at t = " + formatNumber(check.time) + " s: " + check.detail;
+    if (outcome.status == 1 && stop.expired(rounds.iterations)) break;  // the budget is spent
+    if (!strengthen(minco.weights(), check.check, settings_.safety_margin, settings_.limit_margin,
+                    limits_.limits)) {
+      break;
+    }
+  }
+  return rounds;
 }
 
 MetricSpecs corridorMincoStatistics() {

@@ -1,5 +1,7 @@
 #pragma once
 
+#include <Eigen/Core>
+#include <cmath>
 #include <memory>
 #include <optional>
 #include <string>
@@ -9,22 +11,25 @@
 
 namespace kinolab::minco {
 
+class MincoProblem;
+
 /// The back end's parameters (core/fields.hpp): declared, read and written from this one list.
 struct CorridorMincoSettings {
-  int order = 3;                   ///< s: 3 minimum jerk, 4 minimum snap
-  double weight_time = 500.0;      ///< rho
-  double weight_corridor = 1e6;    ///< corridor penalty weight
-  double weight_velocity = 1e4;    ///< velocity penalty weight
+  int order = 3;                     ///< s: 3 minimum jerk, 4 minimum snap
+  double weight_time = 500.0;        ///< rho
+  double weight_corridor = 1e6;      ///< corridor penalty weight
+  double weight_velocity = 1e4;      ///< velocity penalty weight
   double weight_acceleration = 1e4;  ///< acceleration penalty weight
-  double box_half_size = 1.0;      ///< corridor box around its segment, m
-  double piece_length = 1.0;       ///< pieces per corridor: its segment's length over this, m
-  int samples = 16;                ///< penalty samples (trapezoid intervals) per piece
-  int max_iterations = 200;        ///< L-BFGS iterations per round
-  int max_rounds = 3;              ///< solves: after a check fails, again with heavier penalties
-  double initial_speed = 0.5;      ///< first time allocation: this share of max_velocity
-  double safety_margin = 0.02;     ///< the corridor penalty acts this far inside, m
-  double limit_margin = 0.05;      ///< the limit penalties act at this share below the limits
-  double budget_share = 0.2;       ///< of a time budget kept for the back end
+  double box_half_size = 1.0;        ///< corridor box around its segment, m
+  double piece_length = 1.0;         ///< pieces per corridor: its segment's length over this, m
+  int samples = 16;                  ///< penalty samples (trapezoid intervals) per piece
+  int max_iterations = 200;          ///< L-BFGS iterations per round
+  double relative_tolerance = 1e-4;  ///< L-BFGS stops at this relative decrease over 3
+  int max_rounds = 3;                ///< solves: after a check fails, again with heavier penalties
+  double initial_speed = 0.5;        ///< first time allocation: this share of max_velocity
+  double safety_margin = 0.02;       ///< the corridor penalty acts this far inside, m
+  double limit_margin = 0.05;        ///< the limit penalties act at this share below the limits
+  double budget_share = 0.2;         ///< of a time budget kept for the back end
 
   template <typename Fields>
   void fields(Fields& f) {
@@ -42,6 +47,8 @@ struct CorridorMincoSettings {
            "polynomial pieces per corridor: the segment's length over this, rounded up, m");
     f.integer("samples", samples, 2, 1000, "penalty samples per piece");
     f.integer("max_iterations", max_iterations, 1, 100000, "L-BFGS iterations per round");
+    f.real("relative_tolerance", relative_tolerance, 0.0, 1.0,
+           "L-BFGS stops when the cost fell by less than this share of itself over 3 iterations");
     f.integer("max_rounds", max_rounds, 1, 20,
               "solves: after a collision (a limit), again with 10x the corridor (limit) weights "
               "and a wider margin");
@@ -70,6 +77,20 @@ class CorridorMinco : public BackEnd {
   double budgetShare() const override { return settings_.budget_share; }
 
  private:
+  /// What the solves did: the last trajectory and, when it failed the check, why.
+  struct Rounds {
+    Trajectory trajectory;
+    std::string failure;
+    long long iterations = 0;
+    int rounds = 0;
+    double final_cost = NAN;
+    double check_ms = 0.0;
+  };
+  /// Optimises and checks, again with heavier penalties after a collision or a limit, until
+  /// the trajectory passes, max_rounds is reached, no remedy applies or the budget is spent.
+  Rounds solve(MincoProblem& minco, Eigen::VectorXd& x, const CheckQuery& query,
+               StopCondition& stop) const;
+
   std::shared_ptr<const World> world_;
   Body body_;
   PlannerLimits limits_;

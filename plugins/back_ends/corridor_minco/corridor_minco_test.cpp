@@ -1,19 +1,19 @@
 // The corridor_minco back end: MINCO's gradient against finite differences, corridors that
 // contain the shortcut path and keep the body's radius from every occupied cube, and refined
 // lazy MP-A* paths on the small forest and walls worlds that pass the independent checker.
+#include "corridor_minco.hpp"
+
 #include <gtest/gtest.h>
 
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
-#include <cstdlib>
 #include <ctime>
 #include <map>
 #include <string>
 #include <vector>
 
 #include "corridor.hpp"
-#include "corridor_minco.hpp"
 #include "kinolab/planner/back_end.hpp"
 #include "kinolab/planner/planner.hpp"
 #include "kinolab/validation/trajectory_checker.hpp"
@@ -100,8 +100,8 @@ minco::MincoProblem penalisedProblem(int order) {
   weights.max_velocity = Eigen::Vector3d(0.8, 0.9, 1.0);
   weights.max_acceleration = Eigen::Vector3d(1.0, 1.2, 0.7);
   weights.corridor_margin = 0.05;
-  return minco::MincoProblem(order, start, Eigen::Vector3d(3.0, 0.2, 0.1), corridors,
-                             {0, 0, 1}, weights);
+  return minco::MincoProblem(order, start, Eigen::Vector3d(3.0, 0.2, 0.1), corridors, {0, 0, 1},
+                             weights);
 }
 
 TEST(CorridorMinco, MincoGradientMatchesFiniteDifferences) {
@@ -121,8 +121,10 @@ TEST(CorridorMinco, MincoGradientMatchesFiniteDifferences) {
       Eigen::VectorXd minus = x;
       plus(i) += step;
       minus(i) -= step;
-      const double numeric = (problem.cost(plus, scratch) - problem.cost(minus, scratch)) / (2 * step);
-      EXPECT_NEAR(gradient(i), numeric, 1e-5 * std::max(1.0, std::abs(numeric))) << "variable " << i;
+      const double numeric =
+          (problem.cost(plus, scratch) - problem.cost(minus, scratch)) / (2 * step);
+      EXPECT_NEAR(gradient(i), numeric, 1e-5 * std::max(1.0, std::abs(numeric)))
+          << "variable " << i;
     }
   }
 }
@@ -172,13 +174,14 @@ std::vector<Eigen::Vector3d> pointsInside(const minco::Polytope& polytope, doubl
 TEST(CorridorMinco, CorridorsContainTheShortcutPathAndKeepTheRadius) {
   for (const std::string world_name : {"forest", "walls"}) {
     SCOPED_TRACE(world_name);
-    const FrontEnds& front = frontEnds(world_name, 10);
-    ASSERT_GE(front.answers.size(), 4u);
+    const FrontEnds& front = frontEnds(world_name, world_name == "forest" ? 20 : 25);
+    ASSERT_GE(front.answers.size(), 8u);
     const auto world = test::smallWorld(world_name);
     const Body& body = front.planner.planner->body();
     const TrajectoryChecker checker(world, checkerSettings(body, front.planner.planner->limits()));
     int inside = 0;
-    for (const FrontEnd& answer : front.answers) {
+    for (std::size_t q = 0; q < 8; ++q) {
+      const FrontEnd& answer = front.answers[q];
       const auto path = minco::shortcutPath(*world, answer.path, body);
       ASSERT_GE(path.size(), 2u);
       EXPECT_LT(path.size(), answer.path.size());
@@ -202,21 +205,23 @@ TEST(CorridorMinco, CorridorsContainTheShortcutPathAndKeepTheRadius) {
   }
 }
 
-TEST(CorridorMinco, RefinesMostForestPathsIntoCheckedTrajectories) {
-  const FrontEnds& front = frontEnds("forest", 20);
-  const auto world = test::smallWorld("forest");
-  std::vector<std::string> tuning;
-  if (const char* env = std::getenv("MINCO_SET")) {
-    std::string text = env;
-    std::size_t at = 0;
-    while (at < text.size()) {
-      const std::size_t next = text.find(',', at);
-      tuning.push_back(text.substr(at, next - at));
-      if (next == std::string::npos) break;
-      at = next + 1;
-    }
-  }
-  const auto back_end = makeBackEnd(front, "forest", tuning);
+struct SuccessCase {
+  std::string world;
+  int queries;
+};
+
+class CorridorMincoSuccess : public ::testing::TestWithParam<SuccessCase> {};
+
+// Every refined trajectory starts at the start state, passes the independent checker and ends
+// at rest on the path's end, in the goal region; at least 90 % of them are refined. Measured
+// (Release, default parameters): forest 20 / 20 (and 80 / 80 of 80 queries), 18 of them no
+// longer than the front end's, median 4.8 ms thread CPU time, 51 L-BFGS iterations; walls
+// 29 / 29 of 40 queries.
+TEST_P(CorridorMincoSuccess, RefinesMostPathsIntoCheckedTrajectories) {
+  const SuccessCase& c = GetParam();
+  const FrontEnds& front = frontEnds(c.world, c.queries);
+  const auto world = test::smallWorld(c.world);
+  const auto back_end = makeBackEnd(front, c.world);
   const TrajectoryChecker checker(
       world, checkerSettings(front.planner.planner->body(), front.planner.planner->limits()));
   int valid = 0;
@@ -235,11 +240,6 @@ TEST(CorridorMinco, RefinesMostForestPathsIntoCheckedTrajectories) {
     }
     milliseconds.push_back(least);
     iterations.push_back(statistic(result, "minco_iterations"));
-    std::printf("DEBUG check %.2f corridor %.2f optimise %.2f pieces %.0f corridors %.0f rounds %.0f it %.0f dur %.2f front %.2f\n",
-                statistic(result, "minco_time_check_ms"), statistic(result, "minco_time_corridor_ms"), statistic(result, "minco_time_optimise_ms"),
-                statistic(result, "minco_pieces"), statistic(result, "minco_corridors"),
-                statistic(result, "minco_rounds"), statistic(result, "minco_iterations"),
-                result.trajectory.duration(), answer.result.trajectory.duration());
     if (!result.failure.empty()) {
       std::printf("  failure: %s\n", result.failure.c_str());
       EXPECT_TRUE(result.trajectory.empty());
@@ -251,6 +251,9 @@ TEST(CorridorMinco, RefinesMostForestPathsIntoCheckedTrajectories) {
     query.goal_radius = front.planner.planner->limits().goal_radius;
     const CheckResult check = checker.check(result.trajectory, query);
     EXPECT_TRUE(check.valid) << check.check << ": " << check.detail;
+    for (int d = 0; d < 3; ++d) {
+      EXPECT_LT((result.trajectory.evaluate(0.0, d) - answer.query.start.col(d)).norm(), 1e-9);
+    }
     const double end = result.trajectory.duration();
     EXPECT_LT((result.trajectory.evaluate(end) - answer.path.back()).norm(), 1e-6);
     EXPECT_LT(result.trajectory.evaluate(end, 1).norm(), 1e-6);
@@ -262,16 +265,47 @@ TEST(CorridorMinco, RefinesMostForestPathsIntoCheckedTrajectories) {
     std::sort(values.begin(), values.end());
     return values.empty() ? NAN : values[values.size() / 2];
   };
-  // Measured (Release): 
-  std::printf("[ corridor_minco on forest ] checker-valid %d / %zu exact front-end answers; "
-              "no longer than the front end %d; median %.2f ms, %.0f L-BFGS iterations\n",
-              valid, front.answers.size(), not_longer, median(milliseconds), median(iterations));
+  std::printf(
+      "[ corridor_minco on %s ] checker-valid %d / %zu exact front-end answers; "
+      "no longer than the front end %d; median %.2f ms, %.0f L-BFGS iterations\n",
+      c.world.c_str(), valid, front.answers.size(), not_longer, median(milliseconds),
+      median(iterations));
   ASSERT_GE(front.answers.size(), 15u);
   EXPECT_GE(valid, static_cast<int>(std::ceil(0.9 * static_cast<double>(front.answers.size()))));
 }
 
+INSTANTIATE_TEST_SUITE_P(Worlds, CorridorMincoSuccess,
+                         ::testing::Values(SuccessCase{"forest", 20}, SuccessCase{"walls", 25}),
+                         [](const ::testing::TestParamInfo<SuccessCase>& param) {
+                           return param.param.world;
+                         });
+
+TEST(CorridorMinco, StopsWhenTheBudgetIsSpent) {
+  const FrontEnds& front = frontEnds("forest", 20);
+  const auto back_end = makeBackEnd(front, "forest");
+  // The query whose refinement takes the most iterations, refined again with 3 of them.
+  std::size_t hardest = 0;
+  double most = 0.0;
+  for (std::size_t i = 0; i < front.answers.size(); ++i) {
+    StopCondition stop(Budget{});
+    const double iterations =
+        statistic(back_end->refine(problemOf(front.answers[i]), stop), "minco_iterations");
+    if (iterations > most) {
+      most = iterations;
+      hardest = i;
+    }
+  }
+  ASSERT_GT(most, 10.0);
+  Budget budget;
+  budget.max_iterations = 3;
+  StopCondition stop(budget);
+  const BackEndResult result = back_end->refine(problemOf(front.answers[hardest]), stop);
+  EXPECT_LE(statistic(result, "minco_iterations"), 3.0);
+  EXPECT_EQ(result.trajectory.empty(), !result.failure.empty());
+}
+
 TEST(CorridorMinco, SameProblemSameTrajectory) {
-  const FrontEnds& front = frontEnds("walls", 10);
+  const FrontEnds& front = frontEnds("walls", 25);
   ASSERT_FALSE(front.answers.empty());
   const auto back_end = makeBackEnd(front, "walls", {"order=4"});
   StopCondition first_stop(Budget{});
@@ -289,7 +323,7 @@ TEST(CorridorMinco, SameProblemSameTrajectory) {
 }
 
 TEST(CorridorMinco, RefusesNonFiniteInputsWithAFailure) {
-  const FrontEnds& front = frontEnds("forest", 6);
+  const FrontEnds& front = frontEnds("forest", 20);
   ASSERT_FALSE(front.answers.empty());
   const auto back_end = makeBackEnd(front, "forest");
   BackEndProblem problem = problemOf(front.answers.front());
@@ -306,7 +340,7 @@ TEST(CorridorMinco, RefusesNonFiniteInputsWithAFailure) {
 }
 
 TEST(CorridorMinco, MatchesAMovingStart) {
-  const FrontEnds& front = frontEnds("forest", 6);
+  const FrontEnds& front = frontEnds("forest", 20);
   ASSERT_FALSE(front.answers.empty());
   const auto back_end = makeBackEnd(front, "forest");
   // Start from the front end's own state a second into its trajectory: moving, accelerating.

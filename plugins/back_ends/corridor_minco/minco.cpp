@@ -7,11 +7,12 @@
 
 namespace kinolab::minco {
 
-BandedSystem::BandedSystem(int size, int lower, int upper)
-    : size_(size),
-      lower_(lower),
-      upper_(upper),
-      data_(static_cast<std::size_t>(size) * static_cast<std::size_t>(lower + upper + 1), 0.0) {}
+void BandedSystem::reset(int size, int lower, int upper) {
+  size_ = size;
+  lower_ = lower;
+  upper_ = upper;
+  data_.assign(static_cast<std::size_t>(size) * static_cast<std::size_t>(lower + upper + 1), 0.0);
+}
 
 void BandedSystem::factorise() {
   for (int k = 0; k + 1 < size_; ++k) {
@@ -72,8 +73,8 @@ void Minco::setParameters(const Eigen::Matrix3Xd& waypoints, const Eigen::Vector
   const int m = static_cast<int>(durations.size());
   const int n = 2 * s_;
   durations_ = durations;
-  system_ = BandedSystem(n * m, n, n);
-  coefficients_ = Eigen::MatrixX3d::Zero(n * m, 3);
+  system_.reset(n * m, n, n);
+  coefficients_.setZero(n * m, 3);
   for (int d = 0; d < s_; ++d) {
     system_(d, d) = basis(d, d, 0.0);
     coefficients_.row(d) = head_.col(d).transpose();

@@ -12,8 +12,8 @@ namespace kinolab::minco {
 /// derivative coefficient (Wang et al., T-RO 2022, Sec. IV), and the cost is linear in its size.
 class BandedSystem {
  public:
-  BandedSystem() = default;
-  BandedSystem(int size, int lower, int upper);
+  /// A zero matrix of this size and bandwidths (its memory kept from the last, when it fits).
+  void reset(int size, int lower, int upper);
 
   double& operator()(int row, int column) { return data_[index(row, column)]; }
   double operator()(int row, int column) const { return data_[index(row, column)]; }

@@ -78,8 +78,9 @@ double MincoProblem::piecePenalty(int piece, Eigen::MatrixX3d& gradient_coeffici
   const int n = 2 * minco_.s();
   const int samples = weights_.samples;
   const double duration = durations_(piece);
-  const Eigen::MatrixX3d coefficients = minco_.coefficients(piece);
-  Eigen::MatrixX4d basis(n, 4);  // row k, column d: the d-th derivative of t^k
+  const auto coefficients = minco_.coefficients(piece);
+  // Row k, column d: the d-th derivative of t^k (at most 8 rows: no allocation per sample).
+  Eigen::Matrix<double, Eigen::Dynamic, 4, 0, 8, 4> basis(n, 4);
   double total = 0.0;
   for (int j = 0; j <= samples; ++j) {
     const double fraction = static_cast<double>(j) / samples;
@@ -109,9 +110,11 @@ MincoProblem::Penalty MincoProblem::samplePenalty(const Polytope& polytope,
                                                   const Eigen::Matrix<double, 3, 4>& state,
                                                   Violations* violations) const {
   Penalty penalty;
-  const Eigen::VectorXd excess = polytope.normals.transpose() * state.col(0) - polytope.offsets;
+  double worst = -INFINITY;
   for (int h = 0; h < polytope.size(); ++h) {
-    const auto [cost, slope] = cubic(excess(h) + weights_.corridor_margin);
+    const double excess = polytope.normals.col(h).dot(state.col(0)) - polytope.offsets(h);
+    worst = std::max(worst, excess);
+    const auto [cost, slope] = cubic(excess + weights_.corridor_margin);
     if (cost == 0.0) continue;
     penalty.value += weights_.corridor * cost;
     penalty.gradient.col(0) += weights_.corridor * slope * polytope.normals.col(h);
@@ -126,12 +129,11 @@ MincoProblem::Penalty MincoProblem::samplePenalty(const Polytope& polytope,
     penalty.gradient(axis, 2) += weights_.acceleration * a_slope * 2.0 * a;
   }
   if (violations != nullptr) {
-    violations->corridor = std::max(violations->corridor, excess.maxCoeff());
-    violations->velocity = std::max(
-        violations->velocity, (state.col(1).cwiseAbs() - weights_.max_velocity).maxCoeff());
-    violations->acceleration =
-        std::max(violations->acceleration,
-                 (state.col(2).cwiseAbs() - weights_.max_acceleration).maxCoeff());
+    violations->corridor = std::max(violations->corridor, worst);
+    violations->velocity = std::max(violations->velocity,
+                                    (state.col(1).cwiseAbs() - weights_.max_velocity).maxCoeff());
+    violations->acceleration = std::max(
+        violations->acceleration, (state.col(2).cwiseAbs() - weights_.max_acceleration).maxCoeff());
   }
   return penalty;
 }
@@ -208,7 +210,8 @@ int progress(void* instance, const lbfgsfloatval_t*, const lbfgsfloatval_t*, lbf
 }  // namespace
 
 MincoProblem::Outcome MincoProblem::optimise(Eigen::VectorXd& x, int max_iterations,
-                                             StopCondition& stop, long long iterations_before) {
+                                             double relative_tolerance, StopCondition& stop,
+                                             long long iterations_before) {
   const int size = static_cast<int>(x.size());
   // A build of liblbfgs with SSE wants a multiple of 16 variables in aligned memory: the
   // padding variables have zero gradient and never move.
@@ -222,7 +225,7 @@ MincoProblem::Outcome MincoProblem::optimise(Eigen::VectorXd& x, int max_iterati
   parameters.max_iterations = max_iterations;
   parameters.epsilon = 1e-6;
   parameters.past = 3;
-  parameters.delta = 1e-5;
+  parameters.delta = relative_tolerance;
   Solve solve{this, &stop, iterations_before, size};
   Outcome outcome;
   lbfgsfloatval_t value = 0.0;

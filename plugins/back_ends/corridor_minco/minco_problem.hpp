@@ -63,10 +63,11 @@ class MincoProblem {
     double cost = 0.0;
   };
   /// Minimises from `x` (replaced by the minimiser) with L-BFGS, for at most `max_iterations`
+  /// iterations or until the cost falls by less than `relative_tolerance` of itself over three
   /// iterations, stopping early when `stop` expires (its count: `iterations_before` plus this
   /// solve's).
-  Outcome optimise(Eigen::VectorXd& x, int max_iterations, StopCondition& stop,
-                   long long iterations_before);
+  Outcome optimise(Eigen::VectorXd& x, int max_iterations, double relative_tolerance,
+                   StopCondition& stop, long long iterations_before);
 
  private:
   /// A sample's penalty and its gradient with respect to its position, velocity and
