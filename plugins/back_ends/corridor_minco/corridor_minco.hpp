@@ -16,7 +16,7 @@ class MincoProblem;
 /// The back end's parameters (core/fields.hpp): declared, read and written from this one list.
 struct CorridorMincoSettings {
   int order = 3;                     ///< s: 3 minimum jerk, 4 minimum snap
-  double weight_time = 500.0;        ///< rho
+  double weight_time = 2000.0;       ///< rho
   double weight_corridor = 1e6;      ///< corridor penalty weight
   double weight_velocity = 1e4;      ///< velocity penalty weight
   double weight_acceleration = 1e4;  ///< acceleration penalty weight
@@ -24,11 +24,11 @@ struct CorridorMincoSettings {
   double piece_length = 1.0;         ///< pieces per corridor: its segment's length over this, m
   int samples = 16;                  ///< penalty samples (trapezoid intervals) per piece
   int max_iterations = 200;          ///< L-BFGS iterations per round
-  double relative_tolerance = 1e-4;  ///< L-BFGS stops at this relative decrease over 3
+  double relative_tolerance = 3e-4;  ///< L-BFGS stops at this relative decrease over 3
   int max_rounds = 3;                ///< solves: after a check fails, again with heavier penalties
   double initial_speed = 0.5;        ///< first time allocation: this share of max_velocity
   double safety_margin = 0.02;       ///< the corridor penalty acts this far inside, m
-  double limit_margin = 0.05;        ///< the limit penalties act at this share below the limits
+  double limit_margin = 0.02;        ///< the limit penalties act at this share below the limits
   double budget_share = 0.2;         ///< of a time budget kept for the back end
 
   template <typename Fields>

@@ -215,9 +215,9 @@ class CorridorMincoSuccess : public ::testing::TestWithParam<SuccessCase> {};
 // Every refined trajectory starts at the start state, passes the independent checker and ends
 // at rest on the path's end, in the goal region; at least 90 % of them are refined. Measured
 // (Release, default parameters): forest 20 / 20, 18 of them no longer than the front end's,
-// median 25 L-BFGS iterations and 3.7-6.8 ms thread CPU time (a shared machine); walls 18 / 18
-// (of 25 queries), all no longer, 114 iterations, 7.9-13 ms. On 80 forest queries 80 / 80
-// (77 no longer), on 50 walls queries 38 / 38.
+// median 24 L-BFGS iterations and 3.3 ms thread CPU time (a shared machine: it varies by 2x);
+// walls 18 / 18 (of 25 queries), 17 no longer, 89 iterations, 8 ms. On 80 forest queries
+// 80 / 80 (73 no longer), on 50 walls queries 38 / 38 (34 no longer).
 TEST_P(CorridorMincoSuccess, RefinesMostPathsIntoCheckedTrajectories) {
   const SuccessCase& c = GetParam();
   const FrontEnds& front = frontEnds(c.world, c.queries);
@@ -306,9 +306,9 @@ TEST(CorridorMinco, StopsWhenTheBudgetIsSpent) {
 }
 
 // With a corridor weight 100 times lighter than the default, the first solve leaves some
-// trajectories in collision; the later rounds (10x the weight each) repair them. Measured:
-// one round, 13 / 20 pass; three rounds, 20 / 20.
-TEST(CorridorMinco, HeavierPenaltiesRepairACollision) {
+// trajectories in collision (or a hair beyond a limit); the later rounds (10x the weights each)
+// repair them. Measured: one round, 17 / 20 pass; three rounds, 20 / 20.
+TEST(CorridorMinco, HeavierPenaltiesRepairAFailedCheck) {
   const FrontEnds& front = frontEnds("forest", 20);
   const auto one_round = makeBackEnd(front, "forest", {"weight_corridor=1e4", "max_rounds=1"});
   const auto three_rounds = makeBackEnd(front, "forest", {"weight_corridor=1e4", "max_rounds=3"});
@@ -318,8 +318,10 @@ TEST(CorridorMinco, HeavierPenaltiesRepairACollision) {
     StopCondition stop(Budget{});
     const BackEndResult first = one_round->refine(problemOf(answer), stop);
     const BackEndResult repaired = three_rounds->refine(problemOf(answer), stop);
-    if (!first.failure.empty()) {
-      EXPECT_NE(first.failure.find("collision check"), std::string::npos) << first.failure;
+    if (!first.failure.empty()) {  // what the rounds repair: a collision or a limit
+      EXPECT_TRUE(first.failure.find("collision check") != std::string::npos ||
+                  first.failure.find("limits check") != std::string::npos)
+          << first.failure;
     }
     first_valid += first.failure.empty();
     repaired_valid += repaired.failure.empty();
