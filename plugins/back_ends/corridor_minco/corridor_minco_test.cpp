@@ -215,8 +215,8 @@ class CorridorMincoSuccess : public ::testing::TestWithParam<SuccessCase> {};
 // Every refined trajectory starts at the start state, passes the independent checker and ends
 // at rest on the path's end, in the goal region; at least 90 % of them are refined. Measured
 // (Release, default parameters): forest 20 / 20, 18 of them no longer than the front end's,
-// median 24 L-BFGS iterations and 3.3 ms thread CPU time (a shared machine: it varies by 2x);
-// walls 18 / 18 (of 25 queries), 17 no longer, 89 iterations, 8 ms. On 80 forest queries
+// median 24 L-BFGS iterations and 3.3-4 ms thread CPU time (a shared machine: it varies by 2x);
+// walls 18 / 18 (of 25 queries), 17 no longer, 90 iterations, 8-9.5 ms. On 80 forest queries
 // 80 / 80 (73 no longer), on 50 walls queries 38 / 38 (34 no longer).
 TEST_P(CorridorMincoSuccess, RefinesMostPathsIntoCheckedTrajectories) {
   const SuccessCase& c = GetParam();
@@ -307,7 +307,7 @@ TEST(CorridorMinco, StopsWhenTheBudgetIsSpent) {
 
 // With a corridor weight 100 times lighter than the default, the first solve leaves some
 // trajectories in collision (or a hair beyond a limit); the later rounds (10x the weights each)
-// repair them. Measured: one round, 17 / 20 pass; three rounds, 20 / 20.
+// repair them. Measured: one round, 17 / 20 pass; three rounds, 19 / 20.
 TEST(CorridorMinco, HeavierPenaltiesRepairAFailedCheck) {
   const FrontEnds& front = frontEnds("forest", 20);
   const auto one_round = makeBackEnd(front, "forest", {"weight_corridor=1e4", "max_rounds=1"});

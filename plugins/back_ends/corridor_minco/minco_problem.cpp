@@ -78,9 +78,11 @@ double MincoProblem::piecePenalty(int piece, Eigen::MatrixX3d& gradient_coeffici
   const int n = 2 * minco_.s();
   const int samples = weights_.samples;
   const double duration = durations_(piece);
-  const auto coefficients = minco_.coefficients(piece);
-  // Row k, column d: the d-th derivative of t^k (at most 8 rows: no allocation per sample).
-  Eigen::Matrix<double, Eigen::Dynamic, 4, 0, 8, 4> basis(n, 4);
+  // At most 8 rows: fixed storage, no allocation per sample.
+  using Rows3 = Eigen::Matrix<double, Eigen::Dynamic, 3, 0, 8, 3>;
+  const Rows3 coefficients = minco_.coefficients(piece);
+  Rows3 gradient = Rows3::Zero(n, 3);
+  Eigen::Matrix<double, Eigen::Dynamic, 4, 0, 8, 4> basis(n, 4);  // (k, d): d-th derivative of t^k
   double total = 0.0;
   for (int j = 0; j <= samples; ++j) {
     const double fraction = static_cast<double>(j) / samples;
@@ -97,12 +99,12 @@ double MincoProblem::piecePenalty(int piece, Eigen::MatrixX3d& gradient_coeffici
     // The trapezoid rule's weight of this sample.
     const double share = (j == 0 || j == samples ? 0.5 : 1.0) / samples;
     total += share * duration * penalty.value;
-    gradient_coefficients.middleRows(n * piece, n) +=
-        share * duration * basis.leftCols<3>() * penalty.gradient.transpose();
+    gradient.noalias() += share * duration * basis.leftCols<3>() * penalty.gradient.transpose();
     // The sample moves with T (t = fraction T) and so does its weight.
     const double along = penalty.gradient.cwiseProduct(state.rightCols<3>()).sum();
     gradient_durations(piece) += share * (penalty.value + duration * along * fraction);
   }
+  gradient_coefficients.middleRows(n * piece, n) += gradient;
   return total;
 }
 
@@ -122,8 +124,10 @@ MincoProblem::Penalty MincoProblem::samplePenalty(const Polytope& polytope,
   for (int axis = 0; axis < 3; ++axis) {
     const double v = state(axis, 1);
     const double a = state(axis, 2);
-    const auto [v_cost, v_slope] = cubic(v * v - std::pow(weights_.max_velocity(axis), 2));
-    const auto [a_cost, a_slope] = cubic(a * a - std::pow(weights_.max_acceleration(axis), 2));
+    const double v_max = weights_.max_velocity(axis);
+    const double a_max = weights_.max_acceleration(axis);
+    const auto [v_cost, v_slope] = cubic(v * v - v_max * v_max);
+    const auto [a_cost, a_slope] = cubic(a * a - a_max * a_max);
     penalty.value += weights_.velocity * v_cost + weights_.acceleration * a_cost;
     penalty.gradient(axis, 1) += weights_.velocity * v_slope * 2.0 * v;
     penalty.gradient(axis, 2) += weights_.acceleration * a_slope * 2.0 * a;
