@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "corridor.hpp"
+#include "kinolab/core/error.hpp"
 #include "kinolab/core/fields.hpp"
 #include "kinolab/core/plugin.hpp"
 #include "kinolab/core/text.hpp"
@@ -115,7 +116,7 @@ Corridors buildCorridors(const World& world, const Body& body, const BackEndProb
 
 /// Makes the remedy for a failed check, or returns false when none can help.
 bool strengthen(ProblemWeights& weights, const std::string& failed_check, double safety_margin,
-                double limit_margin, const DynamicLimits& limits) {
+                double limit_margin) {
   if (failed_check == "collision" || failed_check == "bounds") {
     weights.corridor *= 10.0;
     weights.corridor_margin += safety_margin;
@@ -124,9 +125,8 @@ bool strengthen(ProblemWeights& weights, const std::string& failed_check, double
   if (failed_check == "limits") {
     weights.velocity *= 10.0;
     weights.acceleration *= 10.0;
-    const double share = 1.0 - limit_margin;
-    weights.max_velocity = weights.max_velocity.cwiseMin(share * limits.bound[1]) * share;
-    weights.max_acceleration = weights.max_acceleration.cwiseMin(share * limits.bound[2]) * share;
+    weights.max_velocity *= 1.0 - limit_margin;
+    weights.max_acceleration *= 1.0 - limit_margin;
     return true;
   }
   return false;
@@ -179,6 +179,7 @@ BackEndResult CorridorMinco::refine(const BackEndProblem& problem, StopCondition
       {"minco_corridors", static_cast<double>(corridors.polytopes.size())},
       {"minco_pieces", minco.pieces()},
       {"minco_halfspaces", corridors.tally.halfspaces},
+      {"minco_obstacle_cubes", corridors.tally.obstacles},
       {"minco_corridor_violation", violations.corridor},
       {"minco_velocity_violation", violations.velocity},
       {"minco_acceleration_violation", violations.acceleration},
@@ -211,8 +212,8 @@ CorridorMinco::Rounds CorridorMinco::solve(MincoProblem& minco, Eigen::VectorXd&
     rounds.failure = "corridor_minco round " + std::to_string(rounds.rounds) + ": " + check.check +
                      " check at t = " + formatNumber(check.time) + " s: " + check.detail;
     if (outcome.status == 1 && stop.expired(rounds.iterations)) break;  // the budget is spent
-    if (!strengthen(minco.weights(), check.check, settings_.safety_margin, settings_.limit_margin,
-                    limits_.limits)) {
+    if (!strengthen(minco.weights(), check.check, settings_.safety_margin,
+                    settings_.limit_margin)) {
       break;
     }
   }
@@ -226,6 +227,7 @@ MetricSpecs corridorMincoStatistics() {
       .counter("minco_corridors", "convex corridors (segments of the shortcut path)")
       .counter("minco_pieces", "polynomial pieces of the trajectory")
       .counter("minco_halfspaces", "obstacle planes over all corridors (beyond their boxes)")
+      .counter("minco_obstacle_cubes", "surface voxel cubes the corridors were cut against")
       .real("minco_corridor_violation", "m",
             "largest excess of a penalty sample over its corridor (last round)")
       .real("minco_velocity_violation", "m/s",
