@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <limits>
 
 #include "kinolab/core/error.hpp"
 #include "kinolab/core/process.hpp"
@@ -171,9 +172,14 @@ void Planner::runBackEnd(const PlanningQuery& query, PlanResult& result,
   problem.goal = query.goal;
   problem.path = backEndPath(result.path, result.trajectory);
   problem.front = result.trajectory.empty() ? nullptr : &result.trajectory;
+  // The back end's stop: what is left of the call's time (iteration budgets count the front
+  // end's work, expansions or tree iterations, not the back end's).
+  const Budget whole = stop.budget();
+  StopCondition back_stop(Budget{whole.time_limit - stop.elapsed(),
+                                 std::numeric_limits<long long>::max(), whole.clock});
   BackEndResult refined;
   try {
-    refined = back_end_->refine(problem, stop);
+    refined = back_end_->refine(problem, back_stop);
   } catch (...) {
     rethrowFromPlugin(describePlugin("back_end", pluginRegistry<BackEnd>().info(back_end_key_)),
                       "refine()");

@@ -52,7 +52,8 @@ class BackEnd {
                      const PlannerLimits& limits) = 0;
   /// The trajectory from problem.start (its velocity and acceleration matched), within the
   /// limits, keeping the body's keptRadius() from the occupied cubes, ending at rest at the
-  /// path's last point; or a failure in words. Stops at `stop` (the planner's whole budget);
+  /// path's last point; or a failure in words. Stops at `stop` (what is left of the
+  /// planner's time budget; its iterations are the back end's own to count);
   /// deterministic: the same problem gives the same answer.
   virtual BackEndResult refine(const BackEndProblem& problem, StopCondition& stop) const = 0;
   /// The share of a time budget kept for the back end: the front end stops at the rest.
