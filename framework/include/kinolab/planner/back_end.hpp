@@ -10,6 +10,7 @@
 #include "kinolab/dynamics/body.hpp"
 #include "kinolab/dynamics/integrator_chain.hpp"
 #include "kinolab/planner/metrics.hpp"
+#include "kinolab/planner/planner.hpp"
 #include "kinolab/trajectory/trajectory.hpp"
 
 namespace kinolab {
