@@ -13,6 +13,8 @@ PACKAGES=(
   # the TGK analogue: OMPL (and the Boost libraries it links) and Ceres
   libompl-dev libboost-serialization-dev libboost-filesystem-dev libboost-system-dev
   libceres-dev
+  # the ego_bspline back end's optimiser (L-BFGS)
+  liblbfgs-dev
   # OMPL's ompl_benchmark_statistics: the export test turns kinolab's OMPL logs into Planner
   # Arena's database with it
   ompl-demos
