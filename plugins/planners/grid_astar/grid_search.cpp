@@ -10,6 +10,9 @@
 namespace kinolab::grid {
 namespace {
 
+/// The largest window whose voxels' verdicts are kept a byte each (64 MB).
+constexpr std::size_t kDenseWindow = std::size_t{1} << 26;
+
 /// A move's number: (dx + 1) * 9 + (dy + 1) * 3 + (dz + 1); 13 is no move (the start).
 constexpr int kNoMove = 13;
 
@@ -276,7 +279,8 @@ FreeVoxels::FreeVoxels(const World& world, double radius, const VoxelIndex& low,
       low_(low.cwiseMax(VoxelIndex::Zero())),
       high_(high.cwiseMin(world.grid().dims() - VoxelIndex::Ones())) {
   const VoxelIndex size = (high_ - low_ + VoxelIndex::Ones()).cwiseMax(VoxelIndex::Zero());
-  known_.assign(static_cast<std::size_t>(size.x()) * size.y() * size.z(), 0);
+  const auto voxels = static_cast<std::size_t>(size.x()) * size.y() * size.z();
+  if (voxels <= kDenseWindow) known_.assign(voxels, 0);
 }
 
 std::size_t FreeVoxels::local(const VoxelIndex& voxel) const {
@@ -287,7 +291,7 @@ std::size_t FreeVoxels::local(const VoxelIndex& voxel) const {
 
 bool FreeVoxels::free(const VoxelIndex& voxel) const {
   if ((voxel.array() < low_.array()).any() || (voxel.array() > high_.array()).any()) return false;
-  std::uint8_t& known = known_[local(voxel)];
+  std::uint8_t& known = known_.empty() ? sparse_known_[local(voxel)] : known_[local(voxel)];
   if (known == 0) {
     ++evaluations_;
     const Eigen::Vector3d centre = world_.grid().center(voxel);

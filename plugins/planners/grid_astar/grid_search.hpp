@@ -2,6 +2,7 @@
 
 #include <Eigen/Core>
 #include <cstdint>
+#include <unordered_map>
 #include <vector>
 
 #include "kinolab/core/stop_condition.hpp"
@@ -43,8 +44,10 @@ class FreeVoxels {
   double radius_;
   VoxelIndex low_;
   VoxelIndex high_;
-  /// Per voxel of the window: 0 not yet known, 1 free, 2 blocked.
+  /// Per voxel of the window: 0 not yet known, 1 free, 2 blocked; in a hash map instead when
+  /// the window is too large for a byte a voxel (a city's grid).
   mutable std::vector<std::uint8_t> known_;
+  mutable std::unordered_map<std::size_t, std::uint8_t> sparse_known_;
   mutable long long evaluations_ = 0;
 };
 
