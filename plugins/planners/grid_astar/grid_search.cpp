@@ -147,6 +147,8 @@ class Search {
   void expandJps(int node);
   /// JPS: the first jump point from `from` along `move`, or none.
   std::optional<VoxelIndex> jump(VoxelIndex from, int move);
+  /// Whether a jump along a part of the diagonal `step` from `voxel` finds a jump point.
+  bool subJumpFinds(const VoxelIndex& voxel, const VoxelIndex& step);
   bool hasForcedNeighbour(const VoxelIndex& voxel, int move) const;
   bool forced(const VoxelIndex& voxel, int move, int neighbour) const;
 
@@ -155,6 +157,8 @@ class Search {
   StopCondition& stop_;
   std::vector<Node> nodes_;
   std::unordered_map<std::size_t, int> ids_;
+  /// JPS: the jump point (or none) of a jump from a voxel along a move (index * 27 + move).
+  std::unordered_map<std::size_t, std::optional<VoxelIndex>> jumps_;
   std::priority_queue<Open> open_;
   GridSearchResult result_;
 };
@@ -203,23 +207,41 @@ bool Search::hasForcedNeighbour(const VoxelIndex& voxel, int move) const {
 std::optional<VoxelIndex> Search::jump(VoxelIndex from, int move) {
   const VoxelIndex step = moveStep(move);
   const bool diagonal = step.cwiseAbs().sum() > 1;
+  const auto key = [&](const VoxelIndex& voxel) {
+    return voxels_.grid().index(voxel) * 27 + static_cast<std::size_t>(move);
+  };
+  // Every voxel walked over jumps to the same point along this move: remembered, a diagonal
+  // jump's sub-jumps from the next voxels cost one look-up each, not a walk to the wall.
+  std::vector<std::size_t> walked;
+  std::optional<VoxelIndex> found;
   while (voxels_.canMove(from, step)) {
+    walked.push_back(key(from));
+    if (const auto known = jumps_.find(key(from)); known != jumps_.end()) {
+      found = known->second;
+      walked.pop_back();
+      break;
+    }
     from += step;
     ++result_.jump_steps;
-    if (from == goal_ || hasForcedNeighbour(from, move)) return from;
-    if (diagonal) {
-      // A jump point on a line along a part of the move makes this one a jump point.
-      for (int part = 0; part < 27; ++part) {
-        const VoxelIndex sub = moveStep(part);
-        if (part == kNoMove || sub == step ||
-            (sub.array() * step.array() != sub.array().abs()).any()) {
-          continue;
-        }
-        if (jump(from, part)) return from;
-      }
+    if (from == goal_ || hasForcedNeighbour(from, move) || (diagonal && subJumpFinds(from, step))) {
+      found = from;
+      break;
     }
   }
-  return std::nullopt;
+  for (const std::size_t start : walked) jumps_.emplace(start, found);
+  return found;
+}
+
+bool Search::subJumpFinds(const VoxelIndex& voxel, const VoxelIndex& step) {
+  // A jump point on a line along a part of the move makes this one a jump point.
+  for (int part = 0; part < 27; ++part) {
+    const VoxelIndex sub = moveStep(part);
+    if (part == kNoMove || sub == step || (sub.array() * step.array() != sub.array().abs()).any()) {
+      continue;
+    }
+    if (jump(voxel, part)) return true;
+  }
+  return false;
 }
 
 void Search::expandJps(int node) {
