@@ -16,9 +16,11 @@ namespace kinolab {
 namespace {
 
 /// The back end as the registry makes it, set up for the default body and limits.
-std::unique_ptr<BackEnd> makeBackEnd(const std::shared_ptr<const World>& world) {
+std::unique_ptr<BackEnd> makeBackEnd(const std::shared_ptr<const World>& world,
+                                     const std::vector<std::string>& items = {}) {
   const ConfiguredPlanner planner = configurePlanner("grid_astar", {});
-  std::unique_ptr<BackEnd> back_end = pluginRegistry<BackEnd>().create("ego_bspline", {});
+  std::unique_ptr<BackEnd> back_end =
+      pluginRegistry<BackEnd>().create("ego_bspline", test::assignments(items));
   back_end->setup(world, planner.planner->configuredBody(), planner.planner->limits());
   return back_end;
 }
@@ -53,12 +55,21 @@ void refineAndCheck(const BackEnd& back_end, const BackEndProblem& problem, Refi
   EXPECT_LT(t.evaluate(t.duration(), 1).norm(), 1e-6);
 }
 
-TEST(EgoBspline, RefinesGridPathsOnTheForest) {
-  const auto world = test::smallWorld("forest");
+struct GridCase {
+  std::string world;
+  int queries;
+  double min_valid;  // share of the refined paths; measured: see the printed line
+};
+
+class EgoOnGridPaths : public ::testing::TestWithParam<GridCase> {};
+
+TEST_P(EgoOnGridPaths, MostBecomeCheckerValidSplines) {
+  const auto world = test::smallWorld(GetParam().world);
   const auto back_end = makeBackEnd(world);
   const Body body = configurePlanner("grid_astar", {}).planner->configuredBody();
   Refined tally;
-  for (const PlanningQuery& query : test::randomQueries(*world, 40, 31, 3.0, 12.0, 0.6)) {
+  for (const PlanningQuery& query :
+       test::randomQueries(*world, GetParam().queries, 31, 3.0, 12.0, 0.6)) {
     StopCondition stop(Budget{});
     const grid::GridPath path = grid::findGridPath(*world, body, query.start.col(0), query.goal,
                                                    grid::GridAlgorithm::kJps, stop);
@@ -70,13 +81,22 @@ TEST(EgoBspline, RefinesGridPathsOnTheForest) {
     refineAndCheck(*back_end, problem, tally);
   }
   std::printf(
-      "[ ego_bspline on grid_astar paths, forest ] checker-valid %d / %d; rebounds %.0f, guide "
+      "[ ego_bspline on grid_astar paths, %s ] checker-valid %d / %d; rebounds %.0f, guide "
       "paths %.0f, reallocations %.0f, L-BFGS iterations %.0f\n",
-      tally.valid, tally.tried, tally.rebounds, tally.guide_paths, tally.reallocations,
-      tally.iterations);
-  EXPECT_GE(tally.tried, 36);
-  EXPECT_GE(tally.valid, 0.9 * tally.tried);
+      GetParam().world.c_str(), tally.valid, tally.tried, tally.rebounds, tally.guide_paths,
+      tally.reallocations, tally.iterations);
+  EXPECT_GE(tally.tried, 0.9 * GetParam().queries);
+  EXPECT_GE(tally.valid, GetParam().min_valid * tally.tried);
 }
+
+INSTANTIATE_TEST_SUITE_P(Worlds, EgoOnGridPaths,
+                         ::testing::Values(GridCase{"forest", 40, 0.9},
+                                           // 17 of 20: three still collide at doorways
+                                           // after max_rebounds (docs/back_ends/ego_bspline.md)
+                                           GridCase{"walls", 20, 0.8}),
+                         [](const ::testing::TestParamInfo<GridCase>& param) {
+                           return param.param.world;
+                         });
 
 TEST(EgoBspline, RefinesLazyMpAstarTrajectoriesOnTheForest) {
   const auto world = test::smallWorld("forest");
