@@ -220,7 +220,13 @@ int EgoBspline::addPairs(const Eigen::Matrix3Xd& control, const std::vector<int>
     }
     for (std::size_t j = 0; j < run.size(); ++j) {
       if (!run[j]) continue;
-      objective.pairs()[first + static_cast<int>(j)].push_back(*run[j]);
+      // A new pair replaces those that push the other way (not in the paper): at a doorway
+      // such opposite pairs hold the point between them, short of both safe distances.
+      std::vector<RepulsionPair>& pairs = objective.pairs()[first + static_cast<int>(j)];
+      std::erase_if(pairs, [&](const RepulsionPair& old) {
+        return old.direction.dot(run[j]->direction) < 0.0;
+      });
+      pairs.push_back(*run[j]);
       ++added;
     }
   }

@@ -90,10 +90,7 @@ TEST_P(EgoOnGridPaths, MostBecomeCheckerValidSplines) {
 }
 
 INSTANTIATE_TEST_SUITE_P(Worlds, EgoOnGridPaths,
-                         ::testing::Values(GridCase{"forest", 40, 0.9},
-                                           // 17 of 20: three still collide at doorways
-                                           // after max_rebounds (docs/back_ends/ego_bspline.md)
-                                           GridCase{"walls", 20, 0.8}),
+                         ::testing::Values(GridCase{"forest", 40, 0.9}, GridCase{"walls", 20, 0.9}),
                          [](const ::testing::TestParamInfo<GridCase>& param) {
                            return param.param.world;
                          });
