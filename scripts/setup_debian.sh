@@ -13,7 +13,7 @@ PACKAGES=(
   # the TGK analogue: OMPL (and the Boost libraries it links) and Ceres
   libompl-dev libboost-serialization-dev libboost-filesystem-dev libboost-system-dev
   libceres-dev
-  # the corridor_minco back end's L-BFGS
+  # the corridor_minco and ego_bspline back ends' L-BFGS
   liblbfgs-dev
   # OMPL's ompl_benchmark_statistics: the export test turns kinolab's OMPL logs into Planner
   # Arena's database with it
