@@ -65,14 +65,16 @@ void runSlurm(const SlurmOptions& o) {
               << scripts.merge << "\n(dry run: nothing submitted)\n";
     return;
   }
-  const auto [array_status, array_id] = client({"sbatch", "--parsable", layout.arrayScript()});
-  if (array_status != 0) throw Error("slurm: sbatch failed: " + array_id);
+  const CommandOutput array = client({"sbatch", "--parsable", layout.arrayScript()});
+  if (array.status != 0) throw Error("slurm: sbatch failed: " + array.output);
+  const std::string& array_id = array.output;
   SlurmJobs jobs;
   jobs.shards = o.request.shards;
   jobs.array_job = array_id.substr(0, array_id.find(';'));
-  const auto [merge_status, merge_id] = client(
+  const CommandOutput merge = client(
       {"sbatch", "--parsable", "--dependency=afterok:" + jobs.array_job, layout.mergeScript()});
-  if (merge_status != 0) throw Error("slurm: sbatch of the merge failed: " + merge_id);
+  if (merge.status != 0) throw Error("slurm: sbatch of the merge failed: " + merge.output);
+  const std::string& merge_id = merge.output;
   jobs.merge_job = merge_id.substr(0, merge_id.find(';'));
   // What sbatch printed must be job ids (parse() refuses anything else).
   writeFileAtomically(layout.jobsFile(), SlurmJobs::parse(jobs.text(), "sbatch's answers").text());
@@ -89,10 +91,11 @@ void runStatus(const std::string& directory) {
   std::stringstream text;
   text << file.rdbuf();
   const SlurmJobs jobs = SlurmJobs::parse(text.str(), layout.jobsFile());
-  const auto [status, queue] = client({"squeue", "--noheader", "--array", "--format=%i %T %R",
+  const CommandOutput squeue = client({"squeue", "--noheader", "--array", "--format=%i %T %R",
                                        "--jobs=" + jobs.array_job + "," + jobs.merge_job});
+  const std::string& queue = squeue.output;
   std::printf("array job %s, merge job %s\n", jobs.array_job.c_str(), jobs.merge_job.c_str());
-  if (status != 0) {
+  if (squeue.status != 0) {
     std::printf("  squeue: %s\n", queue.c_str());
   } else if (queue.empty()) {
     std::printf("  nothing queued or running\n");

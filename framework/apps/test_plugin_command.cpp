@@ -1,8 +1,7 @@
 // `kinolab test-plugin LIB.so`: runs the conformance suites (the program kinolab-conformance,
-// installed beside kinolab) on every plugin a library registers.
-#include <unistd.h>
-
-#include <cerrno>
+// installed beside kinolab) on every plugin a library registers, each test in a child
+// process of its own, so that a plugin that crashes or hangs is a reported failure, not the
+// end of the report.
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
@@ -23,6 +22,7 @@ namespace {
 struct TestPluginOptions {
   std::string library;
   std::vector<std::string> gtest_arguments;
+  int timeout = 300;  ///< s per test
 };
 
 /// The conformance program: $KINOLAB_CONFORMANCE, else kinolab-conformance beside this
@@ -54,10 +54,13 @@ std::vector<std::pair<std::string, std::string>> keysFrom(const std::string& ori
   return keys;
 }
 
-/// The tests `program` would run under `filter` (`Suite.Test/param` names).
-std::vector<std::string> listedTests(const std::string& program, const std::string& filter) {
-  const CommandOutput listed =
-      runCommand({program, "--gtest_list_tests", "--gtest_filter=" + filter});
+/// The tests `program` would run under `filter` and then `extra` (a filter there replaces
+/// ours), as `Suite.Test/param` names.
+std::vector<std::string> listedTests(const std::string& program, const std::string& filter,
+                                     const std::vector<std::string>& extra) {
+  std::vector<std::string> arguments{program, "--gtest_list_tests", "--gtest_filter=" + filter};
+  arguments.insert(arguments.end(), extra.begin(), extra.end());
+  const CommandOutput listed = runCommand(arguments);
   if (listed.status != 0) {
     throw Error(program + " could not list its tests (exit " + std::to_string(listed.status) +
                 "):\n" + listed.output);
@@ -77,8 +80,29 @@ std::vector<std::string> listedTests(const std::string& program, const std::stri
   return tests;
 }
 
-/// Replaces this process with the conformance program, filtered to the library's keys.
-[[noreturn]] void runTestPlugin(const TestPluginOptions& options) {
+/// One test in a child of its own: "" when it passed, else what happened and its output.
+std::string runOne(const std::string& program, const std::string& test,
+                   const TestPluginOptions& options) {
+  std::vector<std::string> arguments{program};
+  arguments.insert(arguments.end(), options.gtest_arguments.begin(), options.gtest_arguments.end());
+  arguments.push_back("--gtest_filter=" + test);  // last: this one test
+  const CommandOutput run = runCommand(arguments, options.timeout);
+  if (run.status == 0 && run.signal == 0) return "";
+  std::string what =
+      run.status == 124 ? "hung: killed after " + std::to_string(options.timeout) + " s (--timeout)"
+      : run.signal != 0
+          ? "crashed: signal " + std::to_string(run.signal) + " (" + strsignal(run.signal) + ")"
+          : "failed (exit " + std::to_string(run.status) + ")";
+  // Its output indented under the verdict, so that the report's own lines stand out.
+  std::string indented;
+  std::istringstream lines(run.output);
+  for (std::string line; std::getline(lines, line);) indented += "    | " + line + "\n";
+  return what + "\n" + indented;
+}
+
+/// Runs the conformance suites on the library's plugins, each test in a child process; the
+/// exit status: 0 when every test passed, 1 otherwise.
+int runTestPlugin(const TestPluginOptions& options) {
   loadPluginLibrary(options.library);
   const std::string origin = std::filesystem::canonical(options.library).string();
   const auto keys = keysFrom(origin);
@@ -90,21 +114,34 @@ std::vector<std::string> listedTests(const std::string& program, const std::stri
   // Say which plugins no suite covers: a kind without a conformance suite, or a world
   // generator that needs a value to build (the generator suite builds at the defaults).
   std::set<std::string> covered;
-  for (const std::string& test : listedTests(program, filter)) {
+  for (const std::string& test : listedTests(program, filter, {})) {
     covered.insert(test.substr(test.rfind('/') + 1));
   }
   for (const auto& [key, name] : keys) {
     std::cout << (covered.count(key) ? "testing " : "no conformance suite covers ") << name << '\n';
   }
   if (covered.empty()) throw PluginError("no conformance suite covers a plugin of " + origin);
-  std::cout.flush();
-  std::vector<std::string> arguments{program, "--gtest_filter=" + filter};
-  arguments.insert(arguments.end(), options.gtest_arguments.begin(), options.gtest_arguments.end());
-  std::vector<char*> argv;
-  for (std::string& argument : arguments) argv.push_back(argument.data());
-  argv.push_back(nullptr);
-  ::execv(program.c_str(), argv.data());
-  throw Error("cannot run " + program + ": " + std::strerror(errno));
+  // The tests to run: the options after -- may narrow them (a --gtest_filter there replaces
+  // the library's).
+  const std::vector<std::string> tests = listedTests(program, filter, options.gtest_arguments);
+  if (tests.empty()) {
+    throw PluginError("no conformance test selected for the plugins of " + origin +
+                      " (a --gtest_filter after -- that selects none?)");
+  }
+  int failed = 0;
+  for (const std::string& test : tests) {
+    std::cout << "[ RUN      ] " << test << std::endl;
+    const std::string problem = runOne(program, test, options);
+    if (problem.empty()) {
+      std::cout << "[       OK ] " << test << std::endl;
+      continue;
+    }
+    ++failed;
+    std::cout << "[  FAILED  ] " << test << ": " << problem << std::flush;
+  }
+  std::cout << tests.size() << " tests: " << tests.size() - static_cast<std::size_t>(failed)
+            << " passed, " << failed << " FAILED" << std::endl;
+  return failed == 0 ? 0 : 1;
 }
 
 }  // namespace
@@ -118,13 +155,21 @@ void addTestPluginCommand(CLI::App& app) {
       "exits non-zero when one fails");
   command->add_option("library", options->library, "The plugin library (.so)")->required();
   command
+      ->add_option("--timeout", options->timeout,
+                   "Seconds a test may take before it counts as hung")
+      ->check(CLI::Range(1, 86400))
+      ->capture_default_str();
+  command
       ->add_option("gtest_arguments", options->gtest_arguments,
                    "After --: options for the conformance program (e.g. --gtest_repeat=3)")
       ->type_name("ARG");
   command->footer(
-      "Example: kinolab test-plugin build/libmy_planner.so -- --gtest_brief=1\n"
-      "The suites and what they assert: docs/extending/README.md.");
-  command->callback([options]() { runTestPlugin(*options); });
+      "Example: kinolab test-plugin build/libmy_planner.so -- --gtest_repeat=3\n"
+      "Each test runs in a child process: a plugin that crashes or hangs fails its test and the "
+      "rest still run. The suites and what they assert: docs/extending/README.md.");
+  command->callback([options]() {
+    if (const int status = runTestPlugin(*options); status != 0) throw CLI::RuntimeError(status);
+  });
 }
 
 }  // namespace kinolab::apps

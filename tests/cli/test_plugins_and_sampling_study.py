@@ -52,7 +52,17 @@ def test_test_plugin_runs_the_conformance_suites_on_the_library_s_plugins_only(k
         assert f"testing planner '{key}'" in result.stdout
     assert "SolvesAndSolvesAgainTheSameAfterReset/test_trivial" in result.stdout
     assert "FAILED" in result.stdout and "/uniform" not in result.stdout
-    assert "Running 4 tests from 1 test suite" in result.stdout
+    assert "4 tests: 1 passed, 3 FAILED" in result.stdout, result.stdout
+    # Each test runs in a child: a plugin that crashes or hangs fails its tests, the rest run.
+    crash = kinolab("test-plugin", MISBEHAVING, "--timeout", "3", "--",
+                    "--gtest_filter=*/test_crash:*/test_hang")
+    assert crash.returncode == 1, crash.stdout + crash.stderr
+    assert "test_crash: crashed: signal 11" in crash.stdout, crash.stdout
+    assert "test_hang: hung: killed after 3 s" in crash.stdout, crash.stdout
+    assert "8 tests: 2 passed, 6 FAILED" in crash.stdout  # parameter checks pass for both
+    # A filter that selects no test is an error, not a pass.
+    none = kinolab("test-plugin", MISBEHAVING, "--", "--gtest_filter=*/no_such_plugin")
+    assert none.returncode == 1 and "no conformance test selected" in none.stderr, none.stderr
     # Bad input: a file that is not a library, a missing one; no suite runs.
     not_elf = tmp_path / "fake.so"
     not_elf.write_text("not a library")

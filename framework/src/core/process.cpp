@@ -63,6 +63,7 @@ CommandOutput runCommand(const std::vector<std::string>& arguments, int timeout_
   int status = 0;
   waitpid(pid, &status, 0);
   result.status = timed_out ? 124 : WIFEXITED(status) ? WEXITSTATUS(status) : 1;
+  result.signal = !timed_out && WIFSIGNALED(status) ? WTERMSIG(status) : 0;
   while (!result.output.empty() && (result.output.back() == '\n' || result.output.back() == ' ')) {
     result.output.pop_back();
   }

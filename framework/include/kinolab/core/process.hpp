@@ -10,6 +10,7 @@ namespace kinolab {
 struct CommandOutput {
   int status = 0;
   std::string output;
+  int signal = 0;  ///< the signal that ended it (SIGSEGV, SIGABRT, ...), 0 when it exited
 };
 
 /// Runs a program with an argument vector (`arguments[0]` is looked up on the PATH) and waits
