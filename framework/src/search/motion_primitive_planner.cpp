@@ -264,7 +264,12 @@ PlanResult MotionPrimitivePlanner::resultOf(MotionPrimitiveSearch::Outcome outco
       break;
     case MotionPrimitiveSearch::Outcome::kExhausted:
       result.status = PlanStatus::kNoSolution;
-      result.message = "every reachable state was expanded without reaching the goal region";
+      // True of the search space, not of the world: a lattice of these controls and this
+      // duration, or (hybrid A*) one state per cell, may miss a way that exists.
+      result.message =
+          "every state of the search space was expanded without reaching the goal region: no "
+          "way on this space (its controls, duration and state pruning), not proof that none "
+          "exists";
       break;
     case MotionPrimitiveSearch::Outcome::kBudget:
       result.status = result.trajectory.empty() ? PlanStatus::kTimeout : PlanStatus::kApproximate;
