@@ -196,7 +196,7 @@ TEST(ExperimentFilesIdentityTest, ShippedExperimentsKeepTheirRunHashes) {
             "experiments/ablations/lazy_duplicate_rule.yaml c932647ba725df09\n"
             "experiments/ablations/lazy_lower_bound.yaml 3956bfab88fb1fc0\n"
             "experiments/ablations/sampler.yaml 5b97b9a98f408f1e\n"
-            "experiments/back_ends.yaml 6eb0a7399724a149\n"
+            "experiments/back_ends.yaml 610fc6e374f8e9ce\n"
             "experiments/city_500m.yaml 0f4b2a9cc7722753\n"
             "experiments/field.yaml ecdea6f5d326f1e9\n"
             "experiments/flight_back_ends.yaml ec4e979b1061d382\n"
