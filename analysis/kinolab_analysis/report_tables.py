@@ -37,11 +37,30 @@ BACK_END_METRICS = [("time_front_end_ms", "front T", ""), ("time_back_end_ms", "
                     ("min_clearance", "min clearance", "")]
 
 
+def back_end_of(label: str, planner: str) -> str | None:
+    """The back end a sweep label gives a planner: `planners.ID.params.back_end=NAME` (or
+    `.back_end.type=NAME`), with its parameters swept beside it ("corridor_minco (order=4)");
+    None when the label does not choose one."""
+    prefix = f"planners.{planner}.params.back_end"
+    name, settings = None, []
+    for part in label.split(", "):
+        path, _, value = part.partition("=")
+        if path in (prefix, prefix + ".type"):
+            name = value
+        elif path.startswith(prefix + "."):
+            settings.append(f"{path[len(prefix) + 1:]}={value}")
+    if name is None:
+        return None
+    return name + (f" ({', '.join(settings)})" if settings else "")
+
+
 def back_end_matrix(runs: pd.DataFrame) -> pd.DataFrame | None:
-    """Front ends (planners) x back ends, when the sweep's variants choose the back end
-    (`back_end=NAME` among a variant's axes, as experiments/back_ends.yaml does): per pair the
-    runs, success and the medians of BACK_END_METRICS; None otherwise."""
-    back_ends = runs["sweep"].fillna("").map(lambda label: tables.sweep_axes(label).get("back_end"))
+    """Front ends (planners) x back ends, when the sweep's variants choose each planner's back
+    end (as experiments/back_ends.yaml does; its swept parameters keep variants apart): per
+    pair the runs, success and the medians of BACK_END_METRICS; None otherwise."""
+    back_ends = pd.Series([back_end_of(str(label or ""), str(planner))
+                           for label, planner in zip(runs["sweep"], runs["planner"])],
+                          index=runs.index, dtype=object)
     if back_ends.isna().any() or back_ends.nunique() < 2:
         return None
     matrix = tables.summary(runs.assign(**{"back end": back_ends}), by=["planner", "back end"],

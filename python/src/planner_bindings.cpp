@@ -180,10 +180,12 @@ void bindPlanner(py::module_& m) {
       .def("setup",
            [](PyPlanner& p, const PyWorld& world, std::uint64_t seed) {
              const std::shared_ptr<const World> map = world.world;
-             py::gil_scoped_release release;
-             const std::lock_guard lock(*p.busy);
-             p.configured.planner->setup({map, seed});
-             p.world = map;
+             {
+               py::gil_scoped_release release;
+               const std::lock_guard lock(*p.busy);
+               p.configured.planner->setup({map, seed});
+             }
+             p.world = map;  // with the GIL held, as plan() reads it
            })
       .def("reset",
            [](PyPlanner& p) {

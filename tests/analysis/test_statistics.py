@@ -537,5 +537,11 @@ def test_the_back_end_matrix_crosses_front_ends_with_the_back_ends_the_sweep_cho
     assert matrix.loc[("bitstar", "bspline"), "median time_back_end_ms"].estimate == 30.0
     assert matrix.loc[("bitstar", "none"), "median time_front_end_ms"].estimate == 100.0
     assert matrix.loc[("lazy", "bspline"), "median duration"].estimate == pytest.approx(6.0)
+    # Variants that differ in a back end's parameter stay apart.
+    order = pd.DataFrame(rows).assign(
+        sweep=lambda r: r["sweep"] + ", planners.lazy.params.back_end.order=" +
+        r["query"].map(lambda q: "3" if q < 2 else "4"))
+    keys = set(back_end_matrix(order)["back end"])
+    assert "corridor_minco (order=3)" in keys and "corridor_minco (order=4)" in keys
     # A sweep that does not choose back ends has no matrix.
     assert back_end_matrix(pd.DataFrame(rows).assign(sweep="planners.lazy.params.x=1")) is None

@@ -138,6 +138,25 @@ TEST_P(BackEndConformance, ANonFiniteStartOrPathIsAFailureNotACrash) {
   }
 }
 
+TEST_P(BackEndConformance, AOnePointPathOrASpentBudgetIsAnAnswerNotACrash) {
+  const std::unique_ptr<BackEnd> back_end = makeBackEnd(GetParam());
+  ASSERT_FALSE(answers().problems.empty());
+  BackEndProblem one_point = answers().problems.front();
+  one_point.path = {one_point.start.col(0)};
+  one_point.front = nullptr;
+  StopCondition unlimited(Budget{});
+  // A path that stays where it starts: a failure, or a trajectory to rest there.
+  const BackEndResult degenerate = back_end->refine(one_point, unlimited);
+  EXPECT_NE(degenerate.trajectory.empty(), degenerate.failure.empty()) << degenerate.failure;
+  if (!degenerate.trajectory.empty()) {
+    EXPECT_LT((degenerate.trajectory.endPosition() - one_point.path.front()).norm(), 1e-6);
+  }
+  // No time at all: a trajectory (checked by the planner) or a named failure.
+  StopCondition spent(Budget{0.0});
+  const BackEndResult late = back_end->refine(answers().problems.front(), spent);
+  EXPECT_NE(late.trajectory.empty(), late.failure.empty()) << late.failure;
+}
+
 TEST_P(BackEndConformance, APlannerRunsItTimedApartAndItsFailureHasItsOwnStatus) {
   const FrontEndAnswers& front = answers();
   ConfiguredPlanner configured = configurePlanner(

@@ -94,6 +94,10 @@ TEST_P(PlannerConformance, InvalidStartsAndGoalsGetTheirStatus) {
   too_fast.start.col(1) = Eigen::Vector3d(1000.0, 0.0, 0.0);
   EXPECT_EQ(planner.plan(too_fast, kBudget).status, PlanStatus::kInvalidStart);
 
+  PlanningQuery not_finite = valid;  // NaN passes every limit comparison
+  not_finite.start(0, 1) = NAN;
+  EXPECT_EQ(planner.plan(not_finite, kBudget).status, PlanStatus::kInvalidStart);
+
   PlanningQuery goal_blocked = valid;
   goal_blocked.goal = insideAnObstacle();
   EXPECT_EQ(planner.plan(goal_blocked, kBudget).status, PlanStatus::kInvalidGoal);

@@ -96,6 +96,9 @@ void Planner::setup(const PlannerContext& context) {
                           formatNumber(context.body_margin));
   }
   body_ = configured_body_.grown(context.body_margin);
+  // Not set up until every part is: a setup that throws leaves no half-old planner.
+  world_.reset();
+  checker_.reset();
   try {
     doSetup(context);
   } catch (...) {
@@ -132,6 +135,11 @@ std::optional<PlanResult> Planner::refusal(const PlanningQuery& query) const {
   PlanResult result;
   const Eigen::Vector3d start = query.start.col(0);
   result.distance_to_goal = (start - query.goal).norm();
+  if (!query.start.allFinite()) {  // a NaN passes every limit comparison below
+    result.status = PlanStatus::kInvalidStart;
+    result.message = "start state is not finite";
+    return result;
+  }
   if (std::string problem = positionProblem(map, start, body_); !problem.empty()) {
     result.status = PlanStatus::kInvalidStart;
     result.message = "start " + problem;
@@ -175,8 +183,8 @@ void Planner::runBackEnd(const PlanningQuery& query, PlanResult& result,
   // The back end's stop: what is left of the call's time (iteration budgets count the front
   // end's work, expansions or tree iterations, not the back end's).
   const Budget whole = stop.budget();
-  StopCondition back_stop(Budget{whole.time_limit - stop.elapsed(),
-                                 std::numeric_limits<long long>::max(), whole.clock});
+  const double left = std::max(0.0, whole.time_limit - stop.elapsed());
+  StopCondition back_stop(Budget{left, std::numeric_limits<long long>::max(), whole.clock});
   BackEndResult refined;
   try {
     refined = back_end_->refine(problem, back_stop);
@@ -190,7 +198,12 @@ void Planner::runBackEnd(const PlanningQuery& query, PlanResult& result,
                            refined.statistics.end());
   if (refined.trajectory.empty()) {
     result.status = PlanStatus::kBackEndFailed;
+    // A back end cut short may name what it was doing, not the budget: say both.
+    const bool spent = back_stop.elapsed() >= back_stop.budget().time_limit;
     result.message = "back end " + back_end_key_ + ": " +
+                     (spent ? "the time budget ran out (" + formatNumber(1e3 * left) +
+                                  " ms were left after the front end): "
+                            : std::string()) +
                      (refined.failure.empty() ? "no trajectory" : refined.failure);
     result.trajectory = Trajectory();
     result.cost = INFINITY;
