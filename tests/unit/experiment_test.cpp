@@ -314,6 +314,9 @@ TEST_F(ExperimentTest, MergeRefusesMixedRepeatedIncompleteAndOldShards) {
   refuses({a}, "1 of 2 shards given");
   refuses({a, shard("short", "2/2", "h", 3, 1)}, "is incomplete: 1 of 3");
   refuses({a, shard("old", "2/2", "h", 1, 1, "1")}, "schema version 1");
+  // A damaged meta table is named, table and key (before: "unexpected error: stoi").
+  refuses({a, shard("damaged", "2/2", "h", 1, 1, "abc")},
+          "table meta, key 'schema_version': expected a whole number, got 'abc'");
   {  // A directory another process (here: another lock) writes to is refused.
     const DirectoryLock held((directory_ / "busy").string(), "a test");
     EXPECT_THROW(ResultsStore::merge((directory_ / "busy" / "m.sqlite").string(), {a, b}, false),

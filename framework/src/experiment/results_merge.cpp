@@ -33,7 +33,7 @@ ShardSet checkShards(const std::vector<std::string>& inputs, bool partial) {
     ResultsStore shard(input);
     const auto hash = shard.meta("config_hash");
     const auto which = shard.meta("shard");
-    const auto planned = shard.meta("runs_planned");
+    const auto planned = shard.metaInteger("runs_planned");
     if (!hash || !which || !planned) {
       throw FileError(input + ": not a kinolab results database (no config hash or shard)");
     }
@@ -57,13 +57,13 @@ ShardSet checkShards(const std::vector<std::string>& inputs, bool partial) {
       throw ConfigError("merge: shard " + *which + " is given twice (" + input + ")");
     }
     const long long stored = shard.plannedRunCount();  // runs it no longer plans do not count
-    set.planned += std::stoll(*planned);
-    if (stored < std::stoll(*planned)) set.incomplete.push_back(parsed.text());
-    if (!partial && stored < std::stoll(*planned)) {
-      throw ConfigError("merge: " + input + " (shard " + *which +
-                        ") is incomplete: " + std::to_string(stored) + " of " + *planned +
-                        " runs; finish it with kinolab run --resume --shard " + *which +
-                        ", or pass --partial");
+    set.planned += *planned;
+    if (stored < *planned) set.incomplete.push_back(parsed.text());
+    if (!partial && stored < *planned) {
+      throw ConfigError(
+          "merge: " + input + " (shard " + *which + ") is incomplete: " + std::to_string(stored) +
+          " of " + std::to_string(*planned) +
+          " runs; finish it with kinolab run --resume --shard " + *which + ", or pass --partial");
     }
   }
   if (!partial && set.indices.size() != static_cast<std::size_t>(set.count)) {

@@ -3,6 +3,7 @@
 #include <sqlite3.h>
 
 #include <algorithm>
+#include <charconv>
 #include <cmath>
 #include <filesystem>
 #include <functional>
@@ -515,8 +516,26 @@ void ResultsStore::declareMetrics(const std::string& kind, const std::string& pl
   });
 }
 
+std::optional<long long> ResultsStore::metaInteger(const std::string& key) const {
+  const std::optional<std::string> text = meta(key);
+  if (!text) return std::nullopt;
+  long long value = 0;
+  const auto [end, error] = std::from_chars(text->data(), text->data() + text->size(), value);
+  if (error != std::errc() || end != text->data() + text->size() || text->empty()) {
+    throw ConfigError(path_ + ": table meta, key '" + key + "': expected a whole number, got '" +
+                      *text + "' (a damaged or foreign database)");
+  }
+  return value;
+}
+
 std::optional<int> ResultsStore::schemaVersion() const {
-  if (const auto version = meta("schema_version")) return std::stoi(*version);
+  if (const auto version = metaInteger("schema_version")) {
+    if (*version < 0 || *version > 1000000) {
+      throw ConfigError(path_ + ": table meta, key 'schema_version': " + std::to_string(*version) +
+                        " is not a schema version");
+    }
+    return static_cast<int>(*version);
+  }
   if (meta("config_hash")) return 1;  // written before versions were recorded
   return std::nullopt;
 }

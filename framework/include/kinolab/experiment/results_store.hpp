@@ -96,6 +96,9 @@ class ResultsStore {
   const std::string& path() const { return path_; }
 
   std::optional<std::string> meta(const std::string& key) const;
+  /// A meta value that must be a whole number (schema_version, runs_planned): none when
+  /// absent; ConfigError naming the database, the table and the key when it is not one.
+  std::optional<long long> metaInteger(const std::string& key) const;
   std::map<std::string, std::string> allMeta() const;
   void setMeta(const std::map<std::string, std::string>& values);
 
