@@ -356,6 +356,13 @@ TEST(DirectoryLock, ALockFileThatIsALinkIsRefusedAndWhatItNamesIsUntouched) {
   fs::remove(directory / "out" / ".kinolab.lock");
   fs::create_directory(directory / "out" / ".kinolab.lock");  // nor a directory
   EXPECT_THROW(DirectoryLock((directory / "out").string(), "a test"), FileError);
+  // The results database is not opened through a link either: an empty file it names would
+  // become a database (SQLite takes an empty file for a new one).
+  const fs::path empty = directory / "empty.txt";
+  std::ofstream{empty};
+  fs::create_symlink(empty, directory / "out" / "results.sqlite");
+  EXPECT_THROW(ResultsStore((directory / "out" / "results.sqlite").string()), FileError);
+  EXPECT_EQ(fs::file_size(empty), 0u);
   fs::remove_all(directory);
 }
 

@@ -280,8 +280,11 @@ void refuseForeignDatabase(const std::string& path) {
 
 ResultsStore::ResultsStore(const std::string& path) : path_(path) {
   refuseForeignDatabase(path);
-  if (sqlite3_open_v2(path.c_str(), &db_, SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE, nullptr) !=
-      SQLITE_OK) {
+  // Never through a link (as the lock): results written into whatever a planted link names
+  // would be lost there, and that file damaged.
+  if (sqlite3_open_v2(path.c_str(), &db_,
+                      SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE | SQLITE_OPEN_NOFOLLOW,
+                      nullptr) != SQLITE_OK) {
     const std::string message = db_ ? sqlite3_errmsg(db_) : "out of memory";
     sqlite3_close(db_);
     throw FileError(path + ": cannot open the results database: " + message);
