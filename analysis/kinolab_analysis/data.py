@@ -24,6 +24,8 @@ from . import stats, tables
 # (older ones: cost is an own objective per planner type, every other result metric compares,
 # and every run is current).
 SCHEMA_VERSION = 8
+# Where the stored configuration's variants (one line each) begin, after the file's YAML.
+VARIANTS = "\n--- # variants"
 
 # A stored search tree's edge states (the trees table's `state`), each with the colour every
 # figure and the 3D viewer draw it in. The names are kinolab's (SearchTreeEdge::State;
@@ -277,7 +279,11 @@ def load(paths: str | Path | list[str | Path], allow_mixed: bool = False) -> Res
         frames.append(runs[current])
         stale.append(runs[~current])
         for _, row in database.worlds.iterrows():
-            worlds[row["world_hash"]] = _world(row)
+            try:
+                worlds[row["world_hash"]] = _world(row)
+            except (TypeError, ValueError, KeyError) as error:
+                raise ValueError(f"{file}: table worlds, world {row.get('id')!r}: not a stored "
+                                 f"world ({type(error).__name__}: {error})") from error
     return _pooled(files, frames, stale, meta, worlds, metrics, progress, allow_mixed)
 
 
@@ -329,13 +335,9 @@ def _in_experiment_order(runs: pd.DataFrame, config_text: str | None) -> pd.Data
     """The runs in the order the experiment plans them, whatever order its workers finished
     in: variant, sweep, world (as the experiment file lists them), query, repetition, planner
     (as listed), so every table and figure that lists planners or worlds by first appearance
-    lists them as the file does. Ids the file does not list (or a config that is not YAML)
-    come after the listed ones, by name."""
-    try:
-        config = yaml.safe_load(config_text) if config_text else None
-    except yaml.YAMLError:
-        config = None
-    config = config if isinstance(config, dict) else {}
+    lists them as the file does. Ids the file does not list come after the listed ones, by
+    name. The config was checked (_check_meta)."""
+    config = (yaml.safe_load(config_text.split(VARIANTS)[0]) if config_text else None) or {}
     ranks = {}
     for column, listed in (("world", "worlds"), ("planner", "planners")):
         if column in runs:
@@ -352,12 +354,33 @@ def _in_experiment_order(runs: pd.DataFrame, config_text: str | None) -> pd.Data
     return ordered.drop(columns=list(ranks)).reset_index(drop=True)
 
 
+def _check_meta(file: Path, meta: dict[str, str]) -> None:
+    """Refuses a meta table whose schema_version is not a whole number or whose config is not
+    the experiment's YAML mapping, naming the file, table and key (every reader trusts them)."""
+    version = str(meta.get("schema_version", "1"))
+    if not version.isdigit():
+        raise ValueError(f"{file}: table meta, key 'schema_version': expected a whole number, "
+                         f"got {version!r} (a damaged or foreign database)")
+    text = meta.get("config")
+    if text is None:
+        return
+    try:
+        config = yaml.safe_load(str(text).split(VARIANTS)[0])
+    except yaml.YAMLError as error:
+        raise ValueError(f"{file}: table meta, key 'config': not the experiment's YAML "
+                         f"({str(error).splitlines()[0]})") from error
+    if config is not None and not isinstance(config, dict):
+        raise ValueError(f"{file}: table meta, key 'config': expected the experiment's mapping, "
+                         f"got {type(config).__name__}")
+
+
 def _runs_of(database: _Database, file: Path, meta: dict[str, str], first: Path,
              allow_mixed: bool) -> pd.DataFrame:
     """One database's runs in this package's schema, its statistics as extra columns; refuses
     a newer schema, and (unless `allow_mixed`) another experiment than the first database's
     (`meta`, of `first`)."""
     runs = database.runs
+    _check_meta(file, database.meta)
     version = int(database.meta.get("schema_version", "1"))
     if version > SCHEMA_VERSION:
         raise ValueError(f"{file}: results schema version {version} is newer than this "

@@ -85,6 +85,28 @@ def test_databases_without_runs_are_refused_by_name(kinolab, two_experiments, tm
         assert not (tmp_path / "report").exists()
 
 
+def test_a_damaged_meta_or_worlds_table_is_refused_naming_table_and_key(kinolab, two_experiments,
+                                                                        tmp_path):
+    """Before: Python's ParserError, TypeError or "invalid literal for int()" ("please report
+    it"); now one line naming the file, the table and the key."""
+    cases = (("UPDATE meta SET value = 'abc' WHERE key = 'schema_version'",
+              "table meta, key 'schema_version': expected a whole number"),
+             ("UPDATE meta SET value = '{unclosed: [' WHERE key = 'config'",
+              "table meta, key 'config': not the experiment's YAML"),
+             ("UPDATE meta SET value = '- a list' WHERE key = 'config'",
+              "table meta, key 'config': expected the experiment's mapping"),
+             ("UPDATE worlds SET resolution = NULL", "table worlds, world"),
+             ("UPDATE worlds SET top = x'00'", "table worlds, world"))
+    for index, (statement, problem) in enumerate(cases):
+        damaged = copy_database(two_experiments[0], tmp_path / f"damaged{index}")
+        execute(damaged, statement)
+        before = tree_digest(tmp_path)
+        result = kinolab("report", damaged, "--out", tmp_path / "report")
+        assert_one_line_error(result, str(damaged / "results.sqlite"), problem)
+        assert tree_digest(tmp_path) == before
+        assert not (tmp_path / "report").exists()
+
+
 def test_an_out_that_is_or_lies_under_a_file_is_refused(kinolab, two_experiments, tmp_path):
     blocker = tmp_path / "a_file"
     blocker.write_text("not a directory")
