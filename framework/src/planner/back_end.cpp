@@ -19,6 +19,16 @@ const MetricSpecs& backEndStatistics() {
   return specs;
 }
 
+std::string backEndInputProblem(const BackEndProblem& problem) {
+  if (!problem.start.allFinite()) return "the start state is not finite";
+  if (!problem.goal.allFinite()) return "the goal is not finite";
+  if (problem.path.empty()) return "the front end's path is empty";
+  for (const Eigen::Vector3d& point : problem.path) {
+    if (!point.allFinite()) return "the front end's path has a point that is not finite";
+  }
+  return "";
+}
+
 std::vector<Eigen::Vector3d> backEndPath(const std::vector<Eigen::Vector3d>& path,
                                          const Trajectory& trajectory) {
   if (!path.empty() || trajectory.empty()) return path;

@@ -116,6 +116,8 @@ void Planner::setup(const PlannerContext& context) {
   world_ = context.world;
 }
 
+bool Planner::refinesFrontEnd() const { return back_end_ && !back_end_->keepsFrontEnd(); }
+
 std::string Planner::objective() const {
   if (refinesFrontEnd()) return "trajectory length";
   std::string own = costObjective();

@@ -32,17 +32,11 @@ class BsplineBackEnd final : public BackEnd {
   BackEndResult refine(const BackEndProblem& problem, StopCondition& stop) const override {
     if (!smoother_) throw InvalidArgument("bspline: refine() before setup()");
     BackEndResult result;
-    if (problem.path.size() < 2 || !problem.start.allFinite()) {
-      result.failure = problem.path.size() < 2 ? "a path of fewer than two points"
-                                               : "the start state is not finite";
-      return result;
+    result.failure = backEndInputProblem(problem);
+    if (result.failure.empty() && problem.path.size() < 2) {
+      result.failure = "a path of fewer than two points";
     }
-    for (const Eigen::Vector3d& point : problem.path) {
-      if (!point.allFinite()) {
-        result.failure = "the path has a point that is not finite";
-        return result;
-      }
-    }
+    if (!result.failure.empty()) return result;
     SmootherResult smoothed = smoother_->smooth(problem.start, problem.path, stop);
     result.statistics = std::move(smoothed.statistics);
     if (smoothed.valid) {

@@ -62,8 +62,6 @@ Pieces initialPieces(const std::vector<Eigen::Vector3d>& path, double piece_leng
   return pieces;
 }
 
-bool finite(const Eigen::Vector3d& point) { return point.allFinite(); }
-
 /// The worst excesses of `x` over its corridors and over the unmargined limits.
 Violations trueViolations(MincoProblem& problem, const Eigen::VectorXd& x,
                           const DynamicLimits& limits) {
@@ -76,16 +74,6 @@ Violations trueViolations(MincoProblem& problem, const Eigen::VectorXd& x,
 }
 
 }  // namespace
-
-std::string inputProblem(const BackEndProblem& problem) {
-  if (!problem.start.allFinite()) return "the start state is not finite";
-  if (!finite(problem.goal)) return "the goal is not finite";
-  if (problem.path.empty()) return "the front end's path is empty";
-  if (!std::all_of(problem.path.begin(), problem.path.end(), finite)) {
-    return "the front end's path has a point that is not finite";
-  }
-  return "";
-}
 
 void CorridorMinco::setup(std::shared_ptr<const World> world, const Body& body,
                           const PlannerLimits& limits) {
@@ -137,7 +125,7 @@ bool strengthen(ProblemWeights& weights, const std::string& failed_check, double
 BackEndResult CorridorMinco::refine(const BackEndProblem& problem, StopCondition& stop) const {
   BackEndResult result;
   if (!world_) throw InvalidArgument("corridor_minco: refine() before setup()");
-  if (const std::string bad = inputProblem(problem); !bad.empty()) {
+  if (const std::string bad = backEndInputProblem(problem); !bad.empty()) {
     result.failure = "corridor_minco: " + bad;
     return result;
   }

@@ -101,7 +101,4 @@ class CorridorMinco : public BackEnd {
 /// The statistics refine() reports, declared once.
 MetricSpecs corridorMincoStatistics();
 
-/// Why `problem` cannot be refined (a non-finite or empty input), or "".
-std::string inputProblem(const BackEndProblem& problem);
-
 }  // namespace kinolab::minco

@@ -61,12 +61,6 @@ double limitFactor(const Eigen::Matrix3Xd& control, double interval, const Dynam
   return factor;
 }
 
-bool finite(const BackEndProblem& problem) {
-  return problem.start.allFinite() &&
-         std::all_of(problem.path.begin(), problem.path.end(),
-                     [](const Eigen::Vector3d& point) { return point.allFinite(); });
-}
-
 }  // namespace
 
 void EgoBspline::setup(std::shared_ptr<const World> world, const Body& body,
@@ -286,8 +280,7 @@ BackEndResult EgoBspline::refine(const BackEndProblem& problem, StopCondition& s
     if (!result.failure.empty()) result.trajectory = Trajectory();
     return result;
   };
-  if (!finite(problem)) return finish("the start state or the path is not finite");
-  if (problem.path.empty()) return finish("the path is empty");
+  if (std::string bad = backEndInputProblem(problem); !bad.empty()) return finish(std::move(bad));
   std::vector<Eigen::Vector3d> path{problem.start.col(0)};
   for (const Eigen::Vector3d& point : problem.path) {
     if ((point - path.back()).norm() > 1e-9) path.push_back(point);

@@ -20,6 +20,8 @@ class NoBackEnd final : public BackEnd {
     }
     return result;
   }
+
+  bool keepsFrontEnd() const override { return true; }
 };
 
 }  // namespace

@@ -52,7 +52,7 @@ class GridAstarPlanner final : public Planner {
   PlanResult doPlan(const PlanningQuery& query, StopCondition& stop) override {
     PlanResult result;
     const bool at_rest = query.start.col(1).isZero() && query.start.col(2).isZero();
-    if (backEnd() == "none" && !at_rest) {
+    if (!refinesFrontEnd() && !at_rest) {
       result.status = PlanStatus::kInvalidStart;
       result.message =
           "with back_end none grid_astar flies its path stop-and-go, so it starts at rest "

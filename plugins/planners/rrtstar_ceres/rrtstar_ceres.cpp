@@ -128,7 +128,7 @@ class RrtStarPlanner final : public Planner {
     PlanResult result;
     const Eigen::Vector3d start = query.start.col(0);
     const bool at_rest = query.start.col(1).isZero() && query.start.col(2).isZero();
-    if (backEnd() == "none" && !at_rest) {
+    if (!refinesFrontEnd() && !at_rest) {
       result.status = PlanStatus::kInvalidStart;
       result.message =
           "with back_end none the path is flown stop-and-go, so it starts at rest (choose a "

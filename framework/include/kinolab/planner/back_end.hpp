@@ -58,6 +58,10 @@ class BackEnd {
   virtual BackEndResult refine(const BackEndProblem& problem, StopCondition& stop) const = 0;
   /// The share of a time budget kept for the back end: the front end stops at the rest.
   virtual double budgetShare() const { return 0.0; }
+  /// True for a back end that returns the front end's trajectory as it is (`none`): the
+  /// front end's cost and objective then stand, and a front end that has only a path (a
+  /// geometric one from a moving start) cannot be flown.
+  virtual bool keepsFrontEnd() const { return false; }
 };
 
 template <>
@@ -66,6 +70,10 @@ PluginRegistry<BackEnd>& pluginRegistry<BackEnd>();
 /// The statistics Planner::plan() reports for every planner with a back end:
 /// `front_end_cost`, `time_front_end_ms`, `time_back_end_ms`.
 const MetricSpecs& backEndStatistics();
+
+/// Why a back end cannot refine `problem`, or "" when it can: a start state, goal or path
+/// point that is not finite, or an empty path. Every back end checks its input with it.
+std::string backEndInputProblem(const BackEndProblem& problem);
 
 /// The time step of BackEndProblem::path sampled from a front end's trajectory, s.
 inline constexpr double kBackEndPathStep = 0.05;

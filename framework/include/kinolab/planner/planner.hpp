@@ -145,9 +145,6 @@ class Planner {
   /// its cost compares only with its own configuration's. After a back end (other than
   /// `none`) the cost is the trajectory's length, whatever the front end: "trajectory length".
   std::string objective() const;
-  /// The key of its back end ("none" keeps the front end's trajectory); "" for a planner
-  /// without the `back_end` parameter.
-  const std::string& backEnd() const { return back_end_key_; }
 
   bool isSetup() const { return world_ != nullptr; }
   const World& world() const;
@@ -179,6 +176,9 @@ class Planner {
   virtual void doCheck() const {}
   /// What the cost measures (objective()); "" by default.
   virtual std::string costObjective() const { return ""; }
+  /// True when its back end makes the trajectory flown from the front end's answer (any but
+  /// `none`): a geometric front end may then plan from a moving start, with only a path.
+  bool refinesFrontEnd() const;
 
  private:
   friend ConfiguredPlanner configurePlanner(std::string_view,
@@ -189,8 +189,6 @@ class Planner {
   /// The result of a query the planner must refuse (a start or goal outside the map or in
   /// collision, a start beyond the limits), or none.
   std::optional<PlanResult> refusal(const PlanningQuery& query) const;
-  /// True when a back end other than `none` replaces the front end's trajectory.
-  bool refinesFrontEnd() const { return back_end_ && back_end_key_ != "none"; }
   /// The front end's budget within the call's: the time less the back end's share.
   Budget frontEndBudget(const Budget& budget) const;
   /// Runs the back end on the front end's answer within `stop` (the whole call's budget):
