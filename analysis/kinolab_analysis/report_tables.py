@@ -63,6 +63,13 @@ def back_end_matrix(runs: pd.DataFrame) -> pd.DataFrame | None:
                           index=runs.index, dtype=object)
     if back_ends.isna().any() or back_ends.nunique() < 2:
         return None
+    if "time_front_end_ms" in runs:
+        # A back end that keeps the front end's trajectory (`none`) is not run: the plan is
+        # the front end's alone.
+        unrun = runs["time_front_end_ms"].isna()
+        runs = runs.assign(
+            time_front_end_ms=runs["time_front_end_ms"].where(~unrun, runs["planning_time_ms"]),
+            time_back_end_ms=runs["time_back_end_ms"].where(~unrun, 0.0))
     matrix = tables.summary(runs.assign(**{"back end": back_ends}), by=["planner", "back end"],
                             metrics=BACK_END_METRICS)
     return matrix.rename(columns={"planner": "front end"})

@@ -528,14 +528,19 @@ def test_the_back_end_matrix_crosses_front_ends_with_the_back_ends_the_sweep_cho
                 rows.append({"sweep": label, "planner": planner, "query": query,
                              "status": "exact" if success else "back_end_failed",
                              "checker_valid": 1 if success else 0, "success": success,
-                             "time_front_end_ms": 2.0 if planner == "lazy" else 100.0,
-                             "time_back_end_ms": back_ms, "duration": 5.0 + query,
+                             "planning_time_ms": (2.0 if planner == "lazy" else 100.0) + back_ms,
+                             # `none` is not run: no front and back times of its own
+                             "time_front_end_ms": (math.nan if back_end == "none" else
+                                                   2.0 if planner == "lazy" else 100.0),
+                             "time_back_end_ms": math.nan if back_end == "none" else back_ms,
+                             "duration": 5.0 + query,
                              "jerk_integral": 1.0, "min_clearance": 0.3})
     matrix = back_end_matrix(pd.DataFrame(rows)).set_index(["front end", "back end"])
     assert len(matrix) == 6  # two front ends x three back ends, each named by its own value
     assert matrix.loc[("lazy", "corridor_minco"), "success"].estimate == pytest.approx(0.5)
     assert matrix.loc[("bitstar", "bspline"), "median time_back_end_ms"].estimate == 30.0
-    assert matrix.loc[("bitstar", "none"), "median time_front_end_ms"].estimate == 100.0
+    assert matrix.loc[("bitstar", "none"), "median time_front_end_ms"].estimate == 100.01
+    assert matrix.loc[("bitstar", "none"), "median time_back_end_ms"].estimate == 0.0
     assert matrix.loc[("lazy", "bspline"), "median duration"].estimate == pytest.approx(6.0)
     # Variants that differ in a back end's parameter stay apart.
     order = pd.DataFrame(rows).assign(

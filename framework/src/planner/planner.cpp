@@ -167,7 +167,7 @@ std::optional<PlanResult> Planner::refusal(const PlanningQuery& query) const {
 
 Budget Planner::frontEndBudget(const Budget& budget) const {
   Budget front = budget;
-  if (back_end_ && std::isfinite(budget.time_limit)) {
+  if (refinesFrontEnd() && std::isfinite(budget.time_limit)) {
     front.time_limit = (1.0 - back_end_->budgetShare()) * budget.time_limit;
   }
   return front;
@@ -211,7 +211,6 @@ void Planner::runBackEnd(const PlanningQuery& query, PlanResult& result,
     result.cost = INFINITY;
     return;
   }
-  if (!refinesFrontEnd()) return;  // `none`: the front end's trajectory and cost stand
   result.trajectory = std::move(refined.trajectory);
   result.cost = result.trajectory.length();
 }
@@ -232,7 +231,9 @@ PlanResult Planner::plan(const PlanningQuery& query, const Budget& budget, Searc
   }
   const bool answered =
       result.status == PlanStatus::kExact || result.status == PlanStatus::kApproximate;
-  if (back_end_ && answered && (!result.trajectory.empty() || !result.path.empty())) {
+  // A back end that keeps the front end's trajectory (`none`, every planner's default) is not
+  // run: its copy, the path sampled for it and its clock would cost every plan for nothing.
+  if (refinesFrontEnd() && answered && (!result.trajectory.empty() || !result.path.empty())) {
     runBackEnd(query, result, stop);
   }
   result.planning_time_ms = 1e3 * stop.elapsed();

@@ -58,9 +58,10 @@ class BackEnd {
   virtual BackEndResult refine(const BackEndProblem& problem, StopCondition& stop) const = 0;
   /// The share of a time budget kept for the back end: the front end stops at the rest.
   virtual double budgetShare() const { return 0.0; }
-  /// True for a back end that returns the front end's trajectory as it is (`none`): the
-  /// front end's cost and objective then stand, and a front end that has only a path (a
-  /// geometric one from a moving start) cannot be flown.
+  /// True for a back end that returns the front end's trajectory as it is (`none`):
+  /// Planner::plan() then does not run it (the front end's trajectory, cost and objective
+  /// stand), and a front end that has only a path (a geometric one from a moving start)
+  /// cannot be flown.
   virtual bool keepsFrontEnd() const { return false; }
 };
 
