@@ -1,6 +1,8 @@
 #include "kinolab/planner/back_end.hpp"
 
 #include "kinolab/core/plugin.hpp"
+#include "kinolab/core/text.hpp"
+#include "kinolab/world/trajectory_trace.hpp"
 
 namespace kinolab {
 
@@ -17,6 +19,25 @@ const MetricSpecs& backEndStatistics() {
           .clock("time_front_end_ms", "the front end's time (the planner before its back end)")
           .clock("time_back_end_ms", "the back end's time");
   return specs;
+}
+
+CheckResult backEndSelfCheck(const TrajectoryChecker& checker, const World& world,
+                             const Trajectory& trajectory, const CheckQuery& query) {
+  CheckResult result = checker.checkMotion(trajectory, query);
+  if (!result.valid) return result;
+  const Body& body = checker.settings().body;
+  const TraceResult trace =
+      traceTrajectory(world, trajectory, body.verdictRadius(), body.tolerance);
+  if (trace.free) return result;
+  result.valid = false;
+  result.check = trace.left_domain ? "bounds" : "collision";
+  result.time = trace.time;
+  result.position = trace.position;
+  result.detail = trace.left_domain ? "position " + formatPoint(trace.position) + " leaves the map"
+                                    : "the body (radius " + formatNumber(body.verdictRadius()) +
+                                          " m) comes closer to an occupied voxel cube than the "
+                                          "world's verdict allows (sphere tracing)";
+  return result;
 }
 
 std::string backEndInputProblem(const BackEndProblem& problem) {

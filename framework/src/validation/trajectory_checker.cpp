@@ -18,7 +18,6 @@ namespace {
 
 using checker_detail::kDerivatives;
 using checker_detail::sampleTimes;
-using checker_detail::speedBound;
 
 const char* kAxes[] = {"x", "y", "z"};
 
@@ -282,6 +281,19 @@ CheckResult TrajectoryChecker::check(const Trajectory& trajectory, const CheckQu
   }
   result.valid = checkStart(trajectory, query, result) && checkLimits(trajectory, result) &&
                  checkCollision(trajectory, result) && checkGoal(trajectory, query, result);
+  return result;
+}
+
+CheckResult TrajectoryChecker::checkMotion(const Trajectory& trajectory,
+                                           const CheckQuery& query) const {
+  CheckResult result;
+  result.body_radius = body_radius_;
+  if (trajectory.empty()) {
+    violation(result, "empty", 0.0, query.start.col(0), "no trajectory");
+    return result;
+  }
+  result.valid = checkStart(trajectory, query, result) && checkLimits(trajectory, result) &&
+                 checkGoal(trajectory, query, result);
   return result;
 }
 

@@ -17,7 +17,6 @@ namespace {
 
 using checker_detail::kDerivatives;
 using checker_detail::sampleTimes;
-using checker_detail::speedBound;
 
 /// "NAME: REASON" for each name, a line each (what the report reads per metric).
 void markUndefined(std::vector<std::string>& lines, std::initializer_list<const char*> names,

@@ -9,6 +9,7 @@
 #include <utility>
 #include <vector>
 
+#include "kinolab/trajectory/segment_bounds.hpp"
 #include "kinolab/trajectory/trajectory.hpp"
 
 namespace kinolab::checker_detail {
@@ -16,15 +17,6 @@ namespace kinolab::checker_detail {
 /// The derivatives' names, by order.
 inline constexpr const char* kDerivatives[] = {"position", "velocity", "acceleration", "jerk",
                                                "snap"};
-
-/// An upper bound on the speed over a segment: sum_k k |c_k| T^(k-1) per axis.
-inline double speedBound(const TrajectorySegment& segment) {
-  Eigen::Array3d bound = Eigen::Array3d::Zero();
-  for (int k = 1; k < segment.coefficients.cols(); ++k) {
-    bound += k * segment.coefficients.col(k).array().abs() * std::pow(segment.duration, k - 1);
-  }
-  return bound.matrix().norm();
-}
 
 /// The sample times of a segment `spacing` apart along its path (a bound of it), at least
 /// its two ends: (global time, local time).

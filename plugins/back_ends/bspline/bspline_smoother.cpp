@@ -8,6 +8,7 @@
 #include <tuple>
 
 #include "kinolab/core/text.hpp"
+#include "kinolab/planner/back_end.hpp"
 
 namespace kinolab::smoothing {
 namespace {
@@ -371,7 +372,7 @@ SmootherResult BsplineSmoother::smooth(const ChainState& start,
     CheckQuery query;
     query.start = start;
     query.require_goal = false;
-    const CheckResult check = checker_.check(result.trajectory, query);
+    const CheckResult check = backEndSelfCheck(checker_, *world_, result.trajectory, query);
     result.valid = check.valid;
     if (check.valid) {
       result.problem.clear();

@@ -164,6 +164,7 @@ BackEndResult CorridorMinco::refine(const BackEndProblem& problem, StopCondition
   result.statistics = {
       {"minco_iterations", static_cast<double>(rounds.iterations)},
       {"minco_rounds", rounds.rounds},
+      {"minco_stretches", rounds.stretches},
       {"minco_corridors", static_cast<double>(corridors.polytopes.size())},
       {"minco_pieces", minco.pieces()},
       {"minco_halfspaces", corridors.tally.halfspaces},
@@ -191,8 +192,9 @@ CorridorMinco::Rounds CorridorMinco::solve(MincoProblem& minco, Eigen::VectorXd&
     rounds.final_cost = minco.cost(x, gradient);
     rounds.trajectory = minco.trajectory(x);
     const Clock::time_point check_begin = Clock::now();
-    const CheckResult check = checker_->check(rounds.trajectory, query);
+    CheckResult check = backEndSelfCheck(*checker_, *world_, rounds.trajectory, query);
     rounds.check_ms += millisecondsSince(check_begin);
+    check = stretchToLimits(minco, x, query, std::move(check), rounds);
     if (check.valid) {
       rounds.failure.clear();
       break;
@@ -208,10 +210,34 @@ CorridorMinco::Rounds CorridorMinco::solve(MincoProblem& minco, Eigen::VectorXd&
   return rounds;
 }
 
+CheckResult CorridorMinco::stretchToLimits(MincoProblem& minco, Eigen::VectorXd& x,
+                                           const CheckQuery& query, CheckResult check,
+                                           Rounds& rounds) const {
+  for (int attempt = 1; attempt <= kMaxStretches && check.check == "limits"; ++attempt) {
+    // A little beyond the factor found, more each time: the check samples more finely.
+    const double factor = minco.stretchNeeded(x, limits_.limits) * (1.0 + 1e-4 * attempt);
+    const Eigen::VectorXd longer = minco.stretched(x, factor);
+    Trajectory trajectory = minco.trajectory(longer);
+    const Clock::time_point check_begin = Clock::now();
+    CheckResult again = backEndSelfCheck(*checker_, *world_, trajectory, query);
+    rounds.check_ms += millisecondsSince(check_begin);
+    ++rounds.stretches;
+    // A stretch that trades the limit for a collision is not kept: the round's remedy for
+    // the limit (heavier limit penalties) is the better next step.
+    if (!again.valid && again.check != "limits") break;
+    x = longer;
+    rounds.trajectory = std::move(trajectory);
+    check = std::move(again);
+  }
+  return check;
+}
+
 MetricSpecs corridorMincoStatistics() {
   return MetricSpecs()
       .counter("minco_iterations", "L-BFGS iterations over all rounds")
       .counter("minco_rounds", "solves (a failed check starts another with heavier penalties)")
+      .counter("minco_stretches",
+               "durations stretched to mend a limit the check found exceeded (all rounds)")
       .counter("minco_corridors", "convex corridors (segments of the shortcut path)")
       .counter("minco_pieces", "polynomial pieces of the trajectory")
       .counter("minco_halfspaces", "obstacle planes over all corridors (beyond their boxes)")

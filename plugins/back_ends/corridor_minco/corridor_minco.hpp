@@ -21,7 +21,7 @@ struct CorridorMincoSettings {
   double weight_velocity = 1e4;      ///< velocity penalty weight
   double weight_acceleration = 1e4;  ///< acceleration penalty weight
   double box_half_size = 1.0;        ///< corridor box around its segment, m
-  double piece_length = 1.0;         ///< pieces per corridor: its segment's length over this, m
+  double piece_length = 1.5;         ///< pieces per corridor: its segment's length over this, m
   int samples = 16;                  ///< penalty samples (trapezoid intervals) per piece
   int max_iterations = 200;          ///< L-BFGS iterations per round
   double relative_tolerance = 3e-4;  ///< L-BFGS stops at this relative decrease over 3
@@ -83,13 +83,20 @@ class CorridorMinco : public BackEnd {
     std::string failure;
     long long iterations = 0;
     int rounds = 0;
+    int stretches = 0;
     double final_cost = NAN;
     double check_ms = 0.0;
   };
-  /// Optimises and checks, again with heavier penalties after a collision or a limit, until
-  /// the trajectory passes, max_rounds is reached, no remedy applies or the budget is spent.
+  /// Optimises and checks until the trajectory passes, max_rounds is reached, no remedy
+  /// applies or the budget is spent. A limit exceeded is first mended by stretching every
+  /// duration (MincoProblem::stretchNeeded, checked again, at most kMaxStretches times); what
+  /// that does not mend, and a collision, start another round with heavier penalties.
   Rounds solve(MincoProblem& minco, Eigen::VectorXd& x, const CheckQuery& query,
                StopCondition& stop) const;
+  /// Stretches `x` while its check fails on a limit; the last check.
+  CheckResult stretchToLimits(MincoProblem& minco, Eigen::VectorXd& x, const CheckQuery& query,
+                              CheckResult check, Rounds& rounds) const;
+  static constexpr int kMaxStretches = 3;
 
   std::shared_ptr<const World> world_;
   Body body_;

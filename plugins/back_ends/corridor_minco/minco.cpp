@@ -108,11 +108,13 @@ double Minco::energy(Eigen::MatrixX3d& gradient_coefficients,
   double total = 0.0;
   for (int i = 0; i < pieces(); ++i) {
     const double duration = durations_(i);
+    double powers[8] = {1.0};  // duration^p, p <= 2 (n - 1 - s)
+    for (int p = 1; p < 8; ++p) powers[p] = powers[p - 1] * duration;
     for (int k = s_; k < n; ++k) {
       for (int l = s_; l < n; ++l) {
         const int power = k + l - 2 * s_;
         const double scale = basis(k, s_, 1.0) * basis(l, s_, 1.0);
-        const double t_power = std::pow(duration, power);
+        const double t_power = powers[power];
         const double dot = coefficients_.row(n * i + k).dot(coefficients_.row(n * i + l));
         total += scale * dot * t_power * duration / (power + 1);
         gradient_coefficients.row(n * i + k) +=

@@ -74,24 +74,34 @@ void MincoProblem::unpack(const Eigen::VectorXd& x) {
 double MincoProblem::piecePenalty(int piece, Eigen::MatrixX3d& gradient_coefficients,
                                   Eigen::VectorXd& gradient_durations,
                                   Violations* violations) const {
+  return minco_.s() == 3
+             ? piecePenaltyOf<6>(piece, gradient_coefficients, gradient_durations, violations)
+             : piecePenaltyOf<8>(piece, gradient_coefficients, gradient_durations, violations);
+}
+
+template <int N>
+double MincoProblem::piecePenaltyOf(int piece, Eigen::MatrixX3d& gradient_coefficients,
+                                    Eigen::VectorXd& gradient_durations,
+                                    Violations* violations) const {
+  // k! / (k - d)!: the factor of t^(k - d) in the d-th derivative of t^k.
+  static constexpr double kFalling[8][4] = {{1, 0, 0, 0},   {1, 1, 0, 0},    {1, 2, 2, 0},
+                                            {1, 3, 6, 6},   {1, 4, 12, 24},  {1, 5, 20, 60},
+                                            {1, 6, 30, 120}, {1, 7, 42, 210}};
   const Polytope& polytope = corridors_[static_cast<std::size_t>(corridor_of_piece_[piece])];
-  const int n = 2 * minco_.s();
   const int samples = weights_.samples;
   const double duration = durations_(piece);
-  // At most 8 rows: fixed storage, no allocation per sample.
-  using Rows3 = Eigen::Matrix<double, Eigen::Dynamic, 3, 0, 8, 3>;
-  const Rows3 coefficients = minco_.coefficients(piece);
-  Rows3 gradient = Rows3::Zero(n, 3);
-  Eigen::Matrix<double, Eigen::Dynamic, 4, 0, 8, 4> basis(n, 4);  // (k, d): d-th derivative of t^k
+  const Eigen::Matrix<double, N, 3> coefficients = minco_.coefficients(piece);
+  Eigen::Matrix<double, N, 3> gradient = Eigen::Matrix<double, N, 3>::Zero();
+  Eigen::Matrix<double, N, 4> basis;  // (k, d): the d-th derivative of t^k
   double total = 0.0;
   for (int j = 0; j <= samples; ++j) {
     const double fraction = static_cast<double>(j) / samples;
     const double t = fraction * duration;
-    basis.setZero();
-    for (int k = 0; k < n; ++k) {
-      for (int d = 0; d < 4 && d <= k; ++d) {
-        basis(k, d) = d == 0 ? (k == 0 ? 1.0 : basis(k - 1, 0) * t) : k * basis(k - 1, d - 1);
-      }
+    double power[N];
+    power[0] = 1.0;
+    for (int k = 1; k < N; ++k) power[k] = power[k - 1] * t;
+    for (int k = 0; k < N; ++k) {
+      for (int d = 0; d < 4; ++d) basis(k, d) = k >= d ? kFalling[k][d] * power[k - d] : 0.0;
     }
     const Eigen::Matrix<double, 3, 4> state = coefficients.transpose() * basis;  // p, v, a, j
     const Penalty penalty = samplePenalty(polytope, state, violations);
@@ -99,12 +109,13 @@ double MincoProblem::piecePenalty(int piece, Eigen::MatrixX3d& gradient_coeffici
     // The trapezoid rule's weight of this sample.
     const double share = (j == 0 || j == samples ? 0.5 : 1.0) / samples;
     total += share * duration * penalty.value;
-    gradient.noalias() += share * duration * basis.leftCols<3>() * penalty.gradient.transpose();
+    gradient.noalias() +=
+        (share * duration) * basis.template leftCols<3>() * penalty.gradient.transpose();
     // The sample moves with T (t = fraction T) and so does its weight.
     const double along = penalty.gradient.cwiseProduct(state.rightCols<3>()).sum();
     gradient_durations(piece) += share * (penalty.value + duration * along * fraction);
   }
-  gradient_coefficients.middleRows(n * piece, n) += gradient;
+  gradient_coefficients.middleRows<N>(N * piece) += gradient;
   return total;
 }
 
@@ -180,6 +191,26 @@ Violations MincoProblem::violations(const Eigen::VectorXd& x) {
   violations.velocity = std::max(violations.velocity, 0.0);
   violations.acceleration = std::max(violations.acceleration, 0.0);
   return violations;
+}
+
+double MincoProblem::stretchNeeded(const Eigen::VectorXd& x, const DynamicLimits& limits) {
+  unpack(x);
+  double factor = 1.0;
+  for (int i = 0; i < pieces(); ++i) {
+    for (int j = 0; j <= kStretchSamples; ++j) {
+      const double t = durations_(i) * j / kStretchSamples;
+      const Eigen::Array3d v = minco_.evaluate(i, t, 1).array().abs() / limits.bound[1].array();
+      const Eigen::Array3d a = minco_.evaluate(i, t, 2).array().abs() / limits.bound[2].array();
+      factor = std::max({factor, v.maxCoeff(), std::sqrt(a.maxCoeff())});
+    }
+  }
+  return factor;
+}
+
+Eigen::VectorXd MincoProblem::stretched(const Eigen::VectorXd& x, double factor) const {
+  Eigen::VectorXd result = x;
+  for (int i = 0; i < pieces(); ++i) result(i) = tauOf(durationOf(x(i)) * factor);
+  return result;
 }
 
 namespace {

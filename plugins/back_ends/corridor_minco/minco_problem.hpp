@@ -55,6 +55,15 @@ class MincoProblem {
   double cost(const Eigen::VectorXd& x, Eigen::VectorXd& gradient);
   Trajectory trajectory(const Eigen::VectorXd& x);
   Violations violations(const Eigen::VectorXd& x);
+  /// The factor every duration of `x` must be stretched by for its trajectory to keep the
+  /// per-axis limits, 1 when it keeps them: max(v / v_max, sqrt(a / a_max)) over every axis at
+  /// kStretchSamples samples a piece. Exact for a start at rest (stretching the durations
+  /// then slows the same path uniformly); from a moving start the fixed start state bends the
+  /// path a little, and the caller checks again.
+  double stretchNeeded(const Eigen::VectorXd& x, const DynamicLimits& limits);
+  /// `x` with every duration multiplied by `factor`.
+  Eigen::VectorXd stretched(const Eigen::VectorXd& x, double factor) const;
+  static constexpr int kStretchSamples = 64;
 
   /// What optimise() did.
   struct Outcome {
@@ -81,6 +90,10 @@ class MincoProblem {
   /// Adds the penalties of `piece` and their gradients; returns their sum.
   double piecePenalty(int piece, Eigen::MatrixX3d& gradient_coefficients,
                       Eigen::VectorXd& gradient_durations, Violations* violations) const;
+  /// piecePenalty() for N = 2s coefficients a piece, in fixed-size storage.
+  template <int N>
+  double piecePenaltyOf(int piece, Eigen::MatrixX3d& gradient_coefficients,
+                        Eigen::VectorXd& gradient_durations, Violations* violations) const;
   /// The penalty of one sample (state: position, velocity, acceleration, jerk), and its worst
   /// excesses into `violations` when given.
   Penalty samplePenalty(const Polytope& polytope, const Eigen::Matrix<double, 3, 4>& state,

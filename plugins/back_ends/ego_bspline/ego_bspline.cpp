@@ -305,9 +305,9 @@ BackEndResult EgoBspline::refine(const BackEndProblem& problem, StopCondition& s
   query.start = problem.start;
   query.goal = path.back();
   query.goal_radius = limits_.goal_radius;
-  const CheckResult check = checker_->check(result.trajectory, query);
+  const CheckResult check = backEndSelfCheck(*checker_, *world_, result.trajectory, query);
   if (!check.valid) {
-    return finish("the checker rejects the spline: " + check.check +
+    return finish("its own check rejects the spline: " + check.check +
                   " at t = " + formatNumber(check.time) + " s: " + check.detail);
   }
   return finish("");

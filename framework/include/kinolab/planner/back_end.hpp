@@ -76,6 +76,15 @@ const MetricSpecs& backEndStatistics();
 /// point that is not finite, or an empty path. Every back end checks its input with it.
 std::string backEndInputProblem(const BackEndProblem& problem);
 
+/// A back end's own check of its trajectory, before Planner::plan() hands it to the
+/// independent checker: `checker`'s start, limits and goal checks (checkMotion), then the
+/// world's verdict on the checker's body (traceTrajectory at its verdict radius and
+/// tolerance) in place of the checker's FCL test at every sample: the verdict every search
+/// gives its edges, at a fraction of the cost. A failure is named as the checker names it
+/// ("limits", "bounds", "collision", ...).
+CheckResult backEndSelfCheck(const TrajectoryChecker& checker, const World& world,
+                             const Trajectory& trajectory, const CheckQuery& query);
+
 /// The time step of BackEndProblem::path sampled from a front end's trajectory, s.
 inline constexpr double kBackEndPathStep = 0.05;
 

@@ -113,6 +113,10 @@ class TrajectoryChecker {
   /// The verdict: fast, for planners that check inside their own work (a smoother's time
   /// reallocation, a shot) as for the final check.
   CheckResult check(const Trajectory& trajectory, const CheckQuery& query) const;
+  /// Every check but the world's (start, limits, goal; not bounds and collision): for a
+  /// planner that tests its own trajectory against the world with the planners' model
+  /// (traceTrajectory) before handing it on to check().
+  CheckResult checkMotion(const Trajectory& trajectory, const CheckQuery& query) const;
   /// The figures of a trajectory, whatever its verdict, at the checker's position samples
   /// (clearance from the world's exact distance) and from its polynomials (the integrals,
   /// exact): what every run reports, measured once, after the planner's clock stopped.
