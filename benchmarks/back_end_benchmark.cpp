@@ -5,8 +5,8 @@
 // thread's CPU time: the machine's other load aside), the share the independent checker
 // accepts (`valid`), the median ratio of the back end's trajectory duration to the front
 // end's (`duration_ratio`; a geometric front end's is its path flown stop-and-go) and the
-// share no longer than it (`not_longer`), and the medians of the back end's own iteration
-// and every other statistic of the back end (`median_NAME`). The front end ran before.
+// share no longer than it (`not_longer`), and the median of every statistic the back end
+// reports (`median_NAME`: its iterations, rounds, phase times). The front end ran before.
 //   ./build/benchmarks/kinolab_benchmarks --benchmark_filter=BackEnd
 #include <benchmark/benchmark.h>
 
