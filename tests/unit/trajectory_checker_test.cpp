@@ -6,6 +6,7 @@
 
 #include "kinolab/core/random.hpp"
 #include "kinolab/core/yaml_reader.hpp"
+#include "kinolab/world/trajectory_trace.hpp"
 #include "support/planning.hpp"
 
 namespace kinolab {
@@ -250,6 +251,100 @@ double cubeDistance(const World& world, const Eigen::Vector3d& p, double reach) 
     best = std::min(best, offset.norm());
   });
   return best;
+}
+
+TEST(TrajectoryChecker, CheckMotionChecksEverythingButTheWorld) {
+  const TrajectoryChecker checker(room(), {});
+  const Trajectory through = line({1, 2, 1}, {1.5, 0, 0}, 4.0);  // through the box
+  EXPECT_TRUE(checker.checkMotion(through, queryFor(through)).valid);
+  EXPECT_EQ(checker.check(through, queryFor(through)).check, "collision");
+  const Trajectory fast = line({1, 2, 2.7}, {2.5, 0, 0}, 1.0);
+  EXPECT_EQ(checker.checkMotion(fast, queryFor(fast)).check, "limits");
+  CheckQuery far_goal = queryFor(through);
+  far_goal.goal.x() += 1.0;
+  EXPECT_EQ(checker.checkMotion(through, far_goal).check, "goal");
+  EXPECT_EQ(checker.checkMotion(Trajectory{}, far_goal).check, "empty");
+}
+
+/// A chain of 1-3 constant-jerk primitives from a random state in the forest.
+Trajectory randomCurve(Rng& rng) {
+  ChainState state = ChainState::Zero();
+  state.col(0) = drawLastFirst<Eigen::Vector3d>(
+      [&](int axis) { return axis < 2 ? rng.uniform(1.0, 11.0) : rng.uniform(0.5, 2.5); });
+  state.col(1) = drawLastFirst<Eigen::Vector3d>([&](int) { return rng.uniform(-1.5, 1.5); });
+  Trajectory trajectory;
+  const int pieces = 1 + static_cast<int>(rng.uniform(0.0, 2.999));
+  for (int i = 0; i < pieces; ++i) {
+    const Eigen::Vector3d jerk =
+        drawLastFirst<Eigen::Vector3d>([&](int) { return rng.uniform(-2.0, 2.0); });
+    TrajectorySegment segment = TrajectorySegment::primitive(state, jerk, 3, 1.0);
+    for (int k = 0; k < 3; ++k) state.col(k) = segment.evaluate(1.0, k);
+    trajectory.append(std::move(segment));
+  }
+  return trajectory;
+}
+
+TEST(TraceTrajectory, IsTheWorldsVerdictExactToTheToleranceAndAgreesWithTheChecker) {
+  // Over random curves in the forest: a curve traced free keeps radius - tolerance from every
+  // cube (the checker, which holds samples to exactly that, accepts it); where tracing stops,
+  // the body of the full radius touches a cube or the point is outside the map.
+  const auto world = test::smallWorld("forest");
+  CheckerSettings settings;
+  settings.limits = DynamicLimits::uniform(100.0, 100.0);
+  const TrajectoryChecker checker(world, settings);
+  const double radius = settings.body.verdictRadius();
+  const double tolerance = settings.body.tolerance;
+  Rng rng(17);
+  int free = 0;
+  int collisions = 0;
+  int outside = 0;
+  for (int i = 0; i < 400; ++i) {
+    const Trajectory curve = randomCurve(rng);
+    CheckQuery query = queryFor(curve);
+    query.require_goal = false;
+    const TraceResult trace = traceTrajectory(*world, curve, radius, tolerance);
+    const CheckResult check = checker.check(curve, query);
+    if (trace.free) {
+      ++free;
+      EXPECT_TRUE(check.valid) << i << ": " << check.check << " " << check.detail;
+      continue;
+    }
+    EXPECT_GE(trace.time, 0.0);
+    EXPECT_LE(trace.time, curve.duration() + 1e-9);
+    EXPECT_TRUE(trace.position.isApprox(curve.evaluate(trace.time), 1e-9));
+    if (trace.left_domain) {
+      ++outside;
+      EXPECT_FALSE(world->bounds().contains(trace.position));
+    } else {
+      ++collisions;
+      EXPECT_LT(cubeDistance(*world, trace.position, radius), radius) << i;
+    }
+  }
+  EXPECT_GT(free, 40);  // the test sees every kind of verdict
+  EXPECT_GT(collisions, 40);
+  EXPECT_GT(outside, 5);
+}
+
+TEST(TraceTrajectory, TracesOnlyTheRangeAskedAndRefusesBadArguments) {
+  const auto world = room();
+  const Trajectory through = line({1, 2, 1}, {1.5, 0, 0}, 4.0);  // meets the box at ~2.5 s
+  const TraceResult whole = traceTrajectory(*world, through, 0.25, 0.01);
+  EXPECT_FALSE(whole.free);
+  EXPECT_FALSE(whole.left_domain);
+  EXPECT_GT(whole.time, 2.3);
+  EXPECT_LT(whole.time, 2.51);
+  EXPECT_TRUE(traceTrajectory(*world, through, 0.25, 0.01, 0.0, 2.0).free);
+  EXPECT_FALSE(traceTrajectory(*world, through, 0.25, 0.01, 3.0, 3.0).free);  // one point
+  EXPECT_TRUE(traceTrajectory(*world, through, 0.25, 0.01, 5.0).free);  // beyond the end
+  const Trajectory leaving = line({1, 2, 2.7}, {0, 0, 1.0}, 1.0);
+  EXPECT_TRUE(traceTrajectory(*world, leaving, 0.0, 0.01).left_domain);
+  const Trajectory not_a_number = line({1, 2, 2.7}, {std::nan(""), 0, 0}, 1.0);
+  EXPECT_FALSE(traceTrajectory(*world, not_a_number, 0.25, 0.01).free);
+  for (const double bad : {double(NAN), -1.0, double(INFINITY)}) {
+    EXPECT_THROW(traceTrajectory(*world, through, bad, 0.01), InvalidArgument);
+    EXPECT_THROW(traceTrajectory(*world, through, 0.25, bad), InvalidArgument);
+  }
+  EXPECT_THROW(traceTrajectory(*world, through, 0.25, 0.0), InvalidArgument);
 }
 
 TEST(TrajectoryChecker, CollisionIsExactAgainstTheCubesAtAnyRadius) {

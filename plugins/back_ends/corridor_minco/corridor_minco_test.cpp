@@ -129,6 +129,36 @@ TEST(CorridorMinco, MincoGradientMatchesFiniteDifferences) {
   }
 }
 
+TEST(CorridorMinco, StretchingTheDurationsSlowsTheSamePathIntoTheLimits) {
+  // From rest, stretching every duration by k is a uniform slow-down: the same path, speeds
+  // divided by k, accelerations by k^2. Stretched by the factor found, the trajectory keeps
+  // the limits (at 20 times finer samples than the factor's own, to a sampling slack).
+  for (const int order : {3, 4}) {
+    SCOPED_TRACE("order " + std::to_string(order));
+    ChainState start = ChainState::Zero();
+    std::vector<minco::Polytope> corridors(1);
+    minco::MincoProblem problem(order, start, Eigen::Vector3d(3.0, 1.0, 0.5), corridors, {0, 0, 0},
+                                minco::ProblemWeights{});
+    Eigen::Matrix3Xd waypoints(3, 2);
+    waypoints << 1.0, 2.0, 0.2, 0.8, 0.1, 0.3;
+    const Eigen::VectorXd fast = problem.variables(waypoints, Eigen::Vector3d(0.4, 0.3, 0.5));
+    const DynamicLimits limits = DynamicLimits::uniform(2.0, 3.0);
+    const double factor = problem.stretchNeeded(fast, limits);
+    ASSERT_GT(factor, 1.5);  // the fast one breaks its limits
+    const Eigen::VectorXd slow = problem.stretched(fast, factor);
+    EXPECT_NEAR(problem.stretchNeeded(slow, limits), 1.0, 1e-9);
+    const Trajectory before = problem.trajectory(fast);
+    const Trajectory after = problem.trajectory(slow);
+    EXPECT_NEAR(after.duration(), factor * before.duration(), 1e-9);
+    for (int i = 0; i <= 1000; ++i) {
+      const double t = before.duration() * i / 1000;
+      EXPECT_LT((after.evaluate(factor * t) - before.evaluate(t)).norm(), 1e-6) << t;
+      EXPECT_LE(after.evaluate(factor * t, 1).cwiseAbs().maxCoeff(), 2.0 * 1.001) << t;
+      EXPECT_LE(after.evaluate(factor * t, 2).cwiseAbs().maxCoeff(), 3.0 * 1.001) << t;
+    }
+  }
+}
+
 TEST(CorridorMinco, MincoMeetsItsBoundaryConditionsAndIsContinuous) {
   for (const int order : {3, 4}) {
     Eigen::Matrix3Xd head = Eigen::Matrix3Xd::Zero(3, order);
