@@ -335,7 +335,7 @@ TEST(TraceTrajectory, TracesOnlyTheRangeAskedAndRefusesBadArguments) {
   EXPECT_LT(whole.time, 2.51);
   EXPECT_TRUE(traceTrajectory(*world, through, 0.25, 0.01, 0.0, 2.0).free);
   EXPECT_FALSE(traceTrajectory(*world, through, 0.25, 0.01, 3.0, 3.0).free);  // one point
-  EXPECT_TRUE(traceTrajectory(*world, through, 0.25, 0.01, 5.0).free);  // beyond the end
+  EXPECT_TRUE(traceTrajectory(*world, through, 0.25, 0.01, 5.0).free);        // beyond the end
   const Trajectory leaving = line({1, 2, 2.7}, {0, 0, 1.0}, 1.0);
   EXPECT_TRUE(traceTrajectory(*world, leaving, 0.0, 0.01).left_domain);
   const Trajectory not_a_number = line({1, 2, 2.7}, {std::nan(""), 0, 0}, 1.0);

@@ -84,8 +84,8 @@ double MincoProblem::piecePenaltyOf(int piece, Eigen::MatrixX3d& gradient_coeffi
                                     Eigen::VectorXd& gradient_durations,
                                     Violations* violations) const {
   // k! / (k - d)!: the factor of t^(k - d) in the d-th derivative of t^k.
-  static constexpr double kFalling[8][4] = {{1, 0, 0, 0},   {1, 1, 0, 0},    {1, 2, 2, 0},
-                                            {1, 3, 6, 6},   {1, 4, 12, 24},  {1, 5, 20, 60},
+  static constexpr double kFalling[8][4] = {{1, 0, 0, 0},    {1, 1, 0, 0},   {1, 2, 2, 0},
+                                            {1, 3, 6, 6},    {1, 4, 12, 24}, {1, 5, 20, 60},
                                             {1, 6, 30, 120}, {1, 7, 42, 210}};
   const Polytope& polytope = corridors_[static_cast<std::size_t>(corridor_of_piece_[piece])];
   const int samples = weights_.samples;
