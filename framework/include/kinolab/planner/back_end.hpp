@@ -78,10 +78,12 @@ std::string backEndInputProblem(const BackEndProblem& problem);
 
 /// A back end's own check of its trajectory, before Planner::plan() hands it to the
 /// independent checker: `checker`'s start, limits and goal checks (checkMotion), then the
-/// world's verdict on the checker's body (traceTrajectory at its verdict radius and
-/// tolerance) in place of the checker's FCL test at every sample: the verdict every search
-/// gives its edges, at a fraction of the cost. A failure is named as the checker names it
-/// ("limits", "bounds", "collision", ...).
+/// world's sphere-traced verdict (traceTrajectory) on the checker's body in place of the
+/// checker's FCL test at every sample, at a fraction of the cost: traced at the body's kept
+/// radius plus a quarter of its tolerance, exact to that quarter, so that a trajectory it
+/// passes keeps the kept radius (the checker accepts it) and one it rejects comes within a
+/// quarter tolerance of it. A failure is named as the checker names it ("limits", "bounds",
+/// "collision", ...).
 CheckResult backEndSelfCheck(const TrajectoryChecker& checker, const World& world,
                              const Trajectory& trajectory, const CheckQuery& query);
 
