@@ -6,9 +6,11 @@
 //
 // Two problem sets:
 //  - Forest: configs/worlds/forest.yaml, 50 seeded queries 10 to 30 m apart at 1-2 m, the
-//    planners' defaults (epsilon 1, uniform 5 per axis, tau 0.4): the paper's scale.
+//    planners' defaults (epsilon 1, uniform 5 per axis, tau 0.4, the lattice heuristic): the
+//    paper's scale; `*_paper` with the paper's heuristic (time_optimal).
 //  - Mpl: experiments/mpl_benchmark.yaml, the standard motion-primitive benchmark problem
-//    (60 pillars, order 2, tau 1, 27 controls, point robot), with that file's parameters.
+//    (60 pillars, order 2, tau 1, 27 controls, point robot), with that file's parameters
+//    (its `*_paper` planners with the paper's heuristic, the others at kinolab's default).
 #include <benchmark/benchmark.h>
 
 #include <array>
@@ -43,6 +45,7 @@ std::vector<ParameterAssignment> assignments(const std::vector<std::string>& ite
 
 const Problem& forestProblem() {
   static const Problem problem = [] {
+    registerBuiltinPlugins();  // the forest's generator is a plugin
     Problem p{bench::forest(), bench::paperScaleQueries(), {}};
     const std::vector<std::string> base = {"time_limit=0"};
     const auto with = [&](std::vector<std::string> extra) {
@@ -52,7 +55,9 @@ const Problem& forestProblem() {
     p.variants = {{"eager", "eager_mp_astar", with({})},
                   {"lazy", "lazy_mp_astar", with({})},
                   {"lazy_lipschitz", "lazy_mp_astar", with({"lower_bound=lipschitz"})},
-                  {"lazy_control_only", "lazy_mp_astar", with({"lower_bound=control_only"})}};
+                  {"lazy_control_only", "lazy_mp_astar", with({"lower_bound=control_only"})},
+                  {"eager_paper", "eager_mp_astar", with({"heuristic=time_optimal"})},
+                  {"lazy_paper", "lazy_mp_astar", with({"heuristic=time_optimal"})}};
     return p;
   }();
   return problem;
@@ -186,7 +191,8 @@ void BM_CheckForestTrajectories(benchmark::State& state) {
                          CheckQuery{query.start, query.goal, eager.planner->limits().goal_radius});
     }
   }
-  const TrajectoryChecker checker(problem.world, checkerSettings(eager.planner->body(), eager.planner->limits()));
+  const TrajectoryChecker checker(problem.world,
+                                  checkerSettings(eager.planner->body(), eager.planner->limits()));
   double samples = 0.0;
   for (auto _ : state) {
     for (const auto& [trajectory, query] : plans) {

@@ -96,7 +96,7 @@ store: {trajectories: true, trees: 3}
             "across #0 1 1.5 0.3 1.7 1.7 after random 2 3 8.5 0.4 1.1 2.3 lattice 0.5 0.05\n"
             "across #1 1 1.5 0.3 1.7 1.7 after random 2 3 8.5 0.4 1.1 2.3 lattice 0.5 0.05\n");
   EXPECT_EQ(e.config_hash, "617a865abea4f959");
-  EXPECT_EQ(runsDigest(e), "69d5a778d7e7ae89");
+  EXPECT_EQ(runsDigest(e), "399b2ebbdddbe782");
 }
 
 TEST_F(ExperimentIdentityTest, DefaultsKeepTheirText) {
@@ -115,7 +115,7 @@ planners:
   EXPECT_EQ(queries,
             "random #0 5 1e+06 0.6 1 2\n"
             "across #0 0 1 0.6 1 2 after random 1 5 1e+06 0.6 1 2\n");
-  EXPECT_EQ(runsDigest(e), "cf69d1e18219aaf9");
+  EXPECT_EQ(runsDigest(e), "36326c8a709ede95");
 }
 
 TEST_F(ExperimentIdentityTest, AFlightsBudgetKeepsItsText) {
@@ -130,7 +130,7 @@ planners:
 budget: {time: 30}
 flight: {window: 8}
 )");
-  EXPECT_EQ(runsDigest(e), "0a2b04379780a320");
+  EXPECT_EQ(runsDigest(e), "cca46063b8f4c5e5");
 }
 
 TEST(WorldSpecIdentityTest, DenseAndSparseSpecsKeepTheirText) {
@@ -175,8 +175,7 @@ TEST(ExperimentFilesIdentityTest, ShippedExperimentsKeepTheirRunHashes) {
   for (const auto& entry : fs::recursive_directory_iterator(kSourceDir + "/experiments")) {
     const std::string path = entry.path().string();
     if (entry.path().extension() != ".yaml" || entry.path().filename() == "base.yaml") continue;
-    if (YamlReader::loadFile(path).node()["kind"].as<std::string>("planning") ==
-        "sampling_study") {
+    if (YamlReader::loadFile(path).node()["kind"].as<std::string>("planning") == "sampling_study") {
       continue;
     }
     digests += fs::relative(path, kSourceDir).string() + " " +
@@ -190,41 +189,41 @@ TEST(ExperimentFilesIdentityTest, ShippedExperimentsKeepTheirRunHashes) {
   std::string sorted;
   for (const std::string& line : lines) sorted += line + "\n";
   EXPECT_EQ(sorted,
-            "experiments/ablations/edge_samples.yaml 6fe37c686fced621\n"
-            "experiments/ablations/esdf_resolution.yaml 2d55a8358788ec86\n"
-            "experiments/ablations/heuristic_weight.yaml e18c6b3f57034c30\n"
-            "experiments/ablations/lazy_duplicate_rule.yaml c932647ba725df09\n"
-            "experiments/ablations/lazy_lower_bound.yaml 3956bfab88fb1fc0\n"
-            "experiments/ablations/sampler.yaml 5b97b9a98f408f1e\n"
-            "experiments/back_ends.yaml 610fc6e374f8e9ce\n"
-            "experiments/city_500m.yaml 0f4b2a9cc7722753\n"
-            "experiments/field.yaml ecdea6f5d326f1e9\n"
-            "experiments/flight_back_ends.yaml ec4e979b1061d382\n"
-            "experiments/flight_benchmark.yaml f3d85b4f1f19d9f5\n"
-            "experiments/flight_densest_cell.yaml 28e3bd0c96c92b01\n"
-            "experiments/flight_forest.yaml 96f5b38d7236a5ef\n"
-            "experiments/flight_forest_2ms.yaml 50d54b8675ee9b59\n"
-            "experiments/flight_geb079.yaml 30b801b7a3ad9803\n"
-            "experiments/flight_speeds.yaml 1aa493c35ef9dd09\n"
+            "experiments/ablations/edge_samples.yaml 35fa8eedc53dfd3e\n"
+            "experiments/ablations/esdf_resolution.yaml 2c3bef7bfc57fca6\n"
+            "experiments/ablations/heuristic_weight.yaml 8994fad6125b8d74\n"
+            "experiments/ablations/lazy_duplicate_rule.yaml c7d1d6459edd8f5f\n"
+            "experiments/ablations/lazy_lower_bound.yaml 7681b15ffbe328b0\n"
+            "experiments/ablations/sampler.yaml 599d0f7fef4a2078\n"
+            "experiments/back_ends.yaml cc622d10e79cb40b\n"
+            "experiments/city_500m.yaml 5364a9c1c7b08cda\n"
+            "experiments/field.yaml e32ad8a1712796aa\n"
+            "experiments/flight_back_ends.yaml a48cdc8aa8abecb9\n"
+            "experiments/flight_benchmark.yaml f2a0890b79c93d36\n"
+            "experiments/flight_densest_cell.yaml d24ef1cd756385af\n"
+            "experiments/flight_forest.yaml 5c01f99c8983afdb\n"
+            "experiments/flight_forest_2ms.yaml f93195d4e1e43f90\n"
+            "experiments/flight_geb079.yaml 3d16592ad2179f4a\n"
+            "experiments/flight_speeds.yaml 50e4f8a93bd379d8\n"
             "experiments/flight_speeds_tgk.yaml 22136760a2e68909\n"
-            "experiments/heuristics/city.yaml 8b491ceb0326d216\n"
-            "experiments/heuristics/geb079_fine.yaml 261616b0276bdd9b\n"
-            "experiments/heuristics/maps.yaml c14c6ecef7689e5e\n"
-            "experiments/heuristics/mpl.yaml 7c45ed2673ce4a15\n"
-            "experiments/hybrid_astar.yaml b7be599ae44e32b6\n"
-            "experiments/lazy_families.yaml 0a5189356a573001\n"
-            "experiments/lazy_family.yaml 00f867bf3f0cbb7e\n"
-            "experiments/lazy_regime/controls.yaml 557cb8469133964c\n"
-            "experiments/lazy_regime/density.yaml 6d06493f2f6ef0b5\n"
-            "experiments/lazy_regime/edge_cost.yaml eb9ba3255c90a754\n"
-            "experiments/lazy_regime/edge_cost_density.yaml de0db4e496354066\n"
-            "experiments/lazy_regime/epsilon.yaml a1159f74bb6cb7f9\n"
-            "experiments/lazy_regime/esdf_resolution.yaml 965cb376dc37aed5\n"
-            "experiments/lazy_regime/order.yaml 03f3a72fda8c9480\n"
-            "experiments/mpl_benchmark.yaml 04c1599ec8f93399\n"
-            "experiments/paper_table2_planners.yaml 2031b2e1ae30efca\n"
-            "experiments/quick.yaml 667d0a8b5cf14271\n"
-            "experiments/sampler_planning.yaml bc9b3f9c017e4144\n");
+            "experiments/heuristics/city.yaml dd81dac676e14d7b\n"
+            "experiments/heuristics/geb079_fine.yaml 2666d606be13ca47\n"
+            "experiments/heuristics/maps.yaml 8a7cf80f62bcf0b0\n"
+            "experiments/heuristics/mpl.yaml 8b90956f76afcd71\n"
+            "experiments/hybrid_astar.yaml 03f9c87064401a50\n"
+            "experiments/lazy_families.yaml fdcd7793d0c703a6\n"
+            "experiments/lazy_family.yaml 90d9255cd571f94f\n"
+            "experiments/lazy_regime/controls.yaml d792b6ad3c3d1ddf\n"
+            "experiments/lazy_regime/density.yaml b803ff28e2d3105b\n"
+            "experiments/lazy_regime/edge_cost.yaml 46b59d31f890d4bd\n"
+            "experiments/lazy_regime/edge_cost_density.yaml 5868e0acf7daedb8\n"
+            "experiments/lazy_regime/epsilon.yaml 1b54a726b7f29de0\n"
+            "experiments/lazy_regime/esdf_resolution.yaml 6c80b6edebdd7949\n"
+            "experiments/lazy_regime/order.yaml ed9f420b95189f98\n"
+            "experiments/mpl_benchmark.yaml 955e0a69a9bd6325\n"
+            "experiments/paper_table2_planners.yaml 3518140a89585065\n"
+            "experiments/quick.yaml 816409c3db534e94\n"
+            "experiments/sampler_planning.yaml a2738d76d24cf0ab\n");
 }
 
 }  // namespace

@@ -1035,12 +1035,13 @@ TEST(LatticeHeuristic, ALatticeTooFineForItsTablesKeepsTimeOptimal) {
   EXPECT_EQ(lattice->estimate(start, goal), whole.estimate(start, goal));
 }
 
-TEST(LatticeHeuristic, RefusesControlsOffAGridAndOrdersAboveTwo) {
+TEST(LatticeHeuristic, RefusesControlsOffAGridAndOrdersAboveTwoWithoutItsFallback) {
   test::loadTestPlugins();
-  const auto heuristic =
-      heuristicFor("lattice", SearchSettings().edges, SearchSettings().goal_radius);
+  const auto strict = pluginRegistry<HeuristicBuilder>()
+                          .create("lattice", test::assignments({"fallback=false"}))
+                          ->build({SearchSettings().edges, SearchSettings().goal_radius});
   try {
-    heuristic->forControls({Eigen::Vector3d(1.0, 0.0, 0.0), Eigen::Vector3d(std::sqrt(2.0), 0, 0)});
+    strict->forControls({Eigen::Vector3d(1.0, 0.0, 0.0), Eigen::Vector3d(std::sqrt(2.0), 0, 0)});
     FAIL() << "no error";
   } catch (const InvalidArgument& error) {
     EXPECT_NE(std::string(error.what()).find("controls' x values are not whole multiples"),
@@ -1048,11 +1049,42 @@ TEST(LatticeHeuristic, RefusesControlsOffAGridAndOrdersAboveTwo) {
         << error.what();
   }
   // Named where the configuration is read: the random sampler's set is no grid.
-  const std::string random = configErrorOf({"sampler=random", "heuristic=lattice"});
+  const std::string random =
+      configErrorOf({"sampler=random", "heuristic=lattice", "heuristic.fallback=false"});
   EXPECT_NE(random.find("parameter 'heuristic': lattice needs a control grid"), std::string::npos)
       << random;
-  const std::string order = configErrorOf({"order=3", "heuristic=lattice"});
+  const std::string order =
+      configErrorOf({"order=3", "heuristic=lattice", "heuristic.fallback=false"});
   EXPECT_NE(order.find("parameter 'heuristic': lattice needs order 2"), std::string::npos) << order;
+}
+
+TEST(LatticeHeuristic, FallsBackToWholePrimitiveTimeWhereItsLatticeDoesNotApply) {
+  // With its fallback (the default): a random control set and order 3 plan exactly as
+  // time_optimal in whole primitives does, expansion for expansion.
+  test::loadTestPlugins();
+  const auto world = test::smallWorld("forest");
+  const auto queries = test::randomQueries(*world, 5, 8, 3.0, 9.0, 0.6);
+  const auto plan = [&](std::vector<std::string> items, const PlanningQuery& query) {
+    items.insert(items.end(), {"time_limit=0", "max_expansions=200000"});
+    ConfiguredPlanner configured = configurePlanner("lazy_mp_astar", test::assignments(items));
+    configured.planner->setup({world, 1});
+    return configured.planner->plan(query, Budget{});
+  };
+  for (const std::string setting : {"sampler=random", "order=3"}) {
+    int exact = 0;
+    for (const PlanningQuery& query : queries) {
+      const PlanResult lattice = plan({setting, "heuristic=lattice"}, query);
+      const PlanResult whole =
+          plan({setting, "heuristic=time_optimal", "heuristic.whole_primitives=true"}, query);
+      EXPECT_EQ(lattice.status, whole.status) << setting;
+      EXPECT_EQ(lattice.cost, whole.cost) << setting;
+      EXPECT_EQ(test::statistic(lattice.statistics, "expansions"),
+                test::statistic(whole.statistics, "expansions"))
+          << setting;
+      exact += lattice.status == PlanStatus::kExact;
+    }
+    EXPECT_GE(exact, 3) << setting;
+  }
 }
 
 TEST(LatticeHeuristic, LazyAndEagerReturnTimeOptimalsCostsWithFewerExpansions) {
@@ -1086,8 +1118,8 @@ TEST(MaxHeuristic, CombinesAnyTwoPreparedForTheirControlsAndQueries) {
   EXPECT_NO_THROW(configurePlanner(
       "lazy_mp_astar",
       test::assignments({"order=3", "heuristic=max", "heuristic.first=geodesic"})));
-  const std::string neither =
-      configErrorOf({"order=3", "heuristic=max", "heuristic.first=lattice"});
+  const std::string neither = configErrorOf(
+      {"order=3", "heuristic=max", "heuristic.first=lattice", "heuristic.first.fallback=false"});
   EXPECT_NE(neither.find("lattice needs order 2"), std::string::npos) << neither;
 }
 

@@ -1,4 +1,4 @@
-// The closed-form heuristics: euclidean, min_time, time_optimal (the default), obvp and max
+// The closed-form heuristics: euclidean, min_time, time_optimal (the paper's), obvp and max
 // (the larger of two others).
 #include <optional>
 
@@ -61,7 +61,7 @@ void registerHeuristics(PluginRegistrar& registrar) {
                                   ParameterSpecs(), plainHeuristic<MinTimeHeuristic>());
   registrar.add<HeuristicBuilder>(
       "time_optimal",
-      "per-axis minimum time from the current velocity under v_max and a_max (the default)",
+      "per-axis minimum time from the current velocity under v_max and a_max (the paper's)",
       ParameterSpecs().boolean("whole_primitives", false,
                                "round the time up to whole primitives (tau ceil(T / tau)): "
                                "tighter, for searches whose paths are whole primitives"),

@@ -75,7 +75,7 @@ AxisControls axisControls(const std::vector<Eigen::Vector3d>& controls, int axis
   }
   throw InvalidArgument(std::string("lattice needs a control grid: the controls' ") + "xyz"[axis] +
                         " values are not whole multiples of one step, as a uniform sampler's "
-                        "are; use time_optimal with this control set");
+                        "are; use time_optimal with this control set, or heuristic.fallback=true");
 }
 
 /// What one axis's cost counts: a primitive's duration tau at w_T per second, and the axis's
@@ -429,10 +429,11 @@ class LatticeQueryHeuristic final : public SearchHeuristic {
 /// query are known.
 class LatticeHeuristic final : public SearchHeuristic {
  public:
-  LatticeHeuristic(const HeuristicContext& context, int horizon,
+  LatticeHeuristic(const HeuristicContext& context, int horizon, bool fallback,
                    std::optional<std::array<AxisControls, 3>> axes = std::nullopt)
       : context_(context),
         horizon_(horizon),
+        fallback_(fallback),
         axes_(std::move(axes)),
         time_optimal_(
             std::make_shared<TimeOptimalHeuristic>(context.edges, context.goal_radius, true)) {}
@@ -443,10 +444,14 @@ class LatticeHeuristic final : public SearchHeuristic {
 
   std::shared_ptr<const SearchHeuristic> forControls(
       const std::vector<Eigen::Vector3d>& controls) const override {
-    return std::make_shared<LatticeHeuristic>(
-        context_, horizon_,
-        std::array<AxisControls, 3>{axisControls(controls, 0), axisControls(controls, 1),
-                                    axisControls(controls, 2)});
+    std::array<AxisControls, 3> axes;
+    try {
+      for (int axis = 0; axis < 3; ++axis) axes[axis] = axisControls(controls, axis);
+    } catch (const InvalidArgument&) {
+      if (!fallback_) throw;
+      return time_optimal_;  // not a grid: time_optimal in whole primitives
+    }
+    return std::make_shared<LatticeHeuristic>(context_, horizon_, fallback_, axes);
   }
 
   std::shared_ptr<const SearchHeuristic> forQuery(const World& world, const Eigen::Vector3d& goal,
@@ -466,6 +471,7 @@ class LatticeHeuristic final : public SearchHeuristic {
  private:
   HeuristicContext context_;
   int horizon_;
+  bool fallback_;
   std::optional<std::array<AxisControls, 3>> axes_;  ///< once the controls are known
   std::shared_ptr<const TimeOptimalHeuristic> time_optimal_;
 };
@@ -479,22 +485,34 @@ KINOLAB_REGISTER_PLUGINS(registrar) {
       "lattice",
       "the exact cost to the goal of the control grid's lattice with no obstacles (time and "
       "control effort, the axes moving together to the goal's cube), by max with time_optimal "
-      "in whole primitives; order 2; exact from a start at rest, a relaxation on finer cells "
-      "from a moving one",
-      ParameterSpecs().integer(
-          "horizon", 0, 0, 100000,
-          "primitives the per-query tables hold (memory: that times the lattice's cells and "
-          "velocities, 8 bytes each, at most 256 MiB); beyond it the bound is (horizon + 1) "
-          "w_T tau; 0: twice the start's primitives at full speed, plus 16"),
+      "in whole primitives; exact from a start at rest, a relaxation on finer cells from a "
+      "moving one; the lattice needs order 2 and controls on a grid (whole multiples of one "
+      "step per axis), elsewhere time_optimal in whole primitives alone (`fallback`)",
+      ParameterSpecs()
+          .integer("horizon", 0, 0, 100000,
+                   "primitives the per-query tables hold (memory: that times the lattice's cells "
+                   "and velocities, 8 bytes each, at most 256 MiB); beyond it the bound is "
+                   "(horizon + 1) w_T tau; 0: twice the start's primitives at full speed, plus 16")
+          .boolean("fallback", true,
+                   "where the lattice does not apply (order above 2, controls not on a grid) use "
+                   "time_optimal in whole primitives; false: refuse such a planner"),
       [](const ParameterSet& p) {
         const int horizon = static_cast<int>(p.integer("horizon"));
-        return std::make_unique<HeuristicBuilder>([horizon](const HeuristicContext& context) {
-          if (context.edges.order != 2) {
-            throw ParameterConflict("heuristic",
-                                    "lattice needs order 2 (acceleration control), got order " +
-                                        std::to_string(context.edges.order) + "; use time_optimal");
-          }
-          return std::make_shared<LatticeHeuristic>(context, horizon);
-        });
+        const bool fallback = p.boolean("fallback");
+        return std::make_unique<HeuristicBuilder>(
+            [horizon,
+             fallback](const HeuristicContext& context) -> std::shared_ptr<const SearchHeuristic> {
+              if (context.edges.order == 2) {
+                return std::make_shared<LatticeHeuristic>(context, horizon, fallback);
+              }
+              if (!fallback) {
+                throw ParameterConflict("heuristic",
+                                        "lattice needs order 2 (acceleration control), got order " +
+                                            std::to_string(context.edges.order) +
+                                            "; use time_optimal or heuristic.fallback=true");
+              }
+              return std::make_shared<TimeOptimalHeuristic>(context.edges, context.goal_radius,
+                                                            true);
+            });
       });
 }
