@@ -30,6 +30,7 @@
 #include "kinolab/core/hash.hpp"
 #include "kinolab/core/plugin.hpp"
 #include "ompl_common.hpp"
+#include "plan_seeds.hpp"
 #include "rrt_front_end.hpp"
 
 namespace kinolab::rrt {
@@ -79,25 +80,16 @@ struct ControlSettings {
   }
 };
 
-// Seeded OMPL streams: every random stream of a plan comes from the run's seed and the query.
+/// A control planner with its own stream seeded (every stream of a plan comes from the run's
+/// seed and the query: plan_seeds.hpp), and SST's best cost visible.
 template <typename Base>
-class Seeded final : public Base {
+class SeededControlPlanner final : public Seeded<Base> {
  public:
-  Seeded(const oc::SpaceInformationPtr& si, std::uint32_t seed) : Base(si) {
-    this->rng_.setLocalSeed(seed);
-  }
+  using Seeded<Base>::Seeded;
   /// SST's best solution cost so far (infinite before the first), for the anytime series.
   double bestCost() const {
     if constexpr (std::is_same_v<Base, oc::SST>) return this->prevSolutionCost_.value();
     return INFINITY;
-  }
-};
-
-class SeededStateSampler final : public ob::RealVectorStateSampler {
- public:
-  SeededStateSampler(const ob::StateSpace* space, std::uint32_t seed)
-      : ob::RealVectorStateSampler(space) {
-    rng_.setLocalSeed(seed);
   }
 };
 
@@ -107,6 +99,22 @@ class SeededControlSampler final : public oc::RealVectorControlUniformSampler {
       : oc::RealVectorControlUniformSampler(space) {
     rng_.setLocalSeed(seed);
   }
+};
+
+/// A box of controls whose every sampler (OMPL's default, which every planner here reaches
+/// through allocControlSampler()) draws from the plan's seeds.
+class SeededRealVectorControlSpace final : public oc::RealVectorControlSpace {
+ public:
+  SeededRealVectorControlSpace(const ob::StateSpacePtr& states, unsigned int dimension,
+                               std::shared_ptr<PlanSeeds> seeds)
+      : oc::RealVectorControlSpace(states, dimension), seeds_(std::move(seeds)) {}
+
+  oc::ControlSamplerPtr allocDefaultControlSampler() const override {
+    return std::make_shared<SeededControlSampler>(this, seeds_->next());
+  }
+
+ private:
+  std::shared_ptr<PlanSeeds> seeds_;
 };
 
 /// The goal region: positions within the goal radius (any velocity).
@@ -164,9 +172,9 @@ struct ControlProblem {
   ControlSettings settings;
   PlannerLimits limits;
   Body body;
+  std::shared_ptr<PlanSeeds> seeds = std::make_shared<PlanSeeds>();  // of the current plan
   std::shared_ptr<ob::RealVectorStateSpace> space;
   oc::SpaceInformationPtr si;
-  std::uint32_t seed = 0;  // of the samplers the next solve allocates
   long long validity_checks = 0;
   long long propagations = 0;
   ob::PlannerPtr last_planner;
@@ -174,7 +182,7 @@ struct ControlProblem {
 
 void buildSpaces(ControlProblem& p) {
   const int order = static_cast<int>(p.settings.order);
-  p.space = std::make_shared<ob::RealVectorStateSpace>(3 * order);
+  p.space = std::make_shared<SeededRealVectorStateSpace>(3 * order, p.seeds);
   ob::RealVectorBounds bounds(3 * order);
   const Box& box = p.world->bounds();
   for (int axis = 0; axis < 3; ++axis) {
@@ -189,20 +197,13 @@ void buildSpaces(ControlProblem& p) {
   // KPIECE1 and PDST grow over a projection: the position, in 0.5 m cells.
   p.space->registerDefaultProjection(std::make_shared<ob::RealVectorOrthogonalProjectionEvaluator>(
       p.space.get(), std::vector<double>{0.5, 0.5, 0.5}, std::vector<unsigned int>{0, 1, 2}));
-  ControlProblem* shared = &p;
-  p.space->setStateSamplerAllocator([shared](const ob::StateSpace* space) {
-    return std::make_shared<SeededStateSampler>(space, shared->seed);
-  });
-  auto controls = std::make_shared<oc::RealVectorControlSpace>(p.space, 3);
+  auto controls = std::make_shared<SeededRealVectorControlSpace>(p.space, 3, p.seeds);
   ob::RealVectorBounds control_bounds(3);
   for (int axis = 0; axis < 3; ++axis) {
     control_bounds.setLow(axis, -p.limits.limits.bound[order][axis]);
     control_bounds.setHigh(axis, p.limits.limits.bound[order][axis]);
   }
   controls->setBounds(control_bounds);
-  controls->setControlSamplerAllocator([shared](const oc::ControlSpace* space) {
-    return std::make_shared<SeededControlSampler>(space, shared->seed ^ 0x5bd1e995u);
-  });
   p.si = std::make_shared<oc::SpaceInformation>(p.space, controls);
 }
 
@@ -252,33 +253,34 @@ void setUpPropagation(ControlProblem& p) {
   p.si->setup();
 }
 
-ob::PlannerPtr allocate(const ControlProblem& p, std::uint32_t seed) {
+ob::PlannerPtr allocate(const ControlProblem& p) {
+  const std::uint32_t seed = p.seeds->next();
   const ControlSettings& s = p.settings;
   switch (s.planner) {
     case ControlPlanner::kSst: {
-      auto planner = std::make_shared<Seeded<oc::SST>>(p.si, seed);
+      auto planner = std::make_shared<SeededControlPlanner<oc::SST>>(seed, p.si);
       planner->setGoalBias(s.goal_bias);
       planner->setSelectionRadius(s.selection_radius);
       planner->setPruningRadius(s.pruning_radius);
       return planner;
     }
     case ControlPlanner::kKpiece1: {
-      auto planner = std::make_shared<Seeded<oc::KPIECE1>>(p.si, seed);
+      auto planner = std::make_shared<SeededControlPlanner<oc::KPIECE1>>(seed, p.si);
       planner->setGoalBias(s.goal_bias);
       return planner;
     }
     case ControlPlanner::kRrt: {
-      auto planner = std::make_shared<Seeded<oc::RRT>>(p.si, seed);
+      auto planner = std::make_shared<SeededControlPlanner<oc::RRT>>(seed, p.si);
       planner->setGoalBias(s.goal_bias);
       return planner;
     }
     case ControlPlanner::kEst: {
-      auto planner = std::make_shared<Seeded<oc::EST>>(p.si, seed);
+      auto planner = std::make_shared<SeededControlPlanner<oc::EST>>(seed, p.si);
       planner->setGoalBias(s.goal_bias);
       return planner;
     }
     case ControlPlanner::kPdst: {
-      auto planner = std::make_shared<Seeded<oc::PDST>>(p.si, seed);
+      auto planner = std::make_shared<SeededControlPlanner<oc::PDST>>(seed, p.si);
       planner->setGoalBias(s.goal_bias);
       return planner;
     }
@@ -342,7 +344,7 @@ PlanResult OmplControlPlanner::doPlan(const PlanningQuery& query, StopCondition&
   PlanResult result;
   std::uint64_t seed = hashBytes(query.goal.data(), 3 * sizeof(double), seed_);
   seed = hashBytes(query.start.data(), sizeof(ChainState), seed);
-  p.seed = static_cast<std::uint32_t>(seed);
+  p.seeds->begin(seed);
   p.validity_checks = 0;
   p.propagations = 0;
   auto definition = std::make_shared<ob::ProblemDefinition>(p.si);
@@ -358,12 +360,12 @@ PlanResult OmplControlPlanner::doPlan(const PlanningQuery& query, StopCondition&
   definition->addStartState(start);
   definition->setGoal(std::make_shared<PositionGoal>(p.si, query.goal, limits_.goal_radius));
   definition->setOptimizationObjective(std::make_shared<PositionLength>(p.si));
-  const ob::PlannerPtr planner = allocate(p, static_cast<std::uint32_t>(seed >> 32));
+  const ob::PlannerPtr planner = allocate(p);
   planner->setProblemDefinition(definition);
   planner->setup();
   p.last_planner = planner;
 
-  const auto* sst = dynamic_cast<const Seeded<oc::SST>*>(planner.get());
+  const auto* sst = dynamic_cast<const SeededControlPlanner<oc::SST>*>(planner.get());
   const Stopwatch watch(stop.budget().clock);
   long long calls = 0;
   const ob::PlannerStatus status = planner->solve(ob::PlannerTerminationCondition([&] {

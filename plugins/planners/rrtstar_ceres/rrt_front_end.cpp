@@ -27,6 +27,7 @@
 #include "kinolab/core/error.hpp"
 #include "kinolab/core/text.hpp"
 #include "ompl_common.hpp"
+#include "plan_seeds.hpp"
 
 namespace kinolab::rrt {
 namespace {
@@ -44,29 +45,11 @@ void fromVector(const Eigen::Vector3d& point, ob::State* state) {
   for (int axis = 0; axis < 3; ++axis) values[axis] = point[axis];
 }
 
-// OMPL's random streams are seeded from one process-wide generator; each of these classes
-// re-seeds its own stream so that a run depends on its seed only.
-class SeededSampler final : public ob::RealVectorStateSampler {
+/// RRT* with its tree's size visible (the vertex cap).
+class SeededRrtStar final : public Seeded<og::RRTstar> {
  public:
-  SeededSampler(const ob::StateSpace* space, std::uint32_t seed)
-      : ob::RealVectorStateSampler(space) {
-    rng_.setLocalSeed(seed);
-  }
-};
-
-class SeededRrtStar final : public og::RRTstar {
- public:
-  SeededRrtStar(const ob::SpaceInformationPtr& si, std::uint32_t seed) : og::RRTstar(si) {
-    rng_.setLocalSeed(seed);
-  }
+  using Seeded<og::RRTstar>::Seeded;
   std::size_t treeSize() const { return nn_ ? nn_->size() : 0; }
-};
-
-class SeededSimplifier final : public og::PathSimplifier {
- public:
-  SeededSimplifier(const ob::SpaceInformationPtr& si, std::uint32_t seed) : og::PathSimplifier(si) {
-    rng_.setLocalSeed(seed);
-  }
 };
 
 std::vector<Eigen::Vector3d> waypoints(const og::PathGeometric& path) {
@@ -82,9 +65,9 @@ std::vector<Eigen::Vector3d> waypoints(const og::PathGeometric& path) {
 struct RrtFrontEnd::Ompl {
   std::shared_ptr<const World> world;
   FrontEndSettings settings;
+  std::shared_ptr<PlanSeeds> seeds = std::make_shared<PlanSeeds>();  // of the current plan
   std::shared_ptr<ob::RealVectorStateSpace> space;
   ob::SpaceInformationPtr si;
-  std::uint32_t seed = 0;  // of the sampler the next solve allocates
   long long validity_checks = 0;
   ob::PlannerPtr last_planner;  // kept for tree() after the clock stopped
 };
@@ -95,7 +78,7 @@ RrtFrontEnd::RrtFrontEnd(std::shared_ptr<const World> world, const FrontEndSetti
   Ompl& o = *ompl_;
   o.world = std::move(world);
   o.settings = settings;
-  o.space = std::make_shared<ob::RealVectorStateSpace>(3);
+  o.space = std::make_shared<SeededRealVectorStateSpace>(3, o.seeds);
   ob::RealVectorBounds bounds(3);
   const Box& box = o.world->bounds();
   for (int axis = 0; axis < 3; ++axis) {
@@ -104,9 +87,6 @@ RrtFrontEnd::RrtFrontEnd(std::shared_ptr<const World> world, const FrontEndSetti
   }
   o.space->setBounds(bounds);
   Ompl* shared = ompl_.get();
-  o.space->setStateSamplerAllocator([shared](const ob::StateSpace* space) {
-    return std::make_shared<SeededSampler>(space, shared->seed);
-  });
   o.si = std::make_shared<ob::SpaceInformation>(o.space);
   o.si->setStateValidityChecker([shared](const ob::State* state) {
     ++shared->validity_checks;
@@ -187,16 +167,16 @@ class Monitor {
 }  // namespace
 
 FrontEndResult RrtFrontEnd::plan(const Eigen::Vector3d& start, const Eigen::Vector3d& goal,
-                                 std::uint32_t seed, StopCondition& stop) {
+                                 std::uint64_t seed, StopCondition& stop) {
   Ompl& o = *ompl_;
   const FrontEndSettings& settings = o.settings;
-  o.seed = seed;
+  o.seeds->begin(seed);
   o.validity_checks = 0;
   o.si->getMotionValidator()->resetMotionCounter();
 
   const auto problem = this->problem(start, goal);
   if (settings.planner != OmplPlanner::kRrtStar) return planOther(problem, stop);
-  auto planner = std::make_shared<SeededRrtStar>(o.si, seed);
+  auto planner = std::make_shared<SeededRrtStar>(o.seeds->next(), o.si);
   if (settings.range > 0.0) planner->setRange(settings.range);
   planner->setGoalBias(settings.goal_bias);
   planner->setRewireFactor(settings.rewire_factor);
@@ -246,15 +226,17 @@ void RrtFrontEnd::countChecks(FrontEndResult& result) const {
 
 namespace {
 
-ob::PlannerPtr allocatePlanner(const ob::SpaceInformationPtr& si, const FrontEndSettings& s) {
+/// The planner of `s`, its own stream (where OMPL lets it be reached) seeded from `seeds`.
+ob::PlannerPtr allocatePlanner(const ob::SpaceInformationPtr& si, const FrontEndSettings& s,
+                               PlanSeeds& seeds) {
   switch (s.planner) {
     case OmplPlanner::kRrtConnect: {
-      auto planner = std::make_shared<og::RRTConnect>(si);
+      auto planner = std::make_shared<Seeded<og::RRTConnect>>(seeds.next(), si);
       if (s.range > 0.0) planner->setRange(s.range);
       return planner;
     }
     case OmplPlanner::kInformedRrtStar: {
-      auto planner = std::make_shared<og::InformedRRTstar>(si);
+      auto planner = std::make_shared<Seeded<og::InformedRRTstar>>(seeds.next(), si);
       if (s.range > 0.0) planner->setRange(s.range);
       planner->setGoalBias(s.goal_bias);
       planner->setRewireFactor(s.rewire_factor);
@@ -323,7 +305,7 @@ class AnyPlannerMonitor {
 FrontEndResult RrtFrontEnd::planOther(const std::shared_ptr<ob::ProblemDefinition>& problem,
                                       StopCondition& stop) {
   Ompl& o = *ompl_;
-  const ob::PlannerPtr planner = allocatePlanner(o.si, o.settings);
+  const ob::PlannerPtr planner = allocatePlanner(o.si, o.settings, *o.seeds);
   planner->setProblemDefinition(problem);
   planner->setup();
   o.last_planner = planner;
@@ -362,7 +344,7 @@ void RrtFrontEnd::simplify(og::PathGeometric& path, FrontEndResult& result) cons
   const auto simplify_begin = std::chrono::steady_clock::now();
   if (o.settings.simplify) {
     // Iteration-bounded (not timed) so that the result depends on the seed only.
-    SeededSimplifier simplifier(o.si, o.seed ^ 0x9e3779b9u);
+    Seeded<og::PathSimplifier> simplifier(o.seeds->next(), o.si);
     for (int round = 0; round < 5 && simplifier.reduceVertices(path); ++round) {
     }
     for (int round = 0; round < 5 && simplifier.shortcutPath(path); ++round) {

@@ -32,10 +32,10 @@ enum class OmplPlanner {
 
 /// The geometric front end: an OMPL planner in the world's bounds (OMPL stays inside the .cpp).
 struct FrontEndSettings {
-  /// RRT* (rrtstar, rrtstar_ceres) runs its own loop: refinement iterations, vertex cap, a
-  /// seed for every stream. The others run to the budget (or their first solution, with
-  /// stop_at_first); only their uniform state sampler is seeded (the informed planners sample
-  /// through OMPL's own informed sampler), so their runs may differ.
+  /// RRT* (rrtstar, rrtstar_ceres) runs its own loop: refinement iterations, vertex cap. The
+  /// others run to the budget (or their first solution, with stop_at_first). Every random
+  /// stream of every planner comes from the plan's seed (plan_seeds.hpp): a plan that ends by
+  /// work (iterations, first solution, vertex cap), not by the clock, repeats bit for bit.
   OmplPlanner planner = OmplPlanner::kRrtStar;
   bool stop_at_first = false;
   double range = 1.5;          ///< longest tree edge, m (0: OMPL's choice, 20 % of the extent)
@@ -89,9 +89,9 @@ class RrtFrontEnd {
   RrtFrontEnd(const RrtFrontEnd&) = delete;
   RrtFrontEnd& operator=(const RrtFrontEnd&) = delete;
 
-  /// One RRT* run from `start` towards the goal ball, seeded by `seed` (the same seed and
-  /// iteration budget give the same path).
-  FrontEndResult plan(const Eigen::Vector3d& start, const Eigen::Vector3d& goal, std::uint32_t seed,
+  /// One run of the planner from `start` towards the goal ball, every random stream from
+  /// `seed`: the same seed and a work budget give the same path, whatever ran before.
+  FrontEndResult plan(const Eigen::Vector3d& start, const Eigen::Vector3d& goal, std::uint64_t seed,
                       StopCondition& stop);
   /// The last plan's final tree: at most `max_edges` edges, decimated evenly beyond that.
   SearchTree tree(std::size_t max_edges) const;

@@ -145,8 +145,7 @@ class RrtStarPlanner final : public Planner {
     // The run's seed and the query decide OMPL's random streams: the same case repeats.
     std::uint64_t seed = hashBytes(query.goal.data(), 3 * sizeof(double), seed_);
     seed = hashBytes(query.start.data(), sizeof(ChainState), seed);
-    FrontEndResult path =
-        front_end_->plan(start, query.goal, static_cast<std::uint32_t>(seed), stop);
+    FrontEndResult path = front_end_->plan(start, query.goal, seed, stop);
     result.statistics = std::move(path.statistics);
     result.progress = std::move(path.progress);
     if (path.outcome == FrontEndResult::Outcome::kNone) {

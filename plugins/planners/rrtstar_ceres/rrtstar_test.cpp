@@ -373,3 +373,125 @@ TEST(OmplPlanners, ASparseWorldTruncatedBelowTheClearanceTheyNeedIsRefusedAtSetu
 
 }  // namespace
 }  // namespace kinolab
+
+// Reproducibility: a plan depends on its seed, query and parameters only, whatever the process
+// planned before (an experiment worker plans many runs in one process). Every random stream of
+// OMPL's, the private ones included (the informed sampler's, BIT*'s sample-count coin, the
+// nearest-neighbour pivots), comes from the plan's seed (plan_seeds.hpp). Work-bounded budgets
+// (calls of the termination condition, the first solution, RRT*'s refinement iterations), never
+// the clock, so the runs repeat on any machine.
+namespace kinolab {
+namespace {
+
+struct ReproducibleCase {
+  std::string name;
+  std::string key;
+  std::vector<std::string> items;
+};
+
+void PrintTo(const ReproducibleCase& c, std::ostream* out) { *out << c.name; }
+
+/// Everything a plan reports but its clocks must repeat bit for bit.
+void expectSamePlan(const PlanResult& a, const PlanResult& b) {
+  ASSERT_EQ(b.status, a.status) << b.message;
+  EXPECT_EQ(b.cost, a.cost);
+  EXPECT_EQ(b.path, a.path);
+  ASSERT_EQ(b.trajectory.segments().size(), a.trajectory.segments().size());
+  EXPECT_EQ(b.trajectory.duration(), a.trajectory.duration());
+  for (double t = 0.0; t < a.trajectory.duration(); t += 0.25) {
+    EXPECT_EQ(b.trajectory.evaluate(t), a.trajectory.evaluate(t)) << "at t = " << t;
+  }
+  EXPECT_EQ(b.trajectory.endPosition(), a.trajectory.endPosition());
+  ASSERT_EQ(b.statistics.size(), a.statistics.size());
+  for (std::size_t i = 0; i < a.statistics.size(); ++i) {
+    const auto& [name, value] = a.statistics[i];
+    EXPECT_EQ(b.statistics[i].first, name);
+    if (name.size() >= 3 && name.compare(name.size() - 3, 3, "_ms") == 0) continue;  // clocks
+    if (std::isnan(value)) {
+      EXPECT_TRUE(std::isnan(b.statistics[i].second)) << name;
+    } else {
+      EXPECT_EQ(b.statistics[i].second, value) << name;
+    }
+  }
+  ASSERT_EQ(b.progress.size(), a.progress.size());
+  for (std::size_t i = 0; i < a.progress.size(); ++i) {
+    EXPECT_EQ(b.progress[i].value, a.progress[i].value);
+  }
+}
+
+class OmplReproducible : public ::testing::TestWithParam<ReproducibleCase> {};
+
+TEST_P(OmplReproducible, SameSeedSamePlanWhateverRanBeforeInTheProcess) {
+  const ReproducibleCase& c = GetParam();
+  const auto world = test::smallWorld("forest");
+  const auto queries = test::randomQueries(*world, 3, 59, 8.0, 11.0, 0.8);
+  const auto make = [&](std::uint64_t seed) {
+    ConfiguredPlanner configured = configurePlanner(c.key, test::assignments(c.items));
+    configured.planner->setup({world, seed});
+    return configured;
+  };
+  ConfiguredPlanner planner = make(5);
+  const PlanResult first = planner.planner->plan(queries[0], Budget{});
+  ASSERT_TRUE(first.status == PlanStatus::kExact || first.status == PlanStatus::kApproximate)
+      << first.message;
+  EXPECT_TRUE(first.check.valid) << first.check.detail;
+  // Other plans in between: other queries with this planner, and another OMPL planner's run
+  // (each draws from OMPL's process-wide seed generator and its statistics).
+  for (std::size_t i = 1; i < queries.size(); ++i) planner.planner->plan(queries[i], Budget{});
+  ConfiguredPlanner other = configurePlanner(
+      "ompl_geometric",
+      test::assignments({"planner=bitstar", "time_limit=0", "max_iterations=500"}));
+  other.planner->setup({world, 8});
+  other.planner->plan(queries[1], Budget{});
+  {
+    SCOPED_TRACE("the same planner again");
+    expectSamePlan(first, planner.planner->plan(queries[0], Budget{}));
+  }
+  {
+    SCOPED_TRACE("a new planner, as in a new worker process");
+    expectSamePlan(first, make(5).planner->plan(queries[0], Budget{}));
+  }
+  // Another seed draws other numbers: the work done differs (a sensitive count), even where
+  // the path after simplification might not.
+  const PlanResult reseeded = make(6).planner->plan(queries[0], Budget{});
+  const std::string work = c.key == "ompl_control" ? "propagations" : "collision_checks";
+  EXPECT_NE(test::statistic(reseeded.statistics, work), test::statistic(first.statistics, work));
+}
+
+std::vector<ReproducibleCase> reproducibleCases() {
+  // Iterations: calls of the termination condition (ompl_geometric but rrtstar, ompl_control),
+  // or RRT*'s own; the anytime planners refine to their budget, so that the streams used only
+  // after the first solution (the informed sampler's) are exercised too.
+  const std::vector<std::string> work = {"time_limit=0", "max_iterations=2000"};
+  const auto with = [&work](std::vector<std::string> items) {
+    items.insert(items.end(), work.begin(), work.end());
+    return items;
+  };
+  std::vector<ReproducibleCase> cases = {
+      {"rrtstar", "rrtstar", with({"refine_iterations=200"})},
+      {"rrtstar_ceres", "rrtstar_ceres", with({"refine_iterations=200"})},
+  };
+  for (const std::string planner :
+       {"rrtconnect", "rrtstar", "informed_rrtstar", "bitstar", "abitstar", "lazyprmstar"}) {
+    cases.push_back({"ompl_geometric_" + planner, "ompl_geometric",
+                     with({"planner=" + planner, "refine_iterations=200"})});
+  }
+  for (const std::string planner : {"informed_rrtstar", "bitstar", "abitstar", "lazyprmstar"}) {
+    cases.push_back({"ompl_geometric_" + planner + "_first", "ompl_geometric",
+                     with({"planner=" + planner, "stop_at_first=true"})});
+  }
+  for (const std::string planner : {"sst", "kpiece1", "rrt", "est", "pdst"}) {
+    cases.push_back({"ompl_control_" + planner,
+                     "ompl_control",
+                     {"planner=" + planner, "time_limit=0", "max_iterations=5000"}});
+  }
+  return cases;
+}
+
+INSTANTIATE_TEST_SUITE_P(Planners, OmplReproducible, ::testing::ValuesIn(reproducibleCases()),
+                         [](const ::testing::TestParamInfo<ReproducibleCase>& param) {
+                           return param.param.name;
+                         });
+
+}  // namespace
+}  // namespace kinolab
