@@ -130,12 +130,35 @@ void planSideBySide(benchmark::State& state, const Problem& problem) {
   }
 }
 
+// Parallel edge evaluation (`threads`) on an evaluation-heavy problem: the forest at the
+// paper's scale with 80 obstacle-cost samples an edge and the paper's heuristic (so that the
+// searches expand thousands of states), eager and lazy at 1, 2, 4 and 8 threads; `speedup` is
+// against eager at one thread, `cost_differs` must be 0.
+const Problem& threadsProblem() {
+  static const Problem problem = [] {
+    registerBuiltinPlugins();
+    Problem p{bench::forest(), bench::paperScaleQueries(), {}};
+    for (const std::string type : {"eager", "lazy"}) {
+      for (const int threads : {1, 2, 4, 8}) {
+        p.variants.push_back(
+            {type + "_t" + std::to_string(threads), type + "_mp_astar",
+             assignments({"time_limit=0", "edge_samples=80", "heuristic=time_optimal",
+                          "threads=" + std::to_string(threads)})});
+      }
+    }
+    return p;
+  }();
+  return problem;
+}
+
 void BM_ForestPaperScale(benchmark::State& state) { planSideBySide(state, forestProblem()); }
+void BM_ParallelEvaluation(benchmark::State& state) { planSideBySide(state, threadsProblem()); }
 void BM_MplProblem(benchmark::State& state) { planSideBySide(state, mplProblem()); }
 
 // The argument is the number of rounds (the fastest of them is kept per query).
 BENCHMARK(BM_ForestPaperScale)->Arg(3)->Iterations(1)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_MplProblem)->Arg(3)->Iterations(1)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_ParallelEvaluation)->Arg(3)->Iterations(1)->Unit(benchmark::kMillisecond);
 
 // The geodesic heuristic's work per query (its search over the map's free space, which counts
 // as planning time) on the MPL problem's world (2.4 million voxels), towards each query's goal:

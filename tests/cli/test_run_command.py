@@ -549,3 +549,24 @@ def test_malformed_flight_experiments_name_the_key(kinolab, tmp_path, kind, extr
     result = kinolab("run", path, "--dry-run")
     assert result.returncode == 1, result.stdout
     assert message in result.stderr, result.stderr
+
+
+def test_threads_times_workers_beyond_the_cores_is_refused_before_anything_is_written(
+        kinolab, tmp_path):
+    cores = os.cpu_count()
+    planners = f"""
+  - id: eager
+    type: eager_mp_astar
+    sampler: {{type: uniform, params: {{samples_per_axis: 3}}}}
+    params: {{threads: {cores}}}
+"""
+    path = experiment(tmp_path, planners, plugins=False)
+    out = tmp_path / "out"
+    result = kinolab("run", path, "--out", out, "-j", "2")
+    assert result.returncode == 1
+    assert f"planners 'eager', key threads: {cores} threads x -j 2 workers" in result.stderr
+    assert f"expected threads x jobs <= {cores}" in result.stderr
+    assert not out.exists()
+    # Within the cores it runs, with the answers of one thread.
+    result = kinolab("run", path, "--out", out, "-j", "1")
+    assert result.returncode == 0, result.stderr

@@ -96,7 +96,7 @@ store: {trajectories: true, trees: 3}
             "across #0 1 1.5 0.3 1.7 1.7 after random 2 3 8.5 0.4 1.1 2.3 lattice 0.5 0.05\n"
             "across #1 1 1.5 0.3 1.7 1.7 after random 2 3 8.5 0.4 1.1 2.3 lattice 0.5 0.05\n");
   EXPECT_EQ(e.config_hash, "617a865abea4f959");
-  EXPECT_EQ(runsDigest(e), "399b2ebbdddbe782");
+  EXPECT_EQ(runsDigest(e), "c8a178001f2cb45b");
 }
 
 TEST_F(ExperimentIdentityTest, DefaultsKeepTheirText) {
@@ -115,7 +115,7 @@ planners:
   EXPECT_EQ(queries,
             "random #0 5 1e+06 0.6 1 2\n"
             "across #0 0 1 0.6 1 2 after random 1 5 1e+06 0.6 1 2\n");
-  EXPECT_EQ(runsDigest(e), "36326c8a709ede95");
+  EXPECT_EQ(runsDigest(e), "48da99af4373f6c8");
 }
 
 TEST_F(ExperimentIdentityTest, AFlightsBudgetKeepsItsText) {
@@ -130,7 +130,7 @@ planners:
 budget: {time: 30}
 flight: {window: 8}
 )");
-  EXPECT_EQ(runsDigest(e), "cca46063b8f4c5e5");
+  EXPECT_EQ(runsDigest(e), "146e1a8f63bff32e");
 }
 
 TEST(WorldSpecIdentityTest, DenseAndSparseSpecsKeepTheirText) {
@@ -189,41 +189,41 @@ TEST(ExperimentFilesIdentityTest, ShippedExperimentsKeepTheirRunHashes) {
   std::string sorted;
   for (const std::string& line : lines) sorted += line + "\n";
   EXPECT_EQ(sorted,
-            "experiments/ablations/edge_samples.yaml 35fa8eedc53dfd3e\n"
-            "experiments/ablations/esdf_resolution.yaml 2c3bef7bfc57fca6\n"
-            "experiments/ablations/heuristic_weight.yaml 8994fad6125b8d74\n"
-            "experiments/ablations/lazy_duplicate_rule.yaml c7d1d6459edd8f5f\n"
-            "experiments/ablations/lazy_lower_bound.yaml 7681b15ffbe328b0\n"
-            "experiments/ablations/sampler.yaml 599d0f7fef4a2078\n"
-            "experiments/back_ends.yaml cc622d10e79cb40b\n"
-            "experiments/city_500m.yaml 5364a9c1c7b08cda\n"
-            "experiments/field.yaml e32ad8a1712796aa\n"
-            "experiments/flight_back_ends.yaml a48cdc8aa8abecb9\n"
-            "experiments/flight_benchmark.yaml f2a0890b79c93d36\n"
-            "experiments/flight_densest_cell.yaml d24ef1cd756385af\n"
-            "experiments/flight_forest.yaml 5c01f99c8983afdb\n"
-            "experiments/flight_forest_2ms.yaml f93195d4e1e43f90\n"
-            "experiments/flight_geb079.yaml 3d16592ad2179f4a\n"
-            "experiments/flight_speeds.yaml 50e4f8a93bd379d8\n"
+            "experiments/ablations/edge_samples.yaml 47c070e94590f9ec\n"
+            "experiments/ablations/esdf_resolution.yaml 0929f76089f1794d\n"
+            "experiments/ablations/heuristic_weight.yaml 17b5c02ab163dd2b\n"
+            "experiments/ablations/lazy_duplicate_rule.yaml f779d5639c8e3ed3\n"
+            "experiments/ablations/lazy_lower_bound.yaml db5a2db5765499d2\n"
+            "experiments/ablations/sampler.yaml d916a9235069ef1d\n"
+            "experiments/back_ends.yaml 1de6694964fc94dd\n"
+            "experiments/city_500m.yaml 802beb9199e3187a\n"
+            "experiments/field.yaml b45e596f2b0f2b3f\n"
+            "experiments/flight_back_ends.yaml a188c7a3a70f6434\n"
+            "experiments/flight_benchmark.yaml 01a4b0cce2c0e306\n"
+            "experiments/flight_densest_cell.yaml 7e64ca4601d80249\n"
+            "experiments/flight_forest.yaml 5e81f6c6d95edcde\n"
+            "experiments/flight_forest_2ms.yaml efdba796718c09f6\n"
+            "experiments/flight_geb079.yaml 0fd95219a0cee936\n"
+            "experiments/flight_speeds.yaml 724554e8e3692592\n"
             "experiments/flight_speeds_tgk.yaml 22136760a2e68909\n"
-            "experiments/heuristics/city.yaml dd81dac676e14d7b\n"
-            "experiments/heuristics/geb079_fine.yaml 2666d606be13ca47\n"
-            "experiments/heuristics/maps.yaml 8a7cf80f62bcf0b0\n"
-            "experiments/heuristics/mpl.yaml 8b90956f76afcd71\n"
-            "experiments/hybrid_astar.yaml 03f9c87064401a50\n"
-            "experiments/lazy_families.yaml fdcd7793d0c703a6\n"
-            "experiments/lazy_family.yaml 90d9255cd571f94f\n"
-            "experiments/lazy_regime/controls.yaml d792b6ad3c3d1ddf\n"
-            "experiments/lazy_regime/density.yaml b803ff28e2d3105b\n"
-            "experiments/lazy_regime/edge_cost.yaml 46b59d31f890d4bd\n"
-            "experiments/lazy_regime/edge_cost_density.yaml 5868e0acf7daedb8\n"
-            "experiments/lazy_regime/epsilon.yaml 1b54a726b7f29de0\n"
-            "experiments/lazy_regime/esdf_resolution.yaml 6c80b6edebdd7949\n"
-            "experiments/lazy_regime/order.yaml ed9f420b95189f98\n"
-            "experiments/mpl_benchmark.yaml 955e0a69a9bd6325\n"
-            "experiments/paper_table2_planners.yaml 3518140a89585065\n"
-            "experiments/quick.yaml 816409c3db534e94\n"
-            "experiments/sampler_planning.yaml a2738d76d24cf0ab\n");
+            "experiments/heuristics/city.yaml f37d01290c87627e\n"
+            "experiments/heuristics/geb079_fine.yaml f62c3d45b747cc9f\n"
+            "experiments/heuristics/maps.yaml 957fb0989da9276c\n"
+            "experiments/heuristics/mpl.yaml 9e9fd193bfe86bb3\n"
+            "experiments/hybrid_astar.yaml 340835975a75349a\n"
+            "experiments/lazy_families.yaml 39585ebd6d9eaa24\n"
+            "experiments/lazy_family.yaml b62695a50f92ff48\n"
+            "experiments/lazy_regime/controls.yaml ac1b31f7373149e6\n"
+            "experiments/lazy_regime/density.yaml 190e3c3c8dd00c02\n"
+            "experiments/lazy_regime/edge_cost.yaml dfa644341a301dbe\n"
+            "experiments/lazy_regime/edge_cost_density.yaml 9f5910acc634b329\n"
+            "experiments/lazy_regime/epsilon.yaml cc3372badd467481\n"
+            "experiments/lazy_regime/esdf_resolution.yaml c712454823558af0\n"
+            "experiments/lazy_regime/order.yaml 77bad5b8d08be6f4\n"
+            "experiments/mpl_benchmark.yaml 947db40d8a9b2e88\n"
+            "experiments/paper_table2_planners.yaml a49ef8d572272484\n"
+            "experiments/quick.yaml 84500d6c959218b1\n"
+            "experiments/sampler_planning.yaml df2a6d740f7f7f02\n");
 }
 
 }  // namespace

@@ -1123,5 +1123,48 @@ TEST(MaxHeuristic, CombinesAnyTwoPreparedForTheirControlsAndQueries) {
   EXPECT_NE(neither.find("lattice needs order 2"), std::string::npos) << neither;
 }
 
+TEST(ParallelEvaluation, EveryThreadCountSearchesTheSameAndAnswersTheSame) {
+  // A state's edges evaluated on 1, 2 and 4 threads: the same expansions, evaluations, ESDF
+  // queries, cost and trajectory, bit for bit (each edge lands in its own slot).
+  test::loadTestPlugins();
+  const auto world = test::smallWorld("forest");
+  const auto queries = test::randomQueries(*world, 4, 21, 3.0, 9.0, 0.6);
+  for (const std::string type : {"eager_mp_astar", "lazy_mp_astar"}) {
+    std::vector<std::vector<PlanResult>> results;
+    for (const int threads : {1, 2, 4}) {
+      ConfiguredPlanner configured =
+          configurePlanner(type, test::assignments({"time_limit=0", "edge_samples=40",
+                                                    "threads=" + std::to_string(threads)}));
+      configured.planner->setup({world, 1});
+      results.emplace_back();
+      for (const PlanningQuery& query : queries) {
+        results.back().push_back(configured.planner->plan(query, Budget{}));
+      }
+    }
+    int exact = 0;
+    for (std::size_t q = 0; q < queries.size(); ++q) {
+      const PlanResult& one = results[0][q];
+      exact += one.status == PlanStatus::kExact;
+      for (std::size_t t = 1; t < results.size(); ++t) {
+        const PlanResult& other = results[t][q];
+        EXPECT_EQ(other.status, one.status) << type << " query " << q;
+        EXPECT_EQ(other.cost, one.cost) << type << " query " << q;
+        for (const char* counter :
+             {"expansions", "full_evaluations", "partial_evaluations", "esdf_queries"}) {
+          EXPECT_EQ(test::statistic(other.statistics, counter),
+                    test::statistic(one.statistics, counter))
+              << type << " query " << q << " " << counter;
+        }
+        ASSERT_EQ(other.trajectory.segments().size(), one.trajectory.segments().size());
+        for (std::size_t i = 0; i < one.trajectory.segments().size(); ++i) {
+          EXPECT_EQ(other.trajectory.segments()[i].coefficients,
+                    one.trajectory.segments()[i].coefficients);
+        }
+      }
+    }
+    EXPECT_GE(exact, 3) << type;
+  }
+}
+
 }  // namespace
 }  // namespace kinolab

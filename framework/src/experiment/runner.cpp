@@ -468,8 +468,33 @@ void startRun(ProcessPool& pool, std::size_t tag, const Experiment& experiment, 
 
 }  // namespace
 
+namespace {
+
+/// Refuses workers x a planner's threads beyond the machine's cores: the timing of an
+/// oversubscribed run measures the scheduler, not the planner (a search's answer is the same at
+/// every thread count, its time is not).
+void requireCoresFor(const Experiment& experiment, int jobs) {
+  const int cores = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+  for (const ExperimentVariant& variant : experiment.variants) {
+    for (const ExperimentPlanner& planner : variant.planners) {
+      if (!planner.parameters.has("threads")) continue;
+      const long long threads = planner.parameters.integer("threads");
+      if (threads * jobs > cores) {
+        throw ConfigError(experiment.source + ": planners '" + planner.id +
+                          "', key threads: " + std::to_string(threads) + " threads x -j " +
+                          std::to_string(jobs) + " workers need " + std::to_string(threads * jobs) +
+                          " cores; this " + "machine has " + std::to_string(cores) +
+                          ": expected threads x jobs <= " + std::to_string(cores));
+      }
+    }
+  }
+}
+
+}  // namespace
+
 RunnerSummary runExperiment(const Experiment& experiment, const RunnerOptions& options) {
   const double begin = seconds();
+  requireCoresFor(experiment, options.jobs);
   RunnerSummary summary;
   ProcessPool pool(options.jobs);
   const std::vector<RunSpec> runs = options.shard.select(experiment.runs());

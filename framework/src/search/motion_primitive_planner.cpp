@@ -90,7 +90,7 @@ ParameterSpecs motionPrimitiveParameters() {
       .plugin("heuristic", "heuristic", "lattice",
               "the search's heuristic (kinolab list heuristics); set its parameters as "
               "heuristic.NAME; the default, lattice, is the fastest exact one measured "
-              "(docs/lazy_search.md); the paper's is time_optimal")
+              "(docs/planning.md); the paper's is time_optimal")
       .real("heuristic_weight", 1.0, 1.0, 100.0,
             "epsilon: f = g + epsilon h; > 1 is bounded suboptimal (cost <= epsilon optimum)")
       .plugin("search_space", "search_space", "lattice",
@@ -98,7 +98,11 @@ ParameterSpecs motionPrimitiveParameters() {
               "optimal) or cells (hybrid A*'s); set its parameters as search_space.NAME")
       .integer("max_expansions", 0, 0, 1000000000, "expansion budget (0: none)")
       .real("memory_limit_mb", 2048.0, 1.0, 1e6,
-            "memory budget of the search, MB: past it the search stops as on any budget");
+            "memory budget of the search, MB: past it the search stops as on any budget")
+      .integer("threads", 1, 1, 256,
+               "threads fully evaluating a state's edges at once (eager's successors; a lazy "
+               "search's lower bounds are too cheap to hand over); the search, its counters and "
+               "its answer are the same at every count");
 }
 
 MetricSpecs motionPrimitiveStatistics() {
@@ -149,6 +153,7 @@ MotionPrimitiveConfig MotionPrimitiveConfig::fromParameters(const ParameterSet& 
   settings.heuristic_weight = parameters.real("heuristic_weight");
   settings.goal_radius = limits.goal_radius;
   settings.memory_limit_mb = parameters.real("memory_limit_mb");
+  settings.threads = static_cast<int>(parameters.integer("threads"));
 
   config.policies.edges = std::make_shared<FullEvaluationPolicy>();
   config.heuristic = pluginRegistry<HeuristicBuilder>().createChosen(parameters, "heuristic");

@@ -2,6 +2,7 @@
 
 #include <utility>
 
+#include "edge_workers.hpp"
 #include "kinolab/core/error.hpp"
 
 namespace kinolab {
@@ -28,8 +29,16 @@ PrimitiveGraph::PrimitiveGraph(const std::string& who, std::shared_ptr<const Wor
   if (controls_.size() >= (std::size_t{1} << 30)) {
     throw InvalidArgument(who + ": at most 2^30 controls, got " + std::to_string(controls_.size()));
   }
+  if (settings_.threads < 1) {
+    throw InvalidArgument(who + ": threads must be >= 1, got " + std::to_string(settings_.threads));
+  }
   policies_.heuristic = heuristicForControls(policies_.heuristic, controls_);
+  if (settings_.threads > 1) workers_ = std::make_unique<EdgeWorkers>(settings_.threads);
 }
+
+PrimitiveGraph::~PrimitiveGraph() = default;
+PrimitiveGraph::PrimitiveGraph(PrimitiveGraph&&) noexcept = default;
+PrimitiveGraph& PrimitiveGraph::operator=(PrimitiveGraph&&) noexcept = default;
 
 void PrimitiveGraph::beginQuery(const ChainState& start, const Eigen::Vector3d& goal,
                                 StopCondition& stop) {
@@ -65,11 +74,16 @@ void PrimitiveGraph::estimateAll(const ChainState& parent, double parent_clearan
   estimates.resize(controls_.size());
   const EdgeEvaluationPolicy& policy = *policies_.edges;
   const auto begin = Clock::now();
-  for (std::size_t i = 0; i < controls_.size(); ++i) {
+  const auto evaluateOne = [&](std::size_t i) {
     estimates[i] =
         policy.evaluate(evaluator_, parent, parent_clearance, controls_[i], evaluations[i]);
-    count(estimates[i], evaluations[i]);
+  };
+  if (workers_ && policy.evaluatesFully()) {
+    workers_->run(controls_.size(), evaluateOne);
+  } else {
+    for (std::size_t i = 0; i < controls_.size(); ++i) evaluateOne(i);
   }
+  for (std::size_t i = 0; i < controls_.size(); ++i) count(estimates[i], evaluations[i]);
   counters_.evaluation_seconds += secondsSince(begin);
 }
 

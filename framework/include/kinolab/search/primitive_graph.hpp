@@ -30,6 +30,11 @@ struct SearchSettings {
   /// budget, so that no search, not even one without a time limit, exhausts the machine (a
   /// container that has just doubled may hold up to twice the limit).
   double memory_limit_mb = 2048.0;
+  /// Threads fully evaluating a state's edges at once (PrimitiveGraph::estimateAll, when the
+  /// edge policy evaluatesFully()): each edge's evaluation is independent and lands in its own
+  /// slot, so the search, its counters and its answer are the same at every count; only the
+  /// time changes.
+  int threads = 1;
 };
 
 /// The policies a plugin gives the search (kinolab/search/search_policies.hpp).
@@ -68,6 +73,8 @@ struct SearchCounters {
 /// greedy MP-A* and hybrid A* (MotionPrimitiveSearch) and the lazy family (LazySP, LRA*) reach
 /// the world only through it, so a feature of the search (a counter, a budget, a heuristic
 /// hook) is written once, here.
+class EdgeWorkers;
+
 class PrimitiveGraph {
  public:
   using Key = SearchSpace::Key;
@@ -78,6 +85,9 @@ class PrimitiveGraph {
   PrimitiveGraph(const std::string& who, std::shared_ptr<const World> world,
                  std::vector<Eigen::Vector3d> controls, SearchSettings settings,
                  SearchPolicies policies);
+  ~PrimitiveGraph();
+  PrimitiveGraph(PrimitiveGraph&&) noexcept;
+  PrimitiveGraph& operator=(PrimitiveGraph&&) noexcept;
 
   const World& world() const { return *world_; }
   const std::shared_ptr<const World>& sharedWorld() const { return world_; }
@@ -119,7 +129,7 @@ class PrimitiveGraph {
   }
   /// The edge policy's estimate of every control from `parent` (whose clearance is
   /// `parent_clearance`) into `evaluations` and `estimates` (one per control), counted and
-  /// timed as evaluation.
+  /// timed as evaluation; full evaluations on SearchSettings::threads threads.
   void estimateAll(const ChainState& parent, double parent_clearance,
                    std::vector<EdgeEvaluation>& evaluations, std::vector<EdgeEstimate>& estimates);
   /// The edge policy's estimate of one control, counted and timed.
@@ -159,6 +169,7 @@ class PrimitiveGraph {
   SearchPolicies given_policies_;
   SearchPolicies policies_;
   EdgeEvaluator evaluator_;
+  std::unique_ptr<EdgeWorkers> workers_;  ///< with threads > 1
 
   ChainState start_ = ChainState::Zero();
   Eigen::Vector3d goal_ = Eigen::Vector3d::Zero();

@@ -42,6 +42,10 @@ class EdgeEvaluationPolicy {
   virtual EdgeEstimate evaluate(const EdgeEvaluator& evaluator, const ChainState& parent,
                                 double parent_clearance, const Eigen::Vector3d& control,
                                 EdgeEvaluation& evaluation) const = 0;
+  /// True when an evaluation is heavy enough (a full one) for a state's edges to be worth
+  /// spreading over threads (SearchSettings::threads); a lower bound of one ESDF query is not:
+  /// handing it over costs more than it does.
+  virtual bool evaluatesFully() const { return false; }
 };
 
 /// Eager: every edge fully evaluated (EdgeEvaluator::full).
@@ -53,6 +57,7 @@ class FullEvaluationPolicy final : public EdgeEvaluationPolicy {
     evaluation = evaluator.full(parent, control, parent_clearance);
     return EdgeEstimate::kFull;
   }
+  bool evaluatesFully() const override { return true; }
 };
 
 /// Lazy, the paper's bound: the end sample's collision test and obstacle share
