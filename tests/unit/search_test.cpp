@@ -528,7 +528,8 @@ TEST(MotionPrimitiveSearch, BudgetStopReturnsThePathToTheNearestState) {
   test::loadTestPlugins();
   ConfiguredPlanner configured = configurePlanner(
       "lazy_mp_astar",
-      test::assignments({"sampler.samples_per_axis=3", "time_limit=0", "max_expansions=40"}));
+      test::assignments({"sampler.samples_per_axis=3", "time_limit=0", "max_expansions=40",
+                         "heuristic=time_optimal"}));  // a search the budget stops
   const auto world = test::smallWorld("forest");
   configured.planner->setup({world, 1});
   const auto query = test::randomQueries(*world, 1, 21, 8.0, 11.0, 0.5).front();
@@ -543,8 +544,9 @@ TEST(MotionPrimitiveSearch, BudgetStopReturnsThePathToTheNearestState) {
 TEST(MotionPrimitiveSearch, TreesForFiguresAreCappedAndKeepEveryKindOfEdge) {
   test::loadTestPlugins();
   ConfiguredPlanner configured = configurePlanner(
-      "lazy_mp_astar", test::assignments({"sampler.samples_per_axis=5", "time_limit=0",
-                                          "max_expansions=800", "lower_bound=lipschitz"}));
+      "lazy_mp_astar",
+      test::assignments({"sampler.samples_per_axis=5", "time_limit=0", "max_expansions=800",
+                         "lower_bound=lipschitz", "heuristic=time_optimal"}));
   const auto world = test::smallWorld("forest");
   configured.planner->setup({world, 1});
   const auto query = test::randomQueries(*world, 1, 21, 8.0, 11.0, 0.5).front();
@@ -616,7 +618,8 @@ TEST(MotionPrimitiveSearch, NoSearchOutgrowsItsMemoryBudgetEvenWithoutATimeLimit
   test::loadTestPlugins();
   ConfiguredPlanner configured = configurePlanner(
       "eager_mp_astar",
-      test::assignments({"sampler.samples_per_axis=5", "time_limit=0", "memory_limit_mb=2"}));
+      test::assignments({"sampler.samples_per_axis=5", "time_limit=0", "memory_limit_mb=2",
+                         "heuristic=time_optimal"}));  // a search that outgrows 2 MB
   const auto world = test::smallWorld("forest");
   configured.planner->setup({world, 1});
   const auto query = test::randomQueries(*world, 1, 21, 8.0, 11.0, 0.5).front();
