@@ -1443,6 +1443,16 @@ TEST(FlightTest, ACollisionWithTheGroundTruthEndsTheFlight) {
   EXPECT_EQ(result.status, "collision") << result.message;
   EXPECT_NE(result.message.find("hits the ground truth"), std::string::npos);
   EXPECT_TRUE(result.inside_margin) << result.min_clearance;  // inside every margin
+  // The clearance is the flown trajectory's exact least distance less the body's radius,
+  // negative inside (brute force: every 0.5 ms), and the evaluation's is the same.
+  double least = INFINITY;
+  for (double t = 0.0; t <= result.flown.duration(); t += 5e-4) {
+    least = std::min(least, world->esdf().exactDistance(result.flown.evaluate(t), 10.0));
+  }
+  EXPECT_LT(result.min_clearance, 0.0);
+  EXPECT_NEAR(result.min_clearance, least - 0.25, 1e-3);
+  EXPECT_LE(result.min_clearance, least - 0.25 + 1e-9);
+  EXPECT_EQ(result.evaluation.min_clearance, result.min_clearance);
   // The flight ends at the wall.
   EXPECT_NEAR(result.flown.endPosition().x(), 10.0 - 0.25, 0.1);
   EXPECT_TRUE(std::isnan(result.time_to_goal));
