@@ -412,14 +412,21 @@ class FlightLoop {
   /// tracing (traceTrajectory) on the distance to the nearest voxel that is not known free,
   /// unknown counted as occupied (VehicleMap::unvouchedDistance), so a trajectory called free
   /// keeps the body's kept radius less its tolerance from every voxel the known map cannot
-  /// vouch for, and stays in the map's box.
+  /// vouch for, and stays in the map's box less what the body has beyond the vehicle's own
+  /// (the planning margin: room for the tracking error where the map ends; the box still holds
+  /// the trajectory's first point, as the window's domain holds the vehicle).
   TraceResult vouched(const Trajectory& trajectory, double from, const Body& body) const {
     constexpr double kReach = 0.2;  // m a traced step may take beyond the radius
+    const Box& map = map_->bounds();
+    const Eigen::Vector3d inset = Eigen::Vector3d::Constant(body.radius - body_.radius);
+    const Eigen::Vector3d first = trajectory.evaluate(std::clamp(from, 0.0, trajectory.duration()));
+    const Box domain{(map.min + inset).cwiseMin(map.max).cwiseMin(first),
+                     (map.max - inset).cwiseMax(map.min).cwiseMax(first)};
     return traceTrajectory(
         [&](const Eigen::Vector3d& p, double radius) {
           return map_->unvouchedDistance(p, radius + kReach);
         },
-        map_->bounds(), trajectory, body.keptRadius(), body.tolerance, from);
+        domain, trajectory, body.keptRadius(), body.tolerance, from);
   }
 
   /// How long a plan keeps in the space the known map vouches for, for the planning body
