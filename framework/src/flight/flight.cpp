@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
-#include <map>
 #include <optional>
 #include <unordered_map>
 
@@ -12,9 +11,7 @@
 #include "kinolab/core/fields.hpp"
 #include "kinolab/core/random.hpp"
 #include "kinolab/core/text.hpp"
-#include "kinolab/trajectory/segment_bounds.hpp"
 #include "kinolab/validation/trajectory_checker.hpp"
-#include "kinolab/world/trajectory_trace.hpp"
 
 namespace kinolab {
 
@@ -77,7 +74,7 @@ class FlightLoop {
     // if looked round before take-off: the voxels free in the ground truth are known free (the
     // others stay unknown). A forward camera never sees beside, below or above itself, and its
     // frustum (58 degrees high) holds the planning body only from about 2.5 radii ahead, so
-    // without this no plan from the start could be vouched for (vouched()).
+    // without this no plan from the start could be vouched for (vouchedTrace()).
     const double half_diagonal = 0.5 * std::sqrt(3.0) * map_model_.resolution;
     map_->markFree(start, kStartKnown * planning_body_.radius, [&](const Eigen::Vector3d& centre) {
       return truth_->isFree(centre, half_diagonal);
@@ -149,16 +146,6 @@ class FlightLoop {
     if (!result_.replans.empty()) result_.replans.back().backup = true;
   }
 
-  /// Where the planning window is centred: on the vehicle, moved towards the goal's height by
-  /// up to a quarter of the window's height, so that the window follows the vehicle in z and
-  /// a goal above or below it leaves room for a local goal beyond the planner's goal region.
-  Eigen::Vector3d windowCentre(const Eigen::Vector3d& position) const {
-    const double quarter = 0.25 * map_model_.window_height;
-    Eigen::Vector3d centre = position;
-    centre.z() += std::clamp(query_.goal.z() - position.z(), -quarter, quarter);
-    return centre;
-  }
-
   /// Reached, out of time or stuck (the status set); false while the flight goes on.
   bool ended(const ChainState& now) {
     const double distance = (now.col(0) - query_.goal).norm();
@@ -180,55 +167,11 @@ class FlightLoop {
     if (t_ - best_time_ > settings_.stuck_time) {
       result_.status = "stuck";
       result_.message = "no progress towards the goal for " + formatNumber(settings_.stuck_time) +
-                        " s" + takenSince(best_time_) + failuresSince(best_time_);
+                        " s" + takenSince(result_.replans, best_time_, query_.goal) +
+                        failuresSince(result_.replans, best_time_);
       return true;
     }
     return false;
-  }
-
-  /// The plans taken since `since` (a flight without progress whose plans are taken dithers
-  /// between local goals): how many, the extent of their local goals and how near the goal
-  /// the nearest came ("" when none was taken).
-  std::string takenSince(double since) const {
-    int taken = 0;
-    Eigen::Vector3d low = Eigen::Vector3d::Constant(INFINITY);
-    Eigen::Vector3d high = -low;
-    double nearest = INFINITY;
-    for (const FlightReplan& replan : result_.replans) {
-      if (replan.time < since || !replan.accepted) continue;
-      ++taken;
-      low = low.cwiseMin(replan.local_goal);
-      high = high.cwiseMax(replan.local_goal);
-      nearest = std::min(nearest, (replan.local_goal - query_.goal).norm());
-    }
-    if (taken == 0) return "";
-    return "; " + std::to_string(taken) + " plans taken meanwhile, their local goals within " +
-           formatNumber((high - low).norm()) + " m of one another, the nearest " +
-           formatNumber(nearest) + " m from the goal";
-  }
-
-  /// The failed replans since `since`, by status with the first reason of each, and the
-  /// recoveries tried ("" when none failed).
-  std::string failuresSince(double since) const {
-    std::map<std::string, std::pair<int, std::string>> failures;  // status -> (count, why)
-    std::map<std::string, int> recoveries;
-    int total = 0;
-    for (const FlightReplan& replan : result_.replans) {
-      if (replan.time < since || replan.accepted || replan.kept) continue;
-      ++total;
-      auto& [count, why] = failures[replan.status];
-      if (count++ == 0) why = replan.why;
-      if (!replan.recovery.empty()) ++recoveries[replan.recovery];
-    }
-    if (total == 0) return "";
-    std::string text = "; " + std::to_string(total) + " replans failed meanwhile:";
-    for (const auto& [status, failure] : failures) {
-      text += " " + std::to_string(failure.first) + " " + status + " (" + failure.second + ")";
-    }
-    for (const auto& [recovery, count] : recoveries) {
-      text += "; " + recovery + " tried " + std::to_string(count) + " times";
-    }
-    return text;
   }
 
   /// A frame of the sensor into the known map; the planning window around the vehicle.
@@ -248,11 +191,12 @@ class FlightLoop {
     map_->insert(sensed, sensor_.maxRange());
     // Where the vehicle is, nothing is: the voxels whose centres its body holds are known free
     // (their cubes meet the body, which the ground truth has not stopped: they are free), and
-    // no more, so that what the vehicle assumes never vouches for a plan (vouched()).
+    // no more, so that what the vehicle assumes never vouches for a plan (vouchedTrace()).
     map_->markFree(now.col(0), body_.radius);
     result_.time_map_ms += millisecondsSince(begin);
     begin = std::chrono::steady_clock::now();
-    std::shared_ptr<const World> window = map_->window(windowCentre(now.col(0)));
+    std::shared_ptr<const World> window =
+        map_->window(windowCentre(now.col(0), query_.goal.z(), map_model_.window_height));
     result_.time_window_ms += millisecondsSince(begin);
     return window;
   }
@@ -289,7 +233,8 @@ class FlightLoop {
       // vehicle in z a quarter of its height late: a goal above or below): the window is built
       // anew around the vehicle and the local goal chosen again. Before, a vehicle below a
       // higher goal failed hundreds of replans at its local goal 0.5 m above it.
-      shared_window = map_->window(windowCentre(position), /*rebuild=*/true);
+      shared_window = map_->window(
+          windowCentre(position, query_.goal.z(), map_model_.window_height), /*rebuild=*/true);
       found = localGoal(local.start.col(0), query_.goal, guide, settings_.horizon, *shared_window,
                         planning_body_.radius, &local.goal);
     }
@@ -330,7 +275,8 @@ class FlightLoop {
       if (stop.empty()) stop.append(hold(here.col(0), dt_));  // at rest at the very start
       committed_ = std::move(stop);
       intended_ = committed_;
-      backup_start_ = t_;
+      backup_start_ = t_;  // the stop is flown at once
+      backup_counted_ = false;
     }
     reason_ = settled ? "period" : "retry";
     next_replan_ = std::max(next_replan_, t_ + (settled ? settings_.replan_period : dt_));
@@ -408,38 +354,18 @@ class FlightLoop {
            !far(by);
   }
 
-  /// The known map's verdict on `trajectory` from `from` on for `body` (commit: seen): sphere
-  /// tracing (traceTrajectory) on the distance to the nearest voxel that is not known free,
-  /// unknown counted as occupied (VehicleMap::unvouchedDistance), so a trajectory called free
-  /// keeps the body's kept radius less its tolerance from every voxel the known map cannot
-  /// vouch for, and stays in the map's box less what the body has beyond the vehicle's own
-  /// (the planning margin: room for the tracking error where the map ends; the box still holds
-  /// the trajectory's first point, as the window's domain holds the vehicle).
-  TraceResult vouched(const Trajectory& trajectory, double from, const Body& body) const {
-    constexpr double kReach = 0.2;  // m a traced step may take beyond the radius
-    const Box& map = map_->bounds();
-    const Eigen::Vector3d inset = Eigen::Vector3d::Constant(body.radius - body_.radius);
-    const Eigen::Vector3d first = trajectory.evaluate(std::clamp(from, 0.0, trajectory.duration()));
-    const Box domain{(map.min + inset).cwiseMin(map.max).cwiseMin(first),
-                     (map.max - inset).cwiseMax(map.min).cwiseMax(first)};
-    return traceTrajectory(
-        [&](const Eigen::Vector3d& p, double radius) {
-          return map_->unvouchedDistance(p, radius + kReach);
-        },
-        domain, trajectory, body.keptRadius(), body.tolerance, from);
-  }
-
   /// How long a plan keeps in the space the known map vouches for, for the planning body
-  /// (vouched()): its duration when it does throughout (and always with commit: planned),
+  /// (vouchedTrace()): its duration when it does throughout (and always with commit: planned),
   /// else the first traced time it does not.
   double vouchedUntil(const Trajectory& trajectory) const {
     if (settings_.commit == CommitSpace::kPlanned) return trajectory.duration();
-    const TraceResult trace = vouched(trajectory, 0.0, planning_body_);
+    const TraceResult trace =
+        vouchedTrace(*map_, trajectory, 0.0, planning_body_, settings_.planning_margin);
     return trace.free ? trajectory.duration() : trace.time;
   }
 
   /// Whether `trajectory` may be committed from `from` on for `body`: with commit: seen, when
-  /// the known map vouches for it (vouched(): every known obstacle and every unseen voxel kept
+  /// the known map vouches for it (vouchedTrace(): every known obstacle and every unseen voxel kept
   /// at the body's radius; this holds every plan, approximate ones too, and every braking tail
   /// the vehicle may fly as its back-up); with commit: planned, when it stays in the map's box
   /// and clear of the window's obstacles (freeFrom()).
@@ -448,7 +374,7 @@ class FlightLoop {
     if (settings_.commit == CommitSpace::kPlanned) {
       return freeFrom(trajectory, from, truth_->bounds(), window, body, limits_.limits);
     }
-    return vouched(trajectory, from, body).free;
+    return vouchedTrace(*map_, trajectory, from, body, body.radius - body_.radius).free;
   }
 
   /// Where the camera looks for a frame taken at t: towards where the intended trajectory (the
@@ -596,57 +522,13 @@ class FlightLoop {
       result_.message = "the checker: " + check.check + ": " + check.detail;
     }
     result_.evaluation = checker_.evaluate(result_.flown);
-    result_.min_clearance = exactMinClearance(result_.flown);
+    result_.min_clearance = exactMinClearance(*truth_, result_.flown, body_.radius);
     result_.evaluation.min_clearance = result_.min_clearance;
     result_.inside_margin = result_.min_clearance < settings_.planning_margin;
     if (!result_.flown.empty()) {
       result_.distance_to_goal = (result_.flown.endPosition() - query_.goal).norm();
     }
     if (result_.status != "reached") result_.time_to_goal = NAN;
-  }
-
-  /// The least distance from the flown trajectory to the ground truth's cubes, less the
-  /// body's radius: negative when the body was inside one, never clamped. The checker's
-  /// figure is the least of its samples, which a path passing between two misses; here
-  /// every interval between samples a centisecond apart whose distances, less what the
-  /// trajectory's speed bound lets the path cover in half of it, could dip below the least
-  /// found is searched (golden section) to a microsecond.
-  double exactMinClearance(const Trajectory& flown) const {
-    if (flown.empty()) return NAN;
-    const Esdf& esdf = truth_->esdf();
-    const double cap = std::min(esdf.maxDistance(), esdf.truncation());
-    const auto distance = [&](double s) { return esdf.exactDistance(flown.evaluate(s), cap); };
-    double speed = 0.0;
-    for (const TrajectorySegment& segment : flown.segments()) {
-      speed = std::max(speed, speedBound(segment));
-    }
-    constexpr double kStep = 0.01;
-    const double duration = flown.duration();
-    std::vector<double> times;
-    for (double s = 0.0; s < duration; s += kStep) times.push_back(s);
-    times.push_back(duration);
-    std::vector<double> distances(times.size());
-    for (std::size_t i = 0; i < times.size(); ++i) distances[i] = distance(times[i]);
-    double least = *std::min_element(distances.begin(), distances.end());
-    for (std::size_t i = 0; i + 1 < times.size(); ++i) {
-      const double span = times[i + 1] - times[i];
-      if (std::min(distances[i], distances[i + 1]) - 0.5 * speed * span >= least) continue;
-      // Golden-section search for the interval's least distance.
-      constexpr double kRatio = 0.6180339887498949;
-      double a = times[i];
-      double b = times[i + 1];
-      while (b - a > 1e-6) {
-        const double left = b - kRatio * (b - a);
-        const double right = a + kRatio * (b - a);
-        if (distance(left) < distance(right)) {
-          b = right;
-        } else {
-          a = left;
-        }
-      }
-      least = std::min(least, distance(0.5 * (a + b)));
-    }
-    return least - body_.radius;
   }
 
   const std::shared_ptr<const World>& truth_;

@@ -60,52 +60,6 @@ void VehicleMap::markFree(const Eigen::Vector3d& center, double radius,
   });
 }
 
-template <typename Accepts>
-bool VehicleMap::everyVoxelAround(const Eigen::Vector3d& p, double radius,
-                                  Accepts&& accepts) const {
-  const double r = model_.resolution;
-  const Eigen::Vector3d local = (p - lattice_.origin()) / r;  // in voxels
-  const Eigen::Vector3i& n = lattice_.dims();
-  Eigen::Vector3i low;
-  Eigen::Vector3i high;
-  for (int axis = 0; axis < 3; ++axis) {
-    low[axis] = std::max(0, static_cast<int>(std::floor(local[axis] - radius / r)));
-    high[axis] = std::min(n[axis] - 1, static_cast<int>(std::floor(local[axis] + radius / r)));
-    if (low[axis] > high[axis]) return true;  // the ball lies outside the map on this axis
-  }
-  const double radius2 = radius * radius;
-  // The squared distance from p to a voxel's cube along one axis.
-  const auto gap2 = [&](int axis, int i) {
-    const double lo = lattice_.origin()[axis] + i * r;
-    const double d = std::max({lo - p[axis], 0.0, p[axis] - (lo + r)});
-    return d * d;
-  };
-  for (int x = low.x(); x <= high.x(); ++x) {
-    const double dx = gap2(0, x);
-    for (int y = low.y(); y <= high.y(); ++y) {
-      const double dxy = dx + gap2(1, y);
-      if (dxy >= radius2) continue;
-      const std::uint8_t* column = &state_[lattice_.index(x, y, 0)];
-      for (int z = low.z(); z <= high.z(); ++z) {
-        if (!accepts(column[z]) && dxy + gap2(2, z) < radius2) return false;
-      }
-    }
-  }
-  return true;
-}
-
-bool VehicleMap::seenAround(const Eigen::Vector3d& p, double radius) const {
-  if (!isSetup()) throw InvalidArgument("VehicleMap::seenAround before setup()");
-  return everyVoxelAround(p, radius, [](std::uint8_t state) { return state != 0; });
-}
-
-bool VehicleMap::knownFreeAround(const Eigen::Vector3d& p, double radius) const {
-  if (!isSetup()) throw InvalidArgument("VehicleMap::knownFreeAround before setup()");
-  return everyVoxelAround(p, radius, [](std::uint8_t state) {
-    return state == static_cast<std::uint8_t>(Voxel::kFree);
-  });
-}
-
 double VehicleMap::unvouchedDistance(const Eigen::Vector3d& p, double limit) const {
   if (!isSetup()) throw InvalidArgument("VehicleMap::unvouchedDistance before setup()");
   const double r = model_.resolution;

@@ -90,14 +90,12 @@ class VehicleMap {
   /// whose centre it accepts.
   void markFree(const Eigen::Vector3d& center, double radius,
                 const std::function<bool(const Eigen::Vector3d&)>& only = {});
-  /// True when every voxel of the map's lattice whose cube comes within `radius` of `p` has
-  /// been seen (is known free or occupied): a body of that radius at `p` is in space the
-  /// sensor has seen. Voxels outside the map do not count (nothing is there).
-  bool seenAround(const Eigen::Vector3d& p, double radius) const;
   /// True when every voxel of the map's lattice whose cube comes within `radius` of `p` is
   /// known free (unknown counts as occupied): a body of that radius at `p` is in space the
-  /// known map vouches for. Voxels outside the map do not count, as for seenAround().
-  bool knownFreeAround(const Eigen::Vector3d& p, double radius) const;
+  /// known map vouches for. Voxels outside the map do not count (nothing is there).
+  bool knownFreeAround(const Eigen::Vector3d& p, double radius) const {
+    return unvouchedDistance(p, radius) >= radius;
+  }
   /// The exact distance from `p` to the nearest cube of a voxel that is not known free
   /// (unknown or occupied) when it is below `limit`, else `limit`; 0 inside one. Voxels
   /// outside the map do not count. What a flight traces a plan against before committing it
@@ -163,10 +161,6 @@ class VehicleMap {
   std::string plugin_name_ = "vehicle_map";
   /// The box on the map's lattice of half-sides `half` around `center`, clamped to the map.
   Box latticeBox(const Eigen::Vector3d& center, const Eigen::Vector3d& half) const;
-  /// Whether `accepts(state)` holds for every voxel of the lattice whose cube comes within
-  /// `radius` of `p` (voxels outside the map are not asked).
-  template <typename Accepts>
-  bool everyVoxelAround(const Eigen::Vector3d& p, double radius, Accepts&& accepts) const;
   /// The window's occupancy on `grid` (a box of the lattice) seen from `center`.
   void windowOccupancy(const VoxelGrid& grid, const Eigen::Vector3d& center,
                        std::vector<std::uint8_t>& occupancy) const;
