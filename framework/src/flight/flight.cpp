@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
-#include <map>
 #include <optional>
 #include <unordered_map>
 
@@ -71,6 +70,15 @@ class FlightLoop {
     // The committed trajectory from t = 0; at rest at its end (a hover at the start at first).
     committed_.append(hold(start, dt_));
     intended_ = committed_;
+    // The vehicle knows its start's surroundings (kStartKnown planning radii) as they are, as
+    // if looked round before take-off: the voxels free in the ground truth are known free (the
+    // others stay unknown). A forward camera never sees beside, below or above itself, and its
+    // frustum (58 degrees high) holds the planning body only from about 2.5 radii ahead, so
+    // without this no plan from the start could be vouched for (vouchedTrace()).
+    const double half_diagonal = 0.5 * std::sqrt(3.0) * map_model_.resolution;
+    map_->markFree(start, kStartKnown * planning_body_.radius, [&](const Eigen::Vector3d& centre) {
+      return truth_->isFree(centre, half_diagonal);
+    });
     best_distance_ = (start - query_.goal).norm();
     for (int frame = 0; step(frame); ++frame) {
     }
@@ -107,6 +115,7 @@ class FlightLoop {
     }
     const ChainState now = stateAt(path, t_);
     if (ended(now)) return false;
+    countBackup();
     ++result_.frames;
     if (settings_.snapshot_period > 0.0 &&
         (result_.snapshots.empty() ||
@@ -120,8 +129,21 @@ class FlightLoop {
       reason_ = "collision";
       next_replan_ = t_;
     }
-    if (t_ + 1e-9 >= next_replan_) replan(*window, window);
+    if (t_ + 1e-9 >= next_replan_) replan(window, now.col(0));
     return true;
+  }
+
+  /// The vehicle flies onto its back-up (the stop that ends the committed trajectory) while
+  /// moving, short of the goal: no plan took over in time. Counted once per committed
+  /// trajectory, on the flight and on the last replan.
+  void countBackup() {
+    if (backup_counted_ || t_ < backup_start_ ||
+        stateAt(committed_, t_).col(1).norm() < kMovingSpeed) {
+      return;
+    }
+    backup_counted_ = true;
+    ++result_.backups;
+    if (!result_.replans.empty()) result_.replans.back().backup = true;
   }
 
   /// Reached, out of time or stuck (the status set); false while the flight goes on.
@@ -145,55 +167,11 @@ class FlightLoop {
     if (t_ - best_time_ > settings_.stuck_time) {
       result_.status = "stuck";
       result_.message = "no progress towards the goal for " + formatNumber(settings_.stuck_time) +
-                        " s" + takenSince(best_time_) + failuresSince(best_time_);
+                        " s" + takenSince(result_.replans, best_time_, query_.goal) +
+                        failuresSince(result_.replans, best_time_);
       return true;
     }
     return false;
-  }
-
-  /// The plans taken since `since` (a flight without progress whose plans are taken dithers
-  /// between local goals): how many, the extent of their local goals and how near the goal
-  /// the nearest came ("" when none was taken).
-  std::string takenSince(double since) const {
-    int taken = 0;
-    Eigen::Vector3d low = Eigen::Vector3d::Constant(INFINITY);
-    Eigen::Vector3d high = -low;
-    double nearest = INFINITY;
-    for (const FlightReplan& replan : result_.replans) {
-      if (replan.time < since || !replan.accepted) continue;
-      ++taken;
-      low = low.cwiseMin(replan.local_goal);
-      high = high.cwiseMax(replan.local_goal);
-      nearest = std::min(nearest, (replan.local_goal - query_.goal).norm());
-    }
-    if (taken == 0) return "";
-    return "; " + std::to_string(taken) + " plans taken meanwhile, their local goals within " +
-           formatNumber((high - low).norm()) + " m of one another, the nearest " +
-           formatNumber(nearest) + " m from the goal";
-  }
-
-  /// The failed replans since `since`, by status with the first reason of each, and the
-  /// recoveries tried ("" when none failed).
-  std::string failuresSince(double since) const {
-    std::map<std::string, std::pair<int, std::string>> failures;  // status -> (count, why)
-    std::map<std::string, int> recoveries;
-    int total = 0;
-    for (const FlightReplan& replan : result_.replans) {
-      if (replan.time < since || replan.accepted || replan.kept) continue;
-      ++total;
-      auto& [count, why] = failures[replan.status];
-      if (count++ == 0) why = replan.why;
-      if (!replan.recovery.empty()) ++recoveries[replan.recovery];
-    }
-    if (total == 0) return "";
-    std::string text = "; " + std::to_string(total) + " replans failed meanwhile:";
-    for (const auto& [status, failure] : failures) {
-      text += " " + std::to_string(failure.first) + " " + status + " (" + failure.second + ")";
-    }
-    for (const auto& [recovery, count] : recoveries) {
-      text += "; " + recovery + " tried " + std::to_string(count) + " times";
-    }
-    return text;
   }
 
   /// A frame of the sensor into the known map; the planning window around the vehicle.
@@ -211,12 +189,14 @@ class FlightLoop {
     result_.time_sense_ms += millisecondsSince(begin);
     begin = std::chrono::steady_clock::now();
     map_->insert(sensed, sensor_.maxRange());
-    // Where the vehicle is, nothing is: its body is known free, with two voxels to spare for
-    // the ESDF's conservative clearance (so that a cautious map still lets it start).
-    map_->markFree(now.col(0), body_.radius + 2.0 * map_model_.resolution);
+    // Where the vehicle is, nothing is: the voxels whose centres its body holds are known free
+    // (their cubes meet the body, which the ground truth has not stopped: they are free), and
+    // no more, so that what the vehicle assumes never vouches for a plan (vouchedTrace()).
+    map_->markFree(now.col(0), body_.radius);
     result_.time_map_ms += millisecondsSince(begin);
     begin = std::chrono::steady_clock::now();
-    std::shared_ptr<const World> window = map_->window(now.col(0));
+    std::shared_ptr<const World> window =
+        map_->window(windowCentre(now.col(0), query_.goal.z(), map_model_.window_height));
     result_.time_window_ms += millisecondsSince(begin);
     return window;
   }
@@ -224,7 +204,7 @@ class FlightLoop {
   /// A replan from the committed state `latency` ahead towards a local goal on the guide;
   /// an accepted plan is spliced in, and without one the vehicle brakes if its committed
   /// trajectory is no longer free.
-  void replan(const World& window, const std::shared_ptr<const World>& shared_window) {
+  void replan(std::shared_ptr<const World> shared_window, const Eigen::Vector3d& position) {
     FlightReplan replan;
     replan.time = t_;
     replan.reason = reason_;
@@ -244,8 +224,22 @@ class FlightLoop {
         map_->guide(from, query_.goal, planning_body_.radius, z_low, z_high);
     result_.time_guide_ms += millisecondsSince(begin);
     bool accepted = false;
-    if (localGoal(local.start.col(0), query_.goal, guide, settings_.horizon, window,
-                  planning_body_.radius, &local.goal)) {
+    bool found = localGoal(local.start.col(0), query_.goal, guide, settings_.horizon,
+                           *shared_window, planning_body_.radius, &local.goal);
+    const double region = limits_.goal_radius;
+    if (found && (local.goal - local.start.col(0)).norm() <= region &&
+        (query_.goal - local.start.col(0)).norm() > region) {
+      // The kept window leaves no room beyond the planner's goal region (it follows the
+      // vehicle in z a quarter of its height late: a goal above or below): the window is built
+      // anew around the vehicle and the local goal chosen again. Before, a vehicle below a
+      // higher goal failed hundreds of replans at its local goal 0.5 m above it.
+      shared_window = map_->window(
+          windowCentre(position, query_.goal.z(), map_model_.window_height), /*rebuild=*/true);
+      found = localGoal(local.start.col(0), query_.goal, guide, settings_.horizon, *shared_window,
+                        planning_body_.radius, &local.goal);
+    }
+    const World& window = *shared_window;
+    if (found) {
       replan.local_goal = local.goal;
       planner_.setup({shared_window, planner_seed_, settings_.planning_margin});
       const std::shared_ptr<void> guard =
@@ -281,6 +275,8 @@ class FlightLoop {
       if (stop.empty()) stop.append(hold(here.col(0), dt_));  // at rest at the very start
       committed_ = std::move(stop);
       intended_ = committed_;
+      backup_start_ = t_;  // the stop is flown at once
+      backup_counted_ = false;
     }
     reason_ = settled ? "period" : "retry";
     next_replan_ = std::max(next_replan_, t_ + (settled ? settings_.replan_period : dt_));
@@ -321,22 +317,24 @@ class FlightLoop {
       replan.why = "the committed trajectory comes as near the local goal no later";
       return false;
     }
-    const double seen = seenUntil(plan.trajectory);
-    for (double cut = std::min(plan.trajectory.duration(), seen); cut > 0.0; cut -= 0.1) {
+    const double vouched = vouchedUntil(plan.trajectory);
+    for (double cut = std::min(plan.trajectory.duration(), vouched); cut > 0.0; cut -= 0.1) {
       Trajectory spliced = splice(committed_, t_start, slice(plan.trajectory, cut), brake_rate_);
-      if (freeFrom(spliced, t_start, truth_->bounds(), window, planning_body_, limits_.limits) &&
-          seenUntil(spliced, t_start + cut) >= spliced.duration()) {
+      if (committable(spliced, t_start, window, planning_body_)) {
         replan.trajectory = plan.trajectory;
         intended_ = splice(committed_, t_start, plan.trajectory, brake_rate_);
         committed_ = std::move(spliced);
+        backup_start_ = t_start + cut;
+        backup_counted_ = false;
         return true;
       }
     }
     replan.why = settings_.commit == CommitSpace::kPlanned
                      ? "every braking tail after the plan leaves the map or meets a known obstacle"
-                 : seen < 0.1 ? "the plan enters unseen space at once (commit: seen)"
-                              : "every braking tail after the plan leaves the map, meets a known "
-                                "obstacle or enters unseen space (commit: seen)";
+                 : vouched < 0.1
+                     ? "the plan leaves the space the known map vouches for at once (commit: seen)"
+                     : "every braking tail after the plan leaves the space the known map vouches "
+                       "for (commit: seen)";
     return false;
   }
 
@@ -356,27 +354,27 @@ class FlightLoop {
            !far(by);
   }
 
-  /// How long `trajectory`, from `from` on, keeps the vehicle's centre in space the sensor
-  /// has seen: its duration when it does throughout (and always with commit: planned), else
-  /// the last sample before it leaves it. Samples every half voxel of path at the speed limit,
-  /// each checking the ball of half that spacing, so that the path between samples is
-  /// covered. The centre, not the body: a body-sized ball fits neither the camera's frustum
-  /// near the camera nor the gaps the map's shared ray walks leave (tried: the vehicles stall).
-  double seenUntil(const Trajectory& trajectory, double from = 0.0) const {
+  /// How long a plan keeps in the space the known map vouches for, for the planning body
+  /// (vouchedTrace()): its duration when it does throughout (and always with commit: planned),
+  /// else the first traced time it does not.
+  double vouchedUntil(const Trajectory& trajectory) const {
     if (settings_.commit == CommitSpace::kPlanned) return trajectory.duration();
-    const double spacing = 0.5 * map_model_.resolution;
-    const double radius = 0.5 * spacing;
-    double last = from;
-    const bool seen = everySample(from, trajectory.duration(), spacing,
-                                  limits_.limits.bound[1].norm(), [&](double s) {
-                                    if (!map_->seenAround(trajectory.evaluate(s), radius)) {
-                                      return false;
-                                    }
-                                    last = s;
-                                    return true;
-                                  });
-    if (!seen) return last;
-    return map_->seenAround(trajectory.endPosition(), radius) ? trajectory.duration() : last;
+    const TraceResult trace =
+        vouchedTrace(*map_, trajectory, 0.0, planning_body_, settings_.planning_margin);
+    return trace.free ? trajectory.duration() : trace.time;
+  }
+
+  /// Whether `trajectory` may be committed from `from` on for `body`: with commit: seen, when
+  /// the known map vouches for it (vouchedTrace(): every known obstacle and every unseen voxel kept
+  /// at the body's radius; this holds every plan, approximate ones too, and every braking tail
+  /// the vehicle may fly as its back-up); with commit: planned, when it stays in the map's box
+  /// and clear of the window's obstacles (freeFrom()).
+  bool committable(const Trajectory& trajectory, double from, const World& window,
+                   const Body& body) const {
+    if (settings_.commit == CommitSpace::kPlanned) {
+      return freeFrom(trajectory, from, truth_->bounds(), window, body, limits_.limits);
+    }
+    return vouchedTrace(*map_, trajectory, from, body, body.radius - body_.radius).free;
   }
 
   /// Where the camera looks for a frame taken at t: towards where the intended trajectory (the
@@ -384,9 +382,9 @@ class FlightLoop {
   /// later, so that a turn is seen before it is flown. When that second barely moves the
   /// vehicle (a plan that starts slowly, or at rest), towards the first point of the intended
   /// trajectory at least kNearestLook away horizontally (nearer, the frustum is too narrow to
-  /// hold it) that the sensor has not seen (with commit: seen: what keeps the plan from being
-  /// committed), else the first such point seen or not, else the goal. Looking at the goal
-  /// there left a plan that started slowly and turned back outside the frustum: the vehicle
+  /// hold it) that the known map does not vouch for (with commit: seen: what keeps the plan from
+  /// being committed), else the first such point, vouched for or not, else the goal. Looking at the
+  /// goal there left a plan that started slowly and turned back outside the frustum: the vehicle
   /// crept on the few centimetres it could commit, replan after replan, 2 m from its goal.
   double heading(double t) const {
     constexpr double kNearestLook = 0.5;  // m
@@ -405,7 +403,7 @@ class FlightLoop {
       if (away.norm() < kNearestLook) return true;
       if (!first) first = away;
       if (!seen_only) return false;  // the first point that far is all it looks for
-      if (map_->seenAround(p, 0.5 * spacing)) return true;
+      if (map_->knownFreeAround(p, planning_body_.keptRadius())) return true;
       unseen = away;
       return false;
     });
@@ -454,20 +452,18 @@ class FlightLoop {
   }
 
   /// A straight rest-to-rest move from `position` by `offset` (half the braking rate, half
-  /// the speed limit), committed when it stays free for `body` in the window (and, with
-  /// commit: seen, keeps the centre in seen space); the next replan waits for its end.
+  /// the speed limit), committed when it is committable() for `body`; the next replan waits
+  /// for its end.
   bool moveStraight(const Eigen::Vector3d& position, const Eigen::Vector3d& offset,
                     const World& window, const Body& body) {
     const auto move =
         straightMove(position, offset, 0.5 * brake_rate_, 0.5 * limits_.limits.bound[1].minCoeff());
     Trajectory moved = slice(committed_, t_);
     for (const TrajectorySegment& segment : move) moved.append(segment);
-    if (!freeFrom(moved, t_, truth_->bounds(), window, body, limits_.limits) ||
-        seenUntil(moved, t_) < moved.duration()) {
-      return false;
-    }
+    if (!committable(moved, t_, window, body)) return false;
     committed_ = std::move(moved);
     intended_ = committed_;
+    backup_start_ = INFINITY;  // rest to rest: no back-up to fly
     next_replan_ = committed_.duration();
     return true;
   }
@@ -526,7 +522,8 @@ class FlightLoop {
       result_.message = "the checker: " + check.check + ": " + check.detail;
     }
     result_.evaluation = checker_.evaluate(result_.flown);
-    result_.min_clearance = result_.evaluation.min_clearance;
+    result_.min_clearance = exactMinClearance(*truth_, result_.flown, body_.radius);
+    result_.evaluation.min_clearance = result_.min_clearance;
     result_.inside_margin = result_.min_clearance < settings_.planning_margin;
     if (!result_.flown.empty()) {
       result_.distance_to_goal = (result_.flown.endPosition() - query_.goal).norm();
@@ -564,7 +561,13 @@ class FlightLoop {
   // This frame's verdict: the committed trajectory is clear of the window's known obstacles
   // for the planning margin (freeFrom; a replan on collision when not).
   bool committed_free_ = true;
-  int failed_in_a_row_ = 0;   // failed replans since the last taken one
+  int failed_in_a_row_ = 0;  // failed replans since the last taken one
+  // When the committed trajectory's stop (its back-up) begins, and whether the vehicle was
+  // counted flying onto it (countBackup()).
+  double backup_start_ = INFINITY;
+  bool backup_counted_ = false;
+  static constexpr double kMovingSpeed = 0.1;  // m/s: slower is at rest for countBackup()
+  static constexpr double kStartKnown = 3.0;   // planning radii round the start known at first
   double look_offset_ = 0.0;  // rad: the camera's turn from its heading, to look for a way
   SensorNoise sensor_errors_;
   std::vector<Eigen::Vector3d> rays_;        // the sensor's, once

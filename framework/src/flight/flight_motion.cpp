@@ -2,6 +2,10 @@
 
 #include <algorithm>
 #include <cmath>
+#include <map>
+
+#include "kinolab/core/text.hpp"
+#include "kinolab/trajectory/segment_bounds.hpp"
 
 namespace kinolab::flight_motion {
 
@@ -73,6 +77,111 @@ bool freeFrom(const Trajectory& trajectory, double t, const Box& map, const Worl
   return everySample(t, trajectory.duration(), 0.02, limits.bound[1].norm(),
                      [&](double s) { return free(trajectory.evaluate(s)); }) &&
          free(trajectory.endPosition());
+}
+
+TraceResult vouchedTrace(const VehicleMap& map, const Trajectory& trajectory, double from,
+                         const Body& body, double inset) {
+  constexpr double kReach = 0.2;  // m a traced step may take beyond the radius
+  const Box& box = map.bounds();
+  const Eigen::Vector3d margin = Eigen::Vector3d::Constant(inset);
+  const Eigen::Vector3d first = trajectory.evaluate(std::clamp(from, 0.0, trajectory.duration()));
+  const Box domain{(box.min + margin).cwiseMin(box.max).cwiseMin(first),
+                   (box.max - margin).cwiseMax(box.min).cwiseMax(first)};
+  return traceTrajectory([&](const Eigen::Vector3d& p,
+                             double radius) { return map.unvouchedDistance(p, radius + kReach); },
+                         domain, trajectory, body.keptRadius(), body.tolerance, from);
+}
+
+double exactMinClearance(const World& truth, const Trajectory& flown, double radius) {
+  if (flown.empty()) return NAN;
+  const Esdf& esdf = truth.esdf();
+  const double cap = std::min(esdf.maxDistance(), esdf.truncation());
+  const auto distance = [&](double s) { return esdf.exactDistance(flown.evaluate(s), cap); };
+  double speed = 0.0;
+  for (const TrajectorySegment& segment : flown.segments()) {
+    speed = std::max(speed, speedBound(segment));
+  }
+  constexpr double kStep = 0.01;
+  const double duration = flown.duration();
+  std::vector<double> times;
+  for (double s = 0.0; s < duration; s += kStep) times.push_back(s);
+  times.push_back(duration);
+  std::vector<double> distances(times.size());
+  for (std::size_t i = 0; i < times.size(); ++i) distances[i] = distance(times[i]);
+  double least = *std::min_element(distances.begin(), distances.end());
+  for (std::size_t i = 0; i + 1 < times.size(); ++i) {
+    const double span = times[i + 1] - times[i];
+    if (std::min(distances[i], distances[i + 1]) - 0.5 * speed * span >= least) continue;
+    // Golden-section search for the interval's least distance.
+    constexpr double kRatio = 0.6180339887498949;
+    double a = times[i];
+    double b = times[i + 1];
+    while (b - a > 1e-6) {
+      const double left = b - kRatio * (b - a);
+      const double right = a + kRatio * (b - a);
+      if (distance(left) < distance(right)) {
+        b = right;
+      } else {
+        a = left;
+      }
+    }
+    least = std::min(least, distance(0.5 * (a + b)));
+  }
+  return least - radius;
+}
+
+Eigen::Vector3d windowCentre(const Eigen::Vector3d& position, double goal_height,
+                             double window_height) {
+  const double quarter = 0.25 * window_height;
+  Eigen::Vector3d centre = position;
+  centre.z() += std::clamp(goal_height - position.z(), -quarter, quarter);
+  return centre;
+}
+
+std::string takenSince(const std::vector<FlightReplan>& replans, double since,
+                       const Eigen::Vector3d& goal) {
+  int taken = 0;
+  Eigen::Vector3d low = Eigen::Vector3d::Constant(INFINITY);
+  Eigen::Vector3d high = -low;
+  double nearest = INFINITY;
+  for (const FlightReplan& replan : replans) {
+    if (replan.time < since || !replan.accepted) continue;
+    ++taken;
+    low = low.cwiseMin(replan.local_goal);
+    high = high.cwiseMax(replan.local_goal);
+    nearest = std::min(nearest, (replan.local_goal - goal).norm());
+  }
+  if (taken == 0) return "";
+  return "; " + std::to_string(taken) + " plans taken meanwhile, their local goals within " +
+         formatNumber((high - low).norm()) + " m of one another, the nearest " +
+         formatNumber(nearest) + " m from the goal";
+}
+
+std::string failuresSince(const std::vector<FlightReplan>& replans, double since) {
+  std::map<std::string, std::pair<int, std::string>> failures;  // status -> (count, why)
+  std::map<std::string, int> recoveries;
+  int total = 0;
+  for (const FlightReplan& replan : replans) {
+    if (replan.time < since || replan.accepted || replan.kept) continue;
+    ++total;
+    auto& [count, why] = failures[replan.status];
+    if (count++ == 0) why = replan.why;
+    if (!replan.recovery.empty()) ++recoveries[replan.recovery];
+  }
+  if (total == 0) return "";
+  // Appended piece by piece: GCC 12 warns (-Wrestrict, a false positive) on "literal" +
+  // std::to_string() here.
+  std::string text = "; ";
+  text.append(std::to_string(total)).append(" replans failed meanwhile:");
+  for (const auto& [status, failure] : failures) {
+    text.append(" ").append(std::to_string(failure.first)).append(" ").append(status);
+    text.append(" (").append(failure.second).append(")");
+  }
+  for (const auto& [recovery, count] : recoveries) {
+    text.append("; ").append(recovery).append(" tried ").append(std::to_string(count));
+    text.append(" times");
+  }
+  return text;
 }
 
 std::vector<TrajectorySegment> straightMove(const Eigen::Vector3d& from,

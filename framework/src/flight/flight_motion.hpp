@@ -1,6 +1,8 @@
 // The flight loop's motion helpers (flight.cpp's FlightLoop): slicing and splicing the
-// committed trajectory, braking, straight moves, free-space checks along a trajectory and the
-// local goal on the guide. Private to framework/src/flight.
+// committed trajectory, braking, straight moves, free-space checks along a trajectory (the
+// window's, the known map's, the ground truth's least distance), the planning window's centre,
+// the local goal on the guide, and what a stuck flight's message says. Private to
+// framework/src/flight.
 #pragma once
 
 #include <Eigen/Core>
@@ -10,6 +12,7 @@
 
 #include "kinolab/flight/flight.hpp"
 #include "kinolab/validation/trajectory_checker.hpp"
+#include "kinolab/world/trajectory_trace.hpp"
 
 namespace kinolab::flight_motion {
 
@@ -58,6 +61,39 @@ bool everySample(double begin, double end, double spacing, double speed, Visit&&
 /// replan, and a vehicle stood 3.5 m from its goal until it was stuck.
 bool freeFrom(const Trajectory& trajectory, double t, const Box& map, const World& window,
               const Body& body, const DynamicLimits& limits);
+
+/// The known map's verdict on `trajectory` from `from` on for `body` (commit: seen): sphere
+/// tracing (traceTrajectory) on the distance to the nearest voxel that is not known free,
+/// unknown counted as occupied (VehicleMap::unvouchedDistance), so a trajectory called free
+/// keeps the body's kept radius less its tolerance from every voxel the known map cannot vouch
+/// for, and stays in the map's box less `inset` (the planning margin: room for the tracking
+/// error where the map ends; the box still holds the trajectory's first point, as the window's
+/// domain holds the vehicle).
+TraceResult vouchedTrace(const VehicleMap& map, const Trajectory& trajectory, double from,
+                         const Body& body, double inset);
+
+/// The least distance from `flown` to the ground truth's cubes less `radius`: negative when
+/// the body was inside one, never clamped. The checker's figure is the least of its samples,
+/// which a path passing between two misses; here every interval between samples a centisecond
+/// apart whose distances, less what the trajectory's speed bound lets the path cover in half
+/// of it, could dip below the least found is searched (golden section) to a microsecond. NaN
+/// for an empty trajectory.
+double exactMinClearance(const World& truth, const Trajectory& flown, double radius);
+
+/// Where the planning window is centred: on the vehicle, moved towards the goal's height by up
+/// to a quarter of the window's height, so that the window follows the vehicle in z and a goal
+/// above or below it leaves room for a local goal beyond the planner's goal region.
+Eigen::Vector3d windowCentre(const Eigen::Vector3d& position, double goal_height,
+                             double window_height);
+
+/// The plans taken since `since` (a flight without progress whose plans are taken dithers
+/// between local goals): how many, the extent of their local goals and how near `goal` the
+/// nearest came ("" when none was taken), as a stuck flight's message says it.
+std::string takenSince(const std::vector<FlightReplan>& replans, double since,
+                       const Eigen::Vector3d& goal);
+/// The failed replans since `since`, by status with the first reason of each, and the
+/// recoveries tried ("" when none failed).
+std::string failuresSince(const std::vector<FlightReplan>& replans, double since);
 
 /// A straight move at rest at both ends from `from` by `offset`: two primitives (order 2),
 /// accelerating then decelerating along it, at most `acceleration` and `speed`.

@@ -35,6 +35,11 @@ const MetricSpecs& flightStatistics() {
                 "tracking)")
           .real("tracking_error_rms", "m", "its root mean square over the flight")
           .counter("late_replans", "replans whose plan came past the latency (real time)")
+          .counter("backups",
+                   "times the vehicle flew onto its back-up, the stop in known-free space that "
+                   "ends every committed trajectory, at speed and short of the goal: no plan took "
+                   "over in time (one failed, came late, or was cut where the known map stops "
+                   "vouching for it)")
           .real("guide_length", "m",
                 "the query's difficulty, on the ground truth: the shortened guide's length")
           .real("traversability_obstruction", "",
@@ -150,13 +155,14 @@ std::string replansCsv(const FlightResult& result) {
   };
   std::string csv =
       "replan,time,reason,start_x,start_y,start_z,goal_x,goal_y,goal_z,status,planning_time_ms,"
-      "distance_to_goal,accepted,kept,recovery,why\n";
+      "distance_to_goal,accepted,kept,backup,recovery,why\n";
   for (std::size_t i = 0; i < result.replans.size(); ++i) {
     const FlightReplan& r = result.replans[i];
     csv += std::to_string(i) + "," + formatNumber(r.time) + "," + r.reason + "," + point(r.start) +
            "," + point(r.local_goal) + "," + r.status + "," + formatNumber(r.planning_time_ms) +
            "," + formatNumber(r.distance_to_goal) + "," + (r.accepted ? "1" : "0") + "," +
-           (r.kept ? "1" : "0") + "," + r.recovery + "," + csvField(r.why) + "\n";
+           (r.kept ? "1" : "0") + "," + (r.backup ? "1" : "0") + "," + r.recovery + "," +
+           csvField(r.why) + "\n";
   }
   return csv;
 }
@@ -199,6 +205,7 @@ MetricValues flightStatisticValues(const FlightResult& result) {
       {"late_replans", static_cast<double>(std::count_if(
                            result.replans.begin(), result.replans.end(),
                            [](const FlightReplan& replan) { return replan.status == "late"; }))},
+      {"backups", static_cast<double>(result.backups)},
       {"frames", static_cast<double>(result.frames)},
       {"frame_time_ms", numberOrNone(per_frame)},
       {"guide_time_ms",

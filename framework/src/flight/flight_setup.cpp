@@ -75,6 +75,13 @@ FlightSetup flightSetup(const ParameterSet& p) {
                       formatNumber(range) + " m and a rate of " + formatNumber(rate) +
                       " Hz; both must be finite and positive");
   }
+  // A sensor that returns nothing nearer than its range sees nothing at all.
+  const double min_range = setup.sensor->noise().min_range;
+  if (min_range >= range) {
+    throw ConfigError("flight parameter 'sensor.min_range' " + formatNumber(min_range) +
+                      " m: sensor '" + p.text("sensor") + "' reaches " + formatNumber(range) +
+                      " m, so it would see nothing; expected less than its range");
+  }
   setup.map = readFields<MapModel>(p);
   const std::size_t rays = setup.sensor->rayCount();
   const double steps = static_cast<double>(rays) * range / setup.map.resolution;

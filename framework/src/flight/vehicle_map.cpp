@@ -46,48 +46,52 @@ void VehicleMap::doMarkFree(std::size_t index, const Eigen::Vector3d& /*center*/
   setState(index, Voxel::kFree);
 }
 
-void VehicleMap::markFree(const Eigen::Vector3d& center, double radius) {
+void VehicleMap::markFree(const Eigen::Vector3d& center, double radius,
+                          const std::function<bool(const Eigen::Vector3d&)>& only) {
   if (!isSetup()) throw InvalidArgument("VehicleMap::markFree before setup()");
   guardPluginCall(plugin_name_, "markFree()", [&] {
     lattice_.forEachVoxelIn(center.array() - radius, center.array() + radius, [&](std::size_t i) {
       const Eigen::Vector3d c = voxelCenter(i);
       // Only unseen voxels: what the sensor saw (an obstacle beside the body) stays as seen.
-      if ((c - center).norm() <= radius && state_[i] == 0) doMarkFree(i, c);
+      if ((c - center).norm() <= radius && state_[i] == 0 && (!only || only(c))) {
+        doMarkFree(i, c);
+      }
     });
   });
 }
 
-bool VehicleMap::seenAround(const Eigen::Vector3d& p, double radius) const {
-  if (!isSetup()) throw InvalidArgument("VehicleMap::seenAround before setup()");
+double VehicleMap::unvouchedDistance(const Eigen::Vector3d& p, double limit) const {
+  if (!isSetup()) throw InvalidArgument("VehicleMap::unvouchedDistance before setup()");
   const double r = model_.resolution;
   const Eigen::Vector3d local = (p - lattice_.origin()) / r;  // in voxels
   const Eigen::Vector3i& n = lattice_.dims();
   Eigen::Vector3i low;
   Eigen::Vector3i high;
   for (int axis = 0; axis < 3; ++axis) {
-    low[axis] = std::max(0, static_cast<int>(std::floor(local[axis] - radius / r)));
-    high[axis] = std::min(n[axis] - 1, static_cast<int>(std::floor(local[axis] + radius / r)));
-    if (low[axis] > high[axis]) return true;  // the ball lies outside the map on this axis
+    low[axis] = std::max(0, static_cast<int>(std::floor(local[axis] - limit / r)));
+    high[axis] = std::min(n[axis] - 1, static_cast<int>(std::floor(local[axis] + limit / r)));
+    if (low[axis] > high[axis]) return limit;  // nothing of the map within the limit
   }
-  const double radius2 = radius * radius;
-  // The squared distance from p to a voxel's cube along one axis.
   const auto gap2 = [&](int axis, int i) {
     const double lo = lattice_.origin()[axis] + i * r;
     const double d = std::max({lo - p[axis], 0.0, p[axis] - (lo + r)});
     return d * d;
   };
+  const auto kFree = static_cast<std::uint8_t>(Voxel::kFree);
+  double best2 = limit * limit;
   for (int x = low.x(); x <= high.x(); ++x) {
     const double dx = gap2(0, x);
+    if (dx >= best2) continue;
     for (int y = low.y(); y <= high.y(); ++y) {
       const double dxy = dx + gap2(1, y);
-      if (dxy >= radius2) continue;
+      if (dxy >= best2) continue;
       const std::uint8_t* column = &state_[lattice_.index(x, y, 0)];
       for (int z = low.z(); z <= high.z(); ++z) {
-        if (column[z] == 0 && dxy + gap2(2, z) < radius2) return false;
+        if (column[z] != kFree) best2 = std::min(best2, dxy + gap2(2, z));
       }
     }
   }
-  return true;
+  return std::min(std::sqrt(best2), limit);
 }
 
 Box VehicleMap::latticeBox(const Eigen::Vector3d& center, const Eigen::Vector3d& half) const {
@@ -138,7 +142,7 @@ void VehicleMap::windowOccupancy(const VoxelGrid& grid, const Eigen::Vector3d& c
   }
 }
 
-std::shared_ptr<const World> VehicleMap::window(const Eigen::Vector3d& center) {
+std::shared_ptr<const World> VehicleMap::window(const Eigen::Vector3d& center, bool rebuild) {
   if (!isSetup()) throw InvalidArgument("VehicleMap::window before setup()");
   const double half_side = 0.5 * model_.window;
   const double half_height = 0.5 * model_.window_height;
@@ -158,7 +162,7 @@ std::shared_ptr<const World> VehicleMap::window(const Eigen::Vector3d& center) {
     box.max = box.max.cwiseMin(domain_limit.max).cwiseMax(box.min);
     return box;
   };
-  const bool kept = window_field_ && window_world_ &&
+  const bool kept = !rebuild && window_field_ && window_world_ &&
                     contains(window_world_->bounds(),
                              domainBox(center, Eigen::Vector3d(half_side, half_side, 0.0))) &&
                     std::abs(center.z() - window_middle_.z()) <= 0.5 * half_height;

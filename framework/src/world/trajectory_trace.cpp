@@ -16,17 +16,18 @@ double insideMargin(const Box& box, const Eigen::Vector3d& point) {
   return std::min((point - box.min).minCoeff(), (box.max - point).minCoeff());
 }
 
-}  // namespace
-
-TraceResult traceTrajectory(const World& world, const Trajectory& trajectory, double radius,
-                            double tolerance, double from, double to) {
+/// traceTrajectory() over `clearance` (World::clearanceFor's contract), a template so that
+/// the searches' own check calls the world's directly.
+template <typename Clearance>
+TraceResult traceWith(const Clearance& clearanceFor, const Box& domain,
+                      const Trajectory& trajectory, double radius, double tolerance, double from,
+                      double to) {
   if (!(radius >= 0.0 && radius < INFINITY && tolerance > 0.0 && tolerance < INFINITY)) {
     throw InvalidArgument("traceTrajectory: radius " + formatNumber(radius) + " and tolerance " +
                           formatNumber(tolerance) +
                           " must be finite, the radius >= 0 and the tolerance > 0");
   }
   TraceResult result;
-  const Box& domain = world.bounds();
   double segment_start = 0.0;
   for (const TrajectorySegment& segment : trajectory.segments()) {
     const double segment_end = segment_start + segment.duration;
@@ -38,7 +39,7 @@ TraceResult traceTrajectory(const World& world, const Trajectory& trajectory, do
         const Eigen::Vector3d position = segment.evaluate(t);
         ++result.queries;
         const bool inside = position.allFinite() && domain.contains(position);
-        const double clearance = inside ? world.clearanceFor(position, radius) : -INFINITY;
+        const double clearance = inside ? clearanceFor(position, radius) : -INFINITY;
         if (!(clearance >= radius)) {
           result = {false, !inside, segment_start + t, position, result.queries};
           return result;
@@ -52,6 +53,20 @@ TraceResult traceTrajectory(const World& world, const Trajectory& trajectory, do
     segment_start = segment_end;
   }
   return result;
+}
+
+}  // namespace
+
+TraceResult traceTrajectory(const World& world, const Trajectory& trajectory, double radius,
+                            double tolerance, double from, double to) {
+  return traceWith([&](const Eigen::Vector3d& p, double r) { return world.clearanceFor(p, r); },
+                   world.bounds(), trajectory, radius, tolerance, from, to);
+}
+
+TraceResult traceTrajectory(const TraceClearance& clearance, const Box& domain,
+                            const Trajectory& trajectory, double radius, double tolerance,
+                            double from, double to) {
+  return traceWith(clearance, domain, trajectory, radius, tolerance, from, to);
 }
 
 }  // namespace kinolab

@@ -35,15 +35,18 @@ enum class FlightTiming {
 
 /// Where a committed trajectory may take the vehicle.
 enum class CommitSpace {
-  /// Every committed trajectory, its stop included, keeps the vehicle's centre in space the
-  /// sensor has seen: a planner may plan through unseen space (the window's `unknown`), but
-  /// the vehicle does not fly into it (after FASTER's rule, commit only in known space). A plan
-  /// is cut where it leaves seen space; the camera looks along the whole plan, so that the
-  /// next frame sees on. The centre, not the body: a body-sized ball fits neither the camera's
-  /// frustum near the camera nor the gaps the map's shared ray walks leave.
+  /// Every committed trajectory, its stop (the back-up) included, keeps the planning body (the
+  /// body's radius plus the planning margin) inside space the known map vouches for: known
+  /// free, unknown counted as occupied (FASTER's rule: commit only in known-free space, so that
+  /// a stop there is always available). A planner may plan through unseen space (the window's
+  /// `unknown`), but the vehicle does not fly into it: a plan, approximate or exact, is cut
+  /// where it or its stop would leave that space, and refused when no cut is left; the camera
+  /// looks along the whole plan, so that the next frames see on. Only the start's
+  /// surroundings (the planning radius and two voxels) are taken on trust.
   kSeen,
   /// Wherever the planning window allows: with `unknown: free` the vehicle may fly into space
-  /// it has never seen (the optimistic loop of Fast-Planner and EGO-Planner).
+  /// it has never seen (the optimistic loop of Fast-Planner and EGO-Planner; not safe, kept
+  /// for comparison).
   kPlanned,
 };
 
@@ -117,11 +120,11 @@ struct FlightSettings {
            "deceleration of the stops that end every committed trajectory, m/s^2 (at most the "
            "planner's max_acceleration is used)");
     f.choice("commit", commit, {{"seen", CommitSpace::kSeen}, {"planned", CommitSpace::kPlanned}},
-             "seen: every committed trajectory, its stop included, keeps the vehicle's centre "
-             "in space the sensor has seen, so unseen space is planned through but not flown "
-             "into; planned: "
-             "wherever the planning window allows (with unknown free, into "
-             "unseen space)");
+             "seen: every committed trajectory, its stop included, keeps the body and the "
+             "planning margin in space the known map vouches for (known free; unknown counts "
+             "as occupied), so unseen space is planned through but not flown into; planned: "
+             "wherever the planning window allows (with unknown free, into unseen space: not "
+             "safe)");
     f.boolean("keep_faster", keep_faster,
               "true: a replan's plan is set aside when the committed trajectory comes as near "
               "its local goal no later (a lattice search from a state between primitives need "
@@ -175,6 +178,9 @@ struct FlightReplan {
   /// degrees, "back_off": the vehicle moved away from the nearest known obstacle, "approach":
   /// it moved straight onto the local goal).
   std::string recovery;
+  /// The vehicle flew onto its back-up (the stop ending the committed trajectory, at speed,
+  /// short of the goal) after this replan, before a plan took over.
+  bool backup = false;
   Trajectory trajectory;  ///< the plan (planner's time, from 0)
 };
 
@@ -182,9 +188,9 @@ struct FlightResult {
   /// reached (within goal_tolerance), collision, stuck, timeout, invalid_start, invalid_goal
   std::string status;
   std::string message;
-  Body body;            ///< the planner's body the flight was judged with
+  Body body;             ///< the planner's body the flight was judged with
   PlannerLimits limits;  ///< and its limits
-  Trajectory flown;     ///< from t = 0 to the end of the flight (or the collision)
+  Trajectory flown;      ///< from t = 0 to the end of the flight (or the collision)
   std::vector<FlightReplan> replans;
   double time_to_goal = 0.0;   ///< s (NaN unless reached)
   double min_clearance = 0.0;  ///< m: to the ground truth's cubes, less the body radius
@@ -198,6 +204,8 @@ struct FlightResult {
   /// (every 0.01 s; 0 with perfect tracking).
   double tracking_error_max = 0.0;
   double tracking_error_rms = 0.0;
+  /// Times the vehicle flew onto its back-up (FlightReplan::backup).
+  int backups = 0;
   /// How hard the query is on the ground truth, before the flight (FlightBench's metrics).
   ScenarioDifficulty difficulty;
   int frames = 0;
@@ -243,7 +251,7 @@ const MetricList<FlightResult>& flightRunMetrics();
 /// run metrics, then its statistics (flightStatistics()).
 const MetricSpecs& flightMetrics();
 /// Every replan of a flight as CSV: replan, time, reason, start and local goal (x, y, z),
-/// status, planning_time_ms, distance_to_goal, accepted.
+/// status, planning_time_ms, distance_to_goal, accepted, kept, backup, recovery, why.
 std::string replansCsv(const FlightResult& result);
 /// The flight's own figures (time to goal, replans, tracking, difficulty, frames): a flight
 /// run's statistics in the runner's database.

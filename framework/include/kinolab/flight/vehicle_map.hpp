@@ -86,12 +86,21 @@ class VehicleMap {
   /// ray, an obstacle at every hit, as the map kind's sensor model decides.
   void insert(const SensorFrame& frame, double max_range);
   /// Marks the unseen voxels within `radius` of `center` known (where the vehicle is, nothing
-  /// can be: free); voxels the sensor has seen keep their state.
-  void markFree(const Eigen::Vector3d& center, double radius);
-  /// True when every voxel of the map's lattice whose cube comes within `radius` of `p` has
-  /// been seen (is known free or occupied): a body of that radius at `p` is in space the
-  /// sensor has seen. Voxels outside the map do not count (nothing is there).
-  bool seenAround(const Eigen::Vector3d& p, double radius) const;
+  /// can be: free); voxels the sensor has seen keep their state. With `only`, just the voxels
+  /// whose centre it accepts.
+  void markFree(const Eigen::Vector3d& center, double radius,
+                const std::function<bool(const Eigen::Vector3d&)>& only = {});
+  /// True when every voxel of the map's lattice whose cube comes within `radius` of `p` is
+  /// known free (unknown counts as occupied): a body of that radius at `p` is in space the
+  /// known map vouches for. Voxels outside the map do not count (nothing is there).
+  bool knownFreeAround(const Eigen::Vector3d& p, double radius) const {
+    return unvouchedDistance(p, radius) >= radius;
+  }
+  /// The exact distance from `p` to the nearest cube of a voxel that is not known free
+  /// (unknown or occupied) when it is below `limit`, else `limit`; 0 inside one. Voxels
+  /// outside the map do not count. What a flight traces a plan against before committing it
+  /// (traceTrajectory): the space the known map vouches for.
+  double unvouchedDistance(const Eigen::Vector3d& p, double limit) const;
   /// The planning world around `center`: known occupied voxels and unknown ones as `unknown`
   /// says (kFreeBeyond: measured from `center`), with its exact ESDF. The window is kept
   /// between calls: its domain (World::bounds()) is a box of side window + 2 window_margin in
@@ -99,8 +108,10 @@ class VehicleMap {
   /// vehicle and kept while it holds the square of side `window` around `center` and `center` is
   /// within a quarter of its height of its middle; its grid and ESDF reach `reach` farther on every
   /// side. Meanwhile only the voxels whose occupancy changed are updated (IncrementalEsdf),
-  /// and the same World is returned while none did.
-  std::shared_ptr<const World> window(const Eigen::Vector3d& center);
+  /// and the same World is returned while none did. With `rebuild` it is built anew around
+  /// `center` whatever it held (the flight's way out when the kept window leaves a local goal
+  /// no room beyond the planner's goal region).
+  std::shared_ptr<const World> window(const Eigen::Vector3d& center, bool rebuild = false);
   /// A shortest 8-connected path over the map's x-y cells from `from` to `to`, through cells
   /// with no known occupied voxel within `radius` in the heights [z_low, z_high] (unknown is
   /// free): the global guide a local goal is taken from. Cell centres at heights

@@ -2,9 +2,11 @@
 
 #include <Eigen/Core>
 #include <cmath>
+#include <functional>
 
 namespace kinolab {
 
+struct Box;
 class World;
 class Trajectory;
 
@@ -30,5 +32,16 @@ struct TraceResult {
 /// tolerance <= 0 or either not finite; a non-finite position is not free.
 TraceResult traceTrajectory(const World& world, const Trajectory& trajectory, double radius,
                             double tolerance, double from = 0.0, double to = INFINITY);
+
+/// The distance from a point to what a trace avoids, as World::clearanceFor gives it: at least
+/// the threshold (the second argument) exactly when the true distance is, and a lower bound of
+/// it there.
+using TraceClearance = std::function<double(const Eigen::Vector3d&, double)>;
+
+/// traceTrajectory() against any such distance over the domain `domain` (a flight's check of
+/// a plan against the space its known map vouches for, VehicleMap::unvouchedDistance()).
+TraceResult traceTrajectory(const TraceClearance& clearance, const Box& domain,
+                            const Trajectory& trajectory, double radius, double tolerance,
+                            double from = 0.0, double to = INFINITY);
 
 }  // namespace kinolab
