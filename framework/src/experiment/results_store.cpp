@@ -542,15 +542,13 @@ void ResultsStore::requireCurrentColumns() const {
     Statement wanted(made, "SELECT name, type FROM pragma_table_info(?)", path_);
     wanted.add(table);
     while (wanted.step(path_)) {
-      const std::string column = wanted.text(0);
-      const std::string type = wanted.text(1);
+      const std::string column = wanted.text(0), type = wanted.text(1);
       const auto found = stored.find(column);
       if (found == stored.end() || found->second != type) {
         throw ConfigError(
             path_ + ": table " + table + ", column '" + column + "': " +
             (found == stored.end() ? "missing" : "declared " + found->second + ", not " + type) +
-            " (a damaged or foreign database): kinolab reads and writes nothing "
-            "of it");
+            " (a damaged or foreign database): kinolab writes nothing into it");
       }
     }
   }
