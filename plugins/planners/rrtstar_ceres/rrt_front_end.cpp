@@ -309,11 +309,11 @@ class AnyPlannerMonitor {
 /// after a connection attempt is in the goal tree, so its path began at the goal.
 std::shared_ptr<og::PathGeometric> approximateFromStart(const ob::Planner& planner,
                                                         const ob::ProblemDefinition& problem,
-                                                        const og::PathGeometric& path) {
+                                                        std::shared_ptr<og::PathGeometric> path) {
   const ob::SpaceInformationPtr& si = problem.getSpaceInformation();
   for (unsigned int i = 0; i < problem.getStartStateCount(); ++i) {
-    if (path.getStateCount() > 0 && si->equalStates(path.getState(0), problem.getStartState(i))) {
-      return std::make_shared<og::PathGeometric>(path);
+    if (path->getStateCount() > 0 && si->equalStates(path->getState(0), problem.getStartState(i))) {
+      return path;
     }
   }
   // Breadth first along the graph's edges (a goal tree's point towards its root, so they are
@@ -377,7 +377,7 @@ FrontEndResult RrtFrontEnd::planOther(const std::shared_ptr<ob::ProblemDefinitio
   if (status == ob::PlannerStatus::EXACT_SOLUTION ||
       status == ob::PlannerStatus::APPROXIMATE_SOLUTION) {
     auto path = std::static_pointer_cast<og::PathGeometric>(problem->getSolutionPath());
-    if (problem->hasApproximateSolution()) path = approximateFromStart(*planner, *problem, *path);
+    if (problem->hasApproximateSolution()) path = approximateFromStart(*planner, *problem, path);
     if (path) {
       result.outcome = problem->hasApproximateSolution() ? FrontEndResult::Outcome::kApproximate
                                                          : FrontEndResult::Outcome::kExact;
