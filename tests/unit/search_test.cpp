@@ -528,9 +528,8 @@ TEST(MotionPrimitiveSearch, BudgetStopReturnsThePathToTheNearestState) {
   test::loadTestPlugins();
   ConfiguredPlanner configured = configurePlanner(
       "lazy_mp_astar",
-      // The paper's heuristic: the lattice one (the default) reaches the goal within 40.
       test::assignments({"sampler.samples_per_axis=3", "time_limit=0", "max_expansions=40",
-                         "heuristic=time_optimal"}));
+                         "heuristic=time_optimal"}));  // a search the budget stops
   const auto world = test::smallWorld("forest");
   configured.planner->setup({world, 1});
   const auto query = test::randomQueries(*world, 1, 21, 8.0, 11.0, 0.5).front();
@@ -618,8 +617,9 @@ TEST(Planner, ABudgetOnTheCpuClockIsNotSpentByWaiting) {
 TEST(MotionPrimitiveSearch, NoSearchOutgrowsItsMemoryBudgetEvenWithoutATimeLimit) {
   test::loadTestPlugins();
   ConfiguredPlanner configured = configurePlanner(
-      "eager_mp_astar", test::assignments({"sampler.samples_per_axis=5", "time_limit=0",
-                                           "memory_limit_mb=2", "heuristic=time_optimal"}));
+      "eager_mp_astar",
+      test::assignments({"sampler.samples_per_axis=5", "time_limit=0", "memory_limit_mb=2",
+                         "heuristic=time_optimal"}));  // a search that outgrows 2 MB
   const auto world = test::smallWorld("forest");
   configured.planner->setup({world, 1});
   const auto query = test::randomQueries(*world, 1, 21, 8.0, 11.0, 0.5).front();
