@@ -598,6 +598,21 @@ TEST(Planner, BuildingTheTreeForFiguresIsNotPlanningTime) {
   EXPECT_LT(result.planning_time_ms, 150.0);  // the 300 ms of doTree are not in it
 }
 
+TEST(StopCondition, ReadsTheClockEvery16CallsOrAtEveryCallWhenAskedNow) {
+  // A budget spent before the first call: the strided check (searches: an expansion costs
+  // microseconds) sees it at its 16th call, expiredNow (OMPL planners, whose iterations may
+  // take milliseconds) at its first.
+  StopCondition strided(Budget{0.0});
+  int calls = 1;
+  while (!strided.expired(calls)) ++calls;
+  EXPECT_EQ(calls, 16);
+  StopCondition now(Budget{0.0});
+  EXPECT_TRUE(now.expiredNow(1));
+  StopCondition unlimited(Budget{INFINITY, 3});
+  EXPECT_FALSE(unlimited.expiredNow(2));
+  EXPECT_TRUE(unlimited.expiredNow(3));
+}
+
 TEST(Planner, ABudgetOnTheCpuClockIsNotSpentByWaiting) {
   // 100 ms of sleep spend a 50 ms budget on the wall clock, not on the CPU's; a planner's
   // budget keeps the caller's clock.
@@ -1155,21 +1170,6 @@ TEST(MaxHeuristic, CombinesAnyTwoPreparedForTheirControlsAndQueries) {
   const std::string neither = configErrorOf(
       {"order=3", "heuristic=max", "heuristic.first=lattice", "heuristic.first.fallback=false"});
   EXPECT_NE(neither.find("lattice needs order 2"), std::string::npos) << neither;
-}
-
-TEST(StopCondition, ReadsTheClockEvery16CallsOrAtEveryCallWhenAskedNow) {
-  // A budget spent before the first call: the strided check (searches: an expansion costs
-  // microseconds) sees it at its 16th call, expiredNow (OMPL planners, whose iterations may
-  // take milliseconds) at its first.
-  StopCondition strided(Budget{0.0});
-  int calls = 1;
-  while (!strided.expired(calls)) ++calls;
-  EXPECT_EQ(calls, 16);
-  StopCondition now(Budget{0.0});
-  EXPECT_TRUE(now.expiredNow(1));
-  StopCondition unlimited(Budget{INFINITY, 3});
-  EXPECT_FALSE(unlimited.expiredNow(2));
-  EXPECT_TRUE(unlimited.expiredNow(3));
 }
 
 }  // namespace
