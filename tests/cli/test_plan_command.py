@@ -115,7 +115,7 @@ def test_list_shows_the_planners(kinolab):
     # Lower bounds and heuristics are plugin kinds: the parameter names its kind, and that
     # kind's registry lists the built-in ones.
     assert lazy["lower_bound"]["type"] == "lower_bound" and lazy["lower_bound"]["kind"] == "lower_bound"
-    assert lazy["heuristic"]["kind"] == "heuristic" and lazy["heuristic"]["default"] == "time_optimal"
+    assert lazy["heuristic"]["kind"] == "heuristic" and lazy["heuristic"]["default"] == "lattice"
     everything = json.loads(kinolab("list", "--json").stdout)
     assert {"endpoint", "control_only", "lipschitz", "full"} <= {p["key"] for p in everything["lower_bounds"]}
     assert {"euclidean", "min_time", "time_optimal", "obvp", "max"} <= {p["key"] for p in everything["heuristics"]}
