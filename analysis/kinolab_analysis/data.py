@@ -34,6 +34,10 @@ VARIANTS = "\n--- # variants"
 EDGE_COLOURS = {"partial": "#f4a261", "full": "#2a9d8f", "certified": "#264653",
                 "rejected": "#e63946"}
 EDGE_STATES = tuple(EDGE_COLOURS)
+# The columns of the CSVs the trajectories and trees tables store (result_csv.cpp) that the
+# figures read; every one a number but a tree's `state`.
+STORED_CSV_COLUMNS = {"trajectories": ("t", "x", "y", "z"),
+                      "trees": ("edge", "point", "x", "y", "z", "state", "closed")}
 
 
 @dataclass
@@ -169,7 +173,33 @@ class Results:
     def _csv(self, table: str, run_hash: str) -> pd.DataFrame | None:
         with self.connection(run_hash) as db:
             row = db.execute(f"SELECT csv FROM {table} WHERE run_hash = ?", (run_hash,)).fetchone()
-        return pd.read_csv(io.StringIO(row[0])) if row else None
+        if row is None:
+            return None
+        file = self.runs.loc[self.runs["run_hash"] == run_hash, "database"].iloc[0]
+        where = f"{file}: table {table}, column csv, run {run_hash}"
+        _check_csv_header(where, table, row[0])
+        try:
+            frame = pd.read_csv(io.StringIO(row[0]))
+        except (pd.errors.ParserError, pd.errors.EmptyDataError) as error:
+            raise ValueError(f"{where}: not a stored CSV ({str(error).splitlines()[0]})") from error
+        for column in STORED_CSV_COLUMNS[table]:
+            if column != "state" and not pd.api.types.is_numeric_dtype(frame[column]):
+                raise ValueError(f"{where}: the CSV's column {column!r} holds text where "
+                                 "numbers belong")
+        return frame
+
+
+def _check_csv_header(where: str, table: str, text: object) -> None:
+    """Refuses a stored CSV (of the trajectories or trees table) that is not text or whose
+    header lacks the columns the figures read; `where` names the database, table and row."""
+    if not isinstance(text, str):
+        raise ValueError(f"{where}: expected CSV text, got {type(text).__name__}")
+    header = text.split("\n", 1)[0].strip().split(",")
+    missing = [column for column in STORED_CSV_COLUMNS[table] if column not in header]
+    if missing:
+        raise ValueError(f"{where}: expected a CSV with the columns "
+                         f"{', '.join(STORED_CSV_COLUMNS[table])}; its header "
+                         f"{header[0][:40]!r}... lacks {', '.join(missing)}")
 
 
 def database_path(path: str | Path) -> Path:
@@ -318,6 +348,17 @@ def _read_database(file: Path) -> _Database:
                 progress = pd.read_sql("SELECT run_hash, name, time_ms, value FROM progress", db)
             planned = ({row[0] for row in db.execute("SELECT run_hash FROM planned")}
                        if "planned" in tables_in else set())
+            # The stored CSVs' headers now, so that a damaged row is refused before the
+            # report is begun (their numbers are checked when a figure reads them).
+            for table in STORED_CSV_COLUMNS:
+                if table not in tables_in:
+                    continue
+                for run_hash, kind, head in db.execute(
+                        f"SELECT run_hash, typeof(csv), substr(csv, 1, 200) FROM {table}"):
+                    where = f"{file}: table {table}, column csv, run {run_hash}"
+                    if kind != "text":
+                        raise ValueError(f"{where}: expected CSV text, got an SQLite {kind}")
+                    _check_csv_header(where, table, head)
         except (sqlite3.DatabaseError, pd.errors.DatabaseError) as error:
             raise ValueError(f"{file}: not a kinolab results database ({error})") from error
     return _Database(runs, statistics, meta, world_rows, metrics, progress, planned)

@@ -107,6 +107,39 @@ def test_a_damaged_meta_or_worlds_table_is_refused_naming_table_and_key(kinolab,
         assert not (tmp_path / "report").exists()
 
 
+def test_garbage_trajectories_or_trees_are_refused_naming_table_and_column(kinolab,
+                                                                          two_experiments,
+                                                                          tmp_path):
+    """Before: pandas' ParserError, a KeyError or "cannot reshape array" from a figure ("please
+    report it"); now one line naming the database, the table and its column, and a damaged
+    header or a blob is refused before the report is begun."""
+    source = two_experiments[0]
+
+    def stored(table, csv):  # a row of `table` for every run
+        return f"INSERT OR REPLACE INTO {table} (run_hash, csv) SELECT run_hash, {csv} FROM runs"
+
+    cases = ((stored("trajectories", "'garbage'"), "table trajectories, column csv",
+              "lacks t, x, y, z"),
+             (stored("trees", "x'00ff00ff'"), "table trees, column csv",
+              "expected CSV text, got an SQLite blob"),
+             (stored("trees", "'edge,point' || char(10) || '1,\"2'"), "table trees, column csv",
+              "lacks x, y, z, state, closed"))
+    for index, (statement, *problem) in enumerate(cases):
+        damaged = copy_database(source, tmp_path / f"damaged{index}")
+        execute(damaged, statement)
+        before = tree_digest(tmp_path)
+        result = kinolab("report", damaged, "--out", tmp_path / "report")
+        assert_one_line_error(result, str(damaged / "results.sqlite"), *problem)
+        assert tree_digest(tmp_path) == before
+        assert not (tmp_path / "report").exists()
+    # Text where numbers belong: found when a figure reads the row, and named.
+    damaged = copy_database(source, tmp_path / "numbers")
+    execute(damaged, stored("trajectories", "'t,x,y,z' || char(10) || 'soon,1,2,3'"))
+    result = kinolab("report", damaged, "--out", tmp_path / "numbers_report")
+    assert_one_line_error(result, str(damaged / "results.sqlite"), "table trajectories, column csv",
+                          "the CSV's column 't' holds text where numbers belong")
+
+
 def test_an_out_that_is_or_lies_under_a_file_is_refused(kinolab, two_experiments, tmp_path):
     blocker = tmp_path / "a_file"
     blocker.write_text("not a directory")

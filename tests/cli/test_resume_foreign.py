@@ -74,3 +74,27 @@ def test_its_own_database_resumes_and_an_empty_file_starts_fresh(kinolab, experi
     empty.mkdir()
     (empty / "results.sqlite").write_bytes(b"")
     assert kinolab("run", mine, "--out", empty).returncode == 0
+
+
+def test_its_own_database_with_a_column_dropped_is_refused_before_its_meta_is_rewritten(
+        kinolab, experiments, tmp_path):
+    """Before: the meta table was rewritten (last_started_at, ...), then the first insert
+    failed on the missing column. Now refused naming the database, table and column, the file
+    as it was; `merge` refuses it alike."""
+    mine, _ = experiments
+    out = tmp_path / "mine"
+    assert kinolab("run", mine, "--out", out).returncode == 0
+    database = out / "results.sqlite"
+    sql(database, "ALTER TABLE runs DROP COLUMN cost", "DELETE FROM runs WHERE query = 1")
+    with closing(sqlite3.connect(database)) as db:
+        meta = db.execute("SELECT key, value FROM meta ORDER BY key").fetchall()
+    before = digest(database)
+    result = kinolab("run", mine, "--out", out, "--resume")
+    assert result.returncode == 1, result.stderr
+    assert f"{database}: table runs, column 'cost': missing" in result.stderr, result.stderr
+    assert digest(database) == before
+    with closing(sqlite3.connect(database)) as db:
+        assert db.execute("SELECT key, value FROM meta ORDER BY key").fetchall() == meta
+    merged = kinolab("merge", tmp_path / "merged.sqlite", database)
+    assert merged.returncode == 1 and "table runs, column 'cost': missing" in merged.stderr, \
+        merged.stderr

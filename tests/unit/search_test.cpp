@@ -598,6 +598,21 @@ TEST(Planner, BuildingTheTreeForFiguresIsNotPlanningTime) {
   EXPECT_LT(result.planning_time_ms, 150.0);  // the 300 ms of doTree are not in it
 }
 
+TEST(StopCondition, ReadsTheClockEvery16CallsOrAtEveryCallWhenAskedNow) {
+  // A budget spent before the first call: the strided check (searches: an expansion costs
+  // microseconds) sees it at its 16th call, expiredNow (OMPL planners, whose iterations may
+  // take milliseconds) at its first.
+  StopCondition strided(Budget{0.0});
+  int calls = 1;
+  while (!strided.expired(calls)) ++calls;
+  EXPECT_EQ(calls, 16);
+  StopCondition now(Budget{0.0});
+  EXPECT_TRUE(now.expiredNow(1));
+  StopCondition unlimited(Budget{INFINITY, 3});
+  EXPECT_FALSE(unlimited.expiredNow(2));
+  EXPECT_TRUE(unlimited.expiredNow(3));
+}
+
 TEST(Planner, ABudgetOnTheCpuClockIsNotSpentByWaiting) {
   // 100 ms of sleep spend a 50 ms budget on the wall clock, not on the CPU's; a planner's
   // budget keeps the caller's clock.
@@ -657,6 +672,37 @@ TEST(MotionPrimitiveSearch, AnEnclosedGoalExhaustsTheSearch) {
   const PlanResult result = configured.planner->plan(query, Budget{});
   EXPECT_EQ(result.status, PlanStatus::kNoSolution) << result.message;
   EXPECT_GT(test::statistic(result.statistics, "expansions"), 1000.0);  // it went somewhere
+}
+
+TEST(MotionPrimitiveSearch, EveryMemberOfTheLazyFamilyReportsTheNearestStateReachedAsEagerDoes) {
+  // On an enclosed goal, eager answers no_solution with the path to the state it reached
+  // nearest the goal, and D from there. LRA* and LazySP answered with no path, D from the start.
+  test::loadTestPlugins();
+  const auto world = enclosedCornerWorld();
+  PlanningQuery query;
+  query.start.col(0) = Eigen::Vector3d(0.8, 0.8, 1.0);
+  query.goal = Eigen::Vector3d(3.2, 3.2, 1.0);
+  const auto plan = [&](const std::string& key, std::vector<std::string> items) {
+    for (const std::string item :
+         {"sampler.samples_per_axis=3", "time_limit=0", "max_velocity=1", "tau=0.3"}) {
+      items.push_back(item);
+    }
+    ConfiguredPlanner configured = configurePlanner(key, test::assignments(items));
+    configured.planner->setup({world, 1});
+    return configured.planner->plan(query, Budget{});
+  };
+  const PlanResult eager = plan("eager_mp_astar", {});
+  ASSERT_EQ(eager.status, PlanStatus::kNoSolution) << eager.message;
+  ASSERT_FALSE(eager.trajectory.empty());
+  const double from_start = (query.start.col(0) - query.goal).norm();
+  EXPECT_LT(eager.distance_to_goal, from_start - 1.0);
+  for (const std::string lookahead : {"4", "inf"}) {
+    SCOPED_TRACE("lookahead " + lookahead);
+    const PlanResult lazy = plan("lazy_mp_astar", {"lookahead=" + lookahead});
+    ASSERT_EQ(lazy.status, PlanStatus::kNoSolution) << lazy.message;
+    EXPECT_TRUE(lazy.check.valid) << lazy.check.detail;
+    EXPECT_NEAR(lazy.distance_to_goal, eager.distance_to_goal, 1e-9);
+  }
 }
 
 /// The geodesic heuristic alone with one voxel step a primitive (v tau < voxel) and w_T = 1:

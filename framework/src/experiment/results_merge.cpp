@@ -42,6 +42,7 @@ ShardSet checkShards(const std::vector<std::string>& inputs, bool partial) {
                         std::to_string(shard.schemaVersion().value_or(0)) +
                         "; this kinolab merges version " + std::to_string(kResultsSchemaVersion));
     }
+    shard.requireCurrentColumns();
     if (config_hash.empty()) config_hash = *hash;
     if (*hash != config_hash) {
       throw ConfigError("merge: " + input + " holds another experiment (config hash " + *hash +

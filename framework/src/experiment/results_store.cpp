@@ -7,6 +7,8 @@
 #include <cmath>
 #include <filesystem>
 #include <functional>
+#include <map>
+#include <memory>
 #include <set>
 #include <string_view>
 #include <vector>
@@ -517,6 +519,39 @@ void ResultsStore::declareMetrics(const std::string& kind, const std::string& pl
       insert.reset();
     }
   });
+}
+
+void ResultsStore::requireCurrentColumns() const {
+  // The tables as this kinolab makes them, in memory: the file's must hold each one's columns
+  // (CREATE TABLE IF NOT EXISTS leaves a damaged table as it is).
+  sqlite3* made = nullptr;
+  const int opened = sqlite3_open(":memory:", &made);
+  const std::unique_ptr<sqlite3, decltype(&sqlite3_close)> closer(made, &sqlite3_close);
+  if (opened != SQLITE_OK || sqlite3_exec(made, (std::string(kTables) + runsTable()).c_str(),
+                                          nullptr, nullptr, nullptr) != SQLITE_OK) {
+    throw FileError(path_ + ": SQLite: cannot lay out the tables in memory");
+  }
+  Statement tables(made, "SELECT name FROM sqlite_master WHERE type = 'table' ORDER BY name",
+                   path_);
+  while (tables.step(path_)) {
+    const std::string table = tables.text(0);
+    std::map<std::string, std::string> stored;  // column: declared type
+    Statement own(db_, "SELECT name, type FROM pragma_table_info(?)", path_);
+    own.add(table);
+    while (own.step(path_)) stored[own.text(0)] = own.text(1);
+    Statement wanted(made, "SELECT name, type FROM pragma_table_info(?)", path_);
+    wanted.add(table);
+    while (wanted.step(path_)) {
+      const std::string column = wanted.text(0), type = wanted.text(1);
+      const auto found = stored.find(column);
+      if (found == stored.end() || found->second != type) {
+        throw ConfigError(
+            path_ + ": table " + table + ", column '" + column + "': " +
+            (found == stored.end() ? "missing" : "declared " + found->second + ", not " + type) +
+            " (a damaged or foreign database): kinolab writes nothing into it");
+      }
+    }
+  }
 }
 
 std::optional<long long> ResultsStore::metaInteger(const std::string& key) const {

@@ -313,6 +313,7 @@ void prepareStore(ResultsStore& store, const Experiment& experiment, const Runne
                       std::to_string(kResultsSchemaVersion) +
                       ": run into a new --out directory (kinolab report still reads the old one)");
   }
+  store.requireCurrentColumns();  // before the meta below is written
   if (const auto stored = store.meta("config_hash")) {
     const std::string name = store.meta("name").value_or("");
     const std::string seed = store.meta("seed").value_or("");

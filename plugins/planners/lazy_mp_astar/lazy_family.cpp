@@ -164,7 +164,7 @@ int LazySpSearch::lazySearch(StopCondition& stop, bool& stopped) {
   return -1;
 }
 
-bool LazySpSearch::evaluateOnPath(int goal_node) {
+bool LazySpSearch::evaluateOnPath(int goal_node, bool whole) {
   std::vector<int> nodes;
   for (int node = goal_node; node > 0; node = nodes_[node].parent) nodes.push_back(node);
   std::reverse(nodes.begin(), nodes.end());
@@ -172,24 +172,25 @@ bool LazySpSearch::evaluateOnPath(int goal_node) {
   for (const int node : nodes) {
     if (!nodes_[node].edge->evaluated) unevaluated.push_back(node);
   }
-  // The path by value: whole when it is evaluated whole (the answer), else its evaluated
-  // start (what a budget stop returns); the next lazy search rebuilds nodes_.
-  path_.clear();
-  for (const int node : nodes) {
-    const Edge& edge = *nodes_[node].edge;
-    if (!edge.evaluated || !edge.full.valid()) break;
-    path_.push_back({edge.parent, nodes_[node].control, edge.full.cost});
+  if (unevaluated.empty()) {  // the answer, by value: the next lazy search rebuilds nodes_
+    path_.clear();
+    for (const int node : nodes) {
+      path_.push_back(
+          {nodes_[node].edge->parent, nodes_[node].control, nodes_[node].edge->full.cost});
+    }
+    return false;
   }
-  if (unevaluated.empty()) return false;
   const auto clearance = [&](int node) {
     const EdgeEvaluation& bound = nodes_[node].edge->bound;
     return std::isfinite(bound.end_clearance) ? bound.end_clearance
                                               : graph_.world().clearance(bound.end.col(0));
   };
-  const int chosen = selectorOrder(unevaluated, clearance).front();
-  Edge& edge = *nodes_[chosen].edge;
-  edge.full = graph_.evaluate(edge.parent, nodes_[chosen].control);
-  edge.evaluated = true;
+  for (const int chosen : selectorOrder(unevaluated, clearance)) {
+    Edge& edge = *nodes_[chosen].edge;
+    edge.full = graph_.evaluate(edge.parent, nodes_[chosen].control);
+    edge.evaluated = true;
+    if (!whole || !edge.full.valid()) break;
+  }
   return true;
 }
 
@@ -208,18 +209,52 @@ MotionPrimitiveSearch::Outcome LazySpSearch::search(const ChainState& start,
       outcome = MotionPrimitiveSearch::Outcome::kBudget;
       break;
     }
-    if (goal_node < 0) {  // no path even at the lower bounds: exhausted
-      path_.clear();
-      break;
+    if (goal_node < 0) {
+      // Exhausted: no path even at the lower bounds. The answer is then eager's, the path to
+      // the state nearest the goal that is reached: the lazy path to the nearest node is
+      // evaluated (whole, up to an invalid edge: one lazy search an edge would be dear) until
+      // it is evaluated whole (path_).
+      if (!evaluateOnPath(nearestNode(goal, false), true)) break;
+      continue;
     }
-    if (!evaluateOnPath(goal_node)) {
+    if (!evaluateOnPath(goal_node, false)) {
       solved_ = true;
       outcome = MotionPrimitiveSearch::Outcome::kGoal;
       break;
     }
   }
+  if (outcome == MotionPrimitiveSearch::Outcome::kBudget) {
+    // The path to the node nearest the goal through evaluated edges (nodes_ by value).
+    std::vector<int> chain;
+    for (int node = nearestNode(goal, true); node > 0; node = nodes_[node].parent) {
+      chain.push_back(node);
+    }
+    path_.clear();
+    for (auto it = chain.rbegin(); it != chain.rend(); ++it) {
+      const Edge& edge = *nodes_[*it].edge;
+      path_.push_back({edge.parent, nodes_[*it].control, edge.full.cost});
+    }
+  }
   graph_.endQuery();
   return outcome;
+}
+
+int LazySpSearch::nearestNode(const Eigen::Vector3d& goal, bool evaluated) const {
+  // A node's parent comes before it: one pass marks the nodes whose every edge is evaluated.
+  std::vector<char> whole(nodes_.size(), 1);
+  int nearest = 0;
+  double nearest_distance = INFINITY;
+  for (std::size_t node = 0; node < nodes_.size(); ++node) {
+    const Node& n = nodes_[node];
+    if (node > 0) whole[node] = whole[n.parent] && n.edge->evaluated;  // evaluated: valid
+    if (evaluated && !whole[node]) continue;
+    const double distance = (n.state.col(0) - goal).norm();
+    if (distance < nearest_distance) {
+      nearest_distance = distance;
+      nearest = static_cast<int>(node);
+    }
+  }
+  return nearest;
 }
 
 Statistics LazySpSearch::ownStatistics() const {

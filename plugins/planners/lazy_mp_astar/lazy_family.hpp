@@ -47,8 +47,9 @@ class LazyFamilySearch {
   virtual MotionPrimitiveSearch::Outcome search(const ChainState& start,
                                                 const Eigen::Vector3d& goal,
                                                 StopCondition& stop) = 0;
-  /// After search(): the path (every edge fully evaluated, kGoal) or, on a budget stop, the
-  /// evaluated, valid start of the last path found (empty when exhausted).
+  /// After search(): the path (every edge fully evaluated, kGoal) or else, as eager MP-A*
+  /// answers, the path to the state nearest the goal that the search reached through fully
+  /// evaluated, valid edges (empty when that is the start).
   Trajectory trajectory() const;
   double cost() const;
   /// The last search stopped at memory_limit_mb.
@@ -76,7 +77,7 @@ class LazyFamilySearch {
   PrimitiveGraph graph_;
   EdgeSelector selector_;
 
-  std::vector<LazyPathStep> path_;  ///< the final path, or the last one's evaluated valid start
+  std::vector<LazyPathStep> path_;  ///< the final path, or the one to the nearest state reached
   bool solved_ = false;
 
  private:
@@ -133,9 +134,13 @@ class LazySpSearch final : public LazyFamilySearch {
   Edge& edgeOf(Slot& slot, const ChainState& parent, double& clearance, int control);
   /// Bytes the search holds (nodes and edge records), against memory_limit_mb.
   double memoryBytes() const;
-  /// Fully evaluates the edges the selector picks on the path to `goal_node`; false when the
-  /// path was already fully evaluated.
-  bool evaluateOnPath(int goal_node);
+  /// Fully evaluates the edge the selector picks on the path to `goal_node` (`whole`: every
+  /// unevaluated edge in the selector's order, up to the first invalid one); false when the
+  /// path was already fully evaluated (then it is path_).
+  bool evaluateOnPath(int goal_node, bool whole);
+  /// The last lazy search's node nearest `goal` (through evaluated, valid edges only, when
+  /// `evaluated`); the start when none is nearer.
+  int nearestNode(const Eigen::Vector3d& goal, bool evaluated) const;
 
   std::vector<Node> nodes_;
   /// Edge records by parent key, then control.
@@ -164,7 +169,6 @@ class LraStarSearch final : public LazyFamilySearch {
                 SearchSettings settings, SearchPolicies policies, int lookahead,
                 EdgeSelector selector);
 
-  /// On a budget stop the path is the evaluated start of the path to the best frontier vertex.
   MotionPrimitiveSearch::Outcome search(const ChainState& start, const Eigen::Vector3d& goal,
                                         StopCondition& stop) override;
 
@@ -230,6 +234,11 @@ class LraStarSearch final : public LazyFamilySearch {
   /// is invalid or dearer than its bound.
   void evaluateBand(int vertex);
   std::vector<int> pathTo(int vertex) const;
+  /// Every arc of the tree path to `vertex` is evaluated (so valid).
+  bool evaluatedPath(int vertex);
+  /// The tree vertex nearest `goal` (with an evaluated path, when `evaluated`); the root when
+  /// none is nearer.
+  int nearestVertex(const Eigen::Vector3d& goal, bool evaluated);
   double memoryBytes() const;
 
   int lookahead_;

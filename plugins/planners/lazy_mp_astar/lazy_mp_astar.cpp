@@ -35,9 +35,10 @@ class LazyFamilyPlanner final : public MotionPrimitivePlanner {
 
   PlanResult doPlan(const PlanningQuery& query, StopCondition& stop) override {
     const auto outcome = lazy_->search(query.start, query.goal, stop);
-    PlanResult result = resultOf(outcome, lazy_->trajectory(), lazy_->cost(),
-                                 std::string(lazy_->memoryLimited() ? "memory budget" : "budget") +
-                                     " spent: the evaluated start of the last lazy path");
+    PlanResult result = resultOf(
+        outcome, lazy_->trajectory(), lazy_->cost(),
+        std::string(lazy_->memoryLimited() ? "memory budget" : "budget") +
+            " spent: the path to the state nearest the goal reached through evaluated edges");
     result.statistics = lazy_->statistics();
     result.statistics.emplace_back("controls",
                                    static_cast<double>(lazy_->graph().controls().size()));

@@ -233,6 +233,27 @@ void LraStarSearch::evaluateBand(int vertex) {
   if (vertices_[top].in_tree) updateBudgets(top);
 }
 
+bool LraStarSearch::evaluatedPath(int vertex) {
+  for (int v = vertex; vertices_[v].parent >= 0; v = vertices_[v].parent) {
+    if (!treeArc(v).evaluated) return false;  // an evaluated tree arc is valid
+  }
+  return true;
+}
+
+int LraStarSearch::nearestVertex(const Eigen::Vector3d& goal, bool evaluated) {
+  int nearest = 0;  // the root
+  double nearest_distance = INFINITY;
+  for (int v = 0; v < static_cast<int>(vertices_.size()); ++v) {
+    if (!vertices_[v].in_tree) continue;
+    const double distance = (vertices_[v].state.col(0) - goal).norm();
+    if (distance < nearest_distance && (!evaluated || evaluatedPath(v))) {
+      nearest_distance = distance;
+      nearest = v;
+    }
+  }
+  return nearest;
+}
+
 double LraStarSearch::memoryBytes() const {
   return static_cast<double>(vertices_.capacity() * sizeof(Vertex) +
                              arcs_.capacity() * sizeof(Arc) +
@@ -256,7 +277,7 @@ MotionPrimitiveSearch::Outcome LraStarSearch::search(const ChainState& start,
   vertices_[root].in_tree = true;
   enqueue(root);
   auto outcome = MotionPrimitiveSearch::Outcome::kExhausted;
-  int best = -1;  // the last frontier vertex taken
+  int best = root;  // the vertex whose path is the answer
   for (;;) {
     if (graph_.stopHere(stop, graph_.counters().expansions, memoryBytes())) {
       outcome = MotionPrimitiveSearch::Outcome::kBudget;
@@ -273,8 +294,16 @@ MotionPrimitiveSearch::Outcome LraStarSearch::search(const ChainState& start,
       continue;
     }
     if (!frontier) {
-      best = -1;
-      break;  // exhausted: no path even at the lower bounds
+      // Exhausted: no path even at the lower bounds. The answer is then eager's, the path to
+      // the state nearest the goal that is reached: the path to the nearest vertex is
+      // evaluated (and the tree rewired) until it is evaluated whole.
+      const int nearest = nearestVertex(goal, false);
+      if (evaluatedPath(nearest)) {
+        best = nearest;
+        break;
+      }
+      evaluateBand(nearest);
+      continue;
     }
     best = frontier->vertex;
     frontier_.pop();
@@ -288,13 +317,11 @@ MotionPrimitiveSearch::Outcome LraStarSearch::search(const ChainState& start,
     evaluateBand(best);
     if (vertices_[best].in_tree) enqueue(best);
   }
-  // The path to the goal, or the evaluated, valid start of the path to the last frontier vertex.
-  if (best >= 0 && vertices_[best].in_tree) {
-    for (const int v : pathTo(best)) {
-      const Arc& arc = treeArc(v);
-      if (!arc.evaluated || !arc.valid) break;
-      path_.push_back({vertices_[vertices_[v].parent].state, vertices_[v].control, arc.cost});
-    }
+  // The path to the goal, to the nearest state reached (exhausted), or on a budget stop to the
+  // vertex nearest the goal whose tree path is evaluated whole.
+  if (outcome == MotionPrimitiveSearch::Outcome::kBudget) best = nearestVertex(goal, true);
+  for (const int v : pathTo(best)) {
+    path_.push_back({vertices_[vertices_[v].parent].state, vertices_[v].control, treeArc(v).cost});
   }
   graph_.endQuery();
   return outcome;

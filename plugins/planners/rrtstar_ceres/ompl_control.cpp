@@ -377,7 +377,7 @@ PlanResult OmplControlPlanner::doPlan(const PlanningQuery& query, StopCondition&
     }
     if (settings_.stop_at_first && (!result.progress.empty() || definition->hasExactSolution()))
       return true;
-    return stop.expired(calls);
+    return stop.expiredNow(calls);
   }));
   const double planning_ms = watch.milliseconds();
   if (status == ob::PlannerStatus::EXACT_SOLUTION ||

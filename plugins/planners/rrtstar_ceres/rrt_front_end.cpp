@@ -1,8 +1,10 @@
 #include "rrt_front_end.hpp"
 
+#include <ompl/base/PlannerData.h>
 #include <ompl/base/PlannerTerminationCondition.h>
 #include <ompl/base/ProblemDefinition.h>
 #include <ompl/base/SpaceInformation.h>
+#include <ompl/base/goals/GoalRegion.h>
 #include <ompl/base/goals/GoalState.h>
 #include <ompl/base/objectives/PathLengthOptimizationObjective.h>
 #include <ompl/base/spaces/RealVectorStateSpace.h>
@@ -147,7 +149,7 @@ class Monitor {
       return true;
     }
     if (static_cast<long long>(planner_.treeSize()) >= settings_.max_vertices) return true;
-    return stop_.expired(iterations);
+    return stop_.expiredNow(iterations);
   }
 
   double elapsedMs() const { return watch_.milliseconds(); }
@@ -284,7 +286,7 @@ class AnyPlannerMonitor {
     // The first solution: the first finite best cost (planners add their solution to the
     // problem only when they return).
     if (stop_at_first_ && (!progress.empty() || problem_.hasExactSolution())) return true;
-    return stop_.expired(calls);
+    return stop_.expiredNow(calls);
   }
 
   double elapsedMs() const { return watch_.milliseconds(); }
@@ -299,6 +301,62 @@ class AnyPlannerMonitor {
   std::function<std::string()> best_cost_;
   Stopwatch watch_;  // the budget's clock, from the search's start
 };
+
+/// An approximate answer runs from the start: `path` when it does, else the path through
+/// `planner`'s graph from the start to the vertex it reached nearest the goal (nullptr when it
+/// reached none but the start). A bidirectional planner may offer a branch of its goal tree:
+/// OMPL 1.5.2's RRT-Connect takes its approximate solution from the motion last added, which
+/// after a connection attempt is in the goal tree, so its path began at the goal.
+std::shared_ptr<og::PathGeometric> approximateFromStart(const ob::Planner& planner,
+                                                        const ob::ProblemDefinition& problem,
+                                                        std::shared_ptr<og::PathGeometric> path) {
+  const ob::SpaceInformationPtr& si = problem.getSpaceInformation();
+  for (unsigned int i = 0; i < problem.getStartStateCount(); ++i) {
+    if (path->getStateCount() > 0 && si->equalStates(path->getState(0), problem.getStartState(i))) {
+      return path;
+    }
+  }
+  // Breadth first along the graph's edges (a goal tree's point towards its root, so they are
+  // entered only through a connection) from the start vertices.
+  ob::PlannerData data(si);
+  planner.getPlannerData(data);
+  const unsigned int kNone = ob::PlannerData::INVALID_INDEX;
+  std::vector<unsigned int> parent(data.numVertices(), kNone);
+  std::vector<unsigned int> queue;
+  for (unsigned int i = 0; i < data.numStartVertices(); ++i) {
+    const unsigned int start = data.getStartIndex(i);
+    parent[start] = start;
+    queue.push_back(start);
+  }
+  const auto& goal = *problem.getGoal()->as<ob::GoalRegion>();
+  unsigned int nearest = kNone;
+  double nearest_distance = INFINITY;
+  std::vector<unsigned int> children;
+  for (std::size_t next = 0; next < queue.size(); ++next) {
+    const unsigned int vertex = queue[next];
+    if (parent[vertex] != vertex) {  // the start itself is no answer
+      const double distance = goal.distanceGoal(data.getVertex(vertex).getState());
+      if (distance < nearest_distance) {
+        nearest_distance = distance;
+        nearest = vertex;
+      }
+    }
+    data.getEdges(vertex, children);
+    for (const unsigned int child : children) {
+      if (parent[child] != kNone) continue;
+      parent[child] = vertex;
+      queue.push_back(child);
+    }
+  }
+  if (nearest == kNone) return nullptr;
+  std::vector<unsigned int> chain{nearest};  // back to its start
+  while (parent[chain.back()] != chain.back()) chain.push_back(parent[chain.back()]);
+  auto rebuilt = std::make_shared<og::PathGeometric>(si);
+  for (auto it = chain.rbegin(); it != chain.rend(); ++it) {
+    rebuilt->append(data.getVertex(*it).getState());
+  }
+  return rebuilt;
+}
 
 }  // namespace
 
@@ -318,11 +376,14 @@ FrontEndResult RrtFrontEnd::planOther(const std::shared_ptr<ob::ProblemDefinitio
   double best = NAN;
   if (status == ob::PlannerStatus::EXACT_SOLUTION ||
       status == ob::PlannerStatus::APPROXIMATE_SOLUTION) {
-    result.outcome = problem->hasApproximateSolution() ? FrontEndResult::Outcome::kApproximate
-                                                       : FrontEndResult::Outcome::kExact;
-    auto& path = static_cast<og::PathGeometric&>(*problem->getSolutionPath());
-    best = path.length();
-    simplify(path, result);
+    auto path = std::static_pointer_cast<og::PathGeometric>(problem->getSolutionPath());
+    if (problem->hasApproximateSolution()) path = approximateFromStart(*planner, *problem, path);
+    if (path) {
+      result.outcome = problem->hasApproximateSolution() ? FrontEndResult::Outcome::kApproximate
+                                                         : FrontEndResult::Outcome::kExact;
+      best = path->length();
+      simplify(*path, result);
+    }
   }
   Statistics& stats = result.statistics;
   countChecks(result);

@@ -272,6 +272,83 @@ TEST(OmplGeometric, AitStarIsRefusedWithTheReasonNotRunIntoOmplsAbort) {
   }
 }
 
+TEST(OmplGeometric, AGoalInASealedRoomGivesAnAnswerFromTheStartNeverFromTheGoal) {
+  // A 1.6 m room walled off from floor to ceiling (the map's bounds close it above and below)
+  // around the goal: no planner reaches it. Before, RRT-Connect answered with a branch of its
+  // goal tree, a path from the goal ("position at t = 0 is the goal", invalid_trajectory),
+  // whenever that tree could grow towards the start inside the room (steps of 0.3 m).
+  const auto world = World::build(WorldSpec::fromYaml(
+      YamlReader::loadString(
+          "resolution: 0.1\nbounds: {min: [0, 0, 0], max: [8, 4, 2]}\n"
+          "generators: [{type: box_list, boxes: ["
+          "{min: [4, 1, 0], max: [6.2, 1.2, 2]}, {min: [4, 2.8, 0], max: [6.2, 3, 2]}, "
+          "{min: [4, 1, 0], max: [4.2, 3, 2]}, {min: [6, 1, 0], max: [6.2, 3, 2]}]}]\n",
+          "sealed_room.yaml"),
+      "."));
+  PlanningQuery query;
+  query.start.col(0) = Eigen::Vector3d(1.0, 2.0, 1.0);
+  query.goal = Eigen::Vector3d(5.1, 2.0, 1.0);
+  for (const std::string planner :
+       {"rrtconnect", "rrtstar", "informed_rrtstar", "bitstar", "abitstar", "lazyprmstar"}) {
+    SCOPED_TRACE(planner);
+    ConfiguredPlanner configured =
+        configurePlanner("ompl_geometric", test::assignments({"planner=" + planner, "time_limit=0",
+                                                              "max_iterations=1000", "range=0.3"}));
+    configured.planner->setup({world, 3});
+    const PlanResult result = configured.planner->plan(query, Budget{});
+    ASSERT_TRUE(result.status == PlanStatus::kApproximate || result.status == PlanStatus::kTimeout)
+        << toString(result.status) << ": " << result.message;
+    if (result.status != PlanStatus::kApproximate) continue;
+    EXPECT_TRUE(result.check.valid) << result.check.check << ": " << result.check.detail;
+    EXPECT_NEAR((result.trajectory.startPosition() - query.start.col(0)).norm(), 0.0, 1e-9);
+    EXPECT_GT(result.distance_to_goal, 0.8);  // outside the room's wall
+    EXPECT_LT(result.distance_to_goal, (query.start.col(0) - query.goal).norm());
+  }
+}
+
+/// N of a message "no path after N iterations".
+long long iterationsIn(const std::string& message) {
+  const std::size_t at = message.find("after ");
+  return at == std::string::npos ? -1 : std::stoll(message.substr(at + 6));
+}
+
+TEST(OmplGeometric, AnExpiredBudgetStopsAtTheFirstCallOfTheTerminationCondition) {
+  // A time budget spent before the planner starts: its termination condition answers "stop"
+  // at its first call, so no iteration runs. Before, it read the clock every 16th call and
+  // let the planner run 15 iterations past its budget (BIT*'s may each be a batch: issue 55).
+  const PlanningQuery query = wallsQuery();
+  const Budget spent{1e-12};
+  for (const std::string planner :
+       {"rrtconnect", "informed_rrtstar", "bitstar", "abitstar", "lazyprmstar"}) {
+    SCOPED_TRACE(planner);
+    ConfiguredPlanner configured =
+        configurePlanner("ompl_geometric", test::assignments({"planner=" + planner}));
+    configured.planner->setup({test::smallWorld("walls"), 3});
+    const PlanResult result = configured.planner->plan(query, spent);
+    EXPECT_EQ(result.status, PlanStatus::kTimeout) << result.message;
+    // Each call the planner makes answers "stop"; BIT* and ABIT* ask once more on the way out.
+    EXPECT_LE(iterationsIn(result.message), 2) << result.message;
+    EXPECT_LE(statistic(result, "motion_checks"), 0.0);
+  }
+  for (const std::string key : {"rrtstar", "rrtstar_ceres"}) {
+    SCOPED_TRACE(key);
+    ConfiguredPlanner configured = configurePlanner(key, {});
+    configured.planner->setup({test::smallWorld("walls"), 3});
+    const PlanResult result = configured.planner->plan(query, spent);
+    EXPECT_EQ(result.status, PlanStatus::kTimeout) << result.message;
+    EXPECT_EQ(statistic(result, "iterations"), 0.0);
+  }
+  for (const std::string planner : {"sst", "kpiece1", "rrt", "est", "pdst"}) {
+    SCOPED_TRACE(planner);
+    ConfiguredPlanner configured =
+        configurePlanner("ompl_control", test::assignments({"planner=" + planner}));
+    configured.planner->setup({test::smallWorld("walls"), 3});
+    const PlanResult result = configured.planner->plan(query, spent);
+    EXPECT_EQ(result.status, PlanStatus::kTimeout) << result.message;
+    EXPECT_EQ(statistic(result, "propagations"), 0.0);
+  }
+}
+
 TEST(OmplGeometric, APlannerThatStopsOnlyAtItsBudgetNeedsOne) {
   for (const std::string key : {"ompl_geometric", "ompl_control"}) {
     EXPECT_THROW(configurePlanner(key, test::assignments({"time_limit=0"})), ConfigError) << key;

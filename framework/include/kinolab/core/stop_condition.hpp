@@ -68,6 +68,15 @@ class StopCondition {
     timed_out_ = timed_out_ || elapsed() >= budget_.time_limit;
     return timed_out_;
   }
+  /// As expired(), reading the clock at every call: for a caller whose calls are far apart,
+  /// such as an OMPL planner's termination condition (asked once an iteration, and one
+  /// iteration of BIT* may take milliseconds), where a read every kClockStride calls would
+  /// add up to kClockStride - 1 iterations to the budget.
+  bool expiredNow(long long iterations) {
+    if (iterations >= budget_.max_iterations) return true;
+    timed_out_ = timed_out_ || elapsed() >= budget_.time_limit;
+    return timed_out_;
+  }
   /// Seconds on the budget's clock since the budget started.
   double elapsed() const { return clockSeconds(budget_.clock) - start_; }
   const Budget& budget() const { return budget_; }

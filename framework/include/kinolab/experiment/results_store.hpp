@@ -125,6 +125,9 @@ class ResultsStore {
   /// The schema version of the stored runs (1 for databases written before versions were
   /// recorded), or none for a database without runs or meta.
   std::optional<int> schemaVersion() const;
+  /// Refuses (ConfigError naming the database, table and column) a database of this schema
+  /// version whose tables lack a column this kinolab writes, or declare it another type.
+  void requireCurrentColumns() const;
 
   /// Joins shard databases into `output` (which must not exist yet). Refuses inputs whose
   /// config hashes differ, that are not shards of the same count, that repeat a shard, or
