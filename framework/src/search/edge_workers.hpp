@@ -15,7 +15,8 @@ namespace kinolab {
 /// A fixed team of threads - 1 workers and the caller that runs a job over indices 0..count-1
 /// and returns when every index is done. The indices are handed out by an atomic counter (no
 /// lock: each thread takes the next one as it finishes one); a run starts by publishing a new
-/// generation the workers spin on for a while, then sleep on (std::atomic::wait), and ends
+/// generation the workers spin on for a while (not when there are more threads than cores),
+/// then sleep on (std::atomic::wait), and ends
 /// when every worker has acknowledged it, so that no worker can still touch a run that is over.
 /// The caller learns nothing of which thread ran which index: a job that writes its result to
 /// slot i makes the run's outcome the same at every thread count.
@@ -35,6 +36,7 @@ class EdgeWorkers {
   void work();
   void drain();
 
+  const int spins_;  ///< looks before a waiting thread sleeps (workers) or yields (the caller)
   std::vector<std::thread> workers_;
   const std::function<void(std::size_t)>* job_ = nullptr;
   std::size_t count_ = 0;
