@@ -272,29 +272,38 @@ bool violation(CheckResult& result, std::string check, double time, const Eigen:
 
 }  // namespace
 
-CheckResult TrajectoryChecker::check(const Trajectory& trajectory, const CheckQuery& query) const {
+namespace {
+
+/// A verdict: "empty" for no trajectory, else `checks` (each adds its violation to the result
+/// and returns false at the first).
+template <typename Checks>
+CheckResult verdict(double body_radius, const Trajectory& trajectory, const CheckQuery& query,
+                    const Checks& checks) {
   CheckResult result;
-  result.body_radius = body_radius_;
+  result.body_radius = body_radius;
   if (trajectory.empty()) {
     violation(result, "empty", 0.0, query.start.col(0), "no trajectory");
     return result;
   }
-  result.valid = checkStart(trajectory, query, result) && checkLimits(trajectory, result) &&
-                 checkCollision(trajectory, result) && checkGoal(trajectory, query, result);
+  result.valid = checks(result);
   return result;
+}
+
+}  // namespace
+
+CheckResult TrajectoryChecker::check(const Trajectory& trajectory, const CheckQuery& query) const {
+  return verdict(body_radius_, trajectory, query, [&](CheckResult& result) {
+    return checkStart(trajectory, query, result) && checkLimits(trajectory, result) &&
+           checkCollision(trajectory, result) && checkGoal(trajectory, query, result);
+  });
 }
 
 CheckResult TrajectoryChecker::checkMotion(const Trajectory& trajectory,
                                            const CheckQuery& query) const {
-  CheckResult result;
-  result.body_radius = body_radius_;
-  if (trajectory.empty()) {
-    violation(result, "empty", 0.0, query.start.col(0), "no trajectory");
-    return result;
-  }
-  result.valid = checkStart(trajectory, query, result) && checkLimits(trajectory, result) &&
-                 checkGoal(trajectory, query, result);
-  return result;
+  return verdict(body_radius_, trajectory, query, [&](CheckResult& result) {
+    return checkStart(trajectory, query, result) && checkLimits(trajectory, result) &&
+           checkGoal(trajectory, query, result);
+  });
 }
 
 bool TrajectoryChecker::checkStart(const Trajectory& trajectory, const CheckQuery& query,
