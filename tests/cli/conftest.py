@@ -1,6 +1,5 @@
 """Shared fixtures for the command-line tests: the kinolab binary and a throw-away cache."""
 
-import json
 import os
 import subprocess
 import sys
@@ -8,12 +7,9 @@ from pathlib import Path
 
 import pytest
 
-SOURCE_DIR = Path(os.environ.get("KINOLAB_SOURCE_DIR", Path(__file__).resolve().parents[2]))
-sys.path.insert(0, str(SOURCE_DIR / "tests" / "support"))  # results.py
-# A small forest world spec (10 m x 10 m x 3 m) the command tests plan in.
-SMALL_FOREST = (SOURCE_DIR / "tests" / "support" / "small_forest.yaml").read_text()
-
-BINARY = os.environ.get("KINOLAB_BIN", str(SOURCE_DIR / "build" / "framework" / "kinolab"))
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "support"))  # results.py
+from command_line import (BINARY, SMALL_FOREST, SOURCE_DIR, last_json,  # noqa: E402,F401
+                          tiny_experiment)
 
 
 @pytest.fixture
@@ -33,32 +29,4 @@ def world(tmp_path):
     """The small forest as a spec file (kinolab plan and fly)."""
     path = tmp_path / "world.yaml"
     path.write_text(SMALL_FOREST)
-    return path
-
-
-def last_json(result):
-    """The JSON summary a command prints as its last line."""
-    return json.loads(result.stdout.strip().splitlines()[-1])
-
-
-def tiny_experiment(directory, name, seed, queries=3):
-    """A planning experiment of `queries` eager runs in the small forest, written into
-    `directory` (beside its world file); its seed sets its config hash. Returns its path."""
-    world = directory / "world.yaml"
-    world.write_text(SMALL_FOREST)
-    path = directory / f"{name}_{seed}.yaml"
-    path.write_text(f"""kind: planning
-name: {name}
-seed: {seed}
-worlds:
-  - id: small
-    spec: {world}
-queries:
-  random: {{count: {queries}, min_distance: 4, max_distance: 9}}
-planners:
-  - id: eager
-    type: eager_mp_astar
-    sampler: {{type: uniform, params: {{samples_per_axis: 3}}}}
-budget: {{time: 5}}
-""")
     return path

@@ -1,7 +1,6 @@
 """The hostile-input suite's fixtures: the kinolab binary with a private world cache, the
 small forest, a tiny experiment's results, and the check every refusal passes."""
 
-import json
 import os
 import subprocess
 import sys
@@ -9,9 +8,9 @@ from pathlib import Path
 
 import pytest
 
-SOURCE_DIR = Path(os.environ.get("KINOLAB_SOURCE_DIR", Path(__file__).resolve().parents[2]))
-BINARY = os.environ.get("KINOLAB_BIN", str(SOURCE_DIR / "build" / "framework" / "kinolab"))
-SMALL_FOREST = (SOURCE_DIR / "tests" / "support" / "small_forest.yaml").read_text()
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "support"))
+from command_line import BINARY, SMALL_FOREST, last_json, tiny_experiment  # noqa: E402,F401
+
 if "KINOLAB_PYTHON_DIR" in os.environ:  # the build tree's bindings (CTest sets it)
     sys.path.insert(0, os.environ["KINOLAB_PYTHON_DIR"])
 
@@ -47,37 +46,13 @@ def refused(result, *needles):
     return errors[0]
 
 
-def summary(result):
-    """The JSON summary `kinolab plan` prints as its last line."""
-    return json.loads(result.stdout.strip().splitlines()[-1])
-
-
-def tiny_experiment(directory: Path, seed: int = 5) -> Path:
-    """Two eager runs in the small forest, trajectories and trees stored; its file."""
-    (directory / "world.yaml").write_text(SMALL_FOREST)
-    path = directory / f"tiny_{seed}.yaml"
-    path.write_text(f"""kind: planning
-name: hostile_tiny
-seed: {seed}
-worlds:
-  - id: small
-    spec: {directory / "world.yaml"}
-queries:
-  random: {{count: 2, min_distance: 4, max_distance: 9}}
-planners:
-  - id: eager
-    type: eager_mp_astar
-    sampler: {{type: uniform, params: {{samples_per_axis: 3}}}}
-budget: {{time: 5}}
-""")
-    return path
 
 
 @pytest.fixture(scope="session")
 def results(tmp_path_factory):
     """A tiny experiment's file and results directory (copy before damaging it)."""
     base = tmp_path_factory.mktemp("hostile_results")
-    experiment = tiny_experiment(base)
+    experiment = tiny_experiment(base, "hostile_tiny", 5, queries=2)
     out = base / "out"
     result = run_kinolab(base / "cache", "run", experiment, "--out", out)
     assert result.returncode == 0, result.stderr

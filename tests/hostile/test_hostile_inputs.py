@@ -11,7 +11,7 @@ from contextlib import closing
 
 import pytest
 
-from conftest import refused, summary
+from conftest import last_json, refused
 
 # A room walled off from floor to ceiling (the map's bounds close it above and below) around
 # (5.1, 2, 1): nothing reaches that goal.
@@ -190,7 +190,7 @@ def test_9_rrtconnect_towards_a_sealed_goal_answers_from_the_start(kinolab, tmp_
                      "planner=rrtconnect", "--set", "range=0.3", "--set", "time_limit=0",
                      "--set", "max_iterations=2000", "--start", "1,2,1", "--goal", "5.1,2,1")
     assert result.returncode == 0, result.stderr
-    answer = summary(result)
+    answer = last_json(result)
     # Before: invalid_trajectory, "position at t = 0 is (5.1, 2, 1)", D 0.
     assert answer["status"] in ("approximate", "timeout"), answer["message"]
     if answer["status"] == "approximate":
@@ -203,8 +203,8 @@ def test_9_lazy_searches_report_the_nearest_state_reached_as_eager_does(kinolab,
     common = ["--world", world, "--start", "0.8,0.8,1", "--goal", "3.2,3.2,1", "--set",
               "sampler.samples_per_axis=3", "--set", "time_limit=0", "--set", "max_velocity=1",
               "--set", "tau=0.3"]
-    eager = summary(kinolab("plan", "--planner", "eager_mp_astar", *common))
-    lra = summary(kinolab("plan", "--planner", "lazy_mp_astar", "--set", "lookahead=4", *common))
+    eager = last_json(kinolab("plan", "--planner", "eager_mp_astar", *common))
+    lra = last_json(kinolab("plan", "--planner", "lazy_mp_astar", "--set", "lookahead=4", *common))
     assert eager["status"] == lra["status"] == "no_solution", (eager, lra)
     # Before: LRA* reported D from the start (3.39 m).
     assert lra["distance_to_goal"] == pytest.approx(eager["distance_to_goal"], abs=1e-9)

@@ -11,6 +11,7 @@
 #include <set>
 #include <tuple>
 
+#include "flight/flight_motion.hpp"
 #include "kinolab/builtin_plugins.hpp"
 #include "kinolab/core/random.hpp"
 #include "kinolab/core/yaml_reader.hpp"
@@ -1571,7 +1572,7 @@ class RecklessPlanner : public Planner {
     const Eigen::Vector3d offset = query.goal - query.start.col(0);
     // Rest to rest in a straight line at 1 m/s^2.
     for (const TrajectorySegment& segment :
-         flightTestStraightMove(query.start.col(0), offset, 1.0)) {
+         flight_motion::straightMove(query.start.col(0), offset, 1.0, INFINITY)) {
       plan.trajectory.append(segment);
     }
     plan.check.valid = true;
@@ -1581,18 +1582,6 @@ class RecklessPlanner : public Planner {
   PlannerLimits plannerLimits() const override { return limits_; }
 
  private:
-  static std::vector<TrajectorySegment> flightTestStraightMove(const Eigen::Vector3d& from,
-                                                               const Eigen::Vector3d& offset,
-                                                               double acceleration) {
-    const double half = std::sqrt(offset.norm() / acceleration);
-    const Eigen::Vector3d push = acceleration * offset.normalized();
-    ChainState state = ChainState::Zero();
-    state.col(0) = from;
-    const TrajectorySegment speeding_up = TrajectorySegment::primitive(state, push, 2, half);
-    state.col(0) = speeding_up.evaluate(half);
-    state.col(1) = speeding_up.evaluate(half, 1);
-    return {speeding_up, TrajectorySegment::primitive(state, -push, 2, half)};
-  }
   PlannerLimits limits_;
 };
 

@@ -1,9 +1,11 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <limits>
 #include <numeric>
+#include <set>
 #include <thread>
 
 #include "kinolab/core/random.hpp"
@@ -11,6 +13,7 @@
 #include "kinolab/search/motion_primitive_planner.hpp"
 #include "kinolab/search/motion_primitive_search.hpp"
 #include "kinolab/search/search_policies.hpp"
+#include "search/edge_workers.hpp"
 #include "support/errors.hpp"
 #include "support/planning.hpp"
 #include "support/test_plugins.hpp"
@@ -1213,6 +1216,39 @@ TEST(ParallelEvaluation, EveryThreadCountSearchesTheSameAndAnswersTheSame) {
     }
     EXPECT_GE(exact, 3) << type;
   }
+}
+
+TEST(EdgeWorkers, RunEveryIndexOnceOnTheTeamAndRethrowAJobsException) {
+  EdgeWorkers workers(2);
+  ASSERT_EQ(workers.threads(), 2);
+  std::vector<std::atomic<int>> runs(64);
+  for (int round = 0; round < 200; ++round) {
+    workers.run(runs.size(), [&](std::size_t i) { ++runs[i]; });
+  }
+  for (const auto& count : runs) EXPECT_EQ(count.load(), 200);
+  // Index 0 waits (counted yields, never a clock) until another index has started: only a
+  // second thread can start one meanwhile, so this ends early only if the team shares the
+  // work.
+  std::atomic<int> started{0};
+  std::vector<std::thread::id> who(8);
+  long waited = 0;
+  workers.run(who.size(), [&](std::size_t i) {
+    ++started;
+    who[i] = std::this_thread::get_id();
+    while (i == 0 && started.load() < 2 && waited < 100000000) {
+      ++waited;
+      std::this_thread::yield();
+    }
+  });
+  EXPECT_LT(waited, 100000000);
+  EXPECT_GT(std::set<std::thread::id>(who.begin(), who.end()).size(), 1u);
+  const auto failing = [](std::size_t i) {
+    if (i == 7) throw InvalidArgument("edge 7");
+  };
+  EXPECT_THROW(workers.run(16, failing), InvalidArgument);
+  std::atomic<int> after{0};
+  workers.run(16, [&](std::size_t) { ++after; });  // the team still works
+  EXPECT_EQ(after.load(), 16);
 }
 
 }  // namespace

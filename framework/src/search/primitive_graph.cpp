@@ -33,7 +33,10 @@ PrimitiveGraph::PrimitiveGraph(const std::string& who, std::shared_ptr<const Wor
     throw InvalidArgument(who + ": threads must be >= 1, got " + std::to_string(settings_.threads));
   }
   policies_.heuristic = heuristicForControls(policies_.heuristic, controls_);
-  if (settings_.threads > 1) workers_ = std::make_unique<EdgeWorkers>(settings_.threads);
+  // Only full evaluations are worth handing over (EdgeEvaluationPolicy::evaluatesFully).
+  if (settings_.threads > 1 && policies_.edges->evaluatesFully()) {
+    workers_ = std::make_unique<EdgeWorkers>(settings_.threads);
+  }
 }
 
 PrimitiveGraph::~PrimitiveGraph() = default;
@@ -78,7 +81,7 @@ void PrimitiveGraph::estimateAll(const ChainState& parent, double parent_clearan
     estimates[i] =
         policy.evaluate(evaluator_, parent, parent_clearance, controls_[i], evaluations[i]);
   };
-  if (workers_ && policy.evaluatesFully()) {
+  if (workers_) {
     workers_->run(controls_.size(), evaluateOne);
   } else {
     for (std::size_t i = 0; i < controls_.size(); ++i) evaluateOne(i);

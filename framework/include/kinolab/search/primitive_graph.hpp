@@ -169,7 +169,7 @@ class PrimitiveGraph {
   SearchPolicies given_policies_;
   SearchPolicies policies_;
   EdgeEvaluator evaluator_;
-  std::unique_ptr<EdgeWorkers> workers_;  ///< with threads > 1
+  std::unique_ptr<EdgeWorkers> workers_;  ///< with threads > 1 and full evaluations
 
   ChainState start_ = ChainState::Zero();
   Eigen::Vector3d goal_ = Eigen::Vector3d::Zero();
