@@ -162,7 +162,9 @@ void BM_DistanceWithGradient(benchmark::State& state) {
   const int height = side >= 256 ? 64 : side;
   const VoxelGrid grid = randomGrid({side, side, height}, 0.02);
   const Esdf built(grid);
-  const Esdf plain = state.range(1) ? Esdf() : Esdf(grid, std::vector<float>(built.values()));
+  const Esdf plain =
+      state.range(1) ? Esdf()
+                     : Esdf(grid, std::vector<float>(built.values().begin(), built.values().end()));
   const Esdf& esdf = state.range(1) ? built : plain;
   Rng rng(2);
   std::vector<Eigen::Vector3d> points(1 << 16);

@@ -11,6 +11,7 @@
 
 #include "kinolab/core/error.hpp"
 #include "kinolab/core/random.hpp"
+#include "support/arrays.hpp"
 
 namespace kinolab {
 namespace {
@@ -112,7 +113,8 @@ TEST(EsdfTest, LinesWithFarEntriesBesideNearOnesAreExact) {
     }
     EXPECT_LT(worst, 1e-5) << "dims " << dims.transpose();
     // The incremental field's passes go line by line, in another order.
-    EXPECT_EQ(IncrementalEsdf(grid).esdf().values(), esdf.values()) << "dims " << dims.transpose();
+    EXPECT_EQ(asVector(IncrementalEsdf(grid).esdf().values()), asVector(esdf.values()))
+        << "dims " << dims.transpose();
   }
 }
 
@@ -152,7 +154,7 @@ TEST(IncrementalEsdfTest, EveryUpdateEqualsAFullBuildBitForBit) {
     IncrementalEsdf incremental(grid);
     Rng rng(11);
     for (int step = 0; step < 40; ++step) {
-      std::vector<std::uint8_t> occupancy = grid.occupancy();
+      std::vector<std::uint8_t> occupancy = asVector(grid.occupancy());
       if (step == 20) {
         std::fill(occupancy.begin(), occupancy.end(), 0);  // all free: the cap everywhere
       } else if (step == 21) {
@@ -176,12 +178,12 @@ TEST(IncrementalEsdfTest, EveryUpdateEqualsAFullBuildBitForBit) {
           occupancy[i] = occupancy[i] ? 0 : 1;
         }
       }
-      grid.occupancy() = occupancy;
+      std::ranges::copy(occupancy, grid.mutableOccupancy().begin());
       incremental.update(occupancy);
       const Esdf full(grid);
-      ASSERT_EQ(incremental.esdf().values(), full.values())
+      ASSERT_EQ(asVector(incremental.esdf().values()), asVector(full.values()))
           << "dims " << dims.transpose() << " step " << step;
-      ASSERT_EQ(incremental.grid().occupancy(), grid.occupancy());
+      ASSERT_EQ(asVector(incremental.grid().occupancy()), asVector(grid.occupancy()));
     }
   }
 }
@@ -195,7 +197,7 @@ TEST(EsdfTest, AnyNumberOfThreadsBuildsTheSameFieldBitForBit) {
     const VoxelGrid grid = randomGrid(dims, density, 5, 0.1);
     const Esdf one(grid, 1);
     for (const int threads : {2, 3, 4, 7}) {
-      EXPECT_EQ(Esdf(grid, threads).values(), one.values())
+      EXPECT_EQ(asVector(Esdf(grid, threads).values()), asVector(one.values()))
           << "dims " << dims.transpose() << ", " << threads << " threads";
     }
     if (grid.size() < 1000) {
@@ -216,17 +218,17 @@ TEST(IncrementalEsdfTest, AnUpdateRecomputesOnlyTheLinesItReaches) {
   IncrementalEsdf incremental(grid);
   const std::size_t full = incremental.linesRecomputed();
   EXPECT_EQ(full, 2u * (60 * 60 + 60 * 20 + 60 * 20));
-  EXPECT_EQ(incremental.update(grid.occupancy()), 0u);  // nothing changed: no work
+  EXPECT_EQ(incremental.update(asVector(grid.occupancy())), 0u);  // nothing changed: no work
   EXPECT_EQ(incremental.linesRecomputed(), full);
-  std::vector<std::uint8_t> occupancy = grid.occupancy();
+  std::vector<std::uint8_t> occupancy = asVector(grid.occupancy());
   const std::size_t voxel = grid.index(30, 30, 10);
   occupancy[voxel] = occupancy[voxel] ? 0 : 1;
   EXPECT_EQ(incremental.update(occupancy), 1u);
   const std::size_t work = incremental.linesRecomputed() - full;
   EXPECT_GT(work, 0u);
   EXPECT_LT(work, full / 4) << "one voxel in a 1 % grid should reach a few lines";
-  grid.occupancy() = occupancy;
-  EXPECT_EQ(incremental.esdf().values(), Esdf(grid).values());
+  std::ranges::copy(occupancy, grid.mutableOccupancy().begin());
+  EXPECT_EQ(asVector(incremental.esdf().values()), asVector(Esdf(grid).values()));
 }
 
 TEST(IncrementalEsdfTest, ANewObstacleInFreeSpaceTransformsOnlyItsXLines) {
@@ -239,15 +241,15 @@ TEST(IncrementalEsdfTest, ANewObstacleInFreeSpaceTransformsOnlyItsXLines) {
   IncrementalEsdf incremental(grid);
   const std::size_t built = incremental.linesRecomputed();
   grid.setOccupied({30, 20, 12}, true);
-  ASSERT_EQ(incremental.update(grid.occupancy()), 1u);
+  ASSERT_EQ(incremental.update(asVector(grid.occupancy())), 1u);
   EXPECT_EQ(incremental.linesRecomputed() - built, 2u);
-  EXPECT_EQ(incremental.esdf().values(), Esdf(grid).values());
+  EXPECT_EQ(asVector(incremental.esdf().values()), asVector(Esdf(grid).values()));
   // And back: the outside distances grow wherever the voxel was their minimum, too many
   // entries to scan, so its lines are transformed anew, and the field is the first one again.
   grid.setOccupied({30, 20, 12}, false);
-  ASSERT_EQ(incremental.update(grid.occupancy()), 1u);
+  ASSERT_EQ(incremental.update(asVector(grid.occupancy())), 1u);
   EXPECT_GT(incremental.linesRecomputed() - built, 2u + 2u);
-  EXPECT_EQ(incremental.esdf().values(), Esdf(grid).values());
+  EXPECT_EQ(asVector(incremental.esdf().values()), asVector(Esdf(grid).values()));
 }
 
 TEST(EsdfTest, AGridAtTheTransformsLimitIsExactAndOneBeyondIsRefused) {
@@ -652,6 +654,50 @@ TEST(EsdfTest, ACubeAtExactlyTheThresholdDoesNotHideANearerOne) {
     const double threshold = 3 * 0.1;
     EXPECT_LT(esdf.decided(point, esdf.clearance(point), threshold, threshold), threshold);
     EXPECT_NEAR(esdf.exactDistance(point, 1.0), std::sqrt(0.08), 1e-12);
+  }
+}
+
+TEST(EsdfTest, AnExactDistanceRunIsExactDistanceBitForBitWithLessWork) {
+  // Runs of points a quarter voxel apart (a trajectory's samples) wandering through random and
+  // structured grids, leaving them now and then, on dense and truncated fields and at limits
+  // below and above the distances found.
+  for (int round = 0; round < 4; ++round) {
+    const bool structured = round >= 2;
+    const VoxelGrid grid = structured ? structuredGrid({48, 40, 16}, 0.1, GridLayout::kDense, round)
+                                      : randomGrid({30, 26, 12}, round == 0 ? 0.01 : 0.1, 5, 0.1);
+    const Esdf dense(grid);
+    const Esdf truncated = Esdf::truncated(grid, 0.4);
+    const Eigen::Vector3d size = grid.dims().cast<double>() * grid.resolution();
+    for (const Esdf* field : {&dense, &truncated}) {
+      for (const double limit : {0.25, std::min(field->maxDistance(), field->truncation())}) {
+        SCOPED_TRACE(::testing::Message() << "round " << round << " truncated "
+                                          << (field == &truncated) << " limit " << limit);
+        ExactDistanceRun run(*field, limit);
+        Rng rng(31 + round);
+        Eigen::Vector3d point = 0.5 * size;
+        Eigen::Vector3d step = Eigen::Vector3d::UnitX() * 0.025;
+        int points = 0;
+        int inside = 0;
+        for (int i = 0; i < 4000; ++i) {
+          if (i % 200 == 0) {  // a new run somewhere, a few just outside the grid
+            point = drawLastFirst<Eigen::Vector3d>(
+                [&](int axis) { return rng.uniform(-0.05, 1.05) * size[axis]; });
+            step = drawLastFirst<Eigen::Vector3d>([&](int) {
+                     return rng.uniform(-1.0, 1.0);
+                   }).normalized() *
+                   0.025;
+          }
+          point += step;
+          ++points;
+          const double expected = field->exactDistance(point, limit);
+          ASSERT_EQ(run(point), expected) << point.transpose();
+          inside += expected < limit;
+        }
+        EXPECT_GT(inside, 300);  // enough points with a cube nearer than the limit
+        // A voxel's cubes are gathered once for its run of points.
+        EXPECT_LT(run.voxelsGathered(), static_cast<std::size_t>(points) / 2);
+      }
+    }
   }
 }
 

@@ -18,6 +18,7 @@
 #include "kinolab/plugins/depth_camera.hpp"
 #include "kinolab/plugins/lidar.hpp"
 #include "kinolab/world/world_spec.hpp"
+#include "support/arrays.hpp"
 #include "support/planning.hpp"
 
 namespace kinolab {
@@ -465,8 +466,8 @@ TEST(VehicleMapTest, TheKeptWindowIsUpdatedWhereTheMapChangedAndMovedWithTheVehi
   EXPECT_NEAR(first->bounds().max.z() - first->bounds().min.z(), 2.0, 0.11);
   // Nothing new: the same world.
   EXPECT_EQ(sees(origin), first);
-  const std::vector<float> first_values = first->esdf().values();
-  const std::vector<std::uint8_t> first_occupancy = first->grid().occupancy();
+  const std::vector<float> first_values = asVector(first->esdf().values());
+  const std::vector<std::uint8_t> first_occupancy = asVector(first->grid().occupancy());
   // 0.9 m on, the wall (x = 10) comes within range: the kept window (same box) is updated,
   // and its ESDF is the exact field of its occupancy; the World held meanwhile is as it was.
   const Eigen::Vector3d on = origin + Eigen::Vector3d(0.9, 0.0, 0.0);
@@ -474,9 +475,9 @@ TEST(VehicleMapTest, TheKeptWindowIsUpdatedWhereTheMapChangedAndMovedWithTheVehi
   EXPECT_NE(updated, first);
   EXPECT_EQ(updated->bounds().min, first->bounds().min);
   EXPECT_GT(updated->grid().occupiedCount(), first->grid().occupiedCount());
-  EXPECT_EQ(updated->esdf().values(), Esdf(updated->grid()).values());
-  EXPECT_EQ(first->esdf().values(), first_values);
-  EXPECT_EQ(first->grid().occupancy(), first_occupancy);
+  EXPECT_EQ(asVector(updated->esdf().values()), asVector(Esdf(updated->grid()).values()));
+  EXPECT_EQ(asVector(first->esdf().values()), first_values);
+  EXPECT_EQ(asVector(first->grid().occupancy()), first_occupancy);
   // When no one holds the last World any more, the next is made in its memory, and exact.
   const float* memory = updated->esdf().values().data();
   const std::size_t occupied = updated->grid().occupiedCount();
@@ -485,13 +486,13 @@ TEST(VehicleMapTest, TheKeptWindowIsUpdatedWhereTheMapChangedAndMovedWithTheVehi
   const auto farther = sees(on);
   ASSERT_NE(farther->grid().occupiedCount(), occupied) << "nothing new: the same window";
   EXPECT_EQ(farther->esdf().values().data(), memory);
-  EXPECT_EQ(farther->esdf().values(), Esdf(farther->grid()).values());
+  EXPECT_EQ(asVector(farther->esdf().values()), asVector(Esdf(farther->grid()).values()));
   lidar.range = 4.0;
   // Beyond the margin the window is built anew around the vehicle.
   const Eigen::Vector3d beyond = origin + Eigen::Vector3d(1.2, 0.0, 0.0);
   const auto moved = sees(beyond);
   EXPECT_NEAR(moved->bounds().min.x(), beyond.x() - 5.0, 0.1);
-  EXPECT_EQ(moved->esdf().values(), Esdf(moved->grid()).values());
+  EXPECT_EQ(asVector(moved->esdf().values()), asVector(Esdf(moved->grid()).values()));
   // So is a window whose middle the vehicle left by more than a quarter of its height.
   const Eigen::Vector3d climbed = beyond + Eigen::Vector3d(0.0, 0.0, 0.6);
   EXPECT_NEAR(sees(climbed)->bounds().min.z(), climbed.z() - 1.0, 0.1);

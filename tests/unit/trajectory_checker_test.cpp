@@ -469,10 +469,12 @@ TEST(TrajectoryCheckerTest, TheBodyCollidesExactlyWhenItMeetsAnOccupiedCube) {
 }
 
 TEST(TrajectoryCheckerTest, TheBodyCollidesExactlyAcrossTheCheckersTiles) {
-  // The checker's trees cover 256 x 256 voxels each, made as checks reach them: on a 0.02 m
-  // grid 12 m x 6 m, tile borders lie at x = 5.12 and 10.24 m and at y = 5.12 m. A block and a
-  // wall straddle them, small boxes lie about; bodies near the borders, on both layouts,
-  // against the brute force.
+  // The checker's trees cover kTileVoxels x kTileVoxels voxels each, made as checks reach
+  // them: on a 0.02 m grid 12 m x 6 m, tile borders lie at x = 5.12 and 10.24 m and at
+  // y = 5.12 m (and between). A block and a wall straddle them, small boxes lie about; bodies
+  // near the borders, on both layouts, against the brute force.
+  const double tile_side = TrajectoryChecker::kTileVoxels * 0.02;
+  ASSERT_NEAR(std::remainder(5.12, tile_side), 0.0, 1e-9);
   const std::string text =
       "seed: 4\nresolution: 0.02\nbounds: {min: [0, 0, 0], max: [12, 6, 0.6]}\n"
       "generators:\n  - {type: box_list, boxes: [{min: [4.9, 1, 0], max: [5.4, 2, 0.4]}, "
@@ -493,7 +495,7 @@ TEST(TrajectoryCheckerTest, TheBodyCollidesExactlyAcrossTheCheckersTiles) {
                                         : rng.uniform(0.0, 12.0);
           const double y = i % 2 == 0 ? rng.uniform(4.8, 5.5) : rng.uniform(0.0, 6.0);
           const Eigen::Vector3d p(x, y, rng.uniform(0.0, 0.6));
-          const auto tile = [](double v) { return std::floor(v / 5.12); };
+          const auto tile = [&](double v) { return std::floor(v / tile_side); };
           across += tile(x - radius) != tile(x + radius) || tile(y - radius) != tile(y + radius);
           return p;
         });

@@ -127,10 +127,10 @@ TEST(YamlFieldsTest, ErrorsNameTheFileTheKeyPathAndWhatWasExpected) {
 }
 
 TEST(YamlFieldsTest, CanonicalTextWritesTheIdentityFieldsInEitherStyle) {
-  Plate plate = read("name: p\nshape: square\nband: [0.5, 2]\nhole: {depth: 0.1}\n"
-                     "parts: [{at: [1, 2, 3]}]\n");
-  EXPECT_EQ(canonicalFields(plate),
-            "1 false 0 0.5 2 size 1 2 hole 0.1 parts (1, 2, 3)");
+  Plate plate = read(
+      "name: p\nshape: square\nband: [0.5, 2]\nhole: {depth: 0.1}\n"
+      "parts: [{at: [1, 2, 3]}]\n");
+  EXPECT_EQ(canonicalFields(plate), "1 false 0 0.5 2 size 1 2 hole 0.1 parts (1, 2, 3)");
   EXPECT_EQ(canonicalFields(plate, {.names = true, .hex = true}),
             "shape=square painted=false tries=0 band=0x1p-1,0x1p+1 width=0x1p+0 count=2 "
             "depth=0x1.999999999999ap-4 at=0x1p+0,0x1p+1,0x1.8p+1");

@@ -108,14 +108,13 @@ Box VehicleMap::latticeBox(const Eigen::Vector3d& center, const Eigen::Vector3d&
 }
 
 void VehicleMap::windowOccupancy(const VoxelGrid& grid, const Eigen::Vector3d& center,
-                                 std::vector<std::uint8_t>& occupancy) const {
+                                 std::span<std::uint8_t> occupancy) const {
   const Eigen::Vector3i& n = grid.dims();
   const VoxelGrid& lattice = lattice_;
   // The window's first voxel in the map (both on the map's lattice).
   const Eigen::Vector3i first =
       ((grid.origin() - lattice.origin()) / model_.resolution).array().round().cast<int>();
   const double near2 = model_.free_beyond * model_.free_beyond;
-  occupancy.resize(grid.size());
   for (int x = 0; x < n.x(); ++x) {
     for (int y = 0; y < n.y(); ++y) {
       // One z column of the window is a run of the map's column (both z fastest).
@@ -171,13 +170,14 @@ std::shared_ptr<const World> VehicleMap::window(const Eigen::Vector3d& center, b
   if (!kept) {
     window_middle_ = center;
     VoxelGrid grid(latticeBox(center, half.array() + model_.reach), model_.resolution);
-    windowOccupancy(grid, center, grid.occupancy());
+    windowOccupancy(grid, center, grid.mutableOccupancy());
     if (window_field_) {
       window_field_->rebuild(std::move(grid));
     } else {
       window_field_ = std::make_unique<IncrementalEsdf>(std::move(grid));
     }
   } else {
+    window_occupancy_.resize(window_field_->grid().size());
     windowOccupancy(window_field_->grid(), center, window_occupancy_);
     if (window_field_->update(window_occupancy_) == 0) return window_world_;
   }

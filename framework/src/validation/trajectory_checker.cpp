@@ -47,7 +47,7 @@ bool onSurface(const VoxelGrid& grid, const VoxelIndex& voxel) {
 /// way) bound a tile, not the world.
 class SurfaceTiles {
  public:
-  static constexpr int kTile = 256;
+  static constexpr int kTile = TrajectoryChecker::kTileVoxels;
 
   explicit SurfaceTiles(const VoxelGrid& grid)
       : grid_(grid),

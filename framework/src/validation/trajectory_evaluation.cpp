@@ -178,7 +178,9 @@ TrajectoryEvaluation TrajectoryChecker::evaluate(const Trajectory& trajectory) c
   result.length = trajectory.length();
   evaluateIntegrals(trajectory, result, undefined);
   const Esdf& esdf = world_->esdf();
-  const double cap = std::min(esdf.maxDistance(), esdf.truncation());
+  // The exact distance, up to the map's diagonal or a truncated field's truncation (a sparse
+  // world's clearance figures are capped there: exact below it).
+  ExactDistanceRun exactDistance(esdf, std::min(esdf.maxDistance(), esdf.truncation()));
   SampleFigures figures(settings_.limits);
   double segment_start = 0.0;
   std::vector<std::pair<double, double>> times;
@@ -187,9 +189,7 @@ TrajectoryEvaluation TrajectoryChecker::evaluate(const Trajectory& trajectory) c
     figures.startSegment();
     for (std::size_t i = 0; i < times.size(); ++i) {
       const double local = times[i].second;
-      // The exact distance, up to the map's diagonal or a truncated field's truncation (a
-      // sparse world's clearance figures are capped there: exact below it).
-      const double distance = std::max(esdf.exactDistance(segment.evaluate(local), cap), 0.0);
+      const double distance = std::max(exactDistance(segment.evaluate(local)), 0.0);
       const double before = i > 0 ? local - times[i - 1].second : 0.0;
       const double after = i + 1 < times.size() ? times[i + 1].second - local : 0.0;
       figures.add(distance, segment.evaluate(local, 1), segment.evaluate(local, 2),

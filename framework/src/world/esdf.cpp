@@ -38,7 +38,7 @@ Esdf::Esdf(const VoxelGrid& grid, int threads) {
   esdf_detail::checkTransformable(grid.dims(), "Esdf");
   threads = esdf_detail::buildThreads(grid, threads, kParallelVoxels);
   setGeometry(grid);
-  values_ = vectorOnHugePages<float>(grid.size());
+  std::vector<float> values = vectorOnHugePages<float>(grid.size());
   const auto cap = static_cast<float>(max_distance_);
   const auto half_voxel = static_cast<float>(0.5 * resolution_);  // the fields are in half voxels
   // Both distances in one signed field (the build holds 9 bytes a voxel: the occupancy, the
@@ -50,12 +50,13 @@ Esdf::Esdf(const VoxelGrid& grid, int threads) {
     for (std::size_t i = begin; i < end; ++i) {
       const float distance =
           esdf_detail::cappedDistance(esdf_detail::decodeSigned(field[i]), half_voxel, cap);
-      values_[i] = field[i] < 0 ? -distance : distance;
+      values[i] = field[i] < 0 ? -distance : distance;
     }
   });
+  values_ = std::move(values);
 }
 
-Esdf::Esdf(const VoxelGrid& grid, std::vector<float> values) : values_(std::move(values)) {
+Esdf::Esdf(const VoxelGrid& grid, ValueArray<float> values) : values_(std::move(values)) {
   if (values_.size() != grid.size()) {
     throw InvalidArgument("Esdf: " + std::to_string(values_.size()) + " values for " +
                           std::to_string(grid.size()) + " voxels");
@@ -63,12 +64,12 @@ Esdf::Esdf(const VoxelGrid& grid, std::vector<float> values) : values_(std::move
   setGeometry(grid);
 }
 
-const std::vector<float>& Esdf::values() const {
+std::span<const float> Esdf::values() const {
   if (brick_table_) {
     throw InvalidArgument(
         "Esdf::values: a truncated (sparse) field has no dense array; query it by voxel");
   }
-  return values_;
+  return values_.span();
 }
 
 }  // namespace kinolab

@@ -198,3 +198,127 @@ double Esdf::nearestCube(Search search, const Eigen::Vector3d& point, double lim
 }
 
 }  // namespace kinolab
+
+namespace kinolab {
+namespace {
+
+/// Gaps in voxels along an axis from voxel c's cube to voxel c + offset's cube, and from c's
+/// centre to it.
+double boxGap(std::int64_t offset) {
+  return offset > 0 ? static_cast<double>(offset - 1)
+                    : (offset < 0 ? static_cast<double>(-offset - 1) : 0.0);
+}
+double centreGap(std::int64_t offset) {
+  return offset == 0 ? 0.0 : std::abs(static_cast<double>(offset)) - 0.5;
+}
+
+}  // namespace
+
+double ExactDistanceRun::operator()(const Eigen::Vector3d& point) {
+  const Esdf& field = esdf_;
+  double scaled[3];
+  std::int64_t cell[3];
+  for (int axis = 0; axis < 3; ++axis) {
+    scaled[axis] = (point[axis] - field.origin_[axis]) * field.inverse_resolution_;
+    // Outside the grid (or not a number): the search itself.
+    if (!(scaled[axis] >= 0.0 && scaled[axis] < static_cast<double>(field.dims_[axis]))) {
+      return field.exactDistance(point, limit_);
+    }
+    cell[axis] = static_cast<std::int64_t>(scaled[axis]);
+  }
+  if (cell[0] != voxel_[0] || cell[1] != voxel_[1] || cell[2] != voxel_[2]) gather(cell);
+  if (!usable_) return field.exactDistance(point, limit_);
+  // The gaps and their sum as exactDistance() takes them, so the least is the same bit for bit.
+  const auto gap = [&](int axis, std::int32_t i) {
+    const double low = static_cast<double>(i);
+    const double x = scaled[axis];
+    return x < low ? low - x : (x > low + 1.0 ? x - low - 1.0 : 0.0);
+  };
+  double best2 = INFINITY;
+  for (std::size_t i = 0; i < cubes_.size(); i += 3) {
+    const double gx = gap(0, cubes_[i]);
+    const double gy = gap(1, cubes_[i + 1]);
+    const double gz = gap(2, cubes_[i + 2]);
+    best2 = std::min(best2, (gx * gx + gy * gy) + gz * gz);
+  }
+  if (best2 == INFINITY) return limit_;
+  if (best2 == 0.0) return -0.5 * field.resolution_;  // in (or on) a cube
+  return std::min(std::sqrt(best2) * field.resolution_, limit_);
+}
+
+void ExactDistanceRun::gather(const std::int64_t cell[3]) {
+  const Esdf& field = esdf_;
+  for (int axis = 0; axis < 3; ++axis) voxel_[axis] = cell[axis];
+  cubes_.clear();
+  const float raw =
+      field.valueAt(static_cast<std::size_t>(cell[0]), static_cast<std::size_t>(cell[1]),
+                    static_cast<std::size_t>(cell[2]));
+  // No obstacle in the grid, or a truncated value bounding nothing above: no shell to gather.
+  usable_ =
+      raw < static_cast<float>(field.max_distance_) && raw < static_cast<float>(field.truncation_);
+  if (!usable_) return;
+  ++gathered_voxels_;
+  const auto add = [&](std::int64_t x, std::int64_t y, std::int64_t z) {
+    cubes_.insert(cubes_.end(), {static_cast<std::int32_t>(x), static_cast<std::int32_t>(y),
+                                 static_cast<std::int32_t>(z)});
+  };
+  if (raw < 0.0f) {  // occupied: every point of it is in its cube
+    add(cell[0], cell[1], cell[2]);
+    return;
+  }
+  // In voxels: the nearest cube to any point of the voxel is within d + sqrt(3)/2 of the
+  // voxel's cube (d the centre's exact value); nothing within d of the centre is occupied.
+  // Both with float rounding's slack; a cube gathered beyond need is harmless.
+  const double d = raw * field.inverse_resolution_;
+  const double reach =
+      std::min(d + 0.5 * std::sqrt(3.0) + 1e-4, limit_ * field.inverse_resolution_ + 1e-4);
+  const double reach2 = reach * reach;
+  const double inner = std::max(0.0, d - 1e-4);
+  const double inner2 = inner * inner;
+  const auto span = static_cast<std::int64_t>(std::ceil(reach)) + 1;
+  const std::int64_t cx = cell[0];
+  const std::int64_t cy = cell[1];
+  const std::int64_t cz = cell[2];
+  const std::int64_t nz = field.dims_[2];
+  for (std::int64_t x = std::max<std::int64_t>(0, cx - span);
+       x <= std::min<std::int64_t>(field.dims_[0] - 1, cx + span); ++x) {
+    const double bx2 = boxGap(x - cx) * boxGap(x - cx);
+    if (bx2 > reach2) continue;
+    const double hx2 = centreGap(x - cx) * centreGap(x - cx);
+    for (std::int64_t y = std::max<std::int64_t>(0, cy - span);
+         y <= std::min<std::int64_t>(field.dims_[1] - 1, cy + span); ++y) {
+      const double bxy2 = bx2 + boxGap(y - cy) * boxGap(y - cy);
+      if (bxy2 > reach2) continue;
+      const double hxy2 = hx2 + centreGap(y - cy) * centreGap(y - cy);
+      // The column's cubes within the free ball are skipped; along z, the first occupied cube
+      // each way is nearer than those beyond it to every point of the voxel.
+      const double free_z = hxy2 < inner2 ? std::sqrt(inner2 - hxy2) : 0.0;
+      const std::int64_t below =
+          free_z > 0.0 ? std::min(cz, static_cast<std::int64_t>(
+                                          std::floor(static_cast<double>(cz) - 0.5 - free_z)))
+                       : cz;
+      for (std::int64_t z = below; z >= 0; --z) {
+        const double bz = boxGap(z - cz);
+        if (bxy2 + bz * bz > reach2) break;
+        if (field.valueAt(static_cast<std::size_t>(x), static_cast<std::size_t>(y),
+                          static_cast<std::size_t>(z)) < 0.0f) {
+          add(x, y, z);
+          break;
+        }
+      }
+      const std::int64_t above = std::max(
+          cz + 1, static_cast<std::int64_t>(std::ceil(static_cast<double>(cz) + 0.5 + free_z)));
+      for (std::int64_t z = above; z < nz; ++z) {
+        const double bz = boxGap(z - cz);
+        if (bxy2 + bz * bz > reach2) break;
+        if (field.valueAt(static_cast<std::size_t>(x), static_cast<std::size_t>(y),
+                          static_cast<std::size_t>(z)) < 0.0f) {
+          add(x, y, z);
+          break;
+        }
+      }
+    }
+  }
+}
+
+}  // namespace kinolab

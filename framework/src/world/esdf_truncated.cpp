@@ -21,15 +21,17 @@ struct Esdf::Bricks {
   std::size_t allocated = 0;
   std::int16_t far[kBrickVoxels];
   std::int16_t deep[kBrickVoxels];
-  std::vector<float> values;  // of each code, as 16 bits
+  std::vector<float> values;        // of each code, as 16 bits
+  ValueArray<std::int16_t> stored;  // the bricks of a field from a cache file (fromBricks)
 };
 
 std::size_t Esdf::allocatedBricks() const { return bricks_ ? bricks_->allocated : 0; }
 
 std::size_t Esdf::memoryBytes() const {
-  if (!bricks_) return values_.capacity() * sizeof(float);
+  if (!bricks_) return values_.bytes();
   return bricks_->table.capacity() * sizeof(const std::int16_t*) +
-         bricks_->allocated * kBrickVoxels * sizeof(std::int16_t) +
+         (bricks_->stored.empty() ? bricks_->allocated * kBrickVoxels * sizeof(std::int16_t)
+                                  : bricks_->stored.bytes()) +
          bricks_->values.capacity() * sizeof(float) + sizeof(Bricks);
 }
 
@@ -50,7 +52,7 @@ VoxelGrid denseCopy(const VoxelGrid& grid, const Eigen::Vector3i& low,
   VoxelGrid copy(Box{Eigen::Vector3d::Zero(), n.cast<double>() * grid.resolution()},
                  grid.resolution());
   if (copy.dims() != n) throw std::logic_error("Esdf::truncated: a tile's grid is not its size");
-  std::uint8_t* out = copy.occupancy().data();
+  std::uint8_t* out = copy.mutableOccupancy().data();
   const int b = VoxelGrid::kBrick;
   for (int bx = low.x() / b; bx * b < high.x(); ++bx) {
     for (int by = low.y() / b; by * b < high.y(); ++by) {
@@ -278,31 +280,44 @@ class TruncatedTiles {
 
 }  // namespace
 
-Esdf Esdf::truncated(const VoxelGrid& grid, double truncation, int threads) {
-  if (grid.size() == 0) throw InvalidArgument("Esdf::truncated: empty grid");
+std::shared_ptr<Esdf::Bricks> Esdf::startTruncated(const VoxelGrid& grid, double truncation,
+                                                   const char* who) {
+  if (grid.size() == 0) throw InvalidArgument(std::string(who) + ": empty grid");
   if (!(truncation > 0.0 && truncation < INFINITY)) {
-    throw InvalidArgument("Esdf::truncated: the truncation must be a positive finite distance");
+    throw InvalidArgument(std::string(who) + ": the truncation must be a positive finite distance");
   }
-  if (threads < 0) throw InvalidArgument("Esdf::truncated: threads must be >= 0");
-  threads = esdf_detail::buildThreads(grid, threads, kParallelVoxels);
   if (truncation > kMostTruncationVoxels * grid.resolution()) {
-    throw InvalidArgument("Esdf::truncated: a truncation of " + std::to_string(truncation) +
+    throw InvalidArgument(std::string(who) + ": a truncation of " + std::to_string(truncation) +
                           " m is more than 90 voxels");
   }
-  Esdf esdf;
-  esdf.setGeometry(grid);
-  esdf.truncation_ = truncation;
-  const auto limit = static_cast<float>(truncation);
-  const auto half_voxel = static_cast<float>(0.5 * grid.resolution());
+  setGeometry(grid);
+  truncation_ = truncation;
   auto store = std::make_shared<Bricks>();
   std::fill(std::begin(store->far), std::end(store->far), kBeyond);
   std::fill(std::begin(store->deep), std::end(store->deep), static_cast<std::int16_t>(-kBeyond));
-  store->values = codeValues(half_voxel, limit);
-  const TruncatedTiles tiles(grid, truncation, leastBeyond(half_voxel, limit));
-  const Eigen::Vector3i& bricks = tiles.bricks();
+  store->values =
+      codeValues(static_cast<float>(0.5 * grid.resolution()), static_cast<float>(truncation));
+  const Eigen::Vector3i bricks = (dims_.array() + VoxelGrid::kBrick - 1) / VoxelGrid::kBrick;
   store->table.assign(static_cast<std::size_t>(bricks.cast<double>().prod()), store->far);
-  esdf.brick_strides_[0] = static_cast<std::size_t>(bricks.y()) * bricks.z();
-  esdf.brick_strides_[1] = static_cast<std::size_t>(bricks.z());
+  brick_strides_[0] = static_cast<std::size_t>(bricks.y()) * bricks.z();
+  brick_strides_[1] = static_cast<std::size_t>(bricks.z());
+  return store;
+}
+
+void Esdf::finishTruncated(std::shared_ptr<Bricks> store) {
+  brick_table_ = store->table.data();
+  code_values_ = store->values.data();
+  bricks_ = std::move(store);
+}
+
+Esdf Esdf::truncated(const VoxelGrid& grid, double truncation, int threads) {
+  if (threads < 0) throw InvalidArgument("Esdf::truncated: threads must be >= 0");
+  Esdf esdf;
+  const std::shared_ptr<Bricks> store = esdf.startTruncated(grid, truncation, "Esdf::truncated");
+  threads = esdf_detail::buildThreads(grid, threads, kParallelVoxels);
+  const auto limit = static_cast<float>(truncation);
+  const auto half_voxel = static_cast<float>(0.5 * grid.resolution());
+  const TruncatedTiles tiles(grid, truncation, leastBeyond(half_voxel, limit));
   std::atomic<int> next_tile{0};
   std::mutex chunks_mutex;
   esdf_detail::inParallel(static_cast<std::size_t>(threads), threads,
@@ -315,10 +330,44 @@ Esdf Esdf::truncated(const VoxelGrid& grid, double truncation, int threads) {
                               store->chunks.push_back(std::move(made.chunk));
                             }
                           });
-  esdf.brick_table_ = store->table.data();
-  esdf.code_values_ = store->values.data();
-  esdf.bricks_ = std::move(store);
+  esdf.finishTruncated(store);
   return esdf;
+}
+
+Esdf Esdf::fromBricks(const VoxelGrid& grid, double truncation, std::span<const std::int32_t> slots,
+                      ValueArray<std::int16_t> codes) {
+  Esdf esdf;
+  const std::shared_ptr<Bricks> store = esdf.startTruncated(grid, truncation, "Esdf::fromBricks");
+  if (slots.size() != store->table.size()) {
+    throw InvalidArgument("Esdf::fromBricks: " + std::to_string(slots.size()) + " slots for " +
+                          std::to_string(store->table.size()) + " bricks");
+  }
+  if (codes.size() % kBrickVoxels != 0) {
+    throw InvalidArgument("Esdf::fromBricks: the codes are not whole bricks");
+  }
+  const std::size_t own = codes.size() / kBrickVoxels;
+  for (std::size_t i = 0; i < slots.size(); ++i) {
+    const std::int32_t slot = slots[i];
+    if (slot < -2 || (slot >= 0 && static_cast<std::size_t>(slot) >= own)) {
+      throw InvalidArgument("Esdf::fromBricks: brick " + std::to_string(i) + " names slot " +
+                            std::to_string(slot) + " of " + std::to_string(own));
+    }
+    store->table[i] = slot == -1   ? store->far
+                      : slot == -2 ? store->deep
+                                   : codes.data() + static_cast<std::size_t>(slot) * kBrickVoxels;
+  }
+  store->allocated = own;
+  store->stored = std::move(codes);
+  esdf.finishTruncated(store);
+  return esdf;
+}
+
+std::size_t Esdf::brickCount() const { return bricks_ ? bricks_->table.size() : 0; }
+
+const std::int16_t* Esdf::brickCodes(std::size_t index, int& shared) const {
+  const std::int16_t* codes = bricks_->table.at(index);
+  shared = codes == bricks_->far ? 1 : (codes == bricks_->deep ? -1 : 0);
+  return shared == 0 ? codes : nullptr;
 }
 
 }  // namespace kinolab

@@ -226,7 +226,7 @@ struct LineTransform {
 
 /// Makes `occupancy` (0 free, else occupied) the grid's `current` (0 or 1 a voxel); returns
 /// the voxels that changed occupancy, in grid order.
-std::vector<std::size_t> applyOccupancy(std::vector<std::uint8_t>& current,
+std::vector<std::size_t> applyOccupancy(std::span<std::uint8_t> current,
                                         const std::vector<std::uint8_t>& occupancy) {
   std::vector<std::size_t> changed;
   // Eight voxels at a time where their bytes are equal (a frame changes few).
@@ -379,7 +379,7 @@ std::size_t IncrementalEsdf::update(const std::vector<std::uint8_t>& occupancy) 
     throw InvalidArgument("IncrementalEsdf::update: " + std::to_string(occupancy.size()) +
                           " voxels for a grid of " + std::to_string(grid_.size()));
   }
-  const std::vector<std::size_t> changed = applyOccupancy(grid_.occupancy(), occupancy);
+  const std::vector<std::size_t> changed = applyOccupancy(grid_.mutableOccupancy(), occupancy);
   if (changed.empty()) return 0;
   PassUpdate passes(grid_, changed);
   // The voxels whose value may change: the changed ones and those whose pass 3 changed.

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <bit>
 #include <cmath>
+#include <string>
 
 #include "kinolab/core/error.hpp"
 
@@ -10,18 +11,10 @@ namespace kinolab {
 
 VoxelGrid::VoxelGrid(const Box& bounds, double resolution, GridLayout layout)
     : resolution_(resolution), origin_(bounds.min), bricked_(layout == GridLayout::kBricked) {
-  if (!(resolution > 0.0)) throw InvalidArgument("VoxelGrid: resolution must be positive");
-  const Eigen::Vector3d extent = bounds.size();
-  for (int axis = 0; axis < 3; ++axis) {
-    if (!(extent[axis] > 0.0)) throw InvalidArgument("VoxelGrid: bounds must have max > min");
-    // The small tolerance keeps 40 / 0.1 at 400 voxels despite rounding.
-    dims_[axis] = std::max(1, static_cast<int>(std::ceil(extent[axis] / resolution - 1e-9)));
-  }
-  const double count = static_cast<double>(dims_.x()) * dims_.y() * dims_.z();
-  size_ = static_cast<std::size_t>(count);
+  const double count = setDims(bounds);
   if (!bricked_) {
     if (count > 2e9) throw InvalidArgument("VoxelGrid: more than 2e9 voxels; raise the resolution");
-    occupancy_.assign(size_, 0);
+    occupancy_ = std::vector<std::uint8_t>(size_, 0);
     return;
   }
   // The table holds 4 bytes per brick of 512 voxels.
@@ -30,8 +23,52 @@ VoxelGrid::VoxelGrid(const Box& bounds, double resolution, GridLayout layout)
   brick_state_.assign(static_cast<std::size_t>(bricks_.cast<double>().prod()), kEmptyBrick);
 }
 
+VoxelGrid::VoxelGrid(const Box& bounds, double resolution, ValueArray<std::uint8_t> occupancy)
+    : resolution_(resolution), origin_(bounds.min) {
+  setDims(bounds);
+  if (occupancy.size() != size_) {
+    throw InvalidArgument("VoxelGrid: " + std::to_string(occupancy.size()) +
+                          " occupancy values for " + std::to_string(size_) + " voxels");
+  }
+  occupancy_ = std::move(occupancy);
+}
+
+VoxelGrid::VoxelGrid(const Box& bounds, double resolution, std::vector<std::uint32_t> brick_states,
+                     std::vector<std::uint64_t> brick_masks)
+    : VoxelGrid(bounds, resolution, GridLayout::kBricked) {
+  if (brick_states.size() != brick_state_.size()) {
+    throw InvalidArgument("VoxelGrid: " + std::to_string(brick_states.size()) +
+                          " brick states for " + std::to_string(brick_state_.size()) + " bricks");
+  }
+  if (brick_masks.size() % 8 != 0) {
+    throw InvalidArgument("VoxelGrid: brick masks are not whole bricks of 8 words");
+  }
+  const std::size_t masks = brick_masks.size() / 8;
+  for (const std::uint32_t state : brick_states) {
+    if (state >= kMasked && state - kMasked >= masks) {
+      throw InvalidArgument("VoxelGrid: a brick state names mask " +
+                            std::to_string(state - kMasked) + " of " + std::to_string(masks));
+    }
+  }
+  brick_state_ = std::move(brick_states);
+  masks_ = std::move(brick_masks);
+}
+
+double VoxelGrid::setDims(const Box& bounds) {
+  if (!(resolution_ > 0.0)) throw InvalidArgument("VoxelGrid: resolution must be positive");
+  const Eigen::Vector3d extent = bounds.size();
+  for (int axis = 0; axis < 3; ++axis) {
+    if (!(extent[axis] > 0.0)) throw InvalidArgument("VoxelGrid: bounds must have max > min");
+    // The small tolerance keeps 40 / 0.1 at 400 voxels despite rounding.
+    dims_[axis] = std::max(1, static_cast<int>(std::ceil(extent[axis] / resolution_ - 1e-9)));
+  }
+  const double count = static_cast<double>(dims_.x()) * dims_.y() * dims_.z();
+  size_ = static_cast<std::size_t>(count);
+  return count;
+}
+
 std::size_t VoxelGrid::memoryBytes() const {
-  return occupancy_.capacity() + brick_state_.capacity() * sizeof(std::uint32_t) +
+  return occupancy_.bytes() + brick_state_.capacity() * sizeof(std::uint32_t) +
          masks_.capacity() * sizeof(std::uint64_t);
 }
 
@@ -51,14 +88,14 @@ std::size_t VoxelGrid::occupiedCount() const {
   return count;
 }
 
-const std::vector<std::uint8_t>& VoxelGrid::occupancy() const {
+std::span<const std::uint8_t> VoxelGrid::occupancy() const {
   if (bricked_) denseOnly();
-  return occupancy_;
+  return occupancy_.span();
 }
 
-std::vector<std::uint8_t>& VoxelGrid::occupancy() {
+std::span<std::uint8_t> VoxelGrid::mutableOccupancy() {
   if (bricked_) denseOnly();
-  return occupancy_;
+  return occupancy_.mutableSpan();
 }
 
 void VoxelGrid::denseOnly() const {
@@ -136,7 +173,8 @@ bool VoxelGrid::overlapRange(const Eigen::Vector3d& min, const Eigen::Vector3d& 
 
 void VoxelGrid::fillBox(const Eigen::Vector3d& min, const Eigen::Vector3d& max) {
   if (!bricked_) {
-    forEachVoxelIn(min, max, [this](std::size_t i) { occupancy_[i] = 1; });
+    std::uint8_t* cells = occupancy_.mutableData();
+    forEachVoxelIn(min, max, [cells](std::size_t i) { cells[i] = 1; });
     return;
   }
   Eigen::Vector3i low;

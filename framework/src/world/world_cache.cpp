@@ -1,30 +1,38 @@
 #include "kinolab/world/world_cache.hpp"
 
+#include <fcntl.h>
+#include <sys/mman.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
+#include <cerrno>
 #include <chrono>
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <vector>
 
 #include "kinolab/core/error.hpp"
 #include "kinolab/core/files.hpp"
 #include "kinolab/core/hash.hpp"
-#include "kinolab/core/huge_pages.hpp"
 
 namespace kinolab {
 namespace {
 
 constexpr char kMagic[8] = {'K', 'I', 'N', 'O', 'W', 'R', 'L', 'D'};
 // 2: the ESDF measures to voxel cubes; 3: generated worlds are the same on every compiler (a
-// clang build drew other worlds from the same seeds, and may have cached them)
-constexpr std::uint32_t kFormatVersion = 3;
+// clang build drew other worlds from the same seeds, and may have cached them); 4: arrays start
+// at multiples of kAlignment, so that a mapped file is read in place, and sparse worlds too
+constexpr std::uint32_t kFormatVersion = 4;
+constexpr std::size_t kAlignment = 64;
+constexpr std::uint32_t kDenseFile = 0;
+constexpr std::uint32_t kBrickedFile = 1;
 
 struct Header {
   char magic[8];
   std::uint32_t format_version;
-  std::uint32_t reserved;
+  std::uint32_t layout;  // kDenseFile or kBrickedFile
   std::uint64_t spec_hash;
   std::int32_t dims[3];
   std::int32_t padding;
@@ -34,8 +42,127 @@ struct Header {
 };
 static_assert(sizeof(Header) == 80, "the header layout is part of the file format");
 
+/// What a sparse world's file holds after the header.
+struct BrickedHeader {
+  std::uint64_t bricks;      // the grid's and the field's, x-major, z fastest
+  std::uint64_t mask_words;  // the grid's masks, 8 words a brick
+  std::uint64_t own_bricks;  // the field's bricks of their own, 512 codes each
+  double truncation;
+};
+static_assert(sizeof(BrickedHeader) == 32, "the header layout is part of the file format");
+
+// A dense file: Header, occupancy (a byte a voxel), ESDF values (a float a voxel). A sparse
+// one: Header, BrickedHeader, brick states (4 bytes a brick), masks (8 bytes a word), the
+// field's slot of every brick (4 bytes: -1 +T, -2 -T, else an index), the codes (2 bytes a
+// voxel of each brick of its own). Every array starts at a multiple of kAlignment (zeros
+// between); the last 8 bytes are the XXH3 checksum of everything before them.
+
 double secondsSince(std::chrono::steady_clock::time_point start) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
+/// Writes a cache file piece by piece from the world's own memory, the checksum taken on the
+/// way.
+class FileWriter {
+ public:
+  explicit FileWriter(const std::string& path) : out_(path, std::ios::binary | std::ios::trunc) {}
+  template <typename T>
+  void put(const T* data, std::size_t count) {
+    write(data, count * sizeof(T));
+  }
+  /// Zeros up to the next multiple of kAlignment.
+  void align() {
+    static constexpr char kZeros[kAlignment] = {};
+    write(kZeros, (kAlignment - offset_ % kAlignment) % kAlignment);
+  }
+  /// Appends the checksum; false when anything failed.
+  bool finish() {
+    const std::uint64_t digest = checksum_.digest();
+    out_.write(reinterpret_cast<const char*>(&digest), sizeof(digest));
+    out_.close();
+    return !out_.fail();
+  }
+
+ private:
+  void write(const void* data, std::size_t bytes) {
+    checksum_.update(data, bytes);
+    out_.write(static_cast<const char*>(data), static_cast<std::streamsize>(bytes));
+    offset_ += bytes;
+  }
+  std::ofstream out_;
+  StreamHash checksum_;
+  std::uint64_t offset_ = 0;
+};
+
+/// Reads a mapped cache file in order; every piece is checked to lie inside the file.
+class FileReader {
+ public:
+  FileReader(const std::string& path, std::shared_ptr<const void> file, std::size_t size)
+      : path_(path),
+        file_(std::move(file)),
+        bytes_(static_cast<const char*>(file_.get())),
+        end_(size - sizeof(std::uint64_t)) {}
+  const std::shared_ptr<const void>& file() const { return file_; }
+  /// The next `count` values of T (after aligning when `aligned`).
+  template <typename T>
+  const T* take(std::uint64_t count, bool aligned = true) {
+    if (aligned) offset_ = (offset_ + kAlignment - 1) / kAlignment * kAlignment;
+    if (count > (end_ - std::min(offset_, end_)) / sizeof(T)) {
+      throw FileError(path_ + ": truncated or padded (size does not match its header)");
+    }
+    const T* data = reinterpret_cast<const T*>(bytes_ + offset_);
+    offset_ += count * sizeof(T);
+    return data;
+  }
+  template <typename T>
+  T read() {
+    T value;
+    std::memcpy(&value, take<char>(sizeof(T), false), sizeof(T));
+    return value;
+  }
+  /// Throws unless everything up to the checksum was read.
+  void expectEnd() const {
+    if (offset_ != end_) {
+      throw FileError(path_ + ": truncated or padded (size does not match its header)");
+    }
+  }
+
+ private:
+  std::string path_;
+  std::shared_ptr<const void> file_;
+  const char* bytes_;
+  std::uint64_t end_;
+  std::uint64_t offset_ = 0;
+};
+
+/// A whole file mapped read-only; unmapped when the last owner lets go. Files of the cache are
+/// replaced by renaming, never rewritten in place, so a mapping stays valid while it lives.
+std::shared_ptr<const void> mapFile(const std::string& path, std::size_t& size) {
+  const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+  if (fd < 0) throw FileError(path + ": cannot open: " + std::strerror(errno));
+  struct stat status {};
+  if (::fstat(fd, &status) != 0 || !S_ISREG(status.st_mode) || status.st_size < 0) {
+    ::close(fd);
+    throw FileError(path + ": not a regular file");
+  }
+  size = static_cast<std::size_t>(status.st_size);
+  if (size < sizeof(Header) + sizeof(std::uint64_t)) {
+    ::close(fd);
+    throw FileError(path + ": truncated");
+  }
+  // Populated at once: one pass over the page cache, not a fault a page.
+  void* data = ::mmap(nullptr, size, PROT_READ, MAP_PRIVATE | MAP_POPULATE, fd, 0);
+  ::close(fd);
+  if (data == MAP_FAILED) throw FileError(path + ": cannot map: " + std::strerror(errno));
+  return {data, [size](const void* mapped) { ::munmap(const_cast<void*>(mapped), size); }};
+}
+
+/// The grid's box from the header.
+Box boxOf(const Header& header) {
+  const Eigen::Vector3d origin(header.origin[0], header.origin[1], header.origin[2]);
+  const Eigen::Vector3d extent =
+      Eigen::Vector3d(header.dims[0], header.dims[1], header.dims[2]) * header.resolution;
+  return Box{origin, origin + extent};
 }
 
 }  // namespace
@@ -59,9 +186,12 @@ std::string WorldCache::fileFor(std::uint64_t spec_hash) const {
 
 void WorldCache::write(const World& world, const std::string& path) {
   const VoxelGrid& grid = world.grid();
+  const Esdf& esdf = world.esdf();
+  const bool bricked = grid.layout() == GridLayout::kBricked;
   Header header{};
   std::memcpy(header.magic, kMagic, sizeof(kMagic));
   header.format_version = kFormatVersion;
+  header.layout = bricked ? kBrickedFile : kDenseFile;
   header.spec_hash = world.specHash();
   for (int axis = 0; axis < 3; ++axis) {
     header.dims[axis] = grid.dims()[axis];
@@ -70,27 +200,44 @@ void WorldCache::write(const World& world, const std::string& path) {
   header.resolution = grid.resolution();
   header.voxel_count = grid.size();
 
-  const std::size_t occupancy_bytes = grid.size();
-  const std::size_t esdf_bytes = grid.size() * sizeof(float);
-  std::vector<char> buffer(sizeof(Header) + occupancy_bytes + esdf_bytes);
-  std::memcpy(buffer.data(), &header, sizeof(Header));
-  std::memcpy(buffer.data() + sizeof(Header), grid.occupancy().data(), occupancy_bytes);
-  std::memcpy(buffer.data() + sizeof(Header) + occupancy_bytes, world.esdf().values().data(),
-              esdf_bytes);
-  const std::uint64_t checksum = hashBytes(buffer.data(), buffer.size());
-
   const std::filesystem::path target(path);
   std::error_code error;
   std::filesystem::create_directories(target.parent_path(), error);
   const std::string temporary = path + ".tmp" + std::to_string(::getpid());
-  {
-    std::ofstream out(temporary, std::ios::binary | std::ios::trunc);
-    out.write(buffer.data(), static_cast<std::streamsize>(buffer.size()));
-    out.write(reinterpret_cast<const char*>(&checksum), sizeof(checksum));
-    if (!out) {
-      std::filesystem::remove(temporary, error);
-      throw FileError(path + ": cannot write world cache file");
+  FileWriter out(temporary);
+  out.put(&header, 1);
+  if (!bricked) {
+    out.align();
+    out.put(grid.occupancy().data(), grid.size());
+    out.align();
+    out.put(esdf.values().data(), grid.size());
+  } else {
+    // The field's bricks of their own are numbered in table order.
+    std::vector<std::int32_t> slots(esdf.brickCount());
+    std::int32_t own = 0;
+    for (std::size_t i = 0; i < slots.size(); ++i) {
+      int shared = 0;
+      const std::int16_t* codes = esdf.brickCodes(i, shared);
+      slots[i] = codes != nullptr ? own++ : (shared > 0 ? -1 : -2);
     }
+    const BrickedHeader bricks{slots.size(), grid.brickMasks().size(),
+                               static_cast<std::uint64_t>(own), esdf.truncation()};
+    out.put(&bricks, 1);
+    out.align();
+    out.put(grid.brickStates().data(), grid.brickStates().size());
+    out.align();
+    out.put(grid.brickMasks().data(), grid.brickMasks().size());
+    out.align();
+    out.put(slots.data(), slots.size());
+    out.align();
+    for (std::size_t i = 0; i < slots.size(); ++i) {
+      int shared = 0;
+      if (const std::int16_t* codes = esdf.brickCodes(i, shared)) out.put(codes, 512);
+    }
+  }
+  if (!out.finish()) {
+    std::filesystem::remove(temporary, error);
+    throw FileError(path + ": cannot write world cache file");
   }
   std::filesystem::rename(temporary, target, error);
   if (error) {
@@ -102,19 +249,11 @@ void WorldCache::write(const World& world, const std::string& path) {
 std::shared_ptr<const World> WorldCache::read(const std::string& path, std::uint64_t expected_hash,
                                               const std::string& name) {
   if (!isRegularFile(path)) throw FileError(path + ": not a regular file");
-  std::ifstream in(path, std::ios::binary | std::ios::ate);
-  if (!in) throw FileError(path + ": cannot open");
-  const std::streamoff end = in.tellg();
-  if (end < 0) throw FileError(path + ": cannot read its size");
-  const auto size = static_cast<std::size_t>(end);
-  if (size < sizeof(Header) + sizeof(std::uint64_t)) throw FileError(path + ": truncated");
-  std::vector<char> buffer(size);
-  in.seekg(0);
-  in.read(buffer.data(), static_cast<std::streamsize>(size));
-  if (!in) throw FileError(path + ": read error");
-
-  Header header{};
-  std::memcpy(&header, buffer.data(), sizeof(Header));
+  std::size_t size = 0;
+  std::shared_ptr<const void> file = mapFile(path, size);
+  FileReader in(path, std::move(file), size);
+  const auto* bytes = static_cast<const char*>(in.file().get());
+  const auto header = in.read<Header>();
   if (std::memcmp(header.magic, kMagic, sizeof(kMagic)) != 0) {
     throw FileError(path + ": not a kinolab world file");
   }
@@ -123,45 +262,59 @@ std::shared_ptr<const World> WorldCache::read(const std::string& path, std::uint
                     ", expected " + std::to_string(kFormatVersion));
   }
   if (header.spec_hash != expected_hash) throw FileError(path + ": built from another spec");
-  const std::uint64_t voxels = header.voxel_count;
-  if (voxels == 0 || voxels > (1ULL << 34) ||
-      size != sizeof(Header) + voxels * (1 + sizeof(float)) + sizeof(std::uint64_t)) {
-    throw FileError(path + ": truncated or padded (size does not match its header)");
+  if (header.layout != kDenseFile && header.layout != kBrickedFile) {
+    throw FileError(path + ": unknown layout " + std::to_string(header.layout));
   }
+  // Where the arrays lie (each within the file, the last ending at the checksum), then the
+  // checksum, and only then anything built from them.
+  const bool dense = header.layout == kDenseFile;
+  const std::uint64_t voxels = header.voxel_count;
+  const auto bricks = dense ? BrickedHeader{} : in.read<BrickedHeader>();
+  const auto* occupancy = dense ? in.take<std::uint8_t>(voxels) : nullptr;
+  const auto* values = dense ? in.take<float>(voxels) : nullptr;
+  const auto* states = in.take<std::uint32_t>(bricks.bricks);
+  const auto* masks = in.take<std::uint64_t>(bricks.mask_words);
+  const auto* slots = in.take<std::int32_t>(bricks.bricks);
+  const auto* codes = in.take<std::int16_t>(bricks.own_bricks * 512);
+  in.expectEnd();
   std::uint64_t stored_checksum = 0;
-  std::memcpy(&stored_checksum, buffer.data() + size - sizeof(std::uint64_t),
-              sizeof(stored_checksum));
-  if (hashBytes(buffer.data(), size - sizeof(std::uint64_t)) != stored_checksum) {
+  std::memcpy(&stored_checksum, bytes + size - sizeof(std::uint64_t), sizeof(stored_checksum));
+  if (hashBytes(bytes, size - sizeof(std::uint64_t)) != stored_checksum) {
     throw FileError(path + ": checksum mismatch (corrupt)");
   }
-
-  const Eigen::Vector3d origin(header.origin[0], header.origin[1], header.origin[2]);
-  const Eigen::Vector3d extent =
-      Eigen::Vector3d(header.dims[0], header.dims[1], header.dims[2]) * header.resolution;
-  VoxelGrid grid(Box{origin, origin + extent}, header.resolution);
-  if (grid.dims() != Eigen::Vector3i(header.dims[0], header.dims[1], header.dims[2]) ||
-      grid.size() != voxels) {
-    throw FileError(path + ": inconsistent grid dimensions");
+  // The grid and the field read the mapped file where it lies (a sparse grid's bricks are
+  // copied: 4 bytes a brick and the masks).
+  const auto checkDims = [&](const VoxelGrid& grid) {
+    if (grid.dims() != Eigen::Vector3i(header.dims[0], header.dims[1], header.dims[2]) ||
+        grid.size() != voxels) {
+      throw InvalidArgument("the grid's dimensions differ from the header's");
+    }
+  };
+  try {
+    const Box box = boxOf(header);
+    if (dense) {
+      VoxelGrid grid(box, header.resolution,
+                     ValueArray<std::uint8_t>(in.file(), occupancy, voxels));
+      checkDims(grid);
+      Esdf esdf(grid, ValueArray<float>(in.file(), values, voxels));
+      return std::make_shared<const World>(name, expected_hash, std::move(grid), std::move(esdf));
+    }
+    VoxelGrid grid(box, header.resolution,
+                   std::vector<std::uint32_t>(states, states + bricks.bricks),
+                   std::vector<std::uint64_t>(masks, masks + bricks.mask_words));
+    checkDims(grid);
+    Esdf esdf =
+        Esdf::fromBricks(grid, bricks.truncation, {slots, bricks.bricks},
+                         ValueArray<std::int16_t>(in.file(), codes, bricks.own_bricks * 512));
+    return std::make_shared<const World>(name, expected_hash, std::move(grid), std::move(esdf));
+  } catch (const InvalidArgument& error) {
+    throw FileError(path + ": inconsistent contents (" + error.what() + ")");
   }
-  const char* payload = buffer.data() + sizeof(Header);
-  std::memcpy(grid.occupancy().data(), payload, voxels);
-  std::vector<float> values = vectorOnHugePages<float>(voxels);
-  std::memcpy(values.data(), payload + voxels, voxels * sizeof(float));
-  Esdf esdf(grid, std::move(values));
-  return std::make_shared<const World>(name, expected_hash, std::move(grid), std::move(esdf));
 }
 
 WorldLoad WorldCache::loadOrBuild(const WorldSpec& spec) const {
   const auto start = std::chrono::steady_clock::now();
   WorldLoad load;
-  if (spec.layout == GridLayout::kBricked) {
-    // The file format holds dense arrays: a sparse world is built each time (bricks on disk
-    // are still to come).
-    load.world = World::build(spec);
-    load.note = "sparse worlds are not cached";
-    load.seconds = secondsSince(start);
-    return load;
-  }
   const std::uint64_t hash = spec.hash();
   load.cache_file = fileFor(hash);
   if (std::filesystem::exists(load.cache_file)) {

@@ -5,6 +5,7 @@
 #include <cstdint>
 #include <functional>
 #include <memory>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -161,9 +162,10 @@ class VehicleMap {
   std::string plugin_name_ = "vehicle_map";
   /// The box on the map's lattice of half-sides `half` around `center`, clamped to the map.
   Box latticeBox(const Eigen::Vector3d& center, const Eigen::Vector3d& half) const;
-  /// The window's occupancy on `grid` (a box of the lattice) seen from `center`.
+  /// The window's occupancy on `grid` (a box of the lattice) seen from `center`, into
+  /// `occupancy` (one byte a voxel of `grid`).
   void windowOccupancy(const VoxelGrid& grid, const Eigen::Vector3d& center,
-                       std::vector<std::uint8_t>& occupancy) const;
+                       std::span<std::uint8_t> occupancy) const;
 
   VoxelGrid lattice_;  // the map's geometry (its occupancy unused)
   std::vector<std::uint8_t> state_;

@@ -97,11 +97,16 @@ struct CheckResult {
 /// tests the body, a sphere of its keptRadius(), against the occupied
 /// voxels' cubes exactly at every sample, at any resolution: through FCL (the sphere against
 /// OctoMap OcTrees of the occupied voxels with a free neighbour, whose leaves are exactly the
-/// grid's cubes, one per tile of 256 x 256 voxels made when a check first reaches it, with the
+/// grid's cubes, one per tile of kTileVoxels x kTileVoxels voxels made when a check first
+/// reaches it, with the
 /// centre tested against every cube) when that radius is positive, and for a point robot by
 /// whether an occupied cube contains the point. The ESDF only gives the clearance figures.
 class TrajectoryChecker {
  public:
+  /// The side of the FCL trees' tiles in voxels (x and y; every height): a check builds the
+  /// trees of the tiles its body reaches, so smaller tiles cost a short trajectory less.
+  static constexpr int kTileVoxels = 64;
+
   TrajectoryChecker(std::shared_ptr<const World> world, CheckerSettings settings);
   ~TrajectoryChecker();
   TrajectoryChecker(TrajectoryChecker&&) noexcept;

@@ -54,8 +54,9 @@ class Esdf {
   /// Grids of fewer voxels are built on one thread by default (starting threads would cost
   /// more than it saves).
   static constexpr std::size_t kParallelVoxels = std::size_t{1} << 20;
-  /// Adopts precomputed values (e.g. from the world cache), one per voxel in grid order.
-  Esdf(const VoxelGrid& grid, std::vector<float> values);
+  /// Adopts precomputed values, one per voxel in grid order (a view of a world cache file is
+  /// not copied).
+  Esdf(const VoxelGrid& grid, ValueArray<float> values);
   /// The field of `grid` (either layout) truncated at `truncation` metres (> 0, finite), on
   /// bricks: computed tile by tile (16 x 16 bricks and every height holding an obstacle, with a
   /// margin of the truncation), each tile by the exact transform with every entry past T
@@ -63,6 +64,19 @@ class Esdf {
   /// leads to), tiles shared over `threads` threads as the constructor; memory for the bricks
   /// near obstacles only.
   static Esdf truncated(const VoxelGrid& grid, double truncation, int threads = 0);
+
+  /// A truncated field from its bricks as brickCodes() gives them (a world cache file's):
+  /// per brick of `grid` (x-major, z fastest) `slots` holds -1 for the shared brick of +T, -2
+  /// for the one of -T, else the index of its 512 codes in `codes` (viewed where they lie:
+  /// a mapped file is not copied). Throws InvalidArgument when they do not fit the grid.
+  static Esdf fromBricks(const VoxelGrid& grid, double truncation,
+                         std::span<const std::int32_t> slots, ValueArray<std::int16_t> codes);
+  /// Bricks of a truncated field (0 for a dense one).
+  std::size_t brickCount() const;
+  /// A truncated field's brick `index` (x-major, z fastest): its 512 codes (x, y, z within the
+  /// brick, z fastest), or null for a shared brick, whose sign `shared` then gives (+1 +T, -1
+  /// -T; 0 for a brick of its own).
+  const std::int16_t* brickCodes(std::size_t index, int& shared) const;
 
   /// The truncation distance T of a truncated field; +infinity for a dense one.
   double truncation() const { return truncation_; }
@@ -77,9 +91,9 @@ class Esdf {
   double maxDistance() const { return max_distance_; }
   /// One value per voxel in grid order: a dense field's only (throws InvalidArgument on a
   /// truncated one: use voxelDistance()).
-  const std::vector<float>& values() const;
+  std::span<const float> values() const;
   /// Takes the values out of a field no one needs any more (their memory for the next one).
-  std::vector<float> release() && { return std::move(values_); }
+  std::vector<float> release() && { return std::move(values_).release(); }
 
   /// The stored value of one voxel (by index, or by voxel).
   float voxelDistance(std::size_t index) const {
@@ -188,6 +202,13 @@ class Esdf {
   }
 
  private:
+  friend class ExactDistanceRun;
+  struct Bricks;
+  /// The common start of truncated() and fromBricks(): the checks (naming `who`), the
+  /// geometry, the code values and a table of +T bricks.
+  std::shared_ptr<Bricks> startTruncated(const VoxelGrid& grid, double truncation, const char* who);
+  /// Makes `store` this field's bricks.
+  void finishTruncated(std::shared_ptr<Bricks> store);
   /// exactDistance() given `lower`, a proven lower bound of the distance (the search skips
   /// the ball it shows free).
   double exactDistanceAbove(const Eigen::Vector3d& point, double limit, double enough,
@@ -325,16 +346,44 @@ class Esdf {
   std::size_t strides_[3] = {0, 0, 0};
   std::size_t neighbour_step_[3] = {0, 0, 0};
   std::size_t unit_step_[3] = {0, 0, 0};  // 1 along an axis of more than one voxel
-  std::vector<float> values_;             // a dense field's
+  ValueArray<float> values_;              // a dense field's
   // A truncated field's bricks (immutable, shared by copies) and their table: per brick
   // (x-major, z fastest) a pointer to its 512 codes, x-major, z fastest; a code c (as 16
   // bits) reads code_values_[c].
-  struct Bricks;
   std::shared_ptr<const Bricks> bricks_;
   const std::int16_t* const* brick_table_ = nullptr;
   const float* code_values_ = nullptr;
   std::size_t brick_strides_[2] = {0, 0};
   double truncation_ = INFINITY;
+};
+
+/// Esdf::exactDistance(point, limit) at points that come in runs within one voxel (a
+/// trajectory's samples, a quarter voxel apart): for each voxel met, the occupied cubes that
+/// can be the nearest to some point of its cube are gathered once, and a point's distance is
+/// the least over them, the same value as exactDistance() bit for bit. A voxel whose centre
+/// value is D has its nearest cube within D + sqrt(3)/2 of every point of it, so the gathered
+/// cubes are those that near (per column of the grid only the first occupied one above and
+/// below, which is nearer than the others to every point of the voxel), skipping the ball of
+/// radius D about the centre, known free. Points outside the grid, and voxels whose value
+/// bounds nothing (no obstacle in the grid, a truncated field at its truncation) take
+/// exactDistance() itself.
+class ExactDistanceRun {
+ public:
+  /// `esdf` outlives this object.
+  ExactDistanceRun(const Esdf& esdf, double limit) : esdf_(esdf), limit_(limit) {}
+  double operator()(const Eigen::Vector3d& point);
+  /// Voxels whose cubes were gathered (a count of work, for tests and benchmarks).
+  std::size_t voxelsGathered() const { return gathered_voxels_; }
+
+ private:
+  void gather(const std::int64_t cell[3]);
+
+  const Esdf& esdf_;
+  double limit_;
+  std::int64_t voxel_[3] = {-1, -1, -1};
+  bool usable_ = false;              // the voxel's gathered cubes answer its points
+  std::vector<std::int32_t> cubes_;  // x, y, z of each gathered cube
+  std::size_t gathered_voxels_ = 0;
 };
 
 /// An Esdf kept up to date while its grid's occupancy changes (a moving vehicle's planning

@@ -4,7 +4,10 @@
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
+#include <span>
 #include <vector>
+
+#include "kinolab/core/value_array.hpp"
 
 namespace kinolab {
 
@@ -52,6 +55,15 @@ class VoxelGrid {
   VoxelGrid() = default;
   /// A free grid covering `bounds` (rounded up to whole voxels) at `resolution` metres.
   VoxelGrid(const Box& bounds, double resolution, GridLayout layout = GridLayout::kDense);
+  /// A dense grid covering `bounds` at `resolution` whose occupancy is `occupancy` (0 free,
+  /// 1 occupied, one byte a voxel in storage order; a view of a world cache file is not
+  /// copied). Throws InvalidArgument when the sizes differ.
+  VoxelGrid(const Box& bounds, double resolution, ValueArray<std::uint8_t> occupancy);
+  /// A bricked grid covering `bounds` at `resolution` from its bricks as brickStates() and
+  /// brickMasks() give them (a world cache file's). Throws InvalidArgument when they do not
+  /// fit the grid or each other.
+  VoxelGrid(const Box& bounds, double resolution, std::vector<std::uint32_t> brick_states,
+            std::vector<std::uint64_t> brick_masks);
 
   GridLayout layout() const { return bricked_ ? GridLayout::kBricked : GridLayout::kDense; }
 
@@ -98,22 +110,23 @@ class VoxelGrid {
     if (bricked_) {
       setBrickedOccupied(voxel(index), value);
     } else {
-      occupancy_[index] = value ? 1 : 0;
+      occupancy_.mutableData()[index] = value ? 1 : 0;
     }
   }
   void setOccupied(const VoxelIndex& voxel, bool value) {
     if (bricked_) {
       setBrickedOccupied(voxel, value);
     } else {
-      occupancy_[index(voxel)] = value ? 1 : 0;
+      occupancy_.mutableData()[index(voxel)] = value ? 1 : 0;
     }
   }
   std::size_t occupiedCount() const;
 
   /// 0 (free) or 1 (occupied) per voxel, in storage order; a dense grid's only (throws
   /// InvalidArgument on a bricked one: use occupied() or forEachOccupied()).
-  const std::vector<std::uint8_t>& occupancy() const;
-  std::vector<std::uint8_t>& occupancy();
+  std::span<const std::uint8_t> occupancy() const;
+  /// The same for writing (a grid viewing a world cache file copies it first).
+  std::span<std::uint8_t> mutableOccupancy();
 
   /// Calls `visit(voxel)` for every occupied voxel (a dense grid's x-major, a bricked grid's
   /// brick by brick); a bricked grid skips its empty bricks, so the cost is its obstacles', not
@@ -167,6 +180,10 @@ class VoxelGrid {
     if (state < kMasked) return state == kFullBrick ? 0xFF : 0;
     return static_cast<std::uint8_t>(masks_[(state - kMasked) * 8 + (x & 7)] >> ((y & 7) << 3));
   }
+  /// A bricked grid's storage: per brick (x-major, z fastest) 0 empty, 1 full, else 2 + the
+  /// index of its mask of 8 words in brickMasks() (bit (y % 8) * 8 + z % 8 of word x % 8).
+  std::span<const std::uint32_t> brickStates() const { return brick_state_; }
+  std::span<const std::uint64_t> brickMasks() const { return masks_; }
   /// Frees the masks of bricks that became wholly full or empty (a bricked grid after edits).
   void compactBricks();
 
@@ -260,13 +277,16 @@ class VoxelGrid {
     return (word >> (((v.y() & 7) << 3) | (v.z() & 7))) & 1;
   }
   void setBrickedOccupied(const VoxelIndex& v, bool value);
+  /// Sets dims_ and size_ from `bounds` and resolution_; returns the voxel count (as a double,
+  /// which does not overflow). Throws InvalidArgument on a bad resolution or an empty box.
+  double setDims(const Box& bounds);
   [[noreturn]] void denseOnly() const;
 
   Eigen::Vector3i dims_ = Eigen::Vector3i::Zero();
   double resolution_ = 0.0;
   Eigen::Vector3d origin_ = Eigen::Vector3d::Zero();
   std::size_t size_ = 0;
-  std::vector<std::uint8_t> occupancy_;  // kDense
+  ValueArray<std::uint8_t> occupancy_;  // kDense
   bool bricked_ = false;
   Eigen::Vector3i bricks_ = Eigen::Vector3i::Zero();  // kBricked: bricks per axis
   std::vector<std::uint32_t> brick_state_;
