@@ -4,6 +4,7 @@
 
 #include <gtest/gtest.h>
 #include <sqlite3.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <filesystem>
@@ -363,6 +364,43 @@ TEST(DirectoryLock, ALockFileThatIsALinkIsRefusedAndWhatItNamesIsUntouched) {
   fs::create_symlink(empty, directory / "out" / "results.sqlite");
   EXPECT_THROW(ResultsStore((directory / "out" / "results.sqlite").string()), FileError);
   EXPECT_EQ(fs::file_size(empty), 0u);
+  fs::remove_all(directory);
+}
+
+TEST(OutputFile, ALinkOrAPipeWhereKinolabWritesIsRefusedAndWhatItNamesIsUntouched) {
+  const fs::path directory =
+      fs::temp_directory_path() / ("kinolab_output_link_" + std::to_string(getpid()));
+  fs::remove_all(directory);
+  fs::create_directories(directory / "out");
+  const fs::path victim = directory / "victim.txt";
+  std::ofstream(victim) << "precious";
+  const auto text = [](const fs::path& path) {
+    std::ifstream in(path);
+    return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  };
+  const fs::path csv = directory / "out" / "summary.csv";
+  fs::create_symlink(victim, csv);
+  EXPECT_THROW(OutputFile{csv.string()}, FileError);
+  // Written atomically, a link at the name is replaced by the file, never written through ...
+  writeFileAtomically(csv.string(), "a,b\n");
+  EXPECT_FALSE(fs::is_symlink(csv));
+  EXPECT_EQ(text(csv), "a,b\n");
+  // ... and a link at its temporary name is refused.
+  fs::create_symlink(victim, directory / "out" / "summary.csv.tmp");
+  try {
+    writeFileAtomically(csv.string(), "c,d\n");
+    ADD_FAILURE() << "written through a link";
+  } catch (const FileError& error) {
+    EXPECT_NE(std::string(error.what()).find("summary.csv.tmp: the output file is a symbolic link"),
+              std::string::npos)
+        << error.what();
+  }
+  EXPECT_EQ(text(victim), "precious");
+  EXPECT_EQ(text(csv), "a,b\n");
+  // A pipe is refused at once, not waited on.
+  const fs::path pipe = directory / "out" / "pipe.csv";
+  ASSERT_EQ(mkfifo(pipe.c_str(), 0600), 0);
+  EXPECT_THROW(OutputFile{pipe.string()}, FileError);
   fs::remove_all(directory);
 }
 

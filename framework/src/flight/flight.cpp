@@ -9,6 +9,7 @@
 #include "flight_motion.hpp"
 #include "kinolab/core/error.hpp"
 #include "kinolab/core/fields.hpp"
+#include "kinolab/core/process.hpp"
 #include "kinolab/core/random.hpp"
 #include "kinolab/core/text.hpp"
 #include "kinolab/validation/trajectory_checker.hpp"
@@ -591,7 +592,8 @@ FlightResult fly(const std::shared_ptr<const World>& truth, Planner& planner, st
                       " m: expected less than half its thinnest side, " +
                       formatNumber(0.5 * extent.minCoeff()) + " m");
   }
-  return FlightLoop(truth, planner, seed, query, setup).run();
+  return whileDoing("flying over the world '" + truth->name() + "'",
+                    [&] { return FlightLoop(truth, planner, seed, query, setup).run(); });
 }
 
 }  // namespace kinolab

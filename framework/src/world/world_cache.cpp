@@ -12,6 +12,7 @@
 #include "kinolab/core/files.hpp"
 #include "kinolab/core/hash.hpp"
 #include "kinolab/core/huge_pages.hpp"
+#include "kinolab/core/process.hpp"
 
 namespace kinolab {
 namespace {
@@ -83,14 +84,14 @@ void WorldCache::write(const World& world, const std::string& path) {
   std::error_code error;
   std::filesystem::create_directories(target.parent_path(), error);
   const std::string temporary = path + ".tmp" + std::to_string(::getpid());
-  {
-    std::ofstream out(temporary, std::ios::binary | std::ios::trunc);
-    out.write(buffer.data(), static_cast<std::streamsize>(buffer.size()));
-    out.write(reinterpret_cast<const char*>(&checksum), sizeof(checksum));
-    if (!out) {
-      std::filesystem::remove(temporary, error);
-      throw FileError(path + ": cannot write world cache file");
-    }
+  try {
+    OutputFile out(temporary);
+    out.write(buffer.data(), buffer.size());
+    out.write(&checksum, sizeof(checksum));
+    out.close();
+  } catch (const FileError& failure) {
+    std::filesystem::remove(temporary, error);
+    throw FileError(path + ": cannot write world cache file (" + failure.what() + ")");
   }
   std::filesystem::rename(temporary, target, error);
   if (error) {
@@ -166,7 +167,8 @@ WorldLoad WorldCache::loadOrBuild(const WorldSpec& spec) const {
   load.cache_file = fileFor(hash);
   if (std::filesystem::exists(load.cache_file)) {
     try {
-      load.world = read(load.cache_file, hash, spec.name);
+      load.world = whileDoing("reading the world '" + spec.name + "' from " + load.cache_file,
+                              [&] { return read(load.cache_file, hash, spec.name); });
       load.source = WorldSource::kCache;
       load.seconds = secondsSince(start);
       return load;
@@ -177,7 +179,8 @@ WorldLoad WorldCache::loadOrBuild(const WorldSpec& spec) const {
   }
   load.world = World::build(spec);
   try {
-    write(*load.world, load.cache_file);
+    whileDoing("writing the world '" + spec.name + "' to " + load.cache_file,
+               [&] { write(*load.world, load.cache_file); });
   } catch (const FileError& error) {
     // An unwritable cache costs time on the next run, not correctness.
     load.note += (load.note.empty() ? "" : "; ") + std::string("not cached: ") + error.what();

@@ -52,6 +52,9 @@ class VoxelGrid {
   VoxelGrid() = default;
   /// A free grid covering `bounds` (rounded up to whole voxels) at `resolution` metres.
   VoxelGrid(const Box& bounds, double resolution, GridLayout layout = GridLayout::kDense);
+  /// The voxels along each axis a grid of `bounds` at `resolution` has (as a double, for size
+  /// checks before anything is allocated).
+  static Eigen::Vector3d voxelsAlong(const Box& bounds, double resolution);
 
   GridLayout layout() const { return bricked_ ? GridLayout::kBricked : GridLayout::kDense; }
 
@@ -224,6 +227,10 @@ class VoxelGrid {
 
   /// Marks every voxel whose centre lies in the closed box [min, max] as occupied.
   void fillBox(const Eigen::Vector3d& min, const Eigen::Vector3d& max);
+  /// The writes fillBox(min, max) makes, without making them: its voxels on a dense grid; on a
+  /// bricked one a write per brick it touches and its voxels in bricks it covers in part. For
+  /// generators that refuse unbounded work before doing any.
+  double fillCost(const Eigen::Vector3d& min, const Eigen::Vector3d& max) const;
 
   /// The voxel range whose centres lie in [min, max]; false when it is empty.
   bool voxelRange(const Eigen::Vector3d& min, const Eigen::Vector3d& max, Eigen::Vector3i& low,
