@@ -27,9 +27,10 @@ void runWorld(const WorldOptions& options) {
   if (!options.out_dir.empty()) {
     // Said before a build that may take minutes, not found after it.
     const std::string no_arrays = arraysNotExported(spec.layout, spec.voxels());
-    if (!no_arrays.empty())
+    if (!no_arrays.empty()) {
       std::printf("note: --out %s: %s\n", options.out_dir.c_str(), no_arrays.c_str());
-    std::fflush(stdout);
+      std::fflush(stdout);
+    }
   }
   WorldLoad load;
   if (options.no_cache) {

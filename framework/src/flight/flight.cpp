@@ -523,8 +523,6 @@ class FlightLoop {
       result_.message = "the checker: " + check.check + ": " + check.detail;
     }
     result_.evaluation = checker_.evaluate(result_.flown);
-    // Exact past the margin (inside_margin is decided on it) and a metre, whatever a sparse
-    // truth's truncation: its truncated value read as the clearance put every flight inside.
     result_.min_clearance = exactMinClearance(*truth_, result_.flown, body_.radius,
                                               std::max(1.0, settings_.planning_margin));
     result_.evaluation.min_clearance = result_.min_clearance;

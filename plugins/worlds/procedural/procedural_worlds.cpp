@@ -378,15 +378,13 @@ class BoxListGenerator final : public WorldGenerator {
     }
   }
   void apply(VoxelGrid& grid, Rng&) const override {
-    // The work is the boxes' voxels, overlaps counted each time: refused before any is filled
-    // when it is past what a world build may take.
     double writes = 0.0;
     for (const Box& box : boxes_) writes += grid.fillCost(box.min, box.max);
     if (writes > kMaxWrites) {
       throw ParameterConflict("boxes", std::to_string(boxes_.size()) + " boxes fill about " +
                                            formatNumber(writes) +
-                                           " voxels in this grid (overlaps counted each time); "
-                                           "at most " +
+                                           " voxels in this grid (overlaps "
+                                           "counted each time); at most " +
                                            formatNumber(kMaxWrites) +
                                            " (fewer or smaller boxes, or a coarser resolution)");
     }
@@ -394,8 +392,8 @@ class BoxListGenerator final : public WorldGenerator {
   }
 
  private:
-  static constexpr double kMaxWrites = 1e10;  ///< voxel writes, about ten seconds' work
-
+  /// The voxel writes (overlaps counted each time) a box list may make, refused before any.
+  static constexpr double kMaxWrites = 1e10;
   std::vector<Box> boxes_;
 };
 
