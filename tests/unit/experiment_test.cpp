@@ -337,13 +337,19 @@ TEST_F(ExperimentTest, MergeRefusesMixedRepeatedIncompleteAndOldShards) {
   EXPECT_EQ(ResultsStore(out).meta("merged_from"), "2 of 2 shards");
 }
 
-TEST(DirectoryLock, ALockFileThatIsALinkIsRefusedAndWhatItNamesIsUntouched) {
-  const fs::path directory =
-      fs::temp_directory_path() / ("kinolab_lock_link_" + std::to_string(getpid()));
+/// A fresh temporary directory `name` with an empty out/ and victim.txt holding "precious":
+/// the file a link planted in out/ would have kinolab write into.
+fs::path directoryWithVictim(const std::string& name) {
+  const fs::path directory = fs::temp_directory_path() / (name + std::to_string(getpid()));
   fs::remove_all(directory);
   fs::create_directories(directory / "out");
+  std::ofstream(directory / "victim.txt") << "precious";
+  return directory;
+}
+
+TEST(DirectoryLock, ALockFileThatIsALinkIsRefusedAndWhatItNamesIsUntouched) {
+  const fs::path directory = directoryWithVictim("kinolab_lock_link_");
   const fs::path victim = directory / "victim.txt";
-  std::ofstream(victim) << "precious";
   fs::create_symlink(victim, directory / "out" / ".kinolab.lock");
   try {
     const DirectoryLock lock((directory / "out").string(), "a test");
@@ -368,12 +374,8 @@ TEST(DirectoryLock, ALockFileThatIsALinkIsRefusedAndWhatItNamesIsUntouched) {
 }
 
 TEST(OutputFile, ALinkOrAPipeWhereKinolabWritesIsRefusedAndWhatItNamesIsUntouched) {
-  const fs::path directory =
-      fs::temp_directory_path() / ("kinolab_output_link_" + std::to_string(getpid()));
-  fs::remove_all(directory);
-  fs::create_directories(directory / "out");
+  const fs::path directory = directoryWithVictim("kinolab_output_link_");
   const fs::path victim = directory / "victim.txt";
-  std::ofstream(victim) << "precious";
   const auto text = [](const fs::path& path) {
     std::ifstream in(path);
     return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
