@@ -25,16 +25,19 @@ def write_bytes(path: Path, data: bytes) -> None:
     """Writes `data` to `path`, a regular file (created or truncated); a link, a pipe or a
     device at `path` is refused before anything is written."""
     flags = os.O_WRONLY | os.O_CREAT | os.O_NOFOLLOW | os.O_NONBLOCK | os.O_CLOEXEC
+    not_regular = ValueError(f"{path}: is not a regular file: remove it, or choose another "
+                             "directory")
     try:
         descriptor = os.open(path, flags, 0o644)
     except OSError as error:
         if error.errno == errno.ELOOP:
             _refuse_link(path)
+        if error.errno == errno.ENXIO:  # a pipe nobody reads
+            raise not_regular from error
         raise
     with os.fdopen(descriptor, "wb") as out:
         if not stat.S_ISREG(os.fstat(descriptor).st_mode):
-            raise ValueError(f"{path}: is not a regular file: remove it, or choose another "
-                             "directory")
+            raise not_regular
         out.truncate(0)
         out.write(data)
 

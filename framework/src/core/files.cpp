@@ -70,11 +70,14 @@ OutputFile::OutputFile(const std::string& path) : path_(path) {
   // O_NONBLOCK: a pipe planted at the path is refused below rather than waited on.
   const int fd = open(path.c_str(), O_WRONLY | O_CREAT | O_CLOEXEC | O_NOFOLLOW | O_NONBLOCK, 0644);
   if (fd < 0 && errno == ELOOP) throw linkRefused(path, "the output file");
+  const FileError not_regular(path +
+                              ": not a regular file: remove it, or choose another directory");
+  if (fd < 0 && errno == ENXIO) throw not_regular;  // a pipe nobody reads
   if (fd < 0) throw FileError(path + ": cannot write (" + std::strerror(errno) + ")");
   struct stat status {};
   if (fstat(fd, &status) != 0 || !S_ISREG(status.st_mode)) {
     ::close(fd);
-    throw FileError(path + ": not a regular file: remove it, or choose another directory");
+    throw not_regular;
   }
   if (ftruncate(fd, 0) != 0 || !(file_ = fdopen(fd, "wb"))) {
     const int reason = errno;
