@@ -135,7 +135,7 @@ def test_3_a_sparse_world_truncated_below_what_the_planner_reads_is_refused(kino
     spec.write_text("name: sparse\nseed: 1\nresolution: 0.1\n"
                     "bounds: {min: [0, 0, 0], max: [12, 12, 3]}\nlayout: sparse\n"
                     "truncation: 0.1\ngenerators: [{type: forest, density: 0.05}]\n")
-    for planner in ("ompl_geometric", "rrtstar"):
+    for planner in ("ompl_geometric", "rrtstar", "ompl_control"):
         result = kinolab("plan", "--world", spec, "--planner", planner, "--start", "1,1,1.5",
                          "--goal", "8,8,1.5")
         refused(result, "world 'sparse' is sparse with distances exact to 0.1 m", "truncation")
