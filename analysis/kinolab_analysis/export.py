@@ -43,7 +43,7 @@ import numpy as np
 import pandas as pd
 import yaml
 
-from . import stats
+from . import files, stats
 from .data import Results, load
 
 # kinolab's metrics under the names OMPL's benchmarks and Planner Arena use.
@@ -191,7 +191,7 @@ def export_ompl(paths: list[Path], out: Path) -> list[Path]:
     variants = runs.drop_duplicates("variant").sort_values("variant")[["variant", "sweep"]]
     # One status enum for every log: ompl_benchmark_statistics keeps the first log's.
     statuses = sorted(runs["status"].dropna().unique())
-    out.mkdir(parents=True, exist_ok=True)
+    files.directory(out)
     written = []
     for world, in_world in runs.groupby("world", sort=True):
         for variant, sweep in variants.itertuples(index=False):
@@ -205,6 +205,6 @@ def export_ompl(paths: list[Path], out: Path) -> list[Path]:
             if not parts:
                 continue
             path = out / (_name(f"{world}_{sweep}" if sweep else world) + ".log")
-            path.write_text(_log(results, pd.concat(parts), sweep, world, statuses))
+            files.write_text(path, _log(results, pd.concat(parts), sweep, world, statuses))
             written.append(path)
     return written

@@ -11,7 +11,7 @@ from pathlib import Path
 
 import pandas as pd
 
-from . import tables
+from . import files, tables
 from .data import load
 from .report_figures import (case_figures, find_lazy_regime, lazy_regime, progress_figures,
                              summary_figures)
@@ -40,7 +40,7 @@ def write(paths: list[Path], out: Path, compare: Path | None = None,
     # The inputs are read (and refused) before anything is written.
     sampling_csv, readings, readings_verdict, compare_name = add_tables(
         report, results, paths, compare, sampling_csv)
-    out.mkdir(parents=True, exist_ok=True)
+    files.directory(out)
     summary_figures(report, results, sampling_csv, readings, readings_verdict)
     case_figures(report, results, out)
     regime_sources = lazy_regime(report, results,

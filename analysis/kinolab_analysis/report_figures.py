@@ -14,18 +14,17 @@ import jinja2
 import matplotlib.pyplot as plt
 import pandas as pd
 
-from . import paper, plots, tables, view
+from . import files, paper, plots, tables, view
 from .data import Results, load
 from .report_page import Figure, Report, View
 
 
 def _save(figure: plt.Figure, report: Report, name: str, title: str, caption: str) -> None:
-    directory = report.out / "figures"
-    directory.mkdir(parents=True, exist_ok=True)
-    figure.savefig(directory / f"{name}.svg")
-    buffer = io.BytesIO()
-    figure.savefig(buffer, format="png", dpi=110)
-    (directory / f"{name}.png").write_bytes(buffer.getvalue())
+    directory = files.directory(report.out / "figures")
+    for form, options in (("svg", {}), ("png", {"dpi": 110})):
+        buffer = io.BytesIO()
+        figure.savefig(buffer, format=form, **options)
+        files.write_bytes(directory / f"{name}.{form}", buffer.getvalue())
     plt.close(figure)
     report.figures.append(Figure(name, title, caption,
                                  base64.b64encode(buffer.getvalue()).decode("ascii")))
@@ -99,7 +98,7 @@ def _view(report: Report, results, world, queries: list[int]) -> None:
         return
     page = view.page(view.scene(results, world, queries), template)
     name = f"view_{_slug(world.label)}.html"
-    (report.out / name).write_text(page)
+    files.write_text(report.out / name, page)
     report.views.append(View(
         f"{world.label} in 3D", f"Queries {', '.join(map(str, queries))}: the obstacles, every "
         "planner's stored trajectory in its colour of the figures, search tree (partial, full, "
@@ -207,8 +206,7 @@ def case_figures(report: Report, results, out: Path) -> None:
             continue
         animated.add(run["planner"])
         name = f"flight_{run['planner']}"
-        (out / "figures").mkdir(parents=True, exist_ok=True)
-        (out / "figures" / f"{name}.gif").write_bytes(gif)
+        files.write_bytes(files.directory(out / "figures") / f"{name}.gif", gif)
         report.figures.append(Figure(name, f"Flight of {run['planner']} (animation)",
                                      f"Query {run['query']} in {run['world']}: the known map "
                                      "growing from above (black: obstacle, white: known free, "

@@ -13,7 +13,7 @@ import jinja2
 import yaml
 import pandas as pd
 
-from . import paper, stats, tables
+from . import files, paper, stats, tables
 
 TEMPLATE = """<!DOCTYPE html>
 <html lang="en"><head><meta charset="utf-8">
@@ -286,12 +286,11 @@ def write_page(report: Report, results, out: Path, compare_name: str,
     """The tables as Markdown and LaTeX, and index.html."""
     runs = results.runs
     reproduced = results.reproduces()
-    table_directory = out / "tables"
-    table_directory.mkdir(exist_ok=True)
+    table_directory = files.directory(out / "tables")
     for name, table in report.tables.items():
-        (table_directory / f"{name}.md").write_text(tables.to_markdown(table))
-        (table_directory / f"{name}.tex").write_text(
-            tables.to_latex(table, f"{results.meta.get('name', '')}: {name.replace('_', ' ')}"))
+        files.write_text(table_directory / f"{name}.md", tables.to_markdown(table))
+        files.write_text(
+            table_directory / f"{name}.tex", tables.to_latex(table, f"{results.meta.get('name', '')}: {name.replace('_', ' ')}"))
 
     provenance = [("experiment", results.meta.get("name", "?")),
                   ("source", results.meta.get("source", "?")),
@@ -317,7 +316,7 @@ def write_page(report: Report, results, out: Path, compare_name: str,
         field_reference=tables.reference_planner(runs) if not runs.empty else "",
         paper_rows=", ".join(f"{row} = {planner}" for planner, row in reproduced[1].items())
         if reproduced else "", paper_speedup=_paper_speedup(reproduced))
-    (out / "index.html").write_text(html)
+    files.write_text(out / "index.html", html)
 
 
 def _paper_speedup(reproduced: tuple[str, dict[str, str]] | None) -> str:

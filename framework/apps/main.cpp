@@ -94,14 +94,9 @@ int main(int argc, char** argv) {
     std::cerr << "kinolab: error: " << error.what() << '\n';
     return 1;
   } catch (const std::bad_alloc&) {
-    // Sizes from input are checked before they are allocated; what is left is a plan or a
-    // build larger than this process may use.
-    const std::string doing = kinolab::Activity::current();
-    std::cerr << "kinolab: error: out of memory" << (doing.empty() ? "" : " while " + doing)
-              << ": this process may use "
-              << kinolab::formatNumber(kinolab::processMemoryLimit() / (1 << 30))
-              << " GiB (the least of the machine's memory, ulimit -v and its control group's "
-                 "limit)\n";
+    // Sizes from input are checked before they are allocated, and the large works name
+    // themselves (whileDoing, an OutOfMemory above); this is memory running out elsewhere.
+    std::cerr << "kinolab: error: " << kinolab::outOfMemoryMessage("") << '\n';
     return 1;
   } catch (const std::exception& error) {
     std::cerr << "kinolab: unexpected error: " << error.what() << '\n';

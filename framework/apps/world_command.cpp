@@ -7,6 +7,7 @@
 
 #include "commands.hpp"
 #include "kinolab/core/hash.hpp"
+#include "kinolab/core/text.hpp"
 #include "kinolab/world/world_cache.hpp"
 #include "kinolab/world/world_export.hpp"
 
@@ -23,6 +24,14 @@ struct WorldOptions {
 
 void runWorld(const WorldOptions& options) {
   const WorldSpec spec = WorldSpec::fromFile(options.spec_path);
+  if (!options.out_dir.empty()) {
+    // Said before a build that may take minutes, not found after it.
+    const std::string no_arrays = arraysNotExported(spec.layout, spec.voxels());
+    if (!no_arrays.empty()) {
+      std::printf("note: --out %s: %s\n", options.out_dir.c_str(), no_arrays.c_str());
+      std::fflush(stdout);
+    }
+  }
   WorldLoad load;
   if (options.no_cache) {
     const auto start = std::chrono::steady_clock::now();
@@ -64,11 +73,9 @@ void runWorld(const WorldOptions& options) {
     // Default slice: 1 m above the floor, or mid-height in a lower map.
     const double height = options.slice_height.value_or(
         std::min(bounds.min.z() + 1.0, 0.5 * (bounds.min.z() + bounds.max.z())));
-    exportWorld(world, options.out_dir, height);
-    std::printf(
-        "  wrote      %s/{occupancy.npy, esdf.npy, world.yaml, top_view.png, "
-        "esdf_slice.png} (slice at z = %.2f m)\n",
-        options.out_dir.c_str(), height);
+    const std::vector<std::string> written = exportWorld(world, options.out_dir, height);
+    std::printf("  wrote      %s/{%s} (slice at z = %.2f m)\n", options.out_dir.c_str(),
+                join(written, ", ").c_str(), height);
   }
 }
 

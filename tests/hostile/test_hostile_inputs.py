@@ -60,14 +60,52 @@ def test_1_a_world_past_the_process_memory_limit_is_refused_before_it_is_built(k
     refused(result, "big.yaml:3", "this process may use 3 GiB")
 
 
+def test_1_a_sparse_world_just_past_the_voxel_cap_is_refused_from_its_size(kinolab, tmp_path):
+    spec = tmp_path / "past_cap.yaml"
+    # 10000 x 10001 x 10000 voxels of 1 m: 1.0001e12, one row past the sparse layout's 1e12.
+    spec.write_text("name: past_cap\nseed: 1\nresolution: 1\nlayout: sparse\ntruncation: 2\n"
+                    "bounds: {min: [0, 0, 0], max: [10000, 10000.5, 10000]}\n"
+                    "generators: [{type: empty}]\n")
+    refused(kinolab("world", spec, "--out", tmp_path / "out"), "past_cap.yaml:3",
+            "1.0001e+12 voxels; a sparse world holds at most 1e12")
+    assert not (tmp_path / "out").exists()
+
+
+def test_1_memory_running_out_names_what_was_being_built(kinolab, tmp_path):
+    # A world the up-front check lets through (its size fits), whose search does not: run out of
+    # memory in an experiment's worker is the run's status, naming the planner; the run goes on.
+    world = tmp_path / "corner.yaml"
+    world.write_text(ENCLOSED_CORNER)
+    experiment = tmp_path / "oom.yaml"
+    experiment.write_text(f"""kind: planning
+name: oom
+seed: 3
+worlds: [{{id: corner, spec: {world}}}]
+queries: {{fixed: [{{start: [0.8, 0.8, 1], goal: [3.2, 3.2, 1]}}]}}
+planners:
+  - {{id: eager, type: eager_mp_astar, sampler: {{type: uniform, params: {{samples_per_axis: 9}}}}}}
+budget: {{time: 60, memory_mb: 16}}
+""")
+    result = kinolab("run", experiment, "--out", tmp_path / "out")
+    assert result.returncode == 0, result.stderr
+    with closing(sqlite3.connect(tmp_path / "out" / "results.sqlite")) as db:
+        (status, message), = db.execute("SELECT status, message FROM runs").fetchall()
+    assert status == "oom", (status, message)
+    # Before: "out of memory: the run exceeded its budget of 16 MB" (what ran out unnamed).
+    assert message.startswith("out of memory while planning with planner 'eager_mp_astar'"), message
+    assert "this process may use" in message and "budget.memory_mb" in message
+
+
 # 2. Large valid inputs: written-out boxes are not an alias bomb; a real alias bomb is refused.
 
 def test_2_many_written_out_boxes_are_read_and_an_alias_bomb_is_refused(kinolab, tmp_path):
-    boxes = ",\n".join(f"  {{min: [{i % 100 * 0.1:.1f}, {i // 100 * 0.1:.1f}, 0], "
-                       f"max: [{i % 100 * 0.1 + 0.05:.2f}, {i // 100 * 0.1 + 0.05:.2f}, 0.5]}}"
-                       for i in range(20000))
+    # 120,000 boxes: about 1.3 million YAML nodes, none through an alias, and past the 100,000
+    # items a parameter list held before.
+    boxes = ",\n".join(f"  {{min: [{i % 400 * 0.1:.1f}, {i // 400 * 0.1:.1f}, 0], "
+                       f"max: [{i % 400 * 0.1 + 0.05:.2f}, {i // 400 * 0.1 + 0.05:.2f}, 0.5]}}"
+                       for i in range(120000))
     spec = tmp_path / "boxes.yaml"
-    spec.write_text("resolution: 0.1\nbounds: {min: [0, 0, 0], max: [10, 20, 2]}\n"
+    spec.write_text("resolution: 0.1\nbounds: {min: [0, 0, 0], max: [40, 30, 2]}\n"
                     f"generators: [{{type: box_list, boxes: [\n{boxes}]}}]\n")
     built = kinolab("world", spec, "--out", tmp_path / "boxes")
     assert built.returncode == 0, built.stderr
@@ -80,6 +118,16 @@ def test_2_many_written_out_boxes_are_read_and_an_alias_bomb_is_refused(kinolab,
     refused(kinolab("world", bomb), "laughs.yaml:", "through its aliases")
 
 
+def test_2_boxes_that_would_never_finish_are_refused_with_the_estimate(kinolab, tmp_path):
+    # 1251 boxes each filling the 8e6-voxel world: 1e10 voxel writes, refused before any.
+    spec = tmp_path / "filled.yaml"
+    spec.write_text("resolution: 0.1\nbounds: {min: [0, 0, 0], max: [100, 100, 0.8]}\n"
+                    "generators: [{type: box_list, boxes: [&all {min: [0, 0, 0], "
+                    "max: [100, 100, 0.8]}" + ", *all" * 1250 + "]}]\n")
+    refused(kinolab("world", spec), "generators[0] (box_list): parameter 'boxes': 1251 boxes "
+            "fill about 1.0008e+10 voxels", "at most 1e+10")
+
+
 # 3. Sparse worlds: a planner that reads distances past the truncation refuses the world.
 
 def test_3_a_sparse_world_truncated_below_what_the_planner_reads_is_refused(kinolab, tmp_path):
@@ -87,7 +135,7 @@ def test_3_a_sparse_world_truncated_below_what_the_planner_reads_is_refused(kino
     spec.write_text("name: sparse\nseed: 1\nresolution: 0.1\n"
                     "bounds: {min: [0, 0, 0], max: [12, 12, 3]}\nlayout: sparse\n"
                     "truncation: 0.1\ngenerators: [{type: forest, density: 0.05}]\n")
-    for planner in ("ompl_geometric", "rrtstar"):
+    for planner in ("ompl_geometric", "rrtstar", "ompl_control"):
         result = kinolab("plan", "--world", spec, "--planner", planner, "--start", "1,1,1.5",
                          "--goal", "8,8,1.5")
         refused(result, "world 'sparse' is sparse with distances exact to 0.1 m", "truncation")
@@ -155,6 +203,27 @@ def test_6_a_lock_file_that_is_a_link_is_refused_and_its_target_untouched(kinola
     assert not (out / "results.sqlite").exists()
 
 
+def test_6_report_and_plan_outputs_never_write_through_links(kinolab, results, forest, tmp_path):
+    victim = tmp_path / "victim.txt"
+    victim.write_text("precious")
+    report = tmp_path / "report"
+    report.mkdir()
+    (report / "index.html").symlink_to(victim)
+    refused(kinolab("report", results[1], "--out", report), "index.html: is a symbolic link")
+    figures = tmp_path / "figures_report"
+    figures.mkdir()
+    (figures / "figures").symlink_to(tmp_path)
+    refused(kinolab("report", results[1], "--out", figures), "figures: is a symbolic link")
+    plan = tmp_path / "plan"
+    plan.mkdir()
+    (plan / "result.json.tmp").symlink_to(victim)
+    refused(kinolab("plan", "--world", forest, "--planner", "eager_mp_astar", "--start", "1,1,1.5",
+                    "--goal", "8.5,8,1.5", "--out", plan), "result.json.tmp: the output file is "
+            "a symbolic link")
+    assert victim.read_text() == "precious"
+    assert not list(tmp_path.glob("*.svg")) and not list(tmp_path.glob("*.png"))
+
+
 # 7. Python: numbers that are not finite are refused where the API takes them.
 
 def test_7_the_python_api_refuses_non_finite_points_and_steps(forest):
@@ -176,6 +245,25 @@ def test_8_a_conformance_filter_selecting_nothing_fails(kinolab):
 
 
 # 9. Statuses and words.
+
+def test_9_a_world_too_large_for_arrays_says_so_before_building_and_exports_what_fits(
+        kinolab, tmp_path):
+    spec = tmp_path / "wide.yaml"
+    # 1000 x 1000 x 300 voxels (3e8, past the 2^28 a sparse world's arrays may hold).
+    spec.write_text("name: wide\nseed: 1\nresolution: 1\nlayout: sparse\ntruncation: 2\n"
+                    "bounds: {min: [0, 0, 0], max: [1000, 1000, 300]}\n"
+                    "generators: [{type: box_list, boxes: [{min: [10, 10, 0], max: [20, 20, 50]}]}]\n")
+    out = tmp_path / "out"
+    result = kinolab("world", spec, "--out", out)
+    assert result.returncode == 0, result.stderr
+    # Said first, before the build (before: the build, then "too large for dense arrays", exit 1).
+    first = result.stdout.splitlines()[0]
+    assert first.startswith(f"note: --out {out}: a sparse world of 3e+08 voxels is too large "
+                            "for dense arrays"), result.stdout
+    assert sorted(p.name for p in out.iterdir()) == ["esdf_slice.png", "top_view.png",
+                                                      "world.yaml"]
+    assert "too large for dense arrays" in (out / "world.yaml").read_text()
+
 
 def test_9_a_deep_yaml_nesting_says_why_it_is_refused(kinolab, tmp_path):
     deep = tmp_path / "deep.yaml"

@@ -4,6 +4,7 @@
 
 #include <gtest/gtest.h>
 #include <sqlite3.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <filesystem>
@@ -336,13 +337,19 @@ TEST_F(ExperimentTest, MergeRefusesMixedRepeatedIncompleteAndOldShards) {
   EXPECT_EQ(ResultsStore(out).meta("merged_from"), "2 of 2 shards");
 }
 
-TEST(DirectoryLock, ALockFileThatIsALinkIsRefusedAndWhatItNamesIsUntouched) {
-  const fs::path directory =
-      fs::temp_directory_path() / ("kinolab_lock_link_" + std::to_string(getpid()));
+/// A fresh temporary directory `name` with an empty out/ and victim.txt holding "precious":
+/// the file a link planted in out/ would have kinolab write into.
+fs::path directoryWithVictim(const std::string& name) {
+  const fs::path directory = fs::temp_directory_path() / (name + std::to_string(getpid()));
   fs::remove_all(directory);
   fs::create_directories(directory / "out");
+  std::ofstream(directory / "victim.txt") << "precious";
+  return directory;
+}
+
+TEST(DirectoryLock, ALockFileThatIsALinkIsRefusedAndWhatItNamesIsUntouched) {
+  const fs::path directory = directoryWithVictim("kinolab_lock_link_");
   const fs::path victim = directory / "victim.txt";
-  std::ofstream(victim) << "precious";
   fs::create_symlink(victim, directory / "out" / ".kinolab.lock");
   try {
     const DirectoryLock lock((directory / "out").string(), "a test");
@@ -363,6 +370,45 @@ TEST(DirectoryLock, ALockFileThatIsALinkIsRefusedAndWhatItNamesIsUntouched) {
   fs::create_symlink(empty, directory / "out" / "results.sqlite");
   EXPECT_THROW(ResultsStore((directory / "out" / "results.sqlite").string()), FileError);
   EXPECT_EQ(fs::file_size(empty), 0u);
+  fs::remove_all(directory);
+}
+
+TEST(OutputFile, ALinkOrAPipeWhereKinolabWritesIsRefusedAndWhatItNamesIsUntouched) {
+  const fs::path directory = directoryWithVictim("kinolab_output_link_");
+  const fs::path victim = directory / "victim.txt";
+  const auto text = [](const fs::path& path) {
+    std::ifstream in(path);
+    return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  };
+  const fs::path csv = directory / "out" / "summary.csv";
+  fs::create_symlink(victim, csv);
+  EXPECT_THROW(OutputFile{csv.string()}, FileError);
+  // Written atomically, a link at the name is replaced by the file, never written through ...
+  writeFileAtomically(csv.string(), "a,b\n");
+  EXPECT_FALSE(fs::is_symlink(csv));
+  EXPECT_EQ(text(csv), "a,b\n");
+  // ... and a link at its temporary name is refused.
+  fs::create_symlink(victim, directory / "out" / "summary.csv.tmp");
+  try {
+    writeFileAtomically(csv.string(), "c,d\n");
+    ADD_FAILURE() << "written through a link";
+  } catch (const FileError& error) {
+    EXPECT_NE(std::string(error.what()).find("summary.csv.tmp: the output file is a symbolic link"),
+              std::string::npos)
+        << error.what();
+  }
+  EXPECT_EQ(text(victim), "precious");
+  EXPECT_EQ(text(csv), "a,b\n");
+  // A pipe is refused at once, not waited on.
+  const fs::path pipe = directory / "out" / "pipe.csv";
+  ASSERT_EQ(mkfifo(pipe.c_str(), 0600), 0);
+  try {
+    const OutputFile piped(pipe.string());
+    ADD_FAILURE() << "a pipe was opened";
+  } catch (const FileError& error) {
+    EXPECT_NE(std::string(error.what()).find("pipe.csv: not a regular file"), std::string::npos)
+        << error.what();
+  }
   fs::remove_all(directory);
 }
 

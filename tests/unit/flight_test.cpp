@@ -1791,6 +1791,15 @@ TEST(FlightTest, AFlightThroughASparseWorldIsTheDenseWorldsFlight) {
   EXPECT_EQ(a.status, "reached") << a.message;
   EXPECT_GT(a.replans.size(), 10u);
   expectSameFlight(a, b);
+  // Truncated nearer than the body and its margin: the same flight, and its least clearance
+  // and margin verdict are the dense truth's (before: the truncated 0.3 m read as the
+  // distance, 0.05 m of clearance and inside the margin).
+  const auto near = worldOf(std::string(kWall) + "layout: sparse\ntruncation: 0.3\n");
+  const FlightResult c = deterministic.fly(near, {6, 3, 1.5}, {14, 3, 1.5}, bounded);
+  expectSameFlight(a, c);
+  EXPECT_GT(a.min_clearance, 0.1);
+  EXPECT_NEAR(c.min_clearance, a.min_clearance, 1e-9);
+  EXPECT_EQ(c.inside_margin, a.inside_margin);
 }
 
 TEST(FlightTest, InRealTimeAPlanLaterThanTheLatencyIsDiscarded) {

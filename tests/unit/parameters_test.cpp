@@ -138,7 +138,8 @@ TEST(Parameters, GroupsListsAndPluginsStayNested) {
                 .find("boxes[1]: unknown parameter 'max'"),
             std::string::npos);
   // Items come in order, by plain indices: no gap, no huge or padded index.
-  for (const char* name : {"boxes.1.min", "boxes.99999.min", "boxes.00.min", "boxes.+0.min"}) {
+  for (const char* name :
+       {"boxes.1.min", "boxes.99999.min", "boxes.10000000.min", "boxes.00.min", "boxes.+0.min"}) {
     EXPECT_NE(errorOf(specs, {{name, "1,2,3", "w"}}).find("items in order"), std::string::npos)
         << name;
   }

@@ -3,6 +3,7 @@
 #include "kinolab/experiment/process_pool.hpp"
 
 #include <gtest/gtest.h>
+#include <sys/resource.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -182,18 +183,44 @@ TEST(ProcessPool, KillAllLeavesNothingRunning) {
 namespace kinolab {
 namespace {
 
-TEST(Activity, TheInnermostLivingActivityNamesWhatRanOutOfMemory) {
-  EXPECT_EQ(Activity::current(), "");
-  {
-    const Activity outer("building the world 'a'");
-    {
-      const Activity inner("planning with planner 'b'");
-      EXPECT_EQ(Activity::current(), "planning with planner 'b'");
-    }
-    EXPECT_EQ(Activity::current(), "building the world 'a'");
+TEST(WhileDoing, TheInnermostNamedWorkNamesWhatRanOutOfMemoryAndOtherErrorsPass) {
+  const auto exhausted = [] {
+    throw std::bad_alloc();
+    return 0;
+  };
+  try {
+    whileDoing("building the world 'a'",
+               [&] { return whileDoing("planning with planner 'b'", exhausted); });
+    FAIL() << "no OutOfMemory";
+  } catch (const OutOfMemory& error) {
+    EXPECT_EQ(std::string(error.what())
+                  .rfind("out of memory while planning with planner 'b': "
+                         "this process may use ",
+                         0),
+              0u)
+        << error.what();
   }
-  EXPECT_EQ(Activity::current(), "");
-  EXPECT_GT(processMemoryLimit(), 0.0);
+  EXPECT_THROW(whileDoing("x", [] { throw ConfigError("bad"); }), ConfigError);
+  EXPECT_EQ(whileDoing("x", [] { return 7; }), 7);
+}
+
+TEST(WhileDoing, TheMemoryLimitIsTheProcesssOwnDataLimitWhenThatIsTheLeast) {
+  rlimit saved{};
+  ASSERT_EQ(getrlimit(RLIMIT_DATA, &saved), 0);
+  const rlim_t limit = rlim_t{512} << 20;
+  if (saved.rlim_max != RLIM_INFINITY && saved.rlim_max < limit) GTEST_SKIP();
+  const double before = processMemoryLimit();
+  rlimit lowered = saved;
+  lowered.rlim_cur = limit;
+  ASSERT_EQ(setrlimit(RLIMIT_DATA, &lowered), 0);
+  const double during = processMemoryLimit();
+  const std::string words = processMayUse();
+  ASSERT_EQ(setrlimit(RLIMIT_DATA, &saved), 0);
+  EXPECT_EQ(during, std::min(before, static_cast<double>(limit)));
+  if (before > static_cast<double>(limit)) {
+    EXPECT_EQ(words, "this process may use 512 MiB");
+  }
+  EXPECT_EQ(processMemoryLimit(), before);
 }
 
 }  // namespace

@@ -11,6 +11,7 @@
 #include "kinolab/core/random.hpp"
 #include "kinolab/core/yaml_reader.hpp"
 #include "kinolab/experiment/query_sampler.hpp"
+#include "kinolab/world/world_export.hpp"
 #include "kinolab/world/world_spec.hpp"
 #include "support/arrays.hpp"
 #include "support/errors.hpp"
@@ -228,6 +229,61 @@ TEST(WorldSpecTest, ACityThatWouldNeverFinishIsRefusedWithTheEstimate) {
                 .find("'lot_size': up to"),
             std::string::npos);
   EXPECT_EQ(refusal("lot_size: [40, 60], tree_spacing: 20"), "");  // accepted
+}
+
+TEST(WorldSpecTest, BoxesThatWouldNeverFinishAreRefusedWithTheEstimateBeforeAnyIsFilled) {
+  // 1251 boxes, each the whole 8e6-voxel world: 1.0008e10 voxel writes densely, past the cap;
+  // a sparse grid fills whole bricks at one write each (15625 a box), so it builds.
+  std::string boxes = "[&whole {min: [0, 0, 0], max: [100, 100, 0.8]}";
+  for (int i = 0; i < 1250; ++i) boxes += ", *whole";
+  const std::string text =
+      "seed: 3\nresolution: 0.1\nbounds: {min: [0, 0, 0], max: [100, 100, 0.8]}\n"
+      "generators: [{type: box_list, boxes: " +
+      boxes + "]}]\n";
+  const std::string refusal =
+      test::errorOf<ConfigError>([&] { World::buildGrid(specFromText(text)); });
+  EXPECT_NE(refusal.find("generators[0] (box_list): parameter 'boxes': 1251 boxes fill about "
+                         "1.0008e+10 voxels in this grid (overlaps counted each time); at most "
+                         "1e+10"),
+            std::string::npos)
+      << refusal;
+  const VoxelGrid sparse = World::buildGrid(specFromText(text + "layout: sparse\n"));
+  EXPECT_EQ(sparse.occupiedCount(), sparse.size());
+}
+
+TEST(WorldExportTest, ASparseWorldsTopViewIsTheDenseOnesAndItsArraysAreSaidMissingUpFront) {
+  // The sparse top view reads a brick's row at a time: the same picture as voxel by voxel, on
+  // a world whose height (29 voxels) is no multiple of a brick.
+  const std::string text =
+      "seed: 3\nresolution: 0.1\nbounds: {min: [0, 0, 0], max: [6, 5, 2.9]}\n"
+      "generators: [{type: boxes, count: 12}, {type: box_list, boxes: [{min: [1, 1, 2.75], "
+      "max: [2, 2, 2.9]}]}]\n";
+  const auto dense = World::build(specFromText(text));
+  const auto sparse = World::build(specFromText(text + "layout: sparse\ntruncation: 1\n"));
+  EXPECT_EQ(renderTopView(*sparse).pixels, renderTopView(*dense).pixels);
+  EXPECT_EQ(arraysNotExported(GridLayout::kBricked, kMostExportedSparseVoxels), "");
+  EXPECT_EQ(arraysNotExported(GridLayout::kDense, 1e9), "");
+  EXPECT_NE(arraysNotExported(GridLayout::kBricked, 7.5e9)
+                .find("a sparse world of 7.5e+09 voxels is too large for dense arrays"),
+            std::string::npos);
+  EXPECT_EQ(specFromText(text).voxels(), 60.0 * 50.0 * 29.0);
+}
+
+TEST(VoxelGridTest, FillCostCountsTheWritesFillBoxMakes) {
+  const Box bounds{{0, 0, 0}, {3, 3, 3}};  // 30^3 voxels, bricks of 8 (the last 6 wide)
+  VoxelGrid dense(bounds, 0.1);
+  const Eigen::Vector3d low(0.42, 0.42, 0.42);  // voxel centres 4..19 on every axis
+  const Eigen::Vector3d high(1.97, 1.97, 1.97);
+  EXPECT_EQ(dense.fillCost(low, high), 4096.0);
+  dense.fillBox(low, high);
+  EXPECT_EQ(dense.occupiedCount(), 4096u);
+  // Bricked: 27 bricks touched, brick (1, 1, 1) covered whole: 27 + 4096 - 512.
+  EXPECT_EQ(VoxelGrid(bounds, 0.1, GridLayout::kBricked).fillCost(low, high), 3611.0);
+  // A whole grid: one write per brick (64), none voxel by voxel but the 6-wide end bricks'.
+  const double whole =
+      VoxelGrid(bounds, 0.1, GridLayout::kBricked).fillCost(bounds.min, bounds.max);
+  EXPECT_EQ(whole, 64.0 + 27000.0 - 27.0 * 512.0);
+  EXPECT_EQ(dense.fillCost({5, 5, 5}, {6, 6, 6}), 0.0);  // outside
 }
 
 TEST(WorldSpecTest, OctomapOccupiedLeavesBecomeOccupiedVoxels) {

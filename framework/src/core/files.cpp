@@ -10,8 +10,8 @@
 #include <cstring>
 #include <ctime>
 #include <filesystem>
-#include <fstream>
 #include <system_error>
+#include <utility>
 
 #include "kinolab/core/error.hpp"
 #include "kinolab/core/version.hpp"
@@ -55,12 +55,60 @@ std::string analysisDirectory() {
                   " nor an installation's share/kinolab/analysis; set KINOLAB_ANALYSIS_DIR");
 }
 
+namespace {
+
+/// The refusal of a link where kinolab writes `what` (its lock file, an output file).
+FileError linkRefused(const std::string& path, const std::string& what) {
+  return FileError(path + ": " + what +
+                   " is a symbolic link; kinolab does not write through links: remove it, or "
+                   "choose another directory");
+}
+
+}  // namespace
+
+OutputFile::OutputFile(const std::string& path) : path_(path) {
+  // O_NONBLOCK: a pipe planted at the path is refused below rather than waited on.
+  const int fd = open(path.c_str(), O_WRONLY | O_CREAT | O_CLOEXEC | O_NOFOLLOW | O_NONBLOCK, 0644);
+  if (fd < 0 && errno == ELOOP) throw linkRefused(path, "the output file");
+  const FileError not_regular(path +
+                              ": not a regular file: remove it, or choose another directory");
+  if (fd < 0 && errno == ENXIO) throw not_regular;  // a pipe nobody reads
+  if (fd < 0) throw FileError(path + ": cannot write (" + std::strerror(errno) + ")");
+  struct stat status {};
+  if (fstat(fd, &status) != 0 || !S_ISREG(status.st_mode)) {
+    ::close(fd);
+    throw not_regular;
+  }
+  if (ftruncate(fd, 0) != 0 || !(file_ = fdopen(fd, "wb"))) {
+    const int reason = errno;
+    ::close(fd);
+    throw FileError(path + ": cannot write (" + std::strerror(reason) + ")");
+  }
+}
+
+OutputFile::~OutputFile() {
+  if (file_) std::fclose(file_);
+}
+
+void OutputFile::write(const void* data, std::size_t size) {
+  if (size > 0 && std::fwrite(data, 1, size, file_) != size) {
+    throw FileError(path_ + ": cannot write (" + std::strerror(errno) + ")");
+  }
+}
+
+void OutputFile::close() {
+  std::FILE* file = std::exchange(file_, nullptr);
+  if (std::fclose(file) != 0) {
+    throw FileError(path_ + ": cannot write (" + std::strerror(errno) + ")");
+  }
+}
+
 void writeFileAtomically(const std::string& path, const std::string& text) {
   const std::string temporary = path + ".tmp";
   {
-    std::ofstream out(temporary, std::ios::binary);
-    out << text;
-    if (!out.flush()) throw FileError(path + ": cannot write");
+    OutputFile out(temporary);
+    out.write(text.data(), text.size());
+    out.close();
   }
   std::error_code error;
   std::filesystem::rename(temporary, path, error);
@@ -77,11 +125,7 @@ DirectoryLock::DirectoryLock(const std::string& directory, const std::string& pu
   // Never through a link: a planted .kinolab.lock pointing elsewhere would have the lock's
   // text written into whatever it names.
   fd_ = open(path.c_str(), O_RDWR | O_CREAT | O_CLOEXEC | O_NOFOLLOW, 0644);
-  if (fd_ < 0 && errno == ELOOP) {
-    throw FileError(path +
-                    ": the lock file is a symbolic link; kinolab does not write through "
-                    "links: remove it, or choose another directory");
-  }
+  if (fd_ < 0 && errno == ELOOP) throw linkRefused(path, "the lock file");
   if (fd_ < 0) {
     throw FileError(path + ": cannot open the lock file (" + std::strerror(errno) + ")");
   }

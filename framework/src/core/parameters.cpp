@@ -204,10 +204,20 @@ const ParameterSet& ParameterSet::nested(std::string_view name) const {
 }
 
 std::vector<const ParameterSet*> ParameterSet::items(std::string_view name) const {
-  const auto count = std::get<long long>(find(name));
-  std::vector<const ParameterSet*> result;
-  for (long long i = 0; i < count; ++i)
-    result.push_back(&nested(std::string(name) + "." + std::to_string(i)));
+  const auto count = static_cast<std::size_t>(std::get<long long>(find(name)));
+  // One pass over the nested sets (NAME.INDEX), not a search per item: a list of 10^6 boxes
+  // is read in linear time.
+  std::vector<const ParameterSet*> result(count, nullptr);
+  const std::string prefix = std::string(name) + ".";
+  for (const auto& [key, set] : nested_) {
+    if (!key.starts_with(prefix)) continue;
+    const auto index = parseInteger(key.substr(prefix.size()));
+    if (index && *index >= 0 && static_cast<std::size_t>(*index) < count)
+      result[*index] = set.get();
+  }
+  for (std::size_t i = 0; i < count; ++i) {
+    if (!result[i]) (void)nested(prefix + std::to_string(i));  // throws, naming the item
+  }
   return result;
 }
 
@@ -373,7 +383,9 @@ struct Pending {
   std::vector<std::vector<ParameterAssignment>> items;  ///< a group list's, by index
 };
 
-constexpr long long kMaxItems = 100000;
+/// Items come in order, so a list holds what its file writes out: this bounds an index's
+/// digits, not the memory (a box_list of 10^6 boxes is valid).
+constexpr long long kMaxItems = 10000000;
 
 /// A plugin parameter's chosen plugin, resolved with its own assignments.
 ParameterSet resolvePlugin(const ParameterSpec& spec, const std::string& key,
@@ -402,7 +414,7 @@ void addItemAssignment(const ParameterSpec& spec, ParameterAssignment inner,
   const auto next = inner.name.find('.');
   const std::string index = inner.name.substr(0, next);
   const bool digits =
-      !index.empty() && index.size() <= 6 && (index.size() == 1 || index.front() != '0') &&
+      !index.empty() && index.size() <= 7 && (index.size() == 1 || index.front() != '0') &&
       std::all_of(index.begin(), index.end(), [](char c) { return c >= '0' && c <= '9'; });
   const auto item = digits ? parseInteger(index) : std::nullopt;
   // Items come in order: an index at most one past the last (no gaps, no huge index).

@@ -8,10 +8,12 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <fstream>
 #include <limits>
 
 #include "kinolab/core/error.hpp"
+#include "kinolab/core/text.hpp"
 
 namespace kinolab {
 
@@ -87,35 +89,51 @@ double cgroupLimit(const std::string& path) {
   }
 }
 
-/// This process's control group (v2: "0::/path" in /proc/self/cgroup), "" when unknown.
-std::string ownCgroup() {
+/// This process's control groups' memory limit files: v2's memory.max ("0::/path" in
+/// /proc/self/cgroup) and v1's memory.limit_in_bytes ("N:memory:/path"), each under its own
+/// path and, inside a container that mounts its own group at the root, at the root.
+std::vector<std::string> cgroupLimitFiles() {
+  std::vector<std::string> files{"/sys/fs/cgroup/memory.max",
+                                 "/sys/fs/cgroup/memory/memory.limit_in_bytes"};
   std::ifstream in("/proc/self/cgroup");
   for (std::string line; std::getline(in, line);) {
-    if (line.rfind("0::", 0) == 0) return line.substr(3);
+    if (line.rfind("0::", 0) == 0)
+      files.push_back("/sys/fs/cgroup" + line.substr(3) + "/memory.max");
+    if (const auto v1 = line.find(":memory:"); v1 != std::string::npos) {
+      files.push_back("/sys/fs/cgroup/memory" + line.substr(v1 + 8) + "/memory.limit_in_bytes");
+    }
   }
-  return "";
+  return files;
 }
-
-thread_local std::vector<std::string> activities;
 
 }  // namespace
 
 double processMemoryLimit() {
   double limit = static_cast<double>(sysconf(_SC_PHYS_PAGES)) * sysconf(_SC_PAGESIZE);
   if (!(limit > 0.0)) limit = std::numeric_limits<double>::infinity();
-  rlimit address_space{};
-  if (getrlimit(RLIMIT_AS, &address_space) == 0 && address_space.rlim_cur != RLIM_INFINITY) {
-    limit = std::min(limit, static_cast<double>(address_space.rlim_cur));
+  for (const auto resource : {RLIMIT_AS, RLIMIT_DATA}) {
+    rlimit value{};
+    if (getrlimit(resource, &value) == 0 && value.rlim_cur != RLIM_INFINITY) {
+      limit = std::min(limit, static_cast<double>(value.rlim_cur));
+    }
   }
-  limit = std::min(limit, cgroupLimit("/sys/fs/cgroup" + ownCgroup() + "/memory.max"));
-  limit = std::min(limit, cgroupLimit("/sys/fs/cgroup/memory/memory.limit_in_bytes"));
+  for (const std::string& file : cgroupLimitFiles()) limit = std::min(limit, cgroupLimit(file));
   return limit;
 }
 
-Activity::Activity(std::string what) { activities.push_back(std::move(what)); }
+std::string processMayUse() {
+  const double bytes = processMemoryLimit();
+  constexpr double kGiB = 1 << 30;
+  const std::string amount = bytes >= kGiB
+                                 ? formatNumber(std::floor(bytes / kGiB * 10.0) / 10.0) + " GiB"
+                                 : formatNumber(std::floor(bytes / (1 << 20))) + " MiB";
+  return "this process may use " + amount;
+}
 
-Activity::~Activity() { activities.pop_back(); }
-
-std::string Activity::current() { return activities.empty() ? "" : activities.back(); }
+std::string outOfMemoryMessage(const std::string& what) {
+  return "out of memory" + (what.empty() ? std::string() : " while " + what) + ": " +
+         processMayUse() +
+         " (the least of the machine's memory, ulimit -v and -d and its control group's limit)";
+}
 
 }  // namespace kinolab

@@ -11,6 +11,7 @@
 #include <nlohmann/json.hpp>
 
 #include "kinolab/core/hash.hpp"
+#include "kinolab/core/process.hpp"
 #include "kinolab/core/text.hpp"
 #include "kinolab/flight/flight.hpp"
 #include "kinolab/planner/result_csv.hpp"
@@ -31,6 +32,15 @@ double lineBlocked(const World& world, const PlanningQuery& query, const Body& b
   return world.segmentFree(query.start.col(0), query.goal, body.radius) ? 0.0 : 1.0;
 }
 
+/// A worker's output when memory ran out: the run's status `oom`, what ran out and its budget.
+nlohmann::json outOfMemoryOutput(const ExperimentVariant& variant, const std::string& message) {
+  return {{"metrics",
+           {{"status", "oom"},
+            {"message", message + "; the run's budget adds " +
+                            std::to_string(variant.budget.memory_mb) +
+                            " MB to its worker (budget.memory_mb)"}}}};
+}
+
 /// Runs `work`, which fills a run's JSON ({"metrics": {...}, "statistics": {...},
 /// "trajectory", "tree"}), inside its worker process: every failure the run can report itself
 /// (out of memory, an exception) becomes its status.
@@ -39,11 +49,10 @@ std::string workerOutput(const ExperimentVariant& variant, Work&& work) {
   nlohmann::json out;
   try {
     work(out);
+  } catch (const OutOfMemory& error) {
+    out = outOfMemoryOutput(variant, error.what());
   } catch (const std::bad_alloc&) {
-    out = {{"metrics",
-            {{"status", "oom"},
-             {"message", "out of memory: the run exceeded its budget of " +
-                             std::to_string(variant.budget.memory_mb) + " MB"}}}};
+    out = outOfMemoryOutput(variant, outOfMemoryMessage(""));
   } catch (const std::exception& error) {
     out = {{"metrics", {{"status", "error"}, {"message", error.what()}}}};
   } catch (...) {
@@ -51,7 +60,12 @@ std::string workerOutput(const ExperimentVariant& variant, Work&& work) {
             {{"status", "error"},
              {"message", "an exception that is not a std::exception (plugin code?)"}}}};
   }
-  return out.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
+  try {
+    return out.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
+  } catch (const std::bad_alloc&) {
+    out = nullptr;  // the answer is what did not fit: free it for a status that does
+    return outOfMemoryOutput(variant, outOfMemoryMessage("writing the run's output")).dump();
+  }
 }
 
 /// One run, inside its worker process: plan (under the timing protocol) and return the

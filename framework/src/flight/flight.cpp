@@ -9,6 +9,7 @@
 #include "flight_motion.hpp"
 #include "kinolab/core/error.hpp"
 #include "kinolab/core/fields.hpp"
+#include "kinolab/core/process.hpp"
 #include "kinolab/core/random.hpp"
 #include "kinolab/core/text.hpp"
 #include "kinolab/validation/trajectory_checker.hpp"
@@ -522,7 +523,8 @@ class FlightLoop {
       result_.message = "the checker: " + check.check + ": " + check.detail;
     }
     result_.evaluation = checker_.evaluate(result_.flown);
-    result_.min_clearance = exactMinClearance(*truth_, result_.flown, body_.radius);
+    result_.min_clearance = exactMinClearance(*truth_, result_.flown, body_.radius,
+                                              std::max(1.0, settings_.planning_margin));
     result_.evaluation.min_clearance = result_.min_clearance;
     result_.inside_margin = result_.min_clearance < settings_.planning_margin;
     if (!result_.flown.empty()) {
@@ -591,7 +593,8 @@ FlightResult fly(const std::shared_ptr<const World>& truth, Planner& planner, st
                       " m: expected less than half its thinnest side, " +
                       formatNumber(0.5 * extent.minCoeff()) + " m");
   }
-  return FlightLoop(truth, planner, seed, query, setup).run();
+  return whileDoing("flying over the world '" + truth->name() + "'",
+                    [&] { return FlightLoop(truth, planner, seed, query, setup).run(); });
 }
 
 }  // namespace kinolab

@@ -92,10 +92,10 @@ TraceResult vouchedTrace(const VehicleMap& map, const Trajectory& trajectory, do
                          domain, trajectory, body.keptRadius(), body.tolerance, from);
 }
 
-double exactMinClearance(const World& truth, const Trajectory& flown, double radius) {
+double exactMinClearance(const World& truth, const Trajectory& flown, double radius, double reach) {
   if (flown.empty()) return NAN;
   const Esdf& esdf = truth.esdf();
-  const double cap = std::min(esdf.maxDistance(), esdf.truncation());
+  const double cap = std::min(esdf.maxDistance(), std::max(esdf.truncation(), radius + reach));
   const auto distance = [&](double s) { return esdf.exactDistance(flown.evaluate(s), cap); };
   double speed = 0.0;
   for (const TrajectorySegment& segment : flown.segments()) {

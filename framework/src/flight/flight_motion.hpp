@@ -77,8 +77,10 @@ TraceResult vouchedTrace(const VehicleMap& map, const Trajectory& trajectory, do
 /// which a path passing between two misses; here every interval between samples a centisecond
 /// apart whose distances, less what the trajectory's speed bound lets the path cover in half
 /// of it, could dip below the least found is searched (golden section) to a microsecond. NaN
-/// for an empty trajectory.
-double exactMinClearance(const World& truth, const Trajectory& flown, double radius);
+/// for an empty trajectory. Exact up to `reach` beyond the radius at least, also on a sparse
+/// truth truncated nearer (its cubes are searched out to there, not read from the truncated
+/// field): a path that never came that near reads `reach`.
+double exactMinClearance(const World& truth, const Trajectory& flown, double radius, double reach);
 
 /// Where the planning window is centred: on the vehicle, moved towards the goal's height by up
 /// to a quarter of the window's height, so that the window follows the vehicle in z and a goal

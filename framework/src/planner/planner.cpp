@@ -217,7 +217,12 @@ void Planner::runBackEnd(const PlanningQuery& query, PlanResult& result,
 
 PlanResult Planner::plan(const PlanningQuery& query, const Budget& budget, SearchTree* tree) {
   if (std::optional<PlanResult> refused = refusal(query)) return *std::move(refused);
-  const Activity planning("planning with " + pluginName());
+  return whileDoing("planning with " + pluginName(),
+                    [&] { return planAccepted(query, budget, tree); });
+}
+
+PlanResult Planner::planAccepted(const PlanningQuery& query, const Budget& budget,
+                                 SearchTree* tree) {
   const PlannerLimits own = limits();
   const Eigen::Vector3d start = query.start.col(0);
   PlanResult result;

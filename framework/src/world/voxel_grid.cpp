@@ -9,6 +9,13 @@
 
 namespace kinolab {
 
+Eigen::Vector3d VoxelGrid::voxelsAlong(const Box& bounds, double resolution) {
+  // The small tolerance keeps 40 / 0.1 at 400 voxels despite rounding.
+  return (bounds.size() / resolution).array().unaryExpr([](double n) {
+    return std::max(1.0, std::ceil(n - 1e-9));
+  });
+}
+
 VoxelGrid::VoxelGrid(const Box& bounds, double resolution, GridLayout layout)
     : resolution_(resolution), origin_(bounds.min), bricked_(layout == GridLayout::kBricked) {
   const double count = setDims(bounds);
@@ -56,12 +63,10 @@ VoxelGrid::VoxelGrid(const Box& bounds, double resolution, std::vector<std::uint
 
 double VoxelGrid::setDims(const Box& bounds) {
   if (!(resolution_ > 0.0)) throw InvalidArgument("VoxelGrid: resolution must be positive");
-  const Eigen::Vector3d extent = bounds.size();
-  for (int axis = 0; axis < 3; ++axis) {
-    if (!(extent[axis] > 0.0)) throw InvalidArgument("VoxelGrid: bounds must have max > min");
-    // The small tolerance keeps 40 / 0.1 at 400 voxels despite rounding.
-    dims_[axis] = std::max(1, static_cast<int>(std::ceil(extent[axis] / resolution_ - 1e-9)));
+  if (!(bounds.size().array() > 0.0).all()) {
+    throw InvalidArgument("VoxelGrid: bounds must have max > min");
   }
+  dims_ = voxelsAlong(bounds, resolution_).cast<int>();
   const double count = static_cast<double>(dims_.x()) * dims_.y() * dims_.z();
   size_ = static_cast<std::size_t>(count);
   return count;
@@ -169,6 +174,22 @@ bool VoxelGrid::overlapRange(const Eigen::Vector3d& min, const Eigen::Vector3d& 
     high[axis] = static_cast<int>(clamped_last);
   }
   return true;
+}
+
+double VoxelGrid::fillCost(const Eigen::Vector3d& min, const Eigen::Vector3d& max) const {
+  Eigen::Vector3i low;
+  Eigen::Vector3i high;
+  if (!voxelRange(min, max, low, high)) return 0.0;
+  const Eigen::Array3d voxels = (high - low).array().cast<double>() + 1.0;
+  if (!bricked_) return voxels.prod();
+  // Per axis: the bricks the range touches and those it covers whole.
+  Eigen::Array3d touched;
+  Eigen::Array3d whole;
+  for (int axis = 0; axis < 3; ++axis) {
+    touched[axis] = (high[axis] >> 3) - (low[axis] >> 3) + 1;
+    whole[axis] = std::max(0, ((high[axis] + 1) >> 3) - ((low[axis] + 7) >> 3));
+  }
+  return touched.prod() + voxels.prod() - whole.prod() * kBrick * kBrick * kBrick;
 }
 
 void VoxelGrid::fillBox(const Eigen::Vector3d& min, const Eigen::Vector3d& max) {

@@ -48,11 +48,12 @@ VoxelGrid World::buildGrid(const WorldSpec& spec) {
 }
 
 std::shared_ptr<const World> World::build(const WorldSpec& spec) {
-  const Activity building("building the world '" + spec.name + "'");
-  VoxelGrid grid = buildGrid(spec);
-  Esdf esdf =
-      spec.layout == GridLayout::kBricked ? Esdf::truncated(grid, spec.truncation) : Esdf(grid);
-  return std::make_shared<const World>(spec.name, spec.hash(), std::move(grid), std::move(esdf));
+  return whileDoing("building the world '" + spec.name + "'", [&] {
+    VoxelGrid grid = buildGrid(spec);
+    Esdf esdf =
+        spec.layout == GridLayout::kBricked ? Esdf::truncated(grid, spec.truncation) : Esdf(grid);
+    return std::make_shared<const World>(spec.name, spec.hash(), std::move(grid), std::move(esdf));
+  });
 }
 
 void World::requireExactDistancesTo(double reach, const std::string& who) const {

@@ -16,6 +16,7 @@
 #include "kinolab/core/error.hpp"
 #include "kinolab/core/files.hpp"
 #include "kinolab/core/hash.hpp"
+#include "kinolab/core/process.hpp"
 
 namespace kinolab {
 namespace {
@@ -65,7 +66,8 @@ double secondsSince(std::chrono::steady_clock::time_point start) {
 /// way.
 class FileWriter {
  public:
-  explicit FileWriter(const std::string& path) : out_(path, std::ios::binary | std::ios::trunc) {}
+  /// Throws FileError naming `path` when it cannot be created (or is a link, core/files.hpp).
+  explicit FileWriter(const std::string& path) : out_(path) {}
   template <typename T>
   void put(const T* data, std::size_t count) {
     write(data, count * sizeof(T));
@@ -75,21 +77,20 @@ class FileWriter {
     static constexpr char kZeros[kAlignment] = {};
     write(kZeros, (kAlignment - offset_ % kAlignment) % kAlignment);
   }
-  /// Appends the checksum; false when anything failed.
-  bool finish() {
+  /// Appends the checksum and closes the file; FileError when anything failed.
+  void finish() {
     const std::uint64_t digest = checksum_.digest();
-    out_.write(reinterpret_cast<const char*>(&digest), sizeof(digest));
+    out_.write(&digest, sizeof(digest));
     out_.close();
-    return !out_.fail();
   }
 
  private:
   void write(const void* data, std::size_t bytes) {
     checksum_.update(data, bytes);
-    out_.write(static_cast<const char*>(data), static_cast<std::streamsize>(bytes));
+    out_.write(data, bytes);
     offset_ += bytes;
   }
-  std::ofstream out_;
+  OutputFile out_;
   StreamHash checksum_;
   std::uint64_t offset_ = 0;
 };
@@ -204,40 +205,42 @@ void WorldCache::write(const World& world, const std::string& path) {
   std::error_code error;
   std::filesystem::create_directories(target.parent_path(), error);
   const std::string temporary = path + ".tmp" + std::to_string(::getpid());
-  FileWriter out(temporary);
-  out.put(&header, 1);
-  if (!bricked) {
-    out.align();
-    out.put(grid.occupancy().data(), grid.size());
-    out.align();
-    out.put(esdf.values().data(), grid.size());
-  } else {
-    // The field's bricks of their own are numbered in table order.
-    std::vector<std::int32_t> slots(esdf.brickCount());
-    std::int32_t own = 0;
-    for (std::size_t i = 0; i < slots.size(); ++i) {
-      int shared = 0;
-      const std::int16_t* codes = esdf.brickCodes(i, shared);
-      slots[i] = codes != nullptr ? own++ : (shared > 0 ? -1 : -2);
+  try {
+    FileWriter out(temporary);
+    out.put(&header, 1);
+    if (!bricked) {
+      out.align();
+      out.put(grid.occupancy().data(), grid.size());
+      out.align();
+      out.put(esdf.values().data(), grid.size());
+    } else {
+      // The field's bricks of their own are numbered in table order.
+      std::vector<std::int32_t> slots(esdf.brickCount());
+      std::int32_t own = 0;
+      for (std::size_t i = 0; i < slots.size(); ++i) {
+        int shared = 0;
+        const std::int16_t* codes = esdf.brickCodes(i, shared);
+        slots[i] = codes != nullptr ? own++ : (shared > 0 ? -1 : -2);
+      }
+      const BrickedHeader bricks{slots.size(), grid.brickMasks().size(),
+                                 static_cast<std::uint64_t>(own), esdf.truncation()};
+      out.put(&bricks, 1);
+      out.align();
+      out.put(grid.brickStates().data(), grid.brickStates().size());
+      out.align();
+      out.put(grid.brickMasks().data(), grid.brickMasks().size());
+      out.align();
+      out.put(slots.data(), slots.size());
+      out.align();
+      for (std::size_t i = 0; i < slots.size(); ++i) {
+        int shared = 0;
+        if (const std::int16_t* codes = esdf.brickCodes(i, shared)) out.put(codes, 512);
+      }
     }
-    const BrickedHeader bricks{slots.size(), grid.brickMasks().size(),
-                               static_cast<std::uint64_t>(own), esdf.truncation()};
-    out.put(&bricks, 1);
-    out.align();
-    out.put(grid.brickStates().data(), grid.brickStates().size());
-    out.align();
-    out.put(grid.brickMasks().data(), grid.brickMasks().size());
-    out.align();
-    out.put(slots.data(), slots.size());
-    out.align();
-    for (std::size_t i = 0; i < slots.size(); ++i) {
-      int shared = 0;
-      if (const std::int16_t* codes = esdf.brickCodes(i, shared)) out.put(codes, 512);
-    }
-  }
-  if (!out.finish()) {
+    out.finish();
+  } catch (const FileError& failure) {
     std::filesystem::remove(temporary, error);
-    throw FileError(path + ": cannot write world cache file");
+    throw FileError(path + ": cannot write world cache file (" + failure.what() + ")");
   }
   std::filesystem::rename(temporary, target, error);
   if (error) {
@@ -319,7 +322,8 @@ WorldLoad WorldCache::loadOrBuild(const WorldSpec& spec) const {
   load.cache_file = fileFor(hash);
   if (std::filesystem::exists(load.cache_file)) {
     try {
-      load.world = read(load.cache_file, hash, spec.name);
+      load.world = whileDoing("reading the world '" + spec.name + "' from " + load.cache_file,
+                              [&] { return read(load.cache_file, hash, spec.name); });
       load.source = WorldSource::kCache;
       load.seconds = secondsSince(start);
       return load;
@@ -330,7 +334,8 @@ WorldLoad WorldCache::loadOrBuild(const WorldSpec& spec) const {
   }
   load.world = World::build(spec);
   try {
-    write(*load.world, load.cache_file);
+    whileDoing("writing the world '" + spec.name + "' to " + load.cache_file,
+               [&] { write(*load.world, load.cache_file); });
   } catch (const FileError& error) {
     // An unwritable cache costs time on the next run, not correctness.
     load.note += (load.note.empty() ? "" : "; ") + std::string("not cached: ") + error.what();

@@ -4,13 +4,16 @@
 #include <yaml-cpp/yaml.h>
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
-#include <fstream>
 
 #include "kinolab/core/error.hpp"
+#include "kinolab/core/files.hpp"
 #include "kinolab/core/hash.hpp"
+#include "kinolab/core/process.hpp"
+#include "kinolab/core/text.hpp"
 
 namespace kinolab {
 namespace {
@@ -52,6 +55,25 @@ int pictureScale(const Eigen::Vector3i& dims) {
   return std::clamp(400 / smaller, 1, 16);
 }
 
+/// The highest occupied voxel of the column (ix, iy), -1 when there is none; a sparse grid
+/// is read a brick's row (8 voxels) at a time, so a 1 km city's picture is seconds.
+int columnTop(const VoxelGrid& grid, int ix, int iy) {
+  const int height = grid.dims().z();
+  if (grid.layout() == GridLayout::kBricked) {
+    for (int bz = (height - 1) / VoxelGrid::kBrick; bz >= 0; --bz) {
+      unsigned row = grid.brickRow(ix, iy, bz);
+      const int past_top = (bz + 1) * VoxelGrid::kBrick - height;  // a full brick's extra bits
+      if (past_top > 0) row &= 0xFFu >> past_top;
+      if (row != 0) return bz * VoxelGrid::kBrick + std::bit_width(row) - 1;
+    }
+    return -1;
+  }
+  for (int iz = height - 1; iz >= 0; --iz) {
+    if (grid.occupied(VoxelIndex(ix, iy, iz))) return iz;
+  }
+  return -1;
+}
+
 }  // namespace
 
 void writeNpy(const std::string& path, const std::string& dtype, const void* data,
@@ -71,28 +93,26 @@ void writeNpy(const std::string& path, const std::string& dtype, const void* dat
   const std::size_t unpadded = 10 + header.size() + 1;
   header.append((64 - unpadded % 64) % 64, ' ');
   header += '\n';
-  std::ofstream out(path, std::ios::binary | std::ios::trunc);
+  OutputFile out(path);
   const char preamble[8] = {'\x93', 'N', 'U', 'M', 'P', 'Y', 1, 0};
   out.write(preamble, sizeof(preamble));
   const auto length = static_cast<std::uint16_t>(header.size());
   const char length_bytes[2] = {static_cast<char>(length & 0xff), static_cast<char>(length >> 8)};
   out.write(length_bytes, 2);
-  out.write(header.data(), static_cast<std::streamsize>(header.size()));
-  out.write(static_cast<const char*>(data), static_cast<std::streamsize>(count * item_size));
-  if (!out) throw FileError(path + ": cannot write");
+  out.write(header.data(), header.size());
+  out.write(data, count * item_size);
+  out.close();
 }
 
 void writePng(const std::string& path, const RgbImage& image) {
-  std::FILE* file = std::fopen(path.c_str(), "wb");
-  if (!file) throw FileError(path + ": cannot write");
+  OutputFile out(path);
   png_structp png = png_create_write_struct(PNG_LIBPNG_VER_STRING, nullptr, nullptr, nullptr);
   png_infop info = png ? png_create_info_struct(png) : nullptr;
   if (!png || !info || setjmp(png_jmpbuf(png))) {
     png_destroy_write_struct(&png, &info);
-    std::fclose(file);
     throw FileError(path + ": PNG encoding failed");
   }
-  png_init_io(png, file);
+  png_init_io(png, out.stream());
   png_set_IHDR(png, info, static_cast<png_uint_32>(image.width),
                static_cast<png_uint_32>(image.height), 8, PNG_COLOR_TYPE_RGB, PNG_INTERLACE_NONE,
                PNG_COMPRESSION_TYPE_DEFAULT, PNG_FILTER_TYPE_DEFAULT);
@@ -102,7 +122,7 @@ void writePng(const std::string& path, const RgbImage& image) {
   }
   png_write_end(png, nullptr);
   png_destroy_write_struct(&png, &info);
-  if (std::fclose(file) != 0) throw FileError(path + ": cannot write");
+  out.close();
 }
 
 RgbImage renderTopView(const World& world) {
@@ -112,10 +132,7 @@ RgbImage renderTopView(const World& world) {
   RgbImage image(dims.x() * scale, dims.y() * scale);
   for (int ix = 0; ix < dims.x(); ++ix) {
     for (int iy = 0; iy < dims.y(); ++iy) {
-      int top = -1;
-      for (int iz = dims.z() - 1; iz >= 0 && top < 0; --iz) {
-        if (grid.occupied(VoxelIndex(ix, iy, iz))) top = iz;
-      }
+      const int top = columnTop(grid, ix, iy);
       const Rgb colour = top < 0 ? Rgb{255, 255, 255}
                                  : colourMap(kHeight, dims.z() > 1 ? top / (dims.z() - 1.0) : 1.0);
       for (int dx = 0; dx < scale; ++dx) {
@@ -156,25 +173,13 @@ RgbImage renderEsdfSlice(const World& world, double z) {
   return image;
 }
 
-void exportWorld(const World& world, const std::string& directory, double slice_height) {
+namespace {
+
+/// occupancy.npy and esdf.npy of `world` in `dir` (a sparse world's made voxel by voxel).
+void writeArrays(const World& world, const std::filesystem::path& dir,
+                 const std::vector<std::size_t>& shape) {
   const VoxelGrid& grid = world.grid();
-  const bool sparse = grid.layout() == GridLayout::kBricked;
-  // A sparse world is written out voxel by voxel, as arrays of 5 bytes a voxel.
-  constexpr std::size_t kMostSparseVoxels = std::size_t{1} << 28;
-  if (sparse && grid.size() > kMostSparseVoxels) {
-    throw InvalidArgument("exporting world " + world.name() + ": a sparse world of " +
-                          std::to_string(grid.size()) +
-                          " voxels is too large for dense arrays (at " + "most " +
-                          std::to_string(kMostSparseVoxels) + ")");
-  }
-  std::error_code error;
-  std::filesystem::create_directories(directory, error);
-  if (error) throw FileError(directory + ": cannot create directory: " + error.message());
-  const std::filesystem::path dir(directory);
-  const std::vector<std::size_t> shape = {static_cast<std::size_t>(grid.dims().x()),
-                                          static_cast<std::size_t>(grid.dims().y()),
-                                          static_cast<std::size_t>(grid.dims().z())};
-  if (sparse) {
+  if (grid.layout() == GridLayout::kBricked) {
     std::vector<std::uint8_t> occupancy(grid.size());
     std::vector<float> values(grid.size());
     for (std::size_t i = 0; i < grid.size(); ++i) {
@@ -187,6 +192,36 @@ void exportWorld(const World& world, const std::string& directory, double slice_
     writeNpy((dir / "occupancy.npy").string(), "|u1", grid.occupancy().data(), 1, shape);
     writeNpy((dir / "esdf.npy").string(), "<f4", world.esdf().values().data(), sizeof(float),
              shape);
+  }
+}
+
+}  // namespace
+
+std::string arraysNotExported(GridLayout layout, double voxels) {
+  if (layout != GridLayout::kBricked || voxels <= kMostExportedSparseVoxels) return "";
+  return "a sparse world of " + formatNumber(voxels) +
+         " voxels is too large for dense arrays (at most " +
+         formatNumber(kMostExportedSparseVoxels) +
+         "): occupancy.npy and esdf.npy are not written, the pictures and world.yaml are";
+}
+
+std::vector<std::string> exportWorld(const World& world, const std::string& directory,
+                                     double slice_height) {
+  const VoxelGrid& grid = world.grid();
+  const bool sparse = grid.layout() == GridLayout::kBricked;
+  const std::string no_arrays = arraysNotExported(grid.layout(), static_cast<double>(grid.size()));
+  std::error_code error;
+  std::filesystem::create_directories(directory, error);
+  if (error) throw FileError(directory + ": cannot create directory: " + error.message());
+  const std::filesystem::path dir(directory);
+  const std::vector<std::size_t> shape = {static_cast<std::size_t>(grid.dims().x()),
+                                          static_cast<std::size_t>(grid.dims().y()),
+                                          static_cast<std::size_t>(grid.dims().z())};
+  std::vector<std::string> written;
+  if (no_arrays.empty()) {
+    whileDoing("exporting the world '" + world.name() + "' as arrays",
+               [&] { writeArrays(world, dir, shape); });
+    written = {"occupancy.npy", "esdf.npy"};
   }
 
   YAML::Emitter yaml;
@@ -208,13 +243,14 @@ void exportWorld(const World& world, const std::string& directory, double slice_
     yaml << YAML::Key << "truncation" << YAML::Value << world.esdf().truncation();
   }
   yaml << YAML::Key << "slice_height" << YAML::Value << slice_height;
+  if (!no_arrays.empty()) yaml << YAML::Key << "arrays" << YAML::Value << no_arrays;
   yaml << YAML::EndMap;
-  std::ofstream out(dir / "world.yaml");
-  out << yaml.c_str() << '\n';
-  if (!out) throw FileError((dir / "world.yaml").string() + ": cannot write");
+  writeFileAtomically((dir / "world.yaml").string(), std::string(yaml.c_str()) + '\n');
 
   writePng((dir / "top_view.png").string(), renderTopView(world));
   writePng((dir / "esdf_slice.png").string(), renderEsdfSlice(world, slice_height));
+  written.insert(written.end(), {"world.yaml", "top_view.png", "esdf_slice.png"});
+  return written;
 }
 
 }  // namespace kinolab

@@ -104,7 +104,7 @@ void checkGridSize(const WorldSpec& spec, const YamlReader& node) {
               " are less than one voxel (" + formatNumber(spec.resolution) +
               " m) wide on some axis");
   }
-  const Eigen::Vector3d dims = (extent / spec.resolution).array().ceil();
+  const Eigen::Vector3d dims = VoxelGrid::voxelsAlong(spec.bounds, spec.resolution);
   const double voxels = dims.prod();
   const double memory = processMemoryLimit();
   if (spec.layout == GridLayout::kBricked) {
@@ -122,8 +122,7 @@ void checkGridSize(const WorldSpec& spec, const YamlReader& node) {
     if (memory > 0.0 && voxels / 512.0 * 12.0 > 0.6 * memory) {
       node["resolution"].fail("the sparse world's brick tables alone need " +
                               formatNumber(std::ceil(voxels / 512.0 * 12.0 / (1 << 30))) +
-                              " GiB; this process may use " +
-                              formatNumber(std::floor(memory / (1 << 30))) + " GiB");
+                              " GiB; " + processMayUse());
     }
     return;
   }
@@ -147,10 +146,9 @@ void checkGridSize(const WorldSpec& spec, const YamlReader& node) {
   // one world.
   const double bytes = voxels * 14.0;
   if (memory > 0.0 && bytes > 0.6 * memory) {
-    node["resolution"].fail(
-        formatNumber(voxels) + " voxels need about " + formatNumber(std::ceil(bytes / (1 << 30))) +
-        " GiB to build; this process may use " + formatNumber(std::floor(memory / (1 << 30))) +
-        " GiB: use a coarser resolution or a smaller world");
+    node["resolution"].fail(formatNumber(voxels) + " voxels need about " +
+                            formatNumber(std::ceil(bytes / (1 << 30))) + " GiB to build; " +
+                            processMayUse() + ": use a coarser resolution or a smaller world");
   }
 }
 

@@ -378,10 +378,22 @@ class BoxListGenerator final : public WorldGenerator {
     }
   }
   void apply(VoxelGrid& grid, Rng&) const override {
+    double writes = 0.0;
+    for (const Box& box : boxes_) writes += grid.fillCost(box.min, box.max);
+    if (writes > kMaxWrites) {
+      throw ParameterConflict("boxes", std::to_string(boxes_.size()) + " boxes fill about " +
+                                           formatNumber(writes) +
+                                           " voxels in this grid (overlaps "
+                                           "counted each time); at most " +
+                                           formatNumber(kMaxWrites) +
+                                           " (fewer or smaller boxes, or a coarser resolution)");
+    }
     for (const Box& box : boxes_) grid.fillBox(box.min, box.max);
   }
 
  private:
+  /// The voxel writes (overlaps counted each time) a box list may make, refused before any.
+  static constexpr double kMaxWrites = 1e10;
   std::vector<Box> boxes_;
 };
 

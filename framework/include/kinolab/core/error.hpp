@@ -59,6 +59,14 @@ class PluginCodeError : public PluginError {
   using PluginError::PluginError;
 };
 
+/// Memory ran out (std::bad_alloc) while doing named work: a build or a plan larger than this
+/// process may use. The message names the work and the limit (whileDoing()); in an experiment
+/// it is the run's status `oom`.
+class OutOfMemory : public Error {
+ public:
+  using Error::Error;
+};
+
 /// A function was called with arguments that break its documented contract.
 class InvalidArgument : public Error {
  public:

@@ -1,5 +1,7 @@
 #pragma once
 
+#include <cstddef>
+#include <cstdio>
 #include <string>
 
 namespace kinolab {
@@ -8,8 +10,30 @@ namespace kinolab {
 /// a path through a file are all "no").
 bool isRegularFile(const std::string& path);
 
-/// Writes `text` to a temporary file beside `path` and renames it over `path`, so a reader
-/// never sees half a file. Throws FileError naming the path when it cannot.
+/// A file kinolab writes (created, or emptied), never reached through a link: a symbolic link,
+/// a pipe or a device at its path is a FileError naming it before anything is written, so a
+/// link planted in a results directory never gets kinolab's output written into its target.
+class OutputFile {
+ public:
+  explicit OutputFile(const std::string& path);
+  ~OutputFile();
+  OutputFile(const OutputFile&) = delete;
+  OutputFile& operator=(const OutputFile&) = delete;
+  /// The open stream (for writers such as libpng that take one).
+  std::FILE* stream() const { return file_; }
+  /// Appends `size` bytes; FileError naming the path when they cannot be written.
+  void write(const void* data, std::size_t size);
+  /// Flushes and closes; FileError naming the path when the data did not reach the file.
+  void close();
+
+ private:
+  std::string path_;
+  std::FILE* file_ = nullptr;
+};
+
+/// Writes `text` to a temporary file beside `path` (an OutputFile) and renames it over `path`,
+/// so a reader never sees half a file and a link at `path` is replaced, never written through.
+/// Throws FileError naming the path when it cannot.
 void writeFileAtomically(const std::string& path, const std::string& text);
 
 /// <prefix>/share/kinolab of the installed framework library this code runs in (found from

@@ -1,7 +1,11 @@
 #pragma once
 
+#include <new>
 #include <string>
+#include <utility>
 #include <vector>
+
+#include "kinolab/core/error.hpp"
 
 namespace kinolab {
 
@@ -20,20 +24,29 @@ struct CommandOutput {
 CommandOutput runCommand(const std::vector<std::string>& arguments, int timeout_seconds = 0);
 
 /// The memory this process may use, in bytes: the least of the machine's memory, its
-/// address-space limit (`ulimit -v`) and its control group's limit (a container's, a Slurm
-/// job's). Sizes read from input are checked against it before anything is allocated.
+/// address-space and data-segment limits (`ulimit -v`, `ulimit -d`) and its control group's
+/// limit (a container's, a Slurm job's). Sizes read from input are checked against it before
+/// anything is allocated.
 double processMemoryLimit();
 
-/// What the current thread is doing, for the message when memory runs out ("building the
-/// world 'city'"): an Activity names it while it lives, the innermost one wins.
-class Activity {
- public:
-  explicit Activity(std::string what);
-  ~Activity();
-  Activity(const Activity&) = delete;
-  Activity& operator=(const Activity&) = delete;
-  /// The innermost living activity's words, or "" when none.
-  static std::string current();
-};
+/// "this process may use 1.4 GiB" (rounded down; MiB below a GiB), for messages that refuse a
+/// size or report running out.
+std::string processMayUse();
+
+/// The words of running out of memory while doing `what` ("building the world 'city'"; ""
+/// when unknown), with what this process may use.
+std::string outOfMemoryMessage(const std::string& what);
+
+/// Runs `work` and returns what it returns; a std::bad_alloc inside becomes an OutOfMemory
+/// naming `what`, so the innermost named work is the one reported (an outer one passes the
+/// OutOfMemory on as any other Error).
+template <typename Work>
+decltype(auto) whileDoing(const std::string& what, Work&& work) {
+  try {
+    return std::forward<Work>(work)();
+  } catch (const std::bad_alloc&) {
+    throw OutOfMemory(outOfMemoryMessage(what));
+  }
+}
 
 }  // namespace kinolab

@@ -189,6 +189,8 @@ class Planner {
   /// The result of a query the planner must refuse (a start or goal outside the map or in
   /// collision, a start beyond the limits), or none.
   std::optional<PlanResult> refusal(const PlanningQuery& query) const;
+  /// plan()'s work once the query is accepted; plan() names it when memory runs out.
+  PlanResult planAccepted(const PlanningQuery& query, const Budget& budget, SearchTree* tree);
   /// The front end's budget within the call's: the time less the back end's share.
   Budget frontEndBudget(const Budget& budget) const;
   /// Runs the back end on the front end's answer within `stop` (the whole call's budget):

@@ -64,6 +64,9 @@ class VoxelGrid {
   /// fit the grid or each other.
   VoxelGrid(const Box& bounds, double resolution, std::vector<std::uint32_t> brick_states,
             std::vector<std::uint64_t> brick_masks);
+  /// The voxels along each axis a grid of `bounds` at `resolution` has (as a double, for size
+  /// checks before anything is allocated).
+  static Eigen::Vector3d voxelsAlong(const Box& bounds, double resolution);
 
   GridLayout layout() const { return bricked_ ? GridLayout::kBricked : GridLayout::kDense; }
 
@@ -241,6 +244,10 @@ class VoxelGrid {
 
   /// Marks every voxel whose centre lies in the closed box [min, max] as occupied.
   void fillBox(const Eigen::Vector3d& min, const Eigen::Vector3d& max);
+  /// The writes fillBox(min, max) makes, without making them: its voxels on a dense grid; on a
+  /// bricked one a write per brick it touches and its voxels in bricks it covers in part. For
+  /// generators that refuse unbounded work before doing any.
+  double fillCost(const Eigen::Vector3d& min, const Eigen::Vector3d& max) const;
 
   /// The voxel range whose centres lie in [min, max]; false when it is empty.
   bool voxelRange(const Eigen::Vector3d& min, const Eigen::Vector3d& max, Eigen::Vector3i& low,

@@ -39,9 +39,20 @@ RgbImage renderTopView(const World& world);
 /// colour map from near (dark) to far (bright), obstacles in red shades.
 RgbImage renderEsdfSlice(const World& world, double z);
 
-/// What `kinolab world --out DIR` writes: occupancy.npy (uint8), esdf.npy (float32,
-/// metres), world.yaml (resolution, origin, axis_order, ...), top_view.png and
-/// esdf_slice.png (at `slice_height`).
-void exportWorld(const World& world, const std::string& directory, double slice_height);
+/// The most voxels a sparse world may have for exportWorld() to write its dense arrays (5
+/// bytes a voxel, made voxel by voxel); a larger one gets its pictures and world.yaml only.
+constexpr double kMostExportedSparseVoxels = 1 << 28;
+
+/// Whether exportWorld() writes occupancy.npy and esdf.npy for a world of `voxels` voxels laid
+/// out as `layout`; what it says instead when not ("" when it does), to be said before a
+/// world is built.
+std::string arraysNotExported(GridLayout layout, double voxels);
+
+/// What `kinolab world --out DIR` writes: occupancy.npy (uint8) and esdf.npy (float32,
+/// metres) when arraysNotExported() is "", world.yaml (resolution, origin, axis_order, ...,
+/// and why the arrays are missing when they are), top_view.png and esdf_slice.png (at
+/// `slice_height`). Returns the names of the files written.
+std::vector<std::string> exportWorld(const World& world, const std::string& directory,
+                                     double slice_height);
 
 }  // namespace kinolab

@@ -78,6 +78,8 @@ struct WorldSpec {
   /// Exact text of everything that determines the grid (not the name, nor a map file's path:
   /// its content).
   std::string canonicalText() const;
+  /// The voxels of the grid the spec builds (bounds / resolution, as VoxelGrid rounds them).
+  double voxels() const { return VoxelGrid::voxelsAlong(bounds, resolution).prod(); }
   /// Hash of canonicalText(): the world cache key.
   std::uint64_t hash() const;
 };
