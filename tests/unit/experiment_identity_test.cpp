@@ -130,7 +130,7 @@ planners:
 budget: {time: 30}
 flight: {window: 8}
 )");
-  EXPECT_EQ(runsDigest(e), "146e1a8f63bff32e");
+  EXPECT_EQ(runsDigest(e), "555c7db0b4e3dd71");
 }
 
 TEST(WorldSpecIdentityTest, DenseAndSparseSpecsKeepTheirText) {
@@ -198,14 +198,15 @@ TEST(ExperimentFilesIdentityTest, ShippedExperimentsKeepTheirRunHashes) {
             "experiments/back_ends.yaml 1de6694964fc94dd\n"
             "experiments/city_500m.yaml 802beb9199e3187a\n"
             "experiments/field.yaml b45e596f2b0f2b3f\n"
-            "experiments/flight_back_ends.yaml a188c7a3a70f6434\n"
-            "experiments/flight_benchmark.yaml 01a4b0cce2c0e306\n"
-            "experiments/flight_densest_cell.yaml 7e64ca4601d80249\n"
-            "experiments/flight_forest.yaml 5e81f6c6d95edcde\n"
-            "experiments/flight_forest_2ms.yaml efdba796718c09f6\n"
-            "experiments/flight_geb079.yaml 0fd95219a0cee936\n"
-            "experiments/flight_speeds.yaml 724554e8e3692592\n"
-            "experiments/flight_speeds_tgk.yaml 22136760a2e68909\n"
+            "experiments/flight_back_ends.yaml 333f937a803243cf\n"
+            "experiments/flight_benchmark.yaml 5ec5d3d91638b764\n"
+            "experiments/flight_densest_cell.yaml 02d3c01ff6b464e8\n"
+            "experiments/flight_forest.yaml 60d75432d76d67a5\n"
+            "experiments/flight_forest_2ms.yaml e9c3f745e19eb9f6\n"
+            "experiments/flight_geb079.yaml afd29c5411554433\n"
+            "experiments/flight_real_map.yaml 56e9dce2475063d0\n"
+            "experiments/flight_speeds.yaml 543bf1be9d9b018b\n"
+            "experiments/flight_speeds_tgk.yaml 33426e943867d7e5\n"
             "experiments/heuristics/city.yaml f37d01290c87627e\n"
             "experiments/heuristics/geb079_fine.yaml f62c3d45b747cc9f\n"
             "experiments/heuristics/maps.yaml 957fb0989da9276c\n"

@@ -36,8 +36,12 @@ void QuadrotorTracker::advance(const Trajectory& reference, double t) {
     const double ahead = time_ + model_.previewTime();
     const Eigen::Vector3d feed_forward =
         ahead >= reference.duration() ? Eigen::Vector3d::Zero() : reference.evaluate(ahead, 2);
+    Eigen::Vector3d position_error = reference.evaluate(at, 0) - state_.col(0);
+    if (position_error.norm() > model_.max_position_error) {
+      position_error *= model_.max_position_error / position_error.norm();
+    }
     const Eigen::Vector3d command = feasible(
-        feed_forward + model_.position_gain * (reference.evaluate(at, 0) - state_.col(0)) +
+        feed_forward + model_.position_gain * position_error +
         model_.velocity_gain *
             ((after ? Eigen::Vector3d::Zero() : reference.evaluate(at, 1)) - state_.col(1)));
     // The attitude's lag, the thrust vector turning at most max_body_rate.

@@ -147,6 +147,11 @@ std::optional<PlanResult> Planner::refusal(const PlanningQuery& query) const {
     result.message = "start " + problem;
     return result;
   }
+  if (std::string problem = stateProblem(start); !problem.empty()) {
+    result.status = PlanStatus::kInvalidStart;
+    result.message = "start " + formatPoint(start) + ": " + problem;
+    return result;
+  }
   for (int k = 1; k < own.limited_derivatives; ++k) {
     const Eigen::Vector3d excess = query.start.col(k).cwiseAbs() - own.limits.bound[k];
     if (excess.maxCoeff() > 0.0) {
@@ -162,7 +167,41 @@ std::optional<PlanResult> Planner::refusal(const PlanningQuery& query) const {
     result.message = "goal " + problem;
     return result;
   }
+  if (std::string problem = goalRegionProblem(query.goal); !problem.empty()) {
+    result.status = PlanStatus::kInvalidGoal;
+    result.message = "goal region (within " + formatNumber(own.goal_radius) + " m of " +
+                     formatPoint(query.goal) + ") has no room for a state: at the goal " + problem +
+                     ", and at no voxel centre within it either";
+    return result;
+  }
   return std::nullopt;
+}
+
+std::string Planner::goalRegionProblem(const Eigen::Vector3d& goal) const {
+  std::string at_goal = stateProblem(goal);
+  if (at_goal.empty()) return at_goal;
+  // A planner's goal is the ball of goal_radius: a state anywhere in it ends the search.
+  // Decided at the voxel centres (each a few clearance lookups), so a region whose only room
+  // is narrower than a voxel is refused too.
+  const World& map = world();
+  const VoxelGrid& grid = map.grid();
+  const double radius = limits().goal_radius;
+  const auto voxelOf = [&grid](const Eigen::Vector3d& point) -> VoxelIndex {
+    return ((point - grid.origin()) / grid.resolution()).array().floor().cast<int>();
+  };
+  const Eigen::Vector3d offset = Eigen::Vector3d::Constant(radius);
+  const VoxelIndex low = voxelOf(goal - offset).cwiseMax(VoxelIndex::Zero());
+  const VoxelIndex high = voxelOf(goal + offset).cwiseMin(grid.dims() - VoxelIndex::Ones());
+  for (int ix = low.x(); ix <= high.x(); ++ix) {
+    for (int iy = low.y(); iy <= high.y(); ++iy) {
+      for (int iz = low.z(); iz <= high.z(); ++iz) {
+        const Eigen::Vector3d centre = grid.center(VoxelIndex(ix, iy, iz));
+        if ((centre - goal).norm() > radius) continue;
+        if (positionProblem(map, centre, body_).empty() && stateProblem(centre).empty()) return "";
+      }
+    }
+  }
+  return at_goal;
 }
 
 Budget Planner::frontEndBudget(const Budget& budget) const {

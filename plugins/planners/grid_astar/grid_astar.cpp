@@ -36,6 +36,21 @@ MetricSpecs gridStatistics() {
   return specs;
 }
 
+/// A search that found nothing: timeout when it spent the budget; an end without a free
+/// voxel next to it is refused as plan() refuses one in collision, before any search.
+PlanStatus statusOf(GridPath::Outcome outcome) {
+  switch (outcome) {
+    case GridPath::Outcome::kStopped:
+      return PlanStatus::kTimeout;
+    case GridPath::Outcome::kStartUnconnected:
+      return PlanStatus::kInvalidStart;
+    case GridPath::Outcome::kGoalUnconnected:
+      return PlanStatus::kInvalidGoal;
+    default:
+      return PlanStatus::kNoSolution;
+  }
+}
+
 class GridAstarPlanner final : public Planner {
  public:
   explicit GridAstarPlanner(const ParameterSet& parameters)
@@ -67,8 +82,7 @@ class GridAstarPlanner final : public Planner {
                          {"voxel_evaluations", static_cast<double>(found.voxel_evaluations)},
                          {"line_of_sight_checks", static_cast<double>(found.line_of_sight_checks)}};
     if (found.outcome != GridPath::Outcome::kFound) {
-      result.status = found.outcome == GridPath::Outcome::kStopped ? PlanStatus::kTimeout
-                                                                   : PlanStatus::kNoSolution;
+      result.status = statusOf(found.outcome);
       result.message = found.message;
       return result;
     }

@@ -66,7 +66,8 @@ GridPath findGridPath(const World& world, const Body& body, const Eigen::Vector3
   const std::optional<VoxelIndex> first = connectedVoxel(voxels, start, body);
   const std::optional<VoxelIndex> last = connectedVoxel(voxels, goal, body);
   if (!first || !last) {
-    result.outcome = GridPath::Outcome::kUnconnected;
+    result.outcome =
+        first ? GridPath::Outcome::kGoalUnconnected : GridPath::Outcome::kStartUnconnected;
     result.message = std::string("no free voxel next to the ") + (first ? "goal" : "start") +
                      " is joined to it by a free straight segment";
     return result;

@@ -11,7 +11,9 @@ namespace kinolab::grid {
 
 /// A geometric path from a position to a position through the voxel search.
 struct GridPath {
-  enum class Outcome { kFound, kNoPath, kStopped, kUnconnected };
+  /// kStartUnconnected, kGoalUnconnected: no free voxel next to that end (decided before
+  /// the search).
+  enum class Outcome { kFound, kNoPath, kStopped, kStartUnconnected, kGoalUnconnected };
   Outcome outcome = Outcome::kNoPath;
   /// The start, the voxel centres (straight runs merged) and the goal.
   std::vector<Eigen::Vector3d> grid_path;

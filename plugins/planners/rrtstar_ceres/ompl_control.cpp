@@ -23,12 +23,14 @@
 #include <ompl/control/spaces/RealVectorControlSpace.h>
 #include <ompl/util/Console.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 
 #include "kinolab/core/fields.hpp"
 #include "kinolab/core/hash.hpp"
 #include "kinolab/core/plugin.hpp"
+#include "kinolab/core/text.hpp"
 #include "ompl_common.hpp"
 #include "plan_seeds.hpp"
 #include "rrt_front_end.hpp"
@@ -177,6 +179,9 @@ struct ControlProblem {
   oc::SpaceInformationPtr si;
   long long validity_checks = 0;
   long long propagations = 0;
+  /// m every state keeps beyond the body's radius and inside the map's box: half the longest
+  /// step's travel (setUpPropagation()).
+  double margin = 0.0;
   ob::PlannerPtr last_planner;
 };
 
@@ -226,6 +231,7 @@ void setUpPropagation(ControlProblem& p) {
   // much below the limit.
   const double step = p.settings.step;
   const double margin = 0.5 * std::sqrt(3.0) * p.limits.limits.bound[1].maxCoeff() * step;
+  p.margin = margin;
   const double velocity_slack = order == 3 ? p.settings.max_jerk * step * step / 8.0 : 0.0;
   // A sparse world's truncated distances would read as the clearance: refused at setup.
   p.world->requireExactDistancesTo(p.body.radius + margin,
@@ -328,6 +334,20 @@ class OmplControlPlanner final : public Planner {
   SearchTree doTree(std::size_t max_edges) const override;
   PlannerLimits plannerLimits() const override { return limits_; }
   Budget ownBudget() const override { return budget_; }
+  std::string stateProblem(const Eigen::Vector3d& position) const override {
+    const ControlProblem& p = *problem_;
+    const Box& box = p.world->bounds();
+    const double inset = std::min((position - box.min).minCoeff(), (box.max - position).minCoeff());
+    if (inset < p.margin) {
+      return "it is " + formatNumber(inset) + " m inside the map's box, less than the " +
+             formatNumber(p.margin) + " m (half a propagation step's travel) every state keeps";
+    }
+    const double clearance = p.world->clearance(position);
+    if (clearance >= p.body.radius + p.margin) return "";
+    return "clearance " + formatNumber(clearance) +
+           " m is below the robot radius plus half a propagation step's travel = " +
+           formatNumber(p.body.radius + p.margin) + " m, which every state keeps";
+  }
   std::string costObjective() const override { return "trajectory length"; }
 
  private:

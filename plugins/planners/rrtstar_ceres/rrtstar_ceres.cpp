@@ -135,13 +135,6 @@ class RrtStarPlanner final : public Planner {
           "back end, e.g. back_end=bspline, for a moving start)";
       return result;
     }
-    if (const double clearance = world().clearance(start); clearance < clearance_) {
-      result.status = PlanStatus::kInvalidStart;
-      result.message = "start clearance " + formatNumber(clearance) +
-                       " m is below robot_radius + clearance_margin = " + formatNumber(clearance_) +
-                       " m, which every RRT* state needs";
-      return result;
-    }
     // The run's seed and the query decide OMPL's random streams: the same case repeats.
     std::uint64_t seed = hashBytes(query.goal.data(), 3 * sizeof(double), seed_);
     seed = hashBytes(query.start.data(), sizeof(ChainState), seed);
@@ -178,6 +171,13 @@ class RrtStarPlanner final : public Planner {
   Budget ownBudget() const override { return budget_; }
   /// The cost is the trajectory's length, whichever front and back end made it.
   std::string costObjective() const override { return "trajectory length"; }
+  std::string stateProblem(const Eigen::Vector3d& position) const override {
+    const double clearance = world().clearance(position);
+    if (clearance >= clearance_) return "";
+    return "clearance " + formatNumber(clearance) +
+           " m is below robot_radius + clearance_margin = " + formatNumber(clearance_) +
+           " m, which every RRT* state needs";
+  }
 
  private:
   FrontEndSettings front_end_settings_;

@@ -176,6 +176,12 @@ class Planner {
   virtual void doCheck() const {}
   /// What the cost measures (objective()); "" by default.
   virtual std::string costObjective() const { return ""; }
+  /// Why a state of this planner cannot stand at `position` (already inside the map and clear
+  /// for body()), or "": a planner whose states keep more than the body (RRT*'s
+  /// clearance_margin, ompl_control's step margin) says what. plan() refuses a start where
+  /// none can stand (invalid_start) and a goal whose region has no such point (invalid_goal)
+  /// before the budget is spent; nothing more by default.
+  virtual std::string stateProblem(const Eigen::Vector3d& /*position*/) const { return ""; }
   /// True when its back end makes the trajectory flown from the front end's answer (any but
   /// `none`): a geometric front end may then plan from a moving start, with only a path.
   bool refinesFrontEnd() const;
@@ -187,10 +193,14 @@ class Planner {
   /// How errors from its own code name it: "plugin LIB (planner 'KEY')" (from key_).
   std::string pluginName() const;
   /// The result of a query the planner must refuse (a start or goal outside the map or in
-  /// collision, a start beyond the limits), or none.
+  /// collision, a start beyond the limits or where no state stands, a goal region without
+  /// room for a state), or none.
   std::optional<PlanResult> refusal(const PlanningQuery& query) const;
   /// plan()'s work once the query is accepted; plan() names it when memory runs out.
   PlanResult planAccepted(const PlanningQuery& query, const Budget& budget, SearchTree* tree);
+  /// "" when a state of this planner stands somewhere in the goal region: at the goal or at a
+  /// voxel centre within goal_radius of it; else why not at the goal.
+  std::string goalRegionProblem(const Eigen::Vector3d& goal) const;
   /// The front end's budget within the call's: the time less the back end's share.
   Budget frontEndBudget(const Budget& budget) const;
   /// Runs the back end on the front end's answer within `stop` (the whole call's budget):
