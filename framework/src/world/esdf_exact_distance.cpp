@@ -297,26 +297,22 @@ void ExactDistanceRun::gather(const std::int64_t cell[3]) {
           free_z > 0.0 ? std::min(cz, static_cast<std::int64_t>(
                                           std::floor(static_cast<double>(cz) - 0.5 - free_z)))
                        : cz;
-      for (std::int64_t z = below; z >= 0; --z) {
-        const double bz = boxGap(z - cz);
-        if (bxy2 + bz * bz > reach2) break;
-        if (field.valueAt(static_cast<std::size_t>(x), static_cast<std::size_t>(y),
-                          static_cast<std::size_t>(z)) < 0.0f) {
-          add(x, y, z);
-          break;
-        }
-      }
       const std::int64_t above = std::max(
           cz + 1, static_cast<std::int64_t>(std::ceil(static_cast<double>(cz) + 0.5 + free_z)));
-      for (std::int64_t z = above; z < nz; ++z) {
-        const double bz = boxGap(z - cz);
-        if (bxy2 + bz * bz > reach2) break;
-        if (field.valueAt(static_cast<std::size_t>(x), static_cast<std::size_t>(y),
-                          static_cast<std::size_t>(z)) < 0.0f) {
-          add(x, y, z);
-          break;
+      // Along z from `z` by `step`: the first occupied cube within reach.
+      const auto walk = [&](std::int64_t z, std::int64_t step) {
+        for (; z >= 0 && z < nz; z += step) {
+          const double bz = boxGap(z - cz);
+          if (bxy2 + bz * bz > reach2) return;
+          if (field.valueAt(static_cast<std::size_t>(x), static_cast<std::size_t>(y),
+                            static_cast<std::size_t>(z)) < 0.0f) {
+            add(x, y, z);
+            return;
+          }
         }
-      }
+      };
+      walk(below, -1);
+      walk(above, 1);
     }
   }
 }

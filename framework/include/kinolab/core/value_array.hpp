@@ -17,8 +17,9 @@ template <typename T>
 class ValueArray {
  public:
   ValueArray() = default;
-  /// Owns `values`.
-  ValueArray(std::vector<T>&& values)  // NOLINT(google-explicit-constructor): a vector is one
+  /// Owns `values` (implicit: a vector is an array of its own, so that a function taking a
+  /// ValueArray takes a vector as well).
+  ValueArray(std::vector<T>&& values)
       : owned_(std::move(values)), data_(owned_.data()), size_(owned_.size()) {}
   /// Views the `count` values at `data`, which `keeper` keeps alive and unchanged.
   ValueArray(std::shared_ptr<const void> keeper, const T* data, std::size_t count)
