@@ -117,6 +117,25 @@ TEST_F(WorldCacheTest, ASparseWorldIsCachedAndLoadedAsBuilt) {
   expectSameWorld(*first.world, *third.world);
 }
 
+TEST_F(WorldCacheTest, AWorldOfAnyVoxelCountIsLoadedFromTheCache) {
+  // 25 x 25 x 25 voxels: the values end off the 64-byte alignment of the arrays.
+  const WorldCache cache(directory_.string());
+  for (const std::string layout : {"dense", "sparse\ntruncation: 0.4"}) {
+    SCOPED_TRACE(layout);
+    const WorldSpec spec = WorldSpec::fromYaml(
+        YamlReader::loadString("name: odd\nseed: 2\nresolution: 0.1\nlayout: " + layout +
+                                   "\nbounds: {min: [0, 0, 0], max: [2.5, 2.5, 2.5]}\n"
+                                   "generators: [{type: forest, density: 0.3}]\n",
+                               "odd.yaml"),
+        ".");
+    const WorldLoad built = cache.loadOrBuild(spec);
+    ASSERT_EQ(built.world->grid().size(), 15625u);
+    const WorldLoad loaded = cache.loadOrBuild(spec);
+    EXPECT_EQ(loaded.source, WorldSource::kCache) << loaded.note;
+    expectSameWorld(*built.world, *loaded.world);
+  }
+}
+
 TEST_F(WorldCacheTest, CorruptTruncatedOrForeignFilesAreRebuiltNeverTrusted) {
   const WorldCache cache(directory_.string());
   const WorldLoad original = cache.loadOrBuild(spec_);

@@ -7,6 +7,7 @@
 
 #include <cerrno>
 #include <chrono>
+#include <cmath>
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
@@ -267,17 +268,44 @@ std::shared_ptr<const World> WorldCache::read(const std::string& path, std::uint
   if (header.layout != kDenseFile && header.layout != kBrickedFile) {
     throw FileError(path + ": unknown layout " + std::to_string(header.layout));
   }
-  // Where the arrays lie (each within the file, the last ending at the checksum), then the
-  // checksum, and only then anything built from them.
+  // The header's geometry, checked before anything is sized by it (a file with a valid
+  // checksum may still have been made by hand).
   const bool dense = header.layout == kDenseFile;
   const std::uint64_t voxels = header.voxel_count;
-  const auto bricks = dense ? BrickedHeader{} : in.read<BrickedHeader>();
-  const auto* occupancy = dense ? in.take<std::uint8_t>(voxels) : nullptr;
-  const auto* values = dense ? in.take<float>(voxels) : nullptr;
-  const auto* states = in.take<std::uint32_t>(bricks.bricks);
-  const auto* masks = in.take<std::uint64_t>(bricks.mask_words);
-  const auto* slots = in.take<std::int32_t>(bricks.bricks);
-  const auto* codes = in.take<std::int16_t>(bricks.own_bricks * 512);
+  const Eigen::Vector3i dims(header.dims[0], header.dims[1], header.dims[2]);
+  const Eigen::Vector3d origin(header.origin[0], header.origin[1], header.origin[2]);
+  if (!(header.resolution > 0.0 && std::isfinite(header.resolution)) || !origin.allFinite() ||
+      (dims.array() < 1).any() || dims.cast<double>().prod() != static_cast<double>(voxels) ||
+      (VoxelGrid::voxelsAlong(boxOf(header), header.resolution).array() !=
+       dims.cast<double>().array())
+          .any()) {
+    throw FileError(path + ": inconsistent grid dimensions");
+  }
+  // Where the arrays lie (each within the file, the last ending at the checksum), then the
+  // checksum, and only then anything built from them.
+  const std::uint8_t* occupancy = nullptr;
+  const float* values = nullptr;
+  const std::uint32_t* states = nullptr;
+  const std::uint64_t* masks = nullptr;
+  const std::int32_t* slots = nullptr;
+  const std::int16_t* codes = nullptr;
+  BrickedHeader bricks{};
+  if (dense) {
+    occupancy = in.take<std::uint8_t>(voxels);
+    values = in.take<float>(voxels);
+  } else {
+    bricks = in.read<BrickedHeader>();
+    const Eigen::Vector3d brick_dims =
+        ((dims.array() + VoxelGrid::kBrick - 1) / VoxelGrid::kBrick).cast<double>();
+    if (brick_dims.prod() != static_cast<double>(bricks.bricks) ||
+        bricks.own_bricks > bricks.bricks) {
+      throw FileError(path + ": inconsistent brick counts");
+    }
+    states = in.take<std::uint32_t>(bricks.bricks);
+    masks = in.take<std::uint64_t>(bricks.mask_words);
+    slots = in.take<std::int32_t>(bricks.bricks);
+    codes = in.take<std::int16_t>(bricks.own_bricks * 512);
+  }
   in.expectEnd();
   std::uint64_t stored_checksum = 0;
   std::memcpy(&stored_checksum, bytes + size - sizeof(std::uint64_t), sizeof(stored_checksum));
@@ -286,25 +314,17 @@ std::shared_ptr<const World> WorldCache::read(const std::string& path, std::uint
   }
   // The grid and the field read the mapped file where it lies (a sparse grid's bricks are
   // copied: 4 bytes a brick and the masks).
-  const auto checkDims = [&](const VoxelGrid& grid) {
-    if (grid.dims() != Eigen::Vector3i(header.dims[0], header.dims[1], header.dims[2]) ||
-        grid.size() != voxels) {
-      throw InvalidArgument("the grid's dimensions differ from the header's");
-    }
-  };
   try {
     const Box box = boxOf(header);
     if (dense) {
       VoxelGrid grid(box, header.resolution,
                      ValueArray<std::uint8_t>(in.file(), occupancy, voxels));
-      checkDims(grid);
       Esdf esdf(grid, ValueArray<float>(in.file(), values, voxels));
       return std::make_shared<const World>(name, expected_hash, std::move(grid), std::move(esdf));
     }
     VoxelGrid grid(box, header.resolution,
                    std::vector<std::uint32_t>(states, states + bricks.bricks),
                    std::vector<std::uint64_t>(masks, masks + bricks.mask_words));
-    checkDims(grid);
     Esdf esdf =
         Esdf::fromBricks(grid, bricks.truncation, {slots, bricks.bricks},
                          ValueArray<std::int16_t>(in.file(), codes, bricks.own_bricks * 512));
