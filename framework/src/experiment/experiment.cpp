@@ -245,7 +245,9 @@ YAML::Node loadDocument(const std::string& path, std::string& source,
         if (!isRegularFile(file)) map->fail("no such map file: " + file);
         YAML::Node generator(YAML::NodeType::Map);
         generator["type"] = "octomap";
-        generator["file"] = fs::absolute(file).string();
+        // As written, relative to the experiment's folder as a spec file's paths are to its
+        // own: the run identity is then the same in every checkout.
+        generator["file"] = map->as<std::string>();
         generator["unknown"] = "free";
         YAML::Node spec(YAML::NodeType::Map);
         spec["name"] = item.get<std::string>("id");
@@ -256,6 +258,7 @@ YAML::Node loadDocument(const std::string& path, std::string& source,
         node.remove("map");
         node.remove("resolution");
         node["spec"] = spec;
+        spec_directories[item.get<std::string>("id")] = directory;
         continue;
       }
       const auto spec = item.optional("spec");
