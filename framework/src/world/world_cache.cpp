@@ -166,6 +166,22 @@ Box boxOf(const Header& header) {
   return Box{origin, origin + extent};
 }
 
+/// The header's geometry, checked before anything is sized by it (a file with a valid checksum
+/// may still have been made by hand): a positive finite resolution, a finite origin, dims of at
+/// least one voxel whose product is the voxel count and which a grid of the header's box has.
+void checkGeometry(const Header& header, const std::string& path) {
+  const Eigen::Vector3i dims(header.dims[0], header.dims[1], header.dims[2]);
+  const Eigen::Vector3d origin(header.origin[0], header.origin[1], header.origin[2]);
+  if (!(header.resolution > 0.0 && std::isfinite(header.resolution)) || !origin.allFinite() ||
+      (dims.array() < 1).any() ||
+      dims.cast<double>().prod() != static_cast<double>(header.voxel_count) ||
+      (VoxelGrid::voxelsAlong(boxOf(header), header.resolution).array() !=
+       dims.cast<double>().array())
+          .any()) {
+    throw FileError(path + ": inconsistent grid dimensions");
+  }
+}
+
 }  // namespace
 
 WorldCache::WorldCache(std::string directory) : directory_(std::move(directory)) {}
@@ -268,19 +284,10 @@ std::shared_ptr<const World> WorldCache::read(const std::string& path, std::uint
   if (header.layout != kDenseFile && header.layout != kBrickedFile) {
     throw FileError(path + ": unknown layout " + std::to_string(header.layout));
   }
-  // The header's geometry, checked before anything is sized by it (a file with a valid
-  // checksum may still have been made by hand).
+  checkGeometry(header, path);
   const bool dense = header.layout == kDenseFile;
   const std::uint64_t voxels = header.voxel_count;
   const Eigen::Vector3i dims(header.dims[0], header.dims[1], header.dims[2]);
-  const Eigen::Vector3d origin(header.origin[0], header.origin[1], header.origin[2]);
-  if (!(header.resolution > 0.0 && std::isfinite(header.resolution)) || !origin.allFinite() ||
-      (dims.array() < 1).any() || dims.cast<double>().prod() != static_cast<double>(voxels) ||
-      (VoxelGrid::voxelsAlong(boxOf(header), header.resolution).array() !=
-       dims.cast<double>().array())
-          .any()) {
-    throw FileError(path + ": inconsistent grid dimensions");
-  }
   // Where the arrays lie (each within the file, the last ending at the checksum), then the
   // checksum, and only then anything built from them.
   const std::uint8_t* occupancy = nullptr;
