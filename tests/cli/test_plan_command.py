@@ -2,10 +2,13 @@
 
 import csv
 import json
+import os
+import re
+import subprocess
 
 import pytest
 
-from conftest import last_json
+from conftest import BINARY, last_json
 
 FAST = ["--set", "sampler.samples_per_axis=3", "--set", "heuristic_weight=2"]
 
@@ -163,3 +166,31 @@ def test_the_tgk_analogue_refuses_bad_parameters(kinolab, world, arguments, mess
                      "--goal", "8,8,1.5", *arguments)
     assert result.returncode == 1, result.stdout
     assert message in result.stderr, result.stderr
+
+
+def _loaded_libraries(world, tmp_path, *args):
+    """The shared objects `kinolab plan ARGS` loads (the dynamic loader's own account)."""
+    env = dict(os.environ, KINOLAB_CACHE_DIR=str(tmp_path / "cache"), LD_DEBUG="files")
+    result = subprocess.run([BINARY, "plan", "--world", str(world), "--start", "1,1,1.5",
+                             "--goal", "8.5,8,1.5", *args],
+                            capture_output=True, text=True, env=env, timeout=300)
+    assert result.returncode == 0, result.stderr
+    return set(re.findall(r"file=(\S+)\s+\[\d+\];\s+generating link map", result.stderr))
+
+
+def test_a_plan_loads_ompl_and_ceres_only_when_its_planner_uses_them(world, tmp_path):
+    """Plugins of ON_USE modules (rrtstar_ceres: OMPL; bspline: Ceres, linked statically, with
+    its solvers' libraries such as CHOLMOD) are known from their manifests; their modules and
+    libraries load only when one of them is made."""
+    marks = {"kinolab_module_rrtstar_ceres": "rrtstar module", "libompl": "OMPL",
+             "kinolab_module_bspline_back_end": "bspline module", "libcholmod": "CHOLMOD"}
+
+    def loaded(*args):
+        libraries = _loaded_libraries(world, tmp_path, *args)
+        return {name for mark, name in marks.items() if any(mark in path for path in libraries)}
+
+    assert loaded("--planner", "lazy_mp_astar") == set()
+    assert loaded("--planner", "lazy_mp_astar", "--set", "back_end=bspline") == {
+        "bspline module", "CHOLMOD"}
+    assert loaded("--planner", "rrtstar_ceres", "--set", "time_limit=0.5") >= {
+        "rrtstar module", "OMPL"}

@@ -34,6 +34,11 @@ expect_output("kinolab [0-9]+\\.[0-9]+\\.[0-9]+ distance 0\\.45")
 
 # The installed command loads the plugin and lists it beside the built-in samplers.
 set(kinolab "${prefix}/bin/kinolab")
+# Its planners loaded on use find their installed module (lib/kinolab_modules) and plan.
+run_step(OK "${kinolab}" plan --world "${CONSUMER_SOURCE_DIR}/../../configs/worlds/empty.yaml"
+         --planner rrtstar_ceres --set time_limit=0.5 --set back_end=bspline
+         --start 2,2,1 --goal 12,10,2 --cache-dir "${WORK_DIR}/cache")
+expect_output("\"status\":\"exact\"")
 run_step(OK "${kinolab}" --plugin "${build}/libaxes_sampler.so" list samplers --json)
 expect_output("\"key\": \"axes\"")
 expect_output("\"origin\": \"[^\"]*libaxes_sampler.so\"")

@@ -226,5 +226,20 @@ TEST(ValueArray, CopiesAViewOnlyWhenItIsWrittenAndKeepsItsKeeperAliveTheWholeTim
   EXPECT_TRUE(copied.empty());
 }
 
+TEST(ValueArray, AnArrayMovedOrCopiedOntoItselfKeepsItsValues) {
+  ValueArray<int> owned(std::vector<int>{6, 7});
+  ValueArray<int>& alias = owned;  // (through a reference: the compiler warns on a plain self-move)
+  owned = std::move(alias);
+  EXPECT_EQ(asVector(owned.span()), (std::vector<int>{6, 7}));
+  owned = alias;
+  EXPECT_EQ(asVector(owned.span()), (std::vector<int>{6, 7}));
+  auto storage = std::make_shared<std::vector<int>>(std::vector<int>{8});
+  ValueArray<int> view(storage, storage->data(), storage->size());
+  ValueArray<int>& view_alias = view;
+  view = std::move(view_alias);
+  EXPECT_TRUE(view.viewed());
+  EXPECT_EQ(asVector(view.span()), (std::vector<int>{8}));
+}
+
 }  // namespace
 }  // namespace kinolab

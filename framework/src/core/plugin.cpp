@@ -15,6 +15,11 @@ std::map<std::string, std::string>& libraryVersions() {
   return versions;
 }
 
+void recordLibraries(const std::vector<std::pair<std::string, std::string>>& libraries) {
+  auto& versions = libraryVersions();
+  for (const auto& [name, version] : libraries) versions.emplace(name, version);
+}
+
 /// What the library's symbol table says `address` (from dlsym) is: "" when it is an object
 /// of `size` bytes (size 0: a function), else what it is instead. A record smaller than
 /// kinolab's would be read past its end, and data called as the entry point would crash.
@@ -36,43 +41,74 @@ std::string symbolProblem(void* address, std::size_t size) {
   return "";
 }
 
+/// Why a library built with `built` cannot be used here ("" when it can).
+std::string abiMismatch(const KinolabPluginAbiRecord& built) {
+  const KinolabPluginAbiRecord here = KINOLAB_PLUGIN_ABI_RECORD;
+  if (built.magic != here.magic) return "its ABI record is not kinolab's";
+  if (built.abi != here.abi) {
+    return "built for plugin ABI " + std::to_string(built.abi) + ", this kinolab has ABI " +
+           std::to_string(here.abi);
+  }
+  if (built.cxx11_abi != here.cxx11_abi || built.string_size != here.string_size) {
+    return "built with another C++ standard library layout (_GLIBCXX_USE_CXX11_ABI " +
+           std::to_string(built.cxx11_abi) + ", std::string of " +
+           std::to_string(built.string_size) + " bytes; here " + std::to_string(here.cxx11_abi) +
+           " and " + std::to_string(here.string_size) + ")";
+  }
+  return "";
+}
+
 }  // namespace
 
 void PluginRegistrar::commit() {
   for (std::size_t i = 0; i < pending_.size(); ++i) {
     const Pending& item = pending_[i];
+    const std::string& key = item.info.key;
     for (std::size_t j = 0; j < i; ++j) {
-      if (pending_[j].kind == item.kind && pending_[j].key == item.key) {
-        throw PluginError(origin_ + ": registers " + item.kind + " '" + item.key + "' twice");
+      if (pending_[j].kind == item.kind && pending_[j].info.key == key) {
+        throw PluginError(origin_ + ": registers " + item.kind + " '" + key + "' twice");
       }
     }
-    if (item.taken(item.key)) {
-      throw PluginError(item.kind + " '" + item.key + "' from " + origin_ +
+    if (item.taken(key)) {
+      throw PluginError(item.kind + " '" + key + "' from " + origin_ +
                         " is already registered; pick another key");
     }
   }
   for (auto& item : pending_) item.apply();
   pending_.clear();
-  auto& versions = libraryVersions();
-  for (auto& [name, version] : libraries_) versions.emplace(std::move(name), std::move(version));
+  recordLibraries(libraries_);
   libraries_.clear();
+}
+
+void PluginRegistrar::fulfil() {
+  for (auto& item : pending_) {
+    if (!item.fulfil()) {
+      throw PluginError(origin_ + " registers " + item.kind + " '" + item.info.key +
+                        "', which its manifest does not declare: rebuild kinolab");
+    }
+  }
+  pending_.clear();
+  recordLibraries(libraries_);
+  libraries_.clear();
+}
+
+PluginDeclarations PluginRegistrar::declarations() const {
+  PluginDeclarations declarations;
+  for (const Pending& item : pending_) declarations.plugins.emplace_back(item.kind, item.info);
+  declarations.libraries = libraries_;
+  return declarations;
 }
 
 const std::map<std::string, std::string>& pluginLibraryVersions() { return libraryVersions(); }
 
-void loadPluginLibrary(const std::string& path) {
-  static std::mutex mutex;
-  static std::set<std::string> loaded;
-  const std::lock_guard lock(mutex);
+namespace {
 
-  std::error_code error;
-  if (!std::filesystem::is_regular_file(path, error)) {
-    throw PluginError("plugin library '" + path + "': no such file");
-  }
-  const std::string canonical = std::filesystem::canonical(path).string();
-  if (loaded.count(canonical)) return;
+using EntryFunction = void (*)(PluginRegistrar&);
 
-  // Never closed: the factories it registered point into it.
+/// Opens the plugin library at `canonical` (named `path` in messages) and returns its entry
+/// point, once its ABI record and symbols are checked; a PluginError otherwise.
+EntryFunction openPluginLibrary(const std::string& path, const std::string& canonical) {
+  // Never closed: the factories it registers point into it.
   void* handle = dlopen(canonical.c_str(), RTLD_NOW | RTLD_LOCAL);
   if (!handle) {
     const char* reason = dlerror();
@@ -83,7 +119,6 @@ void loadPluginLibrary(const std::string& path) {
   // Plain data, read before any of the library's functions is called.
   const auto* record =
       static_cast<const KinolabPluginAbiRecord*>(dlsym(handle, "kinolab_plugin_abi_record"));
-  using EntryFunction = void (*)(PluginRegistrar&);
   const auto entry = reinterpret_cast<EntryFunction>(dlsym(handle, "kinolab_register_plugins"));
   if (!record || !entry) {
     const bool older = dlsym(handle, "kinolab_plugin_abi_version") != nullptr;
@@ -111,24 +146,32 @@ void loadPluginLibrary(const std::string& path) {
                         ": not a kinolab plugin library built by KINOLAB_REGISTER_PLUGINS");
     }
   }
-  const KinolabPluginAbiRecord built = *record;  // copied: the library may be closed below
-  const KinolabPluginAbiRecord here = KINOLAB_PLUGIN_ABI_RECORD;
-  std::string mismatch;
-  if (built.magic != here.magic) {
-    mismatch = "its ABI record is not kinolab's";
-  } else if (built.abi != here.abi) {
-    mismatch = "built for plugin ABI " + std::to_string(built.abi) + ", this kinolab has ABI " +
-               std::to_string(here.abi);
-  } else if (built.cxx11_abi != here.cxx11_abi || built.string_size != here.string_size) {
-    mismatch = "built with another C++ standard library layout (_GLIBCXX_USE_CXX11_ABI " +
-               std::to_string(built.cxx11_abi) + ", std::string of " +
-               std::to_string(built.string_size) + " bytes; here " +
-               std::to_string(here.cxx11_abi) + " and " + std::to_string(here.string_size) + ")";
-  }
+  const std::string mismatch = abiMismatch(*record);
   if (!mismatch.empty()) {
     dlclose(handle);
     throw PluginError(name + ": " + mismatch + "; rebuild it against this kinolab");
   }
+  return entry;
+}
+
+/// How a library's registrations are used: added to the registries, given to the deferred
+/// plugins a manifest declared, or only read.
+enum class Registration { kCommit, kFulfil, kDeclare };
+
+/// Loads the library at `path` (once per file for kCommit and kFulfil) and uses what it
+/// registers as `how` says.
+PluginDeclarations loadLibrary(const std::string& path, Registration how) {
+  static std::mutex mutex;
+  static std::set<std::string> loaded;
+  const std::lock_guard lock(mutex);
+
+  std::error_code error;
+  if (!std::filesystem::is_regular_file(path, error)) {
+    throw PluginError("plugin library '" + path + "': no such file");
+  }
+  const std::string canonical = std::filesystem::canonical(path).string();
+  if (how != Registration::kDeclare && loaded.count(canonical)) return {};
+  const EntryFunction entry = openPluginLibrary(path, canonical);
   // On a throw the library stays open: what it registered so far points into it.
   PluginRegistrar registrar(canonical);
   try {
@@ -136,8 +179,48 @@ void loadPluginLibrary(const std::string& path) {
   } catch (...) {
     rethrowFromPlugin("plugin " + path, "its entry point (kinolab_register_plugins)");
   }
-  registrar.commit();
+  if (how == Registration::kDeclare) return registrar.declarations();
+  if (how == Registration::kCommit) {
+    registrar.commit();
+  } else {
+    registrar.fulfil();
+  }
   loaded.insert(canonical);
+  return {};
+}
+
+}  // namespace
+
+void loadPluginLibrary(const std::string& path) { loadLibrary(path, Registration::kCommit); }
+
+PluginDeclarations declarePluginLibrary(const std::string& path) {
+  return loadLibrary(path, Registration::kDeclare);
+}
+
+void registerPluginModule(const std::string& module_path, const std::string& manifest_path,
+                          const std::string& origin) {
+  const PluginDeclarations declared = readPluginManifest(manifest_path);
+  // Made once, by whichever of its plugins is made first (a failed load is tried again).
+  struct Module {
+    std::string path;
+    std::once_flag once;
+  };
+  auto module = std::make_shared<Module>();
+  module->path = module_path;
+  const auto load = [module] {
+    std::call_once(module->once, [&] { loadLibrary(module->path, Registration::kFulfil); });
+  };
+  for (const auto& [kind, declared_info] : declared.plugins) {
+    PluginRegistryBase* registry = detail::findMutablePluginRegistry(kind);
+    if (!registry) {
+      throw PluginError("module manifest '" + manifest_path + "': unknown plugin kind '" + kind +
+                        "' (of '" + declared_info.key + "'): rebuild kinolab");
+    }
+    PluginInfo info = declared_info;
+    info.origin = origin;
+    registry->addDeferredPlugin(std::move(info), load);
+  }
+  recordLibraries(declared.libraries);
 }
 
 }  // namespace kinolab

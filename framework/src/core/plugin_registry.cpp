@@ -99,6 +99,11 @@ std::vector<const PluginRegistryBase*> pluginRegistries() {
 
 namespace detail {
 
+PluginRegistryBase* findMutablePluginRegistry(std::string_view kind) {
+  // The directory lists them as const; each is a registry's own (non-const) static object.
+  return const_cast<PluginRegistryBase*>(findPluginRegistry(kind));
+}
+
 void listPluginRegistry(const PluginRegistryBase& registry, int order) {
   const std::lock_guard lock(directoryMutex());
   for (const Listed& listed : directory()) {

@@ -9,6 +9,11 @@
 namespace kinolab {
 namespace {
 
+/// The slack, in voxels, on a bound made from a stored float distance of `voxels` voxels:
+/// float rounding of the stored values (about 6e-8 relative) and of the sums made of them,
+/// with room to spare; a fixed slack alone falls short beyond about 500 voxels.
+double floatSlack(double voxels) { return 1e-4 + 4e-7 * std::abs(voxels); }
+
 /// A dense field's z-rows (x and y strides; z is contiguous).
 struct DenseRows {
   const float* values;
@@ -175,9 +180,10 @@ double Esdf::nearestCube(Search search, const Eigen::Vector3d& point, double lim
   // above: the search goes out to the limit (the lower bounds still skip the ball inside).
   const bool beyond_truncation = raw >= static_cast<float>(truncation_);
   if (stored >= 0.0 && !beyond_truncation) {
-    reach = std::min(reach, stored + std::sqrt(centre_offset2) + 1e-4);
+    reach = std::min(reach, stored + std::sqrt(centre_offset2) + floatSlack(stored));
   }
-  const double inner = std::max(0.0, lower * inverse_resolution_ - 1e-4);
+  const double inner =
+      std::max(0.0, lower * inverse_resolution_ - floatSlack(lower * inverse_resolution_));
   for (int axis = 0; axis < 3; ++axis) {
     search.from[axis] = std::max<std::int64_t>(
         0, static_cast<std::int64_t>(std::floor(search.scaled[axis] - reach)));
@@ -271,9 +277,10 @@ void ExactDistanceRun::gather(const std::int64_t cell[3]) {
   // Both with float rounding's slack; a cube gathered beyond need is harmless.
   const double d = raw * field.inverse_resolution_;
   const double reach =
-      std::min(d + 0.5 * std::sqrt(3.0) + 1e-4, limit_ * field.inverse_resolution_ + 1e-4);
+      std::min(d + 0.5 * std::sqrt(3.0) + floatSlack(d),
+               limit_ * field.inverse_resolution_ + floatSlack(limit_ * field.inverse_resolution_));
   const double reach2 = reach * reach;
-  const double inner = std::max(0.0, d - 1e-4);
+  const double inner = std::max(0.0, d - floatSlack(d));
   const double inner2 = inner * inner;
   const auto span = static_cast<std::int64_t>(std::ceil(reach)) + 1;
   const std::int64_t cx = cell[0];

@@ -71,12 +71,15 @@ class MetricSpecs {
   MetricSpecs& higher();
   MetricSpecs& comparable();
 
+  /// Appends a declaration as it is (what a module's manifest reads back); a name declared
+  /// twice is an error.
+  MetricSpecs& add(MetricSpec spec);
+
   const std::vector<MetricSpec>& all() const { return specs_; }
   const MetricSpec* find(std::string_view name) const;
   std::vector<std::string> names() const;
 
  private:
-  MetricSpecs& add(MetricSpec spec);
   /// The last declared metric, for a modifier (its name in the error without one).
   MetricSpec& last(const char* modifier);
 

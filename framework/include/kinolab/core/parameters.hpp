@@ -146,6 +146,10 @@ class ParameterSpecs {
   /// Appends a declared group (e.g. motionParameters()); a name declared twice is an error.
   ParameterSpecs& include(const ParameterSpecs& group);
 
+  /// Appends a declaration as it is (what a module's manifest reads back; plugins use the
+  /// typed methods above); a name declared twice or a default it refuses is an error.
+  ParameterSpecs& add(ParameterSpec spec);
+
   const std::vector<ParameterSpec>& all() const { return specs_; }
   const ParameterSpec* find(std::string_view name) const;
 
@@ -158,8 +162,6 @@ class ParameterSpecs {
                        std::string_view where = "") const;
 
  private:
-  ParameterSpecs& add(ParameterSpec spec);
-
   std::vector<ParameterSpec> specs_;
 };
 

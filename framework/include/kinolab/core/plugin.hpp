@@ -25,7 +25,7 @@
 
 /// Bumped whenever a change to the plugin-facing headers breaks binary compatibility; a
 /// library built against another version is refused when loaded.
-#define KINOLAB_PLUGIN_ABI_VERSION 6
+#define KINOLAB_PLUGIN_ABI_VERSION 7
 
 /// What a plugin library was built for, exported as plain data with C linkage
 /// (`kinolab_plugin_abi_record`), so that loadPluginLibrary() reads it before any of the
@@ -43,6 +43,13 @@ struct KinolabPluginAbiRecord {
 
 namespace kinolab {
 
+/// What a plugin library declares: each plugin's kind and info, and the third-party libraries
+/// it records (PluginRegistrar::library()).
+struct PluginDeclarations {
+  std::vector<std::pair<std::string, PluginInfo>> plugins;
+  std::vector<std::pair<std::string, std::string>> libraries;
+};
+
 /// Collects the plugins one library (or one in-tree folder) registers and adds them all at
 /// once, so a library with a clashing key adds nothing.
 class PluginRegistrar {
@@ -55,12 +62,18 @@ class PluginRegistrar {
     PluginRegistry<Interface>& registry = pluginRegistry<Interface>();
     PluginInfo info{std::move(key), std::move(description), std::move(parameters), origin_,
                     std::move(statistics)};
-    pending_.push_back(
-        {registry.kind(), info.key,
-         [&registry](const std::string& k) { return registry.contains(k); },
-         [&registry, info = std::move(info), factory = std::move(factory)]() mutable {
-           registry.add(std::move(info), std::move(factory));
-         }});
+    Pending item{registry.kind(),
+                 info,
+                 [&registry](const std::string& k) { return registry.contains(k); },
+                 {},
+                 {}};
+    item.fulfil = [&registry, key = info.key, factory]() mutable {
+      return registry.fulfil(key, std::move(factory));
+    };
+    item.apply = [&registry, info = std::move(info), factory = std::move(factory)]() mutable {
+      registry.add(std::move(info), std::move(factory));
+    };
+    pending_.push_back(std::move(item));
   }
 
   /// Records the version of a third-party library the plugins of this library use
@@ -72,13 +85,21 @@ class PluginRegistrar {
 
   /// Checks every pending key against the registries and each other, then adds them all.
   void commit();
+  /// Gives each pending plugin's factory to the deferred plugin of its key that a module's
+  /// manifest declared (PluginRegistry::addDeferred()); a plugin the manifest did not declare
+  /// is a PluginError (the manifest is older than the module).
+  void fulfil();
+  /// What was registered so far, as declarations (kind, info) and library versions, without
+  /// adding anything: what a module's manifest records.
+  PluginDeclarations declarations() const;
 
  private:
   struct Pending {
     std::string kind;
-    std::string key;
+    PluginInfo info;
     std::function<bool(const std::string&)> taken;
     std::function<void()> apply;
+    std::function<bool()> fulfil;
   };
 
   std::string origin_;
@@ -96,6 +117,23 @@ const std::map<std::string, std::string>& pluginLibraryVersions();
 /// mismatch, an entry point that throws (anything) or a clashing key is a PluginError naming
 /// the path, and the library registers nothing.
 void loadPluginLibrary(const std::string& path);
+
+/// What the plugin library at `path` declares, read by loading it (with loadPluginLibrary()'s
+/// checks) into a registrar that adds nothing: a module's manifest is written from this.
+PluginDeclarations declarePluginLibrary(const std::string& path);
+
+/// Writes `declarations` as the JSON manifest of a module loaded on use (to a temporary file
+/// renamed into place); readPluginManifest() reads one back, a missing, unreadable or
+/// malformed manifest being a PluginError naming the file and what is wrong.
+void writePluginManifest(const PluginDeclarations& declarations, const std::string& path);
+PluginDeclarations readPluginManifest(const std::string& path);
+
+/// Registers the plugins of a module loaded on use (kinolab_add_plugin(... ON_USE)): each is
+/// declared now from the module's manifest (so `kinolab list`, configurations and results see
+/// it), with `origin` as its origin, and the module at `module_path` is loaded (once) when
+/// the first of them is made. The manifest's library versions are recorded at once.
+void registerPluginModule(const std::string& module_path, const std::string& manifest_path,
+                          const std::string& origin);
 
 }  // namespace kinolab
 

@@ -74,6 +74,9 @@ class PluginRegistryBase {
   ParameterSet resolve(std::string_view key, const std::vector<ParameterAssignment>& assignments,
                        std::string_view where = "") const;
 
+  /// PluginRegistry::addDeferred() for a registry known by its kind (a module's manifest).
+  virtual void addDeferredPlugin(PluginInfo info, std::function<void()> load) = 0;
+
  protected:
   /// Records a plugin's declaration; a key that is already taken is a PluginError naming
   /// both origins.
@@ -101,6 +104,35 @@ class PluginRegistry : public PluginRegistryBase {
     std::string key = info.key;
     addInfo(std::move(info));
     factories_.emplace(std::move(key), std::move(factory));
+  }
+
+  /// A plugin whose code lives in a module loaded on first use (kinolab_add_plugin(... ON_USE)):
+  /// its declaration comes from the module's manifest, and the first create() calls `load`
+  /// (once, whatever thread), whose registration fulfil()s the factory.
+  void addDeferred(PluginInfo info, std::function<void()> load) {
+    auto slot = std::make_shared<PluginFactory<Interface>>();
+    deferred_.emplace(info.key, slot);
+    std::string origin = info.origin;
+    std::string key = info.key;
+    add(std::move(info),
+        [load = std::move(load), slot, origin, key, kind = kind()](const ParameterSet& parameters) {
+          load();
+          if (!*slot) {
+            throw PluginError("the module of " + kind + " '" + key + "' (" + origin +
+                              ") no longer registers it, but its manifest does: rebuild kinolab");
+          }
+          return (*slot)(parameters);
+        });
+  }
+  void addDeferredPlugin(PluginInfo info, std::function<void()> load) override {
+    addDeferred(std::move(info), std::move(load));
+  }
+  /// Gives a deferred plugin (addDeferred()) its factory; false when `key` is not one.
+  bool fulfil(std::string_view key, PluginFactory<Interface> factory) {
+    const auto slot = deferred_.find(key);
+    if (slot == deferred_.end()) return false;
+    *slot->second = std::move(factory);
+    return true;
   }
 
   /// A new instance with its defaults overridden by `assignments` (validated first).
@@ -132,6 +164,7 @@ class PluginRegistry : public PluginRegistryBase {
 
  private:
   std::map<std::string, PluginFactory<Interface>, std::less<>> factories_;
+  std::map<std::string, std::shared_ptr<PluginFactory<Interface>>, std::less<>> deferred_;
 };
 
 /// The one registry of each plugin interface. Declared here, defined next to each interface
@@ -145,6 +178,8 @@ const PluginRegistryBase* findPluginRegistry(std::string_view kind);
 std::vector<const PluginRegistryBase*> pluginRegistries();
 
 namespace detail {
+/// findPluginRegistry() for adding to it (a module's manifest declares plugins by kind).
+PluginRegistryBase* findMutablePluginRegistry(std::string_view kind);
 /// Adds a registry to the directory findPluginRegistry() searches (at most one per kind).
 void listPluginRegistry(const PluginRegistryBase& registry, int order);
 }  // namespace detail

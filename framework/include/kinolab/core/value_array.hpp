@@ -51,6 +51,7 @@ class ValueArray {
     return *this;
   }
   ValueArray& operator=(ValueArray&& other) noexcept {
+    if (this == &other) return *this;
     owned_ = std::move(other.owned_);
     keeper_ = std::move(other.keeper_);
     data_ = std::exchange(other.data_, nullptr);
