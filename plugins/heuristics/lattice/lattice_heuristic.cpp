@@ -136,7 +136,7 @@ class AxisTable {
       : unit_velocity_(controls.step * costs.tau), horizon_(horizon) {
     // (A drifting lattice may be cut into one cell a w too: exact is the start's velocity.)
     exact_ = wholeSteps(start_velocity / unit_velocity_);
-    Moves moves{controls, {}, {0}, cellsPerStep(controls, costs, start_velocity)};
+    Moves moves{&controls, {}, {0}, cellsPerStep(controls, costs, start_velocity)};
     cell_ = latticeStep(controls, costs) / moves.sub;
     // The cells a primitive's end may lie beyond its move: none, or the drift's four.
     if (exact_) {
@@ -152,7 +152,7 @@ class AxisTable {
     }
     layOut(costs, low, high);
     fillAlone(moves, costs.weight_duration * costs.tau);
-    fillLayers(moves);
+    moves_ = std::move(moves);
   }
 
   static constexpr int kNever = std::numeric_limits<int>::max();
@@ -179,9 +179,14 @@ class AxisTable {
   }
   /// The least number of primitives (up to the horizon) that brings the row's state to the
   /// goal interval; kNever when none does.
-  int first(long long row) const { return first_[static_cast<std::size_t>(row)]; }
+  int first(long long row) const {
+    const auto state = static_cast<std::size_t>(row);
+    while (first_[state] == kNever && filled_ < horizon_) addLayer();
+    return first_[state];
+  }
   /// The least effort of exactly n primitives (n <= horizon) from the row's state.
   double effort(int n, long long row) const {
+    while (filled_ < n) addLayer();
     return effort_[static_cast<std::size_t>(n) * static_cast<std::size_t>(cells_ * width_) +
                    static_cast<std::size_t>(row)];
   }
@@ -206,7 +211,7 @@ class AxisTable {
   /// The moves of an axis's controls: their control effort, the cells a primitive's end may
   /// lie beyond its move (`shifts`), and the cells a velocity step takes (`sub`).
   struct Moves {
-    const AxisControls& controls;
+    const AxisControls* controls = nullptr;
     std::vector<double> effort;
     std::vector<long long> shifts;
     int sub = 1;
@@ -224,7 +229,9 @@ class AxisTable {
     first_cell_ = static_cast<long long>(std::floor(low / cell_ - phase_)) - 1;
     cells_ = static_cast<long long>(std::ceil(high / cell_ - phase_)) + 2 - first_cell_;
     const auto states = static_cast<std::size_t>(cells_ * width_);
-    effort_.assign(states * static_cast<std::size_t>(horizon_ + 1), INFINITY);
+    // Layer 0 now, the others as estimates first need them (addLayer()).
+    effort_.reserve(states * static_cast<std::size_t>(horizon_ + 1));
+    effort_.assign(states, INFINITY);
     first_.assign(states, kNever);
     const double reach = costs.goal_radius * (1.0 + 1e-9) + 1e-12;
     for (long long c = 0; c < cells_; ++c) {
@@ -257,8 +264,8 @@ class AxisTable {
       if (value > alone_[state]) continue;
       const auto c_after = static_cast<long long>(state) / width_;
       const int j_after = static_cast<int>(static_cast<long long>(state) % width_) + lowest_;
-      for (std::size_t k = 0; k < moves.controls.moves.size(); ++k) {
-        const int m = moves.controls.moves[k];
+      for (std::size_t k = 0; k < moves.controls->moves.size(); ++k) {
+        const int m = moves.controls->moves[k];
         const int j = j_after - m;
         if (j < lowest_ || j >= lowest_ + width_) continue;
         const double candidate = value + step_cost + moves.effort[k];
@@ -275,47 +282,50 @@ class AxisTable {
     }
   }
 
-  /// Each layer from the one before. The shifts are consecutive, so a primitive reads the
-  /// least of that layer over a window of cells: least[s + window - 1] is it for the window
-  /// starting at cell s (made once a layer, for every window that meets the table).
-  void fillLayers(const Moves& moves) {
+  /// The next layer from the one before (the tables hold the layers estimates have needed so
+  /// far: a query near its goal fills few of the horizon's). The shifts are consecutive, so a
+  /// primitive reads the least of that layer over a window of cells: least[s + window - 1] is
+  /// it for the window starting at cell s (made for every window that meets the table).
+  void addLayer() const {
+    const Moves& moves = moves_;
     const auto states = static_cast<std::size_t>(cells_ * width_);
     const long long lowest_shift = moves.shifts.front();
     const auto window = static_cast<long long>(moves.shifts.size());
     const long long starts = cells_ + window - 1;
-    std::vector<double> least(static_cast<std::size_t>(starts * width_));
-    for (int n = 1; n <= horizon_; ++n) {
-      const double* before = &effort_[(n - 1) * states];
-      double* now = &effort_[n * states];
-      for (long long i = 0; i < starts; ++i) {
-        const long long from = std::max(i - (window - 1), 0LL);
-        const long long to = std::min(i + 1, cells_);
-        for (int j = 0; j < width_; ++j) {
-          double value = INFINITY;
-          for (long long t = from; t < to; ++t) value = std::min(value, before[t * width_ + j]);
-          least[static_cast<std::size_t>(i * width_ + j)] = value;
-        }
-      }
-      for (long long c = 0; c < cells_; ++c) {
-        for (int j = lowest_; j < lowest_ + width_; ++j) {
-          double best = INFINITY;
-          for (std::size_t k = 0; k < moves.controls.moves.size(); ++k) {
-            const int m = moves.controls.moves[k];
-            const int j_after = j + m;
-            const long long start = c + moves.move(j, m) + lowest_shift;
-            if (j_after < lowest_ || j_after >= lowest_ + width_ || start + window <= 0 ||
-                start >= cells_) {
-              continue;
-            }
-            const auto i = static_cast<std::size_t>(start + window - 1);
-            best = std::min(best, moves.effort[k] + least[i * width_ + j_after - lowest_]);
-          }
-          const auto state = static_cast<std::size_t>(c * width_ + j - lowest_);
-          now[state] = best;
-          if (best < INFINITY && first_[state] == kNever) first_[state] = n;
-        }
+    least_.resize(static_cast<std::size_t>(starts * width_));
+    const int n = filled_ + 1;
+    effort_.resize(static_cast<std::size_t>(n + 1) * states);  // within the reserve
+    const double* before = &effort_[static_cast<std::size_t>(n - 1) * states];
+    double* now = &effort_[static_cast<std::size_t>(n) * states];
+    for (long long i = 0; i < starts; ++i) {
+      const long long from = std::max(i - (window - 1), 0LL);
+      const long long to = std::min(i + 1, cells_);
+      for (int j = 0; j < width_; ++j) {
+        double value = INFINITY;
+        for (long long t = from; t < to; ++t) value = std::min(value, before[t * width_ + j]);
+        least_[static_cast<std::size_t>(i * width_ + j)] = value;
       }
     }
+    for (long long c = 0; c < cells_; ++c) {
+      for (int j = lowest_; j < lowest_ + width_; ++j) {
+        double best = INFINITY;
+        for (std::size_t k = 0; k < moves.controls->moves.size(); ++k) {
+          const int m = moves.controls->moves[k];
+          const int j_after = j + m;
+          const long long start = c + moves.move(j, m) + lowest_shift;
+          if (j_after < lowest_ || j_after >= lowest_ + width_ || start + window <= 0 ||
+              start >= cells_) {
+            continue;
+          }
+          const auto i = static_cast<std::size_t>(start + window - 1);
+          best = std::min(best, moves.effort[k] + least_[i * width_ + j_after - lowest_]);
+        }
+        const auto state = static_cast<std::size_t>(c * width_ + j - lowest_);
+        now[state] = best;
+        if (best < INFINITY && first_[state] == kNever) first_[state] = n;
+      }
+    }
+    filled_ = n;
   }
 
   double unit_velocity_;  ///< q tau
@@ -328,9 +338,13 @@ class AxisTable {
   int width_ = 1;                 ///< js within it
   long long first_cell_ = 0;      ///< the first row's cell
   long long cells_ = 0;           ///< cells
-  std::vector<double> effort_;    ///< per n, per (c, j), j fastest; +infinity: not in n
-  std::vector<int> first_;        ///< per (c, j): the least n with a finite effort
-  std::vector<double> alone_;     ///< per (c, j): alone()
+  Moves moves_;
+  /// Per n (layers 0 to filled_), per (c, j), j fastest; +infinity: not in n.
+  mutable std::vector<double> effort_;
+  mutable std::vector<int> first_;     ///< per (c, j): the least n (of those filled) with an effort
+  mutable std::vector<double> least_;  ///< addLayer()'s windows
+  mutable int filled_ = 0;
+  std::vector<double> alone_;  ///< per (c, j): alone()
 };
 
 /// One query's heuristic: the exact cost, with no obstacles, of the axes moving together on the
@@ -343,7 +357,9 @@ class AxisTable {
 /// (N - 1)-primitive one at s' (and a value capped at (H + 1) w_T tau, or reached at N = H,
 /// is at most w_T tau more than the cap or H w_T tau at s'). The tables are made at the first
 /// estimate, for the lattice of that state (the start): exact on an axis where it moves at a
-/// whole number of velocity steps, a relaxation on finer cells where it does not (AxisTable).
+/// whole number of velocity steps, a relaxation on finer cells where it does not (AxisTable);
+/// their layers (numbers of primitives) are filled as estimates first need them, so a query
+/// whose states reach the goal in few primitives fills few (the same values either way).
 /// (Not safe to call from several threads at once.)
 class LatticeQueryHeuristic final : public SearchHeuristic {
  public:
