@@ -51,7 +51,9 @@ struct FrontAnswers {
 };
 
 const FrontAnswers& frontAnswers(const std::string& front) {
-  static std::map<std::string, FrontAnswers> cache;
+  // Never destroyed: its planners come from modules loaded on use (OMPL's), whose libraries'
+  // statics are torn down at exit before an object made before the module was loaded.
+  static auto& cache = *new std::map<std::string, FrontAnswers>;
   if (auto found = cache.find(front); found != cache.end()) return found->second;
   FrontAnswers& answers = cache[front];
   std::vector<std::string> items = {"time_limit=0"};
