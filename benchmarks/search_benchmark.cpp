@@ -132,34 +132,38 @@ void planSideBySide(benchmark::State& state, const Problem& problem) {
 
 // Parallel edge evaluation (`threads`) on an evaluation-heavy problem: the forest at the
 // paper's scale, its first 20 queries, with 80 obstacle-cost samples an edge and the paper's
-// heuristic (so that the search expands thousands of states), eager at 1, 2, 4 and 8 threads
-// (lazy search evaluates one edge at a time: `threads` does not change it); `speedup` is
-// against one thread, `cost_differs` must be 0.
-const Problem& threadsProblem() {
-  static const Problem problem = [] {
-    registerBuiltinPlugins();
-    std::vector<PlanningQuery> queries = bench::paperScaleQueries();
-    queries.resize(std::min<std::size_t>(queries.size(), 20));
-    Problem p{bench::forest(), queries, {}};
-    for (const int threads : {1, 2, 4, 8}) {
-      p.variants.push_back(
-          {"eager_t" + std::to_string(threads), "eager_mp_astar",
-           assignments({"time_limit=0", "edge_samples=80", "heuristic=time_optimal",
-                        "threads=" + std::to_string(threads)})});
-    }
-    return p;
-  }();
-  return problem;
+// heuristic (so that the search expands thousands of states), at 1, 2, 4 and 8 threads: eager
+// (a state's successors at once) and lazy (the popped edge with the open list's next ones);
+// `speedup` is against the same planner at one thread, `cost_differs` must be 0.
+Problem threadsProblem(const std::string& planner, const std::string& id) {
+  registerBuiltinPlugins();
+  std::vector<PlanningQuery> queries = bench::paperScaleQueries();
+  queries.resize(std::min<std::size_t>(queries.size(), 20));
+  Problem p{bench::forest(), queries, {}};
+  for (const int threads : {1, 2, 4, 8}) {
+    p.variants.push_back({id + "_t" + std::to_string(threads), planner,
+                          assignments({"time_limit=0", "edge_samples=80", "heuristic=time_optimal",
+                                       "threads=" + std::to_string(threads)})});
+  }
+  return p;
 }
 
 void BM_ForestPaperScale(benchmark::State& state) { planSideBySide(state, forestProblem()); }
-void BM_ParallelEvaluation(benchmark::State& state) { planSideBySide(state, threadsProblem()); }
+void BM_ParallelEvaluation(benchmark::State& state) {
+  static const Problem problem = threadsProblem("eager_mp_astar", "eager");
+  planSideBySide(state, problem);
+}
+void BM_ParallelLazyEvaluation(benchmark::State& state) {
+  static const Problem problem = threadsProblem("lazy_mp_astar", "lazy");
+  planSideBySide(state, problem);
+}
 void BM_MplProblem(benchmark::State& state) { planSideBySide(state, mplProblem()); }
 
 // The argument is the number of rounds (the fastest of them is kept per query).
 BENCHMARK(BM_ForestPaperScale)->Arg(3)->Iterations(1)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_MplProblem)->Arg(3)->Iterations(1)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_ParallelEvaluation)->Arg(2)->Iterations(1)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_ParallelLazyEvaluation)->Arg(2)->Iterations(1)->Unit(benchmark::kMillisecond);
 
 // The geodesic heuristic's work per query (its search over the map's free space, which counts
 // as planning time) on the MPL problem's world (2.4 million voxels), towards each query's goal:

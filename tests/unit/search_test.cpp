@@ -1176,8 +1176,9 @@ TEST(MaxHeuristic, CombinesAnyTwoPreparedForTheirControlsAndQueries) {
 }
 
 TEST(ParallelEvaluation, EveryThreadCountSearchesTheSameAndAnswersTheSame) {
-  // A state's edges evaluated on 1, 2 and 4 threads: the same expansions, evaluations, ESDF
-  // queries, cost and trajectory, bit for bit (each edge lands in its own slot).
+  // A state's edges (eager) or the popped edge with the open list's next ones (lazy)
+  // evaluated on 1, 2 and 4 threads: the same expansions, evaluations used, ESDF queries, cost
+  // and trajectory, bit for bit (each edge lands in its own slot).
   test::loadTestPlugins();
   const auto world = test::smallWorld("forest");
   const auto queries = test::randomQueries(*world, 4, 21, 3.0, 9.0, 0.6);
@@ -1215,6 +1216,22 @@ TEST(ParallelEvaluation, EveryThreadCountSearchesTheSameAndAnswersTheSame) {
       }
     }
     EXPECT_GE(exact, 3) << type;
+    // Lazy search evaluates the open list's next edges ahead on the other threads: none at one
+    // thread, some at two and four, and never more wasted than made.
+    for (std::size_t t = 0; t < results.size(); ++t) {
+      double ahead = 0.0;
+      double wasted = 0.0;
+      for (const PlanResult& result : results[t]) {
+        ahead += test::statistic(result.statistics, "ahead_evaluations");
+        wasted += test::statistic(result.statistics, "wasted_evaluations");
+      }
+      EXPECT_LE(wasted, ahead) << type << " " << t;
+      if (t == 0 || type == "eager_mp_astar") {
+        EXPECT_EQ(ahead, 0.0) << type << " " << t;
+      } else {
+        EXPECT_GT(ahead, 0.0) << type << " " << t;
+      }
+    }
   }
 }
 

@@ -100,9 +100,10 @@ ParameterSpecs motionPrimitiveParameters() {
       .real("memory_limit_mb", 2048.0, 1.0, 1e6,
             "memory budget of the search, MB: past it the search stops as on any budget")
       .integer("threads", 1, 1, 256,
-               "threads fully evaluating a state's edges at once (eager's successors; a lazy "
-               "search's lower bounds are too cheap to hand over); the search, its counters and "
-               "its answer are the same at every count");
+               "threads fully evaluating edges at once: eager's successors of a state; lazy's "
+               "popped edge with the next lower-bound edges of the open list, evaluated ahead "
+               "(a lazy search's lower bounds are too cheap to hand over); the search, its "
+               "counters and its answer are the same at every count (wasted_evaluations aside)");
 }
 
 MetricSpecs motionPrimitiveStatistics() {
@@ -110,7 +111,13 @@ MetricSpecs motionPrimitiveStatistics() {
       .counter("expansions", "states expanded (N)")
       .counter("pops", "open-list entries popped, stale ones included")
       .counter("partial_evaluations", "edges queued with a lower bound (lazy)")
-      .counter("full_evaluations", "edges fully evaluated")
+      .counter("full_evaluations",
+               "edges fully evaluated (those the search used: the same at every "
+               "thread count)")
+      .counter("ahead_evaluations",
+               "full evaluations made ahead of their pops beside the popped edge's (lazy, "
+               "threads > 1)")
+      .counter("wasted_evaluations", "of those, the ones the search never used")
       .counter("certified_edges", "lower-bound edges proved exact without full evaluation")
       .counter("rejected_edges", "full evaluations that found a collision")
       .counter("esdf_queries", "ESDF look-ups by edge evaluation")

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <queue>
 
 #include "kinolab/core/error.hpp"
 
@@ -89,6 +90,18 @@ int MotionPrimitiveSearch::slotOf(const ChainState& state) {
   }
 }
 
+int MotionPrimitiveSearch::findSlot(const ChainState& state) const {
+  if (table_.empty()) return -1;
+  const Key key = graph_.key(state);
+  const std::uint64_t hash = hashOf(key);
+  const std::size_t mask = table_.size() - 1;
+  for (std::size_t position = hash & mask;; position = (position + 1) & mask) {
+    const int index = table_[position];
+    if (index < 0) return -1;
+    if (slots_[index].hash == hash && slots_[index].key == key) return index;
+  }
+}
+
 void MotionPrimitiveSearch::push(const HeapEntry& entry) {
   heap_.push_back(entry);
   std::push_heap(heap_.begin(), heap_.end(), HeapEntry::Later{});
@@ -132,6 +145,7 @@ void MotionPrimitiveSearch::prepare() {
   slots_.clear();
   std::fill(table_.begin(), table_.end(), -1);
   heap_.clear();
+  ahead_.clear();
   goal_candidate_ = -1;
   nearest_candidate_ = -1;
   shot_ = Trajectory();
@@ -141,19 +155,20 @@ void MotionPrimitiveSearch::prepare() {
 void MotionPrimitiveSearch::evaluatePopped(const HeapEntry& entry) {
   const ChainState& parent_state = candidates_[entry.node].state;
   const double parent_g = candidates_[entry.node].g;
-  const double parent_clearance = candidates_[entry.node].clearance;
   Candidate candidate;
   candidate.state = graph_.endState(parent_state, static_cast<int>(entry.control));
   candidate.slot = slotOf(candidate.state);
-  if (slots_[candidate.slot].closed >= 0) return;  // stale: closed by a cheaper candidate
+  if (slots_[candidate.slot].closed >= 0) {  // stale: closed by a cheaper candidate
+    dropAhead(entry);
+    return;
+  }
   candidate.parent = entry.node;
   candidate.control = entry.control;
   if (entry.kind == kCertified) {
     candidate.g = entry.g;
     candidate.evaluation = Evaluation::kCertified;
   } else {
-    const EdgeEvaluation full =
-        graph_.evaluate(parent_state, static_cast<int>(entry.control), parent_clearance);
+    const EdgeEvaluation full = fullEvaluation(entry);
     if (!full.valid()) {
       // Kept (never queued) so that figures show where lazy search found a collision.
       candidate.evaluation = Evaluation::kRejected;
@@ -164,6 +179,69 @@ void MotionPrimitiveSearch::evaluatePopped(const HeapEntry& entry) {
     candidate.evaluation = Evaluation::kFull;
   }
   queueCandidate(candidate, graph_.h(candidate.state));
+}
+
+EdgeEvaluation MotionPrimitiveSearch::fullEvaluation(const HeapEntry& entry) {
+  const std::uint64_t key = aheadKey(entry);
+  if (const auto found = ahead_.find(key); found != ahead_.end()) {
+    EdgeEvaluation full = std::move(found->second);
+    ahead_.erase(found);
+    graph_.countFull(full);
+    return full;
+  }
+  const Candidate& parent = candidates_[entry.node];
+  jobs_.assign(1, {&parent.state, static_cast<int>(entry.control), parent.clearance});
+  job_keys_.assign(1, key);
+  // A few edges a thread: a hand-over costs more than one edge of a point robot.
+  constexpr std::size_t kEdgesPerThread = 4;
+  if (graph_.parallel()) {
+    addNextEdges(kEdgesPerThread * static_cast<std::size_t>(graph_.settings().threads) - 1, key);
+  }
+  graph_.evaluateMany(jobs_, job_results_);
+  graph_.counters().ahead_evaluations += static_cast<long long>(jobs_.size()) - 1;
+  for (std::size_t i = 1; i < jobs_.size(); ++i) {
+    ahead_.emplace(job_keys_[i], std::move(job_results_[i]));
+  }
+  graph_.countFull(job_results_[0]);
+  return std::move(job_results_[0]);
+}
+
+void MotionPrimitiveSearch::addNextEdges(std::size_t count, std::uint64_t popped) {
+  // Heap positions best first: a position's entry is no better than its parent's.
+  const auto later = [this](std::size_t a, std::size_t b) {
+    return HeapEntry::Later{}(heap_[a], heap_[b]);
+  };
+  std::priority_queue<std::size_t, std::vector<std::size_t>, decltype(later)> next(later);
+  if (!heap_.empty()) next.push(0);
+  const std::size_t examined_at_most = 4 * count + 8;
+  for (std::size_t examined = 0; !next.empty() && count > 0 && examined < examined_at_most;
+       ++examined) {
+    const std::size_t position = next.top();
+    next.pop();
+    const HeapEntry& entry = heap_[position];
+    const std::uint64_t key = aheadKey(entry);
+    if (entry.kind == kLowerBound && key != popped && !ahead_.count(key) && !closedEnd(entry)) {
+      const Candidate& parent = candidates_[entry.node];
+      jobs_.push_back({&parent.state, static_cast<int>(entry.control), parent.clearance});
+      job_keys_.push_back(key);
+      --count;
+    }
+    for (const std::size_t child : {2 * position + 1, 2 * position + 2}) {
+      if (child < heap_.size()) next.push(child);
+    }
+  }
+}
+
+bool MotionPrimitiveSearch::closedEnd(const HeapEntry& entry) const {
+  const int slot =
+      findSlot(graph_.endState(candidates_[entry.node].state, static_cast<int>(entry.control)));
+  return slot >= 0 && slots_[slot].closed >= 0;
+}
+
+void MotionPrimitiveSearch::dropAhead(const HeapEntry& entry) {
+  if (entry.kind == kLowerBound && ahead_.erase(aheadKey(entry)) > 0) {
+    ++graph_.counters().wasted_evaluations;
+  }
 }
 
 void MotionPrimitiveSearch::expand(int node) {
@@ -260,6 +338,8 @@ MotionPrimitiveSearch::Outcome MotionPrimitiveSearch::search(const ChainState& s
     }
     expand(index);
   }
+  counters.wasted_evaluations += static_cast<long long>(ahead_.size());
+  ahead_.clear();
   graph_.endQuery();
   return outcome;
 }

@@ -33,10 +33,10 @@ PrimitiveGraph::PrimitiveGraph(const std::string& who, std::shared_ptr<const Wor
     throw InvalidArgument(who + ": threads must be >= 1, got " + std::to_string(settings_.threads));
   }
   policies_.heuristic = heuristicForControls(policies_.heuristic, controls_);
-  // Only full evaluations are worth handing over (EdgeEvaluationPolicy::evaluatesFully).
-  if (settings_.threads > 1 && policies_.edges->evaluatesFully()) {
-    workers_ = std::make_unique<EdgeWorkers>(settings_.threads);
-  }
+  if (settings_.threads > 1) workers_ = std::make_unique<EdgeWorkers>(settings_.threads);
+  // Of a state's estimates, only full evaluations are worth handing over
+  // (EdgeEvaluationPolicy::evaluatesFully); a lazy search's go to evaluateMany().
+  parallel_estimates_ = workers_ && policies_.edges->evaluatesFully();
 }
 
 PrimitiveGraph::~PrimitiveGraph() = default;
@@ -81,7 +81,7 @@ void PrimitiveGraph::estimateAll(const ChainState& parent, double parent_clearan
     estimates[i] =
         policy.evaluate(evaluator_, parent, parent_clearance, controls_[i], evaluations[i]);
   };
-  if (workers_) {
+  if (parallel_estimates_) {
     workers_->run(controls_.size(), evaluateOne);
   } else {
     for (std::size_t i = 0; i < controls_.size(); ++i) evaluateOne(i);
@@ -109,6 +109,23 @@ EdgeEvaluation PrimitiveGraph::evaluate(const ChainState& parent, int control,
   return full;
 }
 
+void PrimitiveGraph::evaluateMany(const std::vector<EdgeJob>& jobs,
+                                  std::vector<EdgeEvaluation>& results) {
+  results.resize(jobs.size());
+  const auto begin = Clock::now();
+  const auto evaluateOne = [&](std::size_t i) {
+    results[i] =
+        evaluator_.full(*jobs[i].parent, controls_[static_cast<std::size_t>(jobs[i].control)],
+                        jobs[i].parent_clearance);
+  };
+  if (workers_ && jobs.size() > 1) {
+    workers_->run(jobs.size(), evaluateOne);
+  } else {
+    for (std::size_t i = 0; i < jobs.size(); ++i) evaluateOne(i);
+  }
+  counters_.evaluation_seconds += secondsSince(begin);
+}
+
 EdgeEvaluation PrimitiveGraph::evaluate(const ChainState& parent, int control) {
   const double parent_clearance = clearance(parent.col(0));
   return evaluate(parent, control, parent_clearance);
@@ -128,6 +145,8 @@ Statistics PrimitiveGraph::statistics() const {
   return {{"expansions", value(counters_.expansions)},
           {"partial_evaluations", value(counters_.partial_evaluations)},
           {"full_evaluations", value(counters_.full_evaluations)},
+          {"ahead_evaluations", value(counters_.ahead_evaluations)},
+          {"wasted_evaluations", value(counters_.wasted_evaluations)},
           {"certified_edges", value(counters_.certified_edges)},
           {"rejected_edges", value(counters_.rejected_edges)},
           {"esdf_queries", value(counters_.esdf_queries)},

@@ -4,6 +4,7 @@
 #include <array>
 #include <cstdint>
 #include <memory>
+#include <unordered_map>
 #include <vector>
 
 #include "kinolab/core/stop_condition.hpp"
@@ -112,6 +113,10 @@ class MotionPrimitiveSearch {
 
   std::uint64_t hashOf(const Key& key) const;
   int slotOf(const ChainState& state);
+  /// The state's slot, or -1 when it has none (nothing is added).
+  int findSlot(const ChainState& state) const;
+  /// Whether a queued edge's end state is closed already (its pop will find it stale).
+  bool closedEnd(const HeapEntry& entry) const;
   /// Empties the containers of the last search, keeping their memory.
   void prepare();
   void push(const HeapEntry& entry);
@@ -125,6 +130,19 @@ class MotionPrimitiveSearch {
   /// A popped lower-bound or certified edge: materialises it unless its state is closed
   /// (full evaluation for a lower bound) and queues the candidate.
   void evaluatePopped(const HeapEntry& entry);
+  /// The full evaluation of a popped lower-bound edge: the one made ahead, or made now together
+  /// with the open list's next lower-bound edges on the other threads (threads > 1: each is a
+  /// pure function of its edge, so the search is the same whichever thread made it, and when).
+  EdgeEvaluation fullEvaluation(const HeapEntry& entry);
+  /// Adds to jobs_ up to `count` of the best lower-bound edges in the open list not yet
+  /// evaluated ahead (the k best entries of a heap lie in its first k levels).
+  void addNextEdges(std::size_t count, std::uint64_t popped);
+  /// Forgets a popped edge's evaluation made ahead, if any, as wasted (its state was closed).
+  void dropAhead(const HeapEntry& entry);
+  static std::uint64_t aheadKey(const HeapEntry& entry) {
+    return (static_cast<std::uint64_t>(static_cast<std::uint32_t>(entry.node)) << 32) |
+           entry.control;
+  }
 
   PrimitiveGraph graph_;
 
@@ -138,6 +156,12 @@ class MotionPrimitiveSearch {
   std::vector<HeapEntry> heap_;
   std::vector<EdgeEvaluation> evaluations_;  // scratch: one per control
   std::vector<EdgeEstimate> estimates_;      // scratch: one per control
+  /// Full evaluations of lower-bound edges made ahead of their pops (threads > 1), by
+  /// aheadKey(); with the scratch of one batch.
+  std::unordered_map<std::uint64_t, EdgeEvaluation> ahead_;
+  std::vector<PrimitiveGraph::EdgeJob> jobs_;
+  std::vector<std::uint64_t> job_keys_;
+  std::vector<EdgeEvaluation> job_results_;
   int goal_candidate_ = -1;
   int nearest_candidate_ = -1;                       ///< closed, nearest the goal
   std::unique_ptr<TrajectoryChecker> shot_checker_;  ///< with a shot policy

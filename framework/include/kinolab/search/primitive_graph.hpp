@@ -54,6 +54,11 @@ struct SearchCounters {
   long long pops = 0;
   long long partial_evaluations = 0;
   long long full_evaluations = 0;
+  /// Full evaluations made ahead of their pops, beside the popped edge's (a lazy search with
+  /// threads > 1; 0 at one thread), and of those the ones the search never used: the edge's
+  /// state was closed first, or the search ended before its pop.
+  long long ahead_evaluations = 0;
+  long long wasted_evaluations = 0;
   long long certified_edges = 0;
   long long rejected_edges = 0;  ///< full evaluations that found a collision or limit breach
   long long esdf_queries = 0;
@@ -137,6 +142,20 @@ class PrimitiveGraph {
                         EdgeEvaluation& evaluation);
   /// The full evaluation of `control` from `parent`, counted and timed.
   EdgeEvaluation evaluate(const ChainState& parent, int control, double parent_clearance);
+  /// One edge of evaluateMany(): its parent state (alive for the call), control and the
+  /// parent's clearance.
+  struct EdgeJob {
+    const ChainState* parent;
+    int control;
+    double parent_clearance;
+  };
+  /// The full evaluations of `jobs` into `results`, on SearchSettings::threads threads, timed
+  /// as evaluation and not counted: each is counted with countFull() when the search uses it.
+  void evaluateMany(const std::vector<EdgeJob>& jobs, std::vector<EdgeEvaluation>& results);
+  /// Counts one full evaluation the search uses.
+  void countFull(const EdgeEvaluation& evaluation);
+  /// Whether evaluateMany() runs on more than one thread.
+  bool parallel() const { return workers_ != nullptr; }
   /// The same, the parent's clearance looked up (and counted) first.
   EdgeEvaluation evaluate(const ChainState& parent, int control);
 
@@ -160,8 +179,6 @@ class PrimitiveGraph {
  private:
   /// Counts one policy estimate.
   void count(EdgeEstimate estimate, const EdgeEvaluation& evaluation);
-  /// Counts one full evaluation.
-  void countFull(const EdgeEvaluation& evaluation);
 
   std::shared_ptr<const World> world_;
   std::vector<Eigen::Vector3d> controls_;
@@ -169,7 +186,8 @@ class PrimitiveGraph {
   SearchPolicies given_policies_;
   SearchPolicies policies_;
   EdgeEvaluator evaluator_;
-  std::unique_ptr<EdgeWorkers> workers_;  ///< with threads > 1 and full evaluations
+  std::unique_ptr<EdgeWorkers> workers_;  ///< with threads > 1
+  bool parallel_estimates_ = false;       ///< estimateAll() on the team (full evaluations)
 
   ChainState start_ = ChainState::Zero();
   Eigen::Vector3d goal_ = Eigen::Vector3d::Zero();
