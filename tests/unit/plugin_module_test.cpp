@@ -135,7 +135,7 @@ TEST(PluginModule, AManifestReadsBackEveryKindOfDeclaration) {
 TEST(PluginModule, ABrokenManifestIsAPluginErrorNamingItsFile) {
   const std::string directory = scratch("broken");
   const std::string shipped = readText(kModuleDir + "/kinolab_module_bspline_back_end.json");
-  ASSERT_NE(shipped.find("\"format\": 1"), std::string::npos);
+  ASSERT_NE(shipped.find("\"format\":1"), std::string::npos);
   const auto replaced = [&](const std::string& from, const std::string& to) {
     std::string text = shipped;
     text.replace(text.find(from), from.size(), to);
@@ -144,9 +144,9 @@ TEST(PluginModule, ABrokenManifestIsAPluginErrorNamingItsFile) {
   const std::vector<std::pair<std::string, std::string>> cases = {
       {"", "cannot be read"},
       {shipped.substr(0, shipped.size() / 2), "parse error"},
-      {replaced("\"format\": 1", "\"format\": 9"), "format 9, expected 1"},
-      {replaced("\"minimum\": \"", "\"minimum\": \"x"), "is not a number"},
-      {replaced("\"type\": ", "\"type\": 7"), "unknown"},
+      {replaced("\"format\":1", "\"format\":9"), "format 9, expected 1"},
+      {replaced("\"minimum\":\"", "\"minimum\":\"x"), "is not a number"},
+      {replaced("\"type\":", "\"type\":7"), "unknown"},
       {replaced("\"key\"", "\"kee\""), "key"},
   };
   for (std::size_t i = 0; i < cases.size(); ++i) {

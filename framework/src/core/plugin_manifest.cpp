@@ -183,7 +183,7 @@ void writePluginManifest(const PluginDeclarations& declarations, const std::stri
   }
   const Json manifest = {
       {"format", kManifestFormat}, {"plugins", plugins}, {"libraries", libraries}};
-  writeFileAtomically(path, manifest.dump(1) + "\n");
+  writeFileAtomically(path, manifest.dump() + "\n");
 }
 
 PluginDeclarations readPluginManifest(const std::string& path) {
