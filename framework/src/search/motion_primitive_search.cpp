@@ -146,6 +146,7 @@ void MotionPrimitiveSearch::prepare() {
   std::fill(table_.begin(), table_.end(), -1);
   heap_.clear();
   ahead_.clear();
+  ahead_used_ = 0;
   goal_candidate_ = -1;
   nearest_candidate_ = -1;
   shot_ = Trajectory();
@@ -186,16 +187,20 @@ EdgeEvaluation MotionPrimitiveSearch::fullEvaluation(const HeapEntry& entry) {
   if (const auto found = ahead_.find(key); found != ahead_.end()) {
     EdgeEvaluation full = std::move(found->second);
     ahead_.erase(found);
+    ++ahead_used_;
     graph_.countFull(full);
     return full;
   }
   const Candidate& parent = candidates_[entry.node];
   jobs_.assign(1, {&parent.state, static_cast<int>(entry.control), parent.clearance});
   job_keys_.assign(1, key);
-  // A few edges a thread: a hand-over costs more than one edge of a point robot.
-  constexpr std::size_t kEdgesPerThread = 4;
-  if (graph_.parallel()) {
-    addNextEdges(kEdgesPerThread * static_cast<std::size_t>(graph_.settings().threads) - 1, key);
+  // A few edges a thread: a hand-over costs more than one edge of a point robot. Made ahead
+  // only while at least half of what was made ahead has been used, after a first batch: with a
+  // tight heuristic the search pops little besides its path, and the rest would be wasted.
+  constexpr long long kEdgesPerThread = 4;
+  const long long batch = kEdgesPerThread * graph_.settings().threads;
+  if (graph_.parallel() && graph_.counters().ahead_evaluations <= 2 * ahead_used_ + batch) {
+    addNextEdges(static_cast<std::size_t>(batch - 1), key);
   }
   graph_.evaluateMany(jobs_, job_results_);
   graph_.counters().ahead_evaluations += static_cast<long long>(jobs_.size()) - 1;

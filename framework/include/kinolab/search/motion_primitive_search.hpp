@@ -159,6 +159,7 @@ class MotionPrimitiveSearch {
   /// Full evaluations of lower-bound edges made ahead of their pops (threads > 1), by
   /// aheadKey(); with the scratch of one batch.
   std::unordered_map<std::uint64_t, EdgeEvaluation> ahead_;
+  long long ahead_used_ = 0;  ///< of the last search's evaluations made ahead, those used
   std::vector<PrimitiveGraph::EdgeJob> jobs_;
   std::vector<std::uint64_t> job_keys_;
   std::vector<EdgeEvaluation> job_results_;
