@@ -27,21 +27,27 @@ EdgeWorkers::EdgeWorkers(int threads)
 }
 
 EdgeWorkers::~EdgeWorkers() {
-  stopping_ = true;
+  stopping_.store(true, std::memory_order_release);
   generation_.fetch_add(1, std::memory_order_release);
   generation_.notify_all();
   for (std::thread& worker : workers_) worker.join();
 }
 
-void EdgeWorkers::drain() {
+void EdgeWorkers::drain(std::uint64_t run) {
   for (;;) {
-    const std::size_t i = next_.fetch_add(1, std::memory_order_relaxed);
-    if (i >= count_) return;
+    std::uint64_t claim = next_.load(std::memory_order_acquire);
+    if ((claim >> 32) != run) return;  // a run that is over (or not yet published)
+    const std::size_t i = claim & 0xffffffffULL;
+    if (i >= count_.load(std::memory_order_relaxed)) return;
+    // Taken only while the run is this one: its job and count stay until every taken index
+    // is done.
+    if (!next_.compare_exchange_weak(claim, claim + 1, std::memory_order_acq_rel)) continue;
     try {
-      (*job_)(i);
+      (*job_.load(std::memory_order_relaxed))(i);
     } catch (...) {
       if (!failed_.exchange(true)) failure_ = std::current_exception();
     }
+    done_.fetch_add(1, std::memory_order_release);
   }
 }
 
@@ -54,9 +60,8 @@ void EdgeWorkers::work() {
     }
     generation_.wait(seen, std::memory_order_acquire);
     seen = generation_.load(std::memory_order_acquire);
-    if (stopping_) return;
-    drain();
-    acknowledged_.fetch_add(1, std::memory_order_acq_rel);
+    if (stopping_.load(std::memory_order_acquire)) return;
+    drain(seen);
   }
 }
 
@@ -65,21 +70,22 @@ void EdgeWorkers::run(std::size_t count, const std::function<void(std::size_t)>&
     for (std::size_t i = 0; i < count; ++i) job(i);
     return;
   }
-  job_ = &job;
-  count_ = count;
-  next_.store(0, std::memory_order_relaxed);
-  acknowledged_.store(0, std::memory_order_relaxed);
+  const std::uint64_t run = ++runs_ & 0xffffffffULL;
+  job_.store(&job, std::memory_order_relaxed);
+  count_.store(count, std::memory_order_relaxed);
+  done_.store(0, std::memory_order_relaxed);
   failed_.store(false, std::memory_order_relaxed);
   failure_ = nullptr;
-  generation_.fetch_add(1, std::memory_order_release);  // publishes the writes above
+  next_.store(run << 32, std::memory_order_release);  // publishes the writes above
+  generation_.store(run, std::memory_order_release);
   generation_.notify_all();
-  drain();
-  const int workers = static_cast<int>(workers_.size());
-  for (int spin = 0; acknowledged_.load(std::memory_order_acquire) < workers; ++spin) {
+  drain(run);
+  // Only indices other threads took are waited for.
+  for (int spin = 0; done_.load(std::memory_order_acquire) < count; ++spin) {
     if (spin < spins_) {
       pause();
     } else {
-      std::this_thread::yield();  // a worker was descheduled: let it run
+      std::this_thread::yield();  // a worker running an index was descheduled: let it run
     }
   }
   if (failed_.load(std::memory_order_relaxed)) std::rethrow_exception(failure_);
