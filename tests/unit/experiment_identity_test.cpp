@@ -204,7 +204,7 @@ TEST(ExperimentFilesIdentityTest, ShippedExperimentsKeepTheirRunHashes) {
             "experiments/flight_forest.yaml 60d75432d76d67a5\n"
             "experiments/flight_forest_2ms.yaml e9c3f745e19eb9f6\n"
             "experiments/flight_geb079.yaml afd29c5411554433\n"
-            "experiments/flight_real_map.yaml a1acdde90bbd12f4\n"
+            "experiments/flight_real_map.yaml 86dd5a53c0e6a205\n"
             "experiments/flight_speeds.yaml 543bf1be9d9b018b\n"
             "experiments/flight_speeds_tgk.yaml 33426e943867d7e5\n"
             "experiments/heuristics/city.yaml f37d01290c87627e\n"
