@@ -137,13 +137,14 @@ std::vector<PlanningQuery> QuerySpec::make(const World& world, const std::string
     return inside;
   };
   if (random.count > 0) {
-    const FreeQueryRegion spec{region(random.height),
-                               random.clearance,
-                               random.min_distance,
-                               random.max_distance,
-                               random.lattice ? random.lattice->step : 0.0,
-                               random.lattice ? random.lattice->offset : 0.0,
-                               random.connected ? random.connected_radius : 0.0};
+    const FreeQueryRegion spec{
+        region(random.height),
+        random.clearance,
+        random.min_distance,
+        random.max_distance,
+        random.lattice ? random.lattice->step : 0.0,
+        random.lattice ? random.lattice->offset : 0.0,
+        random.connected ? std::optional(random.connected_radius) : std::nullopt};
     const auto drawn = sampleFreeQueries(world, spec, random.count, rng, world_id);
     queries.insert(queries.end(), drawn.begin(), drawn.end());
   }

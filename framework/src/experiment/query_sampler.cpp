@@ -67,12 +67,12 @@ std::vector<PlanningQuery> sampleFreeQueries(const World& world, const FreeQuery
   std::vector<PlanningQuery> queries;
   queries.reserve(static_cast<std::size_t>(std::max(count, 0)));
   std::optional<FreeComponents> components;
-  if (spec.connected_radius > 0.0 && count > 0) components.emplace(world, spec.connected_radius);
+  if (spec.connected_radius && count > 0) components.emplace(world, *spec.connected_radius);
   for (int i = 0; i < count; ++i) {
     for (int attempt = 0;; ++attempt) {
       if (attempt == max_draws && components) {
         cannotPlace("a random pair joined by a way for a radius of " +
-                        formatNumber(spec.connected_radius) + " m (queries.random.connected)",
+                        formatNumber(*spec.connected_radius) + " m (queries.random.connected)",
                     world_id, max_draws, "lower the clearance or distances, or drop connected");
       }
       if (attempt == max_draws) cannotPlace("a random pair", world_id, max_draws);

@@ -2,6 +2,7 @@
 
 #include <Eigen/Core>
 #include <cmath>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -23,9 +24,9 @@ struct FreeQueryRegion {
   /// draw, inside the region.
   double lattice_step = 0.0;
   double lattice_offset = 0.0;
-  /// > 0: start and goal in one piece of the free space for a sphere of this radius
-  /// (FreeComponents, labelled once per call of sampleFreeQueries()).
-  double connected_radius = 0.0;
+  /// When set: start and goal in one piece of the free space for a sphere of this radius (0: a
+  /// point; FreeComponents, labelled once per call of sampleFreeQueries()).
+  std::optional<double> connected_radius = std::nullopt;
 };
 
 /// A free position in `region` (`clearance` from obstacles, inside the map). Throws
