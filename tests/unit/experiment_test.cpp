@@ -19,6 +19,7 @@
 #include "kinolab/experiment/query_sampler.hpp"
 #include "kinolab/experiment/results_store.hpp"
 #include "kinolab/experiment/shard.hpp"
+#include "kinolab/world/free_components.hpp"
 #include "kinolab/world/world.hpp"
 #include "kinolab/world/world_spec.hpp"
 #include "support/test_plugins.hpp"
@@ -464,6 +465,67 @@ TEST(QuerySampler, ALatticePutsXAndYOnItsPointsAndARegionWithoutOneIsRefused) {
   const Box slit{{1.1, 1.0, 1.55}, {1.5, 9.0, 1.55}};
   EXPECT_THROW(sampleFreeQueries(*world, {slit, 0.5, 0.0, 8.0, 0.5, 0.05}, 1, rng, "small"),
                ConfigError);
+}
+
+// Two rooms 6 x 3 x 2 m side by side, split by a wall at x = 3 (0.2 m thick) that is sealed,
+// or has a door 1 m wide and the rooms' height.
+std::shared_ptr<const World> twoRooms(bool door) {
+  VoxelGrid grid(Box{Eigen::Vector3d::Zero(), Eigen::Vector3d(6.0, 3.0, 2.0)}, 0.1);
+  for (int y = 0; y < 30; ++y) {
+    for (int z = 0; z < 20; ++z) {
+      const bool in_door = door && y >= 10 && y < 20;
+      for (int x = 29; x < 31 && !in_door; ++x) grid.setOccupied(VoxelIndex(x, y, z), true);
+    }
+  }
+  Esdf field(grid);
+  return std::make_shared<const World>("rooms", 0, std::move(grid), std::move(field));
+}
+
+TEST(QuerySampler, ConnectedPairsShareAPieceOfFreeSpaceAndNoneAcrossASealedWallIsRefused) {
+  const auto sealed = twoRooms(false);
+  const auto open = twoRooms(true);
+  const Eigen::Vector3d left(1.5, 1.5, 1.0);
+  const Eigen::Vector3d right(4.5, 1.5, 1.0);
+  const FreeComponents sealed_parts(*sealed, 0.4);
+  const FreeComponents open_parts(*open, 0.4);
+  EXPECT_EQ(sealed_parts.count(), 2);
+  EXPECT_FALSE(sealed_parts.joined(left, right));
+  EXPECT_TRUE(sealed_parts.joined(left, Eigen::Vector3d(0.6, 2.4, 1.4)));
+  EXPECT_EQ(open_parts.count(), 1);
+  EXPECT_TRUE(open_parts.joined(left, right));
+  // No room for the body against the wall, outside the map, and through a door too narrow.
+  EXPECT_EQ(sealed_parts.componentOf(Eigen::Vector3d(2.7, 1.5, 1.0)), -1);
+  EXPECT_EQ(sealed_parts.componentOf(Eigen::Vector3d(7.0, 1.5, 1.0)), -1);
+  EXPECT_FALSE(FreeComponents(*open, 0.6).joined(left, right));
+
+  // Pairs drawn in both rooms: each in one room when they must be connected, some across the
+  // wall when not.
+  const Box region{{0.3, 0.3, 0.5}, {5.7, 2.7, 1.5}};
+  Rng rng(4);
+  int across = 0;
+  for (const PlanningQuery& query : sampleFreeQueries(*sealed, {region, 0.3, 1.0}, 40, rng, "r")) {
+    across += (query.start(0, 0) - 3.0) * (query.goal.x() - 3.0) < 0.0;
+  }
+  EXPECT_GT(across, 5);
+  FreeQueryRegion connected{region, 0.3, 1.0};
+  connected.connected_radius = 0.4;
+  for (const PlanningQuery& query : sampleFreeQueries(*sealed, connected, 40, rng, "r")) {
+    EXPECT_GT((query.start(0, 0) - 3.0) * (query.goal.x() - 3.0), 0.0) << query.goal.transpose();
+    EXPECT_TRUE(sealed_parts.joined(query.start.col(0), query.goal));
+  }
+  // 4 m apart: only across the wall (a room's region is at most 3.5 m across), so through the
+  // door or not at all.
+  connected.min_distance = 4.0;
+  const auto through = sampleFreeQueries(*open, connected, 10, rng, "r");
+  EXPECT_EQ(through.size(), 10u);
+  try {
+    sampleFreeQueries(*sealed, connected, 1, rng, "rooms", 2000);
+    ADD_FAILURE() << "a connected pair 4 m apart across a sealed wall";
+  } catch (const ConfigError& error) {
+    EXPECT_NE(std::string(error.what()).find("world 'rooms'"), std::string::npos);
+    EXPECT_NE(std::string(error.what()).find("queries.random.connected"), std::string::npos)
+        << error.what();
+  }
 }
 
 TEST_F(ExperimentTest, AnyPluginParameterOfAPlannerMayBeWrittenAsABlock) {

@@ -1540,6 +1540,37 @@ TEST(FlightTest, AStuckFlightSaysWhy) {
       << result.message;
 }
 
+TEST(FlightTest, AWayThatFirstLeadsAwayFromTheGoalIsProgress) {
+  // The vehicle starts in a pocket open to the west, its goal 8 m east behind the pocket's
+  // back wall: the way leads 5 m away from the goal, round a corner and back, and the straight
+  // distance to the goal shrinks by 0.5 m only after more than stuck_time of flight. Progress is
+  // measured along the guide (the way the loop follows), so the flight is not judged stuck.
+  const auto world = worldOf(
+      "  - type: box_list\n    boxes: [{min: [10, 3, 0], max: [10.4, 17, 3]},\n"
+      "            {min: [4, 16.6, 0], max: [10.4, 17, 3]},\n"
+      "            {min: [4, 3, 0], max: [10.4, 3.4, 3]}]\n",
+      "{min: [0, 0, 0], max: [24, 20, 3]}");
+  const Eigen::Vector3d goal(16, 10, 1.5);
+  const double stuck_time = 10.0;
+  const FlightResult result = Flight({{"stuck_time", formatNumber(stuck_time), "test"},
+                                      {"timing", "deterministic", "test"}})
+                                  .fly(world, {8, 10, 1.5}, goal);
+  EXPECT_EQ(result.status, "reached") << result.message;
+  // The straight distance to the goal: its longest stretch without 0.5 m of progress.
+  double best = INFINITY;
+  double since = 0.0;
+  double longest = 0.0;
+  for (double t = 0.0; t <= result.flown.duration(); t += 0.1) {
+    const double distance = (result.flown.evaluate(t) - goal).norm();
+    if (distance < best - 0.5) {
+      best = distance;
+      since = t;
+    }
+    longest = std::max(longest, t - since);
+  }
+  EXPECT_GT(longest, stuck_time);
+}
+
 TEST(FlightTest, AVehicleAtItsLocalGoalButShortOfTheGoalMovesOntoIt) {
   // A goal 0.3 m in front of a wall: room for the body (0.25 m), none for the planning radius
   // (0.75 m with a 0.5 m margin), so the local goal stands in for it 0.5 m back, the vehicle

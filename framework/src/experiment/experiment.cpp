@@ -67,8 +67,19 @@ ExperimentPlanner readPlanner(const YamlReader& node) {
   return planner;
 }
 
+/// The radius `queries.random.connected` joins start and goal at: the planners' largest body
+/// radius, plus the planning margin of a flight (whose planners plan for the body grown by it).
+double connectedRadius(const ExperimentVariant& variant, bool flights) {
+  double radius = 0.0;
+  for (const ExperimentPlanner& planner : variant.planners) {
+    radius = std::max(radius, bodyFrom(planner.parameters).radius);
+  }
+  return radius + (flights ? variant.flight.real("planning_margin") : 0.0);
+}
+
 ExperimentVariant readVariant(const YamlReader& root, const std::string& directory,
-                              const std::map<std::string, std::string>& spec_directories) {
+                              const std::map<std::string, std::string>& spec_directories,
+                              bool flights) {
   ExperimentVariant variant;
   std::set<std::string> ids;
   for (const YamlReader& item : root["worlds"].items()) {
@@ -86,7 +97,8 @@ ExperimentVariant readVariant(const YamlReader& root, const std::string& directo
   if (variant.queries.random.max_distance < variant.queries.random.min_distance) {
     root["queries"]["random"]["max_distance"].fail("max_distance is below min_distance");
   }
-  if (variant.queries.count() == 0) root["queries"].fail("no queries: give fixed, random or across");
+  if (variant.queries.count() == 0)
+    root["queries"].fail("no queries: give fixed, random or across");
   for (const YamlReader& item : root["planners"].items()) {
     ExperimentPlanner planner = readPlanner(item);
     if (!ids.insert("planner " + planner.id).second) item["id"].fail("duplicate planner id");
@@ -98,6 +110,7 @@ ExperimentVariant readVariant(const YamlReader& root, const std::string& directo
   } else {
     variant.flight = flightParameters().resolve({}, "flight");
   }
+  variant.queries.random.connected_radius = connectedRadius(variant, flights);
   return variant;
 }
 
@@ -124,12 +137,14 @@ std::vector<PlanningQuery> QuerySpec::make(const World& world, const std::string
     return inside;
   };
   if (random.count > 0) {
-    const FreeQueryRegion spec{region(random.height),
-                               random.clearance,
-                               random.min_distance,
-                               random.max_distance,
-                               random.lattice ? random.lattice->step : 0.0,
-                               random.lattice ? random.lattice->offset : 0.0};
+    const FreeQueryRegion spec{
+        region(random.height),
+        random.clearance,
+        random.min_distance,
+        random.max_distance,
+        random.lattice ? random.lattice->step : 0.0,
+        random.lattice ? random.lattice->offset : 0.0,
+        random.connected ? std::optional(random.connected_radius) : std::nullopt};
     const auto drawn = sampleFreeQueries(world, spec, random.count, rng, world_id);
     queries.insert(queries.end(), drawn.begin(), drawn.end());
   }
@@ -154,8 +169,12 @@ std::vector<PlanningQuery> QuerySpec::make(const World& world, const std::string
 
 namespace {
 
-// A query's rule: its fields' values alone ("5 1000000 0.6 1 2 lattice 0.5 0.05").
-std::string randomRule(const QuerySpec::Random& random) { return canonicalFields(random); }
+// A query's rule: its fields' values alone ("5 1000000 0.6 1 2 lattice 0.5 0.05"), then with
+// `connected` the radius it joins start and goal at ("... connected 0.55").
+std::string randomRule(const QuerySpec::Random& random) {
+  return canonicalFields(random) +
+         (random.connected ? " connected " + formatNumber(random.connected_radius) : "");
+}
 std::string acrossRule(const QuerySpec::Across& across) { return canonicalFields(across); }
 
 }  // namespace
@@ -281,9 +300,11 @@ namespace {
 /// The top-level fields (kind, name, seed, store) and `plugins:` (each loaded now, so that the
 /// rest of the file can name their keys).
 void readHeader(const YamlReader& root, const std::string& directory, Experiment& experiment) {
-  if (const auto kind = root.optional("kind"); kind && kind->as<std::string>() == "sampling_study") {
-    kind->fail("sampling studies run with kinolab sampling-study; kinolab run takes 'planning' or "
-               "'flight'");
+  if (const auto kind = root.optional("kind");
+      kind && kind->as<std::string>() == "sampling_study") {
+    kind->fail(
+        "sampling studies run with kinolab sampling-study; kinolab run takes 'planning' or "
+        "'flight'");
   }
   readYamlFields(root, experiment);
   if (!experiment.flights && root.optional("flight")) {
@@ -362,7 +383,8 @@ void readVariants(YAML::Node document, const std::vector<SweepPoint>& points,
     for (const char* key : {"kind", "name", "seed", "plugins", "store", "reproduces"}) {
       (void)reader.optional(key);
     }
-    ExperimentVariant variant = readVariant(reader, directory, spec_directories);
+    ExperimentVariant variant =
+        readVariant(reader, directory, spec_directories, experiment.flights);
     reader.finish();
     variant.label = label;
     total_runs += variant.worlds.size() * static_cast<std::size_t>(variant.queries.count()) *

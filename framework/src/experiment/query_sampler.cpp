@@ -2,15 +2,19 @@
 
 #include <algorithm>
 #include <cmath>
+#include <optional>
 
 #include "kinolab/core/error.hpp"
+#include "kinolab/core/text.hpp"
+#include "kinolab/world/free_components.hpp"
 
 namespace kinolab {
 namespace {
 
-[[noreturn]] void cannotPlace(const std::string& what, const std::string& world_id, int draws) {
+[[noreturn]] void cannotPlace(const std::string& what, const std::string& world_id, int draws,
+                              const std::string& hint = "lower the clearance or distances") {
   throw ConfigError("queries: could not place " + what + " in world '" + world_id + "' in " +
-                    std::to_string(draws) + " draws; lower the clearance or distances");
+                    std::to_string(draws) + " draws; " + hint);
 }
 
 }  // namespace
@@ -62,8 +66,15 @@ std::vector<PlanningQuery> sampleFreeQueries(const World& world, const FreeQuery
                                              int max_draws) {
   std::vector<PlanningQuery> queries;
   queries.reserve(static_cast<std::size_t>(std::max(count, 0)));
+  std::optional<FreeComponents> components;
+  if (spec.connected_radius && count > 0) components.emplace(world, *spec.connected_radius);
   for (int i = 0; i < count; ++i) {
     for (int attempt = 0;; ++attempt) {
+      if (attempt == max_draws && components) {
+        cannotPlace("a random pair joined by a way for a radius of " +
+                        formatNumber(*spec.connected_radius) + " m (queries.random.connected)",
+                    world_id, max_draws, "lower the clearance or distances, or drop connected");
+      }
       if (attempt == max_draws) cannotPlace("a random pair", world_id, max_draws);
       PlanningQuery query;
       if (spec.lattice_step > 0.0) {
@@ -77,7 +88,8 @@ std::vector<PlanningQuery> sampleFreeQueries(const World& world, const FreeQuery
                                         world_id, max_draws);
       }
       const double distance = (query.goal - query.start.col(0)).norm();
-      if (distance >= spec.min_distance && distance <= spec.max_distance) {
+      if (distance >= spec.min_distance && distance <= spec.max_distance &&
+          (!components || components->joined(query.start.col(0), query.goal))) {
         queries.push_back(query);
         break;
       }

@@ -4,6 +4,7 @@
 #include <chrono>
 #include <cmath>
 #include <optional>
+#include <tuple>
 #include <unordered_map>
 
 #include "flight_motion.hpp"
@@ -80,7 +81,7 @@ class FlightLoop {
     map_->markFree(start, kStartKnown * planning_body_.radius, [&](const Eigen::Vector3d& centre) {
       return truth_->isFree(centre, half_diagonal);
     });
-    best_distance_ = (start - query_.goal).norm();
+    progress_from_ = start;
     for (int frame = 0; step(frame); ++frame) {
     }
     finish();
@@ -161,14 +162,11 @@ class FlightLoop {
           "the goal was not reached within " + formatNumber(settings_.max_time) + " s of flight";
       return true;
     }
-    if (distance < best_distance_ - 0.5) {
-      best_distance_ = distance;
-      best_time_ = t_;
-    }
     if (t_ - best_time_ > settings_.stuck_time) {
       result_.status = "stuck";
-      result_.message = "no progress towards the goal for " + formatNumber(settings_.stuck_time) +
-                        " s" + takenSince(result_.replans, best_time_, query_.goal) +
+      result_.message = "no progress along the guide to the goal for " +
+                        formatNumber(settings_.stuck_time) + " s" +
+                        takenSince(result_.replans, best_time_, query_.goal) +
                         failuresSince(result_.replans, best_time_);
       return true;
     }
@@ -221,9 +219,11 @@ class FlightLoop {
     Eigen::Vector3d from = local.start.col(0);
     from.z() = std::clamp(from.z(), std::min(query_.start(2, 0), query_.goal.z()),
                           std::max(query_.start(2, 0), query_.goal.z()));
-    const std::vector<Eigen::Vector3d> guide =
-        map_->guide(from, query_.goal, planning_body_.radius, z_low, z_high);
+    const Eigen::Vector3d froms[] = {from, progress_from_};
+    const auto guides = map_->guides(froms, query_.goal, planning_body_.radius, z_low, z_high);
+    const std::vector<Eigen::Vector3d>& guide = guides[0];
     result_.time_guide_ms += millisecondsSince(begin);
+    measureProgress(from, guide, guides[1]);
     bool accepted = false;
     bool found = localGoal(local.start.col(0), query_.goal, guide, settings_.horizon,
                            *shared_window, planning_body_.radius, &local.goal);
@@ -283,6 +283,22 @@ class FlightLoop {
     next_replan_ = std::max(next_replan_, t_ + (settled ? settings_.replan_period : dt_));
   }
 
+  /// Progress is measured along the way the known map leaves to the goal (the guide), both
+  /// ways on this frame's map: the guide from `from` (where this replan starts) is 0.5 m
+  /// shorter than the one from where the flight last made progress. A way that first leads
+  /// away from the goal (a corridor, a door behind the vehicle) is progress, and a vehicle
+  /// that turns between two ways is not, however the map changed meanwhile (a new wall
+  /// lengthens both). Measured by the straight distance to the goal instead, vehicles
+  /// exploring geb079's rooms on the way were judged stuck.
+  void measureProgress(const Eigen::Vector3d& from, const std::vector<Eigen::Vector3d>& guide,
+                       const std::vector<Eigen::Vector3d>& guide_before) {
+    if (wayLength(guide, from, query_.goal) <
+        wayLength(guide_before, progress_from_, query_.goal) - kProgress) {
+      progress_from_ = from;
+      best_time_ = t_;
+    }
+  }
+
   /// Whether a replan's plan becomes the committed trajectory (then spliced in from
   /// `t_start`), with why not in `replan.why`: too late (in real time a plan that took longer
   /// than the latency arrives after its start), nothing to fly (status at_local_goal), no
@@ -330,12 +346,7 @@ class FlightLoop {
         return true;
       }
     }
-    replan.why = settings_.commit == CommitSpace::kPlanned
-                     ? "every braking tail after the plan leaves the map or meets a known obstacle"
-                 : vouched < 0.1
-                     ? "the plan leaves the space the known map vouches for at once (commit: seen)"
-                     : "every braking tail after the plan leaves the space the known map vouches "
-                       "for (commit: seen)";
+    replan.why = notCommittedWhy(settings_.commit, vouched);
     return false;
   }
 
@@ -484,22 +495,11 @@ class FlightLoop {
 
   void finish() {
     result_.flown = slice(flownPath(), std::max(t_, dt_));
-    // The tracking error: flown against committed, every centisecond.
-    double squares = 0.0;
-    int samples = 0;
-    for (double s = 0.0; s <= result_.flown.duration(); s += 0.01, ++samples) {
-      const double error = (result_.flown.evaluate(s) - committed_.evaluate(s)).norm();
-      result_.tracking_error_max = std::max(result_.tracking_error_max, error);
-      squares += error * error;
-    }
-    result_.tracking_error_rms = samples > 0 ? std::sqrt(squares / samples) : 0.0;
+    std::tie(result_.tracking_error_max, result_.tracking_error_rms) =
+        trackingError(result_.flown, committed_);
     if (settings_.snapshot_period > 0.0) {
       snapshot();
-      for (const std::size_t voxel : map_->occupiedVoxels()) {
-        result_.known_voxels.emplace_back(first_occupied_.at(voxel), map_->voxelCenter(voxel));
-      }
-      std::stable_sort(result_.known_voxels.begin(), result_.known_voxels.end(),
-                       [](const auto& a, const auto& b) { return a.first < b.first; });
+      result_.known_voxels = knownVoxelsInOrder(*map_, first_occupied_);
     }
     if (collided_) result_.status = "collision";
     if (left_map_) {
@@ -507,11 +507,8 @@ class FlightLoop {
       result_.message = "the vehicle left the map at " + formatPoint(*left_map_) +
                         ", t = " + formatNumber(t_) + " s (the tracking error: wind, a late plan)";
     }
-    CheckQuery check_query;
-    check_query.start = query_.start;
-    check_query.goal = query_.goal;
-    check_query.require_goal = false;
-    const CheckResult check = checker_.check(result_.flown, check_query);
+    const CheckResult check = checker_.check(
+        result_.flown, {.start = query_.start, .goal = query_.goal, .require_goal = false});
     // A vehicle that left the map: said above (the checker's bounds finding is the same fact).
     if (!left_map_ && !check.valid && check.check == "collision") {
       result_.status = "collision";
@@ -555,8 +552,11 @@ class FlightLoop {
   Trajectory intended_;  // the last plan taken, whole: where the camera looks (heading())
   double t_ = 0.0;
   double next_replan_ = 0.0;
-  double best_distance_ = INFINITY;
+  // Where (a replan's start, at the query's heights) and when the flight last made progress
+  // along the guide (measureProgress()).
+  Eigen::Vector3d progress_from_ = Eigen::Vector3d::Zero();
   double best_time_ = 0.0;
+  static constexpr double kProgress = 0.5;  // m shorter along the guide: progress
   std::string reason_ = "start";
   bool collided_ = false;
   std::optional<Eigen::Vector3d> left_map_;  ///< where the vehicle left the map, if it did

@@ -210,6 +210,47 @@ Eigen::Vector3d pointAlong(const std::vector<Eigen::Vector3d>& way, double s) {
   return way.back();
 }
 
+std::string notCommittedWhy(CommitSpace commit, double vouched) {
+  if (commit == CommitSpace::kPlanned) {
+    return "every braking tail after the plan leaves the map or meets a known obstacle";
+  }
+  return vouched < 0.1
+             ? "the plan leaves the space the known map vouches for at once (commit: seen)"
+             : "every braking tail after the plan leaves the space the known map vouches for "
+               "(commit: seen)";
+}
+
+std::vector<std::pair<double, Eigen::Vector3d>> knownVoxelsInOrder(
+    const VehicleMap& map, const std::unordered_map<std::size_t, double>& first) {
+  std::vector<std::pair<double, Eigen::Vector3d>> voxels;
+  for (const std::size_t voxel : map.occupiedVoxels()) {
+    voxels.emplace_back(first.at(voxel), map.voxelCenter(voxel));
+  }
+  std::stable_sort(voxels.begin(), voxels.end(),
+                   [](const auto& a, const auto& b) { return a.first < b.first; });
+  return voxels;
+}
+
+double wayLength(const std::vector<Eigen::Vector3d>& guide, const Eigen::Vector3d& from,
+                 const Eigen::Vector3d& goal) {
+  if (guide.size() < 2) return (goal - from).norm();
+  double length = 0.0;
+  for (std::size_t i = 1; i < guide.size(); ++i) length += (guide[i] - guide[i - 1]).norm();
+  return length;
+}
+
+std::pair<double, double> trackingError(const Trajectory& flown, const Trajectory& committed) {
+  double largest = 0.0;
+  double squares = 0.0;
+  int samples = 0;
+  for (double s = 0.0; s <= flown.duration(); s += 0.01, ++samples) {
+    const double error = (flown.evaluate(s) - committed.evaluate(s)).norm();
+    largest = std::max(largest, error);
+    squares += error * error;
+  }
+  return {largest, samples > 0 ? std::sqrt(squares / samples) : 0.0};
+}
+
 bool localGoal(const Eigen::Vector3d& from, const Eigen::Vector3d& goal,
                const std::vector<Eigen::Vector3d>& guide, double horizon, const World& window,
                double radius, Eigen::Vector3d* out) {

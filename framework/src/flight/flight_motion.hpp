@@ -8,6 +8,9 @@
 #include <Eigen/Core>
 #include <chrono>
 #include <cmath>
+#include <string>
+#include <unordered_map>
+#include <utility>
 #include <vector>
 
 #include "kinolab/flight/flight.hpp"
@@ -105,6 +108,25 @@ std::vector<TrajectorySegment> straightMove(const Eigen::Vector3d& from,
 
 /// The point `s` metres along the polyline `way` (its end when it is shorter).
 Eigen::Vector3d pointAlong(const std::vector<Eigen::Vector3d>& way, double s);
+
+/// Why no braking tail after a plan could be committed (`vouched`: how long the plan keeps in
+/// the space the known map vouches for, s).
+std::string notCommittedWhy(CommitSpace commit, double vouched);
+
+/// The map's known occupied voxels, each with when it was first known occupied (`first`, by
+/// lattice index), in that order.
+std::vector<std::pair<double, Eigen::Vector3d>> knownVoxelsInOrder(
+    const VehicleMap& map, const std::unordered_map<std::size_t, double>& first);
+
+/// The length of the way a flight follows from `from` to `goal`: its guide (a polyline), or
+/// with none (the known map leaves no way in the guide's band) the straight line, as
+/// localGoal() then takes.
+double wayLength(const std::vector<Eigen::Vector3d>& guide, const Eigen::Vector3d& from,
+                 const Eigen::Vector3d& goal);
+
+/// The largest and the root-mean-square distance between `flown` and `committed`, every
+/// centisecond of `flown` (the tracking error).
+std::pair<double, double> trackingError(const Trajectory& flown, const Trajectory& committed);
 
 /// The local goal: the goal when it is within `horizon` and the window, else the point
 /// `horizon` metres along the guide (the known map's shortest way; the straight line when it

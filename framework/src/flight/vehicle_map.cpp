@@ -287,6 +287,13 @@ std::vector<std::size_t> cellPath(const std::vector<std::uint8_t>& blocked, int 
 std::vector<Eigen::Vector3d> VehicleMap::guide(const Eigen::Vector3d& from,
                                                const Eigen::Vector3d& to, double radius,
                                                double z_low, double z_high) const {
+  return std::move(guides({&from, 1}, to, radius, z_low, z_high).front());
+}
+
+std::vector<std::vector<Eigen::Vector3d>> VehicleMap::guides(std::span<const Eigen::Vector3d> froms,
+                                                             const Eigen::Vector3d& to,
+                                                             double radius, double z_low,
+                                                             double z_high) const {
   const auto obstacles = [this](int x, int z0, int z1, std::uint8_t* row) {
     for (int y = 0; y < lattice_.dims().y(); ++y) {
       const std::uint8_t* column = &state_[lattice_.index(x, y, 0)];
@@ -295,12 +302,20 @@ std::vector<Eigen::Vector3d> VehicleMap::guide(const Eigen::Vector3d& from,
       });
     }
   };
-  return columnGuide(lattice_, obstacles, from, to, radius, z_low, z_high);
+  return columnGuides(lattice_, obstacles, froms, to, radius, z_low, z_high);
 }
 
 std::vector<Eigen::Vector3d> columnGuide(const VoxelGrid& lattice, const ObstacleColumns& obstacles,
                                          const Eigen::Vector3d& from, const Eigen::Vector3d& to,
                                          double radius, double z_low, double z_high) {
+  return std::move(columnGuides(lattice, obstacles, {&from, 1}, to, radius, z_low, z_high).front());
+}
+
+std::vector<std::vector<Eigen::Vector3d>> columnGuides(const VoxelGrid& lattice,
+                                                       const ObstacleColumns& obstacles,
+                                                       std::span<const Eigen::Vector3d> froms,
+                                                       const Eigen::Vector3d& to, double radius,
+                                                       double z_low, double z_high) {
   const Eigen::Vector3i& n = lattice.dims();
   const double r = lattice.resolution();
   const auto cellOf = [&](const Eigen::Vector3d& p) {
@@ -313,26 +328,31 @@ std::vector<Eigen::Vector3d> columnGuide(const VoxelGrid& lattice, const Obstacl
       std::clamp(static_cast<int>(std::floor((z_low - lattice.origin().z()) / r)), 0, n.z() - 1);
   const int z1 =
       std::clamp(static_cast<int>(std::floor((z_high - lattice.origin().z()) / r)), 0, n.z() - 1);
-  std::vector<std::uint8_t> blocked = blockedCells(lattice, obstacles, z0, z1, radius);
-  const Eigen::Vector2i start = cellOf(from);
+  const std::vector<std::uint8_t> blocked = blockedCells(lattice, obstacles, z0, z1, radius);
   const Eigen::Vector2i goal = cellOf(to);
-  blocked[static_cast<std::size_t>(start.x()) * n.y() + start.y()] = 0;  // the vehicle is here
-  if (blocked[static_cast<std::size_t>(goal.x()) * n.y() + goal.y()]) return {};
-  const std::vector<std::size_t> cells = cellPath(blocked, n.x(), n.y(), start, goal);
-  if (cells.empty()) return {};
-  std::vector<Eigen::Vector3d> path;
-  for (const std::size_t cell : cells) {
-    const Eigen::Vector3d centre = lattice.center(
-        VoxelIndex(static_cast<int>(cell / n.y()), static_cast<int>(cell % n.y()), 0));
-    path.emplace_back(centre.x(), centre.y(), 0.0);
+  std::vector<std::vector<Eigen::Vector3d>> paths(froms.size());
+  if (blocked[static_cast<std::size_t>(goal.x()) * n.y() + goal.y()]) return paths;
+  for (std::size_t i = 0; i < froms.size(); ++i) {
+    const Eigen::Vector3d& from = froms[i];
+    const Eigen::Vector2i start = cellOf(from);
+    std::vector<std::uint8_t> open = blocked;
+    open[static_cast<std::size_t>(start.x()) * n.y() + start.y()] = 0;  // the vehicle is here
+    const std::vector<std::size_t> cells = cellPath(open, n.x(), n.y(), start, goal);
+    std::vector<Eigen::Vector3d>& path = paths[i];
+    for (const std::size_t cell : cells) {
+      const Eigen::Vector3d centre = lattice.center(
+          VoxelIndex(static_cast<int>(cell / n.y()), static_cast<int>(cell % n.y()), 0));
+      path.emplace_back(centre.x(), centre.y(), 0.0);
+    }
+    if (path.empty()) continue;
+    path.front().head<2>() = from.head<2>();
+    path.back().head<2>() = to.head<2>();
+    for (std::size_t k = 0; k < path.size(); ++k) {
+      path[k].z() = from.z() + (to.z() - from.z()) * static_cast<double>(k) /
+                                   static_cast<double>(std::max<std::size_t>(1, path.size() - 1));
+    }
   }
-  path.front().head<2>() = from.head<2>();
-  path.back().head<2>() = to.head<2>();
-  for (std::size_t i = 0; i < path.size(); ++i) {
-    path[i].z() = from.z() + (to.z() - from.z()) * static_cast<double>(i) /
-                                 static_cast<double>(std::max<std::size_t>(1, path.size() - 1));
-  }
-  return path;
+  return paths;
 }
 
 std::string VehicleMap::topView(double z_low, double z_high) const {

@@ -145,6 +145,38 @@ TEST(GridAstar, UnreachableGoalIsNoSolution) {
   }
 }
 
+TEST(GridAstar, AGoalRegionWithoutRoomForTheBodyIsRefusedBeforeTheSearch) {
+  // A block 1.2 m thick from x = 1.8 and a wall 0.2 m thick at x = 1 (y < 1), both the world's
+  // height. Refused as invalid_goal before any expansion: a goal in the block's middle (no point
+  // of its 0.5 m region has room for the body, 0.25 m), and a goal free for the body in the
+  // 0.6 m gap between wall and block, where no voxel next to it has room for the body kept
+  // along a segment to it. A goal in the open is searched for and reached.
+  const auto world = tinyWorld(
+      "generators: [{type: box_list, boxes: [{min: [1.8, 0, 0], max: [3, 3, 1]},\n"
+      "                                      {min: [1, 0, 0], max: [1.2, 1, 1]}]}]\n");
+  PlanningQuery query;
+  query.start.col(0) = Eigen::Vector3d(0.5, 2.0, 0.5);
+  for (const std::string algorithm : {"astar", "jps"}) {
+    SCOPED_TRACE(algorithm);
+    ConfiguredPlanner planner = configurePlanner(
+        "grid_astar", test::assignments({"algorithm=" + algorithm, "time_limit=0"}));
+    planner.planner->setup({world, 1});
+    for (const Eigen::Vector3d& goal :
+         {Eigen::Vector3d(2.4, 1.5, 0.5), Eigen::Vector3d(1.5, 0.5, 0.5)}) {
+      query.goal = goal;
+      ASSERT_EQ(world->clearanceFor(goal, 0.24) >= 0.24, goal.x() < 1.8);  // the kept radius
+      const PlanResult refused = planner.planner->plan(query, Budget{});
+      EXPECT_EQ(refused.status, PlanStatus::kInvalidGoal) << refused.message;
+      const double expanded = test::statistic(refused.statistics, "expansions");
+      EXPECT_TRUE(std::isnan(expanded) || expanded == 0.0) << expanded;  // none reported, or 0
+    }
+    query.goal = Eigen::Vector3d(0.5, 0.5, 0.5);
+    const PlanResult planned = planner.planner->plan(query, Budget{});
+    EXPECT_EQ(planned.status, PlanStatus::kExact) << planned.message;
+    EXPECT_GT(test::statistic(planned.statistics, "expansions"), 0.0);
+  }
+}
+
 TEST(GridAstar, RefusesAMovingStartAndStopsAtItsExpansionBudget) {
   const PlanningQuery query =
       test::randomQueries(*test::smallWorld("forest"), 1, 5, 8.0, 12.0, 0.6).front();

@@ -42,6 +42,10 @@ struct QuerySpec {
     double clearance = 0.6;
     std::array<double, 2> height = {1.0, 2.0};
     std::optional<Lattice> lattice;
+    bool connected = false;
+    /// m: the radius `connected` joins start and goal at, set when the experiment is read: its
+    /// planners' largest body radius, plus a flight's planning_margin.
+    double connected_radius = 0.0;
     template <typename Fields>
     void fields(Fields& f) {
       // The count is not part of a query's rule: more random queries leave the first ones.
@@ -52,6 +56,11 @@ struct QuerySpec {
       f.real("clearance", clearance, 0.0, 100.0, "least free space around start and goal, m");
       f.interval("height", height, -1e4, 1e4, "start and goal height above the map's floor, m");
       f.group("lattice", lattice, "x and y on offset + step k (optional)");
+      // In a run's identity as the radius it stands for (QuerySpec::queryText).
+      f.boolean("connected", connected,
+                "start and goal in one piece of the world's free space at the planners' largest "
+                "radius (a flight's: plus its planning_margin): a way between them exists",
+                {.identity = false});
     }
   };
   struct Across {

@@ -2,6 +2,7 @@
 
 #include <Eigen/Core>
 #include <cmath>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -23,6 +24,9 @@ struct FreeQueryRegion {
   /// draw, inside the region.
   double lattice_step = 0.0;
   double lattice_offset = 0.0;
+  /// When set: start and goal in one piece of the free space for a sphere of this radius (0: a
+  /// point; FreeComponents, labelled once per call of sampleFreeQueries()).
+  std::optional<double> connected_radius = std::nullopt;
 };
 
 /// A free position in `region` (`clearance` from obstacles, inside the map). Throws
@@ -31,8 +35,8 @@ Eigen::Vector3d sampleFreePosition(const World& world, const Box& region, double
                                    Rng& rng, const std::string& what, const std::string& world_id,
                                    int max_draws = 100000);
 
-/// `count` start/goal pairs at rest (start, then goal, until their distance fits), on the
-/// region's lattice if it has one. Throws
+/// `count` start/goal pairs at rest (start, then goal, until their distance fits and, with a
+/// connected_radius, a way joins them), on the region's lattice if it has one. Throws
 /// ConfigError naming `world_id` when a position or a pair cannot be placed in `max_draws`
 /// draws.
 std::vector<PlanningQuery> sampleFreeQueries(const World& world, const FreeQueryRegion& spec,

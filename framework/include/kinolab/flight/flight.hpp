@@ -66,7 +66,7 @@ struct FlightSettings {
   BudgetClock clock = BudgetClock::kCpu;
   double horizon = 3.5;             ///< m: the local goal's distance when the goal is farther
   double max_time = 120.0;          ///< s of flight
-  double stuck_time = 15.0;         ///< s without 0.5 m of progress towards the goal
+  double stuck_time = 15.0;         ///< s without 0.5 m of progress along the guide
   double goal_tolerance = 0.5;      ///< m: reached when this close to the goal
   double brake_acceleration = 3.0;  ///< m/s^2 per axis for braking to a stop
   CommitSpace commit = CommitSpace::kSeen;
@@ -110,7 +110,8 @@ struct FlightSettings {
            "local goal distance when the goal is farther, m (kept 0.5 m inside the window)");
     f.real("max_time", max_time, 0.1, 1e5, "flight time limit, s (status timeout)");
     f.real("stuck_time", stuck_time, 0.1, 1e5,
-           "s without 0.5 m of progress towards the goal (status stuck)");
+           "s without 0.5 m of progress along the guide to the goal (the way the known map "
+           "leaves, measured from here and from the last progress on one map; status stuck)");
     f.real("goal_tolerance", goal_tolerance, 0.01, 100.0, "reached: this close to the goal, m");
     f.real("planning_margin", planning_margin, 0.0, 10.0,
            "the planners keep the body's radius plus this from known obstacles (their "

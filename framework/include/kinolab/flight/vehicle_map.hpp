@@ -119,6 +119,11 @@ class VehicleMap {
   /// interpolated from `from` to `to`; empty when the known map leaves no way.
   std::vector<Eigen::Vector3d> guide(const Eigen::Vector3d& from, const Eigen::Vector3d& to,
                                      double radius, double z_low, double z_high) const;
+  /// guide() from each of `froms` (one path each, empty where there is none), the map's
+  /// columns read once: a flight's guide and the way from where it last made progress.
+  std::vector<std::vector<Eigen::Vector3d>> guides(std::span<const Eigen::Vector3d> froms,
+                                                   const Eigen::Vector3d& to, double radius,
+                                                   double z_low, double z_high) const;
   /// The known map from above over heights [z_low, z_high], as text: a line
   /// "nx,ny,origin_x,origin_y,resolution", then per x one line of ny digits, per column 2 (a
   /// known obstacle in the band), 1 (known free there) or 0 (unknown).
@@ -192,5 +197,12 @@ using ObstacleColumns = std::function<void(int x, int z0, int z1, std::uint8_t* 
 std::vector<Eigen::Vector3d> columnGuide(const VoxelGrid& lattice, const ObstacleColumns& obstacles,
                                          const Eigen::Vector3d& from, const Eigen::Vector3d& to,
                                          double radius, double z_low, double z_high);
+/// columnGuide() from each of `froms` (one path each, empty where there is none), the
+/// obstacle columns read once.
+std::vector<std::vector<Eigen::Vector3d>> columnGuides(const VoxelGrid& lattice,
+                                                       const ObstacleColumns& obstacles,
+                                                       std::span<const Eigen::Vector3d> froms,
+                                                       const Eigen::Vector3d& to, double radius,
+                                                       double z_low, double z_high);
 
 }  // namespace kinolab
