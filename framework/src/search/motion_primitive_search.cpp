@@ -77,28 +77,26 @@ int MotionPrimitiveSearch::slotOf(const ChainState& state) {
   }
   const Key key = graph_.key(state);
   const std::uint64_t hash = hashOf(key);
-  const std::size_t mask = table_.size() - 1;
-  for (std::size_t position = hash & mask;; position = (position + 1) & mask) {
-    const int index = table_[position];
-    if (index < 0) {
-      table_[position] = static_cast<int>(slots_.size());
-      slots_.push_back(Slot{key, hash});
-      return table_[position];
-    }
-    // The hash first: keys are compared only when it matches.
-    if (slots_[index].hash == hash && slots_[index].key == key) return index;
+  const std::size_t position = probe(key, hash);
+  if (table_[position] < 0) {
+    table_[position] = static_cast<int>(slots_.size());
+    slots_.push_back(Slot{key, hash});
   }
+  return table_[position];
 }
 
 int MotionPrimitiveSearch::findSlot(const ChainState& state) const {
   if (table_.empty()) return -1;
   const Key key = graph_.key(state);
-  const std::uint64_t hash = hashOf(key);
+  return table_[probe(key, hashOf(key))];
+}
+
+std::size_t MotionPrimitiveSearch::probe(const Key& key, std::uint64_t hash) const {
   const std::size_t mask = table_.size() - 1;
   for (std::size_t position = hash & mask;; position = (position + 1) & mask) {
     const int index = table_[position];
-    if (index < 0) return -1;
-    if (slots_[index].hash == hash && slots_[index].key == key) return index;
+    // The hash first: keys are compared only when it matches.
+    if (index < 0 || (slots_[index].hash == hash && slots_[index].key == key)) return position;
   }
 }
 
@@ -183,6 +181,10 @@ void MotionPrimitiveSearch::evaluatePopped(const HeapEntry& entry) {
 }
 
 EdgeEvaluation MotionPrimitiveSearch::fullEvaluation(const HeapEntry& entry) {
+  const Candidate& parent = candidates_[entry.node];
+  if (!graph_.parallel()) {
+    return graph_.evaluate(parent.state, static_cast<int>(entry.control), parent.clearance);
+  }
   const std::uint64_t key = aheadKey(entry);
   if (const auto found = ahead_.find(key); found != ahead_.end()) {
     EdgeEvaluation full = std::move(found->second);
@@ -191,7 +193,6 @@ EdgeEvaluation MotionPrimitiveSearch::fullEvaluation(const HeapEntry& entry) {
     graph_.countFull(full);
     return full;
   }
-  const Candidate& parent = candidates_[entry.node];
   jobs_.assign(1, {&parent.state, static_cast<int>(entry.control), parent.clearance});
   job_keys_.assign(1, key);
   // A few edges a thread: a hand-over costs more than one edge of a point robot. Made ahead
@@ -199,7 +200,7 @@ EdgeEvaluation MotionPrimitiveSearch::fullEvaluation(const HeapEntry& entry) {
   // tight heuristic the search pops little besides its path, and the rest would be wasted.
   constexpr long long kEdgesPerThread = 4;
   const long long batch = kEdgesPerThread * graph_.settings().threads;
-  if (graph_.parallel() && graph_.counters().ahead_evaluations <= 2 * ahead_used_ + batch) {
+  if (graph_.counters().ahead_evaluations <= 2 * ahead_used_ + batch) {
     addNextEdges(static_cast<std::size_t>(batch - 1), key);
   }
   graph_.evaluateMany(jobs_, job_results_);

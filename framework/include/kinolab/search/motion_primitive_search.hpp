@@ -113,6 +113,8 @@ class MotionPrimitiveSearch {
 
   std::uint64_t hashOf(const Key& key) const;
   int slotOf(const ChainState& state);
+  /// The table position holding `key`'s slot, or the empty one where it would go.
+  std::size_t probe(const Key& key, std::uint64_t hash) const;
   /// The state's slot, or -1 when it has none (nothing is added).
   int findSlot(const ChainState& state) const;
   /// Whether a queued edge's end state is closed already (its pop will find it stale).
@@ -130,9 +132,10 @@ class MotionPrimitiveSearch {
   /// A popped lower-bound or certified edge: materialises it unless its state is closed
   /// (full evaluation for a lower bound) and queues the candidate.
   void evaluatePopped(const HeapEntry& entry);
-  /// The full evaluation of a popped lower-bound edge: the one made ahead, or made now together
-  /// with the open list's next lower-bound edges on the other threads (threads > 1: each is a
-  /// pure function of its edge, so the search is the same whichever thread made it, and when).
+  /// The full evaluation of a popped lower-bound edge: at one thread made now; on more, the one
+  /// made ahead, or made now together with the open list's next lower-bound edges on the other
+  /// threads (each is a pure function of its edge, so the search is the same whichever thread
+  /// made it, and when).
   EdgeEvaluation fullEvaluation(const HeapEntry& entry);
   /// Adds to jobs_ up to `count` of the best lower-bound edges in the open list not yet
   /// evaluated ahead (the k best entries of a heap lie in its first k levels).
