@@ -202,38 +202,66 @@ void BM_PlannerSetup(benchmark::State& state) {
 }
 BENCHMARK(BM_PlannerSetup)->DenseRange(0, 2)->Unit(benchmark::kMicrosecond);
 
+/// The exact trajectories the problem's first planner finds, with their checks' queries, and
+/// a checker for them.
+struct PlannedTrajectories {
+  std::vector<std::pair<Trajectory, CheckQuery>> plans;
+  std::unique_ptr<TrajectoryChecker> checker;
+};
+
+PlannedTrajectories plannedTrajectories(const Problem& problem) {
+  registerBuiltinPlugins();
+  const Variant& first = problem.variants.front();
+  ConfiguredPlanner planner = configurePlanner(first.planner, first.assignments);
+  planner.planner->setup({problem.world, 1});
+  PlannedTrajectories planned;
+  for (const PlanningQuery& query : problem.queries) {
+    const PlanResult result = planner.planner->plan(query, Budget{});
+    if (result.status == PlanStatus::kExact) {
+      planned.plans.emplace_back(
+          result.trajectory,
+          CheckQuery{query.start, query.goal, planner.planner->limits().goal_radius});
+    }
+  }
+  planned.checker = std::make_unique<TrajectoryChecker>(
+      problem.world, checkerSettings(planner.planner->body(), planner.planner->limits()));
+  return planned;
+}
+
 // The independent check of every forest trajectory eager plans (the check every run pays
 // after planning, outside its planning time): time per trajectory, and position samples
 // checked per trajectory (`samples`); items are trajectories.
 void BM_CheckForestTrajectories(benchmark::State& state) {
-  registerBuiltinPlugins();
-  const Problem& problem = forestProblem();
-  ConfiguredPlanner eager =
-      configurePlanner("eager_mp_astar", problem.variants.front().assignments);
-  eager.planner->setup({problem.world, 1});
-  std::vector<std::pair<Trajectory, CheckQuery>> plans;
-  for (const PlanningQuery& query : problem.queries) {
-    const PlanResult result = eager.planner->plan(query, Budget{});
-    if (result.status == PlanStatus::kExact) {
-      plans.emplace_back(result.trajectory,
-                         CheckQuery{query.start, query.goal, eager.planner->limits().goal_radius});
-    }
-  }
-  const TrajectoryChecker checker(problem.world,
-                                  checkerSettings(eager.planner->body(), eager.planner->limits()));
+  const PlannedTrajectories planned = plannedTrajectories(forestProblem());
   double samples = 0.0;
   for (auto _ : state) {
-    for (const auto& [trajectory, query] : plans) {
-      const CheckResult check = checker.check(trajectory, query);
+    for (const auto& [trajectory, query] : planned.plans) {
+      const CheckResult check = planned.checker->check(trajectory, query);
       benchmark::DoNotOptimize(check.valid);
       samples += check.samples;
     }
   }
-  const double checked = static_cast<double>(state.iterations() * plans.size());
+  const double checked = static_cast<double>(state.iterations() * planned.plans.size());
   state.SetItemsProcessed(static_cast<std::int64_t>(checked));
   state.counters["samples"] = samples / checked;
 }
 BENCHMARK(BM_CheckForestTrajectories)->Unit(benchmark::kMillisecond);
+
+// The figures every run reports of its trajectory (TrajectoryChecker::evaluate(): clearance
+// from the exact distance at every position sample, the integrals), after the planner's clock
+// stopped: time per trajectory of the first planner of the forest (0) and the MPL problem (1).
+void BM_TrajectoryFigures(benchmark::State& state) {
+  const PlannedTrajectories planned =
+      plannedTrajectories(state.range(0) == 0 ? forestProblem() : mplProblem());
+  for (auto _ : state) {
+    for (const auto& plan : planned.plans) {
+      benchmark::DoNotOptimize(planned.checker->evaluate(plan.first).mean_clearance);
+    }
+  }
+  state.SetItemsProcessed(static_cast<std::int64_t>(state.iterations() * planned.plans.size()));
+  state.SetLabel(state.range(0) == 0 ? "forest" : "mpl");
+}
+BENCHMARK(BM_TrajectoryFigures)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond);
 
 }  // namespace
 }  // namespace kinolab

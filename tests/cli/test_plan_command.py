@@ -178,19 +178,23 @@ def _loaded_libraries(world, tmp_path, *args):
     return set(re.findall(r"file=(\S+)\s+\[\d+\];\s+generating link map", result.stderr))
 
 
-def test_a_plan_loads_ompl_and_ceres_only_when_its_planner_uses_them(world, tmp_path):
+def test_a_plan_loads_ompl_ceres_and_fcl_only_when_it_uses_them(world, tmp_path):
     """Plugins of ON_USE modules (rrtstar_ceres: OMPL; bspline: Ceres, linked statically, with
     its solvers' libraries such as CHOLMOD) are known from their manifests; their modules and
-    libraries load only when one of them is made."""
+    libraries load only when one of them is made. The checker's FCL module (and FCL) loads only
+    for a body: a point robot's check never needs it."""
     marks = {"kinolab_module_rrtstar_ceres": "rrtstar module", "libompl": "OMPL",
-             "kinolab_module_bspline_back_end": "bspline module", "libcholmod": "CHOLMOD"}
+             "kinolab_module_bspline_back_end": "bspline module", "libcholmod": "CHOLMOD",
+             "kinolab_fcl_body": "FCL module", "libfcl": "FCL"}
 
     def loaded(*args):
         libraries = _loaded_libraries(world, tmp_path, *args)
         return {name for mark, name in marks.items() if any(mark in path for path in libraries)}
 
-    assert loaded("--planner", "lazy_mp_astar") == set()
-    assert loaded("--planner", "lazy_mp_astar", "--set", "back_end=bspline") == {
+    point = ("--set", "robot_radius=0")
+    assert loaded("--planner", "lazy_mp_astar", *point) == set()
+    assert loaded("--planner", "lazy_mp_astar") == {"FCL module", "FCL"}
+    assert loaded("--planner", "lazy_mp_astar", "--set", "back_end=bspline", *point) == {
         "bspline module", "CHOLMOD"}
     assert loaded("--planner", "rrtstar_ceres", "--set", "time_limit=0.5") >= {
-        "rrtstar module", "OMPL"}
+        "rrtstar module", "OMPL", "FCL module", "FCL"}

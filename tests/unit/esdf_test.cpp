@@ -694,8 +694,8 @@ TEST(EsdfTest, AnExactDistanceRunIsExactDistanceBitForBitWithLessWork) {
           inside += expected < limit;
         }
         EXPECT_GT(inside, 300);  // enough points with a cube nearer than the limit
-        // A voxel's cubes are gathered once for its run of points.
-        EXPECT_LT(run.voxelsGathered(), static_cast<std::size_t>(points) / 2);
+        // A block's cubes are gathered once for its run of points.
+        EXPECT_LT(run.gathers(), static_cast<std::size_t>(points) / 4);
       }
     }
   }

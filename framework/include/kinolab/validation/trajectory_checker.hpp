@@ -98,9 +98,12 @@ struct CheckResult {
 /// voxels' cubes exactly at every sample, at any resolution: through FCL (the sphere against
 /// OctoMap OcTrees of the occupied voxels with a free neighbour, whose leaves are exactly the
 /// grid's cubes, one per tile of kTileVoxels x kTileVoxels voxels made when a check first
-/// reaches it, with the
-/// centre tested against every cube) when that radius is positive, and for a point robot by
-/// whether an occupied cube contains the point. The ESDF only gives the clearance figures.
+/// reaches it, with the centre tested against every cube) when that radius is positive, and
+/// for a point robot by whether an occupied cube contains the point. FCL is loaded with the
+/// first checker of a body (a module of its own): checking point robots never loads it. The
+/// ESDF only gives the clearance figures.
+class BodyCollision;
+
 class TrajectoryChecker {
  public:
   /// The side of the FCL trees' tiles in voxels (x and y; every height): a check builds the
@@ -136,7 +139,6 @@ class TrajectoryChecker {
   void makeCollisionModel() const;
 
  private:
-  struct Fcl;
   /// True when `position` lies in a closed occupied voxel cube.
   bool inOccupiedCube(const Eigen::Vector3d& position) const;
   /// The checks in their order; each returns false, with the violation in `result`, at the
@@ -150,7 +152,7 @@ class TrajectoryChecker {
   CheckerSettings settings_;
   double spacing_;
   double body_radius_;
-  std::unique_ptr<Fcl> fcl_;
+  std::unique_ptr<BodyCollision> body_;  // FCL's test of the body; none for a point robot
 };
 
 }  // namespace kinolab

@@ -357,33 +357,34 @@ class Esdf {
   double truncation_ = INFINITY;
 };
 
-/// Esdf::exactDistance(point, limit) at points that come in runs within one voxel (a
-/// trajectory's samples, a quarter voxel apart): for each voxel met, the occupied cubes that
-/// can be the nearest to some point of its cube are gathered once, and a point's distance is
-/// the least over them, the same value as exactDistance() bit for bit. A voxel whose centre
-/// value is D has its nearest cube within D + sqrt(3)/2 of every point of it, so the gathered
-/// cubes are those that near (per column of the grid only the first occupied one above and
-/// below, which is nearer than the others to every point of the voxel), skipping the ball of
-/// radius D about the centre, known free. Points outside the grid, and voxels whose value
-/// bounds nothing (no obstacle in the grid, a truncated field at its truncation) take
-/// exactDistance() itself.
+/// Esdf::exactDistance(point, limit) at points that come in runs (a trajectory's samples, a
+/// quarter voxel apart): for each block of 2 x 2 x 2 voxels met, the occupied cubes that can be
+/// the nearest to some point of it are gathered once, and a point's distance is the least over
+/// them, the same value as exactDistance() bit for bit. A voxel whose centre value is D has its
+/// nearest cube within D + (its centre's distance to the block's farthest corner) of every
+/// point of the block, so the gathered cubes are those that near the block (per column of the
+/// grid, beyond the block's heights, only the first occupied one above and below, which is
+/// nearer than the others to every point of the block), skipping the ball of radius D about
+/// the centre of the block's voxel of largest D, known free. Points outside the grid, and
+/// blocks whose values bound nothing (no obstacle in the grid, a truncated field at its
+/// truncation) take exactDistance() itself.
 class ExactDistanceRun {
  public:
   /// `esdf` outlives this object.
   ExactDistanceRun(const Esdf& esdf, double limit) : esdf_(esdf), limit_(limit) {}
   double operator()(const Eigen::Vector3d& point);
-  /// Voxels whose cubes were gathered (a count of work, for tests and benchmarks).
-  std::size_t voxelsGathered() const { return gathered_voxels_; }
+  /// Blocks whose cubes were gathered (a count of work, for tests and benchmarks).
+  std::size_t gathers() const { return gathers_; }
 
  private:
-  void gather(const std::int64_t cell[3]);
+  void gather(const std::int64_t block[3]);
 
   const Esdf& esdf_;
   double limit_;
-  std::int64_t voxel_[3] = {-1, -1, -1};
-  bool usable_ = false;              // the voxel's gathered cubes answer its points
-  std::vector<std::int32_t> cubes_;  // x, y, z of each gathered cube
-  std::size_t gathered_voxels_ = 0;
+  std::int64_t block_[3] = {-1, -1, -1};  // the gathered block's first voxel
+  bool usable_ = false;                   // the block's gathered cubes answer its points
+  std::vector<std::int32_t> cubes_;       // x, y, z of each gathered cube
+  std::size_t gathers_ = 0;
 };
 
 /// An Esdf kept up to date while its grid's occupancy changes (a moving vehicle's planning
