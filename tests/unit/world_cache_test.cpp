@@ -3,11 +3,13 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <chrono>
 #include <cstdint>
 #include <filesystem>
 #include <fstream>
 #include <functional>
 #include <memory>
+#include <thread>
 #include <vector>
 
 #include "kinolab/core/error.hpp"
@@ -163,6 +165,46 @@ TEST_F(WorldCacheTest, CorruptTruncatedOrForeignFilesAreRebuiltNeverTrusted) {
   corrupt([](std::string& b) { b.resize(40); }, "truncated");
   corrupt([](std::string& b) { b[0] = 'X'; }, "not a kinolab world file");
   corrupt([](std::string& b) { b[16] ^= 1; }, "another spec");
+}
+
+TEST_F(WorldCacheTest, ASettledFileIsVouchedForByItsStampUntilItChangesInPlace) {
+  const WorldCache cache(directory_.string());
+  const WorldLoad built = cache.loadOrBuild(spec_);
+  const std::string file = built.cache_file;
+  const std::string stamp = file + ".verified";
+  // Once the file has not changed for half a second, a load that computes its checksum stamps
+  // it, and the next loads skip the checksum.
+  std::this_thread::sleep_for(std::chrono::milliseconds(600));
+  EXPECT_EQ(cache.loadOrBuild(spec_).source, WorldSource::kCache);
+  ASSERT_TRUE(std::filesystem::exists(stamp));
+  const WorldLoad vouched = cache.loadOrBuild(spec_);
+  EXPECT_EQ(vouched.source, WorldSource::kCache);
+  EXPECT_FALSE(vouched.checksum_read);
+  expectSameWorld(*built.world, *vouched.world);
+  // A damaged stamp vouches for nothing.
+  const auto stamped = [&] {
+    std::ifstream in(stamp, std::ios::binary);
+    return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+  }();
+  std::ofstream(stamp, std::ios::binary | std::ios::trunc) << stamped.substr(1);
+  EXPECT_TRUE(cache.loadOrBuild(spec_).checksum_read);
+  std::ofstream(stamp, std::ios::binary | std::ios::trunc) << stamped;
+  EXPECT_FALSE(cache.loadOrBuild(spec_).checksum_read);
+  // A byte changed in place, the same size, its modification time put back: its change time
+  // moved, so the checksum is computed and the file rebuilt.
+  const auto modified = std::filesystem::last_write_time(file);
+  {
+    std::fstream io(file, std::ios::binary | std::ios::in | std::ios::out);
+    io.seekg(static_cast<std::streamoff>(std::filesystem::file_size(file) / 2));
+    const char byte = static_cast<char>(io.get() ^ 0x10);
+    io.seekp(static_cast<std::streamoff>(std::filesystem::file_size(file) / 2));
+    io.put(byte);
+  }
+  std::filesystem::last_write_time(file, modified);
+  const WorldLoad changed = cache.loadOrBuild(spec_);
+  EXPECT_EQ(changed.source, WorldSource::kRebuiltCorruptCache);
+  EXPECT_NE(changed.note.find("checksum"), std::string::npos) << changed.note;
+  expectSameWorld(*built.world, *changed.world);
 }
 
 TEST_F(WorldCacheTest, DifferentSpecsUseDifferentFiles) {

@@ -3,11 +3,13 @@
 #include <fcntl.h>
 #include <sys/mman.h>
 #include <sys/stat.h>
+#include <time.h>
 #include <unistd.h>
 
 #include <cerrno>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
@@ -136,26 +138,116 @@ class FileReader {
   std::uint64_t offset_ = 0;
 };
 
-/// A whole file mapped read-only; unmapped when the last owner lets go. Files of the cache are
-/// replaced by renaming, never rewritten in place, so a mapping stays valid while it lives.
-std::shared_ptr<const void> mapFile(const std::string& path, std::size_t& size) {
+/// What tells one content of a file from another while it lives: a write or a truncation
+/// changes its size or times (the change time cannot be set from user space), a replacement its
+/// inode.
+struct FileIdentity {
+  std::uint64_t device = 0;
+  std::uint64_t inode = 0;
+  std::uint64_t size = 0;
+  std::int64_t modified_ns = 0;
+  std::int64_t changed_ns = 0;
+  bool operator==(const FileIdentity&) const = default;
+};
+
+std::int64_t nanoseconds(const timespec& time) {
+  return static_cast<std::int64_t>(time.tv_sec) * 1000000000 + time.tv_nsec;
+}
+
+/// A cache file whose checksum was verified, and its identity then: beside the file as
+/// `<file>.verified`. While the file keeps that identity, its content is the one verified.
+struct VerifiedStamp {
+  char magic[8];
+  FileIdentity identity;
+  std::uint64_t checksum;
+};
+constexpr char kStampMagic[8] = {'K', 'I', 'N', 'O', 'V', 'E', 'R', '1'};
+
+/// Whether the stamp beside `path` vouches for a file of `identity` ending in `checksum`.
+bool stampVouches(const std::string& path, const FileIdentity& identity, std::uint64_t checksum) {
+  VerifiedStamp stamp{};
+  std::FILE* in = std::fopen((path + ".verified").c_str(), "rb");
+  if (in == nullptr) return false;
+  const bool whole = std::fread(&stamp, sizeof(stamp), 1, in) == 1 && std::fgetc(in) == EOF;
+  std::fclose(in);
+  return whole && std::memcmp(stamp.magic, kStampMagic, sizeof(kStampMagic)) == 0 &&
+         stamp.identity == identity && stamp.checksum == checksum;
+}
+
+/// Records that the file of `identity` at `path` was verified, when it last changed at least
+/// kSettled before now: a change within the file system's clock tick of the last one would
+/// leave its times as they were, and a file that old cannot have one any more. Best effort
+/// (an unwritable cache verifies every time).
+void stampVerified(const std::string& path, const FileIdentity& identity, std::uint64_t checksum) {
+  constexpr std::int64_t kSettled = 500000000;  // ns
+  timespec now{};
+  if (::clock_gettime(CLOCK_REALTIME, &now) != 0 ||
+      nanoseconds(now) - identity.changed_ns < kSettled) {
+    return;
+  }
+  VerifiedStamp stamp{};
+  std::memcpy(stamp.magic, kStampMagic, sizeof(kStampMagic));
+  stamp.identity = identity;
+  stamp.checksum = checksum;
+  const std::string target = path + ".verified";
+  const std::string temporary = target + ".tmp" + std::to_string(::getpid());
+  std::FILE* out = std::fopen(temporary.c_str(), "wb");
+  if (out == nullptr) return;
+  const bool written = std::fwrite(&stamp, sizeof(stamp), 1, out) == 1;
+  std::error_code error;
+  if (std::fclose(out) != 0 || !written) {
+    std::filesystem::remove(temporary, error);
+    return;
+  }
+  std::filesystem::rename(temporary, target, error);
+  if (error) std::filesystem::remove(temporary, error);
+}
+
+/// A cache file mapped read-only (unmapped when the last owner lets go), its identity, its
+/// stored checksum, and whether a stamp vouches for it. Files of the cache are replaced by
+/// renaming, never rewritten in place, so a mapping stays valid while it lives.
+struct MappedFile {
+  std::shared_ptr<const void> data;
+  FileIdentity identity;
+  std::uint64_t stored_checksum = 0;
+  bool vouched = false;
+};
+
+/// Maps the cache file at `path`: a file its stamp vouches for is mapped page by page as it is
+/// read; any other is populated at once (one pass over the page cache, not a fault a page), to
+/// be read whole for its checksum.
+MappedFile mapFile(const std::string& path) {
   const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
   if (fd < 0) throw FileError(path + ": cannot open: " + std::strerror(errno));
-  struct stat status {};
-  if (::fstat(fd, &status) != 0 || !S_ISREG(status.st_mode) || status.st_size < 0) {
+  MappedFile file;
+  try {
+    struct stat status {};
+    if (::fstat(fd, &status) != 0 || !S_ISREG(status.st_mode) || status.st_size < 0) {
+      throw FileError(path + ": not a regular file");
+    }
+    FileIdentity& identity = file.identity;
+    identity = {static_cast<std::uint64_t>(status.st_dev),
+                static_cast<std::uint64_t>(status.st_ino),
+                static_cast<std::uint64_t>(status.st_size), nanoseconds(status.st_mtim),
+                nanoseconds(status.st_ctim)};
+    const std::size_t size = identity.size;
+    if (size < sizeof(Header) + sizeof(std::uint64_t)) throw FileError(path + ": truncated");
+    const auto end = static_cast<off_t>(size - sizeof(std::uint64_t));
+    if (::pread(fd, &file.stored_checksum, sizeof(std::uint64_t), end) !=
+        static_cast<ssize_t>(sizeof(std::uint64_t))) {
+      throw FileError(path + ": cannot read: " + std::strerror(errno));
+    }
+    file.vouched = stampVouches(path, identity, file.stored_checksum);
+    void* data =
+        ::mmap(nullptr, size, PROT_READ, MAP_PRIVATE | (file.vouched ? 0 : MAP_POPULATE), fd, 0);
+    if (data == MAP_FAILED) throw FileError(path + ": cannot map: " + std::strerror(errno));
+    file.data = {data, [size](const void* mapped) { ::munmap(const_cast<void*>(mapped), size); }};
+  } catch (...) {
     ::close(fd);
-    throw FileError(path + ": not a regular file");
+    throw;
   }
-  size = static_cast<std::size_t>(status.st_size);
-  if (size < sizeof(Header) + sizeof(std::uint64_t)) {
-    ::close(fd);
-    throw FileError(path + ": truncated");
-  }
-  // Populated at once: one pass over the page cache, not a fault a page.
-  void* data = ::mmap(nullptr, size, PROT_READ, MAP_PRIVATE | MAP_POPULATE, fd, 0);
   ::close(fd);
-  if (data == MAP_FAILED) throw FileError(path + ": cannot map: " + std::strerror(errno));
-  return {data, [size](const void* mapped) { ::munmap(const_cast<void*>(mapped), size); }};
+  return file;
 }
 
 /// The grid's box from the header.
@@ -266,11 +358,14 @@ void WorldCache::write(const World& world, const std::string& path) {
 }
 
 std::shared_ptr<const World> WorldCache::read(const std::string& path, std::uint64_t expected_hash,
-                                              const std::string& name) {
+                                              const std::string& name, bool* checksum_read) {
   if (!isRegularFile(path)) throw FileError(path + ": not a regular file");
-  std::size_t size = 0;
-  std::shared_ptr<const void> file = mapFile(path, size);
-  FileReader in(path, std::move(file), size);
+  // A file whose stamp vouches for it (the identity it had when its checksum was verified) is
+  // read only where it is used; any other is read whole, for its checksum.
+  MappedFile file = mapFile(path);
+  const std::size_t size = file.identity.size;
+  if (checksum_read != nullptr) *checksum_read = !file.vouched;
+  FileReader in(path, std::move(file.data), size);
   const auto* bytes = static_cast<const char*>(in.file().get());
   const auto header = in.read<Header>();
   if (std::memcmp(header.magic, kMagic, sizeof(kMagic)) != 0) {
@@ -314,10 +409,11 @@ std::shared_ptr<const World> WorldCache::read(const std::string& path, std::uint
     codes = in.take<std::int16_t>(bricks.own_bricks * 512);
   }
   in.expectEnd();
-  std::uint64_t stored_checksum = 0;
-  std::memcpy(&stored_checksum, bytes + size - sizeof(std::uint64_t), sizeof(stored_checksum));
-  if (hashBytes(bytes, size - sizeof(std::uint64_t)) != stored_checksum) {
-    throw FileError(path + ": checksum mismatch (corrupt)");
+  if (!file.vouched) {
+    if (hashBytes(bytes, size - sizeof(std::uint64_t)) != file.stored_checksum) {
+      throw FileError(path + ": checksum mismatch (corrupt)");
+    }
+    stampVerified(path, file.identity, file.stored_checksum);
   }
   // The grid and the field read the mapped file where it lies (a sparse grid's bricks are
   // copied: 4 bytes a brick and the masks).
@@ -348,8 +444,9 @@ WorldLoad WorldCache::loadOrBuild(const WorldSpec& spec) const {
   load.cache_file = fileFor(hash);
   if (std::filesystem::exists(load.cache_file)) {
     try {
-      load.world = whileDoing("reading the world '" + spec.name + "' from " + load.cache_file,
-                              [&] { return read(load.cache_file, hash, spec.name); });
+      load.world = whileDoing("reading the world '" + spec.name + "' from " + load.cache_file, [&] {
+        return read(load.cache_file, hash, spec.name, &load.checksum_read);
+      });
       load.source = WorldSource::kCache;
       load.seconds = secondsSince(start);
       return load;
