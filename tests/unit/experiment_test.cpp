@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 #include <sqlite3.h>
 #include <sys/stat.h>
+#include <sys/wait.h>
 #include <unistd.h>
 
 #include <filesystem>
@@ -346,6 +347,39 @@ fs::path directoryWithVictim(const std::string& name) {
   fs::create_directories(directory / "out");
   std::ofstream(directory / "victim.txt") << "precious";
   return directory;
+}
+
+TEST(DirectoryLock, AChildOfTheHolderDoesNotKeepTheLockOnceTheHolderLetsGo) {
+  // The runner forks its workers while it holds its output directory: a worker still alive
+  // after its runner was killed must not keep the resumed run out ("in use by another
+  // process": a SIGKILL test failed so on a loaded machine).
+  const fs::path directory =
+      fs::temp_directory_path() / ("kinolab_lock_fork_" + std::to_string(getpid()));
+  fs::remove_all(directory);
+  int ready[2];
+  int gate[2];
+  ASSERT_EQ(pipe(ready), 0);
+  ASSERT_EQ(pipe(gate), 0);
+  pid_t child = -1;
+  {
+    const DirectoryLock held(directory.string(), "a test");
+    child = fork();
+    ASSERT_GE(child, 0);
+    if (child == 0) {  // started (past fork), then alive until the parent has locked again
+      char byte = 0;
+      const bool told = write(ready[1], "r", 1) == 1;
+      _exit(told && read(gate[0], &byte, 1) == 1 ? 0 : 1);
+    }
+    char byte = 0;
+    ASSERT_EQ(read(ready[0], &byte, 1), 1);
+  }
+  EXPECT_NO_THROW(DirectoryLock(directory.string(), "the next run"));
+  EXPECT_EQ(write(gate[1], "x", 1), 1);
+  int status = 0;
+  EXPECT_EQ(waitpid(child, &status, 0), child);
+  EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0);
+  for (const int fd : {ready[0], ready[1], gate[0], gate[1]}) close(fd);
+  fs::remove_all(directory);
 }
 
 TEST(DirectoryLock, ALockFileThatIsALinkIsRefusedAndWhatItNamesIsUntouched) {

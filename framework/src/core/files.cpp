@@ -2,14 +2,18 @@
 
 #include <dlfcn.h>
 #include <fcntl.h>
+#include <pthread.h>
 #include <sys/file.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include <array>
+#include <atomic>
 #include <cerrno>
 #include <cstring>
 #include <ctime>
 #include <filesystem>
+#include <mutex>
 #include <system_error>
 #include <utility>
 
@@ -115,6 +119,40 @@ void writeFileAtomically(const std::string& path, const std::string& text) {
   if (error) throw FileError(path + ": cannot write (" + error.message() + ")");
 }
 
+namespace {
+
+/// The descriptors of the locks this process holds, plus one (0: a free slot), closed in every
+/// child it forks (the runner's workers): a lock shared with a child would outlive a killed
+/// holder until the child died too, and refuse the holder's next run. Fixed slots, so that the
+/// child's handler does nothing but close().
+std::array<std::atomic<int>, 16> held_locks{};
+
+void closeHeldLocksInChild() {
+  for (auto& slot : held_locks) {
+    const int held = slot.load();
+    if (held > 0) close(held - 1);
+  }
+}
+
+void holdLock(int fd) {
+  static std::once_flag once;
+  std::call_once(once, [] { pthread_atfork(nullptr, nullptr, closeHeldLocksInChild); });
+  for (auto& slot : held_locks) {
+    int free = 0;
+    if (slot.compare_exchange_strong(free, fd + 1)) return;
+  }
+  // More locks than slots: this one is shared with children, which only delays its release.
+}
+
+void releaseLock(int fd) {
+  for (auto& slot : held_locks) {
+    int held = fd + 1;
+    if (slot.compare_exchange_strong(held, 0)) return;
+  }
+}
+
+}  // namespace
+
 DirectoryLock::DirectoryLock(const std::string& directory, const std::string& purpose) {
   std::error_code error;
   std::filesystem::create_directories(directory, error);
@@ -159,10 +197,13 @@ DirectoryLock::DirectoryLock(const std::string& directory, const std::string& pu
     close(fd_);
     throw FileError(path + ": cannot write the lock file (" + std::strerror(errno) + ")");
   }
+  holdLock(fd_);
 }
 
 DirectoryLock::~DirectoryLock() {
-  if (fd_ >= 0) close(fd_);  // closing releases the lock
+  if (fd_ < 0) return;
+  releaseLock(fd_);
+  close(fd_);  // closing releases the lock
 }
 
 }  // namespace kinolab

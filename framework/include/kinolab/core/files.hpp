@@ -48,7 +48,8 @@ std::string analysisDirectory();
 /// An exclusive lock on a directory, held by one process for as long as this object lives
 /// (and released by the kernel when the process dies, even of SIGKILL): the lock file
 /// `<directory>/.kinolab.lock` holds the holder's pid, host and start time. A directory held
-/// by another process is a FileError naming that holder.
+/// by another process is a FileError naming that holder. Children the holder forks do not
+/// share the lock (their copy of its descriptor is closed at fork), so it goes with the holder.
 class DirectoryLock {
  public:
   /// Creates the directory if needed; `purpose` ("kinolab run") goes into the lock file.
