@@ -49,6 +49,14 @@ class FlightLoop {
         rays_(sensor_.rayDirections()),
         caster_(*truth),
         noise_(Rng::derive(settings_.seed, "sensor")) {
+    // How far above and below the horizontal the sensor sees (the tangents of its rays' largest
+    // elevations): what a vehicle stepping back to look at something must keep in view.
+    for (const Eigen::Vector3d& ray : rays_) {
+      const double across = ray.head<2>().norm();
+      const double tangent = across > 1e-9 ? ray.z() / across : (ray.z() > 0 ? 1e9 : -1e9);
+      tan_up_ = std::max(tan_up_, tangent);
+      tan_down_ = std::max(tan_down_, -tangent);
+    }
     if (setup.tracking.kind == TrackingKind::kQuadrotor) {
       tracker_.emplace(setup.tracking, query.start.col(0), settings_.seed);
     }
@@ -205,6 +213,7 @@ class FlightLoop {
   /// trajectory is no longer free.
   void replan(std::shared_ptr<const World> shared_window, const Eigen::Vector3d& position) {
     FlightReplan replan;
+    blocker_.reset();
     replan.time = t_;
     replan.reason = reason_;
     const double t_start = t_ + settings_.replanLatency();
@@ -261,6 +270,7 @@ class FlightLoop {
     if (settled) {
       failed_in_a_row_ = 0;
       look_offset_ = 0.0;
+      if (accepted) look_yaw_.reset();  // the camera looks along the plan again
     } else {
       recover(replan, window);
     }
@@ -335,9 +345,34 @@ class FlightLoop {
       return false;
     }
     const double vouched = vouchedUntil(plan.trajectory);
+    blocker_.reset();
+    if (settings_.commit == CommitSpace::kSeen && vouched < plan.trajectory.duration()) {
+      // What keeps the plan from being committed further: the nearest voxel the known map
+      // cannot vouch for at the first point it reaches (stepBack() looks at it).
+      const TraceResult trace =
+          vouchedTrace(*map_, plan.trajectory, 0.0, planning_body_, settings_.planning_margin);
+      Eigen::Vector3d nearest;
+      if (!trace.free && !trace.left_domain &&
+          map_->unvouchedDistance(trace.position, planning_body_.radius + map_model_.resolution,
+                                  &nearest) < planning_body_.radius + map_model_.resolution) {
+        blocker_ = nearest;
+      }
+    }
+    const ChainState here = stateAt(committed_, t_);
+    const bool at_rest = atRest(here);
     for (double cut = std::min(plan.trajectory.duration(), vouched); cut > 0.0; cut -= 0.1) {
       Trajectory spliced = splice(committed_, t_start, slice(plan.trajectory, cut), brake_rate_);
       if (committable(spliced, t_start, window, planning_body_)) {
+        if (at_rest && blocker_ &&
+            (spliced.endPosition() - here.col(0)).norm() < kStalled) {
+          // At rest, a plan that moves the vehicle a few centimetres before what the known map
+          // cannot vouch for stops it again: taken, replan after replan, it holds the vehicle
+          // where it stands (on geb079, 6 of 15 stuck flights, the unseen voxel 0.35 m above
+          // the vehicle, where its camera never looks). recover() steps back to see it.
+          replan.why = "the plan commits less than " + formatNumber(kStalled) +
+                       " m before it leaves the space the known map vouches for (commit: seen)";
+          return false;
+        }
         replan.trajectory = plan.trajectory;
         intended_ = splice(committed_, t_start, plan.trajectory, brake_rate_);
         committed_ = std::move(spliced);
@@ -399,6 +434,7 @@ class FlightLoop {
   /// goal there left a plan that started slowly and turned back outside the frustum: the vehicle
   /// crept on the few centimetres it could commit, replan after replan, 2 m from its goal.
   double heading(double t) const {
+    if (look_yaw_) return *look_yaw_;
     constexpr double kNearestLook = 0.5;  // m
     const auto towards = [](const Eigen::Vector2d& v) { return std::atan2(v.y(), v.x()); };
     const Eigen::Vector3d here = intended_.evaluate(std::min(t, intended_.duration()));
@@ -434,9 +470,12 @@ class FlightLoop {
   void recover(FlightReplan& replan, const World& window) {
     ++failed_in_a_row_;
     const ChainState here = stateAt(committed_, t_);
-    const bool at_rest =
-        here.col(1).norm() < 0.05 && (committed_.endPosition() - here.col(0)).norm() < 0.05;
-    if (!at_rest) return;
+    if (!atRest(here)) return;
+    if (blocker_ && replan.status != "invalid_start" && replan.status != "at_local_goal" &&
+        stepBack(here.col(0), *blocker_, window)) {
+      replan.recovery = "step_back";
+      return;
+    }
     if (replan.status == "invalid_start" && backOff(here.col(0), window)) {
       replan.recovery = "back_off";
       return;
@@ -450,6 +489,73 @@ class FlightLoop {
       look_offset_ = std::fmod(look_offset_ + 90.0 * kDegree, 2.0 * M_PI);
       replan.recovery = "look";
     }
+  }
+
+  /// At rest: the vehicle stands still and its committed trajectory ends where it is.
+  bool atRest(const ChainState& here) const {
+    return here.col(1).norm() < 0.05 && (committed_.endPosition() - here.col(0)).norm() < 0.05;
+  }
+
+  /// When nothing of a plan can be committed at rest because of `blocker` (the nearest point
+  /// of a voxel the known map cannot vouch for, where the plan first meets one): the camera
+  /// turns towards it (horizontally) and the vehicle backs straight away from it, in what the
+  /// known map vouches for, far enough for the sensor's field of view to hold it (its height
+  /// above or below the vehicle over the tangent of the sensor's largest elevation, and a
+  /// voxel), at most kStepBack; shorter moves are tried in 0.2 m steps, and without any the
+  /// camera only turns. A forward camera never sees beside, above or below itself: a vehicle
+  /// that stopped with an unseen voxel 0.35 m above its body (its frustum holds that height
+  /// only from 0.63 m away) can never vouch for a move towards it from where it stands.
+  /// The camera keeps that heading until a plan moves the vehicle. False when nothing was done
+  /// (the camera already faced the blocker from at least that far).
+  bool stepBack(const Eigen::Vector3d& position, const Eigen::Vector3d& blocker,
+                const World& window) {
+    Eigen::Vector2d towards = (blocker - position).head<2>();
+    if (towards.norm() < 1e-3) {
+      // Straight above or below: towards the committed trajectory's last direction of travel.
+      towards = Eigen::Vector2d(std::cos(heading(t_)), std::sin(heading(t_)));
+    }
+    towards.normalize();
+    // The body's top or bottom, at least, must come into view: a plan near the blocker sweeps
+    // the planning radius above and below itself.
+    const double rise = blocker.z() - position.z();
+    const double tangent = rise >= 0.0 ? tan_up_ : tan_down_;
+    const double needed =
+        std::max(std::abs(rise), planning_body_.radius) / std::max(tangent, 1e-3) +
+        2.0 * map_model_.resolution;
+    const Eigen::Vector2d target = blocker.head<2>();
+    const auto yawFrom = [&](const Eigen::Vector2d& p) {
+      const Eigen::Vector2d v = target - p;
+      return std::atan2(v.y(), v.x());
+    };
+    const bool facing =
+        look_yaw_ && std::abs(std::remainder(*look_yaw_ - yawFrom(position.head<2>()), 2.0 * M_PI)) < 0.2;
+    look_offset_ = 0.0;
+    // Straight away first, then turned by 45 and 90 degrees either way (a wall or the map's
+    // end behind the vehicle): the first move that ends `needed` from the blocker, or the
+    // longest shorter one (0.2 m steps) when none does.
+    for (double shortfall = 0.0; shortfall <= kStepBack - 0.2 + 1e-9; shortfall += 0.2) {
+      for (const double turn : {0.0, 45.0, -45.0, 90.0, -90.0}) {
+        const double c = std::cos(turn * kDegree);
+        const double s = std::sin(turn * kDegree);
+        const Eigen::Vector2d away(-(c * towards.x() - s * towards.y()),
+                                   -(s * towards.x() + c * towards.y()));
+        // The length that ends `needed` from the blocker: |p + L away - target| = needed.
+        const Eigen::Vector2d from = position.head<2>() - target;
+        const double b = from.dot(away);
+        const double disc = b * b - (from.squaredNorm() - needed * needed);
+        if (disc < 0.0) continue;
+        const double length = std::min(kStepBack, -b + std::sqrt(disc)) - shortfall;
+        if (length < 0.2) continue;
+        const Eigen::Vector2d end = position.head<2>() + length * away;
+        if (moveStraight(position, length * Eigen::Vector3d(away.x(), away.y(), 0.0), window,
+                         planning_body_)) {
+          look_yaw_ = yawFrom(end);
+          return true;
+        }
+      }
+    }
+    look_yaw_ = yawFrom(position.head<2>());
+    return !facing;
   }
 
   /// A straight 0.3 m move from `position` away from the nearest known obstacle (the window
@@ -571,6 +677,16 @@ class FlightLoop {
   static constexpr double kMovingSpeed = 0.1;  // m/s: slower is at rest for countBackup()
   static constexpr double kStartKnown = 3.0;   // planning radii round the start known at first
   double look_offset_ = 0.0;  // rad: the camera's turn from its heading, to look for a way
+  // rad: the camera's heading while the vehicle steps back to see what blocks it (stepBack()),
+  // until a plan is taken.
+  std::optional<double> look_yaw_;
+  // What kept the last plan from being committed further (take()): the nearest point of a
+  // voxel the known map cannot vouch for, where the plan first met one.
+  std::optional<Eigen::Vector3d> blocker_;
+  double tan_up_ = 0.0;    // tangent of the sensor's largest elevation above the horizontal
+  double tan_down_ = 0.0;  // ... below it
+  static constexpr double kStalled = 0.1;   // m: a plan committing less at rest holds the vehicle
+  static constexpr double kStepBack = 1.5;  // m: the longest step back (stepBack())
   SensorNoise sensor_errors_;
   std::vector<Eigen::Vector3d> rays_;        // the sensor's, once
   RayCaster caster_;                         // the ground truth's, once

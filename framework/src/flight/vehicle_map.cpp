@@ -60,7 +60,8 @@ void VehicleMap::markFree(const Eigen::Vector3d& center, double radius,
   });
 }
 
-double VehicleMap::unvouchedDistance(const Eigen::Vector3d& p, double limit) const {
+double VehicleMap::unvouchedDistance(const Eigen::Vector3d& p, double limit,
+                                     Eigen::Vector3d* nearest) const {
   if (!isSetup()) throw InvalidArgument("VehicleMap::unvouchedDistance before setup()");
   const double r = model_.resolution;
   const Eigen::Vector3d local = (p - lattice_.origin()) / r;  // in voxels
@@ -87,7 +88,14 @@ double VehicleMap::unvouchedDistance(const Eigen::Vector3d& p, double limit) con
       if (dxy >= best2) continue;
       const std::uint8_t* column = &state_[lattice_.index(x, y, 0)];
       for (int z = low.z(); z <= high.z(); ++z) {
-        if (column[z] != kFree) best2 = std::min(best2, dxy + gap2(2, z));
+        if (column[z] == kFree) continue;
+        const double d2 = dxy + gap2(2, z);
+        if (d2 >= best2) continue;
+        best2 = d2;
+        if (nearest != nullptr) {
+          const Eigen::Vector3d low_corner = lattice_.origin() + Eigen::Vector3d(x, y, z) * r;
+          *nearest = p.cwiseMax(low_corner).cwiseMin(low_corner + Eigen::Vector3d::Constant(r));
+        }
       }
     }
   }

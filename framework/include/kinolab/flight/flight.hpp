@@ -177,7 +177,9 @@ struct FlightReplan {
   std::string why;
   /// What the loop did about a failure at rest ("" none, "look": the camera turned 90
   /// degrees, "back_off": the vehicle moved away from the nearest known obstacle, "approach":
-  /// it moved straight onto the local goal).
+  /// it moved straight onto the local goal, "step_back": nothing of the plan could be
+  /// committed, so the vehicle backed away from what the known map could not vouch for, its
+  /// camera turned towards it, until the sensor's field of view holds it).
   std::string recovery;
   /// The vehicle flew onto its back-up (the stop ending the committed trajectory, at speed,
   /// short of the goal) after this replan, before a plan took over.

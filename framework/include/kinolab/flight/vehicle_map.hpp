@@ -101,7 +101,12 @@ class VehicleMap {
   /// (unknown or occupied) when it is below `limit`, else `limit`; 0 inside one. Voxels
   /// outside the map do not count. What a flight traces a plan against before committing it
   /// (traceTrajectory): the space the known map vouches for.
-  double unvouchedDistance(const Eigen::Vector3d& p, double limit) const;
+  double unvouchedDistance(const Eigen::Vector3d& p, double limit) const {
+    return unvouchedDistance(p, limit, nullptr);
+  }
+  /// unvouchedDistance(), and in `nearest` (when one is below `limit`) the point of that
+  /// voxel's cube nearest `p`: what keeps a body at `p` from being vouched for.
+  double unvouchedDistance(const Eigen::Vector3d& p, double limit, Eigen::Vector3d* nearest) const;
   /// The planning world around `center`: known occupied voxels and unknown ones as `unknown`
   /// says (kFreeBeyond: measured from `center`), with its exact ESDF. The window is kept
   /// between calls: its domain (World::bounds()) is a box of side window + 2 window_margin in
