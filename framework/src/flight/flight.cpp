@@ -229,7 +229,9 @@ class FlightLoop {
     from.z() = std::clamp(from.z(), std::min(query_.start(2, 0), query_.goal.z()),
                           std::max(query_.start(2, 0), query_.goal.z()));
     const Eigen::Vector3d froms[] = {from, progress_from_};
-    const auto guides = map_->guides(froms, query_.goal, planning_body_.radius, z_low, z_high);
+    const double radius = planning_body_.radius;
+    auto guides = map_->guides(froms, query_.goal, radius, z_low, z_high, radius);
+    if (guides[0].empty()) guides = levelGuides(froms);
     const std::vector<Eigen::Vector3d>& guide = guides[0];
     result_.time_guide_ms += millisecondsSince(begin);
     measureProgress(from, guide, guides[1]);
@@ -291,6 +293,37 @@ class FlightLoop {
     }
     reason_ = settled ? "period" : "retry";
     next_replan_ = std::max(next_replan_, t_ + (settled ? settings_.replan_period : dt_));
+  }
+
+  /// When the known map leaves no way over its columns in the query's heights (the guide's
+  /// band: a desk below, a shelf above, anywhere in it, closes a column): the shortest guide
+  /// over the columns of a band one planning body high (the body's radius about a level), the
+  /// levels a radius apart from the map's floor to its ceiling (each the planning radius and
+  /// margin inside the box), flown at that level and down or up to the goal at its end; from
+  /// `froms` as VehicleMap::guides(). Empty guides when no level has a way either. Without it
+  /// the local goal lay on the straight line to the goal, through what closed the band, and
+  /// every replan failed.
+  std::vector<std::vector<Eigen::Vector3d>> levelGuides(std::span<const Eigen::Vector3d> froms) {
+    const double radius = planning_body_.radius;
+    const Box& box = map_->bounds();
+    std::vector<std::vector<Eigen::Vector3d>> best(froms.size());
+    double shortest = INFINITY;
+    for (double level = box.min.z() + radius + settings_.planning_margin;
+         level <= box.max.z() - radius - settings_.planning_margin + 1e-9; level += radius) {
+      auto guides =
+          map_->guides(froms, query_.goal, radius, level - radius, level + radius, radius);
+      if (guides[0].empty()) continue;
+      for (std::size_t i = 0; i < guides.size(); ++i) {
+        std::vector<Eigen::Vector3d>& guide = guides[i];
+        for (std::size_t k = 1; k + 1 < guide.size(); ++k) guide[k].z() = level;
+      }
+      const double length = wayLength(guides[0], froms[0], query_.goal);
+      if (length < shortest) {
+        shortest = length;
+        best = std::move(guides);
+      }
+    }
+    return best;
   }
 
   /// Progress is measured along the way the known map leaves to the goal (the guide), both
@@ -363,7 +396,7 @@ class FlightLoop {
     for (double cut = std::min(plan.trajectory.duration(), vouched); cut > 0.0; cut -= 0.1) {
       Trajectory spliced = splice(committed_, t_start, slice(plan.trajectory, cut), brake_rate_);
       if (committable(spliced, t_start, window, planning_body_)) {
-        if (at_rest && blocker_ &&
+        if (settings_.step_back && at_rest && blocker_ &&
             (spliced.endPosition() - here.col(0)).norm() < kStalled) {
           // At rest, a plan that moves the vehicle a few centimetres before what the known map
           // cannot vouch for stops it again: taken, replan after replan, it holds the vehicle
@@ -471,12 +504,21 @@ class FlightLoop {
     ++failed_in_a_row_;
     const ChainState here = stateAt(committed_, t_);
     if (!atRest(here)) return;
-    if (blocker_ && replan.status != "invalid_start" && replan.status != "at_local_goal" &&
+    if (settings_.step_back && blocker_ && replan.status != "invalid_start" &&
+        replan.status != "at_local_goal" &&
         stepBack(here.col(0), *blocker_, window)) {
       replan.recovery = "step_back";
       return;
     }
-    if (replan.status == "invalid_start" && backOff(here.col(0), window)) {
+    // A start the planning body touches (a committed trajectory keeps the planning radius
+    // less 1 cm, so a vehicle can stop a few millimetres inside it): the planner takes the
+    // start, but every edge from it collides at once, and every replan fails (on geb079 with
+    // no_solution after one expansion, or a timeout) until the vehicle is backed off.
+    const double touching = planning_body_.radius + 0.5 * map_model_.resolution;
+    const bool pressed = (replan.status == "no_solution" || replan.status == "timeout") &&
+                         window.bounds().contains(here.col(0)) &&
+                         window.clearanceFor(here.col(0), touching) < touching;
+    if ((replan.status == "invalid_start" || pressed) && backOff(here.col(0), window)) {
       replan.recovery = "back_off";
       return;
     }
@@ -564,7 +606,10 @@ class FlightLoop {
   bool backOff(const Eigen::Vector3d& position, const World& window) {
     Eigen::Vector3d gradient = Eigen::Vector3d::Zero();
     window.esdf().distanceWithGradient(position, &gradient);
+    const Eigen::Vector3d full = gradient;
     gradient.z() = 0.0;
+    // Straight below a ceiling or above a desk: away vertically.
+    if (gradient.norm() < 0.2 * full.norm()) gradient = full;
     if (gradient.norm() < 1e-6) return false;
     return moveStraight(position, 0.3 * gradient.normalized(), window, body_);
   }
