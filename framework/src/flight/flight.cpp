@@ -237,7 +237,7 @@ class FlightLoop {
     measureProgress(from, guide, guides[1]);
     bool accepted = false;
     bool found = localGoal(local.start.col(0), query_.goal, guide, settings_.horizon,
-                           *shared_window, planning_body_.radius, &local.goal);
+                           *shared_window, planning_body_.radius, mapDomain(), &local.goal);
     const double region = limits_.goal_radius;
     if (found && (local.goal - local.start.col(0)).norm() <= region &&
         (query_.goal - local.start.col(0)).norm() > region) {
@@ -248,7 +248,7 @@ class FlightLoop {
       shared_window = map_->window(
           windowCentre(position, query_.goal.z(), map_model_.window_height), /*rebuild=*/true);
       found = localGoal(local.start.col(0), query_.goal, guide, settings_.horizon, *shared_window,
-                        planning_body_.radius, &local.goal);
+                        planning_body_.radius, mapDomain(), &local.goal);
     }
     const World& window = *shared_window;
     if (found) {
@@ -326,6 +326,12 @@ class FlightLoop {
     return best;
   }
 
+  /// The map's box less the planning margin: where plans may go (the windows' domains lie in it).
+  Box mapDomain() const {
+    const Eigen::Vector3d inset = Eigen::Vector3d::Constant(settings_.planning_margin);
+    return {map_->bounds().min + inset, map_->bounds().max - inset};
+  }
+
   /// Progress is measured along the way the known map leaves to the goal (the guide), both
   /// ways on this frame's map: the guide from `from` (where this replan starts) is 0.5 m
   /// shorter than the one from where the flight last made progress. A way that first leads
@@ -397,13 +403,17 @@ class FlightLoop {
       Trajectory spliced = splice(committed_, t_start, slice(plan.trajectory, cut), brake_rate_);
       if (committable(spliced, t_start, window, planning_body_)) {
         if (settings_.step_back && at_rest && blocker_ &&
-            (spliced.endPosition() - here.col(0)).norm() < kStalled) {
+            (spliced.endPosition() - here.col(0)).norm() < kStalled &&
+            stepBack(here.col(0), *blocker_, window)) {
           // At rest, a plan that moves the vehicle a few centimetres before what the known map
-          // cannot vouch for stops it again: taken, replan after replan, it holds the vehicle
-          // where it stands (on geb079, 6 of 15 stuck flights, the unseen voxel 0.35 m above
-          // the vehicle, where its camera never looks). recover() steps back to see it.
+          // cannot vouch for stops it again: taken, replan after replan, it held the vehicle
+          // where it stood (on geb079, 6 of 15 stuck flights, the unseen voxel 0.35 m above
+          // the vehicle, where its camera never looks). The vehicle steps back to see it
+          // instead; when it cannot (nothing vouched for behind it, its camera already turned
+          // there) the plan is taken as it is.
           replan.why = "the plan commits less than " + formatNumber(kStalled) +
                        " m before it leaves the space the known map vouches for (commit: seen)";
+          replan.recovery = "step_back";
           return false;
         }
         replan.trajectory = plan.trajectory;
@@ -502,6 +512,7 @@ class FlightLoop {
   /// else, from the second failure in a row, turn the camera 90 degrees to look for a way.
   void recover(FlightReplan& replan, const World& window) {
     ++failed_in_a_row_;
+    if (!replan.recovery.empty()) return;  // take() stepped back
     const ChainState here = stateAt(committed_, t_);
     if (!atRest(here)) return;
     if (settings_.step_back && blocker_ && replan.status != "invalid_start" &&
@@ -518,7 +529,11 @@ class FlightLoop {
     const bool pressed = (replan.status == "no_solution" || replan.status == "timeout") &&
                          window.bounds().contains(here.col(0)) &&
                          window.clearanceFor(here.col(0), touching) < touching;
-    if ((replan.status == "invalid_start" || pressed) && backOff(here.col(0), window)) {
+    // Refused by the planner, the body alone must be able to back out (a planner's own margin
+    // can exceed the planning radius); pressed, the planning body backs out as it stands (the
+    // body alone, moved along unseen space with the tracking error, hit the wall on geb079).
+    if ((replan.status == "invalid_start" && backOff(here.col(0), window, body_)) ||
+        (pressed && backOff(here.col(0), window, planning_body_))) {
       replan.recovery = "back_off";
       return;
     }
@@ -601,9 +616,10 @@ class FlightLoop {
   }
 
   /// A straight 0.3 m move from `position` away from the nearest known obstacle (the window
-  /// ESDF's gradient, horizontal), for the body alone: a vehicle inside its planning margin
-  /// must be able to back out of it.
-  bool backOff(const Eigen::Vector3d& position, const World& window) {
+  /// ESDF's gradient, horizontal, or whole below a ceiling or above a floor), committable for
+  /// `body` (the body alone: a vehicle inside its planning margin must be able to back out of
+  /// it).
+  bool backOff(const Eigen::Vector3d& position, const World& window, const Body& body) {
     Eigen::Vector3d gradient = Eigen::Vector3d::Zero();
     window.esdf().distanceWithGradient(position, &gradient);
     const Eigen::Vector3d full = gradient;
@@ -611,7 +627,7 @@ class FlightLoop {
     // Straight below a ceiling or above a desk: away vertically.
     if (gradient.norm() < 0.2 * full.norm()) gradient = full;
     if (gradient.norm() < 1e-6) return false;
-    return moveStraight(position, 0.3 * gradient.normalized(), window, body_);
+    return moveStraight(position, 0.3 * gradient.normalized(), window, body);
   }
 
   /// A straight rest-to-rest move from `position` by `offset` (half the braking rate, half

@@ -310,7 +310,7 @@ std::vector<std::vector<Eigen::Vector3d>> VehicleMap::guides(std::span<const Eig
       });
     }
   };
-  return columnGuides(lattice_, obstacles, froms, to, radius, z_low, z_high, room);
+  return columnGuides(lattice_, obstacles, froms, to, radius, z_low, z_high, room, model_.inset);
 }
 
 std::vector<Eigen::Vector3d> columnGuide(const VoxelGrid& lattice, const ObstacleColumns& obstacles,
@@ -323,7 +323,8 @@ std::vector<std::vector<Eigen::Vector3d>> columnGuides(const VoxelGrid& lattice,
                                                        const ObstacleColumns& obstacles,
                                                        std::span<const Eigen::Vector3d> froms,
                                                        const Eigen::Vector3d& to, double radius,
-                                                       double z_low, double z_high, double room) {
+                                                       double z_low, double z_high, double room,
+                                                       double inset) {
   const Eigen::Vector3i& n = lattice.dims();
   const double r = lattice.resolution();
   const auto cellOf = [&](const Eigen::Vector3d& p) {
@@ -351,6 +352,17 @@ std::vector<std::vector<Eigen::Vector3d>> columnGuides(const VoxelGrid& lattice,
       }
     }
   };
+  if (inset > 0.0) {
+    for (int x = 0; x < n.x(); ++x) {
+      for (int y = 0; y < n.y(); ++y) {
+        const double cx = (x + 0.5) * r;
+        const double cy = (y + 0.5) * r;
+        if (std::min({cx, cy, n.x() * r - cx, n.y() * r - cy}) < inset) {
+          blocked[static_cast<std::size_t>(x) * n.y() + y] = 1;
+        }
+      }
+    }
+  }
   if (room > 0.0) openRound(blocked, to);
   const Eigen::Vector2i goal = cellOf(to);
   std::vector<std::vector<Eigen::Vector3d>> paths(froms.size());

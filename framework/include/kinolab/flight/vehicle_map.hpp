@@ -127,7 +127,8 @@ class VehicleMap {
   /// guide() from each of `froms` (one path each, empty where there is none), the map's
   /// columns read once: a flight's guide and the way from where it last made progress. The
   /// cells within `room` of each of `froms` and of `to` are open whatever the band holds (a
-  /// vehicle stands there; see columnGuides()).
+  /// vehicle stands there; see columnGuides()); the cells within the model's `inset` of the
+  /// map's sides are closed.
   std::vector<std::vector<Eigen::Vector3d>> guides(std::span<const Eigen::Vector3d> froms,
                                                    const Eigen::Vector3d& to, double radius,
                                                    double z_low, double z_high,
@@ -211,11 +212,14 @@ std::vector<Eigen::Vector3d> columnGuide(const VoxelGrid& lattice, const Obstacl
 /// something in the band (a wall 0.39 m away, a desk below it) has every cell round it
 /// blocked, and without them no way leaves its cell (on geb079 most flights whose every
 /// replan failed had no guide so, their local goals on the straight line through a wall).
+/// Cells whose centres lie within `inset` of the lattice's sides in x and y are closed: plans
+/// keep that far inside the map (a flight's planning margin), and a guide along the map's end
+/// outside it left the local goal nowhere to go.
 std::vector<std::vector<Eigen::Vector3d>> columnGuides(const VoxelGrid& lattice,
                                                        const ObstacleColumns& obstacles,
                                                        std::span<const Eigen::Vector3d> froms,
                                                        const Eigen::Vector3d& to, double radius,
                                                        double z_low, double z_high,
-                                                       double room = 0.0);
+                                                       double room = 0.0, double inset = 0.0);
 
 }  // namespace kinolab
