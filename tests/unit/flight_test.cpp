@@ -1035,20 +1035,20 @@ TEST(VehicleMapTest, TheGuideGoesRoundKnownObstaclesAndThroughUnknownSpace) {
 }
 
 TEST(VehicleMapTest, AGuideLeavesAVehicleStandingWithinTheRadiusOfSomethingInItsBand) {
-  // The vehicle stands 0.3 m in front of a wall (closer than the 0.4 m radius): every cell
-  // round its own is closed, and without the cells within its radius opened no way leaves it.
+  // The vehicle stands 0.3 m in front of a wall, closer than the guide's 0.6 m radius: every
+  // cell round its own is closed, and without the cells within its radius opened no way leaves
+  // it.
   const auto world = worldOf(kWall);
   std::unique_ptr<VehicleMap> known = mapOf("octomap", world->bounds());
   Lidar lidar;
   Rng noise(1);
   lidar.range = 6.0;
   const Eigen::Vector3d from(9.7, 3.0, 1.5);
-  known->insert(senseFrame(*world, lidar, Eigen::Vector3d(7.0, 3.0, 1.5), 0.0, noise),
-                lidar.range);
+  known->insert(senseFrame(*world, lidar, Eigen::Vector3d(7.0, 3.0, 1.5), 0.0, noise), lidar.range);
   const Eigen::Vector3d to(15.0, 3.0, 1.5);
   const Eigen::Vector3d froms[] = {from};
-  EXPECT_TRUE(known->guides(froms, to, 0.4, 1.0, 2.0).front().empty());
-  const std::vector<Eigen::Vector3d> way = known->guides(froms, to, 0.4, 1.0, 2.0, 0.4).front();
+  EXPECT_TRUE(known->guides(froms, to, 0.6, 1.0, 2.0).front().empty());
+  const std::vector<Eigen::Vector3d> way = known->guides(froms, to, 0.6, 1.0, 2.0, 0.6).front();
   ASSERT_GE(way.size(), 2u);
   EXPECT_EQ(way.front(), from);
   EXPECT_EQ(way.back(), to);

@@ -516,8 +516,7 @@ class FlightLoop {
     const ChainState here = stateAt(committed_, t_);
     if (!atRest(here)) return;
     if (settings_.step_back && blocker_ && replan.status != "invalid_start" &&
-        replan.status != "at_local_goal" &&
-        stepBack(here.col(0), *blocker_, window)) {
+        replan.status != "at_local_goal" && stepBack(here.col(0), *blocker_, window)) {
       replan.recovery = "step_back";
       return;
     }
@@ -585,7 +584,8 @@ class FlightLoop {
       return std::atan2(v.y(), v.x());
     };
     const bool facing =
-        look_yaw_ && std::abs(std::remainder(*look_yaw_ - yawFrom(position.head<2>()), 2.0 * M_PI)) < 0.2;
+        look_yaw_ &&
+        std::abs(std::remainder(*look_yaw_ - yawFrom(position.head<2>()), 2.0 * M_PI)) < 0.2;
     look_offset_ = 0.0;
     // Straight away first, then turned by 45 and 90 degrees either way (a wall or the map's
     // end behind the vehicle): the first move that ends `needed` from the blocker, or the
