@@ -555,14 +555,15 @@ class FlightLoop {
   /// When nothing of a plan can be committed at rest because of `blocker` (the nearest point
   /// of a voxel the known map cannot vouch for, where the plan first meets one): the camera
   /// turns towards it (horizontally) and the vehicle backs straight away from it, in what the
-  /// known map vouches for, far enough for the sensor's field of view to hold it (its height
-  /// above or below the vehicle over the tangent of the sensor's largest elevation, and a
-  /// voxel), at most kStepBack; shorter moves are tried in 0.2 m steps, and without any the
-  /// camera only turns. A forward camera never sees beside, above or below itself: a vehicle
-  /// that stopped with an unseen voxel 0.35 m above its body (its frustum holds that height
-  /// only from 0.63 m away) can never vouch for a move towards it from where it stands.
-  /// The camera keeps that heading until a plan moves the vehicle. False when nothing was done
-  /// (the camera already faced the blocker from at least that far).
+  /// known map vouches for, far enough for the sensor's field of view to hold it and the
+  /// body's height about it (its height above or below the vehicle, at least the planning
+  /// radius, over the tangent of the sensor's largest elevation, and two voxels), at most
+  /// kStepBack: straight away, else turned 45 or 90 degrees either way, else shorter in 0.2 m
+  /// steps; without any move the camera only turns. A forward camera never sees beside, above or
+  /// below itself: a vehicle that stopped with an unseen voxel 0.35 m above its body (its frustum
+  /// holds that height only from 0.63 m away) can never vouch for a move towards it from where it
+  /// stands. The camera keeps that heading until a plan moves the vehicle. False when nothing was
+  /// done (the camera already faced the blocker from at least that far).
   bool stepBack(const Eigen::Vector3d& position, const Eigen::Vector3d& blocker,
                 const World& window) {
     Eigen::Vector2d towards = (blocker - position).head<2>();
