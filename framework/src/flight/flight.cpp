@@ -531,6 +531,18 @@ class FlightLoop {
     // Refused by the planner, the body alone must be able to back out (a planner's own margin
     // can exceed the planning radius); pressed, the planning body backs out as it stands (the
     // body alone, moved along unseen space with the tracking error, hit the wall on geb079).
+    // A start outside the planning domain (a query's start within the planning margin of the
+    // map's end: geb079's query 95 hovered 0.01 m inside its box until the wind blew it out):
+    // into the domain first.
+    const Box domain = mapDomain();
+    const Eigen::Vector3d inside = here.col(0)
+                                       .cwiseMax(domain.min + Eigen::Vector3d::Constant(0.05))
+                                       .cwiseMin(domain.max - Eigen::Vector3d::Constant(0.05));
+    if (replan.status == "invalid_start" && !domain.contains(here.col(0)) &&
+        moveStraight(here.col(0), inside - here.col(0), window, body_)) {
+      replan.recovery = "back_off";
+      return;
+    }
     if ((replan.status == "invalid_start" && backOff(here.col(0), window, body_)) ||
         (pressed && backOff(here.col(0), window, planning_body_))) {
       replan.recovery = "back_off";
