@@ -8,6 +8,7 @@
 #include <unordered_map>
 
 #include "flight_motion.hpp"
+#include "flight_views.hpp"
 #include "kinolab/core/error.hpp"
 #include "kinolab/core/fields.hpp"
 #include "kinolab/core/process.hpp"
@@ -49,14 +50,7 @@ class FlightLoop {
         rays_(sensor_.rayDirections()),
         caster_(*truth),
         noise_(Rng::derive(settings_.seed, "sensor")) {
-    // How far above and below the horizontal the sensor sees (the tangents of its rays' largest
-    // elevations): what a vehicle stepping back to look at something must keep in view.
-    for (const Eigen::Vector3d& ray : rays_) {
-      const double across = ray.head<2>().norm();
-      const double tangent = across > 1e-9 ? ray.z() / across : (ray.z() > 0 ? 1e9 : -1e9);
-      tan_up_ = std::max(tan_up_, tangent);
-      tan_down_ = std::max(tan_down_, -tangent);
-    }
+    tangents_ = elevationTangents(rays_);
     if (setup.tracking.kind == TrackingKind::kQuadrotor) {
       tracker_.emplace(setup.tracking, query.start.col(0), settings_.seed);
     }
@@ -228,10 +222,7 @@ class FlightLoop {
     Eigen::Vector3d from = local.start.col(0);
     from.z() = std::clamp(from.z(), std::min(query_.start(2, 0), query_.goal.z()),
                           std::max(query_.start(2, 0), query_.goal.z()));
-    const Eigen::Vector3d froms[] = {from, progress_from_};
-    const double radius = planning_body_.radius;
-    auto guides = map_->guides(froms, query_.goal, radius, z_low, z_high, radius);
-    if (guides[0].empty()) guides = levelGuides(froms);
+    const auto guides = guidesFrom(from, z_low, z_high);
     const std::vector<Eigen::Vector3d>& guide = guides[0];
     result_.time_guide_ms += millisecondsSince(begin);
     measureProgress(from, guide, guides[1]);
@@ -295,39 +286,18 @@ class FlightLoop {
     next_replan_ = std::max(next_replan_, t_ + (settled ? settings_.replan_period : dt_));
   }
 
-  /// When the known map leaves no way over its columns in the query's heights (the guide's
-  /// band: a desk below, a shelf above, anywhere in it, closes a column): the shortest guide
-  /// over the columns of a band one planning body high (the body's radius about a level), the
-  /// levels a radius apart from the map's floor to its ceiling (each the planning radius and
-  /// margin inside the box), flown at that level and down or up to the goal at its end; from
-  /// `froms` as VehicleMap::guides(). Empty guides when no level has a way either. Without it
-  /// the local goal lay on the straight line to the goal, through what closed the band, and
-  /// every replan failed.
-  std::vector<std::vector<Eigen::Vector3d>> levelGuides(std::span<const Eigen::Vector3d> froms) {
+  /// The guides from `from` and from where the flight last made progress, over the columns
+  /// of [z_low, z_high] or, with no way there, over levelGuides().
+  std::vector<std::vector<Eigen::Vector3d>> guidesFrom(const Eigen::Vector3d& from, double z_low,
+                                                       double z_high) const {
+    const Eigen::Vector3d froms[] = {from, progress_from_};
     const double radius = planning_body_.radius;
-    const Box& box = map_->bounds();
-    std::vector<std::vector<Eigen::Vector3d>> best(froms.size());
-    double shortest = INFINITY;
-    for (double level = box.min.z() + radius + settings_.planning_margin;
-         level <= box.max.z() - radius - settings_.planning_margin + 1e-9; level += radius) {
-      auto guides =
-          map_->guides(froms, query_.goal, radius, level - radius, level + radius, radius);
-      if (guides[0].empty()) continue;
-      for (std::size_t i = 0; i < guides.size(); ++i) {
-        std::vector<Eigen::Vector3d>& guide = guides[i];
-        for (std::size_t k = 1; k + 1 < guide.size(); ++k) guide[k].z() = level;
-      }
-      const double length = wayLength(guides[0], froms[0], query_.goal);
-      if (length < shortest) {
-        shortest = length;
-        best = std::move(guides);
-      }
-    }
-    return best;
+    auto guides = map_->guides(froms, query_.goal, radius, z_low, z_high, radius);
+    if (!guides[0].empty()) return guides;
+    return levelGuides(*map_, froms, query_.goal, radius, settings_.planning_margin);
   }
 
-  /// The map's box less the planning margin: where plans may go (the windows' domains lie in it).
-  Box mapDomain() const {
+  Box mapDomain() const {  // where plans may go: the map's box less the planning margin
     const Eigen::Vector3d inset = Eigen::Vector3d::Constant(settings_.planning_margin);
     return {map_->bounds().min + inset, map_->bounds().max - inset};
   }
@@ -377,25 +347,21 @@ class FlightLoop {
                        : (plan.message.empty() ? "no trajectory" : plan.message);
       return false;
     }
-    if (settings_.keep_faster && arrivesFirst(plan.trajectory, t_start, goal)) {
+    if (settings_.keep_faster && committed_free_ &&
+        arrivesFirst(committed_, plan.trajectory, t_start, goal, 0.5 * map_model_.resolution,
+                     limits_.limits.bound[1].norm())) {
       replan.kept = true;
       replan.trajectory = plan.trajectory;
       replan.why = "the committed trajectory comes as near the local goal no later";
       return false;
     }
-    const double vouched = vouchedUntil(plan.trajectory);
+    const double vouched =
+        settings_.commit == CommitSpace::kPlanned
+            ? plan.trajectory.duration()
+            : vouchedUntil(*map_, plan.trajectory, planning_body_, settings_.planning_margin);
     blocker_.reset();
     if (settings_.commit == CommitSpace::kSeen && vouched < plan.trajectory.duration()) {
-      // What keeps the plan from being committed further: the nearest voxel the known map
-      // cannot vouch for at the first point it reaches (stepBack() looks at it).
-      const TraceResult trace =
-          vouchedTrace(*map_, plan.trajectory, 0.0, planning_body_, settings_.planning_margin);
-      Eigen::Vector3d nearest;
-      if (!trace.free && !trace.left_domain &&
-          map_->unvouchedDistance(trace.position, planning_body_.radius + map_model_.resolution,
-                                  &nearest) < planning_body_.radius + map_model_.resolution) {
-        blocker_ = nearest;
-      }
+      blocker_ = planBlocker(*map_, plan.trajectory, planning_body_, settings_.planning_margin);
     }
     const ChainState here = stateAt(committed_, t_);
     const bool at_rest = atRest(here);
@@ -405,12 +371,8 @@ class FlightLoop {
         if (settings_.step_back && at_rest && blocker_ &&
             (spliced.endPosition() - here.col(0)).norm() < kStalled &&
             stepBack(here.col(0), *blocker_, window)) {
-          // At rest, a plan that moves the vehicle a few centimetres before what the known map
-          // cannot vouch for stops it again: taken, replan after replan, it held the vehicle
-          // where it stood (on geb079, 6 of 15 stuck flights, the unseen voxel 0.35 m above
-          // the vehicle, where its camera never looks). The vehicle steps back to see it
-          // instead; when it cannot (nothing vouched for behind it, its camera already turned
-          // there) the plan is taken as it is.
+          // At rest, a plan that stops again within centimetres held the vehicle where it
+          // stood, replan after replan: it steps back to see instead (else takes it).
           replan.why = "the plan commits less than " + formatNumber(kStalled) +
                        " m before it leaves the space the known map vouches for (commit: seen)";
           replan.recovery = "step_back";
@@ -428,32 +390,6 @@ class FlightLoop {
     return false;
   }
 
-  /// Whether the committed trajectory, from `t_start` on and still clear of what is known (this
-  /// frame's verdict), comes as near `goal` as `plan` ends no later than the plan does: then the
-  /// plan would trade a way for a slower one. A lattice search from a state between its primitives'
-  /// ends need not find the rest of the plan it is on, so plans from one replan to the next
-  /// disagreed, and a vehicle in the dense forest cycled through the same four plans (2.4,
-  /// 3.0, 4.2 and 10.8 s long, two of them turning back) until it was stuck.
-  bool arrivesFirst(const Trajectory& plan, double t_start, const Eigen::Vector3d& goal) const {
-    if (!committed_free_ || plan.empty() || committed_.duration() <= t_start) return false;
-    const double reach = (plan.endPosition() - goal).norm() + 1e-9;
-    const double by = std::min(committed_.duration(), t_start + plan.duration());
-    const auto far = [&](double s) { return (committed_.evaluate(s) - goal).norm() > reach; };
-    return !everySample(t_start, by, 0.5 * map_model_.resolution, limits_.limits.bound[1].norm(),
-                        far) ||
-           !far(by);
-  }
-
-  /// How long a plan keeps in the space the known map vouches for, for the planning body
-  /// (vouchedTrace()): its duration when it does throughout (and always with commit: planned),
-  /// else the first traced time it does not.
-  double vouchedUntil(const Trajectory& trajectory) const {
-    if (settings_.commit == CommitSpace::kPlanned) return trajectory.duration();
-    const TraceResult trace =
-        vouchedTrace(*map_, trajectory, 0.0, planning_body_, settings_.planning_margin);
-    return trace.free ? trajectory.duration() : trace.time;
-  }
-
   /// Whether `trajectory` may be committed from `from` on for `body`: with commit: seen, when
   /// the known map vouches for it (vouchedTrace(): every known obstacle and every unseen voxel kept
   /// at the body's radius; this holds every plan, approximate ones too, and every braking tail
@@ -467,47 +403,17 @@ class FlightLoop {
     return vouchedTrace(*map_, trajectory, from, body, body.radius - body_.radius).free;
   }
 
-  /// Where the camera looks for a frame taken at t: towards where the intended trajectory (the
-  /// last plan taken, whole, not cut where the vehicle would have to stop) will be a second
-  /// later, so that a turn is seen before it is flown. When that second barely moves the
-  /// vehicle (a plan that starts slowly, or at rest), towards the first point of the intended
-  /// trajectory at least kNearestLook away horizontally (nearer, the frustum is too narrow to
-  /// hold it) that the known map does not vouch for (with commit: seen: what keeps the plan from
-  /// being committed), else the first such point, vouched for or not, else the goal. Looking at the
-  /// goal there left a plan that started slowly and turned back outside the frustum: the vehicle
-  /// crept on the few centimetres it could commit, replan after replan, 2 m from its goal.
+  /// Where the camera looks for a frame taken at t: where stepBack() turned it, else along the
+  /// intended trajectory (lookAlong()).
   double heading(double t) const {
     if (look_yaw_) return *look_yaw_;
-    constexpr double kNearestLook = 0.5;  // m
-    const auto towards = [](const Eigen::Vector2d& v) { return std::atan2(v.y(), v.x()); };
-    const Eigen::Vector3d here = intended_.evaluate(std::min(t, intended_.duration()));
-    const Eigen::Vector2d ahead =
-        (intended_.evaluate(std::min(t + 1.0, intended_.duration())) - here).head<2>();
-    if (ahead.norm() > 0.3) return towards(ahead);
-    const double spacing = 0.5 * map_model_.resolution;
-    const bool seen_only = settings_.commit == CommitSpace::kSeen;
-    std::optional<Eigen::Vector2d> first;
-    std::optional<Eigen::Vector2d> unseen;
-    everySample(t, intended_.duration(), spacing, limits_.limits.bound[1].norm(), [&](double s) {
-      const Eigen::Vector3d p = intended_.evaluate(s);
-      const Eigen::Vector2d away = (p - here).head<2>();
-      if (away.norm() < kNearestLook) return true;
-      if (!first) first = away;
-      if (!seen_only) return false;  // the first point that far is all it looks for
-      if (map_->knownFreeAround(p, planning_body_.keptRadius())) return true;
-      unseen = away;
-      return false;
-    });
-    if (unseen) return towards(*unseen);
-    if (first) return towards(*first);
-    const Eigen::Vector2d goal = (query_.goal - here).head<2>();
-    return goal.norm() > 1e-9 ? towards(goal) : 0.0;
+    return lookAlong(intended_, t, *map_, planning_body_, settings_.commit == CommitSpace::kSeen,
+                     limits_.limits.bound[1].norm(), query_.goal);
   }
 
-  /// After a failed replan with the vehicle at rest (or about to be): back off from the
-  /// nearest known obstacle when the planner refused the start (a planner's margin, such as
-  /// the TGK analogue's, can exceed the body's); move straight onto the local goal when the
-  /// planner had nothing to fly (the vehicle within its goal region of the local goal, which
+  /// After a failed replan with the vehicle at rest (or about to be): step back to see what
+  /// stops a plan (stepBack()); back off (backOffMoves()); move straight onto the local goal when
+  /// the planner had nothing to fly (the vehicle within its goal region of the local goal, which
   /// near an obstructed goal stands in for it, but not within the flight's goal tolerance);
   /// else, from the second failure in a row, turn the camera 90 degrees to look for a way.
   void recover(FlightReplan& replan, const World& window) {
@@ -520,33 +426,13 @@ class FlightLoop {
       replan.recovery = "step_back";
       return;
     }
-    // A start the planning body touches (a committed trajectory keeps the planning radius
-    // less 1 cm, so a vehicle can stop a few millimetres inside it): the planner takes the
-    // start, but every edge from it collides at once, and every replan fails (on geb079 with
-    // no_solution after one expansion, or a timeout) until the vehicle is backed off.
-    const double touching = planning_body_.radius + 0.5 * map_model_.resolution;
-    const bool pressed = (replan.status == "no_solution" || replan.status == "timeout") &&
-                         window.bounds().contains(here.col(0)) &&
-                         window.clearanceFor(here.col(0), touching) < touching;
-    // Refused by the planner, the body alone must be able to back out (a planner's own margin
-    // can exceed the planning radius); pressed, the planning body backs out as it stands (the
-    // body alone, moved along unseen space with the tracking error, hit the wall on geb079).
-    // A start outside the planning domain (a query's start within the planning margin of the
-    // map's end: geb079's query 95 hovered 0.01 m inside its box until the wind blew it out):
-    // into the domain first.
-    const Box domain = mapDomain();
-    const Eigen::Vector3d inside = here.col(0)
-                                       .cwiseMax(domain.min + Eigen::Vector3d::Constant(0.05))
-                                       .cwiseMin(domain.max - Eigen::Vector3d::Constant(0.05));
-    if (replan.status == "invalid_start" && !domain.contains(here.col(0)) &&
-        moveStraight(here.col(0), inside - here.col(0), window, body_)) {
-      replan.recovery = "back_off";
-      return;
-    }
-    if ((replan.status == "invalid_start" && backOff(here.col(0), window, body_)) ||
-        (pressed && backOff(here.col(0), window, planning_body_))) {
-      replan.recovery = "back_off";
-      return;
+    for (const BackOff& move : backOffMoves(replan.status, here.col(0), window, mapDomain(),
+                                            planning_body_.radius, map_model_.resolution)) {
+      if (moveStraight(here.col(0), move.offset, window,
+                       move.body_alone ? body_ : planning_body_)) {
+        replan.recovery = "back_off";
+        return;
+      }
     }
     if (replan.status == "at_local_goal" && (replan.local_goal - here.col(0)).norm() > 0.05 &&
         moveStraight(here.col(0), replan.local_goal - here.col(0), window, planning_body_)) {
@@ -564,83 +450,25 @@ class FlightLoop {
     return here.col(1).norm() < 0.05 && (committed_.endPosition() - here.col(0)).norm() < 0.05;
   }
 
-  /// When nothing of a plan can be committed at rest because of `blocker` (the nearest point
-  /// of a voxel the known map cannot vouch for, where the plan first meets one): the camera
-  /// turns towards it (horizontally) and the vehicle backs straight away from it, in what the
-  /// known map vouches for, far enough for the sensor's field of view to hold it and the
-  /// body's height about it (its height above or below the vehicle, at least the planning
-  /// radius, over the tangent of the sensor's largest elevation, and two voxels), at most
-  /// kStepBack: straight away, else turned 45 or 90 degrees either way, else shorter in 0.2 m
-  /// steps; without any move the camera only turns. A forward camera never sees beside, above or
-  /// below itself: a vehicle that stopped with an unseen voxel 0.35 m above its body (its frustum
-  /// holds that height only from 0.63 m away) can never vouch for a move towards it from where it
-  /// stands. The camera keeps that heading until a plan moves the vehicle. False when nothing was
-  /// done (the camera already faced the blocker from at least that far).
+  /// Turns the camera towards `blocker` (planBlocker()) and backs the vehicle away from it until
+  /// the sensor's view holds it (the first committable of stepBackMoves()), or only turns; the
+  /// camera keeps that heading until a plan is taken. False when already facing it, unmoved.
   bool stepBack(const Eigen::Vector3d& position, const Eigen::Vector3d& blocker,
                 const World& window) {
-    Eigen::Vector2d towards = (blocker - position).head<2>();
-    if (towards.norm() < 1e-3) {
-      // Straight above or below: towards the committed trajectory's last direction of travel.
-      towards = Eigen::Vector2d(std::cos(heading(t_)), std::sin(heading(t_)));
-    }
-    towards.normalize();
-    // The body's top or bottom, at least, must come into view: a plan near the blocker sweeps
-    // the planning radius above and below itself.
-    const double rise = blocker.z() - position.z();
-    const double tangent = rise >= 0.0 ? tan_up_ : tan_down_;
-    const double needed =
-        std::max(std::abs(rise), planning_body_.radius) / std::max(tangent, 1e-3) +
-        2.0 * map_model_.resolution;
-    const Eigen::Vector2d target = blocker.head<2>();
-    const auto yawFrom = [&](const Eigen::Vector2d& p) {
-      const Eigen::Vector2d v = target - p;
-      return std::atan2(v.y(), v.x());
-    };
-    const bool facing =
-        look_yaw_ &&
-        std::abs(std::remainder(*look_yaw_ - yawFrom(position.head<2>()), 2.0 * M_PI)) < 0.2;
+    const double yaw = yawTowards(position, blocker);
+    const bool facing = look_yaw_ && std::abs(std::remainder(*look_yaw_ - yaw, 2.0 * M_PI)) < 0.2;
     look_offset_ = 0.0;
-    // Straight away first, then turned by 45 and 90 degrees either way (a wall or the map's
-    // end behind the vehicle): the first move that ends `needed` from the blocker, or the
-    // longest shorter one (0.2 m steps) when none does.
-    for (double shortfall = 0.0; shortfall <= kStepBack - 0.2 + 1e-9; shortfall += 0.2) {
-      for (const double turn : {0.0, 45.0, -45.0, 90.0, -90.0}) {
-        const double c = std::cos(turn * kDegree);
-        const double s = std::sin(turn * kDegree);
-        const Eigen::Vector2d away(-(c * towards.x() - s * towards.y()),
-                                   -(s * towards.x() + c * towards.y()));
-        // The length that ends `needed` from the blocker: |p + L away - target| = needed.
-        const Eigen::Vector2d from = position.head<2>() - target;
-        const double b = from.dot(away);
-        const double disc = b * b - (from.squaredNorm() - needed * needed);
-        if (disc < 0.0) continue;
-        const double length = std::min(kStepBack, -b + std::sqrt(disc)) - shortfall;
-        if (length < 0.2) continue;
-        const Eigen::Vector2d end = position.head<2>() + length * away;
-        if (moveStraight(position, length * Eigen::Vector3d(away.x(), away.y(), 0.0), window,
-                         planning_body_)) {
-          look_yaw_ = yawFrom(end);
-          return true;
-        }
+    const double ahead = heading(t_);
+    for (const StepBackMove& move :
+         stepBackMoves(position, blocker, {std::cos(ahead), std::sin(ahead)}, tangents_,
+                       planning_body_.radius, map_model_.resolution, kStepBack)) {
+      if (moveStraight(position, move.offset, window, planning_body_)) {
+        look_yaw_ = move.yaw;
+        return true;
       }
     }
-    look_yaw_ = yawFrom(position.head<2>());
+    look_yaw_ = yaw;
     return !facing;
-  }
-
-  /// A straight 0.3 m move from `position` away from the nearest known obstacle (the window
-  /// ESDF's gradient, horizontal, or whole below a ceiling or above a floor), committable for
-  /// `body` (the body alone: a vehicle inside its planning margin must be able to back out of
-  /// it).
-  bool backOff(const Eigen::Vector3d& position, const World& window, const Body& body) {
-    Eigen::Vector3d gradient = Eigen::Vector3d::Zero();
-    window.esdf().distanceWithGradient(position, &gradient);
-    const Eigen::Vector3d full = gradient;
-    gradient.z() = 0.0;
-    // Straight below a ceiling or above a desk: away vertically.
-    if (gradient.norm() < 0.2 * full.norm()) gradient = full;
-    if (gradient.norm() < 1e-6) return false;
-    return moveStraight(position, 0.3 * gradient.normalized(), window, body);
   }
 
   /// A straight rest-to-rest move from `position` by `offset` (half the braking rate, half
@@ -681,24 +509,9 @@ class FlightLoop {
       snapshot();
       result_.known_voxels = knownVoxelsInOrder(*map_, first_occupied_);
     }
-    if (collided_) result_.status = "collision";
-    if (left_map_) {
-      result_.status = "left_map";
-      result_.message = "the vehicle left the map at " + formatPoint(*left_map_) +
-                        ", t = " + formatNumber(t_) + " s (the tracking error: wind, a late plan)";
-    }
-    const CheckResult check = checker_.check(
-        result_.flown, {.start = query_.start, .goal = query_.goal, .require_goal = false});
-    // A vehicle that left the map: said above (the checker's bounds finding is the same fact).
-    if (!left_map_ && !check.valid && check.check == "collision") {
-      result_.status = "collision";
-      result_.message =
-          "the flown trajectory hits the ground truth at t = " + std::to_string(check.time) +
-          " s: " + check.detail;
-      result_.flown = slice(result_.flown, check.time);
-    } else if (!left_map_ && !check.valid) {
-      result_.message = "the checker: " + check.check + ": " + check.detail;
-    }
+    judgeFlown(checker_.check(result_.flown,
+                              {.start = query_.start, .goal = query_.goal, .require_goal = false}),
+               collided_, left_map_, t_, result_);
     result_.evaluation = checker_.evaluate(result_.flown);
     result_.min_clearance = exactMinClearance(*truth_, result_.flown, body_.radius,
                                               std::max(1.0, settings_.planning_margin));
@@ -750,15 +563,10 @@ class FlightLoop {
   bool backup_counted_ = false;
   static constexpr double kMovingSpeed = 0.1;  // m/s: slower is at rest for countBackup()
   static constexpr double kStartKnown = 3.0;   // planning radii round the start known at first
-  double look_offset_ = 0.0;  // rad: the camera's turn from its heading, to look for a way
-  // rad: the camera's heading while the vehicle steps back to see what blocks it (stepBack()),
-  // until a plan is taken.
-  std::optional<double> look_yaw_;
-  // What kept the last plan from being committed further (take()): the nearest point of a
-  // voxel the known map cannot vouch for, where the plan first met one.
-  std::optional<Eigen::Vector3d> blocker_;
-  double tan_up_ = 0.0;    // tangent of the sensor's largest elevation above the horizontal
-  double tan_down_ = 0.0;  // ... below it
+  double look_offset_ = 0.0;        // rad: the camera's turn from its heading, to look for a way
+  std::optional<double> look_yaw_;  // rad: set by stepBack() until a plan is taken
+  std::optional<Eigen::Vector3d> blocker_;  // what stopped the last plan (planBlocker())
+  std::pair<double, double> tangents_;      // of the sensor's largest elevations, up and down
   static constexpr double kStalled = 0.1;   // m: a plan committing less at rest holds the vehicle
   static constexpr double kStepBack = 1.5;  // m: the longest step back (stepBack())
   SensorNoise sensor_errors_;

@@ -320,4 +320,30 @@ CheckerSettings flownCheckerSettings(const Body& body, const PlannerLimits& limi
   return settings;
 }
 
+void judgeFlown(const CheckResult& check, bool collided,
+                const std::optional<Eigen::Vector3d>& left_map, double t, FlightResult& result) {
+  if (collided) result.status = "collision";
+  if (left_map) {
+    result.status = "left_map";
+    result.message = "the vehicle left the map at " + formatPoint(*left_map) +
+                     ", t = " + formatNumber(t) + " s (the tracking error: wind, a late plan)";
+    return;
+  }
+  if (!check.valid && check.check == "collision") {
+    result.status = "collision";
+    result.message =
+        "the flown trajectory hits the ground truth at t = " + std::to_string(check.time) +
+        " s: " + check.detail;
+    result.flown = slice(result.flown, check.time);
+  } else if (!check.valid) {
+    result.message = "the checker: " + check.check + ": " + check.detail;
+  }
+}
+
+double vouchedUntil(const VehicleMap& map, const Trajectory& trajectory, const Body& body,
+                    double inset) {
+  const TraceResult trace = vouchedTrace(map, trajectory, 0.0, body, inset);
+  return trace.free ? trajectory.duration() : trace.time;
+}
+
 }  // namespace kinolab::flight_motion

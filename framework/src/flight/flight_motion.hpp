@@ -8,6 +8,7 @@
 #include <Eigen/Core>
 #include <chrono>
 #include <cmath>
+#include <optional>
 #include <string>
 #include <unordered_map>
 #include <utility>
@@ -142,6 +143,19 @@ std::pair<double, double> trackingError(const Trajectory& flown, const Trajector
 bool localGoal(const Eigen::Vector3d& from, const Eigen::Vector3d& goal,
                const std::vector<Eigen::Vector3d>& guide, double horizon, const World& window,
                double radius, const Box& map, Eigen::Vector3d* out);
+
+/// The flight's verdict in `result` (status and message) from the independent checker's `check`
+/// of the flown trajectory, whether a frame found a collision (`collided`) and where the vehicle
+/// left the map (`left_map`, at time `t`): a collision cuts the flown trajectory where it hit; a
+/// vehicle that left the map says so (the checker's bounds finding is the same fact).
+void judgeFlown(const CheckResult& check, bool collided,
+                const std::optional<Eigen::Vector3d>& left_map, double t, FlightResult& result);
+
+/// How long `trajectory` keeps in the space `map` vouches for, for `body` (vouchedTrace(),
+/// `inset` inside the map's box): its duration when it does throughout, else the first traced
+/// time it does not.
+double vouchedUntil(const VehicleMap& map, const Trajectory& trajectory, const Body& body,
+                    double inset);
 
 constexpr double kDegree = M_PI / 180.0;
 
