@@ -130,7 +130,7 @@ planners:
 budget: {time: 30}
 flight: {window: 8}
 )");
-  EXPECT_EQ(runsDigest(e), "555c7db0b4e3dd71");
+  EXPECT_EQ(runsDigest(e), "52c0287ac95ee92b");
 }
 
 TEST(WorldSpecIdentityTest, DenseAndSparseSpecsKeepTheirText) {
@@ -198,15 +198,15 @@ TEST(ExperimentFilesIdentityTest, ShippedExperimentsKeepTheirRunHashes) {
             "experiments/back_ends.yaml 1de6694964fc94dd\n"
             "experiments/city_500m.yaml 802beb9199e3187a\n"
             "experiments/field.yaml b45e596f2b0f2b3f\n"
-            "experiments/flight_back_ends.yaml 64aea0ed1e3628cc\n"
-            "experiments/flight_benchmark.yaml 5d69dddede72871c\n"
-            "experiments/flight_densest_cell.yaml 19b84005a9726ed3\n"
-            "experiments/flight_forest.yaml c73c67a23ba31d36\n"
-            "experiments/flight_forest_2ms.yaml ff762c62b96d744d\n"
-            "experiments/flight_geb079.yaml f378039ae2b91019\n"
-            "experiments/flight_real_map.yaml 86dd5a53c0e6a205\n"
-            "experiments/flight_speeds.yaml de0cffb3b54e6887\n"
-            "experiments/flight_speeds_tgk.yaml 33426e943867d7e5\n"
+            "experiments/flight_back_ends.yaml a9a60951adecb3fc\n"
+            "experiments/flight_benchmark.yaml b1d7fbf11daccdbb\n"
+            "experiments/flight_densest_cell.yaml 4306da27a6be9eba\n"
+            "experiments/flight_forest.yaml 3cdcd18dc1184d93\n"
+            "experiments/flight_forest_2ms.yaml 402662ab7d217d3b\n"
+            "experiments/flight_geb079.yaml 7ef1e43a571fb40f\n"
+            "experiments/flight_real_map.yaml 4b6b6808484751d2\n"
+            "experiments/flight_speeds.yaml 928c37f0bd8785b3\n"
+            "experiments/flight_speeds_tgk.yaml 7e5f0bd1929fde3d\n"
             "experiments/heuristics/city.yaml f37d01290c87627e\n"
             "experiments/heuristics/geb079_fine.yaml f62c3d45b747cc9f\n"
             "experiments/heuristics/maps.yaml 957fb0989da9276c\n"

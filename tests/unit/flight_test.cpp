@@ -1034,6 +1034,30 @@ TEST(VehicleMapTest, TheGuideGoesRoundKnownObstaclesAndThroughUnknownSpace) {
   EXPECT_TRUE(walled->guide(from, to, 0.25, 1.0, 2.0).empty());
 }
 
+TEST(VehicleMapTest, AGuideLeavesAVehicleStandingWithinTheRadiusOfSomethingInItsBand) {
+  // The vehicle stands 0.3 m in front of a wall, closer than the guide's 0.6 m radius: every
+  // cell round its own is closed, and without the cells within its radius opened no way leaves
+  // it.
+  const auto world = worldOf(kWall);
+  std::unique_ptr<VehicleMap> known = mapOf("octomap", world->bounds());
+  Lidar lidar;
+  Rng noise(1);
+  lidar.range = 6.0;
+  const Eigen::Vector3d from(9.7, 3.0, 1.5);
+  known->insert(senseFrame(*world, lidar, Eigen::Vector3d(7.0, 3.0, 1.5), 0.0, noise), lidar.range);
+  const Eigen::Vector3d to(15.0, 3.0, 1.5);
+  const Eigen::Vector3d froms[] = {from};
+  EXPECT_TRUE(known->guides(froms, to, 0.6, 1.0, 2.0).front().empty());
+  const std::vector<Eigen::Vector3d> way = known->guides(froms, to, 0.6, 1.0, 2.0, 0.6).front();
+  ASSERT_GE(way.size(), 2u);
+  EXPECT_EQ(way.front(), from);
+  EXPECT_EQ(way.back(), to);
+  for (const Eigen::Vector3d& p : way) {
+    // Never through the seen part of the wall (x 10 .. 10.4, y < 5).
+    EXPECT_FALSE(p.x() > 10.0 && p.x() < 10.4 && p.y() < 5.0) << p.transpose();
+  }
+}
+
 /// A rest-to-rest move along x: `a` m/s^2 for `t` s, then as much braking.
 Trajectory accelerateAndBrake(double a, double t) {
   Trajectory reference;
@@ -1329,6 +1353,37 @@ class MarginPlanner : public Planner {
   double margin_;
   std::unique_ptr<Planner> inner_;
 };
+
+TEST(FlightTest, AVehicleWhoseWayTurnsBehindAWallStepsBackToSeeTheTurnAndReachesTheGoal) {
+  // A wall along x = 4 .. 4.4 up to y = 7; the vehicle flies north beside it, round its end
+  // and must turn back south behind it. The forward camera never saw beside the vehicle where
+  // it stopped at the wall's end: every plan there leaves what the known map vouches for
+  // within centimetres (an unseen voxel near the body, at an angle the camera cannot reach
+  // from there). Taken as they are, 30 such plans hold it there until it is stuck; it steps
+  // back instead, its camera turned towards what stops it, sees it, and flies round.
+  const auto world =
+      worldOf("  - type: box_list\n    boxes: [{min: [4, 0, 0], max: [4.4, 7, 3]}]\n");
+  const Eigen::Vector3d start(3.2, 5.0, 1.5);
+  const Eigen::Vector3d goal(8.0, 2.0, 1.0);
+  const FlightResult before =
+      Flight({{"timing", "deterministic", "test"}, {"step_back", "false", "test"}})
+          .fly(world, start, goal);
+  EXPECT_EQ(before.status, "stuck");
+  EXPECT_NE(before.message.find("plans taken meanwhile"), std::string::npos) << before.message;
+  const FlightResult result = Flight({{"timing", "deterministic", "test"}}).fly(world, start, goal);
+  EXPECT_EQ(result.status, "reached") << result.message;
+  EXPECT_GT(result.min_clearance, -0.011);
+  int stepped_back = 0;
+  for (const FlightReplan& replan : result.replans) {
+    if (replan.recovery != "step_back") continue;
+    ++stepped_back;
+    EXPECT_FALSE(replan.accepted);
+    EXPECT_NE(replan.why.find("commits less than 0.1 m"), std::string::npos) << replan.why;
+  }
+  EXPECT_GE(stepped_back, 1);
+  EXPECT_LE(stepped_back, 3);
+  EXPECT_LT(result.time_to_goal, 15.0);
+}
 
 TEST(FlightTest, APlannerThatRefusesTheStartIsBackedOffFromTheWall) {
   // At rest 0.32 m in front of a wall (the body keeps its 0.25 m), a planner with a 0.45 m

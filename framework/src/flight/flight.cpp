@@ -8,6 +8,7 @@
 #include <unordered_map>
 
 #include "flight_motion.hpp"
+#include "flight_views.hpp"
 #include "kinolab/core/error.hpp"
 #include "kinolab/core/fields.hpp"
 #include "kinolab/core/process.hpp"
@@ -49,6 +50,7 @@ class FlightLoop {
         rays_(sensor_.rayDirections()),
         caster_(*truth),
         noise_(Rng::derive(settings_.seed, "sensor")) {
+    tangents_ = elevationTangents(rays_);
     if (setup.tracking.kind == TrackingKind::kQuadrotor) {
       tracker_.emplace(setup.tracking, query.start.col(0), settings_.seed);
     }
@@ -205,6 +207,7 @@ class FlightLoop {
   /// trajectory is no longer free.
   void replan(std::shared_ptr<const World> shared_window, const Eigen::Vector3d& position) {
     FlightReplan replan;
+    blocker_.reset();
     replan.time = t_;
     replan.reason = reason_;
     const double t_start = t_ + settings_.replanLatency();
@@ -219,14 +222,13 @@ class FlightLoop {
     Eigen::Vector3d from = local.start.col(0);
     from.z() = std::clamp(from.z(), std::min(query_.start(2, 0), query_.goal.z()),
                           std::max(query_.start(2, 0), query_.goal.z()));
-    const Eigen::Vector3d froms[] = {from, progress_from_};
-    const auto guides = map_->guides(froms, query_.goal, planning_body_.radius, z_low, z_high);
+    const auto guides = guidesFrom(from, z_low, z_high);
     const std::vector<Eigen::Vector3d>& guide = guides[0];
     result_.time_guide_ms += millisecondsSince(begin);
     measureProgress(from, guide, guides[1]);
     bool accepted = false;
     bool found = localGoal(local.start.col(0), query_.goal, guide, settings_.horizon,
-                           *shared_window, planning_body_.radius, &local.goal);
+                           *shared_window, planning_body_.radius, mapDomain(), &local.goal);
     const double region = limits_.goal_radius;
     if (found && (local.goal - local.start.col(0)).norm() <= region &&
         (query_.goal - local.start.col(0)).norm() > region) {
@@ -237,7 +239,7 @@ class FlightLoop {
       shared_window = map_->window(
           windowCentre(position, query_.goal.z(), map_model_.window_height), /*rebuild=*/true);
       found = localGoal(local.start.col(0), query_.goal, guide, settings_.horizon, *shared_window,
-                        planning_body_.radius, &local.goal);
+                        planning_body_.radius, mapDomain(), &local.goal);
     }
     const World& window = *shared_window;
     if (found) {
@@ -261,6 +263,7 @@ class FlightLoop {
     if (settled) {
       failed_in_a_row_ = 0;
       look_offset_ = 0.0;
+      if (accepted) look_yaw_.reset();  // the camera looks along the plan again
     } else {
       recover(replan, window);
     }
@@ -281,6 +284,22 @@ class FlightLoop {
     }
     reason_ = settled ? "period" : "retry";
     next_replan_ = std::max(next_replan_, t_ + (settled ? settings_.replan_period : dt_));
+  }
+
+  /// The guides from `from` and from where the flight last made progress, over the columns
+  /// of [z_low, z_high] or, with no way there, over levelGuides().
+  std::vector<std::vector<Eigen::Vector3d>> guidesFrom(const Eigen::Vector3d& from, double z_low,
+                                                       double z_high) const {
+    const Eigen::Vector3d froms[] = {from, progress_from_};
+    const double radius = planning_body_.radius;
+    auto guides = map_->guides(froms, query_.goal, radius, z_low, z_high, radius);
+    if (!guides[0].empty()) return guides;
+    return levelGuides(*map_, froms, query_.goal, radius, settings_.planning_margin);
+  }
+
+  Box mapDomain() const {  // where plans may go: the map's box less the planning margin
+    const Eigen::Vector3d inset = Eigen::Vector3d::Constant(settings_.planning_margin);
+    return {map_->bounds().min + inset, map_->bounds().max - inset};
   }
 
   /// Progress is measured along the way the known map leaves to the goal (the guide), both
@@ -328,16 +347,37 @@ class FlightLoop {
                        : (plan.message.empty() ? "no trajectory" : plan.message);
       return false;
     }
-    if (settings_.keep_faster && arrivesFirst(plan.trajectory, t_start, goal)) {
+    if (settings_.keep_faster && committed_free_ &&
+        arrivesFirst(committed_, plan.trajectory, t_start, goal, 0.5 * map_model_.resolution,
+                     limits_.limits.bound[1].norm())) {
       replan.kept = true;
       replan.trajectory = plan.trajectory;
       replan.why = "the committed trajectory comes as near the local goal no later";
       return false;
     }
-    const double vouched = vouchedUntil(plan.trajectory);
+    const double vouched =
+        settings_.commit == CommitSpace::kPlanned
+            ? plan.trajectory.duration()
+            : vouchedUntil(*map_, plan.trajectory, planning_body_, settings_.planning_margin);
+    blocker_.reset();
+    if (settings_.commit == CommitSpace::kSeen && vouched < plan.trajectory.duration()) {
+      blocker_ = planBlocker(*map_, plan.trajectory, planning_body_, settings_.planning_margin);
+    }
+    const ChainState here = stateAt(committed_, t_);
+    const bool at_rest = atRest(here);
     for (double cut = std::min(plan.trajectory.duration(), vouched); cut > 0.0; cut -= 0.1) {
       Trajectory spliced = splice(committed_, t_start, slice(plan.trajectory, cut), brake_rate_);
       if (committable(spliced, t_start, window, planning_body_)) {
+        if (settings_.step_back && at_rest && blocker_ &&
+            (spliced.endPosition() - here.col(0)).norm() < kStalled &&
+            stepBack(here.col(0), *blocker_, window)) {
+          // At rest, a plan that stops again within centimetres held the vehicle where it
+          // stood, replan after replan: it steps back to see instead (else takes it).
+          replan.why = "the plan commits less than " + formatNumber(kStalled) +
+                       " m before it leaves the space the known map vouches for (commit: seen)";
+          replan.recovery = "step_back";
+          return false;
+        }
         replan.trajectory = plan.trajectory;
         intended_ = splice(committed_, t_start, plan.trajectory, brake_rate_);
         committed_ = std::move(spliced);
@@ -348,32 +388,6 @@ class FlightLoop {
     }
     replan.why = notCommittedWhy(settings_.commit, vouched);
     return false;
-  }
-
-  /// Whether the committed trajectory, from `t_start` on and still clear of what is known (this
-  /// frame's verdict), comes as near `goal` as `plan` ends no later than the plan does: then the
-  /// plan would trade a way for a slower one. A lattice search from a state between its primitives'
-  /// ends need not find the rest of the plan it is on, so plans from one replan to the next
-  /// disagreed, and a vehicle in the dense forest cycled through the same four plans (2.4,
-  /// 3.0, 4.2 and 10.8 s long, two of them turning back) until it was stuck.
-  bool arrivesFirst(const Trajectory& plan, double t_start, const Eigen::Vector3d& goal) const {
-    if (!committed_free_ || plan.empty() || committed_.duration() <= t_start) return false;
-    const double reach = (plan.endPosition() - goal).norm() + 1e-9;
-    const double by = std::min(committed_.duration(), t_start + plan.duration());
-    const auto far = [&](double s) { return (committed_.evaluate(s) - goal).norm() > reach; };
-    return !everySample(t_start, by, 0.5 * map_model_.resolution, limits_.limits.bound[1].norm(),
-                        far) ||
-           !far(by);
-  }
-
-  /// How long a plan keeps in the space the known map vouches for, for the planning body
-  /// (vouchedTrace()): its duration when it does throughout (and always with commit: planned),
-  /// else the first traced time it does not.
-  double vouchedUntil(const Trajectory& trajectory) const {
-    if (settings_.commit == CommitSpace::kPlanned) return trajectory.duration();
-    const TraceResult trace =
-        vouchedTrace(*map_, trajectory, 0.0, planning_body_, settings_.planning_margin);
-    return trace.free ? trajectory.duration() : trace.time;
   }
 
   /// Whether `trajectory` may be committed from `from` on for `body`: with commit: seen, when
@@ -389,57 +403,36 @@ class FlightLoop {
     return vouchedTrace(*map_, trajectory, from, body, body.radius - body_.radius).free;
   }
 
-  /// Where the camera looks for a frame taken at t: towards where the intended trajectory (the
-  /// last plan taken, whole, not cut where the vehicle would have to stop) will be a second
-  /// later, so that a turn is seen before it is flown. When that second barely moves the
-  /// vehicle (a plan that starts slowly, or at rest), towards the first point of the intended
-  /// trajectory at least kNearestLook away horizontally (nearer, the frustum is too narrow to
-  /// hold it) that the known map does not vouch for (with commit: seen: what keeps the plan from
-  /// being committed), else the first such point, vouched for or not, else the goal. Looking at the
-  /// goal there left a plan that started slowly and turned back outside the frustum: the vehicle
-  /// crept on the few centimetres it could commit, replan after replan, 2 m from its goal.
+  /// Where the camera looks for a frame taken at t: where stepBack() turned it, else along the
+  /// intended trajectory (lookAlong()).
   double heading(double t) const {
-    constexpr double kNearestLook = 0.5;  // m
-    const auto towards = [](const Eigen::Vector2d& v) { return std::atan2(v.y(), v.x()); };
-    const Eigen::Vector3d here = intended_.evaluate(std::min(t, intended_.duration()));
-    const Eigen::Vector2d ahead =
-        (intended_.evaluate(std::min(t + 1.0, intended_.duration())) - here).head<2>();
-    if (ahead.norm() > 0.3) return towards(ahead);
-    const double spacing = 0.5 * map_model_.resolution;
-    const bool seen_only = settings_.commit == CommitSpace::kSeen;
-    std::optional<Eigen::Vector2d> first;
-    std::optional<Eigen::Vector2d> unseen;
-    everySample(t, intended_.duration(), spacing, limits_.limits.bound[1].norm(), [&](double s) {
-      const Eigen::Vector3d p = intended_.evaluate(s);
-      const Eigen::Vector2d away = (p - here).head<2>();
-      if (away.norm() < kNearestLook) return true;
-      if (!first) first = away;
-      if (!seen_only) return false;  // the first point that far is all it looks for
-      if (map_->knownFreeAround(p, planning_body_.keptRadius())) return true;
-      unseen = away;
-      return false;
-    });
-    if (unseen) return towards(*unseen);
-    if (first) return towards(*first);
-    const Eigen::Vector2d goal = (query_.goal - here).head<2>();
-    return goal.norm() > 1e-9 ? towards(goal) : 0.0;
+    if (look_yaw_) return *look_yaw_;
+    return lookAlong(intended_, t, *map_, planning_body_, settings_.commit == CommitSpace::kSeen,
+                     limits_.limits.bound[1].norm(), query_.goal);
   }
 
-  /// After a failed replan with the vehicle at rest (or about to be): back off from the
-  /// nearest known obstacle when the planner refused the start (a planner's margin, such as
-  /// the TGK analogue's, can exceed the body's); move straight onto the local goal when the
-  /// planner had nothing to fly (the vehicle within its goal region of the local goal, which
+  /// After a failed replan with the vehicle at rest (or about to be): step back to see what
+  /// stops a plan (stepBack()); back off (backOffMoves()); move straight onto the local goal when
+  /// the planner had nothing to fly (the vehicle within its goal region of the local goal, which
   /// near an obstructed goal stands in for it, but not within the flight's goal tolerance);
   /// else, from the second failure in a row, turn the camera 90 degrees to look for a way.
   void recover(FlightReplan& replan, const World& window) {
     ++failed_in_a_row_;
+    if (!replan.recovery.empty()) return;  // take() stepped back
     const ChainState here = stateAt(committed_, t_);
-    const bool at_rest =
-        here.col(1).norm() < 0.05 && (committed_.endPosition() - here.col(0)).norm() < 0.05;
-    if (!at_rest) return;
-    if (replan.status == "invalid_start" && backOff(here.col(0), window)) {
-      replan.recovery = "back_off";
+    if (!atRest(here)) return;
+    if (settings_.step_back && blocker_ && replan.status != "invalid_start" &&
+        replan.status != "at_local_goal" && stepBack(here.col(0), *blocker_, window)) {
+      replan.recovery = "step_back";
       return;
+    }
+    for (const BackOff& move : backOffMoves(replan.status, here.col(0), window, mapDomain(),
+                                            planning_body_.radius, map_model_.resolution)) {
+      if (moveStraight(here.col(0), move.offset, window,
+                       move.body_alone ? body_ : planning_body_)) {
+        replan.recovery = "back_off";
+        return;
+      }
     }
     if (replan.status == "at_local_goal" && (replan.local_goal - here.col(0)).norm() > 0.05 &&
         moveStraight(here.col(0), replan.local_goal - here.col(0), window, planning_body_)) {
@@ -452,15 +445,30 @@ class FlightLoop {
     }
   }
 
-  /// A straight 0.3 m move from `position` away from the nearest known obstacle (the window
-  /// ESDF's gradient, horizontal), for the body alone: a vehicle inside its planning margin
-  /// must be able to back out of it.
-  bool backOff(const Eigen::Vector3d& position, const World& window) {
-    Eigen::Vector3d gradient = Eigen::Vector3d::Zero();
-    window.esdf().distanceWithGradient(position, &gradient);
-    gradient.z() = 0.0;
-    if (gradient.norm() < 1e-6) return false;
-    return moveStraight(position, 0.3 * gradient.normalized(), window, body_);
+  /// At rest: the vehicle stands still and its committed trajectory ends where it is.
+  bool atRest(const ChainState& here) const {
+    return here.col(1).norm() < 0.05 && (committed_.endPosition() - here.col(0)).norm() < 0.05;
+  }
+
+  /// Turns the camera towards `blocker` (planBlocker()) and backs the vehicle away from it until
+  /// the sensor's view holds it (the first committable of stepBackMoves()), or only turns; the
+  /// camera keeps that heading until a plan is taken. False when already facing it, unmoved.
+  bool stepBack(const Eigen::Vector3d& position, const Eigen::Vector3d& blocker,
+                const World& window) {
+    const double yaw = yawTowards(position, blocker);
+    const bool facing = look_yaw_ && std::abs(std::remainder(*look_yaw_ - yaw, 2.0 * M_PI)) < 0.2;
+    look_offset_ = 0.0;
+    const double ahead = heading(t_);
+    for (const StepBackMove& move :
+         stepBackMoves(position, blocker, {std::cos(ahead), std::sin(ahead)}, tangents_,
+                       planning_body_.radius, map_model_.resolution, kStepBack)) {
+      if (moveStraight(position, move.offset, window, planning_body_)) {
+        look_yaw_ = move.yaw;
+        return true;
+      }
+    }
+    look_yaw_ = yaw;
+    return !facing;
   }
 
   /// A straight rest-to-rest move from `position` by `offset` (half the braking rate, half
@@ -501,24 +509,9 @@ class FlightLoop {
       snapshot();
       result_.known_voxels = knownVoxelsInOrder(*map_, first_occupied_);
     }
-    if (collided_) result_.status = "collision";
-    if (left_map_) {
-      result_.status = "left_map";
-      result_.message = "the vehicle left the map at " + formatPoint(*left_map_) +
-                        ", t = " + formatNumber(t_) + " s (the tracking error: wind, a late plan)";
-    }
-    const CheckResult check = checker_.check(
-        result_.flown, {.start = query_.start, .goal = query_.goal, .require_goal = false});
-    // A vehicle that left the map: said above (the checker's bounds finding is the same fact).
-    if (!left_map_ && !check.valid && check.check == "collision") {
-      result_.status = "collision";
-      result_.message =
-          "the flown trajectory hits the ground truth at t = " + std::to_string(check.time) +
-          " s: " + check.detail;
-      result_.flown = slice(result_.flown, check.time);
-    } else if (!left_map_ && !check.valid) {
-      result_.message = "the checker: " + check.check + ": " + check.detail;
-    }
+    judgeFlown(checker_.check(result_.flown,
+                              {.start = query_.start, .goal = query_.goal, .require_goal = false}),
+               collided_, left_map_, t_, result_);
     result_.evaluation = checker_.evaluate(result_.flown);
     result_.min_clearance = exactMinClearance(*truth_, result_.flown, body_.radius,
                                               std::max(1.0, settings_.planning_margin));
@@ -570,7 +563,12 @@ class FlightLoop {
   bool backup_counted_ = false;
   static constexpr double kMovingSpeed = 0.1;  // m/s: slower is at rest for countBackup()
   static constexpr double kStartKnown = 3.0;   // planning radii round the start known at first
-  double look_offset_ = 0.0;  // rad: the camera's turn from its heading, to look for a way
+  double look_offset_ = 0.0;        // rad: the camera's turn from its heading, to look for a way
+  std::optional<double> look_yaw_;  // rad: set by stepBack() until a plan is taken
+  std::optional<Eigen::Vector3d> blocker_;  // what stopped the last plan (planBlocker())
+  std::pair<double, double> tangents_;      // of the sensor's largest elevations, up and down
+  static constexpr double kStalled = 0.1;   // m: a plan committing less at rest holds the vehicle
+  static constexpr double kStepBack = 1.5;  // m: the longest step back (stepBack())
   SensorNoise sensor_errors_;
   std::vector<Eigen::Vector3d> rays_;        // the sensor's, once
   RayCaster caster_;                         // the ground truth's, once

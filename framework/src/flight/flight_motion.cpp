@@ -253,11 +253,16 @@ std::pair<double, double> trackingError(const Trajectory& flown, const Trajector
 
 bool localGoal(const Eigen::Vector3d& from, const Eigen::Vector3d& goal,
                const std::vector<Eigen::Vector3d>& guide, double horizon, const World& window,
-               double radius, Eigen::Vector3d* out) {
+               double radius, const Box& map, Eigen::Vector3d* out) {
   const Box box = window.bounds();
-  const Eigen::Vector3d margin = Eigen::Vector3d::Constant(0.5);
-  const Eigen::Vector3d inner_min = (box.min + margin).cwiseMin(box.max);
-  const Eigen::Vector3d inner_max = (box.max - margin).cwiseMax(box.min);
+  Eigen::Vector3d margin_min = Eigen::Vector3d::Constant(0.5);
+  Eigen::Vector3d margin_max = Eigen::Vector3d::Constant(0.5);
+  for (int axis = 0; axis < 2; ++axis) {  // x and y: z keeps its margin (localGoal's heights)
+    if (box.min[axis] <= map.min[axis] + 1e-6) margin_min[axis] = 0.0;
+    if (box.max[axis] >= map.max[axis] - 1e-6) margin_max[axis] = 0.0;
+  }
+  const Eigen::Vector3d inner_min = (box.min + margin_min).cwiseMin(box.max);
+  const Eigen::Vector3d inner_max = (box.max - margin_max).cwiseMax(box.min);
   const auto inside = [&](const Eigen::Vector3d& p) {
     return (p.array() >= inner_min.array()).all() && (p.array() <= inner_max.array()).all();
   };
@@ -313,6 +318,32 @@ CheckerSettings flownCheckerSettings(const Body& body, const PlannerLimits& limi
     settings.max_derivative = 1;
   }
   return settings;
+}
+
+void judgeFlown(const CheckResult& check, bool collided,
+                const std::optional<Eigen::Vector3d>& left_map, double t, FlightResult& result) {
+  if (collided) result.status = "collision";
+  if (left_map) {
+    result.status = "left_map";
+    result.message = "the vehicle left the map at " + formatPoint(*left_map) +
+                     ", t = " + formatNumber(t) + " s (the tracking error: wind, a late plan)";
+    return;
+  }
+  if (!check.valid && check.check == "collision") {
+    result.status = "collision";
+    result.message =
+        "the flown trajectory hits the ground truth at t = " + std::to_string(check.time) +
+        " s: " + check.detail;
+    result.flown = slice(result.flown, check.time);
+  } else if (!check.valid) {
+    result.message = "the checker: " + check.check + ": " + check.detail;
+  }
+}
+
+double vouchedUntil(const VehicleMap& map, const Trajectory& trajectory, const Body& body,
+                    double inset) {
+  const TraceResult trace = vouchedTrace(map, trajectory, 0.0, body, inset);
+  return trace.free ? trajectory.duration() : trace.time;
 }
 
 }  // namespace kinolab::flight_motion

@@ -8,6 +8,7 @@
 #include <Eigen/Core>
 #include <chrono>
 #include <cmath>
+#include <optional>
 #include <string>
 #include <unordered_map>
 #include <utility>
@@ -134,10 +135,27 @@ std::pair<double, double> trackingError(const Trajectory& flown, const Trajector
 /// sides; the guide's heights are only interpolated, so they are brought into the window's,
 /// 0.5 m inside its floor and ceiling); then moved off the window's known obstacles (the goal
 /// itself is taken where it is, brought into the window's domain when it lies less than
-/// 0.5 m outside). False when no free point is found.
+/// 0.5 m outside). False when no free point is found. The 0.5 m side margin is kept only on
+/// the window's sides inside `map` (the map's box less its inset, where plans may go): where the
+/// window ends with the map nothing lies beyond, and with the margin there a guide along the
+/// map's end (on geb079 the way round a building often is) left no local goal but the
+/// vehicle's own place.
 bool localGoal(const Eigen::Vector3d& from, const Eigen::Vector3d& goal,
                const std::vector<Eigen::Vector3d>& guide, double horizon, const World& window,
-               double radius, Eigen::Vector3d* out);
+               double radius, const Box& map, Eigen::Vector3d* out);
+
+/// The flight's verdict in `result` (status and message) from the independent checker's `check`
+/// of the flown trajectory, whether a frame found a collision (`collided`) and where the vehicle
+/// left the map (`left_map`, at time `t`): a collision cuts the flown trajectory where it hit; a
+/// vehicle that left the map says so (the checker's bounds finding is the same fact).
+void judgeFlown(const CheckResult& check, bool collided,
+                const std::optional<Eigen::Vector3d>& left_map, double t, FlightResult& result);
+
+/// How long `trajectory` keeps in the space `map` vouches for, for `body` (vouchedTrace(),
+/// `inset` inside the map's box): its duration when it does throughout, else the first traced
+/// time it does not.
+double vouchedUntil(const VehicleMap& map, const Trajectory& trajectory, const Body& body,
+                    double inset);
 
 constexpr double kDegree = M_PI / 180.0;
 

@@ -60,7 +60,8 @@ void VehicleMap::markFree(const Eigen::Vector3d& center, double radius,
   });
 }
 
-double VehicleMap::unvouchedDistance(const Eigen::Vector3d& p, double limit) const {
+double VehicleMap::unvouchedDistance(const Eigen::Vector3d& p, double limit,
+                                     Eigen::Vector3d* nearest) const {
   if (!isSetup()) throw InvalidArgument("VehicleMap::unvouchedDistance before setup()");
   const double r = model_.resolution;
   const Eigen::Vector3d local = (p - lattice_.origin()) / r;  // in voxels
@@ -87,7 +88,14 @@ double VehicleMap::unvouchedDistance(const Eigen::Vector3d& p, double limit) con
       if (dxy >= best2) continue;
       const std::uint8_t* column = &state_[lattice_.index(x, y, 0)];
       for (int z = low.z(); z <= high.z(); ++z) {
-        if (column[z] != kFree) best2 = std::min(best2, dxy + gap2(2, z));
+        if (column[z] == kFree) continue;
+        const double d2 = dxy + gap2(2, z);
+        if (d2 >= best2) continue;
+        best2 = d2;
+        if (nearest != nullptr) {
+          const Eigen::Vector3d low_corner = lattice_.origin() + Eigen::Vector3d(x, y, z) * r;
+          *nearest = p.cwiseMax(low_corner).cwiseMin(low_corner + Eigen::Vector3d::Constant(r));
+        }
       }
     }
   }
@@ -293,7 +301,7 @@ std::vector<Eigen::Vector3d> VehicleMap::guide(const Eigen::Vector3d& from,
 std::vector<std::vector<Eigen::Vector3d>> VehicleMap::guides(std::span<const Eigen::Vector3d> froms,
                                                              const Eigen::Vector3d& to,
                                                              double radius, double z_low,
-                                                             double z_high) const {
+                                                             double z_high, double room) const {
   const auto obstacles = [this](int x, int z0, int z1, std::uint8_t* row) {
     for (int y = 0; y < lattice_.dims().y(); ++y) {
       const std::uint8_t* column = &state_[lattice_.index(x, y, 0)];
@@ -302,7 +310,7 @@ std::vector<std::vector<Eigen::Vector3d>> VehicleMap::guides(std::span<const Eig
       });
     }
   };
-  return columnGuides(lattice_, obstacles, froms, to, radius, z_low, z_high);
+  return columnGuides(lattice_, obstacles, froms, to, radius, z_low, z_high, room, model_.inset);
 }
 
 std::vector<Eigen::Vector3d> columnGuide(const VoxelGrid& lattice, const ObstacleColumns& obstacles,
@@ -315,7 +323,8 @@ std::vector<std::vector<Eigen::Vector3d>> columnGuides(const VoxelGrid& lattice,
                                                        const ObstacleColumns& obstacles,
                                                        std::span<const Eigen::Vector3d> froms,
                                                        const Eigen::Vector3d& to, double radius,
-                                                       double z_low, double z_high) {
+                                                       double z_low, double z_high, double room,
+                                                       double inset) {
   const Eigen::Vector3i& n = lattice.dims();
   const double r = lattice.resolution();
   const auto cellOf = [&](const Eigen::Vector3d& p) {
@@ -328,7 +337,33 @@ std::vector<std::vector<Eigen::Vector3d>> columnGuides(const VoxelGrid& lattice,
       std::clamp(static_cast<int>(std::floor((z_low - lattice.origin().z()) / r)), 0, n.z() - 1);
   const int z1 =
       std::clamp(static_cast<int>(std::floor((z_high - lattice.origin().z()) / r)), 0, n.z() - 1);
-  const std::vector<std::uint8_t> blocked = blockedCells(lattice, obstacles, z0, z1, radius);
+  std::vector<std::uint8_t> blocked = blockedCells(lattice, obstacles, z0, z1, radius);
+  // The cells within `room` of `at` (and its own) opened in `cells`.
+  const auto openRound = [&](std::vector<std::uint8_t>& cells, const Eigen::Vector3d& at) {
+    const Eigen::Vector2i c = cellOf(at);
+    cells[static_cast<std::size_t>(c.x()) * n.y() + c.y()] = 0;
+    const int reach = static_cast<int>(std::ceil(room / r));
+    for (int x = std::max(0, c.x() - reach); x <= std::min(n.x() - 1, c.x() + reach); ++x) {
+      for (int y = std::max(0, c.y() - reach); y <= std::min(n.y() - 1, c.y() + reach); ++y) {
+        const Eigen::Vector3d centre = lattice.center(VoxelIndex(x, y, 0));
+        if ((centre.head<2>() - at.head<2>()).norm() <= room) {
+          cells[static_cast<std::size_t>(x) * n.y() + y] = 0;
+        }
+      }
+    }
+  };
+  if (inset > 0.0) {
+    for (int x = 0; x < n.x(); ++x) {
+      for (int y = 0; y < n.y(); ++y) {
+        const double cx = (x + 0.5) * r;
+        const double cy = (y + 0.5) * r;
+        if (std::min({cx, cy, n.x() * r - cx, n.y() * r - cy}) < inset) {
+          blocked[static_cast<std::size_t>(x) * n.y() + y] = 1;
+        }
+      }
+    }
+  }
+  if (room > 0.0) openRound(blocked, to);
   const Eigen::Vector2i goal = cellOf(to);
   std::vector<std::vector<Eigen::Vector3d>> paths(froms.size());
   if (blocked[static_cast<std::size_t>(goal.x()) * n.y() + goal.y()]) return paths;
@@ -336,7 +371,7 @@ std::vector<std::vector<Eigen::Vector3d>> columnGuides(const VoxelGrid& lattice,
     const Eigen::Vector3d& from = froms[i];
     const Eigen::Vector2i start = cellOf(from);
     std::vector<std::uint8_t> open = blocked;
-    open[static_cast<std::size_t>(start.x()) * n.y() + start.y()] = 0;  // the vehicle is here
+    openRound(open, from);  // the vehicle is here
     const std::vector<std::size_t> cells = cellPath(open, n.x(), n.y(), start, goal);
     std::vector<Eigen::Vector3d>& path = paths[i];
     for (const std::size_t cell : cells) {

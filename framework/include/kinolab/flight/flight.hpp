@@ -73,6 +73,9 @@ struct FlightSettings {
   /// A replan's plan is set aside when the committed trajectory comes as near the plan's local
   /// goal no later (the replan is `kept`, not a failure).
   bool keep_faster = true;
+  /// At rest, when what the known map cannot vouch for leaves nothing of a plan to commit,
+  /// the vehicle steps back from it with its camera turned towards it (recovery step_back).
+  bool step_back = true;
   /// m: the planners keep the body's radius plus this from what the vehicle knows, room for
   /// tracking error, map noise and latency (the flight judges the body).
   double planning_margin = 0.15;
@@ -130,6 +133,12 @@ struct FlightSettings {
               "true: a replan's plan is set aside when the committed trajectory comes as near "
               "its local goal no later (a lattice search from a state between primitives need "
               "not find the rest of the plan it is on); false: every valid plan is taken");
+    f.boolean("step_back", step_back,
+              "true (with commit: seen): at rest, when less than 0.1 m of a plan can be "
+              "committed before it leaves what the known map vouches for, the vehicle backs "
+              "away from the voxel that stops it, its camera turned towards it, until the "
+              "sensor's field of view holds it (a forward camera never sees beside, above or "
+              "below itself); false: such a plan is taken as it is");
   }
 };
 
@@ -177,7 +186,9 @@ struct FlightReplan {
   std::string why;
   /// What the loop did about a failure at rest ("" none, "look": the camera turned 90
   /// degrees, "back_off": the vehicle moved away from the nearest known obstacle, "approach":
-  /// it moved straight onto the local goal).
+  /// it moved straight onto the local goal, "step_back": nothing of the plan could be
+  /// committed, so the vehicle backed away from what the known map could not vouch for, its
+  /// camera turned towards it, until the sensor's field of view holds it).
   std::string recovery;
   /// The vehicle flew onto its back-up (the stop ending the committed trajectory, at speed,
   /// short of the goal) after this replan, before a plan took over.

@@ -101,7 +101,12 @@ class VehicleMap {
   /// (unknown or occupied) when it is below `limit`, else `limit`; 0 inside one. Voxels
   /// outside the map do not count. What a flight traces a plan against before committing it
   /// (traceTrajectory): the space the known map vouches for.
-  double unvouchedDistance(const Eigen::Vector3d& p, double limit) const;
+  double unvouchedDistance(const Eigen::Vector3d& p, double limit) const {
+    return unvouchedDistance(p, limit, nullptr);
+  }
+  /// unvouchedDistance(), and in `nearest` (when one is below `limit`) the point of that
+  /// voxel's cube nearest `p`: what keeps a body at `p` from being vouched for.
+  double unvouchedDistance(const Eigen::Vector3d& p, double limit, Eigen::Vector3d* nearest) const;
   /// The planning world around `center`: known occupied voxels and unknown ones as `unknown`
   /// says (kFreeBeyond: measured from `center`), with its exact ESDF. The window is kept
   /// between calls: its domain (World::bounds()) is a box of side window + 2 window_margin in
@@ -120,10 +125,14 @@ class VehicleMap {
   std::vector<Eigen::Vector3d> guide(const Eigen::Vector3d& from, const Eigen::Vector3d& to,
                                      double radius, double z_low, double z_high) const;
   /// guide() from each of `froms` (one path each, empty where there is none), the map's
-  /// columns read once: a flight's guide and the way from where it last made progress.
+  /// columns read once: a flight's guide and the way from where it last made progress. The
+  /// cells within `room` of each of `froms` and of `to` are open whatever the band holds (a
+  /// vehicle stands there; see columnGuides()); the cells within the model's `inset` of the
+  /// map's sides are closed.
   std::vector<std::vector<Eigen::Vector3d>> guides(std::span<const Eigen::Vector3d> froms,
                                                    const Eigen::Vector3d& to, double radius,
-                                                   double z_low, double z_high) const;
+                                                   double z_low, double z_high,
+                                                   double room = 0.0) const;
   /// The known map from above over heights [z_low, z_high], as text: a line
   /// "nx,ny,origin_x,origin_y,resolution", then per x one line of ny digits, per column 2 (a
   /// known obstacle in the band), 1 (known free there) or 0 (unknown).
@@ -198,11 +207,19 @@ std::vector<Eigen::Vector3d> columnGuide(const VoxelGrid& lattice, const Obstacl
                                          const Eigen::Vector3d& from, const Eigen::Vector3d& to,
                                          double radius, double z_low, double z_high);
 /// columnGuide() from each of `froms` (one path each, empty where there is none), the
-/// obstacle columns read once.
+/// obstacle columns read once. The cells whose centres lie within `room` of a start (and of
+/// `to`) are open whatever the band holds: a vehicle that stands within the radius of
+/// something in the band (a wall 0.39 m away, a desk below it) has every cell round it
+/// blocked, and without them no way leaves its cell (on geb079 most flights whose every
+/// replan failed had no guide so, their local goals on the straight line through a wall).
+/// Cells whose centres lie within `inset` of the lattice's sides in x and y are closed: plans
+/// keep that far inside the map (a flight's planning margin), and a guide along the map's end
+/// outside it left the local goal nowhere to go.
 std::vector<std::vector<Eigen::Vector3d>> columnGuides(const VoxelGrid& lattice,
                                                        const ObstacleColumns& obstacles,
                                                        std::span<const Eigen::Vector3d> froms,
                                                        const Eigen::Vector3d& to, double radius,
-                                                       double z_low, double z_high);
+                                                       double z_low, double z_high,
+                                                       double room = 0.0, double inset = 0.0);
 
 }  // namespace kinolab
