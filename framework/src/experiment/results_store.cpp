@@ -228,9 +228,7 @@ void refuseForeignDatabase(const std::string& path) {
   uri += logged ? "?mode=ro" : "?immutable=1";
   const int opened =
       sqlite3_open_v2(uri.c_str(), &db, SQLITE_OPEN_READONLY | SQLITE_OPEN_URI, nullptr);
-  // A lock left by a process on its way out (a killed runner's worker) is waited for, as the
-  // store itself waits.
-  if (opened == SQLITE_OK) sqlite3_busy_timeout(db, 10000);
+  if (opened == SQLITE_OK) sqlite3_busy_timeout(db, 10000);  // as the store: a dying worker's lock
   std::set<std::string> tables;
   std::string problem;
   bool has_hash = false;
