@@ -27,16 +27,20 @@ bool isRegularFile(const std::string& path) {
   return std::filesystem::is_regular_file(path, error) && !error;
 }
 
-std::string installedDataDirectory() {
-  namespace fs = std::filesystem;
+std::string frameworkLibraryDirectory() {
   Dl_info info{};
-  if (dladdr(reinterpret_cast<void*>(&installedDataDirectory), &info) == 0 || !info.dli_fname) {
+  if (dladdr(reinterpret_cast<void*>(&frameworkLibraryDirectory), &info) == 0 || !info.dli_fname) {
     return "";
   }
+  std::error_code error;
+  return std::filesystem::absolute(info.dli_fname, error).parent_path().string();
+}
+
+std::string installedDataDirectory() {
+  namespace fs = std::filesystem;
   // <prefix>/lib[/<multiarch>]/libkinolab_framework.so -> <prefix>/share/kinolab
   std::error_code error;
-  for (fs::path up = fs::absolute(info.dli_fname, error).parent_path(); up.has_relative_path();
-       up = up.parent_path()) {
+  for (fs::path up = frameworkLibraryDirectory(); up.has_relative_path(); up = up.parent_path()) {
     if (up.filename() == "lib") {
       const fs::path share = up.parent_path() / "share/kinolab";
       return fs::is_directory(share, error) ? share.string() : "";

@@ -2,10 +2,10 @@
 
 #include <dlfcn.h>
 
-#include <filesystem>
 #include <string>
 
 #include "kinolab/core/error.hpp"
+#include "kinolab/core/files.hpp"
 
 namespace kinolab {
 namespace {
@@ -15,13 +15,9 @@ using MakeBodyCollision = BodyCollision* (*)(const World&, double);
 /// kinolab_modules/kinolab_fcl_body.so beside this library (the build tree's framework/ or the
 /// installed lib/), loaded once, never unloaded.
 MakeBodyCollision loadModule() {
-  Dl_info info{};
-  if (dladdr(reinterpret_cast<void*>(&makeBodyCollision), &info) == 0 || !info.dli_fname) {
-    throw PluginError("cannot find where the kinolab framework library lies");
-  }
-  const std::string path =
-      (std::filesystem::path(info.dli_fname).parent_path() / "kinolab_modules/kinolab_fcl_body.so")
-          .string();
+  const std::string directory = frameworkLibraryDirectory();
+  if (directory.empty()) throw PluginError("cannot find where the kinolab framework library lies");
+  const std::string path = directory + "/kinolab_modules/kinolab_fcl_body.so";
   void* handle = dlopen(path.c_str(), RTLD_NOW | RTLD_LOCAL);
   if (handle == nullptr) {
     const char* why = dlerror();

@@ -189,18 +189,12 @@ void stampVerified(const std::string& path, const FileIdentity& identity, std::u
   std::memcpy(stamp.magic, kStampMagic, sizeof(kStampMagic));
   stamp.identity = identity;
   stamp.checksum = checksum;
-  const std::string target = path + ".verified";
-  const std::string temporary = target + ".tmp" + std::to_string(::getpid());
-  std::FILE* out = std::fopen(temporary.c_str(), "wb");
-  if (out == nullptr) return;
-  const bool written = std::fwrite(&stamp, sizeof(stamp), 1, out) == 1;
-  std::error_code error;
-  if (std::fclose(out) != 0 || !written) {
-    std::filesystem::remove(temporary, error);
-    return;
+  try {
+    writeFileAtomically(path + ".verified",
+                        std::string(reinterpret_cast<const char*>(&stamp), sizeof(stamp)));
+  } catch (const FileError&) {
+    // Unwritable: the next load computes the checksum again.
   }
-  std::filesystem::rename(temporary, target, error);
-  if (error) std::filesystem::remove(temporary, error);
 }
 
 /// A cache file mapped read-only (unmapped when the last owner lets go), its identity, its

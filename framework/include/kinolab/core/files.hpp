@@ -36,6 +36,10 @@ class OutputFile {
 /// Throws FileError naming the path when it cannot.
 void writeFileAtomically(const std::string& path, const std::string& text);
 
+/// The folder of the framework library this code runs in (the build tree's framework/ or the
+/// installed lib/), absolute; "" when the library's path cannot be found.
+std::string frameworkLibraryDirectory();
+
 /// <prefix>/share/kinolab of the installed framework library this code runs in (found from
 /// the library's own path), or "" when it does not run from an installation.
 std::string installedDataDirectory();
