@@ -701,5 +701,39 @@ TEST(EsdfTest, AnExactDistanceRunIsExactDistanceBitForBitWithLessWork) {
   }
 }
 
+/// Over a floor and beside a solid pillar, a gather keeps only the cubes that can be nearest
+/// (those under the block, the pillar's face towards it), not every first cube of a column in
+/// reach, and the distances stay exactDistance()'s bit for bit.
+TEST(EsdfTest, AnExactDistanceRunKeepsNoCubeThatAnotherIsNeverFartherThan) {
+  const Eigen::Vector3i dims(40, 40, 30);
+  VoxelGrid grid(Box{Eigen::Vector3d::Zero(), dims.cast<double>() * 0.1}, 0.1);
+  for (int x = 0; x < dims.x(); ++x)
+    for (int y = 0; y < dims.y(); ++y) grid.setOccupied(grid.index(x, y, 0), true);
+  for (const Esdf& field : {Esdf(grid), Esdf::truncated(grid, 2.0)}) {
+    ExactDistanceRun run(field, 2.0);
+    for (double x = 1.01; x < 3.0; x += 0.025) {  // 1.5 m above the floor, 14 voxels clear
+      const Eigen::Vector3d point(x, 2.02, 1.5);
+      ASSERT_EQ(run(point), field.exactDistance(point, 2.0)) << point.transpose();
+    }
+    ASSERT_GT(run.gathers(), 0u);
+    // A block of 2 x 2 voxels has 4 floor cubes under it; a column's first cube alone would
+    // keep every floor cube within reach (over a hundred).
+    EXPECT_EQ(run.cubesGathered(), 4 * run.gathers());
+  }
+  // A solid pillar of 6 x 6 voxels: from points level with its middle, beside it along x, only
+  // the face's cubes towards the block remain (at most 2 rows of the 6 x 6 across the block's
+  // heights, and its edges), with the floor's cubes below.
+  for (int x = 20; x < 26; ++x)
+    for (int y = 17; y < 23; ++y)
+      for (int z = 1; z < dims.z(); ++z) grid.setOccupied(grid.index(x, y, z), true);
+  const Esdf field(grid);
+  ExactDistanceRun run(field, 2.0);
+  for (double x = 0.5; x < 1.9; x += 0.025) {
+    const Eigen::Vector3d point(x, 2.02, 1.5);
+    ASSERT_EQ(run(point), field.exactDistance(point, 2.0)) << point.transpose();
+  }
+  EXPECT_LE(run.cubesGathered(), 20 * run.gathers());
+}
+
 }  // namespace
 }  // namespace kinolab

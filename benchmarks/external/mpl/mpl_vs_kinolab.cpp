@@ -11,11 +11,15 @@
 //
 //   mpl_vs_kinolab EXPERIMENT [--planner ID] [--threads 1,2] [--rounds 3] [--repeats 3]
 //                  [--csv FILE]
+//   mpl_vs_kinolab EXPERIMENT --write-map FILE
+// The second writes the world's occupancy for mpl_plan_query (MPL's own process) and the
+// queries, one "start goal" line each, to FILE.queries, then exits.
 #include <mpl_planner/planner/map_planner.h>
 
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
 #include <fstream>
 #include <memory>
@@ -38,6 +42,7 @@ struct Options {
   int rounds = 3;
   int repeats = 3;
   std::string csv;
+  std::string write_map;
 };
 
 // One plan's outcome.
@@ -120,6 +125,8 @@ Options parse(int argc, char** argv) {
       options.repeats = std::stoi(value());
     } else if (arg == "--csv") {
       options.csv = value();
+    } else if (arg == "--write-map") {
+      options.write_map = value();
     } else if (options.experiment.empty()) {
       options.experiment = arg;
     } else {
@@ -133,20 +140,51 @@ Options parse(int argc, char** argv) {
   return options;
 }
 
+// The occupancy of `grid` in MPL's layout: voxels x fastest (kinolab's z fastest), 100
+// occupied, 0 free.
+MPL::Tmap mplMap(const kinolab::VoxelGrid& grid) {
+  const Eigen::Vector3i dims = grid.dims();
+  MPL::Tmap map(grid.size(), 0);
+  for (int z = 0; z < dims.z(); ++z)
+    for (int y = 0; y < dims.y(); ++y)
+      for (int x = 0; x < dims.x(); ++x)
+        if (grid.occupied(grid.index(x, y, z))) map[x + dims.x() * (y + dims.y() * z)] = 100;
+  return map;
+}
+
+// `grid` for mpl_plan_query (its format there) and the queries beside it, FILE.queries.
+void writeMap(const std::string& path, const kinolab::VoxelGrid& grid,
+              const std::vector<kinolab::PlanningQuery>& queries) {
+  const MPL::Tmap map = mplMap(grid);
+  const Eigen::Vector3d origin = grid.origin();
+  const Eigen::Vector3i dims = grid.dims();
+  const double header_origin[3] = {origin.x(), origin.y(), origin.z()};
+  const std::int32_t header_dims[3] = {dims.x(), dims.y(), dims.z()};
+  const double resolution = grid.resolution();
+  std::ofstream out(path, std::ios::binary);
+  out.write("MPLMAP1\n", 8);
+  out.write(reinterpret_cast<const char*>(header_origin), sizeof header_origin);
+  out.write(reinterpret_cast<const char*>(header_dims), sizeof header_dims);
+  out.write(reinterpret_cast<const char*>(&resolution), sizeof resolution);
+  out.write(reinterpret_cast<const char*>(map.data()), static_cast<std::streamsize>(map.size()));
+  std::ofstream lines(path + ".queries");
+  lines.precision(17);
+  for (const kinolab::PlanningQuery& query : queries) {
+    const Eigen::Vector3d s = query.start.col(0);
+    const Eigen::Vector3d g = query.goal;
+    lines << s.x() << ',' << s.y() << ',' << s.z() << ' ' << g.x() << ',' << g.y() << ',' << g.z()
+          << '\n';
+  }
+  if (!out || !lines) throw std::runtime_error("cannot write " + path);
+}
+
 // MPL's planner set up for the problem: the occupancy of `world`, the planner's parameters.
 class MplSide {
  public:
   MplSide(const kinolab::World& world, const kinolab::ParameterSet& p) {
     const kinolab::VoxelGrid& grid = world.grid();
-    const Eigen::Vector3i dims = grid.dims();
-    // MPL numbers voxels x fastest; kinolab z fastest. 100 occupied, 0 free.
-    MPL::Tmap map(grid.size(), 0);
-    for (int z = 0; z < dims.z(); ++z)
-      for (int y = 0; y < dims.y(); ++y)
-        for (int x = 0; x < dims.x(); ++x)
-          if (grid.occupied(grid.index(x, y, z))) map[x + dims.x() * (y + dims.y() * z)] = 100;
     auto util = std::make_shared<MPL::VoxelMapUtil>();
-    util->setMap(grid.origin(), dims, map, grid.resolution());
+    util->setMap(grid.origin(), grid.dims(), mplMap(grid), grid.resolution());
 
     if (p.integer("order") != 2 || p.real("weight_length") != 0 || p.real("weight_obstacle") != 0 ||
         p.real("robot_radius") != 0) {
@@ -244,6 +282,10 @@ int main(int argc, char** argv) try {
                          .world;
   const std::vector<kinolab::PlanningQuery> queries =
       variant.queries.make(*world, world_spec.id, experiment.seed);
+  if (!options.write_map.empty()) {
+    writeMap(options.write_map, world->grid(), queries);
+    return 0;
+  }
 
   const auto entry =
       std::find_if(variant.planners.begin(), variant.planners.end(),

@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <type_traits>
+#include <vector>
 
 #include "kinolab/world/esdf.hpp"
 
@@ -244,60 +246,159 @@ struct BlockShell {
   double inner2;
 };
 
+/// Along an axis, the gap in voxels between the slab [low, high) and the voxels [first, last).
+double rangeGap(std::int64_t low, std::int64_t high, std::int64_t first, std::int64_t last) {
+  return last <= low ? static_cast<double>(low - last)
+                     : (first >= high ? static_cast<double>(first - high) : 0.0);
+}
+
 /// The cubes of `shell` that can be nearest to a point of its block, over a field's z-rows
-/// (`Rows`: DenseRows or BrickRows), appended to `cubes` (x, y, z each). Per column: in the
-/// block's heights every occupied cube; beyond them the first occupied cube each way, nearer
-/// than those past it to every point of the block.
+/// (`Rows`: DenseRows or BrickRows), appended to `cubes` (x, y, z each). Visits the 8^3 bricks
+/// the shell meets, skipping those `hasCube(bx, by, bz)` says hold no occupied voxel, and in
+/// the others every voxel within reach and outside the free ball. An occupied cube is kept
+/// unless its neighbour one voxel towards the block, along an axis on which it lies outside the
+/// block's slab, is occupied too: along that axis the neighbour's gap to every point of the
+/// block is at most the cube's (the other two gaps equal), so it is never farther, in exact or
+/// rounded arithmetic, and it (or a cube never farther than it) is kept. Over a floor this
+/// keeps the cubes under the block alone; of a solid column, its first cube each way.
 template <typename Rows>
-void gatherShell(const Rows& rows, const BlockShell& shell, std::vector<std::int32_t>& cubes) {
-  const auto add = [&](std::int64_t x, std::int64_t y, std::int64_t z) {
+struct ShellGather {
+  const Rows& rows;
+  const BlockShell& shell;
+  std::vector<std::int32_t>& cubes;
+
+  bool occupied(std::int64_t x, std::int64_t y, std::int64_t z) const {
+    return rows(x, y)[z] < 0.0f;
+  }
+
+  /// Keeps the occupied cube (x, y, z) unless a neighbour towards the block is occupied.
+  void keep(std::int64_t x, std::int64_t y, std::int64_t z) {
+    const std::int64_t* low = shell.low;
+    const std::int64_t* high = shell.high;
+    const std::int64_t tx = x < low[0] ? x + 1 : (x >= high[0] ? x - 1 : x);
+    const std::int64_t ty = y < low[1] ? y + 1 : (y >= high[1] ? y - 1 : y);
+    const std::int64_t tz = z < low[2] ? z + 1 : (z >= high[2] ? z - 1 : z);
+    if ((tx != x && occupied(tx, y, z)) || (ty != y && occupied(x, ty, z)) ||
+        (tz != z && occupied(x, y, tz))) {
+      return;
+    }
     cubes.insert(cubes.end(), {static_cast<std::int32_t>(x), static_cast<std::int32_t>(y),
                                static_cast<std::int32_t>(z)});
-  };
-  const std::int64_t* low = shell.low;
-  const std::int64_t* high = shell.high;
-  const std::int64_t mz = shell.middle[2];
-  const auto span = static_cast<std::int64_t>(std::sqrt(shell.reach2)) + 1;
-  for (std::int64_t x = std::max<std::int64_t>(0, low[0] - span);
-       x < std::min(shell.dims[0], high[0] + span); ++x) {
-    const double bx2 = slabGap(low[0], high[0], x) * slabGap(low[0], high[0], x);
-    if (bx2 > shell.reach2) continue;
-    const double hx2 = centreGap(x - shell.middle[0]) * centreGap(x - shell.middle[0]);
-    for (std::int64_t y = std::max<std::int64_t>(0, low[1] - span);
-         y < std::min(shell.dims[1], high[1] + span); ++y) {
-      const double bxy2 = bx2 + slabGap(low[1], high[1], y) * slabGap(low[1], high[1], y);
-      if (bxy2 > shell.reach2) continue;
-      const double hxy2 = hx2 + centreGap(y - shell.middle[1]) * centreGap(y - shell.middle[1]);
-      // Heights within reach: k more each way than the block's (one to spare for rounding).
-      const auto k = static_cast<std::int64_t>(std::sqrt(shell.reach2 - bxy2)) + 1;
-      const std::int64_t bottom = std::max<std::int64_t>(0, low[2] - 1 - k);
-      const std::int64_t top = std::min(shell.dims[2] - 1, high[2] + k);
-      // The cubes meeting the free ball, (below, above), are skipped.
-      std::int64_t below = mz;
-      std::int64_t above = mz + 1;
-      if (hxy2 < shell.inner2) {
-        const double free_z = std::sqrt(shell.inner2 - hxy2);
-        below = std::min(mz, floorInt(static_cast<double>(mz) - 0.5 - free_z));
-        above = std::max(mz + 1, ceilInt(static_cast<double>(mz) + 0.5 + free_z));
+  }
+
+  /// Column (x, y) over the heights [z0, z1) of one brick, `bxy2` its squared gap to the block.
+  /// Within the block's heights every cube outside the free ball (below, above); beyond them
+  /// the first occupied cube each way within reach (those past it are never nearer), from the
+  /// free ball's edge.
+  void column(std::int64_t x, std::int64_t y, std::int64_t z0, std::int64_t z1, double bxy2) {
+    const std::int64_t* low = shell.low;
+    const std::int64_t* high = shell.high;
+    const std::int64_t* middle = shell.middle;
+    const double hxy2 = centreGap(x - middle[0]) * centreGap(x - middle[0]) +
+                        centreGap(y - middle[1]) * centreGap(y - middle[1]);
+    std::int64_t below = high[2];
+    std::int64_t above = low[2] - 1;
+    if (hxy2 < shell.inner2) {
+      const double free_z = std::sqrt(shell.inner2 - hxy2);
+      below = floorInt(static_cast<double>(middle[2]) - 0.5 - free_z);
+      above = ceilInt(static_cast<double>(middle[2]) + 0.5 + free_z);
+    }
+    const auto row = rows(x, y);
+    for (std::int64_t z = std::min({z1 - 1, low[2] - 1, below}); z >= z0; --z) {
+      const auto g = static_cast<double>(low[2] - 1 - z);
+      if (bxy2 + g * g > shell.reach2) break;
+      if (row[z] < 0.0f) {
+        keep(x, y, z);
+        break;
       }
-      const auto row = rows(x, y);
-      for (std::int64_t z = low[2]; z < high[2]; ++z) {
-        if ((z <= below || z >= above) && row[z] < 0.0f) add(x, y, z);
+    }
+    for (std::int64_t z = std::max(z0, low[2]); z < std::min(z1, high[2]); ++z) {
+      if ((z <= below || z >= above) && row[z] < 0.0f) keep(x, y, z);
+    }
+    for (std::int64_t z = std::max({z0, high[2], above}); z < z1; ++z) {
+      const auto g = static_cast<double>(z - high[2]);
+      if (bxy2 + g * g > shell.reach2) break;
+      if (row[z] < 0.0f) {
+        keep(x, y, z);
+        break;
       }
-      for (std::int64_t z = std::min(low[2] - 1, below); z >= bottom; --z) {
-        if (row[z] < 0.0f) {
-          add(x, y, z);
-          break;
-        }
-      }
-      for (std::int64_t z = std::max(high[2], above); z <= top; ++z) {
-        if (row[z] < 0.0f) {
-          add(x, y, z);
-          break;
+    }
+  }
+
+  /// The whole shell, brick by brick; `hasCube(bx, by, bz)` false skips a brick.
+  template <typename HasCube>
+  void run(const HasCube& hasCube) {
+    const std::int64_t* low = shell.low;
+    const std::int64_t* high = shell.high;
+    constexpr std::int64_t kSide = VoxelGrid::kBrick;
+    const auto span = static_cast<std::int64_t>(std::sqrt(shell.reach2)) + 1;
+    std::int64_t first[3];
+    std::int64_t last[3];  // exclusive
+    for (int axis = 0; axis < 3; ++axis) {
+      first[axis] = std::max<std::int64_t>(0, low[axis] - span);
+      last[axis] = std::min(shell.dims[axis], high[axis] + span);
+    }
+    // Brick b's voxels along `axis` within [first, last), and their gap to the block.
+    const auto range = [&](int axis, std::int64_t b, std::int64_t& from, std::int64_t& to) {
+      from = std::max(first[axis], b * kSide);
+      to = std::min(last[axis], b * kSide + kSide);
+      return rangeGap(low[axis], high[axis], from, to);
+    };
+    std::int64_t x0, x1, y0, y1, z0, z1;
+    for (std::int64_t bx = first[0] / kSide; bx * kSide < last[0]; ++bx) {
+      const double gx2 = range(0, bx, x0, x1) * range(0, bx, x0, x1);
+      if (gx2 > shell.reach2) continue;
+      for (std::int64_t by = first[1] / kSide; by * kSide < last[1]; ++by) {
+        const double gxy2 = gx2 + range(1, by, y0, y1) * range(1, by, y0, y1);
+        if (gxy2 > shell.reach2) continue;
+        for (std::int64_t bz = first[2] / kSide; bz * kSide < last[2]; ++bz) {
+          const double gz = range(2, bz, z0, z1);
+          if (gxy2 + gz * gz > shell.reach2 || !hasCube(bx, by, bz)) continue;
+          for (std::int64_t x = x0; x < x1; ++x) {
+            const double bx2 = slabGap(low[0], high[0], x) * slabGap(low[0], high[0], x);
+            for (std::int64_t y = y0; y < y1; ++y) {
+              const double bxy2 = bx2 + slabGap(low[1], high[1], y) * slabGap(low[1], high[1], y);
+              if (bxy2 + gz * gz <= shell.reach2) column(x, y, z0, z1, bxy2);
+            }
+          }
         }
       }
     }
   }
+};
+
+/// Whether the 8^3 brick (bx, by, bz) of a field's z-rows (`Rows`) holds an occupied voxel;
+/// `inverse_resolution` the field's.
+template <typename Rows>
+bool brickHoldsCube(const Rows& rows, const std::int64_t dims[3], double inverse_resolution,
+                    std::int64_t bx, std::int64_t by, std::int64_t bz) {
+  constexpr std::int64_t kSide = VoxelGrid::kBrick;
+  const std::int64_t first[3] = {bx * kSide, by * kSide, bz * kSide};
+  std::int64_t last[3];  // exclusive
+  std::int64_t middle[3];
+  double far2 = 0.0;
+  for (int axis = 0; axis < 3; ++axis) {
+    last[axis] = std::min(dims[axis], first[axis] + kSide);
+    middle[axis] = (first[axis] + last[axis]) / 2;
+    const double far = std::max(static_cast<double>(middle[axis] - first[axis]) + 0.5,
+                                static_cast<double>(last[axis] - middle[axis]) - 0.5);
+    far2 += far * far;
+  }
+  // The middle voxel's value bounds the distance from its centre to every cube: beyond the
+  // brick's farthest corner, no cube lies in the brick.
+  const float value = rows(middle[0], middle[1])[middle[2]];
+  if (value < 0.0f) return true;
+  const double centre = static_cast<double>(value) * inverse_resolution;
+  if (centre > std::sqrt(far2) + floatSlack(centre)) return false;
+  for (std::int64_t x = first[0]; x < last[0]; ++x) {
+    for (std::int64_t y = first[1]; y < last[1]; ++y) {
+      const auto row = rows(x, y);
+      for (std::int64_t z = first[2]; z < last[2]; ++z) {
+        if (row[z] < 0.0f) return true;
+      }
+    }
+  }
+  return false;
 }
 
 }  // namespace
@@ -332,6 +433,29 @@ double ExactDistanceRun::operator()(const Eigen::Vector3d& point) {
   if (best2 == INFINITY) return limit_;
   if (best2 == 0.0) return -0.5 * field.resolution_;  // in (or on) a cube
   return std::min(std::sqrt(best2) * field.resolution_, limit_);
+}
+
+template <typename Scan>
+bool ExactDistanceRun::brickHasCube(std::int64_t bx, std::int64_t by, std::int64_t bz,
+                                    const Scan& scan) {
+  constexpr std::int64_t kSide = VoxelGrid::kBrick;
+  const auto bricks = [&](int axis) { return (esdf_.dims_[axis] + kSide - 1) / kSide; };
+  const auto index = static_cast<std::uint64_t>((bx * bricks(1) + by) * bricks(2) + bz);
+  // Direct-mapped: a slot holds (index + 1) * 2 plus the answer; 0 is empty.
+  if (brick_cache_.empty()) brick_cache_.assign(kBrickCacheSlots, 0);
+  std::uint64_t& slot = brick_cache_[index % kBrickCacheSlots];
+  if (slot >> 1 == index + 1) return (slot & 1) != 0;
+  ++bricks_read_;
+  // A truncated field's shared brick is all +T (no cube) or all -T (all cubes).
+  int shared = 0;
+  const bool own = !esdf_.brick_table_ ||
+                   esdf_.brickCodes(static_cast<std::size_t>(bx) * esdf_.brick_strides_[0] +
+                                        static_cast<std::size_t>(by) * esdf_.brick_strides_[1] +
+                                        static_cast<std::size_t>(bz),
+                                    shared) != nullptr;
+  const bool found = own ? scan() : shared < 0;
+  slot = ((index + 1) << 1) | (found ? 1u : 0u);
+  return found;
 }
 
 void ExactDistanceRun::gather(const std::int64_t block[3]) {
@@ -389,17 +513,24 @@ void ExactDistanceRun::gather(const std::int64_t block[3]) {
   const double d = static_cast<double>(largest) * field.inverse_resolution_;
   const double inner = std::max(0.0, d - floatSlack(d));
   shell.inner2 = inner * inner;
+  const auto gatherOver = [&](const auto& rows) {
+    ShellGather<std::decay_t<decltype(rows)>>{rows, shell, cubes_}.run(
+        [&](std::int64_t bx, std::int64_t by, std::int64_t bz) {
+          return brickHasCube(bx, by, bz, [&] {
+            return brickHoldsCube(rows, shell.dims, field.inverse_resolution_, bx, by, bz);
+          });
+        });
+  };
   if (field.brick_table_) {
-    gatherShell(BrickRows{field.brick_table_,
-                          {field.brick_strides_[0], field.brick_strides_[1]},
-                          field.code_values_},
-                shell, cubes_);
+    gatherOver(BrickRows{field.brick_table_,
+                         {field.brick_strides_[0], field.brick_strides_[1]},
+                         field.code_values_});
   } else {
-    gatherShell(DenseRows{field.values_.data(),
-                          {static_cast<std::int64_t>(field.strides_[0]),
-                           static_cast<std::int64_t>(field.strides_[1])}},
-                shell, cubes_);
+    gatherOver(DenseRows{field.values_.data(),
+                         {static_cast<std::int64_t>(field.strides_[0]),
+                          static_cast<std::int64_t>(field.strides_[1])}});
   }
+  cubes_gathered_ += cubes_.size() / 3;
 }
 
 }  // namespace kinolab

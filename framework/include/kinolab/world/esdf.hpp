@@ -375,9 +375,18 @@ class ExactDistanceRun {
   double operator()(const Eigen::Vector3d& point);
   /// Blocks whose cubes were gathered (a count of work, for tests and benchmarks).
   std::size_t gathers() const { return gathers_; }
+  /// Cubes kept by all gathers (each tested at every point of its block).
+  std::size_t cubesGathered() const { return cubes_gathered_; }
+  /// Bricks of 8^3 voxels whose occupancy was read (each at most once while it stays cached).
+  std::size_t bricksRead() const { return bricks_read_; }
 
  private:
   void gather(const std::int64_t block[3]);
+  /// Whether the 8^3 brick (bx, by, bz) holds an occupied voxel: `scan()`'s answer,
+  /// remembered in a small cache.
+  template <typename Scan>
+  bool brickHasCube(std::int64_t bx, std::int64_t by, std::int64_t bz, const Scan& scan);
+  static constexpr std::size_t kBrickCacheSlots = 4096;
 
   const Esdf& esdf_;
   double limit_;
@@ -385,6 +394,9 @@ class ExactDistanceRun {
   bool usable_ = false;                   // the block's gathered cubes answer its points
   std::vector<std::int32_t> cubes_;       // x, y, z of each gathered cube
   std::size_t gathers_ = 0;
+  std::size_t cubes_gathered_ = 0;
+  std::size_t bricks_read_ = 0;
+  std::vector<std::uint64_t> brick_cache_;  // brickHasCube()'s answers, direct-mapped
 };
 
 /// An Esdf kept up to date while its grid's occupancy changes (a moving vehicle's planning

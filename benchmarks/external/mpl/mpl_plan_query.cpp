@@ -1,0 +1,101 @@
+// MPL's own process for one query of MPL's benchmark problem: read the map, plan, print, exit;
+// the counterpart of one `kinolab plan` process (whole_process.py runs both, interleaved).
+//
+// The map is the binary file `mpl_vs_kinolab --write-map` writes (the world's occupancy in
+// MPL's layout, read with one fread: MPL's fastest way in, its own examples parse YAML). The
+// problem is the benchmark's: order 2, tau 1 s, the 27 controls {-1, 0, 1}^3 (a_max 1), v_max
+// 2, cost J + 10 T, epsilon 1, goal tolerance 0.01, start at rest as MPL's examples.
+//
+//   mpl_plan_query MAP START GOAL        (START, GOAL: x,y,z in metres)
+// Prints one line: solved, cost, expansions, planning ms. Links MPL alone (no kinolab).
+#include <mpl_planner/planner/map_planner.h>
+
+#include <chrono>
+#include <cstdint>
+#include <cstdio>
+#include <cstring>
+#include <memory>
+#include <sstream>
+#include <stdexcept>
+#include <string>
+
+namespace {
+
+Vec3f point(const char* text) {
+  Vec3f p;
+  char comma1 = 0;
+  char comma2 = 0;
+  std::istringstream in(text);
+  if (!(in >> p.x() >> comma1 >> p.y() >> comma2 >> p.z()) || comma1 != ',' || comma2 != ',')
+    throw std::runtime_error(std::string("not a point x,y,z: ") + text);
+  return p;
+}
+
+// The map file: "MPLMAP1\n", origin (3 doubles), dims (3 int32), resolution (double), then the
+// voxels x fastest, one signed char each (100 occupied, 0 free).
+std::shared_ptr<MPL::VoxelMapUtil> readMap(const char* path) {
+  std::unique_ptr<FILE, int (*)(FILE*)> file(std::fopen(path, "rb"), &std::fclose);
+  if (!file) throw std::runtime_error(std::string(path) + ": cannot open");
+  char magic[8];
+  double origin[3];
+  std::int32_t dims[3];
+  double resolution = 0;
+  if (std::fread(magic, 1, 8, file.get()) != 8 || std::memcmp(magic, "MPLMAP1\n", 8) != 0 ||
+      std::fread(origin, sizeof origin, 1, file.get()) != 1 ||
+      std::fread(dims, sizeof dims, 1, file.get()) != 1 ||
+      std::fread(&resolution, sizeof resolution, 1, file.get()) != 1 || dims[0] <= 0 ||
+      dims[1] <= 0 || dims[2] <= 0 || !(resolution > 0))
+    throw std::runtime_error(std::string(path) + ": not a map of mpl_vs_kinolab --write-map");
+  MPL::Tmap map(static_cast<std::size_t>(dims[0]) * dims[1] * dims[2]);
+  if (std::fread(map.data(), 1, map.size(), file.get()) != map.size())
+    throw std::runtime_error(std::string(path) + ": truncated");
+  auto util = std::make_shared<MPL::VoxelMapUtil>();
+  util->setMap(Vec3f(origin[0], origin[1], origin[2]), Vec3i(dims[0], dims[1], dims[2]), map,
+               resolution);
+  return util;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) try {
+  if (argc != 4) throw std::runtime_error("usage: mpl_plan_query MAP START GOAL");
+  const auto util = readMap(argv[1]);
+  vec_E<VecDf> controls;
+  for (int i = -1; i <= 1; ++i)
+    for (int j = -1; j <= 1; ++j)
+      for (int k = -1; k <= 1; ++k) controls.push_back(Vec3f(i, j, k));
+  MPL::VoxelMapPlanner planner(false);
+  planner.setMapUtil(util);
+  planner.setVmax(2);
+  planner.setAmax(1);
+  planner.setDt(1);
+  planner.setU(controls);
+  planner.setW(10);
+  planner.setEpsilon(1);
+  planner.setTol(0.01);
+
+  Waypoint3D start;
+  start.pos = point(argv[2]);
+  start.vel = Vec3f::Zero();
+  start.acc = Vec3f::Zero();
+  start.jrk = Vec3f::Zero();
+  start.yaw = 0;
+  start.use_pos = true;
+  start.use_vel = true;
+  start.use_acc = false;
+  start.use_jrk = false;
+  start.use_yaw = false;
+  Waypoint3D goal = start;
+  goal.pos = point(argv[3]);
+
+  const auto begin = std::chrono::steady_clock::now();
+  const bool solved = planner.plan(start, goal);
+  const auto end = std::chrono::steady_clock::now();
+  std::printf("solved %d cost %.6f expansions %d planning_ms %.3f\n", solved ? 1 : 0,
+              solved ? planner.getTrajCost() : -1.0, planner.getExpandedNum(),
+              std::chrono::duration<double, std::milli>(end - begin).count());
+  return solved ? 0 : 2;
+} catch (const std::exception& error) {
+  std::fprintf(stderr, "mpl_plan_query: %s\n", error.what());
+  return 1;
+}
