@@ -716,13 +716,15 @@ TEST(EsdfTest, AnExactDistanceRunKeepsNoCubeThatAnotherIsNeverFartherThan) {
       ASSERT_EQ(run(point), field.exactDistance(point, 2.0)) << point.transpose();
     }
     ASSERT_GT(run.gathers(), 0u);
-    // A block of 2 x 2 voxels has 4 floor cubes under it; a column's first cube alone would
-    // keep every floor cube within reach (over a hundred).
-    EXPECT_EQ(run.cubesGathered(), 4 * run.gathers());
+    // A block has kBlock^2 floor cubes under it; a column's first cube alone would keep every
+    // floor cube within reach (hundreds).
+    constexpr auto kUnder =
+        static_cast<std::size_t>(ExactDistanceRun::kBlock * ExactDistanceRun::kBlock);
+    EXPECT_EQ(run.cubesGathered(), kUnder * run.gathers());
   }
   // A solid pillar of 6 x 6 voxels: from points level with its middle, beside it along x, only
-  // the face's cubes towards the block remain (at most 2 rows of the 6 x 6 across the block's
-  // heights, and its edges), with the floor's cubes below.
+  // the face's cubes towards the block remain (one column of the face's 6 per height of the
+  // block, and its edges), with the floor's cubes below the block.
   for (int x = 20; x < 26; ++x)
     for (int y = 17; y < 23; ++y)
       for (int z = 1; z < dims.z(); ++z) grid.setOccupied(grid.index(x, y, z), true);
@@ -732,7 +734,7 @@ TEST(EsdfTest, AnExactDistanceRunKeepsNoCubeThatAnotherIsNeverFartherThan) {
     const Eigen::Vector3d point(x, 2.02, 1.5);
     ASSERT_EQ(run(point), field.exactDistance(point, 2.0)) << point.transpose();
   }
-  EXPECT_LE(run.cubesGathered(), 20 * run.gathers());
+  EXPECT_LE(run.cubesGathered(), 60 * run.gathers());
 }
 
 }  // namespace

@@ -358,18 +358,21 @@ class Esdf {
 };
 
 /// Esdf::exactDistance(point, limit) at points that come in runs (a trajectory's samples, a
-/// quarter voxel apart): for each block of 2 x 2 x 2 voxels met, the occupied cubes that can be
+/// quarter voxel apart): for each block of kBlock^3 voxels met, the occupied cubes that can be
 /// the nearest to some point of it are gathered once, and a point's distance is the least over
 /// them, the same value as exactDistance() bit for bit. A voxel whose centre value is D has its
 /// nearest cube within D + (its centre's distance to the block's farthest corner) of every
-/// point of the block, so the gathered cubes are those that near the block (per column of the
-/// grid, beyond the block's heights, only the first occupied one above and below, which is
-/// nearer than the others to every point of the block), skipping the ball of radius D about
-/// the centre of the block's voxel of largest D, known free. Points outside the grid, and
-/// blocks whose values bound nothing (no obstacle in the grid, a truncated field at its
-/// truncation) take exactDistance() itself.
+/// point of the block, so the gathered cubes are those that near the block, skipping the ball
+/// of radius D about the centre of the block's voxel of largest D (known free) and the 8^3
+/// bricks that hold no cube. Of those, a cube is kept only if no neighbour one voxel towards the
+/// block is occupied (such a neighbour is never farther from any point of the block): over a
+/// floor, the cubes under the block; of a solid column, its first cube each way. Points outside
+/// the grid, and blocks whose values bound nothing (no obstacle in the grid, a truncated field
+/// at its truncation) take exactDistance() itself.
 class ExactDistanceRun {
  public:
+  /// The side of a block, in voxels.
+  static constexpr std::int64_t kBlock = 4;
   /// `esdf` outlives this object.
   ExactDistanceRun(const Esdf& esdf, double limit) : esdf_(esdf), limit_(limit) {}
   double operator()(const Eigen::Vector3d& point);
