@@ -58,7 +58,16 @@ std::shared_ptr<MPL::VoxelMapUtil> readMap(const char* path) {
 }  // namespace
 
 int main(int argc, char** argv) try {
-  if (argc != 4) throw std::runtime_error("usage: mpl_plan_query MAP START GOAL");
+  const char* usage =
+      "usage: mpl_plan_query MAP START GOAL\n"
+      "  Plans one query of MPL's benchmark problem with MPL alone and prints: solved, cost,\n"
+      "  expansions, planning ms. MAP from `mpl_vs_kinolab EXPERIMENT --write-map MAP`;\n"
+      "  START, GOAL: x,y,z in metres.\n";
+  if (argc == 2 && std::strcmp(argv[1], "--help") == 0) {
+    std::fputs(usage, stdout);
+    return 0;
+  }
+  if (argc != 4) throw std::runtime_error(usage);
   const auto util = readMap(argv[1]);
   vec_E<VecDf> controls;
   for (int i = -1; i <= 1; ++i)

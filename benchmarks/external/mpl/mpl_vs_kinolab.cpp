@@ -21,6 +21,7 @@
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
+#include <cstdlib>
 #include <fstream>
 #include <memory>
 #include <sstream>
@@ -112,7 +113,16 @@ Options parse(int argc, char** argv) {
       if (i + 1 >= argc) throw std::runtime_error(arg + " needs a value");
       return argv[++i];
     };
-    if (arg == "--planner") {
+    if (arg == "--help") {
+      std::fputs(
+          "usage: mpl_vs_kinolab EXPERIMENT [--planner ID] [--threads 1,2] [--rounds 3]\n"
+          "                      [--repeats 3] [--csv FILE]\n"
+          "       mpl_vs_kinolab EXPERIMENT --write-map FILE\n"
+          "MPL against kinolab's planner ID on the experiment's world and queries, in one\n"
+          "process (README.md); --write-map writes the map and queries for mpl_plan_query.\n",
+          stdout);
+      std::exit(0);
+    } else if (arg == "--planner") {
       options.planner = value();
     } else if (arg == "--threads") {
       options.threads.clear();
