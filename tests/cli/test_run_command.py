@@ -171,15 +171,18 @@ def test_resume_after_sigkill_at_random_moments_equals_an_uninterrupted_run(kino
     for attempt in range(40):
         before = stored_runs(database)
         wanted = rng.randint(0 if early < 5 else 1, 3)
-        process = subprocess.Popen([BINARY, "run", str(path), "--out", str(out), "--resume"],
-                                   stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, env=env)
+        errors = tmp_path / f"attempt{attempt}.stderr"
+        with open(errors, "w") as stderr:
+            process = subprocess.Popen(
+                [BINARY, "run", str(path), "--out", str(out), "--resume"],
+                stdout=subprocess.DEVNULL, stderr=stderr, env=env)
         # Wait (polling) for the wanted progress or the end; a hang fails after 10 minutes.
         deadline = time.monotonic() + 600
         while process.poll() is None and stored_runs(database) < before + wanted:
             assert time.monotonic() < deadline, "the runner made no progress"
             time.sleep(0.01)
         if process.poll() is not None:
-            assert process.returncode == 0
+            assert process.returncode == 0, f"attempt {attempt}: {errors.read_text()[-2000:]}"
             break
         process.send_signal(signal.SIGKILL)
         process.wait()
