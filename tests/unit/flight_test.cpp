@@ -1185,7 +1185,7 @@ TEST(TrackerTest, AnAccelerationReversedOnEveryAxisAtOnceIsFollowedAsFastAsTheVe
   EXPECT_GT(turning, FlightSettings().planning_margin) << turning;
   model.max_body_rate = 50.0;  // rad/s
   const double fast = worstError(model);
-  EXPECT_LT(fast, FlightSettings().planning_margin / 2.0) << fast;  // 0.050 m when written
+  EXPECT_LT(fast, FlightSettings().planning_margin / 2.0) << fast;
 }
 
 TEST(TrackerTest, TheThrustConeAndTheBodyRateBoundWhatItFlies) {
