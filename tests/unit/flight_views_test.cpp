@@ -88,11 +88,11 @@ TEST(LevelGuideTest, AWayOverOneWallAndUnderTheNextJoinsTwoLevels) {
         step.head<2>().norm() == 0.0 && std::abs(std::abs(step.z()) - 0.4) < 1e-9;
     EXPECT_TRUE(across || up_or_down) << k << ": " << step.transpose();
   }
-  // Each level changed once on the way up and once down: the shortest joined way climbs
-  // 1.6 m to pass the first wall and 1.6 m down to pass the second, no more.
+  // The shortest joined way climbs from the start's level (0.95 m) to the top one to pass the
+  // first wall and descends to the lowest to pass the second, and changes level no more.
   double climbed = 0.0;
   for (std::size_t k = 2; k + 1 < way.size(); ++k) climbed += std::abs(way[k].z() - way[k - 1].z());
-  EXPECT_NEAR(climbed, 2 * (2.15 - 0.55) - (0.95 - 0.55), 1e-9);  // from the start's 0.95 m
+  EXPECT_NEAR(climbed, (2.15 - 0.95) + (2.15 - 0.55), 1e-9);
   // A wall of the map's whole height closes every level.
   const auto closed =
       worldOf("  - type: box_list\n    boxes: [{min: [9, 0, 0], max: [9.4, 10, 3]}]\n");
