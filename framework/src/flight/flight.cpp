@@ -217,11 +217,7 @@ class FlightLoop {
     const auto begin = std::chrono::steady_clock::now();
     const double z_low = std::min(local.start(2, 0), query_.goal.z()) - 0.5;
     const double z_high = std::max(local.start(2, 0), query_.goal.z()) + 0.5;
-    // The guide starts at the vehicle but at a height within the query's, so that local goals
-    // do not follow a vehicle that sank or rose away from the heights it was asked to fly.
-    Eigen::Vector3d from = local.start.col(0);
-    from.z() = std::clamp(from.z(), std::min(query_.start(2, 0), query_.goal.z()),
-                          std::max(query_.start(2, 0), query_.goal.z()));
+    const Eigen::Vector3d from = local.start.col(0);
     const auto guides = guidesFrom(from, z_low, z_high);
     const std::vector<Eigen::Vector3d>& guide = guides[0];
     result_.time_guide_ms += millisecondsSince(begin);
@@ -286,14 +282,21 @@ class FlightLoop {
     next_replan_ = std::max(next_replan_, t_ + (settled ? settings_.replan_period : dt_));
   }
 
-  /// The guides from `from` and from where the flight last made progress, over the columns
-  /// of [z_low, z_high] or, with no way there, over levelGuides().
+  /// The guides from `from` and from where the flight last made progress: over the columns of
+  /// [z_low, z_high] from heights within the query's (their heights, interpolated, then do not
+  /// follow a vehicle that sank or rose), or with no way there over levelGuides() from where
+  /// the vehicle is (from the query's heights, one that climbed was guided from below, turned).
   std::vector<std::vector<Eigen::Vector3d>> guidesFrom(const Eigen::Vector3d& from, double z_low,
                                                        double z_high) const {
-    const Eigen::Vector3d froms[] = {from, progress_from_};
+    const auto within = [low = std::min(query_.start(2, 0), query_.goal.z()),
+                         high = std::max(query_.start(2, 0), query_.goal.z())](Eigen::Vector3d p) {
+      return Eigen::Vector3d(p.x(), p.y(), std::clamp(p.z(), low, high));
+    };
+    const Eigen::Vector3d band_froms[] = {within(from), within(progress_from_)};
     const double radius = planning_body_.radius;
-    auto guides = map_->guides(froms, query_.goal, radius, z_low, z_high, radius);
+    auto guides = map_->guides(band_froms, query_.goal, radius, z_low, z_high, radius);
     if (!guides[0].empty()) return guides;
+    const Eigen::Vector3d froms[] = {from, progress_from_};
     return levelGuides(*map_, froms, query_.goal, radius, settings_.planning_margin);
   }
 
@@ -545,8 +548,7 @@ class FlightLoop {
   Trajectory intended_;  // the last plan taken, whole: where the camera looks (heading())
   double t_ = 0.0;
   double next_replan_ = 0.0;
-  // Where (a replan's start, at the query's heights) and when the flight last made progress
-  // along the guide (measureProgress()).
+  // Where (a replan's start) and when the flight last made progress (measureProgress()).
   Eigen::Vector3d progress_from_ = Eigen::Vector3d::Zero();
   double best_time_ = 0.0;
   static constexpr double kProgress = 0.5;  // m shorter along the guide: progress

@@ -93,22 +93,13 @@ std::vector<std::vector<Eigen::Vector3d>> levelGuides(const VehicleMap& map,
                                                       const Eigen::Vector3d& goal, double radius,
                                                       double margin) {
   const Box& box = map.bounds();
-  std::vector<std::vector<Eigen::Vector3d>> best(froms.size());
-  double shortest = INFINITY;
+  std::vector<double> levels;
   for (double level = box.min.z() + radius + margin; level <= box.max.z() - radius - margin + 1e-9;
        level += radius) {
-    auto guides = map.guides(froms, goal, radius, level - radius, level + radius, radius);
-    if (guides[0].empty()) continue;
-    for (std::vector<Eigen::Vector3d>& guide : guides) {
-      for (std::size_t k = 1; k + 1 < guide.size(); ++k) guide[k].z() = level;
-    }
-    const double length = wayLength(guides[0], froms[0], goal);
-    if (length < shortest) {
-      shortest = length;
-      best = std::move(guides);
-    }
+    levels.push_back(level);
   }
-  return best;
+  return levelColumnGuides(map.lattice(), map.obstacleColumns(), froms, goal, radius, levels,
+                           radius, map.model().inset);
 }
 
 std::vector<BackOff> backOffMoves(const std::string& status, const Eigen::Vector3d& position,

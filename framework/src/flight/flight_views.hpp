@@ -60,13 +60,13 @@ std::vector<StepBackMove> stepBackMoves(const Eigen::Vector3d& position,
 double yawTowards(const Eigen::Vector3d& from, const Eigen::Vector3d& to);
 
 /// When the known map leaves no way over its columns in the query's heights (the guide's
-/// band: a desk below, a shelf above, anywhere in it, closes a column): the shortest guide
-/// (by wayLength()) over the columns of a band one planning body high (`radius` about a
-/// level), the levels `radius` apart from `margin` + `radius` above the map's floor to as far
-/// below its ceiling, flown at that level and down or up to `goal` at its end; from each of
-/// `froms` as VehicleMap::guides() (with `radius` of room). Empty guides when no level has a
-/// way either. Without it the local goal lay on the straight line to the goal, through what
-/// closed the band, and every replan failed.
+/// band: a desk below, a shelf above, anywhere in it, closes a column): the guides over levels
+/// `radius` apart from `margin` + `radius` above the map's floor to as far below its ceiling,
+/// each a band one planning body high (`radius` about it), joined where a cell is open at two
+/// neighbouring levels (levelColumnGuides(), `radius` of room round each of `froms` and
+/// `goal`, the map's inset kept). Empty guides when the levels leave no way either. Without
+/// them the local goal lay on the straight line to the goal, through what closed the band, and
+/// every replan failed.
 std::vector<std::vector<Eigen::Vector3d>> levelGuides(const VehicleMap& map,
                                                       std::span<const Eigen::Vector3d> froms,
                                                       const Eigen::Vector3d& goal, double radius,

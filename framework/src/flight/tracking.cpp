@@ -24,6 +24,18 @@ Eigen::Vector3d QuadrotorTracker::feasible(const Eigen::Vector3d& command) const
   return thrust - Eigen::Vector3d(0.0, 0.0, kGravity);
 }
 
+Eigen::Vector3d QuadrotorTracker::turned(const Eigen::Vector3d& from, const Eigen::Vector3d& to,
+                                         double angle) {
+  const double length = to.norm();
+  if (from.norm() < 1e-9 || length < 1e-9) return to;
+  const Eigen::Vector3d u = from.normalized();
+  const Eigen::Vector3d w = to / length;
+  const Eigen::Vector3d across = w - u.dot(w) * u;
+  // Within the angle, or straight back (no plane to turn in: never, thrust never pulls down).
+  if (std::atan2(across.norm(), u.dot(w)) <= angle || across.norm() < 1e-12) return to;
+  return length * (std::cos(angle) * u + std::sin(angle) * across.normalized());
+}
+
 void QuadrotorTracker::advance(const Trajectory& reference, double t) {
   const double period = 1.0 / model_.control_rate;
   // A remainder under a nanosecond is no step (its wind's jerk would be unbounded).
@@ -44,11 +56,15 @@ void QuadrotorTracker::advance(const Trajectory& reference, double t) {
         feed_forward + model_.position_gain * position_error +
         model_.velocity_gain *
             ((after ? Eigen::Vector3d::Zero() : reference.evaluate(at, 1)) - state_.col(1)));
-    // The attitude's lag, the thrust vector turning at most max_body_rate.
-    Eigen::Vector3d turn = (command - thrust_) / std::max(model_.attitude_time, h);
-    const double fastest =
-        model_.max_body_rate * (thrust_ + Eigen::Vector3d(0.0, 0.0, kGravity)).norm();
-    if (turn.norm() > fastest) turn *= fastest / turn.norm();
+    // The attitude's lag; the thrust vector's direction turns at most max_body_rate (the
+    // vehicle's rotation), its length (the motors' collective thrust) follows with the lag.
+    const Eigen::Vector3d up(0.0, 0.0, kGravity);
+    const Eigen::Vector3d turn =
+        (turned(thrust_ + up,
+                thrust_ + up + (command - thrust_) * (h / std::max(model_.attitude_time, h)),
+                model_.max_body_rate * h) -
+         (thrust_ + up)) /
+        h;
     // The wind: an Ornstein-Uhlenbeck step per axis, stationary deviation wind_sigma; linear
     // within the step, so that the acceleration stays continuous.
     Eigen::Vector3d wind = wind_;

@@ -6,6 +6,7 @@
 #include <cmath>
 #include <queue>
 
+#include "column_cells.hpp"
 #include "kinolab/core/error.hpp"
 #include "kinolab/core/text.hpp"
 #include "kinolab/world/esdf.hpp"
@@ -302,7 +303,12 @@ std::vector<std::vector<Eigen::Vector3d>> VehicleMap::guides(std::span<const Eig
                                                              const Eigen::Vector3d& to,
                                                              double radius, double z_low,
                                                              double z_high, double room) const {
-  const auto obstacles = [this](int x, int z0, int z1, std::uint8_t* row) {
+  return columnGuides(lattice_, obstacleColumns(), froms, to, radius, z_low, z_high, room,
+                      model_.inset);
+}
+
+ObstacleColumns VehicleMap::obstacleColumns() const {
+  return [this](int x, int z0, int z1, std::uint8_t* row) {
     for (int y = 0; y < lattice_.dims().y(); ++y) {
       const std::uint8_t* column = &state_[lattice_.index(x, y, 0)];
       row[y] = std::any_of(column + z0, column + z1 + 1, [](std::uint8_t v) {
@@ -310,7 +316,6 @@ std::vector<std::vector<Eigen::Vector3d>> VehicleMap::guides(std::span<const Eig
       });
     }
   };
-  return columnGuides(lattice_, obstacles, froms, to, radius, z_low, z_high, room, model_.inset);
 }
 
 std::vector<Eigen::Vector3d> columnGuide(const VoxelGrid& lattice, const ObstacleColumns& obstacles,
@@ -319,6 +324,57 @@ std::vector<Eigen::Vector3d> columnGuide(const VoxelGrid& lattice, const Obstacl
   return std::move(columnGuides(lattice, obstacles, {&from, 1}, to, radius, z_low, z_high).front());
 }
 
+namespace column_cells {
+
+Eigen::Vector2i cellOf(const VoxelGrid& lattice, const Eigen::Vector3d& p) {
+  const Eigen::Vector3i& n = lattice.dims();
+  const Eigen::Vector3d local = (p - lattice.origin()) / lattice.resolution();
+  return {std::clamp(static_cast<int>(std::floor(local.x())), 0, n.x() - 1),
+          std::clamp(static_cast<int>(std::floor(local.y())), 0, n.y() - 1)};
+}
+
+void openRound(const VoxelGrid& lattice, std::span<std::uint8_t> cells, const Eigen::Vector3d& at,
+               double room) {
+  const Eigen::Vector3i& n = lattice.dims();
+  const Eigen::Vector2i c = cellOf(lattice, at);
+  cells[static_cast<std::size_t>(c.x()) * n.y() + c.y()] = 0;
+  const int reach = static_cast<int>(std::ceil(room / lattice.resolution()));
+  for (int x = std::max(0, c.x() - reach); x <= std::min(n.x() - 1, c.x() + reach); ++x) {
+    for (int y = std::max(0, c.y() - reach); y <= std::min(n.y() - 1, c.y() + reach); ++y) {
+      const Eigen::Vector3d centre = lattice.center(VoxelIndex(x, y, 0));
+      if ((centre.head<2>() - at.head<2>()).norm() <= room) {
+        cells[static_cast<std::size_t>(x) * n.y() + y] = 0;
+      }
+    }
+  }
+}
+
+std::vector<std::uint8_t> closedCells(const VoxelGrid& lattice, const ObstacleColumns& obstacles,
+                                      double radius, double z_low, double z_high, double inset) {
+  const Eigen::Vector3i& n = lattice.dims();
+  const double r = lattice.resolution();
+  const auto layer = [&](double z) {
+    return std::clamp(static_cast<int>(std::floor((z - lattice.origin().z()) / r)), 0, n.z() - 1);
+  };
+  std::vector<std::uint8_t> blocked =
+      blockedCells(lattice, obstacles, layer(z_low), layer(z_high), radius);
+  if (inset <= 0.0) return blocked;
+  for (int x = 0; x < n.x(); ++x) {
+    for (int y = 0; y < n.y(); ++y) {
+      const double cx = (x + 0.5) * r;
+      const double cy = (y + 0.5) * r;
+      if (std::min({cx, cy, n.x() * r - cx, n.y() * r - cy}) < inset) {
+        blocked[static_cast<std::size_t>(x) * n.y() + y] = 1;
+      }
+    }
+  }
+  return blocked;
+}
+
+}  // namespace column_cells
+
+using namespace column_cells;
+
 std::vector<std::vector<Eigen::Vector3d>> columnGuides(const VoxelGrid& lattice,
                                                        const ObstacleColumns& obstacles,
                                                        std::span<const Eigen::Vector3d> froms,
@@ -326,53 +382,17 @@ std::vector<std::vector<Eigen::Vector3d>> columnGuides(const VoxelGrid& lattice,
                                                        double z_low, double z_high, double room,
                                                        double inset) {
   const Eigen::Vector3i& n = lattice.dims();
-  const double r = lattice.resolution();
-  const auto cellOf = [&](const Eigen::Vector3d& p) {
-    const Eigen::Vector3d local = (p - lattice.origin()) / r;
-    return Eigen::Vector2i(std::clamp(static_cast<int>(std::floor(local.x())), 0, n.x() - 1),
-                           std::clamp(static_cast<int>(std::floor(local.y())), 0, n.y() - 1));
-  };
-  // Columns with a known obstacle in the band, dilated by the body.
-  const int z0 =
-      std::clamp(static_cast<int>(std::floor((z_low - lattice.origin().z()) / r)), 0, n.z() - 1);
-  const int z1 =
-      std::clamp(static_cast<int>(std::floor((z_high - lattice.origin().z()) / r)), 0, n.z() - 1);
-  std::vector<std::uint8_t> blocked = blockedCells(lattice, obstacles, z0, z1, radius);
-  // The cells within `room` of `at` (and its own) opened in `cells`.
-  const auto openRound = [&](std::vector<std::uint8_t>& cells, const Eigen::Vector3d& at) {
-    const Eigen::Vector2i c = cellOf(at);
-    cells[static_cast<std::size_t>(c.x()) * n.y() + c.y()] = 0;
-    const int reach = static_cast<int>(std::ceil(room / r));
-    for (int x = std::max(0, c.x() - reach); x <= std::min(n.x() - 1, c.x() + reach); ++x) {
-      for (int y = std::max(0, c.y() - reach); y <= std::min(n.y() - 1, c.y() + reach); ++y) {
-        const Eigen::Vector3d centre = lattice.center(VoxelIndex(x, y, 0));
-        if ((centre.head<2>() - at.head<2>()).norm() <= room) {
-          cells[static_cast<std::size_t>(x) * n.y() + y] = 0;
-        }
-      }
-    }
-  };
-  if (inset > 0.0) {
-    for (int x = 0; x < n.x(); ++x) {
-      for (int y = 0; y < n.y(); ++y) {
-        const double cx = (x + 0.5) * r;
-        const double cy = (y + 0.5) * r;
-        if (std::min({cx, cy, n.x() * r - cx, n.y() * r - cy}) < inset) {
-          blocked[static_cast<std::size_t>(x) * n.y() + y] = 1;
-        }
-      }
-    }
-  }
-  if (room > 0.0) openRound(blocked, to);
-  const Eigen::Vector2i goal = cellOf(to);
+  std::vector<std::uint8_t> blocked = closedCells(lattice, obstacles, radius, z_low, z_high, inset);
+  if (room > 0.0) openRound(lattice, blocked, to, room);
+  const Eigen::Vector2i goal = cellOf(lattice, to);
   std::vector<std::vector<Eigen::Vector3d>> paths(froms.size());
   if (blocked[static_cast<std::size_t>(goal.x()) * n.y() + goal.y()]) return paths;
   for (std::size_t i = 0; i < froms.size(); ++i) {
     const Eigen::Vector3d& from = froms[i];
-    const Eigen::Vector2i start = cellOf(from);
     std::vector<std::uint8_t> open = blocked;
-    openRound(open, from);  // the vehicle is here
-    const std::vector<std::size_t> cells = cellPath(open, n.x(), n.y(), start, goal);
+    openRound(lattice, open, from, room);  // the vehicle is here
+    const std::vector<std::size_t> cells =
+        cellPath(open, n.x(), n.y(), cellOf(lattice, from), goal);
     std::vector<Eigen::Vector3d>& path = paths[i];
     for (const std::size_t cell : cells) {
       const Eigen::Vector3d centre = lattice.center(

@@ -20,11 +20,11 @@ enum class TrackingKind {
 /// controller (feed-forward acceleration, read `preview` ahead, plus PD on the position error,
 /// saturated at max_position_error, and the velocity error) whose command is projected into the
 /// thrust cone (total thrust within thrust_to_weight g, never pulling down, tilt at most max_tilt)
-/// and reached through the attitude's first-order lag, the thrust vector turning at most
-/// max_body_rate; the wind adds an acceleration, an Ornstein-Uhlenbeck process per axis (standard
-/// deviation wind_sigma, correlation time wind_time), seeded. Simulated at control_rate with
-/// piecewise-constant jerk, so the flown trajectory is exact polynomial pieces the checker judges
-/// like any plan.
+/// and reached through the attitude's first-order lag, the thrust vector's direction turning at
+/// most max_body_rate (its length, the collective thrust, follows the lag alone); the wind adds an
+/// acceleration, an Ornstein-Uhlenbeck process per axis (standard deviation wind_sigma, correlation
+/// time wind_time), seeded. Simulated at control_rate with piecewise-constant jerk, so the flown
+/// trajectory is exact polynomial pieces the checker judges like any plan.
 struct TrackingModel {
   TrackingKind kind = TrackingKind::kQuadrotor;
   /// 1/s^2: 16 and 8 (critically damped, 4 rad/s, about a third of the attitude lag's pole)
@@ -106,6 +106,11 @@ class QuadrotorTracker {
   /// command + g e_z of at most thrust_to_weight g, tilted at most max_tilt, never negative
   /// along z.
   Eigen::Vector3d feasible(const Eigen::Vector3d& command) const;
+
+  /// `to` with its direction turned from `from`'s by at most `angle` (rad), towards its own,
+  /// in the plane of the two; its length kept.
+  static Eigen::Vector3d turned(const Eigen::Vector3d& from, const Eigen::Vector3d& to,
+                                double angle);
 
  private:
   TrackingModel model_;

@@ -61,6 +61,10 @@ struct MapModel {
   }
 };
 
+/// Marks the columns of a lattice's x-row `x` that hold an obstacle in the voxel layers
+/// [z0, z1]: row[y] = 1 for those, 0 for the others (a row at a time: one call per row).
+using ObstacleColumns = std::function<void(int x, int z0, int z1, std::uint8_t* row)>;
+
 /// What the vehicle knows: the state of every voxel of the map's lattice (unknown, free or
 /// occupied), grown frame by frame, and from it a planning window around the vehicle with its
 /// exact ESDF, a global guide, views and the map as an OctoMap file.
@@ -133,6 +137,9 @@ class VehicleMap {
                                                    const Eigen::Vector3d& to, double radius,
                                                    double z_low, double z_high,
                                                    double room = 0.0) const;
+  /// Which x-y columns of the lattice hold a known occupied voxel in given layers: what the
+  /// guides read (guides(), levelColumnGuides()).
+  ObstacleColumns obstacleColumns() const;
   /// The known map from above over heights [z_low, z_high], as text: a line
   /// "nx,ny,origin_x,origin_y,resolution", then per x one line of ny digits, per column 2 (a
   /// known obstacle in the band), 1 (known free there) or 0 (unknown).
@@ -193,10 +200,6 @@ class VehicleMap {
 template <>
 PluginRegistry<VehicleMap>& pluginRegistry<VehicleMap>();
 
-/// Marks the columns of a lattice's x-row `x` that hold an obstacle in the voxel layers
-/// [z0, z1]: row[y] = 1 for those, 0 for the others (a row at a time: one call per row).
-using ObstacleColumns = std::function<void(int x, int z0, int z1, std::uint8_t* row)>;
-
 /// A shortest 8-connected path over the x-y cells of `lattice` from `from` to `to`, through
 /// cells with no column within `radius` that holds an obstacle (`obstacles`) in the heights
 /// [z_low, z_high] (VehicleMap::guide on a map's states; on a ground truth's grid of either
@@ -221,5 +224,18 @@ std::vector<std::vector<Eigen::Vector3d>> columnGuides(const VoxelGrid& lattice,
                                                        const Eigen::Vector3d& to, double radius,
                                                        double z_low, double z_high,
                                                        double room = 0.0, double inset = 0.0);
+/// columnGuides() over `levels` (heights, ascending) joined into one graph: at each level the
+/// band one `radius` above and below it, its cells closed as columnGuides() closes them (and
+/// `room` about `to` opened), and a way moves between cells of a level (8-connected) or up or
+/// down one level at a cell open in both, at the cost of the height changed. From each of
+/// `froms` (at the level nearest its height, `room` about it opened there) to `to`'s cell at
+/// any level; points at their level's height, the first and last `from` and `to`; empty where
+/// there is none. A way over a desk and under a shelf needs two levels: searched one level at
+/// a time, a guide that closed at one level moved to another level's way, elsewhere, turn by
+/// turn as the map grew (geb079's flights that ended moving without progress).
+std::vector<std::vector<Eigen::Vector3d>> levelColumnGuides(
+    const VoxelGrid& lattice, const ObstacleColumns& obstacles,
+    std::span<const Eigen::Vector3d> froms, const Eigen::Vector3d& to, double radius,
+    std::span<const double> levels, double room = 0.0, double inset = 0.0);
 
 }  // namespace kinolab
