@@ -4,6 +4,8 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -55,18 +57,31 @@ std::string scratch(const std::string& name) {
 TEST(PluginModule, APlannerOfAModuleIsKnownWithoutItsModuleWhichLoadsWhenOneIsMade) {
   const std::string module = kModuleDir + "/kinolab_module_rrtstar_ceres.so";
   ASSERT_TRUE(std::filesystem::exists(module));
-  ASSERT_FALSE(isLoaded(module));  // registered at start, not loaded
-  const PluginInfo& info = pluginRegistry<Planner>().info("rrtstar_ceres");
-  EXPECT_EQ(info.origin, "built-in (rrtstar_ceres)");
-  EXPECT_TRUE(info.parameters.find("range"));
-  EXPECT_FALSE(info.statistics.all().empty());
-  EXPECT_EQ(pluginLibraryVersions().count("ompl"), 1U);  // provenance from the manifest
-  // Declarations resolve without the module too.
-  const ParameterSet parameters = pluginRegistry<Planner>().resolve("rrtstar_ceres", {});
-  EXPECT_FALSE(isLoaded(module));
-  const auto planner = pluginRegistry<Planner>().createResolved("rrtstar_ceres", parameters);
-  ASSERT_NE(planner, nullptr);
-  EXPECT_TRUE(isLoaded(module));
+  // In a fresh process (this binary run again for this test alone): another test of this
+  // process may have made the planner already, loading its module.
+  GTEST_FLAG_SET(death_test_style, "threadsafe");
+  EXPECT_EXIT(
+      {
+        const auto require = [](bool holds, const char* what) {
+          if (holds) return;
+          std::fprintf(stderr, "failed: %s\n", what);
+          std::exit(1);
+        };
+        require(!isLoaded(module), "registered at start, not loaded");
+        const PluginInfo& info = pluginRegistry<Planner>().info("rrtstar_ceres");
+        require(info.origin == "built-in (rrtstar_ceres)", "origin");
+        require(info.parameters.find("range") != nullptr, "the parameter range declared");
+        require(!info.statistics.all().empty(), "statistics declared");
+        require(pluginLibraryVersions().count("ompl") == 1, "provenance from the manifest");
+        // Declarations resolve without the module too.
+        const ParameterSet parameters = pluginRegistry<Planner>().resolve("rrtstar_ceres", {});
+        require(!isLoaded(module), "resolved without loading");
+        const auto planner = pluginRegistry<Planner>().createResolved("rrtstar_ceres", parameters);
+        require(planner != nullptr, "made");
+        require(isLoaded(module), "loaded once made");
+        std::exit(0);
+      },
+      ::testing::ExitedWithCode(0), "");
 }
 
 TEST(PluginModule, EveryShippedManifestDeclaresWhatItsModuleRegisters) {
