@@ -8,7 +8,6 @@
 //
 //   mpl_plan_query MAP START GOAL        (START, GOAL: x,y,z in metres)
 // Prints one line: solved, cost, expansions, planning ms. Links MPL alone (no kinolab).
-#include <mpl_planner/planner/map_planner.h>
 
 #include <chrono>
 #include <cstdint>
@@ -18,6 +17,8 @@
 #include <sstream>
 #include <stdexcept>
 #include <string>
+
+#include "mpl_problem.hpp"
 
 namespace {
 
@@ -69,39 +70,15 @@ int main(int argc, char** argv) try {
   }
   if (argc != 4) throw std::runtime_error(usage);
   const auto util = readMap(argv[1]);
-  vec_E<VecDf> controls;
-  for (int i = -1; i <= 1; ++i)
-    for (int j = -1; j <= 1; ++j)
-      for (int k = -1; k <= 1; ++k) controls.push_back(Vec3f(i, j, k));
-  MPL::VoxelMapPlanner planner(false);
-  planner.setMapUtil(util);
-  planner.setVmax(2);
-  planner.setAmax(1);
-  planner.setDt(1);
-  planner.setU(controls);
-  planner.setW(10);
-  planner.setEpsilon(1);
-  planner.setTol(0.01);
-
-  Waypoint3D start;
-  start.pos = point(argv[2]);
-  start.vel = Vec3f::Zero();
-  start.acc = Vec3f::Zero();
-  start.jrk = Vec3f::Zero();
-  start.yaw = 0;
-  start.use_pos = true;
-  start.use_vel = true;
-  start.use_acc = false;
-  start.use_jrk = false;
-  start.use_yaw = false;
-  Waypoint3D goal = start;
-  goal.pos = point(argv[3]);
+  const auto planner = makeMplPlanner(util, MplProblem{});
+  const Waypoint3D start = restingWaypoint(point(argv[2]));
+  const Waypoint3D goal = restingWaypoint(point(argv[3]));
 
   const auto begin = std::chrono::steady_clock::now();
-  const bool solved = planner.plan(start, goal);
+  const bool solved = planner->plan(start, goal);
   const auto end = std::chrono::steady_clock::now();
   std::printf("solved %d cost %.6f expansions %d planning_ms %.3f\n", solved ? 1 : 0,
-              solved ? planner.getTrajCost() : -1.0, planner.getExpandedNum(),
+              solved ? planner->getTrajCost() : -1.0, planner->getExpandedNum(),
               std::chrono::duration<double, std::milli>(end - begin).count());
   return solved ? 0 : 2;
 } catch (const std::exception& error) {

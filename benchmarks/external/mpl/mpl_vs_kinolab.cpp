@@ -14,7 +14,6 @@
 //   mpl_vs_kinolab EXPERIMENT --write-map FILE
 // The second writes the world's occupancy for mpl_plan_query (MPL's own process) and the
 // queries, one "start goal" line each, to FILE.queries, then exits.
-#include <mpl_planner/planner/map_planner.h>
 
 #include <algorithm>
 #include <chrono>
@@ -33,6 +32,7 @@
 #include "kinolab/experiment/experiment.hpp"
 #include "kinolab/planner/planner.hpp"
 #include "kinolab/world/world_cache.hpp"
+#include "mpl_problem.hpp"
 
 namespace {
 
@@ -201,45 +201,22 @@ class MplSide {
       throw std::runtime_error(
           "MPL's planner here: order 2, cost weight_duration T + effort, a point");
     }
-    const int per_axis = static_cast<int>(p.nested("sampler").integer("samples_per_axis"));
-    const double a_max = p.real("max_acceleration");
-    vec_E<VecDf> controls;  // the uniform grid of kinolab's `uniform` sampler
-    for (int i = 0; i < per_axis; ++i)
-      for (int j = 0; j < per_axis; ++j)
-        for (int k = 0; k < per_axis; ++k) {
-          const auto u = [&](int n) {
-            return per_axis == 1 ? 0.0 : a_max * (2.0 * n / (per_axis - 1) - 1.0);
-          };
-          controls.push_back(Vec3f(u(i), u(j), u(k)));
-        }
-    planner_ = std::make_unique<MPL::VoxelMapPlanner>(false);
-    planner_->setMapUtil(util);
-    planner_->setVmax(p.real("max_velocity"));
-    planner_->setAmax(a_max);
-    planner_->setDt(p.real("tau"));
-    planner_->setU(controls);
-    planner_->setW(p.real("weight_duration") / p.real("weight_control"));
-    planner_->setEpsilon(p.real("heuristic_weight"));
-    planner_->setTol(p.real("goal_radius"));
+    MplProblem problem;
+    problem.samples_per_axis = static_cast<int>(p.nested("sampler").integer("samples_per_axis"));
+    problem.max_velocity = p.real("max_velocity");
+    problem.max_acceleration = p.real("max_acceleration");
+    problem.tau = p.real("tau");
+    problem.time_weight = p.real("weight_duration") / p.real("weight_control");
+    problem.epsilon = p.real("heuristic_weight");
+    problem.goal_tolerance = p.real("goal_radius");
+    planner_ = makeMplPlanner(util, problem);
     weight_control_ = p.real("weight_control");
   }
 
-  // As in MPL's examples: start at rest, acceleration control; the goal a position (with
-  // setTol(goal_radius) alone, MPL's goal test ignores its velocity).
+  // At rest at the query's start, to its goal position (restingWaypoint).
   Sample plan(const kinolab::PlanningQuery& query, bool points) {
-    Waypoint3D start;
-    start.pos = query.start.col(0);
-    start.vel = Vec3f::Zero();
-    start.acc = Vec3f::Zero();
-    start.jrk = Vec3f::Zero();
-    start.yaw = 0;
-    start.use_pos = true;
-    start.use_vel = true;
-    start.use_acc = false;
-    start.use_jrk = false;
-    start.use_yaw = false;
-    Waypoint3D goal = start;
-    goal.pos = query.goal;
+    const Waypoint3D start = restingWaypoint(query.start.col(0));
+    const Waypoint3D goal = restingWaypoint(query.goal);
 
     Sample sample;
     const auto begin = std::chrono::steady_clock::now();
