@@ -15,6 +15,17 @@
 
 namespace kinolab::test {
 
+/// A world at 0.1 m of `generators` (the YAML list's items, one per line) within `bounds`;
+/// `name` names its spec in errors.
+inline std::shared_ptr<const World> worldOf(
+    const std::string& generators, const std::string& bounds = "{min: [0, 0, 0], max: [20, 10, 3]}",
+    const std::string& name = "test_world.yaml") {
+  return World::build(WorldSpec::fromYaml(
+      YamlReader::loadString("resolution: 0.1\nbounds: " + bounds + "\ngenerators:\n" + generators,
+                             name),
+      "."));
+}
+
 /// Small worlds (12 m x 12 m x 3 m at 0.1 m) of each generator, built once per process.
 inline std::shared_ptr<const World> smallWorld(const std::string& kind) {
   static std::map<std::string, std::shared_ptr<const World>> worlds;

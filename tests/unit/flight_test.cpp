@@ -25,14 +25,7 @@
 namespace kinolab {
 namespace {
 
-std::shared_ptr<const World> worldOf(
-    const std::string& generators,
-    const std::string& bounds = "{min: [0, 0, 0], max: [20, 10, 3]}") {
-  return World::build(WorldSpec::fromYaml(
-      YamlReader::loadString("resolution: 0.1\nbounds: " + bounds + "\ngenerators:\n" + generators,
-                             "flight_test.yaml"),
-      "."));
-}
+using test::worldOf;
 
 /// A wall across the corridor at x = 10 .. 10.4, open for y > 5 (a way round at the side,
 /// within the planning window of a vehicle on the line y = 3).

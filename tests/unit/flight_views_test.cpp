@@ -16,20 +16,14 @@
 #include "kinolab/flight/sensor.hpp"
 #include "kinolab/plugins/lidar.hpp"
 #include "kinolab/world/world_spec.hpp"
+#include "support/planning.hpp"
 
 namespace kinolab {
 namespace {
 
 using namespace flight_motion;
 
-std::shared_ptr<const World> worldOf(
-    const std::string& generators,
-    const std::string& bounds = "{min: [0, 0, 0], max: [20, 10, 3]}") {
-  return World::build(WorldSpec::fromYaml(
-      YamlReader::loadString("resolution: 0.1\nbounds: " + bounds + "\ngenerators:\n" + generators,
-                             "flight_views_test.yaml"),
-      "."));
-}
+using test::worldOf;
 
 /// The ground truth's own columns (as the flight's difficulty reads them).
 ObstacleColumns columnsOf(const VoxelGrid& grid) {

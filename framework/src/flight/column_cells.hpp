@@ -26,4 +26,7 @@ void openRound(const VoxelGrid& lattice, std::span<std::uint8_t> cells, const Ei
 std::vector<std::uint8_t> closedCells(const VoxelGrid& lattice, const ObstacleColumns& obstacles,
                                       double radius, double z_low, double z_high, double inset);
 
+/// A search's way to node `at`, start first: `at` and its parents (`parent`, -1 at the start).
+std::vector<std::size_t> wayTo(std::span<const std::int64_t> parent, std::size_t at);
+
 }  // namespace kinolab::column_cells

@@ -46,12 +46,7 @@ std::vector<std::size_t> levelPath(const std::vector<std::uint8_t>& blocked, int
     const std::size_t cell = at % cells;
     if (f > cost[at] + octile(cell) + 1e-9) continue;  // stale
     if (cell == goal_cell) {
-      std::vector<std::size_t> path;
-      for (auto node = static_cast<std::int64_t>(at); node >= 0; node = parent[node]) {
-        path.push_back(static_cast<std::size_t>(node));
-      }
-      std::reverse(path.begin(), path.end());
-      return path;
+      return wayTo(parent, at);
     }
     const int x = static_cast<int>(cell / ny);
     const int y = static_cast<int>(cell % ny);

@@ -265,12 +265,7 @@ std::vector<std::size_t> cellPath(const std::vector<std::uint8_t>& blocked, int 
     const Eigen::Vector2i c(static_cast<int>(at / ny), static_cast<int>(at % ny));
     if (f > cost[at] + octile(c) + 1e-9) continue;  // stale
     if (c == goal) {
-      std::vector<std::size_t> path;
-      for (auto cell = static_cast<std::int64_t>(at); cell >= 0; cell = parent[cell]) {
-        path.push_back(static_cast<std::size_t>(cell));
-      }
-      std::reverse(path.begin(), path.end());
-      return path;
+      return column_cells::wayTo(parent, at);
     }
     for (int dx = -1; dx <= 1; ++dx) {
       for (int dy = -1; dy <= 1; ++dy) {
@@ -369,6 +364,16 @@ std::vector<std::uint8_t> closedCells(const VoxelGrid& lattice, const ObstacleCo
     }
   }
   return blocked;
+}
+
+std::vector<std::size_t> wayTo(std::span<const std::int64_t> parent, std::size_t at) {
+  std::vector<std::size_t> way;
+  for (auto node = static_cast<std::int64_t>(at); node >= 0;
+       node = parent[static_cast<std::size_t>(node)]) {
+    way.push_back(static_cast<std::size_t>(node));
+  }
+  std::reverse(way.begin(), way.end());
+  return way;
 }
 
 }  // namespace column_cells
