@@ -721,6 +721,9 @@ TEST(EsdfTest, AnExactDistanceRunKeepsNoCubeThatAnotherIsNeverFartherThan) {
     constexpr auto kUnder =
         static_cast<std::size_t>(ExactDistanceRun::kBlock * ExactDistanceRun::kBlock);
     EXPECT_EQ(run.cubesGathered(), kUnder * run.gathers());
+    // A brick's occupancy is read once while cached, not once a gather: at most the grid's
+    // 5 x 5 x 4 bricks (each of the gathers meets dozens).
+    EXPECT_LE(run.bricksRead(), 100u);
   }
   // A solid pillar of 6 x 6 voxels: from points level with its middle, beside it along x, only
   // the face's cubes towards the block remain (one column of the face's 6 per height of the
