@@ -740,5 +740,56 @@ TEST(EsdfTest, AnExactDistanceRunKeepsNoCubeThatAnotherIsNeverFartherThan) {
   EXPECT_LE(run.cubesGathered(), 60 * run.gathers());
 }
 
+TEST(EsdfTest, AnExactDistanceRunAmongBoxesIsExactDistanceBitForBit) {
+  // Boxes of every shape (slabs along each axis, pillars, blocks; most bricks they fill are the
+  // same along one axis or more, and a gather reads only their layer facing the block) in grids
+  // whose sides are not whole bricks, so that bricks cut by the grid's end are uniform too.
+  for (int round = 0; round < 3; ++round) {
+    const Eigen::Vector3i dims =
+        round == 0 ? Eigen::Vector3i(37, 29, 19)
+                   : (round == 1 ? Eigen::Vector3i(45, 22, 27) : Eigen::Vector3i(30, 30, 13));
+    VoxelGrid grid(Box{Eigen::Vector3d::Zero(), dims.cast<double>() * 0.1}, 0.1);
+    Rng rng(70 + round);
+    const Eigen::Vector3d size = dims.cast<double>() * 0.1;
+    for (int box = 0; box < 14; ++box) {
+      Eigen::Vector3d low;
+      Eigen::Vector3d high;
+      for (int axis = 0; axis < 3; ++axis) {
+        // Thin along one axis (a wall or floor), long along another, anything along the third.
+        const double side = axis == box % 3 ? rng.uniform(0.05, 0.5) : rng.uniform(0.3, 2.5);
+        low[axis] = rng.uniform(-0.3, size[axis]);
+        high[axis] = low[axis] + side;
+      }
+      grid.fillBox(low, high);
+    }
+    const Esdf dense(grid);
+    const Esdf truncated = Esdf::truncated(grid, 0.5);
+    for (const Esdf* field : {&dense, &truncated}) {
+      const double limit = std::min(field->maxDistance(), field->truncation());
+      SCOPED_TRACE(::testing::Message()
+                   << "round " << round << " truncated " << (field == &truncated));
+      ExactDistanceRun run(*field, limit);
+      Eigen::Vector3d point = 0.5 * size;
+      Eigen::Vector3d step = Eigen::Vector3d::Zero();
+      int inside = 0;
+      for (int i = 0; i < 6000; ++i) {
+        if (i % 150 == 0) {
+          point = drawLastFirst<Eigen::Vector3d>(
+              [&](int axis) { return rng.uniform(0.0, 1.0) * size[axis]; });
+          step = drawLastFirst<Eigen::Vector3d>([&](int) {
+                   return rng.uniform(-1.0, 1.0);
+                 }).normalized() *
+                 0.025;
+        }
+        point += step;
+        const double expected = field->exactDistance(point, limit);
+        ASSERT_EQ(run(point), expected) << point.transpose();
+        inside += expected < limit;
+      }
+      EXPECT_GT(inside, 1000);
+    }
+  }
+}
+
 }  // namespace
 }  // namespace kinolab

@@ -214,6 +214,17 @@ namespace {
 // measured 1.06-1.46x faster than of 2, and of 8 between (BM_TrajectoryFigures): a larger
 // block gathers less often over a thicker shell.
 
+/// What a gather knows of an 8^3 brick: whether it holds a cube, and along which axes its
+/// occupancy is uniform (the same at every coordinate along the axis, e.g. along x and y in a
+/// floor's brick, along z in a pillar's).
+namespace BrickOccupancy {
+constexpr unsigned kHoldsCube = 1;
+constexpr unsigned kUniformX = 2;  // kUniformX << axis for axis 0, 1, 2
+constexpr unsigned kUniformY = 4;
+constexpr unsigned kUniformZ = 8;
+constexpr unsigned kAll = 15;
+}  // namespace BrickOccupancy
+
 /// Floor and ceiling of a value well inside the integers, without a libm call.
 std::int64_t floorInt(double v) {
   const auto t = static_cast<std::int64_t>(v);
@@ -254,8 +265,10 @@ double rangeGap(std::int64_t low, std::int64_t high, std::int64_t first, std::in
 
 /// The cubes of `shell` that can be nearest to a point of its block, over a field's z-rows
 /// (`Rows`: DenseRows or BrickRows), appended to `cubes` (x, y, z each). Visits the 8^3 bricks
-/// the shell meets, skipping those `hasCube(bx, by, bz)` says hold no occupied voxel, and in
-/// the others every voxel within reach and outside the free ball. An occupied cube is kept
+/// the shell meets, skipping those `occupancy(bx, by, bz)` says hold no occupied voxel, and in
+/// the others every voxel within reach and outside the free ball, less the layers of a brick
+/// uniform along an axis that a layer of the same brick dominates (keepUndominated(): in a
+/// floor's brick only the columns under the block are read). An occupied cube is kept
 /// unless its neighbour one voxel towards the block, along an axis on which it lies outside the
 /// block's slab, is occupied too: along that axis the neighbour's gap to every point of the
 /// block is at most the cube's (the other two gaps equal), so it is never farther, in exact or
@@ -325,9 +338,27 @@ struct ShellGather {
     }
   }
 
-  /// The whole shell, brick by brick; `hasCube(bx, by, bz)` false skips a brick.
-  template <typename HasCube>
-  void run(const HasCube& hasCube) {
+  /// Along `axis`, a brick's voxels [from, to) less those a neighbour in the brick dominates
+  /// when the brick is uniform along the axis (its occupancy the same at every coordinate of
+  /// it): outside the block's slab a cube's neighbour towards the block, in the brick, is then
+  /// occupied too, so only the layer facing the block remains, and within the slab the slab.
+  void keepUndominated(int axis, std::int64_t& from, std::int64_t& to) const {
+    const std::int64_t low = shell.low[axis];
+    const std::int64_t high = shell.high[axis];
+    if (to <= low) {
+      from = to - 1;
+    } else if (from >= high) {
+      to = from + 1;
+    } else {
+      from = std::max(from, low);
+      to = std::min(to, high);
+    }
+  }
+
+  /// The whole shell, brick by brick; `occupancy(bx, by, bz)` says whether a brick holds a
+  /// cube (BrickOccupancy::kHoldsCube; none skips it) and along which axes it is uniform.
+  template <typename Occupancy>
+  void run(const Occupancy& occupancy) {
     const std::int64_t* low = shell.low;
     const std::int64_t* high = shell.high;
     constexpr std::int64_t kSide = VoxelGrid::kBrick;
@@ -353,12 +384,20 @@ struct ShellGather {
         if (gxy2 > shell.reach2) continue;
         for (std::int64_t bz = first[2] / kSide; bz * kSide < last[2]; ++bz) {
           const double gz = range(2, bz, z0, z1);
-          if (gxy2 + gz * gz > shell.reach2 || !hasCube(bx, by, bz)) continue;
-          for (std::int64_t x = x0; x < x1; ++x) {
+          if (gxy2 + gz * gz > shell.reach2) continue;
+          const unsigned bits = occupancy(bx, by, bz);
+          if (!(bits & BrickOccupancy::kHoldsCube)) continue;
+          std::int64_t from[3] = {x0, y0, z0};
+          std::int64_t to[3] = {x1, y1, z1};
+          for (int axis = 0; axis < 3; ++axis) {
+            if (bits & (BrickOccupancy::kUniformX << axis))
+              keepUndominated(axis, from[axis], to[axis]);
+          }
+          for (std::int64_t x = from[0]; x < to[0]; ++x) {
             const double bx2 = slabGap(low[0], high[0], x) * slabGap(low[0], high[0], x);
-            for (std::int64_t y = y0; y < y1; ++y) {
+            for (std::int64_t y = from[1]; y < to[1]; ++y) {
               const double bxy2 = bx2 + slabGap(low[1], high[1], y) * slabGap(low[1], high[1], y);
-              if (bxy2 + gz * gz <= shell.reach2) column(x, y, z0, z1, bxy2);
+              if (bxy2 + gz * gz <= shell.reach2) column(x, y, from[2], to[2], bxy2);
             }
           }
         }
@@ -367,12 +406,13 @@ struct ShellGather {
   }
 };
 
-/// Whether the 8^3 brick (bx, by, bz) of a field's z-rows (`Rows`) holds an occupied voxel;
-/// `inverse_resolution` the field's.
+/// The occupancy bits (BrickOccupancy) of the 8^3 brick (bx, by, bz) of a field's z-rows
+/// (`Rows`); `inverse_resolution` the field's.
 template <typename Rows>
-bool brickHoldsCube(const Rows& rows, const std::int64_t dims[3], double inverse_resolution,
-                    std::int64_t bx, std::int64_t by, std::int64_t bz) {
+unsigned readBrickOccupancy(const Rows& rows, const std::int64_t dims[3], double inverse_resolution,
+                            std::int64_t bx, std::int64_t by, std::int64_t bz) {
   constexpr std::int64_t kSide = VoxelGrid::kBrick;
+  static_assert(kSide == 8, "a brick's columns are bytes of its layers' 64-bit masks");
   const std::int64_t first[3] = {bx * kSide, by * kSide, bz * kSide};
   std::int64_t last[3];  // exclusive
   std::int64_t middle[3];
@@ -387,18 +427,35 @@ bool brickHoldsCube(const Rows& rows, const std::int64_t dims[3], double inverse
   // The middle voxel's value bounds the distance from its centre to every cube: beyond the
   // brick's farthest corner, no cube lies in the brick.
   const float value = rows(middle[0], middle[1])[middle[2]];
-  if (value < 0.0f) return true;
-  const double centre = static_cast<double>(value) * inverse_resolution;
-  if (centre > std::sqrt(far2) + floatSlack(centre)) return false;
-  for (std::int64_t x = first[0]; x < last[0]; ++x) {
-    for (std::int64_t y = first[1]; y < last[1]; ++y) {
-      const auto row = rows(x, y);
-      for (std::int64_t z = first[2]; z < last[2]; ++z) {
-        if (row[z] < 0.0f) return true;
+  if (!(value < 0.0f)) {
+    const double centre = static_cast<double>(value) * inverse_resolution;
+    if (centre > std::sqrt(far2) + floatSlack(centre)) return 0;
+  }
+  // Layer x's occupancy: bit 8 (y - first y) + (z - first z).
+  std::uint64_t layers[kSide] = {};
+  const std::int64_t sides[3] = {last[0] - first[0], last[1] - first[1], last[2] - first[2]};
+  for (std::int64_t x = 0; x < sides[0]; ++x) {
+    for (std::int64_t y = 0; y < sides[1]; ++y) {
+      const auto row = rows(first[0] + x, first[1] + y);
+      for (std::int64_t z = 0; z < sides[2]; ++z) {
+        if (row[first[2] + z] < 0.0f) layers[x] |= std::uint64_t{1} << (8 * y + z);
       }
     }
   }
-  return false;
+  // Voxels past the grid's end are free in every layer, column and height alike.
+  unsigned bits = BrickOccupancy::kUniformX | BrickOccupancy::kUniformY | BrickOccupancy::kUniformZ;
+  const std::uint64_t column_bits = (std::uint64_t{1} << sides[2]) - 1;
+  std::uint64_t any = 0;
+  for (std::int64_t x = 0; x < sides[0]; ++x) {
+    any |= layers[x];
+    if (layers[x] != layers[0]) bits &= ~BrickOccupancy::kUniformX;
+    for (std::int64_t y = 0; y < sides[1]; ++y) {
+      const std::uint64_t column = (layers[x] >> (8 * y)) & 0xff;
+      if (column != (layers[x] & 0xff)) bits &= ~BrickOccupancy::kUniformY;
+      if (column != 0 && column != column_bits) bits &= ~BrickOccupancy::kUniformZ;
+    }
+  }
+  return any != 0 ? bits | BrickOccupancy::kHoldsCube : 0;
 }
 
 }  // namespace
@@ -436,15 +493,15 @@ double ExactDistanceRun::operator()(const Eigen::Vector3d& point) {
 }
 
 template <typename Scan>
-bool ExactDistanceRun::brickHasCube(std::int64_t bx, std::int64_t by, std::int64_t bz,
-                                    const Scan& scan) {
+unsigned ExactDistanceRun::brickOccupancy(std::int64_t bx, std::int64_t by, std::int64_t bz,
+                                          const Scan& scan) {
   constexpr std::int64_t kSide = VoxelGrid::kBrick;
   const auto bricks = [&](int axis) { return (esdf_.dims_[axis] + kSide - 1) / kSide; };
   const auto index = static_cast<std::uint64_t>((bx * bricks(1) + by) * bricks(2) + bz);
-  // Direct-mapped: a slot holds (index + 1) * 2 plus the answer; 0 is empty.
+  // Direct-mapped: a slot holds (index + 1) << 4 plus the bits; 0 is empty.
   if (brick_cache_.empty()) brick_cache_.assign(kBrickCacheSlots, 0);
   std::uint64_t& slot = brick_cache_[index % kBrickCacheSlots];
-  if (slot >> 1 == index + 1) return (slot & 1) != 0;
+  if (slot >> 4 == index + 1) return static_cast<unsigned>(slot & 15);
   ++bricks_read_;
   // A truncated field's shared brick is all +T (no cube) or all -T (all cubes).
   int shared = 0;
@@ -453,9 +510,9 @@ bool ExactDistanceRun::brickHasCube(std::int64_t bx, std::int64_t by, std::int64
                                         static_cast<std::size_t>(by) * esdf_.brick_strides_[1] +
                                         static_cast<std::size_t>(bz),
                                     shared) != nullptr;
-  const bool found = own ? scan() : shared < 0;
-  slot = ((index + 1) << 1) | (found ? 1u : 0u);
-  return found;
+  const unsigned bits = own ? scan() : (shared < 0 ? BrickOccupancy::kAll : 0u);
+  slot = ((index + 1) << 4) | bits;
+  return bits;
 }
 
 void ExactDistanceRun::gather(const std::int64_t block[3]) {
@@ -516,8 +573,8 @@ void ExactDistanceRun::gather(const std::int64_t block[3]) {
   const auto gatherOver = [&](const auto& rows) {
     ShellGather<std::decay_t<decltype(rows)>>{rows, shell, cubes_}.run(
         [&](std::int64_t bx, std::int64_t by, std::int64_t bz) {
-          return brickHasCube(bx, by, bz, [&] {
-            return brickHoldsCube(rows, shell.dims, field.inverse_resolution_, bx, by, bz);
+          return brickOccupancy(bx, by, bz, [&] {
+            return readBrickOccupancy(rows, shell.dims, field.inverse_resolution_, bx, by, bz);
           });
         });
   };

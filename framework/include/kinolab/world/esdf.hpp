@@ -385,10 +385,10 @@ class ExactDistanceRun {
 
  private:
   void gather(const std::int64_t block[3]);
-  /// Whether the 8^3 brick (bx, by, bz) holds an occupied voxel: `scan()`'s answer,
-  /// remembered in a small cache.
+  /// Whether the 8^3 brick (bx, by, bz) holds an occupied voxel and along which axes its
+  /// occupancy is uniform (bits, as `scan()` reads them), remembered in a small cache.
   template <typename Scan>
-  bool brickHasCube(std::int64_t bx, std::int64_t by, std::int64_t bz, const Scan& scan);
+  unsigned brickOccupancy(std::int64_t bx, std::int64_t by, std::int64_t bz, const Scan& scan);
   static constexpr std::size_t kBrickCacheSlots = 4096;
 
   const Esdf& esdf_;
@@ -399,7 +399,7 @@ class ExactDistanceRun {
   std::size_t gathers_ = 0;
   std::size_t cubes_gathered_ = 0;
   std::size_t bricks_read_ = 0;
-  std::vector<std::uint64_t> brick_cache_;  // brickHasCube()'s answers, direct-mapped
+  std::vector<std::uint64_t> brick_cache_;  // brickOccupancy()'s answers, direct-mapped
 };
 
 /// An Esdf kept up to date while its grid's occupancy changes (a moving vehicle's planning
