@@ -131,13 +131,14 @@ const PluginInfo& worldSpecInfo() {
   return info;
 }
 
-/// The kinds `kinolab list` shows beside the plugin kinds.
-const std::vector<Kind>& fileKinds() {
-  static const std::vector<Kind> kinds = {{"flight", {&flightInfo()}},
-                                          {"experiment", {&experimentInfo()}},
-                                          {"world_spec", {&worldSpecInfo()}}};
-  return kinds;
-}
+/// The kinds `kinolab list` shows beside the plugin kinds, each with its keys (made when
+/// listed).
+struct FileKind {
+  const char* name;
+  const PluginInfo& (*info)();
+};
+constexpr FileKind kFileKinds[] = {
+    {"flight", &flightInfo}, {"experiment", &experimentInfo}, {"world_spec", &worldSpecInfo}};
 
 nlohmann::json toJson(const ParameterSpecs& specs) {
   nlohmann::json parameters = nlohmann::json::array();
@@ -239,7 +240,7 @@ struct ListOptions {
 void runList(const ListOptions& options) {
   if (options.kind == "metrics") return listMetrics(options.json);
   std::vector<Kind> kinds = allKinds();
-  kinds.insert(kinds.end(), fileKinds().begin(), fileKinds().end());
+  for (const FileKind& kind : kFileKinds) kinds.push_back({kind.name, {&kind.info()}});
   if (!options.kind.empty()) {
     std::erase_if(kinds, [&](const Kind& kind) { return kind.name != options.kind; });
   }
@@ -262,13 +263,16 @@ void addListCommand(CLI::App& app) {
   CLI::App* command = app.add_subcommand(
       "list",
       "List the registered plugins (built-in and loaded with --plugin) and their parameters");
+  // Names only: listing the plugins themselves would read every module's manifest.
   std::vector<std::string> kind_names;
-  for (const auto& kind : allKinds()) kind_names.push_back(kind.name);
+  for (const PluginRegistryBase* registry : pluginRegistries()) {
+    kind_names.push_back(registry->plural());
+  }
   const std::string description =
       "Only this kind of plugin (" + join(kind_names, ", ") +
       "), `flight` (the parameters of kinolab fly), `experiment` or `world_spec` (the keys of "
       "those files) or `metrics`: every metric and statistic a run or flight can carry";
-  for (const Kind& kind : fileKinds()) kind_names.push_back(kind.name);
+  for (const FileKind& kind : kFileKinds) kind_names.push_back(kind.name);
   kind_names.push_back("metrics");
   command->add_option("kind", options->kind, description)
       ->check(CLI::Validator(

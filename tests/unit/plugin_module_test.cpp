@@ -68,7 +68,12 @@ TEST(PluginModule, APlannerOfAModuleIsKnownWithoutItsModuleWhichLoadsWhenOneIsMa
           std::exit(1);
         };
         require(!isLoaded(module), "registered at start, not loaded");
+        // The manifests are read when a plugin not built in is first asked for, not before.
+        require(detail::pendingModules() > 0, "manifests not read at start");
+        require(pluginRegistry<Planner>().contains("lazy_mp_astar"), "a built-in planner");
+        require(detail::pendingModules() > 0, "manifests not read for a built-in planner");
         const PluginInfo& info = pluginRegistry<Planner>().info("rrtstar_ceres");
+        require(detail::pendingModules() == 0, "manifests read for a module's planner");
         require(info.origin == "built-in (rrtstar_ceres)", "origin");
         require(info.parameters.find("range") != nullptr, "the parameter range declared");
         require(!info.statistics.all().empty(), "statistics declared");

@@ -99,7 +99,10 @@ PluginDeclarations PluginRegistrar::declarations() const {
   return declarations;
 }
 
-const std::map<std::string, std::string>& pluginLibraryVersions() { return libraryVersions(); }
+const std::map<std::string, std::string>& pluginLibraryVersions() {
+  detail::declarePendingModules();  // a module's manifest names its libraries
+  return libraryVersions();
+}
 
 namespace {
 
@@ -197,8 +200,11 @@ PluginDeclarations declarePluginLibrary(const std::string& path) {
   return loadLibrary(path, Registration::kDeclare);
 }
 
-void registerPluginModule(const std::string& module_path, const std::string& manifest_path,
-                          const std::string& origin) {
+namespace {
+
+/// registerPluginModule()'s declarations, when they are needed.
+void declarePluginModule(const std::string& module_path, const std::string& manifest_path,
+                         const std::string& origin) {
   const PluginDeclarations declared = readPluginManifest(manifest_path);
   // Made once, by whichever of its plugins is made first (a failed load is tried again).
   struct Module {
@@ -221,6 +227,15 @@ void registerPluginModule(const std::string& module_path, const std::string& man
     registry->addDeferredPlugin(std::move(info), load);
   }
   recordLibraries(declared.libraries);
+}
+
+}  // namespace
+
+void registerPluginModule(const std::string& module_path, const std::string& manifest_path,
+                          const std::string& origin) {
+  detail::addPendingModule([module_path, manifest_path, origin] {
+    declarePluginModule(module_path, manifest_path, origin);
+  });
 }
 
 }  // namespace kinolab

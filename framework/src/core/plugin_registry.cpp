@@ -1,6 +1,7 @@
 #include "kinolab/core/plugin_registry.hpp"
 
 #include <algorithm>
+#include <atomic>
 #include <mutex>
 #include <new>
 
@@ -38,24 +39,39 @@ PluginRegistryBase::~PluginRegistryBase() {
   std::erase_if(directory(), [this](const Listed& listed) { return listed.registry == this; });
 }
 
-const PluginInfo& PluginRegistryBase::info(std::string_view key) const {
+const PluginInfo* PluginRegistryBase::find(std::string_view key) const {
+  const std::shared_lock lock(detail::registryMutex());
   const auto found = infos_.find(key);
-  if (found == infos_.end()) {
-    const auto known = keys();
-    throw PluginError("unknown " + kind_ + " '" + std::string(key) + "'" + didYouMean(key, known) +
-                      "; known " + plural_ + ": " +
-                      (known.empty() ? std::string("none") : join(known, ", ")));
-  }
-  return found->second;
+  return found == infos_.end() ? nullptr : &found->second;
+}
+
+bool PluginRegistryBase::contains(std::string_view key) const {
+  if (find(key)) return true;
+  detail::declarePendingModules();
+  return find(key) != nullptr;
+}
+
+const PluginInfo& PluginRegistryBase::info(std::string_view key) const {
+  if (const PluginInfo* found = find(key)) return *found;
+  detail::declarePendingModules();
+  if (const PluginInfo* found = find(key)) return *found;
+  const auto known = keys();
+  throw PluginError("unknown " + kind_ + " '" + std::string(key) + "'" + didYouMean(key, known) +
+                    "; known " + plural_ + ": " +
+                    (known.empty() ? std::string("none") : join(known, ", ")));
 }
 
 std::vector<const PluginInfo*> PluginRegistryBase::list() const {
+  detail::declarePendingModules();
+  const std::shared_lock lock(detail::registryMutex());
   std::vector<const PluginInfo*> result;
   for (const auto& [key, info] : infos_) result.push_back(&info);
   return result;
 }
 
 std::vector<std::string> PluginRegistryBase::keys() const {
+  detail::declarePendingModules();
+  const std::shared_lock lock(detail::registryMutex());
   std::vector<std::string> result;
   for (const auto& [key, info] : infos_) result.push_back(key);
   return result;
@@ -69,6 +85,8 @@ ParameterSet PluginRegistryBase::resolve(std::string_view key,
 }
 
 void PluginRegistryBase::addInfo(PluginInfo info) {
+  detail::declarePendingModules();
+  const std::unique_lock lock(detail::registryMutex());
   if (const auto found = infos_.find(info.key); found != infos_.end()) {
     throw PluginError(kind_ + " '" + info.key + "' from " + info.origin +
                       " is already registered (from " + found->second.origin + ")");
@@ -98,6 +116,58 @@ std::vector<const PluginRegistryBase*> pluginRegistries() {
 }
 
 namespace detail {
+
+std::shared_mutex& registryMutex() {
+  static std::shared_mutex mutex;
+  return mutex;
+}
+
+namespace {
+struct PendingModules {
+  std::recursive_mutex mutex;  // held while declaring; a declaration's own registrations re-enter
+  std::vector<std::function<void()>> declarations;
+  std::exception_ptr failure;       // the first declaration that threw
+  std::atomic<bool> settled{true};  // nothing pending, nothing failed
+};
+PendingModules& pending() {
+  static PendingModules modules;
+  return modules;
+}
+}  // namespace
+
+void addPendingModule(std::function<void()> declare) {
+  PendingModules& modules = pending();
+  const std::lock_guard lock(modules.mutex);
+  modules.declarations.push_back(std::move(declare));
+  modules.settled = false;
+}
+
+void declarePendingModules() {
+  PendingModules& modules = pending();
+  if (modules.settled) return;
+  const std::lock_guard lock(modules.mutex);
+  if (modules.failure) std::rethrow_exception(modules.failure);
+  // Empty inside a declaration (its registrations call back in here), or declared meanwhile.
+  if (modules.declarations.empty()) return;
+  std::vector<std::function<void()>> declarations;
+  declarations.swap(modules.declarations);
+  for (auto& declare : declarations) {
+    try {
+      declare();
+    } catch (...) {
+      // Not run again (it may have declared part of its plugins): every later need says why.
+      modules.failure = std::current_exception();
+      throw;
+    }
+  }
+  modules.settled = modules.declarations.empty();
+}
+
+std::size_t pendingModules() {
+  PendingModules& modules = pending();
+  const std::lock_guard lock(modules.mutex);
+  return modules.declarations.size();
+}
 
 PluginRegistryBase* findMutablePluginRegistry(std::string_view kind) {
   // The directory lists them as const; each is a registry's own (non-const) static object.

@@ -129,9 +129,11 @@ void writePluginManifest(const PluginDeclarations& declarations, const std::stri
 PluginDeclarations readPluginManifest(const std::string& path);
 
 /// Registers the plugins of a module loaded on use (kinolab_add_plugin(... ON_USE)): each is
-/// declared now from the module's manifest (so `kinolab list`, configurations and results see
-/// it), with `origin` as its origin, and the module at `module_path` is loaded (once) when
-/// the first of them is made. The manifest's library versions are recorded at once.
+/// declared from the module's manifest (so `kinolab list`, configurations and results see it)
+/// when a registry is first asked for a key it lacks or for all its plugins
+/// (detail::declarePendingModules()), with `origin` as its origin, and the module at
+/// `module_path` is loaded (once) when the first of them is made. The manifest's library
+/// versions are recorded with the declarations (pluginLibraryVersions() declares first).
 void registerPluginModule(const std::string& module_path, const std::string& manifest_path,
                           const std::string& origin);
 

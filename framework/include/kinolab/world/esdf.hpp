@@ -366,9 +366,11 @@ class Esdf {
 /// of radius D about the centre of the block's voxel of largest D (known free) and the 8^3
 /// bricks that hold no cube. Of those, a cube is kept only if no neighbour one voxel towards the
 /// block is occupied (such a neighbour is never farther from any point of the block): over a
-/// floor, the cubes under the block; of a solid column, its first cube each way. Points outside
-/// the grid, and blocks whose values bound nothing (no obstacle in the grid, a truncated field
-/// at its truncation) take exactDistance() itself.
+/// floor, the cubes under the block; of a solid column, its first cube each way. In a brick
+/// whose occupancy is the same along an axis (a floor's, a wall's, a pillar's), only the layer
+/// facing the block is read along that axis: the others are dominated within the brick. Points
+/// outside the grid, and blocks whose values bound nothing (no obstacle in the grid, a truncated
+/// field at its truncation) take exactDistance() itself.
 class ExactDistanceRun {
  public:
   /// The side of a block, in voxels.
