@@ -52,7 +52,8 @@ inline CLI::Validator unsigned64() {
 /// A hard stop for plugin code that ignores its budget: unless cancelled (destroyed) within
 /// `seconds`, it prints `message` (to stderr, and `json` as the last stdout line when given)
 /// and ends the process with status 1. A planner that never returns cannot be stopped any
-/// other way inside one process; `kinolab run` kills its worker instead.
+/// other way inside one process; `kinolab run` kills its worker instead. The process's
+/// real-time interval timer (SIGALRM) keeps the time, no thread: one watchdog at a time.
 class Watchdog {
  public:
   Watchdog(double seconds, std::string message, std::string json);
@@ -61,8 +62,9 @@ class Watchdog {
   Watchdog& operator=(const Watchdog&) = delete;
 
  private:
-  struct State;
-  std::shared_ptr<State> state_;
+  std::string out_;  // the JSON line, or nothing
+  std::string err_;  // the error line
+  bool armed_ = false;
 };
 
 /// The JSON summary line of a planner the watchdog stopped (`plan` and `fly`): status

@@ -1,15 +1,20 @@
 // `kinolab plan`: one query, one planner, one world; a JSON summary on the last line.
+#include <signal.h>
+#include <sys/time.h>
+#include <unistd.h>
+
+#include <atomic>
+#include <cerrno>
 #include <charconv>
-#include <chrono>
-#include <condition_variable>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <filesystem>
 #include <iostream>
-#include <mutex>
 #include <nlohmann/json.hpp>
 #include <sstream>
-#include <thread>
+#include <stdexcept>
 
 #include "commands.hpp"
 #include "kinolab/core/error.hpp"
@@ -49,8 +54,7 @@ void printSummary(const PlanOptions& options, const World& world, const PlanResu
               formatNumber(result.cost).c_str(), result.distance_to_goal);
   if (!result.trajectory.empty()) {
     if (result.check.valid) {
-      std::printf("  checker    valid (min clearance %.3f m)\n",
-                  result.evaluation.min_clearance);
+      std::printf("  checker    valid (min clearance %.3f m)\n", result.evaluation.min_clearance);
     } else {
       std::printf("  checker    INVALID, %s check: %s\n", result.check.check.c_str(),
                   result.check.detail.c_str());
@@ -153,39 +157,72 @@ bool writeView(const std::string& path, const view::Scene& scene) {
   return true;
 }
 
-struct Watchdog::State {
-  std::mutex mutex;
-  std::condition_variable wake;
-  bool cancelled = false;
-  std::thread thread;
-};
+namespace {
 
-Watchdog::Watchdog(double seconds, std::string message, std::string json)
-    : state_(std::make_shared<State>()) {
+/// What the armed watchdog prints, read by the signal handler: set before its timer starts.
+std::atomic<const std::string*> armed_alarm_out{nullptr};
+std::atomic<const std::string*> armed_alarm_err{nullptr};
+
+void writeAll(int fd, const std::string* text) {
+  if (!text) return;
+  const char* data = text->data();
+  std::size_t left = text->size();
+  while (left > 0) {
+    const ssize_t written = write(fd, data, left);
+    if (written <= 0) return;
+    data += written;
+    left -= static_cast<std::size_t>(written);
+  }
+}
+
+/// SIGALRM: the budget and grace are over. Only async-signal-safe calls.
+extern "C" void onWatchdogAlarm(int) {
+  writeAll(STDOUT_FILENO, armed_alarm_out.load());
+  writeAll(STDERR_FILENO, armed_alarm_err.load());
+  _exit(1);  // the planner's thread cannot be stopped; nothing of it is written
+}
+
+/// Starts (seconds > 0) or stops (0) the process's one real-time interval timer.
+void setAlarm(double seconds) {
+  itimerval timer{};
+  const double whole = std::floor(seconds);
+  timer.it_value.tv_sec = static_cast<time_t>(whole);
+  timer.it_value.tv_usec = static_cast<suseconds_t>((seconds - whole) * 1e6);
+  if (seconds > 0.0 && timer.it_value.tv_sec == 0 && timer.it_value.tv_usec == 0) {
+    timer.it_value.tv_usec = 1;  // 0 would disarm
+  }
+  if (setitimer(ITIMER_REAL, &timer, nullptr) != 0) {
+    throw std::runtime_error(std::string("setitimer: ") + std::strerror(errno));
+  }
+}
+
+}  // namespace
+
+Watchdog::Watchdog(double seconds, std::string message, std::string json) {
   if (!(seconds < 1e9)) return;  // no budget, nothing to enforce
-  state_->thread =
-      std::thread([state = state_, seconds, message = std::move(message), json = std::move(json)] {
-        std::unique_lock lock(state->mutex);
-        if (state->wake.wait_for(lock, std::chrono::duration<double>(seconds),
-                                 [&] { return state->cancelled; })) {
-          return;
-        }
-        std::fflush(stdout);
-        if (!json.empty()) std::printf("%s\n", json.c_str());
-        std::fprintf(stderr, "kinolab: error: %s\n", message.c_str());
-        std::fflush(nullptr);
-        std::_Exit(1);  // the planner's thread cannot be stopped; nothing of it is written
-      });
+  if (armed_alarm_err.load()) throw std::logic_error("Watchdog: one at a time");
+  out_ = json.empty() ? std::string() : json + "\n";
+  err_ = "kinolab: error: " + message + "\n";
+  std::fflush(nullptr);  // what was printed before comes first; the handler cannot flush
+  static const bool installed = [] {
+    struct sigaction action {};
+    action.sa_handler = onWatchdogAlarm;
+    sigemptyset(&action.sa_mask);
+    action.sa_flags = SA_RESTART;
+    return sigaction(SIGALRM, &action, nullptr) == 0;
+  }();
+  if (!installed) throw std::runtime_error("sigaction(SIGALRM) failed");
+  armed_alarm_out = &out_;
+  armed_alarm_err = &err_;
+  armed_ = true;
+  setAlarm(seconds);
 }
 
 Watchdog::~Watchdog() {
-  if (!state_->thread.joinable()) return;
-  {
-    const std::lock_guard lock(state_->mutex);
-    state_->cancelled = true;
-  }
-  state_->wake.notify_all();
-  state_->thread.join();
+  if (!armed_) return;
+  setAlarm(0.0);
+  armed_alarm_err = nullptr;
+  armed_alarm_out = nullptr;
 }
 
 std::string killedSummary(const std::string& planner, const std::string& world, std::uint64_t seed,
