@@ -1,5 +1,6 @@
 // kinolab_module_manifest MODULE MANIFEST: writes the manifest of a plugin module loaded on use
-// (what it declares), which kinolab reads instead of loading the module. Run by the build
+// (what it declares), which kinolab reads instead of loading the module, and the kinds file
+// beside it (MANIFEST with the extension .kinds). Run by the build
 // (plugins/CMakeLists.txt), not by hand.
 #include <cstdio>
 #include <exception>
@@ -13,7 +14,8 @@ int main(int argc, char** argv) {
                  "Usage: kinolab_module_manifest MODULE.so MANIFEST.json\n"
                  "Writes what a kinolab plugin module declares (its plugins' keys, parameters "
                  "and statistics, the libraries it records) as the JSON manifest kinolab reads "
-                 "instead of loading the module; the build runs it.\n");
+                 "instead of loading the module, and beside it the kinds it declares "
+                 "(MANIFEST.kinds); the build runs it.\n");
     return argc == 2 ? 0 : 2;
   }
   try {

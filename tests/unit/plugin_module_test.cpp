@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "kinolab/core/plugin.hpp"
+#include "kinolab/planner/back_end.hpp"
 #include "kinolab/planner/planner.hpp"
 #include "support/errors.hpp"
 
@@ -68,16 +69,19 @@ TEST(PluginModule, APlannerOfAModuleIsKnownWithoutItsModuleWhichLoadsWhenOneIsMa
           std::exit(1);
         };
         require(!isLoaded(module), "registered at start, not loaded");
-        // The manifests are read when a plugin not built in is first asked for, not before.
-        require(detail::pendingModules() > 0, "manifests not read at start");
+        // A module's manifest is read when a plugin of its kinds not built in is first asked
+        // for, or all plugins of such a kind: not at start, not for a built-in planner.
+        const std::size_t modules = detail::pendingModules();
+        require(modules == 2, "manifests not read at start");
         require(pluginRegistry<Planner>().contains("lazy_mp_astar"), "a built-in planner");
-        require(detail::pendingModules() > 0, "manifests not read for a built-in planner");
+        require(detail::pendingModules() == modules, "manifests not read for a built-in planner");
         const PluginInfo& info = pluginRegistry<Planner>().info("rrtstar_ceres");
-        require(detail::pendingModules() == 0, "manifests read for a module's planner");
+        require(detail::pendingModules() == modules - 1, "the planners' module's manifest alone");
         require(info.origin == "built-in (rrtstar_ceres)", "origin");
         require(info.parameters.find("range") != nullptr, "the parameter range declared");
         require(!info.statistics.all().empty(), "statistics declared");
         require(pluginLibraryVersions().count("ompl") == 1, "provenance from the manifest");
+        require(detail::pendingModules() == 0, "every manifest read for the provenance");
         // Declarations resolve without the module too.
         const ParameterSet parameters = pluginRegistry<Planner>().resolve("rrtstar_ceres", {});
         require(!isLoaded(module), "resolved without loading");
@@ -99,6 +103,9 @@ TEST(PluginModule, EveryShippedManifestDeclaresWhatItsModuleRegisters) {
     const std::string fresh = directory + "/" + entry.path().stem().string() + ".json";
     writePluginManifest(declarePluginLibrary(entry.path().string()), fresh);
     EXPECT_EQ(readText(fresh), readText(shipped)) << entry.path();
+    EXPECT_EQ(readText(pluginManifestKindsPath(fresh)), readText(pluginManifestKindsPath(shipped)))
+        << entry.path();
+    EXPECT_FALSE(readPluginManifestKinds(shipped).empty()) << shipped;
     EXPECT_FALSE(readPluginManifest(shipped).plugins.empty()) << shipped;
   }
   EXPECT_EQ(modules, 2);  // rrtstar_ceres (OMPL) and bspline_back_end (Ceres)
@@ -176,6 +183,38 @@ TEST(PluginModule, ABrokenManifestIsAPluginErrorNamingItsFile) {
     expectThrowContains<PluginError>([&] { readPluginManifest(path); },
                                      {path, cases[i].second, "rebuild or reinstall kinolab"});
   }
+}
+
+TEST(PluginModule, AKindsFileThatLeavesOutADeclaredKindIsAPluginErrorWhenRead) {
+  const std::string directory = scratch("kinds");
+  PluginDeclarations declared;
+  PluginInfo hidden;
+  hidden.key = "hidden_planner";
+  declared.plugins.emplace_back("planner", hidden);
+  writePluginManifest(declared, directory + "/hidden.json");
+  EXPECT_EQ(readPluginManifestKinds(directory + "/hidden.json"),
+            std::vector<std::string>{"planner"});
+  std::ofstream(pluginManifestKindsPath(directory + "/hidden.json")) << "back_end\n";
+  // In a fresh process: a failed declaration is reported again by every later need.
+  GTEST_FLAG_SET(death_test_style, "threadsafe");
+  EXPECT_EXIT(
+      {
+        registerPluginModule(directory + "/hidden.so", directory + "/hidden.json", "test");
+        try {
+          (void)pluginRegistry<BackEnd>().list();
+        } catch (const PluginError& error) {
+          std::fprintf(stderr, "%s\n", error.what());
+          try {
+            (void)pluginRegistry<Planner>().list();
+          } catch (const PluginError&) {
+            std::exit(3);  // reported again
+          }
+          std::exit(4);
+        }
+        std::exit(0);
+      },
+      ::testing::ExitedWithCode(3),
+      "declares planner 'hidden_planner'.*hidden.kinds.*does not list");
 }
 
 TEST(PluginModule, APluginWhoseModuleIsMissingOrSilentIsAPluginErrorWhenMade) {

@@ -3,6 +3,7 @@
 #include <dlfcn.h>
 #include <link.h>
 
+#include <algorithm>
 #include <filesystem>
 #include <mutex>
 #include <set>
@@ -82,6 +83,9 @@ void PluginRegistrar::commit() {
 
 void PluginRegistrar::fulfil() {
   for (auto& item : pending_) {
+    if (item.fulfil()) continue;
+    // A module's own manifest is declared before it loads; another's, maybe not yet.
+    detail::declarePendingModules(item.kind);
     if (!item.fulfil()) {
       throw PluginError(origin_ + " registers " + item.kind + " '" + item.info.key +
                         "', which its manifest does not declare: rebuild kinolab");
@@ -206,6 +210,18 @@ namespace {
 void declarePluginModule(const std::string& module_path, const std::string& manifest_path,
                          const std::string& origin) {
   const PluginDeclarations declared = readPluginManifest(manifest_path);
+  // Its kinds file said which registries need it declared; one that left a kind out would
+  // hide that kind's plugins until everything is listed.
+  if (const auto kinds = readPluginManifestKinds(manifest_path); !kinds.empty()) {
+    for (const auto& [kind, info] : declared.plugins) {
+      if (std::find(kinds.begin(), kinds.end(), kind) == kinds.end()) {
+        throw PluginError("module manifest '" + manifest_path + "' declares " + kind + " '" +
+                          info.key + "', which its kinds file '" +
+                          pluginManifestKindsPath(manifest_path) +
+                          "' does not list: rebuild or reinstall kinolab");
+      }
+    }
+  }
   // Made once, by whichever of its plugins is made first (a failed load is tried again).
   struct Module {
     std::string path;
@@ -233,9 +249,10 @@ void declarePluginModule(const std::string& module_path, const std::string& mani
 
 void registerPluginModule(const std::string& module_path, const std::string& manifest_path,
                           const std::string& origin) {
-  detail::addPendingModule([module_path, manifest_path, origin] {
-    declarePluginModule(module_path, manifest_path, origin);
-  });
+  detail::addPendingModule(readPluginManifestKinds(manifest_path),
+                           [module_path, manifest_path, origin] {
+                             declarePluginModule(module_path, manifest_path, origin);
+                           });
 }
 
 }  // namespace kinolab

@@ -2,8 +2,10 @@
 // key, description, parameters and statistics, and the libraries it records), as JSON beside
 // the module, so that kinolab knows its plugins without loading it.
 #include <charconv>
+#include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
+#include <set>
 #include <sstream>
 
 #include "kinolab/core/files.hpp"
@@ -184,6 +186,24 @@ void writePluginManifest(const PluginDeclarations& declarations, const std::stri
   const Json manifest = {
       {"format", kManifestFormat}, {"plugins", plugins}, {"libraries", libraries}};
   writeFileAtomically(path, manifest.dump() + "\n");
+  std::set<std::string> kinds;
+  for (const auto& [kind, info] : declarations.plugins) kinds.insert(kind);
+  std::string lines;
+  for (const std::string& kind : kinds) lines += kind + "\n";
+  writeFileAtomically(pluginManifestKindsPath(path), lines);
+}
+
+std::string pluginManifestKindsPath(const std::string& manifest_path) {
+  return std::filesystem::path(manifest_path).replace_extension(".kinds").string();
+}
+
+std::vector<std::string> readPluginManifestKinds(const std::string& manifest_path) {
+  std::ifstream file(pluginManifestKindsPath(manifest_path));
+  std::vector<std::string> kinds;
+  for (std::string line; std::getline(file, line);) {
+    if (!line.empty()) kinds.push_back(line);
+  }
+  return kinds;
 }
 
 PluginDeclarations readPluginManifest(const std::string& path) {

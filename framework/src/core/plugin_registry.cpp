@@ -47,13 +47,13 @@ const PluginInfo* PluginRegistryBase::find(std::string_view key) const {
 
 bool PluginRegistryBase::contains(std::string_view key) const {
   if (find(key)) return true;
-  detail::declarePendingModules();
+  detail::declarePendingModules(kind_);
   return find(key) != nullptr;
 }
 
 const PluginInfo& PluginRegistryBase::info(std::string_view key) const {
   if (const PluginInfo* found = find(key)) return *found;
-  detail::declarePendingModules();
+  detail::declarePendingModules(kind_);
   if (const PluginInfo* found = find(key)) return *found;
   const auto known = keys();
   throw PluginError("unknown " + kind_ + " '" + std::string(key) + "'" + didYouMean(key, known) +
@@ -62,7 +62,7 @@ const PluginInfo& PluginRegistryBase::info(std::string_view key) const {
 }
 
 std::vector<const PluginInfo*> PluginRegistryBase::list() const {
-  detail::declarePendingModules();
+  detail::declarePendingModules(kind_);
   const std::shared_lock lock(detail::registryMutex());
   std::vector<const PluginInfo*> result;
   for (const auto& [key, info] : infos_) result.push_back(&info);
@@ -70,7 +70,7 @@ std::vector<const PluginInfo*> PluginRegistryBase::list() const {
 }
 
 std::vector<std::string> PluginRegistryBase::keys() const {
-  detail::declarePendingModules();
+  detail::declarePendingModules(kind_);
   const std::shared_lock lock(detail::registryMutex());
   std::vector<std::string> result;
   for (const auto& [key, info] : infos_) result.push_back(key);
@@ -85,7 +85,7 @@ ParameterSet PluginRegistryBase::resolve(std::string_view key,
 }
 
 void PluginRegistryBase::addInfo(PluginInfo info) {
-  detail::declarePendingModules();
+  detail::declarePendingModules(kind_);
   const std::unique_lock lock(detail::registryMutex());
   if (const auto found = infos_.find(info.key); found != infos_.end()) {
     throw PluginError(kind_ + " '" + info.key + "' from " + info.origin +
@@ -123,9 +123,13 @@ std::shared_mutex& registryMutex() {
 }
 
 namespace {
+struct PendingModule {
+  std::vector<std::string> kinds;  // empty: any
+  std::function<void()> declare;
+};
 struct PendingModules {
   std::recursive_mutex mutex;  // held while declaring; a declaration's own registrations re-enter
-  std::vector<std::function<void()>> declarations;
+  std::vector<PendingModule> modules;
   std::exception_ptr failure;       // the first declaration that threw
   std::atomic<bool> settled{true};  // nothing pending, nothing failed
 };
@@ -135,38 +139,44 @@ PendingModules& pending() {
 }
 }  // namespace
 
-void addPendingModule(std::function<void()> declare) {
-  PendingModules& modules = pending();
-  const std::lock_guard lock(modules.mutex);
-  modules.declarations.push_back(std::move(declare));
-  modules.settled = false;
+void addPendingModule(std::vector<std::string> kinds, std::function<void()> declare) {
+  PendingModules& pending_modules = pending();
+  const std::lock_guard lock(pending_modules.mutex);
+  pending_modules.modules.push_back({std::move(kinds), std::move(declare)});
+  pending_modules.settled = false;
 }
 
-void declarePendingModules() {
-  PendingModules& modules = pending();
-  if (modules.settled) return;
-  const std::lock_guard lock(modules.mutex);
-  if (modules.failure) std::rethrow_exception(modules.failure);
-  // Empty inside a declaration (its registrations call back in here), or declared meanwhile.
-  if (modules.declarations.empty()) return;
-  std::vector<std::function<void()>> declarations;
-  declarations.swap(modules.declarations);
-  for (auto& declare : declarations) {
+void declarePendingModules(std::string_view kind) {
+  PendingModules& pending_modules = pending();
+  if (pending_modules.settled) return;
+  const std::lock_guard lock(pending_modules.mutex);
+  if (pending_modules.failure) std::rethrow_exception(pending_modules.failure);
+  // Those of `kind` taken out first: their registrations call back in here.
+  std::vector<PendingModule> chosen;
+  std::vector<PendingModule> kept;
+  for (PendingModule& module : pending_modules.modules) {
+    const bool take =
+        kind.empty() || module.kinds.empty() ||
+        std::find(module.kinds.begin(), module.kinds.end(), kind) != module.kinds.end();
+    (take ? chosen : kept).push_back(std::move(module));
+  }
+  pending_modules.modules = std::move(kept);
+  for (PendingModule& module : chosen) {
     try {
-      declare();
+      module.declare();
     } catch (...) {
       // Not run again (it may have declared part of its plugins): every later need says why.
-      modules.failure = std::current_exception();
+      pending_modules.failure = std::current_exception();
       throw;
     }
   }
-  modules.settled = modules.declarations.empty();
+  pending_modules.settled = pending_modules.modules.empty();
 }
 
 std::size_t pendingModules() {
-  PendingModules& modules = pending();
-  const std::lock_guard lock(modules.mutex);
-  return modules.declarations.size();
+  PendingModules& pending_modules = pending();
+  const std::lock_guard lock(pending_modules.mutex);
+  return pending_modules.modules.size();
 }
 
 PluginRegistryBase* findMutablePluginRegistry(std::string_view kind) {

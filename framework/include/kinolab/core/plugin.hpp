@@ -123,16 +123,23 @@ void loadPluginLibrary(const std::string& path);
 PluginDeclarations declarePluginLibrary(const std::string& path);
 
 /// Writes `declarations` as the JSON manifest of a module loaded on use (to a temporary file
-/// renamed into place); readPluginManifest() reads one back, a missing, unreadable or
-/// malformed manifest being a PluginError naming the file and what is wrong.
+/// renamed into place), and beside it the kinds it declares (pluginManifestKindsPath()), so a
+/// process learns which registries a module adds to without parsing its manifest;
+/// readPluginManifest() reads a manifest back, a missing, unreadable or malformed manifest
+/// being a PluginError naming the file and what is wrong.
 void writePluginManifest(const PluginDeclarations& declarations, const std::string& path);
 PluginDeclarations readPluginManifest(const std::string& path);
+/// The kinds file beside the manifest at `manifest_path` (its extension .kinds).
+std::string pluginManifestKindsPath(const std::string& manifest_path);
+/// The kinds the manifest at `manifest_path` declares, one a line in its kinds file; empty
+/// when that file cannot be read (then the module may declare any kind).
+std::vector<std::string> readPluginManifestKinds(const std::string& manifest_path);
 
 /// Registers the plugins of a module loaded on use (kinolab_add_plugin(... ON_USE)): each is
 /// declared from the module's manifest (so `kinolab list`, configurations and results see it)
-/// when a registry is first asked for a key it lacks or for all its plugins
-/// (detail::declarePendingModules()), with `origin` as its origin, and the module at
-/// `module_path` is loaded (once) when the first of them is made. The manifest's library
+/// when a registry of a kind it declares (its kinds file) is first asked for a key it lacks or
+/// for all its plugins (detail::declarePendingModules()), with `origin` as its origin, and the
+/// module at `module_path` is loaded (once) when the first of them is made. The manifest's library
 /// versions are recorded with the declarations (pluginLibraryVersions() declares first).
 void registerPluginModule(const std::string& module_path, const std::string& manifest_path,
                           const std::string& origin);

@@ -66,7 +66,7 @@ class PluginRegistryBase {
   const std::string& description() const { return description_; }
 
   /// Whether a plugin has this key. This and the other queries declare the plugins of modules
-  /// not yet declared (detail::declarePendingModules()) when they need them: a key not found,
+  /// not yet declared (detail::declarePendingModules(kind)) when they need them: a key not found,
   /// or every plugin.
   bool contains(std::string_view key) const;
   /// The plugin with this key; an unknown key is a PluginError listing the known ones.
@@ -102,13 +102,15 @@ namespace detail {
 /// removed, so what a lookup returns stays valid after the lock.
 std::shared_mutex& registryMutex();
 /// Plugin modules are declared from their manifests on demand: `declare` runs (once, and
-/// before any later registration, so a key taken twice is still found) when a registry is
-/// asked for a key it lacks or for every plugin. Reading a manifest costs a process that plans
-/// with built-in plugins alone about 6 % of its time.
-void addPendingModule(std::function<void()> declare);
-/// Runs every pending declaration (one thread at a time; a call from inside one returns at
-/// once). After a declaration threw, every later call throws its error again.
-void declarePendingModules();
+/// before any later registration of one of `kinds`, so a key taken twice is still found) when
+/// a registry of one of `kinds` (empty: any) is asked for a key it lacks or for every plugin.
+/// Reading the manifests cost a process that plans with built-in plugins alone about 8 % of
+/// its time.
+void addPendingModule(std::vector<std::string> kinds, std::function<void()> declare);
+/// Runs the pending declarations of modules that may declare plugins of `kind` (empty: all),
+/// one thread at a time; a call from inside one returns at once. After a declaration threw,
+/// every later call throws its error again.
+void declarePendingModules(std::string_view kind = {});
 /// Pending declarations not yet run (for tests).
 std::size_t pendingModules();
 }  // namespace detail
