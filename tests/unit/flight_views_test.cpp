@@ -96,6 +96,42 @@ TEST(LevelGuideTest, AWayOverOneWallAndUnderTheNextJoinsTwoLevels) {
                   .empty());
 }
 
+TEST(LevelGuideTest, ADoorTheVehicleFlewThroughStaysOpenToTheGuides) {
+  // A wall across the map at x = 10 with a door 0.8 m wide (y 4.6 .. 5.4): no cell centre
+  // lies 0.4 m from both its sides (the cells are 0.1 m), so the guides' columns close it for
+  // a 0.4 m radius although a body of that radius fits. A trail through the door (where a
+  // vehicle flew) opens it, in the band and at the levels within the radius of the trail's
+  // height; a trail above the band opens nothing there.
+  const auto world = worldOf(
+      "  - type: box_list\n"
+      "    boxes: [{min: [10, 0, 0], max: [10.4, 4.6, 3]}, {min: [10, 5.4, 0], max: [10.4, 10, "
+      "3]}]\n");
+  const VoxelGrid& grid = world->grid();
+  const ObstacleColumns columns = columnsOf(grid);
+  const Eigen::Vector3d from(5.0, 5.0, 1.5);
+  const Eigen::Vector3d to(15.0, 5.0, 1.5);
+  const Eigen::Vector3d froms[] = {from};
+  std::vector<Eigen::Vector3d> trail;
+  for (double x = 8.0; x <= 12.0; x += 0.05) trail.emplace_back(x, 5.0, 1.5);
+  std::vector<Eigen::Vector3d> high = trail;
+  for (Eigen::Vector3d& p : high) p.z() = 2.6;
+  EXPECT_TRUE(columnGuides(grid, columns, froms, to, 0.4, 1.0, 2.0, 0.4).front().empty());
+  EXPECT_TRUE(
+      columnGuides(grid, columns, froms, to, 0.4, 1.0, 2.0, 0.4, 0.0, high).front().empty());
+  const std::vector<Eigen::Vector3d> way =
+      columnGuides(grid, columns, froms, to, 0.4, 1.0, 2.0, 0.4, 0.0, trail).front();
+  ASSERT_GE(way.size(), 2u);
+  for (const Eigen::Vector3d& p : way) {
+    if (p.x() > 10.0 && p.x() < 10.4) {
+      EXPECT_NEAR(p.y(), 5.0, 0.1) << p.transpose();
+    }
+  }
+  const std::vector<double> levels = {0.55, 0.95, 1.35, 1.75, 2.15};
+  EXPECT_TRUE(levelColumnGuides(grid, columns, froms, to, 0.4, levels, 0.4).front().empty());
+  EXPECT_FALSE(
+      levelColumnGuides(grid, columns, froms, to, 0.4, levels, 0.4, 0.0, trail).front().empty());
+}
+
 TEST(LevelGuideTest, AFlightsLevelsSpanTheMapWithinItsMargin) {
   // levelGuides() on a vehicle's map that has seen both walls: its levels run from the margin
   // and a body above the floor to as far below the ceiling, 0.4 m apart (0.55 .. 2.15 m in a
@@ -132,6 +168,43 @@ TEST(LevelGuideTest, AFlightsLevelsSpanTheMapWithinItsMargin) {
   EXPECT_NEAR(lowest, 0.55, 1e-9);
 }
 
+TEST(LocalGoalTest, TheWindowReachesWhereTheGuideClimbsOverAWall) {
+  // The levels' way over the low wall (up to 1.5 m at x = 6) climbs to 2.15 m, beginning within
+  // the horizon of a vehicle at 1 m, 3 m before the wall. wayHeight() is that climb's height, and a
+  // window centred towards it (windowCentre(), 2 m high) takes the local goal up the climb;
+  // centred towards the goal's height (1 m) the window held it at 1.5 m at most, where the
+  // way is closed, and the vehicle stood at the wall (geb079).
+  const auto world = worldOf(kOverAndUnder);
+  const Eigen::Vector3d from(3.0, 5.0, 1.0);
+  const Eigen::Vector3d goal(9.0, 5.0, 1.0);
+  const Eigen::Vector3d froms[] = {from};
+  const std::vector<Eigen::Vector3d> guide =
+      levelColumnGuides(world->grid(), columnsOf(world->grid()), froms, goal, 0.4,
+                        std::vector<double>{0.55, 0.95, 1.35, 1.75, 2.15}, 0.4)
+          .front();
+  ASSERT_GE(guide.size(), 2u);
+  const double horizon = 3.5;
+  EXPECT_GT(wayHeight(guide, horizon, goal), 1.75);  // up the climb, which ends past it
+  EXPECT_NEAR(wayHeight(guide, 10.0, goal), 2.15, 1e-9);
+  // Within a horizon that ends before the climb the way keeps the vehicle's level; without a
+  // guide the window reaches towards the goal.
+  EXPECT_NEAR(wayHeight(guide, 1.0, goal), 0.95, 1e-9);
+  EXPECT_NEAR(wayHeight({}, horizon, Eigen::Vector3d(9.0, 5.0, 2.5)), 2.5, 1e-9);
+  const Box map{Eigen::Vector3d::Constant(0.15), Eigen::Vector3d(19.85, 9.85, 2.85)};
+  const auto localGoalIn = [&](double way_height) {
+    // The window: 10 m across, 2 m high round its centre, within the map.
+    const double middle = windowCentre(from, way_height, 2.0).z();
+    const auto window = worldOf(
+        kOverAndUnder, "{min: [0, 0, " + std::to_string(middle - 1.0) + "], max: [20, 10, " +
+                           std::to_string(std::min(middle + 1.0, 3.0)) + "]}");
+    Eigen::Vector3d local;
+    EXPECT_TRUE(localGoal(from, goal, guide, horizon, *window, 0.4, map, &local));
+    return local;
+  };
+  EXPECT_GT(localGoalIn(wayHeight(guide, horizon, goal)).z(), 1.9);
+  EXPECT_LE(localGoalIn(goal.z()).z(), 1.5 + 1e-9);
+}
+
 TEST(LocalGoalTest, AGuideAlongTheMapsEndKeepsItsLocalGoalOnTheGuide) {
   // The window ends with the map (its domain is the map's box less the planning margin): no
   // side margin there, and a guide 0.2 m from the map's side gives a local goal on it, the
@@ -152,6 +225,30 @@ TEST(LocalGoalTest, AGuideAlongTheMapsEndKeepsItsLocalGoalOnTheGuide) {
 
 /// A wall along x = 10 .. 10.4 for y < 5, the map's whole height.
 const char* kWall = "  - type: box_list\n    boxes: [{min: [10, 0, 0], max: [10.4, 5, 3]}]\n";
+
+TEST(LocalGoalTest, AGoalBehindAWallIsTheLocalGoalOnlyWithinTheHorizonAlongTheGuide) {
+  // The goal 3 m away in a straight line, behind the wall; the guide goes round the wall's end
+  // (about 9 m). The local goal is the guide's point at the 3.5 m horizon, not the goal: taken
+  // as the local goal in a straight line, it had the planner press against the wall replan
+  // after replan (geb079: the flight's nearest local goal "0 m from the goal", stuck). Without
+  // a guide (the straight line is the way) the goal within the horizon is the local goal.
+  const auto world = worldOf(kWall);
+  const Eigen::Vector3d from(8.5, 2.0, 1.5);
+  const Eigen::Vector3d goal(11.5, 2.0, 1.5);
+  const Eigen::Vector3d froms[] = {from};
+  const std::vector<Eigen::Vector3d> guide =
+      columnGuides(world->grid(), columnsOf(world->grid()), froms, goal, 0.4, 1.0, 2.0, 0.4)
+          .front();
+  ASSERT_GE(guide.size(), 2u);
+  ASSERT_GT(wayLength(guide, from, goal), 7.0);
+  const Box map{Eigen::Vector3d::Constant(0.15), Eigen::Vector3d(19.85, 9.85, 2.85)};
+  Eigen::Vector3d local;
+  ASSERT_TRUE(localGoal(from, goal, guide, 3.5, *world, 0.4, map, &local));
+  EXPECT_LT((local - pointAlong(guide, 3.5)).norm(), 0.3) << local.transpose();
+  EXPECT_GT((local - goal).norm(), 2.0) << local.transpose();
+  ASSERT_TRUE(localGoal(from, goal, {}, 3.5, *world, 0.4, map, &local));
+  EXPECT_EQ(local, goal);
+}
 
 TEST(BackOffTest, APressedVehicleBacksOffForThePlanningBodyAwayFromTheWall) {
   // 0.38 m from the wall, inside the 0.4 m planning radius (within half a voxel): after a

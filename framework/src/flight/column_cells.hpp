@@ -20,6 +20,11 @@ Eigen::Vector2i cellOf(const VoxelGrid& lattice, const Eigen::Vector3d& p);
 void openRound(const VoxelGrid& lattice, std::span<std::uint8_t> cells, const Eigen::Vector3d& at,
                double room);
 
+/// Opens in `cells` the cell of each point of `trail` whose height lies in [z_low, z_high]:
+/// where the vehicle has flown, its body fits.
+void openTrail(const VoxelGrid& lattice, std::span<std::uint8_t> cells,
+               std::span<const Eigen::Vector3d> trail, double z_low, double z_high);
+
 /// Per x-y cell of `lattice` (x slowest): 1 where a column with an obstacle (`obstacles`) in
 /// the heights [z_low, z_high] lies within `radius` of the cell's centre, or where the centre
 /// lies within `inset` of the lattice's sides in x or y.

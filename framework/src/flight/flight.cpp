@@ -84,6 +84,7 @@ class FlightLoop {
       return truth_->isFree(centre, half_diagonal);
     });
     progress_from_ = start;
+    way_height_ = query_.goal.z();
     for (int frame = 0; step(frame); ++frame) {
     }
     finish();
@@ -194,10 +195,13 @@ class FlightLoop {
     // (their cubes meet the body, which the ground truth has not stopped: they are free), and
     // no more, so that what the vehicle assumes never vouches for a plan (vouchedTrace()).
     map_->markFree(now.col(0), body_.radius);
+    if (trail_.empty() || (trail_.back() - now.col(0)).norm() > 0.5 * map_model_.resolution) {
+      trail_.push_back(now.col(0));  // where the body fits: open to the guides
+    }
     result_.time_map_ms += millisecondsSince(begin);
     begin = std::chrono::steady_clock::now();
     std::shared_ptr<const World> window =
-        map_->window(windowCentre(now.col(0), query_.goal.z(), map_model_.window_height));
+        map_->window(windowCentre(now.col(0), way_height_, map_model_.window_height));
     result_.time_window_ms += millisecondsSince(begin);
     return window;
   }
@@ -218,10 +222,14 @@ class FlightLoop {
     const double z_low = std::min(local.start(2, 0), query_.goal.z()) - 0.5;
     const double z_high = std::max(local.start(2, 0), query_.goal.z()) + 0.5;
     const Eigen::Vector3d from = local.start.col(0);
-    const auto guides = guidesFrom(from, z_low, z_high);
+    const auto guides = flightGuides(*map_, query_, {from, progress_from_}, {z_low, z_high},
+                                     planning_body_.radius, settings_.planning_margin, trail_);
     const std::vector<Eigen::Vector3d>& guide = guides[0];
     result_.time_guide_ms += millisecondsSince(begin);
     measureProgress(from, guide, guides[1]);
+    // The window reaches where the guide goes (kept while it holds that, VehicleMap::window()).
+    way_height_ = wayHeight(guide, settings_.horizon, query_.goal);
+    shared_window = map_->window(windowCentre(position, way_height_, map_model_.window_height));
     bool accepted = false;
     bool found = localGoal(local.start.col(0), query_.goal, guide, settings_.horizon,
                            *shared_window, planning_body_.radius, mapDomain(), &local.goal);
@@ -232,8 +240,8 @@ class FlightLoop {
       // vehicle in z a quarter of its height late: a goal above or below): the window is built
       // anew around the vehicle and the local goal chosen again. Before, a vehicle below a
       // higher goal failed hundreds of replans at its local goal 0.5 m above it.
-      shared_window = map_->window(
-          windowCentre(position, query_.goal.z(), map_model_.window_height), /*rebuild=*/true);
+      shared_window = map_->window(windowCentre(position, way_height_, map_model_.window_height),
+                                   /*rebuild=*/true);
       found = localGoal(local.start.col(0), query_.goal, guide, settings_.horizon, *shared_window,
                         planning_body_.radius, mapDomain(), &local.goal);
     }
@@ -280,24 +288,6 @@ class FlightLoop {
     }
     reason_ = settled ? "period" : "retry";
     next_replan_ = std::max(next_replan_, t_ + (settled ? settings_.replan_period : dt_));
-  }
-
-  /// The guides from `from` and from where the flight last made progress: over the columns of
-  /// [z_low, z_high] from heights within the query's (their heights, interpolated, then do not
-  /// follow a vehicle that sank or rose), or with no way there over levelGuides() from where
-  /// the vehicle is (from the query's heights, one that climbed was guided from below, turned).
-  std::vector<std::vector<Eigen::Vector3d>> guidesFrom(const Eigen::Vector3d& from, double z_low,
-                                                       double z_high) const {
-    const auto within = [low = std::min(query_.start(2, 0), query_.goal.z()),
-                         high = std::max(query_.start(2, 0), query_.goal.z())](Eigen::Vector3d p) {
-      return Eigen::Vector3d(p.x(), p.y(), std::clamp(p.z(), low, high));
-    };
-    const Eigen::Vector3d band_froms[] = {within(from), within(progress_from_)};
-    const double radius = planning_body_.radius;
-    auto guides = map_->guides(band_froms, query_.goal, radius, z_low, z_high, radius);
-    if (!guides[0].empty()) return guides;
-    const Eigen::Vector3d froms[] = {from, progress_from_};
-    return levelGuides(*map_, froms, query_.goal, radius, settings_.planning_margin);
   }
 
   Box mapDomain() const {  // where plans may go: the map's box less the planning margin
@@ -551,6 +541,8 @@ class FlightLoop {
   // Where (a replan's start) and when the flight last made progress (measureProgress()).
   Eigen::Vector3d progress_from_ = Eigen::Vector3d::Zero();
   double best_time_ = 0.0;
+  double way_height_ = 0.0;  // where the guide goes (wayHeight()): the window reaches there
+  std::vector<Eigen::Vector3d> trail_;      // where the vehicle flew, half a voxel apart
   static constexpr double kProgress = 0.5;  // m shorter along the guide: progress
   std::string reason_ = "start";
   bool collided_ = false;

@@ -130,12 +130,25 @@ double exactMinClearance(const World& truth, const Trajectory& flown, double rad
   return least - radius;
 }
 
-Eigen::Vector3d windowCentre(const Eigen::Vector3d& position, double goal_height,
+Eigen::Vector3d windowCentre(const Eigen::Vector3d& position, double way_height,
                              double window_height) {
   const double quarter = 0.25 * window_height;
   Eigen::Vector3d centre = position;
-  centre.z() += std::clamp(goal_height - position.z(), -quarter, quarter);
+  centre.z() += std::clamp(way_height - position.z(), -quarter, quarter);
   return centre;
+}
+
+double wayHeight(const std::vector<Eigen::Vector3d>& guide, double horizon,
+                 const Eigen::Vector3d& goal) {
+  if (guide.size() < 2) return goal.z();
+  double height = guide.front().z();
+  double along = 0.0;
+  for (std::size_t i = 1; i < guide.size() && along <= horizon; ++i) {
+    along += (guide[i] - guide[i - 1]).norm();
+    const double z = along > horizon ? pointAlong(guide, horizon).z() : guide[i].z();
+    if (std::abs(z - guide.front().z()) > std::abs(height - guide.front().z())) height = z;
+  }
+  return height;
 }
 
 std::string takenSince(const std::vector<FlightReplan>& replans, double since,
@@ -288,7 +301,9 @@ bool localGoal(const Eigen::Vector3d& from, const Eigen::Vector3d& goal,
   // The goal within the horizon is taken as it is (no margin: nothing lies beyond it), brought
   // into the window's domain when it lies less than 0.5 m outside (at the map's end).
   const Eigen::Vector3d goal_inside = goal.cwiseMax(box.min).cwiseMin(box.max);
-  const bool at_goal = (goal - from).norm() <= horizon && (goal_inside - goal).norm() < 0.5;
+  // Within the horizon along the way, not in a straight line: a goal behind a wall that the
+  // guide goes round was taken as the local goal, and the vehicle dithered at the wall.
+  const bool at_goal = wayLength(guide, from, goal) <= horizon && (goal_inside - goal).norm() < 0.5;
   if (at_goal) target = goal_inside;
   // Back along the way, then around, in 0.25 m steps, until a free point.
   const Eigen::Vector3d back = (from - target).normalized();

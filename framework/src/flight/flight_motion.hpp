@@ -86,11 +86,21 @@ TraceResult vouchedTrace(const VehicleMap& map, const Trajectory& trajectory, do
 /// field): a path that never came that near reads `reach`.
 double exactMinClearance(const World& truth, const Trajectory& flown, double radius, double reach);
 
-/// Where the planning window is centred: on the vehicle, moved towards the goal's height by up
-/// to a quarter of the window's height, so that the window follows the vehicle in z and a goal
-/// above or below it leaves room for a local goal beyond the planner's goal region.
-Eigen::Vector3d windowCentre(const Eigen::Vector3d& position, double goal_height,
+/// Where the planning window is centred: on the vehicle, moved towards `way_height` (the
+/// goal's, or where the guide goes: wayHeight()) by up to a quarter of the window's height, so
+/// that the window follows the vehicle in z and a goal above or below it leaves room for a
+/// local goal beyond the planner's goal region.
+Eigen::Vector3d windowCentre(const Eigen::Vector3d& position, double way_height,
                              double window_height);
+
+/// The height the window reaches towards while the vehicle follows `guide` (its first point
+/// where the vehicle is): of the guide's points within `horizon` along it, the height farthest
+/// from the first's, or `goal`'s height without a guide. A guide that climbs over what closes
+/// the lower levels leaves the window there; reaching towards the goal's height instead, the
+/// window held the local goal below the climb, where the guide's way is closed, and the
+/// vehicle stood at the obstacle replan after replan (geb079).
+double wayHeight(const std::vector<Eigen::Vector3d>& guide, double horizon,
+                 const Eigen::Vector3d& goal);
 
 /// The plans taken since `since` (a flight without progress whose plans are taken dithers
 /// between local goals): how many, the extent of their local goals and how near `goal` the
@@ -129,7 +139,8 @@ double wayLength(const std::vector<Eigen::Vector3d>& guide, const Eigen::Vector3
 /// centisecond of `flown` (the tracking error).
 std::pair<double, double> trackingError(const Trajectory& flown, const Trajectory& committed);
 
-/// The local goal: the goal when it is within `horizon` and the window, else the point
+/// The local goal: the goal when it is within `horizon` along the way (wayLength()) and the
+/// window, else the point
 /// `horizon` metres along the guide (the known map's shortest way; the straight line when it
 /// is empty), stopping where the guide would leave the window in x and y (0.5 m inside its
 /// sides; the guide's heights are only interpolated, so they are brought into the window's,

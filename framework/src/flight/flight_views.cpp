@@ -91,7 +91,8 @@ std::vector<StepBackMove> stepBackMoves(const Eigen::Vector3d& position,
 std::vector<std::vector<Eigen::Vector3d>> levelGuides(const VehicleMap& map,
                                                       std::span<const Eigen::Vector3d> froms,
                                                       const Eigen::Vector3d& goal, double radius,
-                                                      double margin) {
+                                                      double margin,
+                                                      std::span<const Eigen::Vector3d> trail) {
   const Box& box = map.bounds();
   std::vector<double> levels;
   for (double level = box.min.z() + radius + margin; level <= box.max.z() - radius - margin + 1e-9;
@@ -99,7 +100,22 @@ std::vector<std::vector<Eigen::Vector3d>> levelGuides(const VehicleMap& map,
     levels.push_back(level);
   }
   return levelColumnGuides(map.lattice(), map.obstacleColumns(), froms, goal, radius, levels,
-                           radius, map.model().inset);
+                           radius, map.model().inset, trail);
+}
+
+std::vector<std::vector<Eigen::Vector3d>> flightGuides(const VehicleMap& map,
+                                                       const PlanningQuery& query,
+                                                       std::array<Eigen::Vector3d, 2> froms,
+                                                       std::pair<double, double> band,
+                                                       double radius, double margin,
+                                                       std::span<const Eigen::Vector3d> trail) {
+  const double low = std::min(query.start(2, 0), query.goal.z());
+  const double high = std::max(query.start(2, 0), query.goal.z());
+  std::array<Eigen::Vector3d, 2> band_froms = froms;
+  for (Eigen::Vector3d& from : band_froms) from.z() = std::clamp(from.z(), low, high);
+  auto guides = map.guides(band_froms, query.goal, radius, band.first, band.second, radius, trail);
+  if (!guides[0].empty()) return guides;
+  return levelGuides(map, froms, query.goal, radius, margin, trail);
 }
 
 std::vector<BackOff> backOffMoves(const std::string& status, const Eigen::Vector3d& position,

@@ -5,6 +5,7 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <array>
 #include <optional>
 #include <span>
 #include <string>
@@ -64,13 +65,28 @@ double yawTowards(const Eigen::Vector3d& from, const Eigen::Vector3d& to);
 /// `radius` apart from `margin` + `radius` above the map's floor to as far below its ceiling,
 /// each a band one planning body high (`radius` about it), joined where a cell is open at two
 /// neighbouring levels (levelColumnGuides(), `radius` of room round each of `froms` and
-/// `goal`, the map's inset kept). Empty guides when the levels leave no way either. Without
+/// `goal`, the map's inset kept, `trail`'s cells open). Empty guides when the levels leave no
+/// way either. Without
 /// them the local goal lay on the straight line to the goal, through what closed the band, and
 /// every replan failed.
 std::vector<std::vector<Eigen::Vector3d>> levelGuides(const VehicleMap& map,
                                                       std::span<const Eigen::Vector3d> froms,
                                                       const Eigen::Vector3d& goal, double radius,
-                                                      double margin);
+                                                      double margin,
+                                                      std::span<const Eigen::Vector3d> trail = {});
+
+/// A flight's guides to `query`'s goal from `froms`' first (where a replan starts) and second
+/// (where the flight last made progress): over the columns of `band` (heights, low and high;
+/// columnGuides()) from heights within the query's (their heights, interpolated, then do not
+/// follow a vehicle that sank or rose), or with no way there over levelGuides() from where the
+/// vehicle is (from the query's heights, one that climbed was guided from below, turned);
+/// `radius` of room round each, `trail`'s cells open.
+std::vector<std::vector<Eigen::Vector3d>> flightGuides(const VehicleMap& map,
+                                                       const PlanningQuery& query,
+                                                       std::array<Eigen::Vector3d, 2> froms,
+                                                       std::pair<double, double> band,
+                                                       double radius, double margin,
+                                                       std::span<const Eigen::Vector3d> trail);
 
 /// A straight move at rest out of what a failed replan says the vehicle is in, and whether the
 /// body alone must keep clear along it (else the planning body).

@@ -70,7 +70,8 @@ std::vector<std::size_t> levelPath(const std::vector<std::uint8_t>& blocked, int
 std::vector<std::vector<Eigen::Vector3d>> levelColumnGuides(
     const VoxelGrid& lattice, const ObstacleColumns& obstacles,
     std::span<const Eigen::Vector3d> froms, const Eigen::Vector3d& to, double radius,
-    std::span<const double> levels, double room, double inset) {
+    std::span<const double> levels, double room, double inset,
+    std::span<const Eigen::Vector3d> trail) {
   std::vector<std::vector<Eigen::Vector3d>> paths(froms.size());
   if (levels.empty()) return paths;
   const Eigen::Vector3i& n = lattice.dims();
@@ -88,6 +89,7 @@ std::vector<std::vector<Eigen::Vector3d>> levelColumnGuides(
     std::vector<std::uint8_t> level =
         closedCells(lattice, obstacles, radius, levels[k] - radius, levels[k] + radius, inset);
     if (room > 0.0) openRound(lattice, level, to, room);
+    openTrail(lattice, level, trail, levels[k] - radius, levels[k] + radius);
     std::copy(level.begin(), level.end(), blocked.begin() + static_cast<std::ptrdiff_t>(k * cells));
   }
   const Eigen::Vector2i goal = cellOf(lattice, to);

@@ -294,12 +294,11 @@ std::vector<Eigen::Vector3d> VehicleMap::guide(const Eigen::Vector3d& from,
   return std::move(guides({&from, 1}, to, radius, z_low, z_high).front());
 }
 
-std::vector<std::vector<Eigen::Vector3d>> VehicleMap::guides(std::span<const Eigen::Vector3d> froms,
-                                                             const Eigen::Vector3d& to,
-                                                             double radius, double z_low,
-                                                             double z_high, double room) const {
+std::vector<std::vector<Eigen::Vector3d>> VehicleMap::guides(
+    std::span<const Eigen::Vector3d> froms, const Eigen::Vector3d& to, double radius, double z_low,
+    double z_high, double room, std::span<const Eigen::Vector3d> trail) const {
   return columnGuides(lattice_, obstacleColumns(), froms, to, radius, z_low, z_high, room,
-                      model_.inset);
+                      model_.inset, trail);
 }
 
 ObstacleColumns VehicleMap::obstacleColumns() const {
@@ -344,6 +343,15 @@ void openRound(const VoxelGrid& lattice, std::span<std::uint8_t> cells, const Ei
   }
 }
 
+void openTrail(const VoxelGrid& lattice, std::span<std::uint8_t> cells,
+               std::span<const Eigen::Vector3d> trail, double z_low, double z_high) {
+  for (const Eigen::Vector3d& p : trail) {
+    if (p.z() < z_low || p.z() > z_high) continue;
+    const Eigen::Vector2i c = cellOf(lattice, p);
+    cells[static_cast<std::size_t>(c.x()) * lattice.dims().y() + c.y()] = 0;
+  }
+}
+
 std::vector<std::uint8_t> closedCells(const VoxelGrid& lattice, const ObstacleColumns& obstacles,
                                       double radius, double z_low, double z_high, double inset) {
   const Eigen::Vector3i& n = lattice.dims();
@@ -380,15 +388,14 @@ std::vector<std::size_t> wayTo(std::span<const std::int64_t> parent, std::size_t
 
 using namespace column_cells;
 
-std::vector<std::vector<Eigen::Vector3d>> columnGuides(const VoxelGrid& lattice,
-                                                       const ObstacleColumns& obstacles,
-                                                       std::span<const Eigen::Vector3d> froms,
-                                                       const Eigen::Vector3d& to, double radius,
-                                                       double z_low, double z_high, double room,
-                                                       double inset) {
+std::vector<std::vector<Eigen::Vector3d>> columnGuides(
+    const VoxelGrid& lattice, const ObstacleColumns& obstacles,
+    std::span<const Eigen::Vector3d> froms, const Eigen::Vector3d& to, double radius, double z_low,
+    double z_high, double room, double inset, std::span<const Eigen::Vector3d> trail) {
   const Eigen::Vector3i& n = lattice.dims();
   std::vector<std::uint8_t> blocked = closedCells(lattice, obstacles, radius, z_low, z_high, inset);
   if (room > 0.0) openRound(lattice, blocked, to, room);
+  openTrail(lattice, blocked, trail, z_low, z_high);
   const Eigen::Vector2i goal = cellOf(lattice, to);
   std::vector<std::vector<Eigen::Vector3d>> paths(froms.size());
   if (blocked[static_cast<std::size_t>(goal.x()) * n.y() + goal.y()]) return paths;

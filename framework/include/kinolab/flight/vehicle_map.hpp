@@ -131,12 +131,13 @@ class VehicleMap {
   /// guide() from each of `froms` (one path each, empty where there is none), the map's
   /// columns read once: a flight's guide and the way from where it last made progress. The
   /// cells within `room` of each of `froms` and of `to` are open whatever the band holds (a
-  /// vehicle stands there; see columnGuides()); the cells within the model's `inset` of the
+  /// vehicle stands there; see columnGuides()), and those of `trail` (where it flew); the cells
+  /// within the model's `inset` of the
   /// map's sides are closed.
-  std::vector<std::vector<Eigen::Vector3d>> guides(std::span<const Eigen::Vector3d> froms,
-                                                   const Eigen::Vector3d& to, double radius,
-                                                   double z_low, double z_high,
-                                                   double room = 0.0) const;
+  std::vector<std::vector<Eigen::Vector3d>> guides(
+      std::span<const Eigen::Vector3d> froms, const Eigen::Vector3d& to, double radius,
+      double z_low, double z_high, double room = 0.0,
+      std::span<const Eigen::Vector3d> trail = {}) const;
   /// Which x-y columns of the lattice hold a known occupied voxel in given layers: what the
   /// guides read (guides(), levelColumnGuides()).
   ObstacleColumns obstacleColumns() const;
@@ -217,13 +218,18 @@ std::vector<Eigen::Vector3d> columnGuide(const VoxelGrid& lattice, const Obstacl
 /// replan failed had no guide so, their local goals on the straight line through a wall).
 /// Cells whose centres lie within `inset` of the lattice's sides in x and y are closed: plans
 /// keep that far inside the map (a flight's planning margin), and a guide along the map's end
-/// outside it left the local goal nowhere to go.
+/// outside it left the local goal nowhere to go. The cells of the points of `trail` in the band
+/// (where a flight's vehicle has flown: its body fits there) are open too: a door the vehicle
+/// flew through, narrower for the band's columns than for its body (a column is closed by
+/// anything within `radius` in the whole band, on 8 cm cells), closed behind it, and a
+/// vehicle that had seen the room beyond was left without a guide (geb079).
 std::vector<std::vector<Eigen::Vector3d>> columnGuides(const VoxelGrid& lattice,
                                                        const ObstacleColumns& obstacles,
                                                        std::span<const Eigen::Vector3d> froms,
                                                        const Eigen::Vector3d& to, double radius,
                                                        double z_low, double z_high,
-                                                       double room = 0.0, double inset = 0.0);
+                                                       double room = 0.0, double inset = 0.0,
+                                                       std::span<const Eigen::Vector3d> trail = {});
 /// columnGuides() over `levels` (heights, ascending) joined into one graph: at each level the
 /// band one `radius` above and below it, its cells closed as columnGuides() closes them (and
 /// `room` about `to` opened), and a way moves between cells of a level (8-connected) or up or
@@ -232,10 +238,12 @@ std::vector<std::vector<Eigen::Vector3d>> columnGuides(const VoxelGrid& lattice,
 /// any level; points at their level's height, the first and last `from` and `to`; empty where
 /// there is none. A way over a desk and under a shelf needs two levels: searched one level at
 /// a time, a guide that closed at one level moved to another level's way, elsewhere, turn by
-/// turn as the map grew (geb079's flights that ended moving without progress).
+/// turn as the map grew (geb079's flights that ended moving without progress). The points of
+/// `trail` open their cells at each level within `radius` of their height (columnGuides()).
 std::vector<std::vector<Eigen::Vector3d>> levelColumnGuides(
     const VoxelGrid& lattice, const ObstacleColumns& obstacles,
     std::span<const Eigen::Vector3d> froms, const Eigen::Vector3d& to, double radius,
-    std::span<const double> levels, double room = 0.0, double inset = 0.0);
+    std::span<const double> levels, double room = 0.0, double inset = 0.0,
+    std::span<const Eigen::Vector3d> trail = {});
 
 }  // namespace kinolab
