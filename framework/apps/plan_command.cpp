@@ -20,6 +20,7 @@
 #include "kinolab/core/error.hpp"
 #include "kinolab/core/files.hpp"
 #include "kinolab/core/hash.hpp"
+#include "kinolab/core/process.hpp"
 #include "kinolab/core/text.hpp"
 #include "kinolab/planner/planner.hpp"
 #include "kinolab/planner/result_csv.hpp"
@@ -163,22 +164,10 @@ namespace {
 std::atomic<const std::string*> armed_alarm_out{nullptr};
 std::atomic<const std::string*> armed_alarm_err{nullptr};
 
-void writeAll(int fd, const std::string* text) {
-  if (!text) return;
-  const char* data = text->data();
-  std::size_t left = text->size();
-  while (left > 0) {
-    const ssize_t written = write(fd, data, left);
-    if (written <= 0) return;
-    data += written;
-    left -= static_cast<std::size_t>(written);
-  }
-}
-
 /// SIGALRM: the budget and grace are over. Only async-signal-safe calls.
 extern "C" void onWatchdogAlarm(int) {
-  writeAll(STDOUT_FILENO, armed_alarm_out.load());
-  writeAll(STDERR_FILENO, armed_alarm_err.load());
+  if (const std::string* out = armed_alarm_out.load()) writeAllTo(STDOUT_FILENO, *out);
+  if (const std::string* err = armed_alarm_err.load()) writeAllTo(STDERR_FILENO, *err);
   _exit(1);  // the planner's thread cannot be stopped; nothing of it is written
 }
 

@@ -168,6 +168,9 @@ TEST(LevelGuideTest, AFlightsLevelsSpanTheMapWithinItsMargin) {
   EXPECT_NEAR(lowest, 0.55, 1e-9);
 }
 
+/// The plannable box of worldOf()'s default 20 x 10 x 3 m map: the map less the planning margin.
+const Box kMapBox{Eigen::Vector3d::Constant(0.15), Eigen::Vector3d(19.85, 9.85, 2.85)};
+
 TEST(LocalGoalTest, TheWindowReachesWhereTheGuideClimbsOverAWall) {
   // The levels' way over the low wall (up to 1.5 m at x = 6) climbs to 2.15 m, beginning within
   // the horizon of a vehicle at 1 m, 3 m before the wall. wayHeight() is that climb's height, and a
@@ -190,7 +193,6 @@ TEST(LocalGoalTest, TheWindowReachesWhereTheGuideClimbsOverAWall) {
   // guide the window reaches towards the goal.
   EXPECT_NEAR(wayHeight(guide, 1.0, goal), 0.95, 1e-9);
   EXPECT_NEAR(wayHeight({}, horizon, Eigen::Vector3d(9.0, 5.0, 2.5)), 2.5, 1e-9);
-  const Box map{Eigen::Vector3d::Constant(0.15), Eigen::Vector3d(19.85, 9.85, 2.85)};
   const auto localGoalIn = [&](double way_height) {
     // The window: 10 m across, 2 m high round its centre, within the map.
     const double middle = windowCentre(from, way_height, 2.0).z();
@@ -198,7 +200,7 @@ TEST(LocalGoalTest, TheWindowReachesWhereTheGuideClimbsOverAWall) {
         kOverAndUnder, "{min: [0, 0, " + std::to_string(middle - 1.0) + "], max: [20, 10, " +
                            std::to_string(std::min(middle + 1.0, 3.0)) + "]}");
     Eigen::Vector3d local;
-    EXPECT_TRUE(localGoal(from, goal, guide, horizon, *window, 0.4, map, &local));
+    EXPECT_TRUE(localGoal(from, goal, guide, horizon, *window, 0.4, kMapBox, &local));
     return local;
   };
   EXPECT_GT(localGoalIn(wayHeight(guide, horizon, goal)).z(), 1.9);
@@ -213,9 +215,8 @@ TEST(LocalGoalTest, AGuideAlongTheMapsEndKeepsItsLocalGoalOnTheGuide) {
   const Eigen::Vector3d from(5.0, 0.2, 1.5);
   const Eigen::Vector3d goal(15.0, 0.2, 1.5);
   const std::vector<Eigen::Vector3d> guide = {from, goal};
-  const Box map{Eigen::Vector3d::Constant(0.15), Eigen::Vector3d(19.85, 9.85, 2.85)};
   Eigen::Vector3d local;
-  ASSERT_TRUE(localGoal(from, goal, guide, 3.5, *window, 0.4, map, &local));
+  ASSERT_TRUE(localGoal(from, goal, guide, 3.5, *window, 0.4, kMapBox, &local));
   EXPECT_LT((local - Eigen::Vector3d(8.5, 0.2, 1.5)).norm(), 1e-9) << local.transpose();
   // The same window inside a larger map: the local goal keeps 0.5 m inside its side.
   const Box larger{Eigen::Vector3d(-10, -10, 0.15), Eigen::Vector3d(30, 20, 2.85)};
@@ -241,12 +242,11 @@ TEST(LocalGoalTest, AGoalBehindAWallIsTheLocalGoalOnlyWithinTheHorizonAlongTheGu
           .front();
   ASSERT_GE(guide.size(), 2u);
   ASSERT_GT(wayLength(guide, from, goal), 7.0);
-  const Box map{Eigen::Vector3d::Constant(0.15), Eigen::Vector3d(19.85, 9.85, 2.85)};
   Eigen::Vector3d local;
-  ASSERT_TRUE(localGoal(from, goal, guide, 3.5, *world, 0.4, map, &local));
+  ASSERT_TRUE(localGoal(from, goal, guide, 3.5, *world, 0.4, kMapBox, &local));
   EXPECT_LT((local - pointAlong(guide, 3.5)).norm(), 0.3) << local.transpose();
   EXPECT_GT((local - goal).norm(), 2.0) << local.transpose();
-  ASSERT_TRUE(localGoal(from, goal, {}, 3.5, *world, 0.4, map, &local));
+  ASSERT_TRUE(localGoal(from, goal, {}, 3.5, *world, 0.4, kMapBox, &local));
   EXPECT_EQ(local, goal);
 }
 

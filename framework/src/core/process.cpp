@@ -17,6 +17,14 @@
 
 namespace kinolab {
 
+void writeAllTo(int fd, std::string_view text) {
+  while (!text.empty()) {
+    const ssize_t written = write(fd, text.data(), text.size());
+    if (written <= 0) return;
+    text.remove_prefix(static_cast<std::size_t>(written));
+  }
+}
+
 CommandOutput runCommand(const std::vector<std::string>& arguments, int timeout_seconds) {
   if (arguments.empty()) throw InvalidArgument("runCommand: no program");
   std::vector<char*> argv;

@@ -13,6 +13,7 @@
 #include <fstream>
 
 #include "kinolab/core/error.hpp"
+#include "kinolab/core/process.hpp"
 
 namespace kinolab {
 namespace {
@@ -45,12 +46,7 @@ void limitMemory(long long budget_mb) {
   } catch (...) {
     _exit(3);  // the work function is meant to turn its failures into output
   }
-  std::size_t written = 0;
-  while (written < text.size()) {
-    const ssize_t n = write(fd, text.data() + written, text.size() - written);
-    if (n <= 0) break;
-    written += static_cast<std::size_t>(n);
-  }
+  writeAllTo(fd, text);
   _exit(0);
 }
 

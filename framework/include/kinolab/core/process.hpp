@@ -2,6 +2,7 @@
 
 #include <new>
 #include <string>
+#include <string_view>
 #include <utility>
 #include <vector>
 
@@ -22,6 +23,11 @@ struct CommandOutput {
 /// `timeout_seconds` > 0 it is killed after that long (for clients that block while a
 /// server is down) and the status is 124, as coreutils' `timeout` reports it.
 CommandOutput runCommand(const std::vector<std::string>& arguments, int timeout_seconds = 0);
+
+/// Writes all of `text` to the file descriptor `fd`, stopping at an error (a closed pipe).
+/// Async-signal-safe: only write(2), so a signal handler or a forked child about to _exit may
+/// call it.
+void writeAllTo(int fd, std::string_view text);
 
 /// The memory this process may use, in bytes: the least of the machine's memory, its
 /// address-space and data-segment limits (`ulimit -v`, `ulimit -d`) and its control group's
