@@ -1266,6 +1266,88 @@ TEST(EdgeWorkers, RunEveryIndexOnceOnTheTeamAndRethrowAJobsException) {
   std::atomic<int> after{0};
   workers.run(16, [&](std::size_t) { ++after; });  // the team still works
   EXPECT_EQ(after.load(), 16);
+  // The caller's own work runs on the calling thread, once, beside the job; its exception is
+  // rethrown after every index ran.
+  std::thread::id caller;
+  int callers = 0;
+  std::atomic<int> indices{0};
+  workers.run(
+      16, [&](std::size_t) { ++indices; },
+      [&] {
+        caller = std::this_thread::get_id();
+        ++callers;
+      });
+  EXPECT_EQ(caller, std::this_thread::get_id());
+  EXPECT_EQ(callers, 1);
+  EXPECT_EQ(indices.load(), 16);
+  indices = 0;
+  EXPECT_THROW(workers.run(
+                   16, [&](std::size_t) { ++indices; }, [] { throw InvalidArgument("caller"); }),
+               InvalidArgument);
+  EXPECT_EQ(indices.load(), 16);
+}
+
+/// time_optimal, counting its estimates and the threads that asked; askedAhead() as told.
+class CountingHeuristic final : public SearchHeuristic {
+ public:
+  CountingHeuristic(const EdgeEvaluatorSettings& edges, double goal_radius, bool ahead)
+      : inner_(edges, goal_radius), ahead_(ahead) {}
+  double estimate(const ChainState& state, const Eigen::Vector3d& goal) const override {
+    ++calls;
+    askers.insert(std::this_thread::get_id());
+    return inner_.estimate(state, goal);
+  }
+  bool askedAhead() const override { return ahead_; }
+
+  mutable long long calls = 0;
+  mutable std::set<std::thread::id> askers;
+
+ private:
+  TimeOptimalHeuristic inner_;
+  bool ahead_;
+};
+
+TEST(ParallelEvaluation, EagerAsksItsEndStatesEstimatesAheadOnlyWhenTheHeuristicAllows) {
+  // On the team, eager search asks the heuristic at every control's end state while the other
+  // threads evaluate (a heuristic that allows it: askedAhead()), from the search's own thread
+  // only; the search is the same as on one thread. One that does not allow it is asked as on
+  // one thread: only at the end states the search queues.
+  const auto world = test::smallWorld("forest");
+  const auto controls = controlGrid({-1.0, 0.0, 1.0}, Eigen::Vector3d(3, 3, 3));
+  const PlanningQuery query = test::randomQueries(*world, 1, 21, 6.0, 9.0, 0.6).front();
+  struct Run {
+    double cost;
+    long long expansions;
+    long long calls;
+    std::set<std::thread::id> askers;
+  };
+  const auto run = [&](int threads, bool ahead) {
+    SearchSettings settings;
+    settings.threads = threads;
+    auto heuristic =
+        std::make_shared<CountingHeuristic>(settings.edges, settings.goal_radius, ahead);
+    SearchPolicies policies;
+    policies.edges = std::make_shared<FullEvaluationPolicy>();
+    policies.heuristic = heuristic;
+    policies.space = std::make_shared<LatticeSpace>(LatticeSpace::Resolution());
+    MotionPrimitiveSearch search(world, controls, settings, std::move(policies));
+    StopCondition stop(Budget{});
+    EXPECT_EQ(search.search(query.start, query.goal, stop), MotionPrimitiveSearch::Outcome::kGoal);
+    return Run{search.cost(), search.counters().expansions, heuristic->calls, heuristic->askers};
+  };
+  const Run one = run(1, true);
+  const Run ahead = run(2, true);
+  const Run asked = run(2, false);
+  ASSERT_GT(one.expansions, 10);
+  for (const Run* other : {&ahead, &asked}) {
+    EXPECT_EQ(other->cost, one.cost);
+    EXPECT_EQ(other->expansions, one.expansions);
+    EXPECT_EQ(other->askers, std::set<std::thread::id>{std::this_thread::get_id()});
+  }
+  // The start's estimate, then every end state of every expansion.
+  EXPECT_EQ(ahead.calls, 1 + static_cast<long long>(controls.size()) * ahead.expansions);
+  EXPECT_EQ(asked.calls, one.calls);
+  EXPECT_LT(one.calls, ahead.calls);
 }
 
 }  // namespace

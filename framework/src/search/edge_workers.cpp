@@ -65,8 +65,10 @@ void EdgeWorkers::work() {
   }
 }
 
-void EdgeWorkers::run(std::size_t count, const std::function<void(std::size_t)>& job) {
+void EdgeWorkers::run(std::size_t count, const std::function<void(std::size_t)>& job,
+                      const std::function<void()>& caller_first) {
   if (workers_.empty()) {
+    if (caller_first) caller_first();
     for (std::size_t i = 0; i < count; ++i) job(i);
     return;
   }
@@ -79,6 +81,13 @@ void EdgeWorkers::run(std::size_t count, const std::function<void(std::size_t)>&
   next_.store(run << 32, std::memory_order_release);  // publishes the writes above
   generation_.store(run, std::memory_order_release);
   generation_.notify_all();
+  if (caller_first) {
+    try {
+      caller_first();
+    } catch (...) {
+      if (!failed_.exchange(true)) failure_ = std::current_exception();
+    }
+  }
   drain(run);
   // Only indices other threads took are waited for.
   for (int spin = 0; done_.load(std::memory_order_acquire) < count; ++spin) {

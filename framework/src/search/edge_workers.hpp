@@ -31,8 +31,11 @@ class EdgeWorkers {
 
   int threads() const { return static_cast<int>(workers_.size()) + 1; }
   /// Runs job(i) for every i < count; rethrows the first exception a job threw (the other
-  /// indices still run).
-  void run(std::size_t count, const std::function<void(std::size_t)>& job);
+  /// indices still run). `caller_first`, if given, runs on the calling thread once the run is
+  /// published, before that thread takes indices: work of the caller's own (that need not be
+  /// safe to run beside itself) done while the other threads run the job.
+  void run(std::size_t count, const std::function<void(std::size_t)>& job,
+           const std::function<void()>& caller_first = nullptr);
 
  private:
   void work();

@@ -260,7 +260,10 @@ void MotionPrimitiveSearch::expand(int node) {
   candidates_[node].clearance = parent_clearance;  // for its lazy edges, when popped
   const bool seed_rule = graph_.settings().duplicate_rule == DuplicateRule::kSeed;
   // Evaluate every primitive first (timed as evaluation), then queue them.
-  graph_.estimateAll(parent_state, parent_clearance, evaluations_, estimates_);
+  graph_.estimateAll(parent_state, parent_clearance, evaluations_, estimates_, &heuristics_);
+  const auto h = [&](std::size_t i) {
+    return heuristics_.empty() ? graph_.h(evaluations_[i].end) : heuristics_[i];
+  };
   for (std::size_t i = 0; i < evaluations_.size(); ++i) {
     const EdgeEvaluation& evaluation = evaluations_[i];
     const EdgeEstimate estimate = estimates_[i];
@@ -283,16 +286,16 @@ void MotionPrimitiveSearch::expand(int node) {
         candidate.parent = node;
         candidate.control = static_cast<int>(i);
         candidate.slot = slot_index;
-        counters.candidates += queueCandidate(candidate, graph_.h(evaluation.end));
+        counters.candidates += queueCandidate(candidate, h(i));
         continue;
       }
     }
     // A lower bound (or a certified cost): queue the parent and control; the end state's key
     // and table probe wait until the edge is popped.
-    const double h = graph_.h(evaluation.end);
-    if (h == INFINITY) continue;  // the goal is out of reach from its end
+    const double end_h = h(i);
+    if (end_h == INFINITY) continue;  // the goal is out of reach from its end
     ++counters.candidates;
-    push({graph_.priority(g, h), g, node, static_cast<std::uint32_t>(i),
+    push({graph_.priority(g, end_h), g, node, static_cast<std::uint32_t>(i),
           estimate == EdgeEstimate::kCertified ? kCertified : kLowerBound});
   }
 }

@@ -72,7 +72,8 @@ void PrimitiveGraph::countFull(const EdgeEvaluation& evaluation) {
 
 void PrimitiveGraph::estimateAll(const ChainState& parent, double parent_clearance,
                                  std::vector<EdgeEvaluation>& evaluations,
-                                 std::vector<EdgeEstimate>& estimates) {
+                                 std::vector<EdgeEstimate>& estimates,
+                                 std::vector<double>* heuristics) {
   evaluations.resize(controls_.size());
   estimates.resize(controls_.size());
   const EdgeEvaluationPolicy& policy = *policies_.edges;
@@ -81,8 +82,20 @@ void PrimitiveGraph::estimateAll(const ChainState& parent, double parent_clearan
     estimates[i] =
         policy.evaluate(evaluator_, parent, parent_clearance, controls_[i], evaluations[i]);
   };
+  if (heuristics) heuristics->clear();
   if (parallel_estimates_) {
-    workers_->run(controls_.size(), evaluateOne);
+    // The end states' estimates on this thread (the heuristic need not be thread-safe) while
+    // the team evaluates: what the search would otherwise ask one by one after the join.
+    std::function<void()> ahead;
+    if (heuristics && heuristic_->askedAhead()) {
+      ahead = [&] {
+        heuristics->resize(controls_.size());
+        for (std::size_t i = 0; i < controls_.size(); ++i) {
+          (*heuristics)[i] = h(evaluator_.endState(parent, controls_[i]));
+        }
+      };
+    }
+    workers_->run(controls_.size(), evaluateOne, ahead);
   } else {
     for (std::size_t i = 0; i < controls_.size(); ++i) evaluateOne(i);
   }

@@ -159,6 +159,7 @@ class MotionPrimitiveSearch {
   std::vector<HeapEntry> heap_;
   std::vector<EdgeEvaluation> evaluations_;  // scratch: one per control
   std::vector<EdgeEstimate> estimates_;      // scratch: one per control
+  std::vector<double> heuristics_;           // scratch: h at each end, when asked ahead
   /// Full evaluations of lower-bound edges made ahead of their pops (threads > 1), by
   /// aheadKey(); with the scratch of one batch.
   std::unordered_map<std::uint64_t, EdgeEvaluation> ahead_;

@@ -134,9 +134,13 @@ class PrimitiveGraph {
   }
   /// The edge policy's estimate of every control from `parent` (whose clearance is
   /// `parent_clearance`) into `evaluations` and `estimates` (one per control), counted and
-  /// timed as evaluation; full evaluations on SearchSettings::threads threads.
+  /// timed as evaluation; full evaluations on SearchSettings::threads threads. Then, if
+  /// `heuristics` is given, h() at every control's end state goes there (one per control),
+  /// computed by this thread while the others evaluate, when the heuristic allows it to be
+  /// asked ahead of need (SearchHeuristic::askedAhead()); else it is left empty.
   void estimateAll(const ChainState& parent, double parent_clearance,
-                   std::vector<EdgeEvaluation>& evaluations, std::vector<EdgeEstimate>& estimates);
+                   std::vector<EdgeEvaluation>& evaluations, std::vector<EdgeEstimate>& estimates,
+                   std::vector<double>* heuristics = nullptr);
   /// The edge policy's estimate of one control, counted and timed.
   EdgeEstimate estimate(const ChainState& parent, double parent_clearance, int control,
                         EdgeEvaluation& evaluation);
