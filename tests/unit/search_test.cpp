@@ -1243,6 +1243,14 @@ TEST(EdgeWorkers, RunEveryIndexOnceOnTheTeamAndRethrowAJobsException) {
     workers.run(runs.size(), [&](std::size_t i) { ++runs[i]; });
   }
   for (const auto& count : runs) EXPECT_EQ(count.load(), 200);
+  // Runs of changing sizes: each index of each run once, none past its count (a worker's stale
+  // look at a finished run once took the index past its count when the next run was larger).
+  for (int round = 0; round < 4000; ++round) {
+    const std::size_t count = 1 + static_cast<std::size_t>(round) % runs.size();
+    for (auto& ran : runs) ran = 0;
+    workers.run(count, [&](std::size_t i) { ++runs[i]; });
+    for (std::size_t i = 0; i < runs.size(); ++i) ASSERT_EQ(runs[i].load(), i < count) << round;
+  }
   // Index 0 waits (counted yields, never a clock) until another index has started: only a
   // second thread can start one meanwhile, so this ends early only if the team shares the
   // work.
@@ -1285,6 +1293,50 @@ TEST(EdgeWorkers, RunEveryIndexOnceOnTheTeamAndRethrowAJobsException) {
                    16, [&](std::size_t) { ++indices; }, [] { throw InvalidArgument("caller"); }),
                InvalidArgument);
   EXPECT_EQ(indices.load(), 16);
+}
+
+TEST(EdgeWorkers, AStartedRunGoesOnBesideTheCallerWhoWaitsForOneIndexOrAll) {
+  EdgeWorkers workers(2);
+  std::vector<std::size_t> out(64);
+  const std::function<void(std::size_t)> square = [&](std::size_t i) { out[i] = i * i + 1; };
+  for (int round = 0; round < 200; ++round) {
+    std::fill(out.begin(), out.end(), 0);
+    workers.start(out.size(), square);
+    EXPECT_TRUE(workers.started());
+    for (const std::size_t i : {37, 5, 63, 0}) {
+      workers.waitFor(i);
+      ASSERT_EQ(out[i], i * i + 1) << round;
+    }
+    workers.finish();
+    EXPECT_FALSE(workers.started());
+    for (std::size_t i = 0; i < out.size(); ++i) ASSERT_EQ(out[i], i * i + 1) << round;
+  }
+  // The worker runs a started run while the caller does not take part (counted yields, never
+  // a clock: this ends early only if another thread ran the index).
+  std::atomic<bool> ran{false};
+  const std::function<void(std::size_t)> mark = [&](std::size_t) { ran = true; };
+  workers.start(1, mark);
+  long waited = 0;
+  while (!ran.load() && waited < 100000000) {
+    ++waited;
+    std::this_thread::yield();
+  }
+  EXPECT_TRUE(ran.load());
+  EXPECT_TRUE(workers.done());
+  workers.finish();
+  // A job's exception comes back from waitFor() or finish(), after which the run is over.
+  const std::function<void(std::size_t)> failing = [](std::size_t i) {
+    if (i == 7) throw InvalidArgument("edge 7");
+  };
+  workers.start(16, failing);
+  EXPECT_THROW(workers.finish(), InvalidArgument);
+  EXPECT_FALSE(workers.started());
+  workers.start(16, failing);
+  EXPECT_THROW(workers.waitFor(7), InvalidArgument);
+  EXPECT_FALSE(workers.started());
+  std::atomic<int> after{0};
+  workers.run(16, [&](std::size_t) { ++after; });  // the team still works
+  EXPECT_EQ(after.load(), 16);
 }
 
 /// time_optimal, counting its estimates and the threads that asked; askedAhead() as told.

@@ -1,5 +1,7 @@
 #include "edge_workers.hpp"
 
+#include <algorithm>
+
 namespace kinolab {
 namespace {
 
@@ -33,12 +35,16 @@ EdgeWorkers::~EdgeWorkers() {
   for (std::thread& worker : workers_) worker.join();
 }
 
-void EdgeWorkers::drain(std::uint64_t run) {
+void EdgeWorkers::drain(std::uint64_t run, std::size_t upto) {
   for (;;) {
     std::uint64_t claim = next_.load(std::memory_order_acquire);
     if ((claim >> 32) != run) return;  // a run that is over (or not yet published)
+    // The count of this run, not of one being published: a stale look at a run whose indices
+    // are all taken must not take one past its count (as the next run's larger count allowed).
+    const std::uint64_t counted = counted_.load(std::memory_order_acquire);
+    if ((counted >> 32) != run) return;
     const std::size_t i = claim & 0xffffffffULL;
-    if (i >= count_.load(std::memory_order_relaxed)) return;
+    if (i >= (counted & 0xffffffffULL) || i > upto) return;
     // Taken only while the run is this one: its job and count stay until every taken index
     // is done.
     if (!next_.compare_exchange_weak(claim, claim + 1, std::memory_order_acq_rel)) continue;
@@ -47,6 +53,7 @@ void EdgeWorkers::drain(std::uint64_t run) {
     } catch (...) {
       if (!failed_.exchange(true)) failure_ = std::current_exception();
     }
+    finished_[i].store(1, std::memory_order_release);
     done_.fetch_add(1, std::memory_order_release);
   }
 }
@@ -65,6 +72,37 @@ void EdgeWorkers::work() {
   }
 }
 
+void EdgeWorkers::publish(std::size_t count, const std::function<void(std::size_t)>& job) {
+  if (count > capacity_) {
+    // No run is going on: every index of the last one was taken and is done.
+    capacity_ = std::max<std::size_t>(count, 2 * capacity_);
+    finished_ = std::make_unique<std::atomic<std::uint8_t>[]>(capacity_);
+  }
+  for (std::size_t i = 0; i < count; ++i) finished_[i].store(0, std::memory_order_relaxed);
+  runs_ = (runs_ + 1) & 0xffffffffULL;  // the tag in next_'s upper half
+  const std::uint64_t run = runs_;
+  count_ = count;
+  job_.store(&job, std::memory_order_relaxed);
+  counted_.store(run << 32 | count, std::memory_order_release);
+  done_.store(0, std::memory_order_relaxed);
+  failed_.store(false, std::memory_order_relaxed);
+  failure_ = nullptr;
+  next_.store(run << 32, std::memory_order_release);  // publishes the writes above
+  generation_.store(run, std::memory_order_release);
+  generation_.notify_all();
+}
+
+void EdgeWorkers::waitAll() {
+  // Only indices other threads took are waited for.
+  for (int spin = 0; done_.load(std::memory_order_acquire) < count_; ++spin) {
+    if (spin < spins_) {
+      pause();
+    } else {
+      std::this_thread::yield();  // a worker running an index was descheduled: let it run
+    }
+  }
+}
+
 void EdgeWorkers::run(std::size_t count, const std::function<void(std::size_t)>& job,
                       const std::function<void()>& caller_first) {
   if (workers_.empty()) {
@@ -72,15 +110,8 @@ void EdgeWorkers::run(std::size_t count, const std::function<void(std::size_t)>&
     for (std::size_t i = 0; i < count; ++i) job(i);
     return;
   }
-  const std::uint64_t run = ++runs_ & 0xffffffffULL;
-  job_.store(&job, std::memory_order_relaxed);
-  count_.store(count, std::memory_order_relaxed);
-  done_.store(0, std::memory_order_relaxed);
-  failed_.store(false, std::memory_order_relaxed);
-  failure_ = nullptr;
-  next_.store(run << 32, std::memory_order_release);  // publishes the writes above
-  generation_.store(run, std::memory_order_release);
-  generation_.notify_all();
+  finish();
+  publish(count, job);
   if (caller_first) {
     try {
       caller_first();
@@ -88,15 +119,37 @@ void EdgeWorkers::run(std::size_t count, const std::function<void(std::size_t)>&
       if (!failed_.exchange(true)) failure_ = std::current_exception();
     }
   }
-  drain(run);
-  // Only indices other threads took are waited for.
-  for (int spin = 0; done_.load(std::memory_order_acquire) < count; ++spin) {
-    if (spin < spins_) {
-      pause();
-    } else {
-      std::this_thread::yield();  // a worker running an index was descheduled: let it run
+  drain(runs_);
+  waitAll();
+  if (failed_.load(std::memory_order_relaxed)) std::rethrow_exception(failure_);
+}
+
+void EdgeWorkers::start(std::size_t count, const std::function<void(std::size_t)>& job) {
+  finish();
+  publish(count, job);
+  started_ = true;
+  if (workers_.empty()) drain(runs_);  // no team: the caller runs it now
+}
+
+void EdgeWorkers::waitFor(std::size_t i) {
+  if (finished_[i].load(std::memory_order_acquire) == 0) {
+    drain(runs_, i);
+    for (int spin = 0; finished_[i].load(std::memory_order_acquire) == 0; ++spin) {
+      if (spin < spins_) {
+        pause();
+      } else {
+        std::this_thread::yield();
+      }
     }
   }
+  if (failed_.load(std::memory_order_acquire)) finish();
+}
+
+void EdgeWorkers::finish() {
+  if (!started_) return;
+  started_ = false;
+  drain(runs_);
+  waitAll();
   if (failed_.load(std::memory_order_relaxed)) std::rethrow_exception(failure_);
 }
 

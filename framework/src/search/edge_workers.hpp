@@ -1,5 +1,6 @@
 // Private to the search engine: the threads that evaluate a state's edges at once
-// (PrimitiveGraph::estimateAll with SearchSettings::threads > 1).
+// (PrimitiveGraph::estimateAll with SearchSettings::threads > 1) and a lazy search's edges
+// ahead of their pops (PrimitiveGraph::startAhead).
 #pragma once
 
 #include <atomic>
@@ -7,21 +8,26 @@
 #include <cstdint>
 #include <exception>
 #include <functional>
+#include <memory>
 #include <thread>
 #include <vector>
 
 namespace kinolab {
 
-/// A fixed team of threads - 1 workers and the caller that runs a job over indices 0..count-1
-/// and returns when every index is done. The indices are handed out by an atomic counter tagged
-/// with the run's number (no lock: each thread takes the next one as it finishes one, and a
-/// thread still looking at a run that is over takes nothing, its tag being old); a run starts by
-/// publishing its number, which the workers spin on for a while (not when there are more threads
-/// than cores), then sleep on (std::atomic::wait). The caller waits only for indices being run:
-/// a worker that was descheduled or is still asleep is not waited for (the caller runs what is
-/// left), so a busy machine costs no time slice a run. The caller learns nothing of which thread
-/// ran which index: a job that writes its result to slot i makes the run's outcome the same at
-/// every thread count.
+/// A fixed team of threads - 1 workers and the caller that runs a job over indices 0..count-1.
+/// The indices are handed out in order by an atomic counter tagged with the run's number (no
+/// lock: each thread takes the next one as it finishes one, and a thread still looking at a
+/// run that is over takes nothing, its tag being old); a run starts by publishing its number,
+/// which the workers spin on for a while (not when there are more threads than cores), then
+/// sleep on (std::atomic::wait). The caller learns nothing of which thread ran which index: a
+/// job that writes its result to slot i makes the run's outcome the same at every thread
+/// count.
+///
+/// A run is either joined at once (run(): the caller takes indices too and returns when every
+/// index is done) or left to the workers (start(): the caller goes on with its own work and
+/// later waits for one index, waitFor(), or for all, finish()). The caller waits only for
+/// indices being run: a worker that was descheduled or is still asleep is not waited for (the
+/// caller runs what is left), so a busy machine costs no time slice a run. One run at a time.
 class EdgeWorkers {
  public:
   explicit EdgeWorkers(int threads);
@@ -37,18 +43,41 @@ class EdgeWorkers {
   void run(std::size_t count, const std::function<void(std::size_t)>& job,
            const std::function<void()>& caller_first = nullptr);
 
+  /// Publishes a run of job(i), i < count, for the workers, and returns at once. `job` must
+  /// stay alive, and what it reads unchanged, until finish().
+  void start(std::size_t count, const std::function<void(std::size_t)>& job);
+  /// Whether a started run is not yet finished (finish()).
+  bool started() const { return started_; }
+  /// Whether every index of the started run is done (without waiting).
+  bool done() const { return done_.load(std::memory_order_acquire) == count_; }
+  /// Returns when index i of the started run is done: runs the indices up to it that no
+  /// thread has taken, then waits for the one a worker runs. When a job has thrown by then
+  /// (index i's own included), ends the run (finish()) and rethrows the first exception.
+  void waitFor(std::size_t i);
+  /// Returns when every index of the started run is done (taking the ones left), and ends it;
+  /// rethrows the first exception a job threw. Nothing when no run is started.
+  void finish();
+
  private:
   void work();
-  /// Runs the indices of run `run` that no thread has taken yet.
-  void drain(std::uint64_t run);
+  /// Runs the indices of run `run` that no thread has taken yet, or (`upto`) up to that one.
+  void drain(std::uint64_t run, std::size_t upto = SIZE_MAX);
+  void publish(std::size_t count, const std::function<void(std::size_t)>& job);
+  /// Waits for every index taken (a worker running one that was descheduled is let run).
+  void waitAll();
 
   const int spins_;  ///< looks before a waiting thread sleeps (workers) or yields (the caller)
   std::vector<std::thread> workers_;
-  std::uint64_t runs_ = 0;  ///< the caller's: the number of the last run
+  std::uint64_t runs_ = 0;  ///< the caller's: the number of the last run (32 bits)
+  bool started_ = false;    ///< the caller's: a run of start() not yet finished
+  std::size_t count_ = 0;   ///< the caller's copy of the last run's count
   std::atomic<const std::function<void(std::size_t)>*> job_{nullptr};
-  std::atomic<std::size_t> count_{0};
-  std::atomic<std::uint64_t> next_{0};        ///< the run's number << 32 | the next index
-  std::atomic<std::size_t> done_{0};          ///< indices of the run finished
+  std::atomic<std::uint64_t> counted_{0};  ///< the run's number << 32 | its count
+  std::atomic<std::uint64_t> next_{0};     ///< the run's number << 32 | the next index
+  std::atomic<std::size_t> done_{0};       ///< indices of the run finished
+  /// Per index of the run: 1 once done (the job's writes published).
+  std::unique_ptr<std::atomic<std::uint8_t>[]> finished_;
+  std::size_t capacity_ = 0;
   std::atomic<std::uint64_t> generation_{0};  ///< the run the workers are woken for
   std::atomic<bool> failed_{false};
   std::exception_ptr failure_;

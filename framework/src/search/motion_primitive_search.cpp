@@ -31,6 +31,7 @@ MotionPrimitiveSearch::MotionPrimitiveSearch(std::shared_ptr<const World> world,
              std::move(policies)) {
   evaluations_.resize(graph_.controls().size());
   estimates_.resize(graph_.controls().size());
+  edges_ahead_ = graph_.parallel() && !graph_.policies().edges->evaluatesFully();
   if (graph_.policies().shot) {
     // A shot is held to what the search's edges are: its limits, body and tolerance.
     const EdgeEvaluatorSettings& edges = graph_.settings().edges;
@@ -42,7 +43,13 @@ MotionPrimitiveSearch::MotionPrimitiveSearch(std::shared_ptr<const World> world,
   }
 }
 
-MotionPrimitiveSearch::~MotionPrimitiveSearch() = default;
+MotionPrimitiveSearch::~MotionPrimitiveSearch() {
+  // The other threads may still be making edges ahead into this search's containers.
+  try {
+    graph_.finishAhead();
+  } catch (...) {  // NOLINT(bugprone-empty-catch): an evaluation's error, no search to tell
+  }
+}
 
 bool MotionPrimitiveSearch::tryShot(int node) {
   const ChainState& state = candidates_[node].state;
@@ -143,7 +150,9 @@ void MotionPrimitiveSearch::prepare() {
   slots_.clear();
   std::fill(table_.begin(), table_.end(), -1);
   heap_.clear();
+  graph_.finishAhead();  // a run a search left when it threw
   ahead_.clear();
+  running_.clear();
   ahead_used_ = 0;
   goal_candidate_ = -1;
   nearest_candidate_ = -1;
@@ -186,30 +195,51 @@ EdgeEvaluation MotionPrimitiveSearch::fullEvaluation(const HeapEntry& entry) {
     return graph_.evaluate(parent.state, static_cast<int>(entry.control), parent.clearance);
   }
   const std::uint64_t key = aheadKey(entry);
+  keepAhead(key);
+  EdgeEvaluation full;
   if (const auto found = ahead_.find(key); found != ahead_.end()) {
-    EdgeEvaluation full = std::move(found->second);
+    full = std::move(found->second);
     ahead_.erase(found);
-    ++ahead_used_;
-    graph_.countFull(full);
-    return full;
+  } else if (const auto running = running_.find(key); running != running_.end()) {
+    graph_.waitAhead(running->second);
+    full = std::move(job_results_[running->second]);
+    running_.erase(running);
+  } else {
+    // Not made ahead: made here, while the other threads make the next ones.
+    return graph_.evaluate(parent.state, static_cast<int>(entry.control), parent.clearance);
   }
-  jobs_.assign(1, {&parent.state, static_cast<int>(entry.control), parent.clearance});
-  job_keys_.assign(1, key);
+  ++ahead_used_;
+  graph_.countFull(full);
+  return full;
+}
+
+void MotionPrimitiveSearch::keepAhead(std::uint64_t popped) {
+  if (graph_.aheadStarted()) {
+    if (!graph_.aheadDone()) return;
+    graph_.finishAhead();
+    for (const auto& [key, index] : running_) ahead_.emplace(key, std::move(job_results_[index]));
+    running_.clear();
+  }
   // A few edges a thread: a hand-over costs more than one edge of a point robot. Made ahead
-  // only while at least half of what was made ahead has been used, after a first batch: with a
+  // only while at least half of what was made ahead has been used, after a first run: with a
   // tight heuristic the search pops little besides its path, and the rest would be wasted.
   constexpr long long kEdgesPerThread = 4;
   const long long batch = kEdgesPerThread * graph_.settings().threads;
-  if (graph_.counters().ahead_evaluations <= 2 * ahead_used_ + batch) {
-    addNextEdges(static_cast<std::size_t>(batch - 1), key);
-  }
-  graph_.evaluateMany(jobs_, job_results_);
-  graph_.counters().ahead_evaluations += static_cast<long long>(jobs_.size()) - 1;
-  for (std::size_t i = 1; i < jobs_.size(); ++i) {
-    ahead_.emplace(job_keys_[i], std::move(job_results_[i]));
-  }
-  graph_.countFull(job_results_[0]);
-  return std::move(job_results_[0]);
+  if (graph_.counters().ahead_evaluations > 2 * ahead_used_ + batch) return;
+  jobs_.clear();
+  job_keys_.clear();
+  addNextEdges(static_cast<std::size_t>(batch), popped);
+  if (jobs_.empty()) return;
+  for (std::size_t i = 0; i < job_keys_.size(); ++i) running_.emplace(job_keys_[i], i);
+  graph_.counters().ahead_evaluations += static_cast<long long>(jobs_.size());
+  graph_.startAhead(jobs_, job_results_);
+}
+
+void MotionPrimitiveSearch::endAhead() {
+  graph_.finishAhead();
+  graph_.counters().wasted_evaluations += static_cast<long long>(ahead_.size() + running_.size());
+  ahead_.clear();
+  running_.clear();
 }
 
 void MotionPrimitiveSearch::addNextEdges(std::size_t count, std::uint64_t popped) {
@@ -228,7 +258,7 @@ void MotionPrimitiveSearch::addNextEdges(std::size_t count, std::uint64_t popped
     const std::uint64_t key = aheadKey(entry);
     if (entry.kind == kLowerBound && key != popped && !ahead_.count(key) && !closedEnd(entry)) {
       const Candidate& parent = candidates_[entry.node];
-      jobs_.push_back({&parent.state, static_cast<int>(entry.control), parent.clearance});
+      jobs_.push_back({parent.state, static_cast<int>(entry.control), parent.clearance});
       job_keys_.push_back(key);
       --count;
     }
@@ -245,9 +275,9 @@ bool MotionPrimitiveSearch::closedEnd(const HeapEntry& entry) const {
 }
 
 void MotionPrimitiveSearch::dropAhead(const HeapEntry& entry) {
-  if (entry.kind == kLowerBound && ahead_.erase(aheadKey(entry)) > 0) {
-    ++graph_.counters().wasted_evaluations;
-  }
+  if (entry.kind != kLowerBound) return;
+  const std::uint64_t key = aheadKey(entry);
+  if (ahead_.erase(key) + running_.erase(key) > 0) ++graph_.counters().wasted_evaluations;
 }
 
 void MotionPrimitiveSearch::expand(int node) {
@@ -346,9 +376,10 @@ MotionPrimitiveSearch::Outcome MotionPrimitiveSearch::search(const ChainState& s
       break;
     }
     expand(index);
+    // The other threads make the edges it queued that are best now.
+    if (edges_ahead_) keepAhead(kNoEdge);
   }
-  counters.wasted_evaluations += static_cast<long long>(ahead_.size());
-  ahead_.clear();
+  endAhead();
   graph_.endQuery();
   return outcome;
 }

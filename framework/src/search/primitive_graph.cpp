@@ -122,20 +122,31 @@ EdgeEvaluation PrimitiveGraph::evaluate(const ChainState& parent, int control,
   return full;
 }
 
-void PrimitiveGraph::evaluateMany(const std::vector<EdgeJob>& jobs,
-                                  std::vector<EdgeEvaluation>& results) {
+void PrimitiveGraph::startAhead(const std::vector<EdgeJob>& jobs,
+                                std::vector<EdgeEvaluation>& results) {
   results.resize(jobs.size());
-  const auto begin = Clock::now();
-  const auto evaluateOne = [&](std::size_t i) {
+  ahead_job_ = [this, &jobs, &results](std::size_t i) {
     results[i] =
-        evaluator_.full(*jobs[i].parent, controls_[static_cast<std::size_t>(jobs[i].control)],
+        evaluator_.full(jobs[i].parent, controls_[static_cast<std::size_t>(jobs[i].control)],
                         jobs[i].parent_clearance);
   };
-  if (workers_ && jobs.size() > 1) {
-    workers_->run(jobs.size(), evaluateOne);
-  } else {
-    for (std::size_t i = 0; i < jobs.size(); ++i) evaluateOne(i);
-  }
+  workers_->start(jobs.size(), ahead_job_);
+}
+
+bool PrimitiveGraph::aheadStarted() const { return workers_ && workers_->started(); }
+
+bool PrimitiveGraph::aheadDone() const { return workers_->done(); }
+
+void PrimitiveGraph::waitAhead(std::size_t i) {
+  const auto begin = Clock::now();
+  workers_->waitFor(i);
+  counters_.evaluation_seconds += secondsSince(begin);
+}
+
+void PrimitiveGraph::finishAhead() {
+  if (!workers_) return;
+  const auto begin = Clock::now();
+  workers_->finish();
   counters_.evaluation_seconds += secondsSince(begin);
 }
 

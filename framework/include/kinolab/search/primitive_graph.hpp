@@ -3,6 +3,7 @@
 #include <Eigen/Core>
 #include <chrono>
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <string>
 #include <vector>
@@ -146,19 +147,30 @@ class PrimitiveGraph {
                         EdgeEvaluation& evaluation);
   /// The full evaluation of `control` from `parent`, counted and timed.
   EdgeEvaluation evaluate(const ChainState& parent, int control, double parent_clearance);
-  /// One edge of evaluateMany(): its parent state (alive for the call), control and the
+  /// One edge evaluated ahead of need (startAhead()): its parent state, control and the
   /// parent's clearance.
   struct EdgeJob {
-    const ChainState* parent;
+    ChainState parent;
     int control;
     double parent_clearance;
   };
-  /// The full evaluations of `jobs` into `results`, on SearchSettings::threads threads, timed
-  /// as evaluation and not counted: each is counted with countFull() when the search uses it.
-  void evaluateMany(const std::vector<EdgeJob>& jobs, std::vector<EdgeEvaluation>& results);
+  /// Starts the full evaluations of `jobs` into `results` (resized) on the team's other
+  /// threads and returns at once; both stay untouched until finishAhead() (a result may be
+  /// read once waitAhead() returned for it). Not counted: each is counted with countFull()
+  /// when the search uses it. Only with parallel(); one run at a time.
+  void startAhead(const std::vector<EdgeJob>& jobs, std::vector<EdgeEvaluation>& results);
+  /// Whether a run of startAhead() is going on (not yet finished).
+  bool aheadStarted() const;
+  /// Whether every evaluation of that run is done (without waiting).
+  bool aheadDone() const;
+  /// Returns when the run's job `i` is done (this thread runs it if no other took it yet),
+  /// timed as evaluation.
+  void waitAhead(std::size_t i);
+  /// Ends the run (waiting for what is being evaluated); nothing when none is going on.
+  void finishAhead();
   /// Counts one full evaluation the search uses.
   void countFull(const EdgeEvaluation& evaluation);
-  /// Whether evaluateMany() runs on more than one thread.
+  /// Whether the graph has a team of threads (SearchSettings::threads > 1).
   bool parallel() const { return workers_ != nullptr; }
   /// The same, the parent's clearance looked up (and counted) first.
   EdgeEvaluation evaluate(const ChainState& parent, int control);
@@ -190,8 +202,9 @@ class PrimitiveGraph {
   SearchPolicies given_policies_;
   SearchPolicies policies_;
   EdgeEvaluator evaluator_;
-  std::unique_ptr<EdgeWorkers> workers_;  ///< with threads > 1
-  bool parallel_estimates_ = false;       ///< estimateAll() on the team (full evaluations)
+  std::unique_ptr<EdgeWorkers> workers_;        ///< with threads > 1
+  bool parallel_estimates_ = false;             ///< estimateAll() on the team (full evaluations)
+  std::function<void(std::size_t)> ahead_job_;  ///< the job of startAhead()'s run
 
   ChainState start_ = ChainState::Zero();
   Eigen::Vector3d goal_ = Eigen::Vector3d::Zero();
