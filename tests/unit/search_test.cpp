@@ -1301,7 +1301,7 @@ TEST(EdgeWorkers, AStartedRunGoesOnBesideTheCallerWhoWaitsForOneIndexOrAll) {
   const std::function<void(std::size_t)> square = [&](std::size_t i) { out[i] = i * i + 1; };
   for (int round = 0; round < 200; ++round) {
     std::fill(out.begin(), out.end(), 0);
-    workers.start(out.size(), square);
+    workers.start(out.size(), out.size(), square);
     EXPECT_TRUE(workers.started());
     for (const std::size_t i : {37, 5, 63, 0}) {
       workers.waitFor(i);
@@ -1315,23 +1315,23 @@ TEST(EdgeWorkers, AStartedRunGoesOnBesideTheCallerWhoWaitsForOneIndexOrAll) {
   // a clock: this ends early only if another thread ran the index).
   std::atomic<bool> ran{false};
   const std::function<void(std::size_t)> mark = [&](std::size_t) { ran = true; };
-  workers.start(1, mark);
+  workers.start(1, 1, mark);
   long waited = 0;
   while (!ran.load() && waited < 100000000) {
     ++waited;
     std::this_thread::yield();
   }
   EXPECT_TRUE(ran.load());
-  EXPECT_TRUE(workers.done());
+  EXPECT_EQ(workers.outstanding(), 0u);
   workers.finish();
   // A job's exception comes back from waitFor() or finish(), after which the run is over.
   const std::function<void(std::size_t)> failing = [](std::size_t i) {
     if (i == 7) throw InvalidArgument("edge 7");
   };
-  workers.start(16, failing);
+  workers.start(16, 16, failing);
   EXPECT_THROW(workers.finish(), InvalidArgument);
   EXPECT_FALSE(workers.started());
-  workers.start(16, failing);
+  workers.start(16, 16, failing);
   EXPECT_THROW(workers.waitFor(7), InvalidArgument);
   EXPECT_FALSE(workers.started());
   std::atomic<int> after{0};

@@ -214,25 +214,44 @@ EdgeEvaluation MotionPrimitiveSearch::fullEvaluation(const HeapEntry& entry) {
 }
 
 void MotionPrimitiveSearch::keepAhead(std::uint64_t popped) {
+  // A few edges a thread outstanding: a hand-over costs more than one edge of a point robot.
+  // Made ahead only while at least half of what was made ahead has been used, after a first
+  // few: with a tight heuristic the search pops little besides its path, and the rest would
+  // be wasted.
+  constexpr std::size_t kEdgesPerThread = 4;
+  const auto threads = static_cast<std::size_t>(graph_.settings().threads);
+  const std::size_t outstanding_at_most = kEdgesPerThread * (threads - 1);
+  const auto made = static_cast<std::size_t>(graph_.counters().ahead_evaluations);
+  if (made > 2 * static_cast<std::size_t>(ahead_used_) + outstanding_at_most) return;
+  std::size_t outstanding = 0;
   if (graph_.aheadStarted()) {
-    if (!graph_.aheadDone()) return;
-    graph_.finishAhead();
-    for (const auto& [key, index] : running_) ahead_.emplace(key, std::move(job_results_[index]));
-    running_.clear();
+    outstanding = graph_.aheadOutstanding();
+    if (outstanding >= outstanding_at_most) return;
+    if (jobs_.size() == jobs_.capacity()) {
+      if (outstanding > 0) return;  // no room: a new run when this one is done
+      graph_.finishAhead();
+      for (const auto& [key, index] : running_) {
+        ahead_.emplace(key, std::move(job_results_[index]));
+      }
+      running_.clear();
+    }
   }
-  // A few edges a thread: a hand-over costs more than one edge of a point robot. Made ahead
-  // only while at least half of what was made ahead has been used, after a first run: with a
-  // tight heuristic the search pops little besides its path, and the rest would be wasted.
-  constexpr long long kEdgesPerThread = 4;
-  const long long batch = kEdgesPerThread * graph_.settings().threads;
-  if (graph_.counters().ahead_evaluations > 2 * ahead_used_ + batch) return;
-  jobs_.clear();
-  job_keys_.clear();
-  addNextEdges(static_cast<std::size_t>(batch), popped);
-  if (jobs_.empty()) return;
-  for (std::size_t i = 0; i < job_keys_.size(); ++i) running_.emplace(job_keys_[i], i);
-  graph_.counters().ahead_evaluations += static_cast<long long>(jobs_.size());
-  graph_.startAhead(jobs_, job_results_);
+  const bool more = graph_.aheadStarted();
+  if (!more) {
+    jobs_.clear();
+    job_keys_.clear();
+    jobs_.reserve(kRunRoom * threads);  // never reallocated while a run reads it
+  }
+  const std::size_t before = jobs_.size();
+  addNextEdges(std::min(outstanding_at_most - outstanding, jobs_.capacity() - before), popped);
+  if (jobs_.size() == before) return;
+  for (std::size_t i = before; i < jobs_.size(); ++i) running_.emplace(job_keys_[i], i);
+  graph_.counters().ahead_evaluations += static_cast<long long>(jobs_.size() - before);
+  if (more) {
+    graph_.extendAhead(jobs_.size());
+  } else {
+    graph_.startAhead(jobs_, job_results_, jobs_.capacity());
+  }
 }
 
 void MotionPrimitiveSearch::endAhead() {
@@ -256,7 +275,8 @@ void MotionPrimitiveSearch::addNextEdges(std::size_t count, std::uint64_t popped
     next.pop();
     const HeapEntry& entry = heap_[position];
     const std::uint64_t key = aheadKey(entry);
-    if (entry.kind == kLowerBound && key != popped && !ahead_.count(key) && !closedEnd(entry)) {
+    if (entry.kind == kLowerBound && key != popped && !ahead_.count(key) && !running_.count(key) &&
+        !closedEnd(entry)) {
       const Candidate& parent = candidates_[entry.node];
       jobs_.push_back({parent.state, static_cast<int>(entry.control), parent.clearance});
       job_keys_.push_back(key);
@@ -376,8 +396,11 @@ MotionPrimitiveSearch::Outcome MotionPrimitiveSearch::search(const ChainState& s
       break;
     }
     expand(index);
-    // The other threads make the edges it queued that are best now.
-    if (edges_ahead_) keepAhead(kNoEdge);
+    // The other threads make the best edges it queued but the one popped next (made here).
+    if (edges_ahead_) {
+      keepAhead(!heap_.empty() && heap_.front().kind == kLowerBound ? aheadKey(heap_.front())
+                                                                    : kNoEdge);
+    }
   }
   endAhead();
   graph_.endQuery();

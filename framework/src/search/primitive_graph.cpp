@@ -123,19 +123,21 @@ EdgeEvaluation PrimitiveGraph::evaluate(const ChainState& parent, int control,
 }
 
 void PrimitiveGraph::startAhead(const std::vector<EdgeJob>& jobs,
-                                std::vector<EdgeEvaluation>& results) {
-  results.resize(jobs.size());
+                                std::vector<EdgeEvaluation>& results, std::size_t capacity) {
+  results.resize(capacity);
   ahead_job_ = [this, &jobs, &results](std::size_t i) {
     results[i] =
         evaluator_.full(jobs[i].parent, controls_[static_cast<std::size_t>(jobs[i].control)],
                         jobs[i].parent_clearance);
   };
-  workers_->start(jobs.size(), ahead_job_);
+  workers_->start(jobs.size(), capacity, ahead_job_);
 }
+
+void PrimitiveGraph::extendAhead(std::size_t count) { workers_->extend(count); }
 
 bool PrimitiveGraph::aheadStarted() const { return workers_ && workers_->started(); }
 
-bool PrimitiveGraph::aheadDone() const { return workers_->done(); }
+std::size_t PrimitiveGraph::aheadOutstanding() const { return workers_->outstanding(); }
 
 void PrimitiveGraph::waitAhead(std::size_t i) {
   const auto begin = Clock::now();

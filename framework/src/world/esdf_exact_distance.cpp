@@ -225,6 +225,18 @@ constexpr unsigned kUniformZ = 8;
 constexpr unsigned kAll = 15;
 }  // namespace BrickOccupancy
 
+/// A brick's occupancy as the gather reads it: the bits above and, with kHoldsCube, its
+/// layers' masks (layer x - the brick's first x: bit 8 (y - first y) + (z - first z)).
+struct BrickView {
+  unsigned bits;
+  const std::uint64_t* layers;
+};
+
+/// The bits of [from, to] (0-7, from <= to).
+unsigned bitRange(std::int64_t from, std::int64_t to) {
+  return (0xffu >> (7 - (to - from))) << from;
+}
+
 /// Floor and ceiling of a value well inside the integers, without a libm call.
 std::int64_t floorInt(double v) {
   const auto t = static_cast<std::int64_t>(v);
@@ -299,11 +311,13 @@ struct ShellGather {
                                static_cast<std::int32_t>(z)});
   }
 
-  /// Column (x, y) over the heights [z0, z1) of one brick, `bxy2` its squared gap to the block.
+  /// Column (x, y) over the heights [z0, z1) of one brick whose first height is `zb` and
+  /// whose occupancy there is `column` (bit z - zb), `bxy2` its squared gap to the block.
   /// Within the block's heights every cube outside the free ball (below, above); beyond them
-  /// the first occupied cube each way within reach (those past it are never nearer), from the
-  /// free ball's edge.
-  void column(std::int64_t x, std::int64_t y, std::int64_t z0, std::int64_t z1, double bxy2) {
+  /// the first occupied cube each way (those past it are never nearer), from the free ball's
+  /// edge, if within reach.
+  void column(std::int64_t x, std::int64_t y, std::int64_t zb, unsigned column, std::int64_t z0,
+              std::int64_t z1, double bxy2) {
     const std::int64_t* low = shell.low;
     const std::int64_t* high = shell.high;
     const std::int64_t* middle = shell.middle;
@@ -316,25 +330,30 @@ struct ShellGather {
       below = floorInt(static_cast<double>(middle[2]) - 0.5 - free_z);
       above = ceilInt(static_cast<double>(middle[2]) + 0.5 + free_z);
     }
-    const auto row = rows(x, y);
-    for (std::int64_t z = std::min({z1 - 1, low[2] - 1, below}); z >= z0; --z) {
+    // The occupied heights of [from, to] (clamped to [z0, z1)), as bits from zb.
+    const auto occupied = [&](std::int64_t from, std::int64_t to) {
+      from = std::max(from, z0);
+      to = std::min(to, z1 - 1);
+      return from <= to ? column & bitRange(from - zb, to - zb) : 0u;
+    };
+    // Below the block: the highest cube, if within reach.
+    if (const unsigned bits = occupied(z0, std::min(low[2] - 1, below))) {
+      const std::int64_t z = zb + 31 - __builtin_clz(bits);
       const auto g = static_cast<double>(low[2] - 1 - z);
-      if (bxy2 + g * g > shell.reach2) break;
-      if (row[z] < 0.0f) {
-        keep(x, y, z);
-        break;
-      }
+      if (bxy2 + g * g <= shell.reach2) keep(x, y, z);
     }
-    for (std::int64_t z = std::max(z0, low[2]); z < std::min(z1, high[2]); ++z) {
-      if ((z <= below || z >= above) && row[z] < 0.0f) keep(x, y, z);
+    // Within the block's heights: every cube outside the free ball.
+    unsigned within = occupied(low[2], std::min(high[2] - 1, below)) |
+                      occupied(std::max(low[2], above), high[2] - 1);
+    while (within != 0) {
+      keep(x, y, zb + __builtin_ctz(within));
+      within &= within - 1;
     }
-    for (std::int64_t z = std::max({z0, high[2], above}); z < z1; ++z) {
+    // Above the block: the lowest cube, if within reach.
+    if (const unsigned bits = occupied(std::max(high[2], above), z1 - 1)) {
+      const std::int64_t z = zb + __builtin_ctz(bits);
       const auto g = static_cast<double>(z - high[2]);
-      if (bxy2 + g * g > shell.reach2) break;
-      if (row[z] < 0.0f) {
-        keep(x, y, z);
-        break;
-      }
+      if (bxy2 + g * g <= shell.reach2) keep(x, y, z);
     }
   }
 
@@ -355,8 +374,9 @@ struct ShellGather {
     }
   }
 
-  /// The whole shell, brick by brick; `occupancy(bx, by, bz)` says whether a brick holds a
-  /// cube (BrickOccupancy::kHoldsCube; none skips it) and along which axes it is uniform.
+  /// The whole shell, brick by brick; `occupancy(bx, by, bz)` (a BrickView) says whether a
+  /// brick holds a cube (BrickOccupancy::kHoldsCube; none skips it), along which axes it is
+  /// uniform, and which of its voxels are occupied (the columns read from its masks).
   template <typename Occupancy>
   void run(const Occupancy& occupancy) {
     const std::int64_t* low = shell.low;
@@ -385,7 +405,8 @@ struct ShellGather {
         for (std::int64_t bz = first[2] / kSide; bz * kSide < last[2]; ++bz) {
           const double gz = range(2, bz, z0, z1);
           if (gxy2 + gz * gz > shell.reach2) continue;
-          const unsigned bits = occupancy(bx, by, bz);
+          const BrickView brick = occupancy(bx, by, bz);
+          const unsigned bits = brick.bits;
           if (!(bits & BrickOccupancy::kHoldsCube)) continue;
           std::int64_t from[3] = {x0, y0, z0};
           std::int64_t to[3] = {x1, y1, z1};
@@ -395,9 +416,15 @@ struct ShellGather {
           }
           for (std::int64_t x = from[0]; x < to[0]; ++x) {
             const double bx2 = slabGap(low[0], high[0], x) * slabGap(low[0], high[0], x);
+            const std::uint64_t layer = brick.layers[x - bx * kSide];
             for (std::int64_t y = from[1]; y < to[1]; ++y) {
+              const auto bits_of_column =
+                  static_cast<unsigned>((layer >> (kSide * (y - by * kSide))) & 0xff);
+              if (bits_of_column == 0) continue;
               const double bxy2 = bx2 + slabGap(low[1], high[1], y) * slabGap(low[1], high[1], y);
-              if (bxy2 + gz * gz <= shell.reach2) column(x, y, from[2], to[2], bxy2);
+              if (bxy2 + gz * gz <= shell.reach2) {
+                column(x, y, bz * kSide, bits_of_column, from[2], to[2], bxy2);
+              }
             }
           }
         }
@@ -407,10 +434,12 @@ struct ShellGather {
 };
 
 /// The occupancy bits (BrickOccupancy) of the 8^3 brick (bx, by, bz) of a field's z-rows
-/// (`Rows`); `inverse_resolution` the field's.
+/// (`Rows`), and with a cube its layers' masks into `layers` (BrickView); `inverse_resolution`
+/// the field's.
 template <typename Rows>
 unsigned readBrickOccupancy(const Rows& rows, const std::int64_t dims[3], double inverse_resolution,
-                            std::int64_t bx, std::int64_t by, std::int64_t bz) {
+                            std::int64_t bx, std::int64_t by, std::int64_t bz,
+                            std::uint64_t* layers) {
   constexpr std::int64_t kSide = VoxelGrid::kBrick;
   static_assert(kSide == 8, "a brick's columns are bytes of its layers' 64-bit masks");
   const std::int64_t first[3] = {bx * kSide, by * kSide, bz * kSide};
@@ -432,7 +461,7 @@ unsigned readBrickOccupancy(const Rows& rows, const std::int64_t dims[3], double
     if (centre > std::sqrt(far2) + floatSlack(centre)) return 0;
   }
   // Layer x's occupancy: bit 8 (y - first y) + (z - first z).
-  std::uint64_t layers[kSide] = {};
+  std::fill(layers, layers + kSide, 0);
   const std::int64_t sides[3] = {last[0] - first[0], last[1] - first[1], last[2] - first[2]};
   for (std::int64_t x = 0; x < sides[0]; ++x) {
     for (std::int64_t y = 0; y < sides[1]; ++y) {
@@ -492,16 +521,32 @@ double ExactDistanceRun::operator()(const Eigen::Vector3d& point) {
   return std::min(std::sqrt(best2) * field.resolution_, limit_);
 }
 
+namespace {
+
+/// A brick's words in ExactDistanceRun's brick cache: (its index + 1) << 4 plus its
+/// BrickOccupancy bits (0: an empty slot), then its layers' masks (BrickView).
+constexpr std::size_t kSlotWords = 1 + VoxelGrid::kBrick;
+
+/// The cache slot of brick (bx, by, bz) of a field of `dims` voxels (direct-mapped over
+/// `slots`), and the brick's index.
+std::uint64_t* brickSlot(std::vector<std::uint64_t>& cache, std::size_t slots,
+                         const Eigen::Vector3i& dims, std::int64_t bx, std::int64_t by,
+                         std::int64_t bz, std::uint64_t& index) {
+  constexpr std::int64_t kSide = VoxelGrid::kBrick;
+  const auto bricks = [&](int axis) { return (dims[axis] + kSide - 1) / kSide; };
+  index = static_cast<std::uint64_t>((bx * bricks(1) + by) * bricks(2) + bz);
+  if (cache.empty()) cache.assign(slots * kSlotWords, 0);
+  return &cache[(index % slots) * kSlotWords];
+}
+
+}  // namespace
+
 template <typename Scan>
 unsigned ExactDistanceRun::brickOccupancy(std::int64_t bx, std::int64_t by, std::int64_t bz,
                                           const Scan& scan) {
-  constexpr std::int64_t kSide = VoxelGrid::kBrick;
-  const auto bricks = [&](int axis) { return (esdf_.dims_[axis] + kSide - 1) / kSide; };
-  const auto index = static_cast<std::uint64_t>((bx * bricks(1) + by) * bricks(2) + bz);
-  // Direct-mapped: a slot holds (index + 1) << 4 plus the bits; 0 is empty.
-  if (brick_cache_.empty()) brick_cache_.assign(kBrickCacheSlots, 0);
-  std::uint64_t& slot = brick_cache_[index % kBrickCacheSlots];
-  if (slot >> 4 == index + 1) return static_cast<unsigned>(slot & 15);
+  std::uint64_t index = 0;
+  std::uint64_t* slot = brickSlot(brick_cache_, kBrickCacheSlots, esdf_.dims_, bx, by, bz, index);
+  if (slot[0] >> 4 == index + 1) return static_cast<unsigned>(slot[0] & 15);
   ++bricks_read_;
   // A truncated field's shared brick is all +T (no cube) or all -T (all cubes).
   int shared = 0;
@@ -510,8 +555,23 @@ unsigned ExactDistanceRun::brickOccupancy(std::int64_t bx, std::int64_t by, std:
                                         static_cast<std::size_t>(by) * esdf_.brick_strides_[1] +
                                         static_cast<std::size_t>(bz),
                                     shared) != nullptr;
-  const unsigned bits = own ? scan() : (shared < 0 ? BrickOccupancy::kAll : 0u);
-  slot = ((index + 1) << 4) | bits;
+  unsigned bits = 0;
+  if (own) {
+    bits = scan(slot + 1);
+  } else if (shared < 0) {
+    bits = BrickOccupancy::kAll;
+    // Every voxel of the brick inside the grid.
+    constexpr std::int64_t kSide = VoxelGrid::kBrick;
+    const auto side = [&](int axis, std::int64_t b) {
+      return std::min<std::int64_t>(kSide,
+                                    static_cast<std::int64_t>(esdf_.dims_[axis]) - b * kSide);
+    };
+    const std::uint64_t column = (std::uint64_t{1} << side(2, bz)) - 1;
+    std::uint64_t layer = 0;
+    for (std::int64_t y = 0; y < side(1, by); ++y) layer |= column << (kSide * y);
+    for (std::int64_t x = 0; x < kSide; ++x) slot[1 + x] = x < side(0, bx) ? layer : 0;
+  }
+  slot[0] = ((index + 1) << 4) | bits;
   return bits;
 }
 
@@ -573,9 +633,13 @@ void ExactDistanceRun::gather(const std::int64_t block[3]) {
   const auto gatherOver = [&](const auto& rows) {
     ShellGather<std::decay_t<decltype(rows)>>{rows, shell, cubes_}.run(
         [&](std::int64_t bx, std::int64_t by, std::int64_t bz) {
-          return brickOccupancy(bx, by, bz, [&] {
-            return readBrickOccupancy(rows, shell.dims, field.inverse_resolution_, bx, by, bz);
+          const unsigned bits = brickOccupancy(bx, by, bz, [&](std::uint64_t* layers) {
+            return readBrickOccupancy(rows, shell.dims, field.inverse_resolution_, bx, by, bz,
+                                      layers);
           });
+          std::uint64_t index = 0;
+          return BrickView{
+              bits, brickSlot(brick_cache_, kBrickCacheSlots, field.dims_, bx, by, bz, index) + 1};
         });
   };
   if (field.brick_table_) {

@@ -137,9 +137,10 @@ class MotionPrimitiveSearch {
   /// open list's next lower-bound edges (each is a pure function of its edge, so the search is
   /// the same whichever thread made it, and when).
   EdgeEvaluation fullEvaluation(const HeapEntry& entry);
-  /// With threads > 1: takes the results of the run of edges ahead once it is done, and
-  /// starts the next run when none is going on (the open list's best lower-bound edges not
-  /// made yet, besides `popped`), while at least half of what was made ahead was used.
+  /// With threads > 1: adds to the run of edges made ahead the open list's best lower-bound
+  /// edges not made yet (besides `popped`), a few a thread outstanding, while at least half
+  /// of what was made ahead was used; a run full and done gives its results to ahead_ and a
+  /// new run starts.
   void keepAhead(std::uint64_t popped);
   /// Ends the run of edges ahead and forgets what was made ahead and not used (as wasted).
   void endAhead();
@@ -148,6 +149,8 @@ class MotionPrimitiveSearch {
   void addNextEdges(std::size_t count, std::uint64_t popped);
   /// Forgets a popped edge's evaluation made ahead, if any, as wasted (its state was closed).
   void dropAhead(const HeapEntry& entry);
+  /// Room of a run of edges made ahead, a thread.
+  static constexpr std::size_t kRunRoom = 64;
   static constexpr std::uint64_t kNoEdge = ~std::uint64_t{0};  ///< no aheadKey() is this
   static std::uint64_t aheadKey(const HeapEntry& entry) {
     return (static_cast<std::uint64_t>(static_cast<std::uint32_t>(entry.node)) << 32) |

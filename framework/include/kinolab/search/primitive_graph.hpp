@@ -154,15 +154,18 @@ class PrimitiveGraph {
     int control;
     double parent_clearance;
   };
-  /// Starts the full evaluations of `jobs` into `results` (resized) on the team's other
-  /// threads and returns at once; both stay untouched until finishAhead() (a result may be
-  /// read once waitAhead() returned for it). Not counted: each is counted with countFull()
-  /// when the search uses it. Only with parallel(); one run at a time.
-  void startAhead(const std::vector<EdgeJob>& jobs, std::vector<EdgeEvaluation>& results);
-  /// Whether a run of startAhead() is going on (not yet finished).
+  /// Starts the full evaluations of `jobs` into `results` (resized to `capacity`) on the
+  /// team's other threads and returns at once; jobs may be added up to `capacity`
+  /// (extendAhead()). Both stay untouched until finishAhead(), but for jobs added (a result
+  /// may be read once waitAhead() returned for it). Not counted: each is counted with
+  /// countFull() when the search uses it. Only with parallel(); one run at a time.
+  void startAhead(const std::vector<EdgeJob>& jobs, std::vector<EdgeEvaluation>& results,
+                  std::size_t capacity);
+  /// The jobs of the run are now `jobs.size()` (appended since start or the last call).
+  void extendAhead(std::size_t count);
+  /// Whether a run of startAhead() is going on (not yet finished), and its jobs not yet done.
   bool aheadStarted() const;
-  /// Whether every evaluation of that run is done (without waiting).
-  bool aheadDone() const;
+  std::size_t aheadOutstanding() const;
   /// Returns when the run's job `i` is done (this thread runs it if no other took it yet),
   /// timed as evaluation.
   void waitAhead(std::size_t i);
