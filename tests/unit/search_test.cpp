@@ -1311,6 +1311,23 @@ TEST(EdgeWorkers, AStartedRunGoesOnBesideTheCallerWhoWaitsForOneIndexOrAll) {
     EXPECT_FALSE(workers.started());
     for (std::size_t i = 0; i < out.size(); ++i) ASSERT_EQ(out[i], i * i + 1) << round;
   }
+  // A run grows while it goes: the indices added are run as the first ones.
+  std::vector<std::size_t> in;
+  in.reserve(out.size());
+  const std::function<void(std::size_t)> copy = [&](std::size_t i) { out[i] = in[i]; };
+  for (int round = 0; round < 200; ++round) {
+    in.assign({7, 8, 9});
+    std::fill(out.begin(), out.end(), 0);
+    workers.start(in.size(), out.size(), copy);
+    for (std::size_t i = 3; i < 40; ++i) in.push_back(i * 3);
+    workers.extend(in.size());
+    EXPECT_EQ(workers.count(), 40u);
+    workers.waitFor(39);
+    ASSERT_EQ(out[39], 117u) << round;
+    workers.finish();
+    for (std::size_t i = 0; i < in.size(); ++i) ASSERT_EQ(out[i], in[i]) << round;
+    ASSERT_EQ(out[40], 0u) << round;
+  }
   // The worker runs a started run while the caller does not take part (counted yields, never
   // a clock: this ends early only if another thread ran the index).
   std::atomic<bool> ran{false};
