@@ -14,12 +14,13 @@ from command_line import (BINARY, SMALL_FOREST, SOURCE_DIR, last_json,  # noqa: 
 
 @pytest.fixture
 def kinolab(tmp_path):
-    """Runs `kinolab ARGS...` with a private world cache; returns the CompletedProcess."""
+    """Runs `kinolab ARGS...` with a private world cache; returns the CompletedProcess (a
+    call past `timeout` seconds fails the test)."""
 
-    def run(*args, cwd=None):
+    def run(*args, cwd=None, timeout=300):
         env = dict(os.environ, KINOLAB_CACHE_DIR=str(tmp_path / "cache"))
         return subprocess.run([BINARY, *map(str, args)], capture_output=True, text=True,
-                              env=env, cwd=cwd, timeout=300)
+                              env=env, cwd=cwd, timeout=timeout)
 
     return run
 
