@@ -43,11 +43,14 @@ MotionPrimitiveSearch::MotionPrimitiveSearch(std::shared_ptr<const World> world,
   }
 }
 
-MotionPrimitiveSearch::~MotionPrimitiveSearch() {
-  // The other threads may still be making edges ahead into this search's containers.
+MotionPrimitiveSearch::~MotionPrimitiveSearch() { abandonAhead(); }
+
+void MotionPrimitiveSearch::abandonAhead() noexcept {
+  // The other threads may still be making edges ahead into this search's containers (a
+  // search that threw); their error belongs to that search, which has failed already.
   try {
     graph_.finishAhead();
-  } catch (...) {  // NOLINT(bugprone-empty-catch): an evaluation's error, no search to tell
+  } catch (...) {  // NOLINT(bugprone-empty-catch)
   }
 }
 
@@ -150,7 +153,7 @@ void MotionPrimitiveSearch::prepare() {
   slots_.clear();
   std::fill(table_.begin(), table_.end(), -1);
   heap_.clear();
-  graph_.finishAhead();  // a run a search left when it threw
+  abandonAhead();
   ahead_.clear();
   running_.clear();
   ahead_used_ = 0;

@@ -144,6 +144,8 @@ class MotionPrimitiveSearch {
   void keepAhead(std::uint64_t popped);
   /// Ends the run of edges ahead and forgets what was made ahead and not used (as wasted).
   void endAhead();
+  /// Ends a run of edges ahead that a search which threw left going, ignoring its errors.
+  void abandonAhead() noexcept;
   /// Adds to jobs_ up to `count` of the best lower-bound edges in the open list not yet
   /// evaluated ahead (the k best entries of a heap lie in its first k levels).
   void addNextEdges(std::size_t count, std::uint64_t popped);
