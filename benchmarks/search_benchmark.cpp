@@ -130,16 +130,30 @@ void planSideBySide(benchmark::State& state, const Problem& problem) {
   }
 }
 
-// Parallel edge evaluation (`threads`) on an evaluation-heavy problem: the forest at the
-// paper's scale, its first 20 queries, with 80 obstacle-cost samples an edge and the paper's
-// heuristic (so that the search expands thousands of states), at 1, 2, 4 and 8 threads: eager
-// (a state's successors at once) and lazy (the popped edge with the open list's next ones);
-// `speedup` is against the same planner at one thread, `cost_differs` must be 0.
-Problem threadsProblem(const std::string& planner, const std::string& id) {
+// Parallel edge evaluation (`threads`) on evaluation-heavy problems, with 80 obstacle-cost
+// samples an edge and the paper's heuristic (so that the search expands thousands of states),
+// at 1, 2, 4 and 8 threads: eager (a state's successors at once) and lazy (the open list's next
+// edges made ahead); `speedup` is against the same planner at one thread, `cost_differs` must
+// be 0. The forest at the paper's scale, its first 20 queries; and the walls (a maze of 5 m
+// cells with doorways, configs/worlds/walls.yaml), 10 seeded joined queries 8-16 m apart (3 of
+// them no_solution: searches that expand every state).
+Problem threadsProblem(const std::string& planner, const std::string& id, bool walls) {
   registerBuiltinPlugins();
-  std::vector<PlanningQuery> queries = bench::paperScaleQueries();
-  queries.resize(std::min<std::size_t>(queries.size(), 20));
-  Problem p{bench::forest(), queries, {}};
+  std::vector<PlanningQuery> queries;
+  std::shared_ptr<const World> world = bench::forest();
+  if (walls) {
+    world = WorldCache(WorldCache::defaultDirectory())
+                .loadOrBuild(WorldSpec::fromFile(KINOLAB_SOURCE_DIR "/configs/worlds/walls.yaml"))
+                .world;
+    Rng rng(54);
+    FreeQueryRegion region{Box{{1.0, 1.0, 1.0}, {29.0, 29.0, 2.0}}, 0.6, 8.0, 16.0};
+    region.connected_radius = 0.3;  // no pair in cells the maze does not join
+    queries = sampleFreeQueries(*world, region, 10, rng, "walls");
+  } else {
+    queries = bench::paperScaleQueries();
+    queries.resize(std::min<std::size_t>(queries.size(), 20));
+  }
+  Problem p{world, queries, {}};
   for (const int threads : {1, 2, 4, 8}) {
     p.variants.push_back({id + "_t" + std::to_string(threads), planner,
                           assignments({"time_limit=0", "edge_samples=80", "heuristic=time_optimal",
@@ -150,11 +164,19 @@ Problem threadsProblem(const std::string& planner, const std::string& id) {
 
 void BM_ForestPaperScale(benchmark::State& state) { planSideBySide(state, forestProblem()); }
 void BM_ParallelEvaluation(benchmark::State& state) {
-  static const Problem problem = threadsProblem("eager_mp_astar", "eager");
+  static const Problem problem = threadsProblem("eager_mp_astar", "eager", false);
   planSideBySide(state, problem);
 }
 void BM_ParallelLazyEvaluation(benchmark::State& state) {
-  static const Problem problem = threadsProblem("lazy_mp_astar", "lazy");
+  static const Problem problem = threadsProblem("lazy_mp_astar", "lazy", false);
+  planSideBySide(state, problem);
+}
+void BM_ParallelEvaluationWalls(benchmark::State& state) {
+  static const Problem problem = threadsProblem("eager_mp_astar", "eager", true);
+  planSideBySide(state, problem);
+}
+void BM_ParallelLazyEvaluationWalls(benchmark::State& state) {
+  static const Problem problem = threadsProblem("lazy_mp_astar", "lazy", true);
   planSideBySide(state, problem);
 }
 void BM_MplProblem(benchmark::State& state) { planSideBySide(state, mplProblem()); }
@@ -164,6 +186,8 @@ BENCHMARK(BM_ForestPaperScale)->Arg(3)->Iterations(1)->Unit(benchmark::kMillisec
 BENCHMARK(BM_MplProblem)->Arg(3)->Iterations(1)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_ParallelEvaluation)->Arg(2)->Iterations(1)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_ParallelLazyEvaluation)->Arg(2)->Iterations(1)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_ParallelEvaluationWalls)->Arg(2)->Iterations(1)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_ParallelLazyEvaluationWalls)->Arg(2)->Iterations(1)->Unit(benchmark::kMillisecond);
 
 // The geodesic heuristic's work per query (its search over the map's free space, which counts
 // as planning time) on the MPL problem's world (2.4 million voxels), towards each query's goal:
