@@ -1,7 +1,5 @@
 #include "edge_workers.hpp"
 
-#include <algorithm>
-
 namespace kinolab {
 namespace {
 
@@ -35,46 +33,26 @@ EdgeWorkers::~EdgeWorkers() {
   for (std::thread& worker : workers_) worker.join();
 }
 
-bool EdgeWorkers::claimAndRun(std::uint64_t run, std::size_t i) {
-  std::uint64_t free = run << 2;
-  if (!states_[i].compare_exchange_strong(free, run << 2 | 1, std::memory_order_acq_rel)) {
-    return false;  // claimed by another thread (or left from an older run)
-  }
-  try {
-    (*job_.load(std::memory_order_relaxed))(i);
-  } catch (...) {
-    if (!failed_.exchange(true)) failure_ = std::current_exception();
-  }
-  states_[i].store(run << 2 | 2, std::memory_order_release);
-  done_.fetch_add(1, std::memory_order_release);
-  return true;
-}
-
 void EdgeWorkers::drain(std::uint64_t run) {
-  draining_.fetch_add(1, std::memory_order_acq_rel);
-  drainRun(run);
-  draining_.fetch_sub(1, std::memory_order_acq_rel);
-}
-
-void EdgeWorkers::drainRun(std::uint64_t run) {
-  while (takeOne(run)) {
-  }
-}
-
-bool EdgeWorkers::takeOne(std::uint64_t run) {
   for (;;) {
     std::uint64_t claim = next_.load(std::memory_order_acquire);
-    if ((claim >> 32) != run) return false;  // a run that is over (or not yet published)
+    if ((claim >> 32) != run) return;  // a run that is over (or not yet published)
     // The count of this run, not of one being published: a stale look at a run whose indices
-    // are all taken must not take one past its count (as the next run's larger count allowed).
+    // are all taken must not take one past its count (as the next run's larger count allowed:
+    // the index ran twice, and the caller could return before one was done).
     const std::uint64_t counted = counted_.load(std::memory_order_acquire);
-    if ((counted >> 32) != run) return false;
+    if ((counted >> 32) != run) return;
     const std::size_t i = claim & 0xffffffffULL;
-    if (i >= (counted & 0xffffffffULL)) return false;
-    // Handed out only while the run is this one: its job stays until every index is done.
+    if (i >= (counted & 0xffffffffULL)) return;
+    // Taken only while the run is this one: its job and count stay until every taken index
+    // is done.
     if (!next_.compare_exchange_weak(claim, claim + 1, std::memory_order_acq_rel)) continue;
-    claimAndRun(run, i);
-    return true;
+    try {
+      (*job_.load(std::memory_order_relaxed))(i);
+    } catch (...) {
+      if (!failed_.exchange(true)) failure_ = std::current_exception();
+    }
+    done_.fetch_add(1, std::memory_order_release);
   }
 }
 
@@ -88,117 +66,33 @@ void EdgeWorkers::work() {
     generation_.wait(seen, std::memory_order_acquire);
     seen = generation_.load(std::memory_order_acquire);
     if (stopping_.load(std::memory_order_acquire)) return;
-    drain(next_.load(std::memory_order_acquire) >> 32);
+    drain(seen);
   }
 }
 
-void EdgeWorkers::wake() {
-  generation_.fetch_add(1, std::memory_order_release);
-  generation_.notify_all();
-}
-
-void EdgeWorkers::publish(std::size_t count, std::size_t capacity,
-                          const std::function<void(std::size_t)>& job) {
-  runs_ = (runs_ + 1) & 0xffffffffULL;  // the tag in next_'s upper half
-  const std::uint64_t run = runs_;
-  if (capacity > allocated_) {
-    // Every index of the last run is done, but a worker the counter gave one to may not have
-    // looked at its state yet (another thread ran it): wait till none is in a drain.
-    while (draining_.load(std::memory_order_acquire) > 0) std::this_thread::yield();
-    allocated_ = std::max<std::size_t>(capacity, 2 * allocated_);
-    states_ = std::make_unique<std::atomic<std::uint64_t>[]>(allocated_);
+void EdgeWorkers::run(std::size_t count, const std::function<void(std::size_t)>& job) {
+  if (workers_.empty()) {
+    for (std::size_t i = 0; i < count; ++i) job(i);
+    return;
   }
-  for (std::size_t i = 0; i < capacity; ++i) states_[i].store(run << 2, std::memory_order_relaxed);
-  count_ = count;
-  capacity_ = capacity;
+  const std::uint64_t run = ++runs_ & 0xffffffffULL;
   job_.store(&job, std::memory_order_relaxed);
   counted_.store(run << 32 | count, std::memory_order_release);
   done_.store(0, std::memory_order_relaxed);
   failed_.store(false, std::memory_order_relaxed);
   failure_ = nullptr;
   next_.store(run << 32, std::memory_order_release);  // publishes the writes above
-  wake();
-}
-
-void EdgeWorkers::waitAll() {
-  // Only indices other threads claimed are waited for.
-  for (int spin = 0; done_.load(std::memory_order_acquire) < count_; ++spin) {
+  generation_.store(run, std::memory_order_release);
+  generation_.notify_all();
+  drain(run);
+  // Only indices other threads took are waited for.
+  for (int spin = 0; done_.load(std::memory_order_acquire) < count; ++spin) {
     if (spin < spins_) {
       pause();
     } else {
       std::this_thread::yield();  // a worker running an index was descheduled: let it run
     }
   }
-}
-
-void EdgeWorkers::run(std::size_t count, const std::function<void(std::size_t)>& job,
-                      const std::function<void()>& caller_first) {
-  if (workers_.empty()) {
-    if (caller_first) caller_first();
-    for (std::size_t i = 0; i < count; ++i) job(i);
-    return;
-  }
-  finish();
-  publish(count, count, job);
-  if (caller_first) {
-    try {
-      caller_first();
-    } catch (...) {
-      if (!failed_.exchange(true)) failure_ = std::current_exception();
-    }
-  }
-  collect();
-  if (failed_.load(std::memory_order_relaxed)) std::rethrow_exception(failure_);
-}
-
-void EdgeWorkers::collect() {
-  drain(runs_);
-  if (done_.load(std::memory_order_acquire) < count_) {
-    // Indices the counter gave a worker that has not claimed them yet (it may be descheduled).
-    for (std::size_t i = 0; i < count_; ++i) claimAndRun(runs_, i);
-    waitAll();
-  }
-}
-
-void EdgeWorkers::start(std::size_t count, std::size_t capacity,
-                        const std::function<void(std::size_t)>& job) {
-  finish();
-  publish(count, std::max(count, capacity), job);
-  started_ = true;
-  if (workers_.empty()) drain(runs_);  // no team: the caller runs it now
-}
-
-void EdgeWorkers::extend(std::size_t count) {
-  if (count <= count_) return;
-  count_ = std::min(count, capacity_);
-  counted_.store(runs_ << 32 | count_, std::memory_order_release);
-  if (workers_.empty()) {
-    drain(runs_);
-  } else {
-    wake();
-  }
-}
-
-void EdgeWorkers::waitFor(std::size_t i) {
-  if (!claimAndRun(runs_, i)) {
-    // Another thread runs it: run the next indices meanwhile, then wait.
-    const std::uint64_t finished = runs_ << 2 | 2;
-    for (int spin = 0; states_[i].load(std::memory_order_acquire) != finished; ++spin) {
-      if (takeOne(runs_)) continue;
-      if (spin < spins_) {
-        pause();
-      } else {
-        std::this_thread::yield();
-      }
-    }
-  }
-  if (failed_.load(std::memory_order_acquire)) finish();
-}
-
-void EdgeWorkers::finish() {
-  if (!started_) return;
-  started_ = false;
-  collect();
   if (failed_.load(std::memory_order_relaxed)) std::rethrow_exception(failure_);
 }
 

@@ -115,8 +115,8 @@ MetricSpecs motionPrimitiveStatistics() {
                "edges fully evaluated (those the search used: the same at every "
                "thread count)")
       .counter("ahead_evaluations",
-               "full evaluations handed to the other threads ahead of their pops (lazy, "
-               "threads > 1; how many depends on the threads' timing)")
+               "full evaluations made ahead of their pops beside the popped edge's (lazy, "
+               "threads > 1)")
       .counter("wasted_evaluations", "of those, the ones the search never used")
       .counter("certified_edges", "lower-bound edges proved exact without full evaluation")
       .counter("rejected_edges", "full evaluations that found a collision")

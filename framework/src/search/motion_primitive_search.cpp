@@ -31,7 +31,6 @@ MotionPrimitiveSearch::MotionPrimitiveSearch(std::shared_ptr<const World> world,
              std::move(policies)) {
   evaluations_.resize(graph_.controls().size());
   estimates_.resize(graph_.controls().size());
-  edges_ahead_ = graph_.parallel() && !graph_.policies().edges->evaluatesFully();
   if (graph_.policies().shot) {
     // A shot is held to what the search's edges are: its limits, body and tolerance.
     const EdgeEvaluatorSettings& edges = graph_.settings().edges;
@@ -43,16 +42,7 @@ MotionPrimitiveSearch::MotionPrimitiveSearch(std::shared_ptr<const World> world,
   }
 }
 
-MotionPrimitiveSearch::~MotionPrimitiveSearch() { abandonAhead(); }
-
-void MotionPrimitiveSearch::abandonAhead() noexcept {
-  // The other threads may still be making edges ahead into this search's containers (a
-  // search that threw); their error belongs to that search, which has failed already.
-  try {
-    graph_.finishAhead();
-  } catch (...) {  // NOLINT(bugprone-empty-catch)
-  }
-}
+MotionPrimitiveSearch::~MotionPrimitiveSearch() = default;
 
 bool MotionPrimitiveSearch::tryShot(int node) {
   const ChainState& state = candidates_[node].state;
@@ -153,9 +143,7 @@ void MotionPrimitiveSearch::prepare() {
   slots_.clear();
   std::fill(table_.begin(), table_.end(), -1);
   heap_.clear();
-  abandonAhead();
   ahead_.clear();
-  running_.clear();
   ahead_used_ = 0;
   goal_candidate_ = -1;
   nearest_candidate_ = -1;
@@ -198,70 +186,30 @@ EdgeEvaluation MotionPrimitiveSearch::fullEvaluation(const HeapEntry& entry) {
     return graph_.evaluate(parent.state, static_cast<int>(entry.control), parent.clearance);
   }
   const std::uint64_t key = aheadKey(entry);
-  keepAhead(key);
-  EdgeEvaluation full;
   if (const auto found = ahead_.find(key); found != ahead_.end()) {
-    full = std::move(found->second);
+    EdgeEvaluation full = std::move(found->second);
     ahead_.erase(found);
-  } else if (const auto running = running_.find(key); running != running_.end()) {
-    graph_.waitAhead(running->second);
-    full = std::move(job_results_[running->second]);
-    running_.erase(running);
-  } else {
-    // Not made ahead: made here, while the other threads make the next ones.
-    return graph_.evaluate(parent.state, static_cast<int>(entry.control), parent.clearance);
+    ++ahead_used_;
+    graph_.countFull(full);
+    return full;
   }
-  ++ahead_used_;
-  graph_.countFull(full);
-  return full;
-}
-
-void MotionPrimitiveSearch::keepAhead(std::uint64_t popped) {
-  // A few edges a thread outstanding: a hand-over costs more than one edge of a point robot.
-  // Made ahead only while at least half of what was made ahead has been used, after a first
-  // few: with a tight heuristic the search pops little besides its path, and the rest would
-  // be wasted.
-  constexpr std::size_t kEdgesPerThread = 4;
-  const auto threads = static_cast<std::size_t>(graph_.settings().threads);
-  const std::size_t outstanding_at_most = kEdgesPerThread * (threads - 1);
-  const auto made = static_cast<std::size_t>(graph_.counters().ahead_evaluations);
-  if (made > 2 * static_cast<std::size_t>(ahead_used_) + outstanding_at_most) return;
-  std::size_t outstanding = 0;
-  if (graph_.aheadStarted()) {
-    outstanding = graph_.aheadOutstanding();
-    if (outstanding >= outstanding_at_most) return;
-    if (jobs_.size() == jobs_.capacity()) {
-      if (outstanding > 0) return;  // no room: a new run when this one is done
-      graph_.finishAhead();
-      for (const auto& [key, index] : running_) {
-        ahead_.emplace(key, std::move(job_results_[index]));
-      }
-      running_.clear();
-    }
+  jobs_.assign(1, {&parent.state, static_cast<int>(entry.control), parent.clearance});
+  job_keys_.assign(1, key);
+  // A few edges a thread: a hand-over costs more than one edge of a point robot. Made ahead
+  // only while at least half of what was made ahead has been used, after a first batch: with a
+  // tight heuristic the search pops little besides its path, and the rest would be wasted.
+  constexpr long long kEdgesPerThread = 4;
+  const long long batch = kEdgesPerThread * graph_.settings().threads;
+  if (graph_.counters().ahead_evaluations <= 2 * ahead_used_ + batch) {
+    addNextEdges(static_cast<std::size_t>(batch - 1), key);
   }
-  const bool more = graph_.aheadStarted();
-  if (!more) {
-    jobs_.clear();
-    job_keys_.clear();
-    jobs_.reserve(kRunRoom * threads);  // never reallocated while a run reads it
+  graph_.evaluateMany(jobs_, job_results_);
+  graph_.counters().ahead_evaluations += static_cast<long long>(jobs_.size()) - 1;
+  for (std::size_t i = 1; i < jobs_.size(); ++i) {
+    ahead_.emplace(job_keys_[i], std::move(job_results_[i]));
   }
-  const std::size_t before = jobs_.size();
-  addNextEdges(std::min(outstanding_at_most - outstanding, jobs_.capacity() - before), popped);
-  if (jobs_.size() == before) return;
-  for (std::size_t i = before; i < jobs_.size(); ++i) running_.emplace(job_keys_[i], i);
-  graph_.counters().ahead_evaluations += static_cast<long long>(jobs_.size() - before);
-  if (more) {
-    graph_.extendAhead(jobs_.size());
-  } else {
-    graph_.startAhead(jobs_, job_results_, jobs_.capacity());
-  }
-}
-
-void MotionPrimitiveSearch::endAhead() {
-  graph_.finishAhead();
-  graph_.counters().wasted_evaluations += static_cast<long long>(ahead_.size() + running_.size());
-  ahead_.clear();
-  running_.clear();
+  graph_.countFull(job_results_[0]);
+  return std::move(job_results_[0]);
 }
 
 void MotionPrimitiveSearch::addNextEdges(std::size_t count, std::uint64_t popped) {
@@ -278,10 +226,9 @@ void MotionPrimitiveSearch::addNextEdges(std::size_t count, std::uint64_t popped
     next.pop();
     const HeapEntry& entry = heap_[position];
     const std::uint64_t key = aheadKey(entry);
-    if (entry.kind == kLowerBound && key != popped && !ahead_.count(key) && !running_.count(key) &&
-        !closedEnd(entry)) {
+    if (entry.kind == kLowerBound && key != popped && !ahead_.count(key) && !closedEnd(entry)) {
       const Candidate& parent = candidates_[entry.node];
-      jobs_.push_back({parent.state, static_cast<int>(entry.control), parent.clearance});
+      jobs_.push_back({&parent.state, static_cast<int>(entry.control), parent.clearance});
       job_keys_.push_back(key);
       --count;
     }
@@ -298,9 +245,9 @@ bool MotionPrimitiveSearch::closedEnd(const HeapEntry& entry) const {
 }
 
 void MotionPrimitiveSearch::dropAhead(const HeapEntry& entry) {
-  if (entry.kind != kLowerBound) return;
-  const std::uint64_t key = aheadKey(entry);
-  if (ahead_.erase(key) + running_.erase(key) > 0) ++graph_.counters().wasted_evaluations;
+  if (entry.kind == kLowerBound && ahead_.erase(aheadKey(entry)) > 0) {
+    ++graph_.counters().wasted_evaluations;
+  }
 }
 
 void MotionPrimitiveSearch::expand(int node) {
@@ -313,10 +260,7 @@ void MotionPrimitiveSearch::expand(int node) {
   candidates_[node].clearance = parent_clearance;  // for its lazy edges, when popped
   const bool seed_rule = graph_.settings().duplicate_rule == DuplicateRule::kSeed;
   // Evaluate every primitive first (timed as evaluation), then queue them.
-  graph_.estimateAll(parent_state, parent_clearance, evaluations_, estimates_, &heuristics_);
-  const auto h = [&](std::size_t i) {
-    return heuristics_.empty() ? graph_.h(evaluations_[i].end) : heuristics_[i];
-  };
+  graph_.estimateAll(parent_state, parent_clearance, evaluations_, estimates_);
   for (std::size_t i = 0; i < evaluations_.size(); ++i) {
     const EdgeEvaluation& evaluation = evaluations_[i];
     const EdgeEstimate estimate = estimates_[i];
@@ -339,16 +283,16 @@ void MotionPrimitiveSearch::expand(int node) {
         candidate.parent = node;
         candidate.control = static_cast<int>(i);
         candidate.slot = slot_index;
-        counters.candidates += queueCandidate(candidate, h(i));
+        counters.candidates += queueCandidate(candidate, graph_.h(evaluation.end));
         continue;
       }
     }
     // A lower bound (or a certified cost): queue the parent and control; the end state's key
     // and table probe wait until the edge is popped.
-    const double end_h = h(i);
-    if (end_h == INFINITY) continue;  // the goal is out of reach from its end
+    const double h = graph_.h(evaluation.end);
+    if (h == INFINITY) continue;  // the goal is out of reach from its end
     ++counters.candidates;
-    push({graph_.priority(g, end_h), g, node, static_cast<std::uint32_t>(i),
+    push({graph_.priority(g, h), g, node, static_cast<std::uint32_t>(i),
           estimate == EdgeEstimate::kCertified ? kCertified : kLowerBound});
   }
 }
@@ -399,13 +343,9 @@ MotionPrimitiveSearch::Outcome MotionPrimitiveSearch::search(const ChainState& s
       break;
     }
     expand(index);
-    // The other threads make the best edges it queued but the one popped next (made here).
-    if (edges_ahead_) {
-      keepAhead(!heap_.empty() && heap_.front().kind == kLowerBound ? aheadKey(heap_.front())
-                                                                    : kNoEdge);
-    }
   }
-  endAhead();
+  counters.wasted_evaluations += static_cast<long long>(ahead_.size());
+  ahead_.clear();
   graph_.endQuery();
   return outcome;
 }

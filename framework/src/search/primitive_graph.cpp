@@ -72,8 +72,7 @@ void PrimitiveGraph::countFull(const EdgeEvaluation& evaluation) {
 
 void PrimitiveGraph::estimateAll(const ChainState& parent, double parent_clearance,
                                  std::vector<EdgeEvaluation>& evaluations,
-                                 std::vector<EdgeEstimate>& estimates,
-                                 std::vector<double>* heuristics) {
+                                 std::vector<EdgeEstimate>& estimates) {
   evaluations.resize(controls_.size());
   estimates.resize(controls_.size());
   const EdgeEvaluationPolicy& policy = *policies_.edges;
@@ -82,20 +81,8 @@ void PrimitiveGraph::estimateAll(const ChainState& parent, double parent_clearan
     estimates[i] =
         policy.evaluate(evaluator_, parent, parent_clearance, controls_[i], evaluations[i]);
   };
-  if (heuristics) heuristics->clear();
   if (parallel_estimates_) {
-    // The end states' estimates on this thread (the heuristic need not be thread-safe) while
-    // the team evaluates: what the search would otherwise ask one by one after the join.
-    std::function<void()> ahead;
-    if (heuristics && heuristic_->askedAhead()) {
-      ahead = [&] {
-        heuristics->resize(controls_.size());
-        for (std::size_t i = 0; i < controls_.size(); ++i) {
-          (*heuristics)[i] = h(evaluator_.endState(parent, controls_[i]));
-        }
-      };
-    }
-    workers_->run(controls_.size(), evaluateOne, ahead);
+    workers_->run(controls_.size(), evaluateOne);
   } else {
     for (std::size_t i = 0; i < controls_.size(); ++i) evaluateOne(i);
   }
@@ -122,33 +109,20 @@ EdgeEvaluation PrimitiveGraph::evaluate(const ChainState& parent, int control,
   return full;
 }
 
-void PrimitiveGraph::startAhead(const std::vector<EdgeJob>& jobs,
-                                std::vector<EdgeEvaluation>& results, std::size_t capacity) {
-  results.resize(capacity);
-  ahead_job_ = [this, &jobs, &results](std::size_t i) {
+void PrimitiveGraph::evaluateMany(const std::vector<EdgeJob>& jobs,
+                                  std::vector<EdgeEvaluation>& results) {
+  results.resize(jobs.size());
+  const auto begin = Clock::now();
+  const auto evaluateOne = [&](std::size_t i) {
     results[i] =
-        evaluator_.full(jobs[i].parent, controls_[static_cast<std::size_t>(jobs[i].control)],
+        evaluator_.full(*jobs[i].parent, controls_[static_cast<std::size_t>(jobs[i].control)],
                         jobs[i].parent_clearance);
   };
-  workers_->start(jobs.size(), capacity, ahead_job_);
-}
-
-void PrimitiveGraph::extendAhead(std::size_t count) { workers_->extend(count); }
-
-bool PrimitiveGraph::aheadStarted() const { return workers_ && workers_->started(); }
-
-std::size_t PrimitiveGraph::aheadOutstanding() const { return workers_->outstanding(); }
-
-void PrimitiveGraph::waitAhead(std::size_t i) {
-  const auto begin = Clock::now();
-  workers_->waitFor(i);
-  counters_.evaluation_seconds += secondsSince(begin);
-}
-
-void PrimitiveGraph::finishAhead() {
-  if (!workers_) return;
-  const auto begin = Clock::now();
-  workers_->finish();
+  if (workers_ && jobs.size() > 1) {
+    workers_->run(jobs.size(), evaluateOne);
+  } else {
+    for (std::size_t i = 0; i < jobs.size(); ++i) evaluateOne(i);
+  }
   counters_.evaluation_seconds += secondsSince(begin);
 }
 

@@ -505,11 +505,6 @@ std::shared_ptr<const SearchHeuristic> MaxHeuristic::forControls(
                        [&](const auto& part) { return heuristicForControls(part, controls); });
 }
 
-bool MaxHeuristic::askedAhead() const {
-  return std::all_of(parts_.begin(), parts_.end(),
-                     [](const auto& part) { return part->askedAhead(); });
-}
-
 std::shared_ptr<const SearchHeuristic> SearchHeuristic::forControls(
     const std::vector<Eigen::Vector3d>& /*controls*/) const {
   return nullptr;

@@ -402,9 +402,6 @@ class LatticeQueryHeuristic final : public SearchHeuristic {
     return std::max(
         base, best + weight_length_ * ballDistance(state.col(0), goal, costs_[0].goal_radius));
   }
-  /// The tables are laid out for the first state asked (the search's start) and their layers
-  /// filled as asked: the same values whatever the order after it.
-  bool askedAhead() const override { return true; }
 
  private:
   void prepare(const ChainState& state, const Eigen::Vector3d& goal) const {
@@ -460,7 +457,6 @@ class LatticeHeuristic final : public SearchHeuristic {
   double estimate(const ChainState& state, const Eigen::Vector3d& goal) const override {
     return time_optimal_->estimate(state, goal);
   }
-  bool askedAhead() const override { return true; }
 
   std::shared_ptr<const SearchHeuristic> forControls(
       const std::vector<Eigen::Vector3d>& controls) const override {

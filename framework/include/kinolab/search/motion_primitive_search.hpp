@@ -133,27 +133,15 @@ class MotionPrimitiveSearch {
   /// (full evaluation for a lower bound) and queues the candidate.
   void evaluatePopped(const HeapEntry& entry);
   /// The full evaluation of a popped lower-bound edge: at one thread made now; on more, the one
-  /// made ahead (waited for if it is being made), or made now while the other threads make the
-  /// open list's next lower-bound edges (each is a pure function of its edge, so the search is
-  /// the same whichever thread made it, and when).
+  /// made ahead, or made now together with the open list's next lower-bound edges on the other
+  /// threads (each is a pure function of its edge, so the search is the same whichever thread
+  /// made it, and when).
   EdgeEvaluation fullEvaluation(const HeapEntry& entry);
-  /// With threads > 1: adds to the run of edges made ahead the open list's best lower-bound
-  /// edges not made yet (besides `popped`), a few a thread outstanding, while at least half
-  /// of what was made ahead was used; a run full and done gives its results to ahead_ and a
-  /// new run starts.
-  void keepAhead(std::uint64_t popped);
-  /// Ends the run of edges ahead and forgets what was made ahead and not used (as wasted).
-  void endAhead();
-  /// Ends a run of edges ahead that a search which threw left going, ignoring its errors.
-  void abandonAhead() noexcept;
   /// Adds to jobs_ up to `count` of the best lower-bound edges in the open list not yet
   /// evaluated ahead (the k best entries of a heap lie in its first k levels).
   void addNextEdges(std::size_t count, std::uint64_t popped);
   /// Forgets a popped edge's evaluation made ahead, if any, as wasted (its state was closed).
   void dropAhead(const HeapEntry& entry);
-  /// Room of a run of edges made ahead, a thread.
-  static constexpr std::size_t kRunRoom = 64;
-  static constexpr std::uint64_t kNoEdge = ~std::uint64_t{0};  ///< no aheadKey() is this
   static std::uint64_t aheadKey(const HeapEntry& entry) {
     return (static_cast<std::uint64_t>(static_cast<std::uint32_t>(entry.node)) << 32) |
            entry.control;
@@ -171,17 +159,13 @@ class MotionPrimitiveSearch {
   std::vector<HeapEntry> heap_;
   std::vector<EdgeEvaluation> evaluations_;  // scratch: one per control
   std::vector<EdgeEstimate> estimates_;      // scratch: one per control
-  std::vector<double> heuristics_;           // scratch: h at each end, when asked ahead
   /// Full evaluations of lower-bound edges made ahead of their pops (threads > 1), by
-  /// aheadKey(); and the run being made (PrimitiveGraph::startAhead): its edges, results and
-  /// the index of each edge not yet used or dropped, by key.
+  /// aheadKey(); with the scratch of one batch.
   std::unordered_map<std::uint64_t, EdgeEvaluation> ahead_;
   long long ahead_used_ = 0;  ///< of the last search's evaluations made ahead, those used
   std::vector<PrimitiveGraph::EdgeJob> jobs_;
   std::vector<std::uint64_t> job_keys_;
   std::vector<EdgeEvaluation> job_results_;
-  std::unordered_map<std::uint64_t, std::size_t> running_;
-  bool edges_ahead_ = false;  ///< lower-bound edges made ahead (lazy search, threads > 1)
   int goal_candidate_ = -1;
   int nearest_candidate_ = -1;                       ///< closed, nearest the goal
   std::unique_ptr<TrajectoryChecker> shot_checker_;  ///< with a shot policy

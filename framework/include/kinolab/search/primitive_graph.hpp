@@ -3,7 +3,6 @@
 #include <Eigen/Core>
 #include <chrono>
 #include <cstdint>
-#include <functional>
 #include <memory>
 #include <string>
 #include <vector>
@@ -135,45 +134,27 @@ class PrimitiveGraph {
   }
   /// The edge policy's estimate of every control from `parent` (whose clearance is
   /// `parent_clearance`) into `evaluations` and `estimates` (one per control), counted and
-  /// timed as evaluation; full evaluations on SearchSettings::threads threads. Then, if
-  /// `heuristics` is given, h() at every control's end state goes there (one per control),
-  /// computed by this thread while the others evaluate, when the heuristic allows it to be
-  /// asked ahead of need (SearchHeuristic::askedAhead()); else it is left empty.
+  /// timed as evaluation; full evaluations on SearchSettings::threads threads.
   void estimateAll(const ChainState& parent, double parent_clearance,
-                   std::vector<EdgeEvaluation>& evaluations, std::vector<EdgeEstimate>& estimates,
-                   std::vector<double>* heuristics = nullptr);
+                   std::vector<EdgeEvaluation>& evaluations, std::vector<EdgeEstimate>& estimates);
   /// The edge policy's estimate of one control, counted and timed.
   EdgeEstimate estimate(const ChainState& parent, double parent_clearance, int control,
                         EdgeEvaluation& evaluation);
   /// The full evaluation of `control` from `parent`, counted and timed.
   EdgeEvaluation evaluate(const ChainState& parent, int control, double parent_clearance);
-  /// One edge evaluated ahead of need (startAhead()): its parent state, control and the
+  /// One edge of evaluateMany(): its parent state (alive for the call), control and the
   /// parent's clearance.
   struct EdgeJob {
-    ChainState parent;
+    const ChainState* parent;
     int control;
     double parent_clearance;
   };
-  /// Starts the full evaluations of `jobs` into `results` (resized to `capacity`) on the
-  /// team's other threads and returns at once; jobs may be added up to `capacity`
-  /// (extendAhead()). Both stay untouched until finishAhead(), but for jobs added (a result
-  /// may be read once waitAhead() returned for it). Not counted: each is counted with
-  /// countFull() when the search uses it. Only with parallel(); one run at a time.
-  void startAhead(const std::vector<EdgeJob>& jobs, std::vector<EdgeEvaluation>& results,
-                  std::size_t capacity);
-  /// The jobs of the run are now `jobs.size()` (appended since start or the last call).
-  void extendAhead(std::size_t count);
-  /// Whether a run of startAhead() is going on (not yet finished), and its jobs not yet done.
-  bool aheadStarted() const;
-  std::size_t aheadOutstanding() const;
-  /// Returns when the run's job `i` is done (this thread runs it if no other took it yet),
-  /// timed as evaluation.
-  void waitAhead(std::size_t i);
-  /// Ends the run (waiting for what is being evaluated); nothing when none is going on.
-  void finishAhead();
+  /// The full evaluations of `jobs` into `results`, on SearchSettings::threads threads, timed
+  /// as evaluation and not counted: each is counted with countFull() when the search uses it.
+  void evaluateMany(const std::vector<EdgeJob>& jobs, std::vector<EdgeEvaluation>& results);
   /// Counts one full evaluation the search uses.
   void countFull(const EdgeEvaluation& evaluation);
-  /// Whether the graph has a team of threads (SearchSettings::threads > 1).
+  /// Whether evaluateMany() runs on more than one thread.
   bool parallel() const { return workers_ != nullptr; }
   /// The same, the parent's clearance looked up (and counted) first.
   EdgeEvaluation evaluate(const ChainState& parent, int control);
@@ -205,9 +186,8 @@ class PrimitiveGraph {
   SearchPolicies given_policies_;
   SearchPolicies policies_;
   EdgeEvaluator evaluator_;
-  std::unique_ptr<EdgeWorkers> workers_;        ///< with threads > 1
-  bool parallel_estimates_ = false;             ///< estimateAll() on the team (full evaluations)
-  std::function<void(std::size_t)> ahead_job_;  ///< the job of startAhead()'s run
+  std::unique_ptr<EdgeWorkers> workers_;  ///< with threads > 1
+  bool parallel_estimates_ = false;       ///< estimateAll() on the team (full evaluations)
 
   ChainState start_ = ChainState::Zero();
   Eigen::Vector3d goal_ = Eigen::Vector3d::Zero();

@@ -132,12 +132,6 @@ class SearchHeuristic {
   /// InvalidArgument when the heuristic cannot serve that set.
   virtual std::shared_ptr<const SearchHeuristic> forControls(
       const std::vector<Eigen::Vector3d>& controls) const;
-  /// True when estimate() gives each state the same value whatever was asked before (a table
-  /// filled as it is asked counts, if its values do not depend on the order), so that a search
-  /// may ask ahead of need for states it may never queue (while other threads evaluate edges;
-  /// never from two threads at once). False by default: a heuristic that stops growing at a
-  /// budget (the built-in `geodesic` at its memory limit) would answer later states otherwise.
-  virtual bool askedAhead() const { return false; }
 };
 
 /// `heuristic`'s forQuery(), or `heuristic` itself when that returns nullptr.
@@ -157,7 +151,6 @@ class EuclideanHeuristic final : public SearchHeuristic {
  public:
   EuclideanHeuristic(const EdgeEvaluatorSettings& edges, double goal_radius);
   double estimate(const ChainState& state, const Eigen::Vector3d& goal) const override;
-  bool askedAhead() const override { return true; }
 
  private:
   double weight_duration_;
@@ -172,7 +165,6 @@ class MinTimeHeuristic final : public SearchHeuristic {
  public:
   MinTimeHeuristic(const EdgeEvaluatorSettings& edges, double goal_radius);
   double estimate(const ChainState& state, const Eigen::Vector3d& goal) const override;
-  bool askedAhead() const override { return true; }
 
  private:
   double weight_duration_;
@@ -196,7 +188,6 @@ class TimeOptimalHeuristic final : public SearchHeuristic {
   TimeOptimalHeuristic(const EdgeEvaluatorSettings& edges, double goal_radius,
                        bool whole_primitives = false);
   double estimate(const ChainState& state, const Eigen::Vector3d& goal) const override;
-  bool askedAhead() const override { return true; }
   /// max_i T_i alone (never rounded), seconds.
   double minimumTime(const ChainState& state, const Eigen::Vector3d& goal) const;
 
@@ -224,7 +215,6 @@ class ObvpHeuristic final : public SearchHeuristic {
  public:
   ObvpHeuristic(const EdgeEvaluatorSettings& edges, double goal_radius);
   double estimate(const ChainState& state, const Eigen::Vector3d& goal) const override;
-  bool askedAhead() const override { return true; }
 
  private:
   double weight_duration_;
@@ -379,8 +369,6 @@ class MaxHeuristic final : public SearchHeuristic {
   /// The largest of the parts' heuristics for the controls (nullptr when none changes).
   std::shared_ptr<const SearchHeuristic> forControls(
       const std::vector<Eigen::Vector3d>& controls) const override;
-  /// When every part may be.
-  bool askedAhead() const override;
 
  private:
   std::vector<std::shared_ptr<const SearchHeuristic>> parts_;
