@@ -333,26 +333,18 @@ namespace {
 /// BrickOccupancy bits (0: an empty slot), then its layers' masks (BrickView).
 constexpr std::size_t kSlotWords = 1 + VoxelGrid::kBrick;
 
-/// The cache slot of brick (bx, by, bz) of a field of `dims` voxels (direct-mapped over
-/// `slots`), and the brick's index.
-std::uint64_t* brickSlot(std::vector<std::uint64_t>& cache, std::size_t slots,
-                         const Eigen::Vector3i& dims, std::int64_t bx, std::int64_t by,
-                         std::int64_t bz, std::uint64_t& index) {
-  constexpr std::int64_t kSide = VoxelGrid::kBrick;
-  const auto bricks = [&](int axis) { return (dims[axis] + kSide - 1) / kSide; };
-  index = static_cast<std::uint64_t>((bx * bricks(1) + by) * bricks(2) + bz);
-  if (cache.empty()) cache.assign(slots * kSlotWords, 0);
-  return &cache[(index % slots) * kSlotWords];
-}
-
 }  // namespace
 
 template <typename Scan>
-unsigned ExactDistanceRun::brickOccupancy(std::int64_t bx, std::int64_t by, std::int64_t bz,
-                                          const Scan& scan) {
-  std::uint64_t index = 0;
-  std::uint64_t* slot = brickSlot(brick_cache_, kBrickCacheSlots, esdf_.dims_, bx, by, bz, index);
-  if (slot[0] >> 4 == index + 1) return static_cast<unsigned>(slot[0] & 15);
+const std::uint64_t* ExactDistanceRun::brickOccupancy(std::int64_t bx, std::int64_t by,
+                                                      std::int64_t bz, const Scan& scan) {
+  constexpr std::int64_t kSide = VoxelGrid::kBrick;
+  const auto bricks = [&](int axis) { return (esdf_.dims_[axis] + kSide - 1) / kSide; };
+  const auto index = static_cast<std::uint64_t>((bx * bricks(1) + by) * bricks(2) + bz);
+  // Direct-mapped.
+  if (brick_cache_.empty()) brick_cache_.assign(kBrickCacheSlots * kSlotWords, 0);
+  std::uint64_t* slot = &brick_cache_[(index % kBrickCacheSlots) * kSlotWords];
+  if (slot[0] >> 4 == index + 1) return slot;
   ++bricks_read_;
   // A truncated field's shared brick is all +T (no cube) or all -T (all cubes).
   int shared = 0;
@@ -367,7 +359,6 @@ unsigned ExactDistanceRun::brickOccupancy(std::int64_t bx, std::int64_t by, std:
   } else if (shared < 0) {
     bits = BrickOccupancy::kAll;
     // Every voxel of the brick inside the grid.
-    constexpr std::int64_t kSide = VoxelGrid::kBrick;
     const auto side = [&](int axis, std::int64_t b) {
       return std::min<std::int64_t>(kSide,
                                     static_cast<std::int64_t>(esdf_.dims_[axis]) - b * kSide);
@@ -378,7 +369,7 @@ unsigned ExactDistanceRun::brickOccupancy(std::int64_t bx, std::int64_t by, std:
     for (std::int64_t x = 0; x < kSide; ++x) slot[1 + x] = x < side(0, bx) ? layer : 0;
   }
   slot[0] = ((index + 1) << 4) | bits;
-  return bits;
+  return slot;
 }
 
 void ExactDistanceRun::gather(const std::int64_t block[3]) {
@@ -439,13 +430,11 @@ void ExactDistanceRun::gather(const std::int64_t block[3]) {
   const auto gatherOver = [&](const auto& rows) {
     ShellGather<std::decay_t<decltype(rows)>>{rows, shell, cubes_}.run(
         [&](std::int64_t bx, std::int64_t by, std::int64_t bz) {
-          const unsigned bits = brickOccupancy(bx, by, bz, [&](std::uint64_t* layers) {
+          const std::uint64_t* slot = brickOccupancy(bx, by, bz, [&](std::uint64_t* layers) {
             return readBrickOccupancy(rows, shell.dims, field.inverse_resolution_, bx, by, bz,
                                       layers);
           });
-          std::uint64_t index = 0;
-          return BrickView{
-              bits, brickSlot(brick_cache_, kBrickCacheSlots, field.dims_, bx, by, bz, index) + 1};
+          return BrickView{static_cast<unsigned>(slot[0] & BrickOccupancy::kAll), slot + 1};
         });
   };
   if (field.brick_table_) {

@@ -387,10 +387,12 @@ class ExactDistanceRun {
 
  private:
   void gather(const std::int64_t block[3]);
-  /// Whether the 8^3 brick (bx, by, bz) holds an occupied voxel and along which axes its
-  /// occupancy is uniform (bits, as `scan()` reads them), remembered in a small cache.
+  /// The cached words of the 8^3 brick (bx, by, bz): whether it holds an occupied voxel and
+  /// along which axes its occupancy is uniform (bits, the first word's lowest four), then its
+  /// layers' occupancy masks, as `scan(layers)` reads them on a miss of the small cache.
   template <typename Scan>
-  unsigned brickOccupancy(std::int64_t bx, std::int64_t by, std::int64_t bz, const Scan& scan);
+  const std::uint64_t* brickOccupancy(std::int64_t bx, std::int64_t by, std::int64_t bz,
+                                      const Scan& scan);
   static constexpr std::size_t kBrickCacheSlots = 4096;
 
   const Esdf& esdf_;
@@ -401,7 +403,7 @@ class ExactDistanceRun {
   std::size_t gathers_ = 0;
   std::size_t cubes_gathered_ = 0;
   std::size_t bricks_read_ = 0;
-  std::vector<std::uint64_t> brick_cache_;  // brickOccupancy()'s answers, direct-mapped
+  std::vector<std::uint64_t> brick_cache_;  // brickOccupancy()'s words, direct-mapped
 };
 
 /// An Esdf kept up to date while its grid's occupancy changes (a moving vehicle's planning
