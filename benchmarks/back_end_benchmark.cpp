@@ -35,10 +35,7 @@ double threadMilliseconds() {
 }
 
 const std::shared_ptr<const World>& denseForest() {
-  static const auto world =
-      WorldCache(WorldCache::defaultDirectory())
-          .loadOrBuild(WorldSpec::fromFile(KINOLAB_SOURCE_DIR "/configs/worlds/dense_forest.yaml"))
-          .world;
+  static const auto world = bench::shippedWorld("dense_forest");
   return world;
 }
 

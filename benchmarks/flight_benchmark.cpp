@@ -8,22 +8,18 @@
 #include <chrono>
 #include <cmath>
 
+#include "forest_queries.hpp"
 #include "kinolab/builtin_plugins.hpp"
 #include "kinolab/core/random.hpp"
 #include "kinolab/flight/flight.hpp"
 #include "kinolab/world/trajectory_trace.hpp"
-#include "kinolab/world/world_cache.hpp"
-#include "kinolab/world/world_spec.hpp"
 
 namespace kinolab {
 namespace {
 
 std::shared_ptr<const World> denseForest() {
   registerBuiltinPlugins();  // the forest's generator, the sensors and the maps
-  static const std::shared_ptr<const World> world =
-      WorldCache(WorldCache::defaultDirectory())
-          .loadOrBuild(WorldSpec::fromFile(KINOLAB_SOURCE_DIR "/configs/worlds/dense_forest.yaml"))
-          .world;
+  static const std::shared_ptr<const World> world = bench::shippedWorld("dense_forest");
   return world;
 }
 

@@ -12,12 +12,16 @@
 
 namespace kinolab::bench {
 
-/// configs/worlds/forest.yaml (40 m x 40 m x 5 m), from the world cache.
+/// The shipped world configs/worlds/`name`.yaml, from the world cache (built on first use).
+inline std::shared_ptr<const World> shippedWorld(const std::string& name) {
+  return WorldCache(WorldCache::defaultDirectory())
+      .loadOrBuild(WorldSpec::fromFile(KINOLAB_SOURCE_DIR "/configs/worlds/" + name + ".yaml"))
+      .world;
+}
+
+/// configs/worlds/forest.yaml (40 m x 40 m x 5 m).
 inline const std::shared_ptr<const World>& forest() {
-  static const auto world =
-      WorldCache(WorldCache::defaultDirectory())
-          .loadOrBuild(WorldSpec::fromFile(KINOLAB_SOURCE_DIR "/configs/worlds/forest.yaml"))
-          .world;
+  static const auto world = shippedWorld("forest");
   return world;
 }
 

@@ -142,9 +142,7 @@ Problem threadsProblem(const std::string& planner, const std::string& id, bool w
   std::vector<PlanningQuery> queries;
   std::shared_ptr<const World> world = bench::forest();
   if (walls) {
-    world = WorldCache(WorldCache::defaultDirectory())
-                .loadOrBuild(WorldSpec::fromFile(KINOLAB_SOURCE_DIR "/configs/worlds/walls.yaml"))
-                .world;
+    world = bench::shippedWorld("walls");
     Rng rng(54);
     FreeQueryRegion region{Box{{1.0, 1.0, 1.0}, {29.0, 29.0, 2.0}}, 0.6, 8.0, 16.0};
     region.connected_radius = 0.3;  // no pair in cells the maze does not join
