@@ -1447,6 +1447,82 @@ TEST(FlightTest, APlannerThatRefusesTheStartIsBackedOffFromTheWall) {
             std::string::npos);
 }
 
+TEST(FlightTest, ATrajectorySlowedInTimeKeepsItsPathAndItsSpeedLimit) {
+  // Two primitives from rest (order 3: constant jerk), up to about 2.2 m/s.
+  ChainState rest = ChainState::Zero();
+  rest.col(0) = Eigen::Vector3d(1, 2, 3);
+  Trajectory fast;
+  fast.append(TrajectorySegment::primitive(rest, Eigen::Vector3d(4, -2, 1), 3, 0.8));
+  ChainState joint = ChainState::Zero();
+  for (int k = 0; k < 3; ++k) joint.col(k) = fast.evaluate(fast.duration(), k);
+  fast.append(TrajectorySegment::primitive(joint, Eigen::Vector3d(-6, 3, 0), 3, 0.6));
+  const Trajectory slow = flight_motion::slowedTo(fast, 0.5);
+  double fastest = 0.0;
+  for (const TrajectorySample& sample : slow.sample(0.001)) {
+    fastest = std::max(fastest, sample.velocity.norm());
+  }
+  EXPECT_LE(fastest, 0.5 + 1e-3);
+  EXPECT_GT(fastest, 0.49);
+  // The same path: at the stretched time k t, where the fast one was at t.
+  const double k = slow.duration() / fast.duration();
+  EXPECT_GT(k, 3.0);
+  for (double t = 0.0; t <= fast.duration(); t += 0.05) {
+    EXPECT_LT((slow.evaluate(k * t) - fast.evaluate(t)).norm(), 1e-9) << t;
+    EXPECT_LT((slow.evaluate(k * t, 1) * k - fast.evaluate(t, 1)).norm(), 1e-9) << t;
+  }
+  // Not faster than the limit: unchanged.
+  const Trajectory same = flight_motion::slowedTo(fast, 10.0);
+  EXPECT_EQ(same.duration(), fast.duration());
+}
+
+TEST(FlightTest, AVehicleInAPocketOnlyItsBodyLeavesEscapesSlowlyThroughIt) {
+  // A room closed by a wall at x = 2 .. 2.4 but for a square slot 0.7 m across: the planning
+  // body (0.25 m and the 0.15 m margin: 0.8 m across) cannot pass it, the body and the
+  // 0.05 m escape margin (0.6 m) can. Every replan of the planning body exhausts the room
+  // (no_solution): without the escape the vehicle hovers until it is stuck; with it, a plan
+  // for the smaller body is flown through the slot at escape_speed, and the goal is reached.
+  const auto world = worldOf(
+      "  - type: box_list\n    boxes: [{min: [2, 0, 0], max: [2.4, 3, 0.65]}, "
+      "{min: [2, 0, 1.35], max: [2.4, 3, 2]}, {min: [2, 0, 0.65], max: [2.4, 1.15, 1.35]}, "
+      "{min: [2, 1.85, 0.65], max: [2.4, 3, 1.35]}]\n",
+      "{min: [0, 0, 0], max: [5, 3, 2]}");
+  const Eigen::Vector3d start(1.0, 1.5, 1.0);
+  const Eigen::Vector3d goal(4.0, 1.5, 1.0);
+  const std::vector<ParameterAssignment> flight = {{"timing", "deterministic", "test"},
+                                                   {"replan_budget", "1", "test"},
+                                                   {"stuck_time", "5", "test"}};
+  std::vector<ParameterAssignment> without = flight;
+  without.push_back({"escape", "false", "test"});
+  const FlightResult trapped = Flight(without).fly(world, start, goal);
+  EXPECT_EQ(trapped.status, "stuck") << trapped.message;
+  EXPECT_NE(trapped.message.find("no_solution"), std::string::npos) << trapped.message;
+  const FlightResult result = Flight(flight).fly(world, start, goal);
+  EXPECT_EQ(result.status, "reached") << result.message;
+  // The escape keeps its margin less the trace's 1 cm (0.04 m) from what the map knows, and
+  // tracks within millimetres at 0.5 m/s.
+  EXPECT_GT(result.min_clearance, 0.02);
+  int escapes = 0;
+  for (const FlightReplan& replan : result.replans) {
+    if (replan.recovery != "escape") continue;
+    ++escapes;
+    EXPECT_EQ(replan.status, "no_solution");
+    EXPECT_FALSE(replan.accepted);
+    double fastest = 0.0;
+    for (const TrajectorySample& sample : replan.trajectory.sample(0.01)) {
+      fastest = std::max(fastest, sample.velocity.norm());
+    }
+    EXPECT_LE(fastest, 0.5 + 1e-9);
+  }
+  EXPECT_GE(escapes, 1);
+  // Where it flew through the slot it was slow: every flown point inside the wall's x span
+  // at under escape_speed and the tracking error's share.
+  for (const TrajectorySample& sample : result.flown.sample(0.01)) {
+    if (sample.position.x() > 2.0 && sample.position.x() < 2.4) {
+      EXPECT_LT(sample.velocity.norm(), 0.6) << sample.time;
+    }
+  }
+}
+
 TEST(FlightTest, CautiousUnknownSpaceEndsInAStatusNeverACrash) {
   // Unknown space occupied (or occupied within 2 m): a forward camera's frustum is too
   // narrow near the vehicle for its body, so it may not get going (documented); the flight

@@ -43,6 +43,26 @@ Trajectory slice(const Trajectory& trajectory, double end) {
   return out;
 }
 
+Trajectory slowedTo(const Trajectory& trajectory, double speed) {
+  double fastest = 0.0;
+  for (const TrajectorySample& sample : trajectory.sample(0.01)) {
+    fastest = std::max(fastest, sample.velocity.norm());
+  }
+  if (!(fastest > speed)) return trajectory;
+  // p(k t) over duration / k: coefficient j times k^j.
+  const double k = speed / fastest;
+  Trajectory slowed;
+  for (TrajectorySegment segment : trajectory.segments()) {
+    double power = 1.0;
+    for (Eigen::Index j = 0; j < segment.coefficients.cols(); ++j, power *= k) {
+      segment.coefficients.col(j) *= power;
+    }
+    segment.duration /= k;
+    slowed.append(std::move(segment));
+  }
+  return slowed;
+}
+
 TrajectorySegment brake(const ChainState& state, double acceleration) {
   const Eigen::Vector3d v = state.col(1);
   const double largest = v.cwiseAbs().maxCoeff();

@@ -32,6 +32,12 @@ TrajectorySegment hold(const Eigen::Vector3d& position, double duration);
 /// past its end the vehicle rests where it ended (every committed trajectory ends at rest).
 Trajectory slice(const Trajectory& trajectory, double end);
 
+/// `trajectory` slowed to at most `speed` (m/s, its speed taken every 0.01 s): the same path, each
+/// segment's time stretched by one factor (velocity scales by it, acceleration by its square, jerk
+/// by its cube); unchanged when not faster. Its start keeps its position and, when at rest, its
+/// state.
+Trajectory slowedTo(const Trajectory& trajectory, double speed);
+
 /// A stop from `state` at constant deceleration along the velocity, each axis within
 /// `acceleration`; empty when already at rest.
 TrajectorySegment brake(const ChainState& state, double acceleration);

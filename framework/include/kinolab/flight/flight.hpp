@@ -76,6 +76,14 @@ struct FlightSettings {
   /// At rest, when what the known map cannot vouch for leaves nothing of a plan to commit,
   /// the vehicle steps back from it with its camera turned towards it (recovery step_back).
   bool step_back = true;
+  /// At rest, when the planner finds no way for the planning body (no_solution), the vehicle
+  /// plans again for the body grown by `escape_margin` only and flies that plan at most
+  /// `escape_speed` (recovery escape): a pocket the planning radius barely fits, entered on a
+  /// trajectory the body's tracking kept inside the margin, need not let a search of that
+  /// radius out. Tried only when escape_margin is below planning_margin.
+  bool escape = true;
+  double escape_margin = 0.05;  ///< m beyond the body an escape keeps from what is not known free
+  double escape_speed = 0.5;    ///< m/s: an escape plan is slowed to this speed at most
   /// m: the planners keep the body's radius plus this from what the vehicle knows, room for
   /// tracking error, map noise and latency (the flight judges the body).
   double planning_margin = 0.15;
@@ -139,6 +147,16 @@ struct FlightSettings {
               "away from the voxel that stops it, its camera turned towards it, until the "
               "sensor's field of view holds it (a forward camera never sees beside, above or "
               "below itself); false: such a plan is taken as it is");
+    f.boolean("escape", escape,
+              "true: at rest, when the planner finds no way for the planning body "
+              "(no_solution), plan again for the body grown by escape_margin only and fly that "
+              "plan at escape_speed at most (tried only when escape_margin is below "
+              "planning_margin); false: no escape");
+    f.real("escape_margin", escape_margin, 0.0, 10.0,
+           "m beyond the body that an escape plan keeps from known obstacles and, committed, "
+           "from what the known map does not vouch for (the tracking error at escape_speed)");
+    f.real("escape_speed", escape_speed, 0.01, 100.0,
+           "m/s: an escape plan is slowed in time (the same path) to at most this speed");
   }
 };
 
@@ -188,7 +206,9 @@ struct FlightReplan {
   /// degrees, "back_off": the vehicle moved away from the nearest known obstacle, "approach":
   /// it moved straight onto the local goal, "step_back": nothing of the plan could be
   /// committed, so the vehicle backed away from what the known map could not vouch for, its
-  /// camera turned towards it, until the sensor's field of view holds it).
+  /// camera turned towards it, until the sensor's field of view holds it, "escape": the
+  /// planner found no way for the planning body, and a plan for the body and escape_margin
+  /// was committed, slowed to escape_speed).
   std::string recovery;
   /// The vehicle flew onto its back-up (the stop ending the committed trajectory, at speed,
   /// short of the goal) after this replan, before a plan took over.
