@@ -1498,8 +1498,8 @@ TEST(FlightTest, AVehicleInAPocketOnlyItsBodyLeavesEscapesSlowlyThroughIt) {
   EXPECT_NE(trapped.message.find("no_solution"), std::string::npos) << trapped.message;
   const FlightResult result = Flight(flight).fly(world, start, goal);
   EXPECT_EQ(result.status, "reached") << result.message;
-  // The escape keeps its margin less the trace's 1 cm (0.04 m) from what the map knows, and
-  // tracks within millimetres at 0.5 m/s.
+  // The escape keeps its margin less the trace's 1 cm (0.04 m) from what the map knows; the
+  // tracking error at 0.5 m/s takes a few millimetres of it (0.036 m measured).
   EXPECT_GT(result.min_clearance, 0.02);
   int escapes = 0;
   for (const FlightReplan& replan : result.replans) {
