@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <limits>
 #include <optional>
 #include <tuple>
 #include <unordered_map>
@@ -227,12 +228,7 @@ void FlightLoop::replan(std::shared_ptr<const World> shared_window,
   const World& window = *shared_window;
   if (found) {
     replan.local_goal = local.goal;
-    planner_.setup({shared_window, planner_seed_, settings_.planning_margin});
-    const std::shared_ptr<void> guard =
-        guard_replan_ ? guard_replan_(settings_.replan_budget) : nullptr;
-    const PlanResult plan = planner_.plan(
-        local,
-        Budget{settings_.replan_budget, std::numeric_limits<long long>::max(), settings_.clock});
+    const PlanResult plan = planOn(shared_window, settings_.planning_margin, local);
     replan.status = std::string(toString(plan.status));
     replan.planning_time_ms = plan.planning_time_ms;
     replan.distance_to_goal = plan.distance_to_goal;
@@ -268,6 +264,15 @@ void FlightLoop::replan(std::shared_ptr<const World> shared_window,
   }
   reason_ = settled ? "period" : "retry";
   next_replan_ = std::max(next_replan_, t_ + (settled ? settings_.replan_period : dt_));
+}
+
+PlanResult FlightLoop::planOn(const std::shared_ptr<const World>& window, double margin,
+                              const PlanningQuery& local) {
+  planner_.setup({window, planner_seed_, margin});
+  const std::shared_ptr<void> guard =
+      guard_replan_ ? guard_replan_(settings_.replan_budget) : nullptr;
+  return planner_.plan(local, Budget{settings_.replan_budget, std::numeric_limits<long long>::max(),
+                                     settings_.clock});
 }
 
 void FlightLoop::snapshot() {

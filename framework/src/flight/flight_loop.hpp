@@ -56,6 +56,11 @@ class FlightLoop {
   /// trajectory is no longer free.
   void replan(std::shared_ptr<const World> shared_window, const Eigen::Vector3d& position);
 
+  /// The planner set up on `window` for its body grown by `margin`, planning `local` within
+  /// the replan budget (under the flight's watchdog, if any).
+  PlanResult planOn(const std::shared_ptr<const World>& window, double margin,
+                    const PlanningQuery& local);
+
   Box mapDomain() const {  // where plans may go: the map's box less the planning margin
     const Eigen::Vector3d inset = Eigen::Vector3d::Constant(settings_.planning_margin);
     return {map_->bounds().min + inset, map_->bounds().max - inset};

@@ -1,5 +1,4 @@
 #include <cmath>
-#include <limits>
 #include <memory>
 
 #include "flight_loop.hpp"
@@ -127,12 +126,7 @@ bool FlightLoop::escape(FlightReplan& replan, const std::shared_ptr<const World>
   PlanningQuery local;
   local.start = stateAt(committed_, t_start);
   local.goal = replan.local_goal;
-  planner_.setup({window, planner_seed_, settings_.escape_margin});
-  const std::shared_ptr<void> guard =
-      guard_replan_ ? guard_replan_(settings_.replan_budget) : nullptr;
-  const PlanResult plan = planner_.plan(
-      local,
-      Budget{settings_.replan_budget, std::numeric_limits<long long>::max(), settings_.clock});
+  const PlanResult plan = planOn(window, settings_.escape_margin, local);
   replan.planning_time_ms += plan.planning_time_ms;
   if (plan.trajectory.empty() || !plan.check.valid ||
       (plan.status != PlanStatus::kExact && plan.status != PlanStatus::kApproximate)) {
