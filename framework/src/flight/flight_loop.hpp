@@ -101,6 +101,11 @@ class FlightLoop {
   bool committable(const Trajectory& trajectory, double from, const World& window,
                    const Body& body) const;
 
+  /// How long `plan` (from its start) may be committed for `body`: with commit: seen, as long
+  /// as the known map vouches for it (vouchedUntil()); with commit: planned, all of it (its cuts
+  /// are then judged by committable()).
+  double committableFor(const Trajectory& plan, const Body& body) const;
+
   /// Where the camera looks for a frame taken at t: where stepBack() turned it, else along the
   /// intended trajectory (lookAlong()).
   double heading(double t) const;

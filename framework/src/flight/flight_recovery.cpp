@@ -1,3 +1,4 @@
+#include <algorithm>
 #include <cmath>
 #include <memory>
 
@@ -36,10 +37,7 @@ bool FlightLoop::take(const PlanResult& plan, double t_start, const Eigen::Vecto
     replan.why = "the committed trajectory comes as near the local goal no later";
     return false;
   }
-  const double vouched =
-      settings_.commit == CommitSpace::kPlanned
-          ? plan.trajectory.duration()
-          : vouchedUntil(*map_, plan.trajectory, planning_body_, settings_.planning_margin);
+  const double vouched = committableFor(plan.trajectory, planning_body_);
   blocker_.reset();
   if (settings_.commit == CommitSpace::kSeen && vouched < plan.trajectory.duration()) {
     blocker_ = planBlocker(*map_, plan.trajectory, planning_body_, settings_.planning_margin);
@@ -78,6 +76,11 @@ bool FlightLoop::committable(const Trajectory& trajectory, double from, const Wo
     return freeFrom(trajectory, from, truth_->bounds(), window, body, limits_.limits);
   }
   return vouchedTrace(*map_, trajectory, from, body, body.radius - body_.radius).free;
+}
+
+double FlightLoop::committableFor(const Trajectory& plan, const Body& body) const {
+  if (settings_.commit == CommitSpace::kPlanned) return plan.duration();
+  return vouchedUntil(*map_, plan, body, body.radius - body_.radius);
 }
 
 double FlightLoop::heading(double t) const {
@@ -133,7 +136,8 @@ bool FlightLoop::escape(FlightReplan& replan, const std::shared_ptr<const World>
     return false;
   }
   const Trajectory slowed = slowedTo(plan.trajectory, settings_.escape_speed);
-  for (double cut = slowed.duration(); cut > 0.0; cut -= 0.1) {
+  const double vouched = committableFor(slowed, escape_body);
+  for (double cut = std::min(slowed.duration(), vouched); cut > 0.0; cut -= 0.1) {
     Trajectory spliced = splice(committed_, t_start, slice(slowed, cut), brake_rate_);
     if (!committable(spliced, t_start, *window, escape_body)) continue;
     replan.trajectory = slowed;
