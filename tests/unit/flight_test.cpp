@@ -1681,6 +1681,35 @@ TEST(FlightTest, AVehicleThatSeesNothingNeverLeavesWhatItKnows) {
   }
 }
 
+TEST(FlightTest, BeforeTakeOffTheVehicleKnowsWhatALookRoundWouldShowNotTheSpaceAboveIt) {
+  // A camera that returns nothing and a flight too short to move: the known map is what the
+  // vehicle knew before take-off. Within three planning radii (1.2 m) of the start: the
+  // planning body's own place, and r metres out what the camera sees up and down from there
+  // (its 58-degree frustum: r tan 29 degrees). Straight above the start, 0.7 m up, stays
+  // unknown (a ball knew it, and vehicles climbed in place under space never seen).
+  const auto world = worldOf("  - type: empty\n");
+  const Eigen::Vector3d start(5, 5, 1.5);
+  const FlightResult result = Flight({{"sensor.dropout", "1", "test"}, {"max_time", "0.1", "test"}})
+                                  .fly(world, start, {9, 5, 1.5});
+  ASSERT_TRUE(result.map);
+  const VehicleMap& map = *result.map;
+  const auto state = [&](const Eigen::Vector3d& offset) {
+    const VoxelGrid& lattice = map.lattice();
+    const VoxelIndex voxel =
+        ((start + offset - lattice.origin()) / lattice.resolution()).array().floor().cast<int>();
+    return map.state(lattice.index(voxel));
+  };
+  using Voxel = VehicleMap::Voxel;
+  EXPECT_EQ(state({0, 0, 0.35}), Voxel::kFree);  // the planning body's place
+  EXPECT_EQ(state({0, 0, -0.35}), Voxel::kFree);
+  EXPECT_EQ(state({0, 0, 0.7}), Voxel::kUnknown);  // above it: never in the frustum
+  EXPECT_EQ(state({0.3, 0, -0.7}), Voxel::kUnknown);
+  EXPECT_EQ(state({0.8, 0, 0.6}), Voxel::kFree);  // 0.8 m out: seen up to 0.4 + 0.44 m
+  EXPECT_EQ(state({0, -0.8, -0.6}), Voxel::kFree);
+  EXPECT_EQ(state({1.1, 0, 0}), Voxel::kFree);
+  EXPECT_EQ(state({1.3, 0, 0}), Voxel::kUnknown);  // beyond the 1.2 m
+}
+
 TEST(FlightTest, AStuckFlightSaysWhy) {
   // A wall across the whole map: the vehicle flies up to it and no way is left. Its message
   // records what happened since its last progress: plans taken, replans failed, or both.

@@ -74,10 +74,17 @@ FlightResult FlightLoop::run() {
   // if looked round before take-off: the voxels free in the ground truth are known free (the
   // others stay unknown). A forward camera never sees beside, below or above itself, and its
   // frustum (58 degrees high) holds the planning body only from about 2.5 radii ahead, so
-  // without this no plan from the start could be vouched for (vouchedTrace()).
+  // without this no plan from the start could be vouched for (vouchedTrace()). What a look
+  // round shows is the planning body's own place and, r metres out, what the sensor sees up and
+  // down from there (r times its elevations' tangents): a ball would let the vehicle climb in
+  // place under space it has never seen (on geb079 vehicles rose 0.7 m and stood there).
   const double half_diagonal = 0.5 * std::sqrt(3.0) * map_model_.resolution;
   map_->markFree(start, kStartKnown * planning_body_.radius, [&](const Eigen::Vector3d& centre) {
-    return truth_->isFree(centre, half_diagonal);
+    const Eigen::Vector3d offset = centre - start;
+    const double out = offset.head<2>().norm();
+    const double seen = offset.z() >= 0.0 ? tangents_.first : tangents_.second;
+    return std::abs(offset.z()) <= planning_body_.radius + half_diagonal + out * seen &&
+           truth_->isFree(centre, half_diagonal);
   });
   progress_from_ = start;
   way_height_ = query_.goal.z();
