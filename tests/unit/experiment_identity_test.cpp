@@ -130,7 +130,7 @@ planners:
 budget: {time: 30}
 flight: {window: 8}
 )");
-  EXPECT_EQ(runsDigest(e), "52c0287ac95ee92b");
+  EXPECT_EQ(runsDigest(e), "d4609c37a13a18c2");
 }
 
 TEST(WorldSpecIdentityTest, DenseAndSparseSpecsKeepTheirText) {
@@ -198,15 +198,15 @@ TEST(ExperimentFilesIdentityTest, ShippedExperimentsKeepTheirRunHashes) {
             "experiments/back_ends.yaml 1de6694964fc94dd\n"
             "experiments/city_500m.yaml 802beb9199e3187a\n"
             "experiments/field.yaml b45e596f2b0f2b3f\n"
-            "experiments/flight_back_ends.yaml a9a60951adecb3fc\n"
-            "experiments/flight_benchmark.yaml b1d7fbf11daccdbb\n"
-            "experiments/flight_densest_cell.yaml 4306da27a6be9eba\n"
-            "experiments/flight_forest.yaml 3cdcd18dc1184d93\n"
-            "experiments/flight_forest_2ms.yaml 402662ab7d217d3b\n"
-            "experiments/flight_geb079.yaml 7ef1e43a571fb40f\n"
-            "experiments/flight_real_map.yaml 4b6b6808484751d2\n"
-            "experiments/flight_speeds.yaml 928c37f0bd8785b3\n"
-            "experiments/flight_speeds_tgk.yaml 7e5f0bd1929fde3d\n"
+            "experiments/flight_back_ends.yaml 65ba1f717f5afa54\n"
+            "experiments/flight_benchmark.yaml a51bd9ea55fa3c6c\n"
+            "experiments/flight_densest_cell.yaml bf8469614ec975b4\n"
+            "experiments/flight_forest.yaml e849dcf2da948c77\n"
+            "experiments/flight_forest_2ms.yaml 669372eec6c36685\n"
+            "experiments/flight_geb079.yaml a89d83d5e1619b3f\n"
+            "experiments/flight_real_map.yaml 974d41f831994698\n"
+            "experiments/flight_speeds.yaml c40b82f26c573e4b\n"
+            "experiments/flight_speeds_tgk.yaml 1b943e20d8ac6f69\n"
             "experiments/heuristics/city.yaml f37d01290c87627e\n"
             "experiments/heuristics/geb079_fine.yaml f62c3d45b747cc9f\n"
             "experiments/heuristics/maps.yaml 957fb0989da9276c\n"
