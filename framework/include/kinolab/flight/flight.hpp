@@ -78,9 +78,10 @@ struct FlightSettings {
   bool step_back = true;
   /// At rest, when the planner finds no way for the planning body (no_solution), the vehicle
   /// plans again for the body grown by `escape_margin` only and flies that plan at most
-  /// `escape_speed` (recovery escape): a pocket the planning radius barely fits, entered on a
-  /// trajectory the body's tracking kept inside the margin, need not let a search of that
-  /// radius out. Tried only when escape_margin is below planning_margin.
+  /// `escape_speed` (recovery escape): a pocket the planning radius barely fits (entered on
+  /// plans the known map vouched for, then closed by what the camera saw from inside it) need
+  /// not let a search of that radius out. Tried only when escape_margin is below
+  /// planning_margin.
   bool escape = true;
   double escape_margin = 0.05;  ///< m beyond the body an escape keeps from what is not known free
   double escape_speed = 0.5;    ///< m/s: an escape plan is slowed to this speed at most
