@@ -1511,7 +1511,7 @@ TEST(FlightTest, AVehicleInAPocketOnlyItsBodyLeavesEscapesSlowlyThroughIt) {
     for (const TrajectorySample& sample : replan.trajectory.sample(0.01)) {
       fastest = std::max(fastest, sample.velocity.norm());
     }
-    EXPECT_LE(fastest, 0.5 + 1e-9);
+    EXPECT_LE(fastest, 0.5 * (1.0 + 1e-3));
   }
   EXPECT_GE(escapes, 1);
   // Where it flew through the slot it was slow: every flown point inside the wall's x span
@@ -1703,7 +1703,7 @@ TEST(FlightTest, BeforeTakeOffTheVehicleKnowsWhatALookRoundWouldShowNotTheSpaceA
   EXPECT_EQ(state({0, 0, 0.35}), Voxel::kFree);  // the planning body's place
   EXPECT_EQ(state({0, 0, -0.35}), Voxel::kFree);
   EXPECT_EQ(state({0, 0, 0.7}), Voxel::kUnknown);  // above it: never in the frustum
-  EXPECT_EQ(state({0.3, 0, -0.7}), Voxel::kUnknown);
+  EXPECT_EQ(state({0.3, 0, -0.8}), Voxel::kUnknown);
   EXPECT_EQ(state({0.8, 0, 0.6}), Voxel::kFree);  // 0.8 m out: seen up to 0.4 + 0.44 m
   EXPECT_EQ(state({0, -0.8, -0.6}), Voxel::kFree);
   EXPECT_EQ(state({1.1, 0, 0}), Voxel::kFree);

@@ -254,7 +254,8 @@ void FlightLoop::replan(std::shared_ptr<const World> shared_window,
     recover(replan, shared_window);
   }
   result_.replans.push_back(std::move(replan));
-  // (A kept plan's committed trajectory is clear for the planning margin, so for the body.)
+  // (A plan is kept only for a committed trajectory clear for the planning margin, so for the
+  // body.)
   if (!settled && !freeFrom(committed_, t_, truth_->bounds(), window, body_, limits_.limits)) {
     // Nothing safe to fly on (for the body: inside the planning margin it goes on): stop
     // now.

@@ -172,8 +172,9 @@ class FlightLoop {
   double z_band_low_;
   double z_band_high_;
   Trajectory committed_;
-  // The body the committed trajectory was committed for (the planning body; the body alone
-  // or an escape's after a back-off or an escape): each frame checks it for that body.
+  // The body the committed trajectory was committed for (the planning body; after a back-off,
+  // an escape or a stop, the back-off's, the escape's or the body alone): each frame checks it
+  // for that body, and a plan is kept (take()) only while it is the planning body.
   Body committed_body_;
   Trajectory intended_;  // the last plan taken, whole: where the camera looks (heading())
   double t_ = 0.0;

@@ -43,10 +43,17 @@ Trajectory slice(const Trajectory& trajectory, double end) {
   return out;
 }
 
+namespace {
+constexpr int kSpeedSamples = 256;  // intervals of each segment where slowedTo() reads its speed
+}  // namespace
+
 Trajectory slowedTo(const Trajectory& trajectory, double speed) {
   double fastest = 0.0;
-  for (const TrajectorySample& sample : trajectory.sample(0.01)) {
-    fastest = std::max(fastest, sample.velocity.norm());
+  for (const TrajectorySegment& segment : trajectory.segments()) {
+    for (int i = 0; i <= kSpeedSamples; ++i) {
+      const double t = segment.duration * static_cast<double>(i) / kSpeedSamples;
+      fastest = std::max(fastest, segment.evaluate(t, 1).norm());
+    }
   }
   if (!(fastest > speed)) return trajectory;
   // p(k t) over duration / k: coefficient j times k^j.

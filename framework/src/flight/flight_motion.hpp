@@ -1,4 +1,4 @@
-// The flight loop's motion helpers (flight.cpp's FlightLoop): slicing and splicing the
+// The flight loop's motion helpers (FlightLoop, flight_loop.hpp): slicing and splicing the
 // committed trajectory, braking, straight moves, free-space checks along a trajectory (the
 // window's, the known map's, the ground truth's least distance), the planning window's centre,
 // the local goal on the guide, and what a stuck flight's message says. Private to
@@ -32,7 +32,8 @@ TrajectorySegment hold(const Eigen::Vector3d& position, double duration);
 /// past its end the vehicle rests where it ended (every committed trajectory ends at rest).
 Trajectory slice(const Trajectory& trajectory, double end);
 
-/// `trajectory` slowed to at most `speed` (m/s, its speed taken every 0.01 s): the same path, each
+/// `trajectory` slowed to at most `speed` (m/s, its speed taken at both ends of every segment,
+/// where a piece of constant acceleration peaks, and 255 points between): the same path, each
 /// segment's time stretched by one factor (velocity scales by it, acceleration by its square, jerk
 /// by its cube); unchanged when not faster. Its start keeps its position and, when at rest, its
 /// state.

@@ -29,7 +29,7 @@ bool FlightLoop::take(const PlanResult& plan, double t_start, const Eigen::Vecto
                      : (plan.message.empty() ? "no trajectory" : plan.message);
     return false;
   }
-  if (settings_.keep_faster && committed_free_ &&
+  if (settings_.keep_faster && committed_free_ && committed_body_.radius >= planning_body_.radius &&
       arrivesFirst(committed_, plan.trajectory, t_start, goal, 0.5 * map_model_.resolution,
                    limits_.limits.bound[1].norm())) {
     replan.kept = true;
@@ -129,6 +129,8 @@ bool FlightLoop::escape(FlightReplan& replan, const std::shared_ptr<const World>
   PlanningQuery local;
   local.start = stateAt(committed_, t_start);
   local.goal = replan.local_goal;
+  // Slowing scales the start's velocity too: only from rest.
+  if (local.start.col(1).norm() > 1e-6) return false;
   const PlanResult plan = planOn(window, settings_.escape_margin, local);
   replan.planning_time_ms += plan.planning_time_ms;
   if (plan.trajectory.empty() || !plan.check.valid ||

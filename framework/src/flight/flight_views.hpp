@@ -1,6 +1,6 @@
 // What a flight's camera looks at and what it must see before a move is committed
-// (flight.cpp's FlightLoop): the heading along the intended trajectory, the step back that
-// brings an unseen voxel into view, the sensor's vertical reach, and the guides that always
+// (the flight loop's, flight_loop.hpp): the heading along the intended trajectory, the step back
+// that brings an unseen voxel into view, the sensor's vertical reach, and the guides that always
 // leave the vehicle. Private to framework/src/flight.
 #pragma once
 

@@ -42,7 +42,8 @@ enum class CommitSpace {
   /// `unknown`), but the vehicle does not fly into it: a plan, approximate or exact, is cut
   /// where it or its stop would leave that space, and refused when no cut is left; the camera
   /// looks along the whole plan, so that the next frames see on. Only the start's
-  /// surroundings (the planning radius and two voxels) are taken on trust.
+  /// surroundings are taken on trust (within three planning radii, what a look round would
+  /// show: the planning body's place and, r metres out, what the sensor sees up and down).
   kSeen,
   /// Wherever the planning window allows: with `unknown: free` the vehicle may fly into space
   /// it has never seen (the optimistic loop of Fast-Planner and EGO-Planner; not safe, kept
@@ -194,7 +195,7 @@ struct FlightReplan {
   /// "no_local_goal", "at_local_goal" (an exact plan with nothing to fly: the start already in
   /// the planner's goal region of the local goal).
   std::string status;
-  double planning_time_ms = 0.0;
+  double planning_time_ms = 0.0;  ///< the planner's, and an escape's (recovery) added
   double distance_to_goal = 0.0;  ///< the plan's D to its local goal
   bool accepted = false;          ///< it became the committed trajectory
   /// Not taken because the committed trajectory comes as near the local goal no later; not
@@ -214,7 +215,8 @@ struct FlightReplan {
   /// The vehicle flew onto its back-up (the stop ending the committed trajectory, at speed,
   /// short of the goal) after this replan, before a plan took over.
   bool backup = false;
-  Trajectory trajectory;  ///< the plan (planner's time, from 0)
+  /// The plan (planner's time, from 0); after an escape, the escape's plan, slowed.
+  Trajectory trajectory;
 };
 
 struct FlightResult {
