@@ -101,6 +101,20 @@ class FlightLoop {
   bool committable(const Trajectory& trajectory, double from, const World& window,
                    const Body& body) const;
 
+  /// A plan cut `at` seconds and spliced into the committed trajectory from a replan's start,
+  /// its braking tail after it.
+  struct Cut {
+    double at;
+    Trajectory spliced;
+  };
+  /// The latest cut of `plan` (from `vouched`, committableFor(), down in 0.1 s steps) whose
+  /// splice is committable() for `body`; none when no cut is.
+  std::optional<Cut> latestCut(const Trajectory& plan, double vouched, double t_start,
+                               const World& window, const Body& body) const;
+  /// Makes `cut` of `plan` the committed trajectory for `body` (the whole plan the intended
+  /// one, where the camera looks; the back-up starts at the cut).
+  void commit(const Trajectory& plan, double t_start, Cut cut, const Body& body);
+
   /// How long `plan` (from its start) may be committed for `body`: with commit: seen, as long
   /// as the known map vouches for it (vouchedUntil()); with commit: planned, all of it (its cuts
   /// are then judged by committable()).

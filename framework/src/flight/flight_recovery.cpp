@@ -1,12 +1,23 @@
 #include <algorithm>
 #include <cmath>
 #include <memory>
+#include <optional>
 
 #include "flight_loop.hpp"
 #include "flight_views.hpp"
 #include "kinolab/core/text.hpp"
 
 namespace kinolab::flight_motion {
+
+namespace {
+
+/// A plan that can be flown: a trajectory the checker passed, exact or approximate.
+bool flyable(const PlanResult& plan) {
+  return !plan.trajectory.empty() && plan.check.valid &&
+         (plan.status == PlanStatus::kExact || plan.status == PlanStatus::kApproximate);
+}
+
+}  // namespace
 
 bool FlightLoop::take(const PlanResult& plan, double t_start, const Eigen::Vector3d& goal,
                       const World& window, FlightReplan& replan) {
@@ -22,8 +33,7 @@ bool FlightLoop::take(const PlanResult& plan, double t_start, const Eigen::Vecto
     replan.why = "the start is already within the planner's goal region of the local goal";
     return false;
   }
-  if (plan.trajectory.empty() || !plan.check.valid ||
-      (plan.status != PlanStatus::kExact && plan.status != PlanStatus::kApproximate)) {
+  if (!flyable(plan)) {
     replan.why = !plan.trajectory.empty() && !plan.check.valid
                      ? "the checker: " + plan.check.check + ": " + plan.check.detail
                      : (plan.message.empty() ? "no trajectory" : plan.message);
@@ -42,32 +52,43 @@ bool FlightLoop::take(const PlanResult& plan, double t_start, const Eigen::Vecto
   if (settings_.commit == CommitSpace::kSeen && vouched < plan.trajectory.duration()) {
     blocker_ = planBlocker(*map_, plan.trajectory, planning_body_, settings_.planning_margin);
   }
-  const ChainState here = stateAt(committed_, t_);
-  const bool at_rest = atRest(here);
-  for (double cut = std::min(plan.trajectory.duration(), vouched); cut > 0.0; cut -= 0.1) {
-    Trajectory spliced = splice(committed_, t_start, slice(plan.trajectory, cut), brake_rate_);
-    if (committable(spliced, t_start, window, planning_body_)) {
-      if (settings_.step_back && at_rest && blocker_ &&
-          (spliced.endPosition() - here.col(0)).norm() < kStalled &&
-          stepBack(here.col(0), *blocker_, window)) {
-        // At rest, a plan that stops again within centimetres held the vehicle where it
-        // stood, replan after replan: it steps back to see instead (else takes it).
-        replan.why = "the plan commits less than " + formatNumber(kStalled) +
-                     " m before it leaves the space the known map vouches for (commit: seen)";
-        replan.recovery = "step_back";
-        return false;
-      }
-      replan.trajectory = plan.trajectory;
-      intended_ = splice(committed_, t_start, plan.trajectory, brake_rate_);
-      committed_ = std::move(spliced);
-      committed_body_ = planning_body_;
-      backup_start_ = t_start + cut;
-      backup_counted_ = false;
-      return true;
-    }
+  std::optional<Cut> cut = latestCut(plan.trajectory, vouched, t_start, window, planning_body_);
+  if (!cut) {
+    replan.why = notCommittedWhy(settings_.commit, vouched);
+    return false;
   }
-  replan.why = notCommittedWhy(settings_.commit, vouched);
-  return false;
+  const ChainState here = stateAt(committed_, t_);
+  if (settings_.step_back && atRest(here) && blocker_ &&
+      (cut->spliced.endPosition() - here.col(0)).norm() < kStalled &&
+      stepBack(here.col(0), *blocker_, window)) {
+    // At rest, a plan that stops again within centimetres held the vehicle where it stood,
+    // replan after replan: it steps back to see instead (else takes it).
+    replan.why = "the plan commits less than " + formatNumber(kStalled) +
+                 " m before it leaves the space the known map vouches for (commit: seen)";
+    replan.recovery = "step_back";
+    return false;
+  }
+  replan.trajectory = plan.trajectory;
+  commit(plan.trajectory, t_start, std::move(*cut), planning_body_);
+  return true;
+}
+
+std::optional<FlightLoop::Cut> FlightLoop::latestCut(const Trajectory& plan, double vouched,
+                                                     double t_start, const World& window,
+                                                     const Body& body) const {
+  for (double at = std::min(plan.duration(), vouched); at > 0.0; at -= 0.1) {
+    Trajectory spliced = splice(committed_, t_start, slice(plan, at), brake_rate_);
+    if (committable(spliced, t_start, window, body)) return Cut{at, std::move(spliced)};
+  }
+  return std::nullopt;
+}
+
+void FlightLoop::commit(const Trajectory& plan, double t_start, Cut cut, const Body& body) {
+  intended_ = splice(committed_, t_start, plan, brake_rate_);
+  committed_ = std::move(cut.spliced);
+  committed_body_ = body;
+  backup_start_ = t_start + cut.at;
+  backup_counted_ = false;
 }
 
 bool FlightLoop::committable(const Trajectory& trajectory, double from, const World& window,
@@ -133,27 +154,17 @@ bool FlightLoop::escape(FlightReplan& replan, const std::shared_ptr<const World>
   if (local.start.col(1).norm() > 1e-6) return false;
   const PlanResult plan = planOn(window, settings_.escape_margin, local);
   replan.planning_time_ms += plan.planning_time_ms;
-  if (plan.trajectory.empty() || !plan.check.valid ||
-      (plan.status != PlanStatus::kExact && plan.status != PlanStatus::kApproximate)) {
-    return false;
-  }
-  const Trajectory slowed = slowedTo(plan.trajectory, settings_.escape_speed);
-  const double vouched = committableFor(slowed, escape_body);
-  for (double cut = std::min(slowed.duration(), vouched); cut > 0.0; cut -= 0.1) {
-    Trajectory spliced = splice(committed_, t_start, slice(slowed, cut), brake_rate_);
-    if (!committable(spliced, t_start, *window, escape_body)) continue;
-    replan.trajectory = slowed;
-    intended_ = splice(committed_, t_start, slowed, brake_rate_);
-    committed_ = std::move(spliced);
-    committed_body_ = escape_body;
-    backup_start_ = t_start + cut;
-    backup_counted_ = false;
-    look_offset_ = 0.0;
-    look_yaw_.reset();  // the camera looks along the escape
-    next_replan_ = t_ + settings_.replan_period;
-    return true;
-  }
-  return false;
+  if (!flyable(plan)) return false;
+  Trajectory slowed = slowedTo(plan.trajectory, settings_.escape_speed);
+  std::optional<Cut> cut =
+      latestCut(slowed, committableFor(slowed, escape_body), t_start, *window, escape_body);
+  if (!cut) return false;
+  commit(slowed, t_start, std::move(*cut), escape_body);
+  replan.trajectory = std::move(slowed);
+  look_offset_ = 0.0;
+  look_yaw_.reset();  // the camera looks along the escape
+  next_replan_ = t_ + settings_.replan_period;
+  return true;
 }
 
 bool FlightLoop::stepBack(const Eigen::Vector3d& position, const Eigen::Vector3d& blocker,
