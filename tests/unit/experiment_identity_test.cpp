@@ -130,7 +130,7 @@ planners:
 budget: {time: 30}
 flight: {window: 8}
 )");
-  EXPECT_EQ(runsDigest(e), "d4609c37a13a18c2");
+  EXPECT_EQ(runsDigest(e), "3a72613176694cc1");
 }
 
 TEST(WorldSpecIdentityTest, DenseAndSparseSpecsKeepTheirText) {
@@ -198,15 +198,15 @@ TEST(ExperimentFilesIdentityTest, ShippedExperimentsKeepTheirRunHashes) {
             "experiments/back_ends.yaml 1de6694964fc94dd\n"
             "experiments/city_500m.yaml 802beb9199e3187a\n"
             "experiments/field.yaml b45e596f2b0f2b3f\n"
-            "experiments/flight_back_ends.yaml 65ba1f717f5afa54\n"
-            "experiments/flight_benchmark.yaml a51bd9ea55fa3c6c\n"
-            "experiments/flight_densest_cell.yaml bf8469614ec975b4\n"
-            "experiments/flight_forest.yaml e849dcf2da948c77\n"
-            "experiments/flight_forest_2ms.yaml 669372eec6c36685\n"
-            "experiments/flight_geb079.yaml a89d83d5e1619b3f\n"
-            "experiments/flight_real_map.yaml 974d41f831994698\n"
-            "experiments/flight_speeds.yaml c40b82f26c573e4b\n"
-            "experiments/flight_speeds_tgk.yaml 1b943e20d8ac6f69\n"
+            "experiments/flight_back_ends.yaml b25b8671828355ac\n"
+            "experiments/flight_benchmark.yaml 8688c8facfbde137\n"
+            "experiments/flight_densest_cell.yaml 3b9e76758c99cef2\n"
+            "experiments/flight_forest.yaml 49dfd821ed72e50d\n"
+            "experiments/flight_forest_2ms.yaml cb817437e414745d\n"
+            "experiments/flight_geb079.yaml dd3c003b6db4a42f\n"
+            "experiments/flight_real_map.yaml b9e7fd079f0bf14f\n"
+            "experiments/flight_speeds.yaml 03bd0518c1748115\n"
+            "experiments/flight_speeds_tgk.yaml 30dcb0bb4056957e\n"
             "experiments/heuristics/city.yaml f37d01290c87627e\n"
             "experiments/heuristics/geb079_fine.yaml f62c3d45b747cc9f\n"
             "experiments/heuristics/maps.yaml 957fb0989da9276c\n"

@@ -1490,9 +1490,10 @@ TEST(FlightTest, AVehicleInAPocketOnlyItsBodyLeavesEscapesSlowlyThroughIt) {
   const Eigen::Vector3d goal(4.0, 1.5, 1.0);
   const std::vector<ParameterAssignment> flight = {{"timing", "deterministic", "test"},
                                                    {"replan_budget", "1", "test"},
-                                                   {"stuck_time", "5", "test"}};
+                                                   {"stuck_time", "5", "test"},
+                                                   {"escape", "true", "test"}};
   std::vector<ParameterAssignment> without = flight;
-  without.push_back({"escape", "false", "test"});
+  without.back().value = "false";
   const FlightResult trapped = Flight(without).fly(world, start, goal);
   EXPECT_EQ(trapped.status, "stuck") << trapped.message;
   EXPECT_NE(trapped.message.find("no_solution"), std::string::npos) << trapped.message;
